@@ -1,0 +1,42 @@
+"""rrps_kinematics: kinematics and multibody core of RRPS parallel climbing robots.
+
+Pure Python/NumPy (no ROS import outside ``rrps_kinematics.nodes``). The public API::
+
+    from rrps_kinematics import RobotGeometry, inverse_kinematics, forward_kinematics
+    geom = RobotGeometry.from_yaml('.../pole_climber.yaml')    # or load_robot('pole_climber')
+    ik = inverse_kinematics(geom, position, quaternion_xyzw)   # single pose or (N,3), (N,4)
+    fk = forward_kinematics(geom, lengths, seed_position, seed_quaternion_xyzw)
+"""
+
+from .forward import ForwardKinematicsResult, forward_kinematics
+from .geometry import (
+    ExtraRingDof,
+    LinkInertia,
+    RigidBodyInertia,
+    RobotDescriptionError,
+    RobotGeometry,
+    load_robot,
+    robot_path,
+    shipped_robots,
+)
+from .inverse import InverseKinematicsResult, inverse_kinematics
+from .jacobian import inverse_jacobian, leg_forces, leg_rates, platform_wrench
+
+__all__ = [
+    'ExtraRingDof',
+    'ForwardKinematicsResult',
+    'InverseKinematicsResult',
+    'LinkInertia',
+    'RigidBodyInertia',
+    'RobotDescriptionError',
+    'RobotGeometry',
+    'forward_kinematics',
+    'inverse_jacobian',
+    'inverse_kinematics',
+    'leg_forces',
+    'leg_rates',
+    'load_robot',
+    'platform_wrench',
+    'robot_path',
+    'shipped_robots',
+]

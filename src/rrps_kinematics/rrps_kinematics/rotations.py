@@ -1,0 +1,224 @@
+"""Rotations: 3-1-3 Euler angles, Euler parameters and quaternions (paper section 2.1).
+
+Conventions used everywhere in rrps:
+
+* A rotation matrix ``a_R_b`` maps coordinates in frame b to frame a (column vectors).
+* ``quaternion_xyzw`` is the ROS wire order (x, y, z, w).
+* ``euler_parameters`` is the paper's / Nikravesh's order (e0, e1, e2, e3) = (w, x, y, z),
+  with ``A = (2 e0^2 - 1) I + 2 (e e^T + e0 ẽ)`` (section 2.1).
+* 3-1-3 Euler angles (psi, alpha, phi) give ``A_c = Rz(psi) Rx(alpha) Rz(phi)`` (eq. 1's A_c).
+
+Every function accepts a single value or any leading batch shape, e.g. (N, 4) quaternions.
+q and -q are the same rotation; functions returning a quaternion pick w >= 0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    'skew',
+    'quat_xyzw_to_matrix',
+    'matrix_to_quat_xyzw',
+    'euler_parameters_to_matrix',
+    'matrix_to_euler_parameters',
+    'quat_xyzw_to_euler_parameters',
+    'euler_parameters_to_quat_xyzw',
+    'euler313_to_matrix',
+    'matrix_to_euler313',
+    'quat_multiply_xyzw',
+    'quat_conjugate_xyzw',
+    'rotation_vector_to_quat_xyzw',
+    'quat_xyzw_to_rotation_vector',
+    'rotation_vector_to_matrix',
+    'normalize_quat',
+    'rotation_angle_between',
+]
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """The cross-product matrix ṽ with ṽ w = v × w; shape (..., 3) -> (..., 3, 3)."""
+    v = np.asarray(v, dtype=float)
+    out = np.zeros(v.shape[:-1] + (3, 3))
+    out[..., 0, 1] = -v[..., 2]
+    out[..., 0, 2] = v[..., 1]
+    out[..., 1, 0] = v[..., 2]
+    out[..., 1, 2] = -v[..., 0]
+    out[..., 2, 0] = -v[..., 1]
+    out[..., 2, 1] = v[..., 0]
+    return out
+
+
+def normalize_quat(q: np.ndarray) -> np.ndarray:
+    """Unit (x, y, z, w) quaternion of the same rotation, sign chosen so that w >= 0."""
+    q = np.asarray(q, dtype=float)
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    return np.where(q[..., 3:4] < 0.0, -q, q)
+
+
+def euler_parameters_to_matrix(p: np.ndarray) -> np.ndarray:
+    """A(p) = (2 e0^2 - 1) I + 2 (e e^T + e0 ẽ) for p = (e0, e1, e2, e3) (section 2.1)."""
+    p = np.asarray(p, dtype=float)
+    e0 = p[..., 0]
+    e = p[..., 1:]
+    A = (2.0 * e0**2 - 1.0)[..., None, None] * np.eye(3)
+    A = A + 2.0 * (e[..., :, None] * e[..., None, :] + e0[..., None, None] * skew(e))
+    return A
+
+
+def quat_xyzw_to_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrix of a ROS-order quaternion (x, y, z, w); shape (..., 4) -> (..., 3, 3)."""
+    return euler_parameters_to_matrix(quat_xyzw_to_euler_parameters(q))
+
+
+def quat_xyzw_to_euler_parameters(q: np.ndarray) -> np.ndarray:
+    """(x, y, z, w) -> (e0, e1, e2, e3) = (w, x, y, z)."""
+    q = np.asarray(q, dtype=float)
+    return np.concatenate([q[..., 3:4], q[..., :3]], axis=-1)
+
+
+def euler_parameters_to_quat_xyzw(p: np.ndarray) -> np.ndarray:
+    """(e0, e1, e2, e3) = (w, x, y, z) -> (x, y, z, w)."""
+    p = np.asarray(p, dtype=float)
+    return np.concatenate([p[..., 1:], p[..., 0:1]], axis=-1)
+
+
+def matrix_to_euler_parameters(A: np.ndarray) -> np.ndarray:
+    """Euler parameters (e0 >= 0) of a rotation matrix; robust for every angle (Shepperd's method)."""
+    A = np.asarray(A, dtype=float)
+    batch = A.shape[:-2]
+    A = A.reshape((-1, 3, 3))
+    tr = np.trace(A, axis1=1, axis2=2)
+    diag = np.stack([A[:, 0, 0], A[:, 1, 1], A[:, 2, 2]], axis=1)
+    # 4 e_k^2 for k = 0..3, pick the largest to divide by.
+    sq = np.stack([1.0 + tr, 1.0 + 2 * diag[:, 0] - tr, 1.0 + 2 * diag[:, 1] - tr,
+                   1.0 + 2 * diag[:, 2] - tr], axis=1)
+    k = np.argmax(sq, axis=1)
+    p = np.empty((A.shape[0], 4))
+    s = np.sqrt(np.maximum(sq[np.arange(A.shape[0]), k], 1e-300))  # = 2 |e_k|
+    d32 = A[:, 2, 1] - A[:, 1, 2]
+    d13 = A[:, 0, 2] - A[:, 2, 0]
+    d21 = A[:, 1, 0] - A[:, 0, 1]
+    s01 = A[:, 0, 1] + A[:, 1, 0]
+    s02 = A[:, 0, 2] + A[:, 2, 0]
+    s12 = A[:, 1, 2] + A[:, 2, 1]
+    m = k == 0
+    p[m] = np.stack([0.5 * s[m], d32[m] / (2 * s[m]), d13[m] / (2 * s[m]), d21[m] / (2 * s[m])], 1)
+    m = k == 1
+    p[m] = np.stack([d32[m] / (2 * s[m]), 0.5 * s[m], s01[m] / (2 * s[m]), s02[m] / (2 * s[m])], 1)
+    m = k == 2
+    p[m] = np.stack([d13[m] / (2 * s[m]), s01[m] / (2 * s[m]), 0.5 * s[m], s12[m] / (2 * s[m])], 1)
+    m = k == 3
+    p[m] = np.stack([d21[m] / (2 * s[m]), s02[m] / (2 * s[m]), s12[m] / (2 * s[m]), 0.5 * s[m]], 1)
+    p = p / np.linalg.norm(p, axis=1, keepdims=True)
+    p = np.where(p[:, :1] < 0.0, -p, p)
+    return p.reshape(batch + (4,))
+
+
+def matrix_to_quat_xyzw(A: np.ndarray) -> np.ndarray:
+    """ROS-order quaternion (x, y, z, w), w >= 0, of a rotation matrix."""
+    return euler_parameters_to_quat_xyzw(matrix_to_euler_parameters(A))
+
+
+def _rz(angle: np.ndarray) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    out = np.zeros(np.shape(angle) + (3, 3))
+    out[..., 0, 0] = c
+    out[..., 0, 1] = -s
+    out[..., 1, 0] = s
+    out[..., 1, 1] = c
+    out[..., 2, 2] = 1.0
+    return out
+
+
+def _rx(angle: np.ndarray) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    out = np.zeros(np.shape(angle) + (3, 3))
+    out[..., 0, 0] = 1.0
+    out[..., 1, 1] = c
+    out[..., 1, 2] = -s
+    out[..., 2, 1] = s
+    out[..., 2, 2] = c
+    return out
+
+
+def euler313_to_matrix(angles: np.ndarray) -> np.ndarray:
+    """A_c = Rz(psi) Rx(alpha) Rz(phi) for angles (psi, alpha, phi) (eq. 1's 3-1-3 matrix)."""
+    angles = np.asarray(angles, dtype=float)
+    return _rz(angles[..., 0]) @ _rx(angles[..., 1]) @ _rz(angles[..., 2])
+
+
+def matrix_to_euler313(A: np.ndarray, *, gimbal_tolerance: float = 1e-9) -> np.ndarray:
+    """3-1-3 Euler angles (psi, alpha, phi) with alpha in [0, pi].
+
+    At gimbal lock (alpha = 0 or pi) only psi ± phi is defined: phi is set to 0 and psi carries
+    the whole rotation about z, so ``euler313_to_matrix(matrix_to_euler313(A)) == A`` always.
+    """
+    A = np.asarray(A, dtype=float)
+    c_alpha = np.clip(A[..., 2, 2], -1.0, 1.0)
+    s_alpha = np.hypot(A[..., 0, 2], A[..., 1, 2])
+    alpha = np.arctan2(s_alpha, c_alpha)
+    regular = s_alpha > gimbal_tolerance
+    psi_reg = np.arctan2(A[..., 0, 2], -A[..., 1, 2])
+    phi_reg = np.arctan2(A[..., 2, 0], A[..., 2, 1])
+    # Gimbal lock: A = Rz(psi) Rx(0 or pi) Rz(0); A[1,0] = sin psi, A[0,0] = cos psi.
+    psi_lock = np.arctan2(A[..., 1, 0], A[..., 0, 0])
+    psi = np.where(regular, psi_reg, psi_lock)
+    phi = np.where(regular, phi_reg, 0.0)
+    alpha = np.where(regular, alpha, np.where(c_alpha > 0, 0.0, np.pi))
+    return np.stack([psi, alpha, phi], axis=-1)
+
+
+def quat_multiply_xyzw(q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
+    """Hamilton product q1 ⊗ q2 in (x, y, z, w) order: R(q1 ⊗ q2) = R(q1) R(q2)."""
+    q1 = np.asarray(q1, dtype=float)
+    q2 = np.asarray(q2, dtype=float)
+    x1, y1, z1, w1 = q1[..., 0], q1[..., 1], q1[..., 2], q1[..., 3]
+    x2, y2, z2, w2 = q2[..., 0], q2[..., 1], q2[..., 2], q2[..., 3]
+    return np.stack([
+        w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+        w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+    ], axis=-1)
+
+
+def quat_conjugate_xyzw(q: np.ndarray) -> np.ndarray:
+    """Inverse of a unit quaternion in (x, y, z, w) order."""
+    q = np.asarray(q, dtype=float)
+    return np.concatenate([-q[..., :3], q[..., 3:]], axis=-1)
+
+
+def rotation_vector_to_quat_xyzw(v: np.ndarray) -> np.ndarray:
+    """Exponential map: rotation vector (axis · angle, rad) -> unit quaternion (x, y, z, w)."""
+    v = np.asarray(v, dtype=float)
+    angle = np.linalg.norm(v, axis=-1)
+    half = 0.5 * angle
+    # sin(half)/angle, with its Taylor series near zero.
+    small = angle < 1e-6
+    safe = np.where(small, 1.0, angle)
+    k = np.where(small, 0.5 - angle**2 / 48.0, np.sin(half) / safe)
+    return np.concatenate([v * k[..., None], np.cos(half)[..., None]], axis=-1)
+
+
+def quat_xyzw_to_rotation_vector(q: np.ndarray) -> np.ndarray:
+    """Logarithm map: unit quaternion (x, y, z, w) -> rotation vector with angle in [0, pi]."""
+    q = np.asarray(q, dtype=float)
+    q = np.where(q[..., 3:4] < 0.0, -q, q)
+    s = np.linalg.norm(q[..., :3], axis=-1)
+    angle = 2.0 * np.arctan2(s, q[..., 3])
+    small = s < 1e-9
+    k = np.where(small, 2.0 / np.maximum(q[..., 3], 1e-300), angle / np.where(small, 1.0, s))
+    return q[..., :3] * k[..., None]
+
+
+def rotation_vector_to_matrix(v: np.ndarray) -> np.ndarray:
+    """Rodrigues' formula: rotation vector (rad) -> rotation matrix."""
+    return quat_xyzw_to_matrix(rotation_vector_to_quat_xyzw(v))
+
+
+def rotation_angle_between(R1: np.ndarray, R2: np.ndarray) -> np.ndarray:
+    """Angle [rad] of the relative rotation R1^T R2 (robust near 0 and pi)."""
+    R = np.swapaxes(np.asarray(R1, dtype=float), -1, -2) @ np.asarray(R2, dtype=float)
+    q = matrix_to_euler_parameters(R)
+    return 2.0 * np.arctan2(np.linalg.norm(q[..., 1:], axis=-1), np.abs(q[..., 0]))

@@ -1,0 +1,30 @@
+from setuptools import find_packages, setup
+
+package_name = 'rrps_teleop'
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=find_packages(exclude=['test']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+    ],
+    install_requires=['setuptools', 'numpy', 'rrps_kinematics', 'rrps_sim'],
+    extras_require={'test': ['pytest', 'hypothesis']},
+    zip_safe=True,
+    maintainer='rrps maintainers',
+    maintainer_email='maintainers@users.noreply.h-seed-0d31557d.example',
+    description='Teleoperation via a parallel master robot, climbing gaits and the viser viewer.',
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+            'master_node = rrps_teleop.nodes.master_node:main',
+            'teleop_node = rrps_teleop.nodes.teleop_node:main',
+            'climb_node = rrps_teleop.nodes.climb_node:main',
+            'viewer_node = rrps_teleop.nodes.viewer_node:main',
+            'rrps-climb = rrps_teleop.climb_cli:main',
+            'rrps-demo = rrps_teleop.demo:main',
+        ],
+    },
+)
