@@ -6,6 +6,8 @@ Pure Python/NumPy (no ROS import outside ``rrps_kinematics.nodes``). The public 
     geom = RobotGeometry.from_yaml('.../pole_climber.yaml')    # or load_robot('pole_climber')
     ik = inverse_kinematics(geom, position, quaternion_xyzw)   # single pose or (N,3), (N,4)
     fk = forward_kinematics(geom, lengths, seed_position, seed_quaternion_xyzw)
+    m = margins(geom, ik); m.ok, m.violations()                 # limits as signed margins
+    ok, reason, m = check_pose(geom, position, quaternion_xyzw)
 """
 
 from .forward import ForwardKinematicsResult, forward_kinematics
@@ -21,21 +23,26 @@ from .geometry import (
 )
 from .inverse import InverseKinematicsResult, inverse_kinematics
 from .jacobian import inverse_jacobian, leg_forces, leg_rates, platform_wrench
+from .limits import PAIRS, Margins, check_pose, margins
 
 __all__ = [
     'ExtraRingDof',
     'ForwardKinematicsResult',
     'InverseKinematicsResult',
     'LinkInertia',
+    'Margins',
+    'PAIRS',
     'RigidBodyInertia',
     'RobotDescriptionError',
     'RobotGeometry',
+    'check_pose',
     'forward_kinematics',
     'inverse_jacobian',
     'inverse_kinematics',
     'leg_forces',
     'leg_rates',
     'load_robot',
+    'margins',
     'platform_wrench',
     'robot_path',
     'shipped_robots',

@@ -75,6 +75,11 @@ def lower_link_rotations(geometry: RobotGeometry, universal_angles: np.ndarray) 
     return universal_joint_frames(geometry) @ local
 
 
+def _angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Angle between unit vectors (..., 3), accurate near 0 and pi (atan2 of |u x v| and u . v)."""
+    return np.arctan2(np.linalg.norm(np.cross(u, v), axis=-1), np.einsum('...k,...k->...', u, v))
+
+
 class InverseKinematicsResult:
     """Everything section 2.1 derives from one pose (or a batch of N poses).
 
@@ -137,15 +142,13 @@ class InverseKinematicsResult:
 
     @cached_property
     def universal_cone_angles(self) -> np.ndarray:
-        c = np.einsum('...ij,ij->...i', self.unit_vectors, self.geometry.ring_a_joint_axes)
-        return np.arccos(np.clip(c, -1.0, 1.0))
+        return _angle_between(self.unit_vectors, self.geometry.ring_a_joint_axes)
 
     @cached_property
     def spherical_cone_angles(self) -> np.ndarray:
         # Leg direction from the S-joint towards ring_a, expressed in ring_b's frame.
         towards_a_in_b = -np.einsum('...kj,...ik->...ij', self.rotation, self.unit_vectors)
-        c = np.einsum('...ij,ij->...i', towards_a_in_b, self.geometry.ring_b_joint_axes)
-        return np.arccos(np.clip(c, -1.0, 1.0))
+        return _angle_between(towards_a_in_b, self.geometry.ring_b_joint_axes)
 
     @cached_property
     def lower_link_rotations(self) -> np.ndarray:

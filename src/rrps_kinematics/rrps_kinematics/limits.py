@@ -1,0 +1,222 @@
+"""Limits of an RRPS pose as signed margins (positive = inside the limit, SI units).
+
+One call gives every margin of a pose or a batch of poses, a ``within_limits`` flag and a
+human-readable reason::
+
+    from rrps_kinematics import inverse_kinematics, margins, check_pose
+    ik = inverse_kinematics(geom, position, quaternion_xyzw)      # single pose or (N,3), (N,4)
+    m = margins(geom, ik)
+    m.ok                  # bool, or (N,) bool: every margin >= 0 (and the Jacobian not singular)
+    m.violations()        # ['stroke: leg_3 length 0.5612 m > max_length 0.5500 m', ...]
+    ok, reason, m = check_pose(geom, position, quaternion_xyzw)   # single pose convenience
+
+Fields (a single pose drops the leading N):
+
+* ``stroke`` (N, 6) [m]: ``min(l_i - min_length, max_length - l_i)`` for the actuator lengths.
+* ``universal`` (N, 6) [rad]: ``universal_max_angle`` minus the angle between leg i and the
+  universal joint's neutral axis (``geometry.ring_a_joint_axes``).
+* ``spherical`` (N, 6) [rad]: ``spherical_max_angle`` minus the angle between leg i (seen from
+  ring_b, pointing to ring_a) and the spherical joint's neutral axis (``ring_b_joint_axes``).
+* ``interference`` (N, 15) [m]: for every pair of legs (``PAIRS[k] = (i, j)``, zero-based),
+  the minimum distance between the segments a_i -> B_i and a_j -> B_j (joint centre to joint
+  centre, B in ring_a's frame) minus ``2 * leg_radius`` (the paper's Figure 8c interference).
+* ``inverse_condition`` (N,): 1/cond of the unit-consistent inverse Jacobian: J's angular
+  columns (units m) are divided by ``geometry.characteristic_length``, so all entries are
+  dimensionless; 1 = isotropic, 0 = singular.
+* ``conditioning`` (N,): ``inverse_condition - geometry.min_conditioning``.
+* ``ok`` (N,) bool: all margins >= 0 and ``inverse_condition > 0``; NaN counts as a violation.
+
+Pure NumPy, vectorised over the batch; no ROS import.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from itertools import combinations
+
+import numpy as np
+
+from .geometry import RobotGeometry
+from .inverse import InverseKinematicsResult, inverse_kinematics
+from .jacobian import inverse_jacobian
+
+__all__ = [
+    'PAIRS',
+    'Margins',
+    'margins',
+    'check_pose',
+    'segment_distances',
+    'inverse_condition_number',
+]
+
+#: The 15 leg pairs (i, j), i < j, zero-based, in the order of ``Margins.interference``.
+PAIRS = np.array(list(combinations(range(6), 2)), dtype=int)
+PAIRS.setflags(write=False)
+
+
+def segment_distances(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+    """Minimum distance between segments p0->p1 and q0->q1, broadcast over leading axes (..., 3).
+
+    Closed form of the clamped closest-point problem (as in Ericson, Real-Time Collision
+    Detection, 5.1.9); degenerate (zero-length) and parallel segments are handled.
+    """
+    d1 = p1 - p0
+    d2 = q1 - q0
+    r = p0 - q0
+    a = np.einsum('...k,...k->...', d1, d1)
+    e = np.einsum('...k,...k->...', d2, d2)
+    b = np.einsum('...k,...k->...', d1, d2)
+    c = np.einsum('...k,...k->...', d1, r)
+    f = np.einsum('...k,...k->...', d2, r)
+    tiny = 1e-30
+    a_pt = a <= tiny  # p is a point
+    e_pt = e <= tiny  # q is a point
+    a_safe = np.where(a_pt, 1.0, a)
+    e_safe = np.where(e_pt, 1.0, e)
+    denom = a * e - b * b
+    parallel = denom <= 1e-12 * a * e
+    # General case: closest point of the infinite lines, s clamped, then t, then s re-clamped.
+    s = np.where(parallel, 0.0, np.clip((b * f - c * e) / np.where(parallel, 1.0, denom), 0.0, 1.0))
+    t = (b * s + f) / e_safe
+    s = np.where(t < 0.0, np.clip(-c / a_safe, 0.0, 1.0), np.where(t > 1.0, np.clip((b - c) / a_safe, 0.0, 1.0), s))
+    t = np.clip(t, 0.0, 1.0)
+    # q a point: t = 0, s = projection of q0 on p; p a point: s = 0, t = projection of p0 on q.
+    s = np.where(e_pt, np.clip(-c / a_safe, 0.0, 1.0), s)
+    t = np.where(e_pt, 0.0, t)
+    s = np.where(a_pt, 0.0, s)
+    t = np.where(a_pt, np.where(e_pt, 0.0, np.clip(f / e_safe, 0.0, 1.0)), t)
+    gap = (p0 + s[..., None] * d1) - (q0 + t[..., None] * d2)
+    return np.sqrt(np.einsum('...k,...k->...', gap, gap))
+
+
+def inverse_condition_number(geometry: RobotGeometry, ik: InverseKinematicsResult) -> np.ndarray:
+    """sigma_min / sigma_max of J with its angular columns divided by the characteristic length."""
+    J = inverse_jacobian(ik)
+    scale = np.array([1.0, 1.0, 1.0] + [1.0 / geometry.characteristic_length] * 3)
+    Js = J * scale
+    finite = np.all(np.isfinite(Js), axis=(-2, -1))
+    Js = np.where(finite[..., None, None], Js, 0.0)
+    sv = np.linalg.svd(Js, compute_uv=False)
+    with np.errstate(divide='ignore', invalid='ignore'):
+        inv = np.where(sv[..., 0] > 0.0, sv[..., -1] / sv[..., 0], 0.0)
+    return np.where(finite, inv, np.nan)
+
+
+@dataclass(frozen=True)
+class Margins:
+    """Signed margins of one pose or a batch (see the module docstring for every field)."""
+
+    geometry: RobotGeometry
+    lengths: np.ndarray
+    universal_cone_angles: np.ndarray
+    spherical_cone_angles: np.ndarray
+    segment_distances: np.ndarray
+    stroke: np.ndarray
+    universal: np.ndarray
+    spherical: np.ndarray
+    interference: np.ndarray
+    inverse_condition: np.ndarray
+    conditioning: np.ndarray
+    ok: np.ndarray
+    pairs: np.ndarray = field(default_factory=lambda: PAIRS)
+
+    @property
+    def within_limits(self):
+        """Same as ``ok``: bool for a single pose, (N,) bool for a batch."""
+        return self.ok
+
+    @property
+    def minimum(self) -> dict[str, np.ndarray]:
+        """Smallest margin of each kind (per pose for a batch)."""
+        return {
+            'stroke': np.min(self.stroke, axis=-1),
+            'universal': np.min(self.universal, axis=-1),
+            'spherical': np.min(self.spherical, axis=-1),
+            'interference': np.min(self.interference, axis=-1),
+            'conditioning': self.conditioning,
+        }
+
+    def violations(self) -> list[str]:
+        """One line per violated limit, naming the limit and the leg(s); empty when all are met.
+
+        For a batch each line starts with ``pose k:``.
+        """
+        if np.ndim(self.ok) == 0:
+            return self._pose_violations(())
+        out = []
+        for k in np.flatnonzero(~np.asarray(self.ok)):
+            out += [f'pose {k}: {line}' for line in self._pose_violations((k,))]
+        return out
+
+    @property
+    def reason(self) -> str:
+        """``'within limits'`` or the violations joined by ``'; '``."""
+        lines = self.violations()
+        return '; '.join(lines) if lines else 'within limits'
+
+    def _pose_violations(self, k: tuple) -> list[str]:
+        g = self.geometry
+        lines = []
+        L = self.lengths[k]
+        for i in np.flatnonzero(~(self.stroke[k] >= 0.0)):
+            if not np.isfinite(L[i]):
+                lines.append(f'stroke: leg_{i + 1} length is not finite')
+            elif L[i] < g.min_length:
+                lines.append(f'stroke: leg_{i + 1} length {L[i]:.4f} m < min_length {g.min_length:.4f} m')
+            else:
+                lines.append(f'stroke: leg_{i + 1} length {L[i]:.4f} m > max_length {g.max_length:.4f} m')
+        for i in np.flatnonzero(~(self.universal[k] >= 0.0)):
+            lines.append(f'universal joint: leg_{i + 1} angle {self.universal_cone_angles[k][i]:.3f} rad '
+                         f'> universal_max_angle {g.universal_max_angle:.3f} rad')
+        for i in np.flatnonzero(~(self.spherical[k] >= 0.0)):
+            lines.append(f'spherical joint: leg_{i + 1} angle {self.spherical_cone_angles[k][i]:.3f} rad '
+                         f'> spherical_max_angle {g.spherical_max_angle:.3f} rad')
+        for p in np.flatnonzero(~(self.interference[k] >= 0.0)):
+            i, j = self.pairs[p]
+            lines.append(f'interference: leg_{i + 1} and leg_{j + 1} are {self.segment_distances[k][p]:.4f} m '
+                         f'apart < 2 * radius {2.0 * g.leg_radius:.4f} m')
+        c = self.inverse_condition[k]
+        if not (self.conditioning[k] >= 0.0 and c > 0.0):
+            lines.append(f'conditioning: inverse condition number {c:.4f} < min_conditioning '
+                         f'{g.min_conditioning:.4f} (near a singularity)')
+        return lines
+
+
+def margins(geometry: RobotGeometry, ik: InverseKinematicsResult) -> Margins:
+    """Every signed margin of the pose(s) solved in ``ik`` (see the module docstring)."""
+    g = geometry
+    L = ik.lengths
+    stroke = np.minimum(L - g.min_length, g.max_length - L)
+    ua = ik.universal_cone_angles
+    sa = ik.spherical_cone_angles
+    universal = g.universal_max_angle - ua
+    spherical = g.spherical_max_angle - sa
+    a = np.broadcast_to(g.ring_a_anchors, ik.leg_vectors.shape)
+    b = ik.ring_b_anchors_in_a
+    i, j = PAIRS[:, 0], PAIRS[:, 1]
+    dist = segment_distances(a[..., i, :], b[..., i, :], a[..., j, :], b[..., j, :])
+    interference = dist - 2.0 * g.leg_radius
+    inv_cond = inverse_condition_number(g, ik)
+    conditioning = inv_cond - g.min_conditioning
+    ok = (np.all(stroke >= 0.0, axis=-1) & np.all(universal >= 0.0, axis=-1)
+          & np.all(spherical >= 0.0, axis=-1) & np.all(interference >= 0.0, axis=-1)
+          & (conditioning >= 0.0) & (inv_cond > 0.0))
+    if np.ndim(ok) == 0:
+        ok = bool(ok)
+        inv_cond = np.float64(inv_cond)
+        conditioning = np.float64(conditioning)
+    return Margins(geometry=g, lengths=L, universal_cone_angles=ua, spherical_cone_angles=sa,
+                   segment_distances=dist, stroke=stroke, universal=universal,
+                   spherical=spherical, interference=interference,
+                   inverse_condition=inv_cond, conditioning=conditioning, ok=ok)
+
+
+def check_pose(geometry: RobotGeometry, position, quaternion_xyzw) -> tuple[bool, str, Margins]:
+    """(ok, reason, margins) of one pose a_T_b; reason is ``'within limits'`` when ok.
+
+    Malformed input (shapes, NaN, zero quaternion) raises ValueError, like inverse_kinematics.
+    """
+    m = margins(geometry, inverse_kinematics(geometry, position, quaternion_xyzw))
+    if np.ndim(m.ok) != 0:
+        raise ValueError('check_pose takes a single pose; use margins() for batches')
+    return m.ok, m.reason, m
