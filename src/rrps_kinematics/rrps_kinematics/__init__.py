@@ -8,9 +8,11 @@ Pure Python/NumPy (no ROS import outside ``rrps_kinematics.nodes``). The public 
     fk = forward_kinematics(geom, lengths, seed_position, seed_quaternion_xyzw)
     m = margins(geom, ik); m.ok, m.violations()                 # limits as signed margins
     ok, reason, m = check_pose(geom, position, quaternion_xyzw)
+    modes = assembly_modes(geom, lengths)                        # every real FK solution
 """
 
-from .forward import ForwardKinematicsResult, forward_kinematics
+from .assembly import AssemblyModes, assembly_modes
+from .forward import ForwardKinematicsResult, compiled_backend_available, forward_kinematics
 from .geometry import (
     ExtraRingDof,
     LinkInertia,
@@ -26,6 +28,7 @@ from .jacobian import inverse_jacobian, leg_forces, leg_rates, platform_wrench
 from .limits import PAIRS, Margins, check_pose, margins
 
 __all__ = [
+    'AssemblyModes',
     'ExtraRingDof',
     'ForwardKinematicsResult',
     'InverseKinematicsResult',
@@ -35,7 +38,9 @@ __all__ = [
     'RigidBodyInertia',
     'RobotDescriptionError',
     'RobotGeometry',
+    'assembly_modes',
     'check_pose',
+    'compiled_backend_available',
     'forward_kinematics',
     'inverse_jacobian',
     'inverse_kinematics',

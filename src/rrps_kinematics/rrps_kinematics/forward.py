@@ -1,30 +1,79 @@
 """Direct (forward) kinematics on the platform pose by Newton-Raphson (paper section 2.2).
 
-Unknowns: the pose a_T_b. Residual: IK lengths (eq. 1) minus measured lengths. The update is
-multiplicative on the rotation, A_c <- exp(Δθ~) A_c, so the quaternion never leaves the unit
-sphere. Seeded from a previous pose, it converges quadratically in 2-4 iterations.
+Unknowns: the pose a_T_b. Residual: measured lengths minus IK lengths (eq. 1). The Newton step
+solves J dx = L - l with J the inverse Jacobian (:mod:`.jacobian`); the rotation is updated
+multiplicatively, A_c <- exp(dtheta~) A_c, so the quaternion never leaves the unit sphere.
+Seeded from a previous pose it converges quadratically in 2-4 iterations. Far from a solution
+the step is damped (rotation <= pi/2, halved until the residual decreases), which makes the
+same solver usable for multi-start searches (:mod:`.assembly`).
+
+Two backends compute the same iterates: a numba-compiled one (:mod:`.compiled`, the default
+when numba is importable and ``RRPS_NUMBA`` is not ``0``) and the vectorised NumPy reference.
 """
 
 from __future__ import annotations
 
+import math
+import os
 from dataclasses import dataclass
 
 import numpy as np
 
 from .geometry import RobotGeometry
-from .inverse import InverseKinematicsResult, _pose_arrays
-from .jacobian import inverse_jacobian
-from .rotations import matrix_to_quat_xyzw, quat_xyzw_to_matrix, rotation_vector_to_matrix
+from .inverse import _pose_arrays
+from .rotations import quat_multiply_xyzw, quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
 
-__all__ = ['ForwardKinematicsResult', 'forward_kinematics']
+__all__ = ['ForwardKinematicsResult', 'forward_kinematics', 'compiled_backend_available']
+
+#: Line-search halvings per Newton iteration before the solve gives up (unconverged).
+MAX_HALVINGS = 12
+#: A pivot below this (unit-consistent J, entries of order 1) marks the Jacobian singular.
+PIVOT_TOLERANCE = 1e-12
+#: Largest rotation [rad] taken in one Newton step.
+MAX_ROTATION_STEP = 0.5 * math.pi
+
+_BACKENDS = ('auto', 'numba', 'numpy')
+_compiled = None
+
+
+def _compiled_module():
+    """The numba kernels, imported on first use; None when numba is unavailable or disabled."""
+    global _compiled
+    if _compiled is None:
+        if os.environ.get('RRPS_NUMBA', '1') == '0':
+            _compiled = False
+        else:
+            try:
+                from . import compiled
+                _compiled = compiled
+            except ImportError:
+                _compiled = False
+    return _compiled or None
+
+
+def compiled_backend_available() -> bool:
+    """True when the numba backend can be used (numba importable, ``RRPS_NUMBA`` not ``0``)."""
+    return _compiled_module() is not None
+
+
+def _use_numba(backend: str) -> bool:
+    if backend not in _BACKENDS:
+        raise ValueError(f'backend must be one of {_BACKENDS}, got {backend!r}')
+    if backend == 'numpy':
+        return False
+    available = _compiled_module() is not None
+    if backend == 'numba' and not available:
+        raise ValueError('backend "numba" requested but numba is not available (or RRPS_NUMBA=0)')
+    return available
 
 
 @dataclass(frozen=True)
 class ForwardKinematicsResult:
     """Pose of ring_b in ring_a (single, or leading N for batches) and how it was found.
 
-    ``converged``: the length residual fell below the tolerance. ``singular``: the Jacobian was
-    singular (or ill-conditioned beyond repair) at some iterate. ``residual``: max |l - L| [m].
+    ``converged``: max |l - L| fell below the tolerance. ``singular``: the Jacobian was singular
+    at an iterate (the solve stopped there). ``residual``: max |l - L| [m] at the returned pose.
+    ``iterations``: Newton steps taken. The returned quaternion has w >= 0.
     """
 
     position: np.ndarray
@@ -39,76 +88,170 @@ class ForwardKinematicsResult:
         return quat_xyzw_to_matrix(self.quaternion_xyzw)
 
 
-def forward_kinematics(geometry: RobotGeometry, lengths, seed_position=None,
-                       seed_quaternion_xyzw=None, *, tolerance: float = 1e-12,
-                       max_iterations: int = 30) -> ForwardKinematicsResult:
-    """Newton-Raphson on a_T_b for measured lengths (6,) or (N, 6), seeded by a previous pose.
-
-    Without a seed the home pose is used. Never raises on non-convergence or singularity: the
-    result says so. Raises ValueError for NaN/inf or wrongly shaped input.
-    """
+def _check_lengths(lengths) -> np.ndarray:
     L = np.asarray(lengths, dtype=float)
     if L.shape[-1:] != (6,):
         raise ValueError(f'lengths must have shape (6,) or (N, 6), got {L.shape}')
-    if not np.all(np.isfinite(L)):
+    if not np.isfinite(L).all():
         raise ValueError('lengths contain NaN or infinite values')
+    return L
+
+
+def _check_limits(tolerance: float, max_iterations: int) -> None:
+    if not (tolerance > 0.0 and math.isfinite(tolerance)):
+        raise ValueError(f'tolerance must be a positive finite number, got {tolerance!r}')
+    if int(max_iterations) != max_iterations or max_iterations < 0:
+        raise ValueError(f'max_iterations must be a non-negative integer, got {max_iterations!r}')
+
+
+def forward_kinematics(geometry: RobotGeometry, lengths, seed_position=None,
+                       seed_quaternion_xyzw=None, *, tolerance: float = 1e-12,
+                       max_iterations: int = 30, backend: str = 'auto') -> ForwardKinematicsResult:
+    """Newton-Raphson on a_T_b for measured lengths (6,) or (N, 6), seeded by a previous pose.
+
+    Without a seed the home pose is used; seeds broadcast against the batch of lengths.
+    Never raises on non-convergence or singularity: the result says so. Raises ValueError for
+    NaN/inf or wrongly shaped input. ``backend``: 'auto' (numba when available), 'numba', 'numpy'.
+    """
+    L = _check_lengths(lengths)
+    _check_limits(tolerance, max_iterations)
+    use_numba = _use_numba(backend)
     batch = L.shape[:-1]
     if seed_position is None:
-        seed_position = np.broadcast_to(geometry.home_position, batch + (3,))
+        seed_position = geometry.home_position
     if seed_quaternion_xyzw is None:
-        seed_quaternion_xyzw = np.broadcast_to(geometry.home_quaternion_xyzw, batch + (4,))
-    p, q = _pose_arrays(np.broadcast_to(seed_position, batch + (3,)),
-                        np.broadcast_to(seed_quaternion_xyzw, batch + (4,)))
-    p = p.reshape(-1, 3).copy()
-    R = quat_xyzw_to_matrix(q.reshape(-1, 4))
-    Lf = L.reshape(-1, 6)
+        seed_quaternion_xyzw = geometry.home_quaternion_xyzw
+    seed_p = np.asarray(seed_position, dtype=float)
+    seed_q = np.asarray(seed_quaternion_xyzw, dtype=float)
+    if not batch and seed_p.shape == (3,) and seed_q.shape == (4,) and use_numba:
+        return _single_numba(geometry, L, seed_p, seed_q, tolerance, int(max_iterations))
+    try:
+        seed_p = np.broadcast_to(seed_p, batch + (3,))
+        seed_q = np.broadcast_to(seed_q, batch + (4,))
+    except ValueError:
+        raise ValueError(f'seed shapes {seed_p.shape}, {seed_q.shape} do not match lengths '
+                         f'{L.shape}') from None
+    p, q = _pose_arrays(seed_p, seed_q)
+    P = np.array(p.reshape(-1, 3), dtype=float, order='C')
+    Q = np.array(q.reshape(-1, 4), dtype=float, order='C')
+    Lf = np.ascontiguousarray(L.reshape(-1, 6))
     n = Lf.shape[0]
-    active = np.ones(n, dtype=bool)
+    if use_numba:
+        converged = np.zeros(n, dtype=np.bool_)
+        iterations = np.zeros(n, dtype=np.int64)
+        residual = np.zeros(n)
+        singular = np.zeros(n, dtype=np.bool_)
+        _compiled_module().fk_batch(geometry.ring_a_anchors, geometry.ring_b_anchors, Lf, P, Q,
+                                    1.0 / geometry.characteristic_length, float(tolerance),
+                                    int(max_iterations), converged, iterations, residual, singular)
+    else:
+        converged, iterations, residual, singular = _newton_numpy(
+            geometry, Lf, P, Q, float(tolerance), int(max_iterations))
+    Q = np.where(Q[:, 3:4] < 0.0, -Q, Q)
+    if not batch:
+        return ForwardKinematicsResult(P[0], Q[0], bool(converged[0]), int(iterations[0]),
+                                       float(residual[0]), bool(singular[0]))
+    return ForwardKinematicsResult(P.reshape(batch + (3,)), Q.reshape(batch + (4,)),
+                                   converged.reshape(batch), iterations.reshape(batch),
+                                   residual.reshape(batch), singular.reshape(batch))
+
+
+def _single_numba(geometry, L, seed_p, seed_q, tolerance, max_iterations):
+    """The warm-started single solve with as little Python around the kernel as possible."""
+    p = seed_p.copy()
+    q = seed_q.copy()
+    norm = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    if not (math.isfinite(norm) and norm > 1e-12) or not np.isfinite(p).all():
+        _pose_arrays(p, q)  # raises the same ValueError as every other path
+    q /= norm
+    c, it, res, sing = _compiled_module().fk_single(
+        geometry.ring_a_anchors, geometry.ring_b_anchors, np.ascontiguousarray(L), p, q,
+        1.0 / geometry.characteristic_length, float(tolerance), max_iterations)
+    if q[3] < 0.0:
+        q = -q
+    return ForwardKinematicsResult(p, q, c, it, res, sing)
+
+
+def _residual_numpy(geometry, L, P, Q):
+    """Leg vectors, A_c s'_i, lengths, residual L - l, max |f| and sum f^2 for (n,) poses."""
+    R = quat_xyzw_to_matrix(Q)
+    rb = np.einsum('nkj,ij->nik', R, geometry.ring_b_anchors)
+    d = P[:, None, :] + rb - geometry.ring_a_anchors
+    lengths = np.sqrt(np.einsum('nik,nik->ni', d, d))
+    f = L - lengths
+    worst = np.max(np.abs(f), axis=1)
+    worst = np.where(np.isnan(worst), np.inf, worst)
+    return rb, d, lengths, f, worst, np.einsum('ni,ni->n', f, f)
+
+
+def _lu_solve_numpy(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Solve the (n, 6, 7) augmented systems by LU with partial pivoting; (dx, ok)."""
+    M = M.copy()
+    n = M.shape[0]
+    rows = np.arange(n)
+    ok = np.all(np.isfinite(M), axis=(1, 2))
+    for c in range(6):
+        piv = c + np.argmax(np.abs(M[:, c:, c]), axis=1)
+        ok &= np.abs(M[rows, piv, c]) > PIVOT_TOLERANCE
+        top = M[rows, c].copy()
+        M[rows, c] = M[rows, piv]
+        M[rows, piv] = top
+        with np.errstate(divide='ignore', invalid='ignore'):
+            m = M[:, c + 1:, c] / M[:, c:c + 1, c]
+        M[:, c + 1:, c + 1:] -= m[:, :, None] * M[:, c:c + 1, c + 1:]
+    dx = np.zeros((n, 6))
+    with np.errstate(divide='ignore', invalid='ignore'):
+        for c in range(5, -1, -1):
+            s = M[:, c, 6] - np.einsum('nk,nk->n', M[:, c, c + 1:6], dx[:, c + 1:])
+            dx[:, c] = s / M[:, c, c]
+    ok &= np.all(np.isfinite(dx), axis=1)
+    return dx, ok
+
+
+def _newton_numpy(geometry, L, P, Q, tolerance, max_iterations):
+    """The vectorised NumPy reference of the compiled solver; updates P, Q in place."""
+    n = L.shape[0]
+    inv_scale = 1.0 / geometry.characteristic_length
     converged = np.zeros(n, dtype=bool)
     singular = np.zeros(n, dtype=bool)
-    iterations = np.zeros(n, dtype=int)
-    residual = np.full(n, np.inf)
-    for it in range(max_iterations + 1):
+    iterations = np.zeros(n, dtype=np.int64)
+    rb, d, lengths, f, worst, ss = _residual_numpy(geometry, L, P, Q)
+    residual = worst.copy()
+    active = np.ones(n, dtype=bool)
+    while True:
+        done = active & (residual <= tolerance)
+        converged |= done
+        active &= ~done
+        active &= (iterations < max_iterations) & np.isfinite(ss)
         idx = np.flatnonzero(active)
         if idx.size == 0:
             break
-        ik = InverseKinematicsResult(geometry, p[idx], R[idx])
-        err = Lf[idx] - ik.lengths
-        res = np.max(np.abs(err), axis=1)
-        residual[idx] = res
-        done = res <= tolerance
-        converged[idx[done]] = True
-        active[idx[done]] = False
-        if it == max_iterations:
-            break
-        step_idx = idx[~done]
-        if step_idx.size == 0:
-            break
-        J = inverse_jacobian(ik)[~done]
-        try:
-            dx = np.linalg.solve(J, err[~done][..., None])[..., 0]
-            ok = np.all(np.isfinite(dx), axis=1)
-        except np.linalg.LinAlgError:
-            dx = np.zeros((step_idx.size, 6))
-            ok = np.zeros(step_idx.size, dtype=bool)
-            for k in range(step_idx.size):
-                try:
-                    dx[k] = np.linalg.solve(J[k], err[~done][k])
-                    ok[k] = np.all(np.isfinite(dx[k]))
-                except np.linalg.LinAlgError:
-                    pass
-        singular[step_idx[~ok]] = True
-        active[step_idx[~ok]] = False
-        good = step_idx[ok]
-        p[good] += dx[ok, :3]
-        R[good] = rotation_vector_to_matrix(dx[ok, 3:]) @ R[good]
-        iterations[good] += 1
-    quat = matrix_to_quat_xyzw(R)
-    return ForwardKinematicsResult(
-        position=p.reshape(batch + (3,)),
-        quaternion_xyzw=quat.reshape(batch + (4,)),
-        converged=converged.reshape(batch) if batch else bool(converged[0]),
-        iterations=iterations.reshape(batch) if batch else int(iterations[0]),
-        residual=residual.reshape(batch) if batch else float(residual[0]),
-        singular=singular.reshape(batch) if batch else bool(singular[0]),
-    )
+        u = d[idx] / lengths[idx, :, None]
+        M = np.concatenate([u, np.cross(rb[idx], u) * inv_scale, f[idx, :, None]], axis=2)
+        dx, ok = _lu_solve_numpy(M)
+        dx[:, 3:] *= inv_scale
+        singular[idx[~ok]] = True
+        active[idx[~ok]] = False
+        idx, dx = idx[ok], dx[ok]
+        rot = np.linalg.norm(dx[:, 3:], axis=1)
+        t = np.where(rot > MAX_ROTATION_STEP, MAX_ROTATION_STEP / np.maximum(rot, 1e-300), 1.0)
+        pending = np.ones(idx.size, dtype=bool)
+        for _ in range(MAX_HALVINGS + 1):
+            k = np.flatnonzero(pending)
+            if k.size == 0:
+                break
+            step = t[k, None] * dx[k]
+            Pn = P[idx[k]] + step[:, :3]
+            Qn = quat_multiply_xyzw(rotation_vector_to_quat_xyzw(step[:, 3:]), Q[idx[k]])
+            Qn /= np.linalg.norm(Qn, axis=1, keepdims=True)
+            rb2, d2, l2, f2, w2, s2 = _residual_numpy(geometry, L[idx[k]], Pn, Qn)
+            acc = s2 < ss[idx[k]]
+            j = idx[k[acc]]
+            P[j], Q[j] = Pn[acc], Qn[acc]
+            rb[j], d[j], lengths[j], f[j] = rb2[acc], d2[acc], l2[acc], f2[acc]
+            residual[j], ss[j] = w2[acc], s2[acc]
+            iterations[j] += 1
+            pending[k[acc]] = False
+            t[k[~acc]] *= 0.5
+        active[idx[pending]] = False  # no decrease: stalled, stop unconverged
+    return converged, iterations, residual, singular

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from importlib import resources
 from pathlib import Path
 from typing import Any, Mapping
@@ -255,7 +256,7 @@ class RobotGeometry:
         """Leg lengths at the home pose [m]."""
         return np.linalg.norm(self._home_leg_vectors(), axis=1)
 
-    @property
+    @cached_property
     def characteristic_length(self) -> float:
         """Mean anchor radius of the two rings [m]: the length that makes Jacobians unit-consistent."""
         r = np.concatenate([np.linalg.norm(self.ring_a_anchors, axis=1),

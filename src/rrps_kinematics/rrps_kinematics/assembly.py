@@ -1,0 +1,124 @@
+"""All assembly modes: every real pose of ring_b for six given leg lengths (paper section 2.2).
+
+A general Gough-Stewart/RRPS platform has up to 40 complex forward-kinematics solutions, and
+all 40 can be real (Dietmaier 1998). :func:`assembly_modes` finds the real ones
+deterministically: damped Newton (:func:`.forward_kinematics`) from a fixed low-discrepancy
+seed set, de-duplicated, each survivor verified by inverse kinematics.
+
+Seeds: an unscrambled 6-D Halton sequence (first point skipped). Three coordinates give a
+uniformly spread orientation (Shoemake's map of the unit cube onto unit quaternions); the other
+three a position ``c(R) + (2u - 1) max(L)`` in the cube around ``c(R) = mean_i(a_i - R b_i)``,
+which contains every position that is compatible with the lengths at that orientation.
+This is a numerical search, not a proof of completeness: finding all 40 on Dietmaier's
+platform is what the test suite checks.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .forward import _check_lengths, forward_kinematics
+from .geometry import RobotGeometry
+from .inverse import inverse_kinematics
+from .rotations import quat_xyzw_to_matrix, rotation_angle_between
+
+__all__ = ['AssemblyModes', 'assembly_modes', 'halton', 'seed_poses']
+
+_PRIMES = (2, 3, 5, 7, 11, 13)
+
+
+def halton(n: int, dim: int = 6) -> np.ndarray:
+    """The first n points (index 1..n) of the unscrambled Halton sequence in [0, 1)^dim."""
+    if not 1 <= dim <= len(_PRIMES):
+        raise ValueError(f'dim must be in 1..{len(_PRIMES)}, got {dim}')
+    out = np.zeros((n, dim))
+    for k, base in enumerate(_PRIMES[:dim]):
+        i = np.arange(1, n + 1)
+        f = 1.0
+        while np.any(i > 0):
+            f /= base
+            out[:, k] += f * (i % base)
+            i //= base
+    return out
+
+
+def seed_poses(geometry: RobotGeometry, lengths: np.ndarray, n_seeds: int) -> tuple[np.ndarray, np.ndarray]:
+    """The fixed seed set (positions (n, 3), quaternions (n, 4)) described in the module docstring."""
+    h = halton(n_seeds, 6)
+    u1, u2, u3 = h[:, 0], h[:, 1], h[:, 2]
+    Q = np.stack([np.sqrt(1 - u1) * np.sin(2 * np.pi * u2), np.sqrt(1 - u1) * np.cos(2 * np.pi * u2),
+                  np.sqrt(u1) * np.sin(2 * np.pi * u3), np.sqrt(u1) * np.cos(2 * np.pi * u3)], axis=1)
+    R = quat_xyzw_to_matrix(Q)
+    centre = np.mean(geometry.ring_a_anchors - np.einsum('nkj,ij->nik', R, geometry.ring_b_anchors), axis=1)
+    P = centre + (2.0 * h[:, 3:] - 1.0) * np.max(lengths)
+    return P, Q
+
+
+@dataclass(frozen=True)
+class AssemblyModes:
+    """The real FK solutions, nearest to the home pose first.
+
+    ``positions`` (M, 3) [m], ``quaternions_xyzw`` (M, 4) (w >= 0), ``residuals`` (M,) the IK
+    check max |l - L| [m], ``hits`` (M,) how many seeds converged to each, ``seeds`` the number
+    of seeds tried.
+    """
+
+    positions: np.ndarray
+    quaternions_xyzw: np.ndarray
+    residuals: np.ndarray
+    hits: np.ndarray
+    seeds: int
+
+    def __len__(self) -> int:
+        return len(self.positions)
+
+
+def assembly_modes(geometry: RobotGeometry, lengths, *, n_seeds: int = 20000,
+                   tolerance: float = 1e-9, backend: str = 'auto') -> AssemblyModes:
+    """All real poses a_T_b with actuator lengths ``lengths`` (6,), found deterministically.
+
+    Each returned pose reproduces the lengths by inverse kinematics to ``tolerance`` [m]; two
+    poses closer than 1e-6 (position / characteristic length + rotation angle) are one mode.
+    Joint and stroke limits are not applied (see :func:`rrps_kinematics.margins`).
+    """
+    L = _check_lengths(lengths)
+    if L.shape != (6,):
+        raise ValueError(f'lengths must have shape (6,), got {L.shape}')
+    if np.any(L <= 0.0):
+        raise ValueError('lengths must be positive')
+    if int(n_seeds) != n_seeds or n_seeds < 1:
+        raise ValueError(f'n_seeds must be a positive integer, got {n_seeds!r}')
+    P, Q = seed_poses(geometry, L, int(n_seeds))
+    fk = forward_kinematics(geometry, np.broadcast_to(L, (len(P), 6)), P, Q, tolerance=1e-12,
+                            max_iterations=60, backend=backend)
+    # Converged to 1e-12, or stalled by round-off within the acceptance tolerance.
+    good = fk.converged | (fk.residual <= tolerance)
+    P, Q, res = fk.position[good], fk.quaternion_xyzw[good], fk.residual[good]
+    scale = geometry.characteristic_length
+    order = np.lexsort((Q[:, 0], P[:, 2], P[:, 1], P[:, 0]))
+    P, Q, res = P[order], Q[order], res[order]
+    positions, quats, hits = [], [], []
+    remaining = np.arange(len(P))
+    while remaining.size:
+        p, q = P[remaining[0]], Q[remaining[0]]
+        dot = np.minimum(1.0, np.abs(Q[remaining] @ q))
+        same = (np.linalg.norm(P[remaining] - p, axis=1) / scale + 2.0 * np.arccos(dot)) < 1e-6
+        best = remaining[same][np.argmin(res[remaining[same]])]  # the most accurate member
+        positions.append(P[best])
+        quats.append(Q[best])
+        hits.append(int(np.sum(same)))
+        remaining = remaining[~same]
+    if not positions:
+        return AssemblyModes(np.zeros((0, 3)), np.zeros((0, 4)), np.zeros(0),
+                             np.zeros(0, dtype=int), int(n_seeds))
+    positions, quats, hits = np.array(positions), np.array(quats), np.array(hits)
+    residuals = np.max(np.abs(inverse_kinematics(geometry, positions, quats).lengths - L), axis=1)
+    keep = residuals <= tolerance
+    positions, quats, hits, residuals = positions[keep], quats[keep], hits[keep], residuals[keep]
+    home_R = quat_xyzw_to_matrix(geometry.home_quaternion_xyzw)
+    distance = (np.linalg.norm(positions - geometry.home_position, axis=1) / scale
+                + rotation_angle_between(home_R, quat_xyzw_to_matrix(quats)))
+    order = np.argsort(distance, kind='stable')
+    return AssemblyModes(positions[order], quats[order], residuals[order], hits[order], int(n_seeds))
