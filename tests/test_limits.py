@@ -12,7 +12,6 @@ from rrps_kinematics import (
     inverse_kinematics,
     load_robot,
     margins,
-    shipped_robots,
 )
 from rrps_kinematics.limits import segment_distances
 from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
@@ -20,14 +19,15 @@ from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
 POLE = load_robot('pole_climber')
 
 
-@pytest.mark.parametrize('name', shipped_robots())
-def test_shipped_robots_within_limits_at_home(name):
-    g = load_robot(name)
+def test_single_pose_shapes_at_home():
+    g = POLE
     ok, reason, m = check_pose(g, g.home_position, g.home_quaternion_xyzw)
-    assert ok and reason == 'within limits' and m.violations() == []
-    assert m.within_limits is True
-    assert m.stroke.shape == (6,) and m.interference.shape == (15,)
+    assert ok is True and m.within_limits is True and reason == 'within limits' == m.reason
+    assert m.violations() == []
+    assert m.stroke.shape == m.universal.shape == m.spherical.shape == (6,)
+    assert m.interference.shape == (15,) and np.ndim(m.conditioning) == 0
     assert 0.0 < m.inverse_condition <= 1.0
+    assert set(m.minimum) == {'stroke', 'universal', 'spherical', 'interference', 'conditioning'}
 
 
 def test_pairs_table():
@@ -50,7 +50,7 @@ def test_stroke_violations_name_the_legs():
     np.testing.assert_allclose(m.stroke, m.lengths - g.min_length)
 
 
-def test_one_leg_out_of_stroke_is_named_alone():
+def test_only_the_legs_out_of_stroke_are_named():
     g = POLE
     # A 0.25 m sideways shift stretches legs 3 and 6 beyond max_length, the others stay inside.
     ok, reason, m = check_pose(g, g.home_position + [0.25, 0.0, 0.0], g.home_quaternion_xyzw)

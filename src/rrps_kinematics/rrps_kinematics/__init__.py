@@ -23,7 +23,7 @@ from .geometry import (
     robot_path,
     shipped_robots,
 )
-from .inverse import InverseKinematicsResult, inverse_kinematics
+from .inverse import InverseKinematicsResult, inverse_kinematics, leg_lengths
 from .jacobian import inverse_jacobian, leg_forces, leg_rates, platform_wrench
 from .limits import PAIRS, Margins, check_pose, margins
 
@@ -45,6 +45,7 @@ __all__ = [
     'inverse_jacobian',
     'inverse_kinematics',
     'leg_forces',
+    'leg_lengths',
     'leg_rates',
     'load_robot',
     'margins',

@@ -14,11 +14,11 @@ when numba is importable and ``RRPS_NUMBA`` is not ``0``) and the vectorised Num
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 
 import numpy as np
 
+from .backend import compiled_backend_available, kernels, use_numba
 from .geometry import RobotGeometry
 from .inverse import _pose_arrays
 from .rotations import quat_multiply_xyzw, quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
@@ -31,41 +31,6 @@ MAX_HALVINGS = 12
 PIVOT_TOLERANCE = 1e-12
 #: Largest rotation [rad] taken in one Newton step.
 MAX_ROTATION_STEP = 0.5 * math.pi
-
-_BACKENDS = ('auto', 'numba', 'numpy')
-_compiled = None
-
-
-def _compiled_module():
-    """The numba kernels, imported on first use; None when numba is unavailable or disabled."""
-    global _compiled
-    if _compiled is None:
-        if os.environ.get('RRPS_NUMBA', '1') == '0':
-            _compiled = False
-        else:
-            try:
-                from . import compiled
-                _compiled = compiled
-            except ImportError:
-                _compiled = False
-    return _compiled or None
-
-
-def compiled_backend_available() -> bool:
-    """True when the numba backend can be used (numba importable, ``RRPS_NUMBA`` not ``0``)."""
-    return _compiled_module() is not None
-
-
-def _use_numba(backend: str) -> bool:
-    if backend not in _BACKENDS:
-        raise ValueError(f'backend must be one of {_BACKENDS}, got {backend!r}')
-    if backend == 'numpy':
-        return False
-    available = _compiled_module() is not None
-    if backend == 'numba' and not available:
-        raise ValueError('backend "numba" requested but numba is not available (or RRPS_NUMBA=0)')
-    return available
-
 
 @dataclass(frozen=True)
 class ForwardKinematicsResult:
@@ -115,7 +80,7 @@ def forward_kinematics(geometry: RobotGeometry, lengths, seed_position=None,
     """
     L = _check_lengths(lengths)
     _check_limits(tolerance, max_iterations)
-    use_numba = _use_numba(backend)
+    numba_path = use_numba(backend)
     batch = L.shape[:-1]
     if seed_position is None:
         seed_position = geometry.home_position
@@ -123,7 +88,7 @@ def forward_kinematics(geometry: RobotGeometry, lengths, seed_position=None,
         seed_quaternion_xyzw = geometry.home_quaternion_xyzw
     seed_p = np.asarray(seed_position, dtype=float)
     seed_q = np.asarray(seed_quaternion_xyzw, dtype=float)
-    if not batch and seed_p.shape == (3,) and seed_q.shape == (4,) and use_numba:
+    if not batch and seed_p.shape == (3,) and seed_q.shape == (4,) and numba_path:
         return _single_numba(geometry, L, seed_p, seed_q, tolerance, int(max_iterations))
     try:
         seed_p = np.broadcast_to(seed_p, batch + (3,))
@@ -136,12 +101,12 @@ def forward_kinematics(geometry: RobotGeometry, lengths, seed_position=None,
     Q = np.array(q.reshape(-1, 4), dtype=float, order='C')
     Lf = np.ascontiguousarray(L.reshape(-1, 6))
     n = Lf.shape[0]
-    if use_numba:
+    if numba_path:
         converged = np.zeros(n, dtype=np.bool_)
         iterations = np.zeros(n, dtype=np.int64)
         residual = np.zeros(n)
         singular = np.zeros(n, dtype=np.bool_)
-        _compiled_module().fk_batch(geometry.ring_a_anchors, geometry.ring_b_anchors, Lf, P, Q,
+        kernels().fk_batch(geometry.ring_a_anchors, geometry.ring_b_anchors, Lf, P, Q,
                                     1.0 / geometry.characteristic_length, float(tolerance),
                                     int(max_iterations), converged, iterations, residual, singular)
     else:
@@ -164,7 +129,7 @@ def _single_numba(geometry, L, seed_p, seed_q, tolerance, max_iterations):
     if not (math.isfinite(norm) and norm > 1e-12) or not np.isfinite(p).all():
         _pose_arrays(p, q)  # raises the same ValueError as every other path
     q /= norm
-    c, it, res, sing = _compiled_module().fk_single(
+    c, it, res, sing = kernels().fk_single(
         geometry.ring_a_anchors, geometry.ring_b_anchors, np.ascontiguousarray(L), p, q,
         1.0 / geometry.characteristic_length, float(tolerance), max_iterations)
     if q[3] < 0.0:

@@ -14,6 +14,7 @@ from functools import cached_property
 
 import numpy as np
 
+from .backend import kernels, use_numba
 from .geometry import RobotGeometry
 from .rotations import (
     matrix_to_euler313,
@@ -27,6 +28,7 @@ __all__ = [
     'leg_vectors',
     'universal_joint_frames',
     'lower_link_rotations',
+    'leg_lengths',
 ]
 
 
@@ -180,3 +182,18 @@ def inverse_kinematics(geometry: RobotGeometry, position, quaternion_xyzw) -> In
     """
     p, q = _pose_arrays(position, quaternion_xyzw)
     return InverseKinematicsResult(geometry, p, quat_xyzw_to_matrix(q))
+
+
+def leg_lengths(geometry: RobotGeometry, position, quaternion_xyzw, *, backend: str = 'auto') -> np.ndarray:
+    """Actuator lengths only (the batch IK fast path): (3,), (4,) -> (6,); (N, 3), (N, 4) -> (N, 6).
+
+    Equal to ``inverse_kinematics(...).lengths``; with numba it skips every other quantity.
+    """
+    p, q = _pose_arrays(position, quaternion_xyzw)
+    if not use_numba(backend):
+        return InverseKinematicsResult(geometry, p, quat_xyzw_to_matrix(q)).lengths
+    P = np.ascontiguousarray(p.reshape(-1, 3))
+    Q = np.ascontiguousarray(q.reshape(-1, 4))
+    out = np.empty((P.shape[0], 6))
+    kernels().ik_lengths_batch(geometry.ring_a_anchors, geometry.ring_b_anchors, P, Q, out)
+    return out.reshape(p.shape[:-1] + (6,))

@@ -9,7 +9,8 @@ Conventions used everywhere in rrps:
 * 3-1-3 Euler angles (psi, alpha, phi) give ``A_c = Rz(psi) Rx(alpha) Rz(phi)`` (eq. 1's A_c).
 
 Every function accepts a single value or any leading batch shape, e.g. (N, 4) quaternions.
-q and -q are the same rotation; functions returning a quaternion pick w >= 0.
+q and -q are the same rotation; functions returning a quaternion pick w >= 0 (w > 0, or for a
+half turn the first non-zero of x, y, z positive).
 """
 
 from __future__ import annotations
@@ -49,11 +50,20 @@ def skew(v: np.ndarray) -> np.ndarray:
     return out
 
 
+def _canonical_sign(p: np.ndarray) -> np.ndarray:
+    """+1 or -1 per (e0, e1, e2, e3): makes the first non-zero component positive (e0 > 0 first)."""
+    nonzero = p != 0.0
+    first = np.argmax(nonzero, axis=-1)
+    lead = np.take_along_axis(p, first[..., None], axis=-1)
+    return np.where(lead < 0.0, -1.0, 1.0)
+
+
 def normalize_quat(q: np.ndarray) -> np.ndarray:
-    """Unit (x, y, z, w) quaternion of the same rotation, sign chosen so that w >= 0."""
+    """Unit (x, y, z, w) quaternion of the same rotation in canonical sign: w > 0, or for a half
+    turn (w = 0) the first non-zero of x, y, z positive, so that q and -q give identical output."""
     q = np.asarray(q, dtype=float)
     q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    return np.where(q[..., 3:4] < 0.0, -q, q)
+    return q * _canonical_sign(np.concatenate([q[..., 3:], q[..., :3]], axis=-1))
 
 
 def euler_parameters_to_matrix(p: np.ndarray) -> np.ndarray:
@@ -67,8 +77,23 @@ def euler_parameters_to_matrix(p: np.ndarray) -> np.ndarray:
 
 
 def quat_xyzw_to_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrix of a ROS-order quaternion (x, y, z, w); shape (..., 4) -> (..., 3, 3)."""
-    return euler_parameters_to_matrix(quat_xyzw_to_euler_parameters(q))
+    """Rotation matrix of a ROS-order unit quaternion (x, y, z, w); shape (..., 4) -> (..., 3, 3).
+
+    The same A(p) as :func:`euler_parameters_to_matrix`, written element by element (faster).
+    """
+    q = np.asarray(q, dtype=float)
+    x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    out = np.empty(q.shape[:-1] + (3, 3))
+    out[..., 0, 0] = 1.0 - 2.0 * (y * y + z * z)
+    out[..., 0, 1] = 2.0 * (x * y - z * w)
+    out[..., 0, 2] = 2.0 * (x * z + y * w)
+    out[..., 1, 0] = 2.0 * (x * y + z * w)
+    out[..., 1, 1] = 1.0 - 2.0 * (x * x + z * z)
+    out[..., 1, 2] = 2.0 * (y * z - x * w)
+    out[..., 2, 0] = 2.0 * (x * z - y * w)
+    out[..., 2, 1] = 2.0 * (y * z + x * w)
+    out[..., 2, 2] = 1.0 - 2.0 * (x * x + y * y)
+    return out
 
 
 def quat_xyzw_to_euler_parameters(q: np.ndarray) -> np.ndarray:
@@ -84,7 +109,8 @@ def euler_parameters_to_quat_xyzw(p: np.ndarray) -> np.ndarray:
 
 
 def matrix_to_euler_parameters(A: np.ndarray) -> np.ndarray:
-    """Euler parameters (e0 >= 0) of a rotation matrix; robust for every angle (Shepperd's method)."""
+    """Euler parameters (canonical sign, e0 >= 0) of a rotation matrix; robust for every angle
+    (Shepperd's method)."""
     A = np.asarray(A, dtype=float)
     batch = A.shape[:-2]
     A = A.reshape((-1, 3, 3))
@@ -111,7 +137,7 @@ def matrix_to_euler_parameters(A: np.ndarray) -> np.ndarray:
     m = k == 3
     p[m] = np.stack([d21[m] / (2 * s[m]), s02[m] / (2 * s[m]), s12[m] / (2 * s[m]), 0.5 * s[m]], 1)
     p = p / np.linalg.norm(p, axis=1, keepdims=True)
-    p = np.where(p[:, :1] < 0.0, -p, p)
+    p = p * _canonical_sign(p)
     return p.reshape(batch + (4,))
 
 
