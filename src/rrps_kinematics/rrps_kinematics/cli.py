@@ -1,0 +1,244 @@
+"""``rrps-kinematics``: the kinematics core from the command line (no ROS needed).
+
+    rrps-kinematics info  [--robot R]
+    rrps-kinematics ik    [--robot R] --position x,y,z [--quaternion qx,qy,qz,qw]
+    rrps-kinematics fk    [--robot R] --lengths l1,...,l6 [--seed x,y,z,qx,qy,qz,qw]
+    rrps-kinematics modes [--robot R] --lengths l1,...,l6
+
+``--robot`` takes a shipped robot name (default ``pole_climber``) or a YAML path; ``--json``
+prints machine-readable output. Poses are a_T_b (ring_b in ring_a's frame), metres and ROS
+(x, y, z, w) quaternions. Exit status: 0 done, 1 ``fk`` did not converge (the result is still
+printed), 2 bad arguments or robot file (one error line on stderr).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import sys
+from typing import Any, Sequence
+
+import numpy as np
+
+from .assembly import assembly_modes
+from .forward import forward_kinematics
+from .geometry import RobotDescriptionError, RobotGeometry, load_robot, shipped_robots
+from .inverse import inverse_kinematics
+from .limits import Margins, margins
+
+PROG = 'rrps-kinematics'
+_VECTOR_OPTIONS = ('--position', '--quaternion', '--lengths', '--seed')
+
+
+class UsageError(Exception):
+    """A bad command line: reported on one line, exit status 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # one line instead of usage + error
+        raise UsageError(message)
+
+
+def _vector(n: int):
+    def parse(text: str) -> np.ndarray:
+        try:
+            values = np.array([float(v) for v in text.split(',')])
+        except ValueError:
+            raise argparse.ArgumentTypeError(f'expected {n} comma-separated numbers, got {text!r}')
+        if values.shape != (n,):
+            raise argparse.ArgumentTypeError(f'expected {n} numbers, got {values.size}')
+        if not np.all(np.isfinite(values)):
+            raise argparse.ArgumentTypeError(f'values must be finite, got {text!r}')
+        return values
+    return parse
+
+
+def _join_negative_vectors(argv: Sequence[str]) -> list[str]:
+    """``--position -0.1,0,0.4`` -> ``--position=-0.1,0,0.4`` (argparse would take it for a flag)."""
+    out: list[str] = []
+    args = list(argv)
+    i = 0
+    while i < len(args):
+        if args[i] in _VECTOR_OPTIONS and i + 1 < len(args) and re.match(r'^-[\d.]', args[i + 1]):
+            out.append(f'{args[i]}={args[i + 1]}')
+            i += 2
+        else:
+            out.append(args[i])
+            i += 1
+    return out
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog=PROG,
+        description='Kinematics of RRPS parallel climbing robots: robot summary, inverse and '
+                    'forward kinematics, all assembly modes. Poses are ring_b in ring_a (a_T_b), '
+                    'SI units, quaternions (x, y, z, w).',
+        epilog=f'shipped robots: {", ".join(shipped_robots())}')
+    sub = parser.add_subparsers(dest='command', metavar='{info,ik,fk,modes}', parser_class=_Parser)
+    sub.required = True
+
+    def add(name: str, help_text: str) -> argparse.ArgumentParser:
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        p.add_argument('--robot', default='pole_climber',
+                       help='shipped robot name or robot YAML path (default: pole_climber)')
+        p.add_argument('--json', action='store_true', help='print JSON instead of text')
+        return p
+
+    add('info', 'robot summary: anchors, home pose, stroke, home lengths, margins at home')
+    p = add('ik', 'inverse kinematics of one pose: leg lengths, joint angles, margins')
+    p.add_argument('--position', type=_vector(3), required=True, metavar='X,Y,Z',
+                   help='ring_b origin in ring_a [m]')
+    p.add_argument('--quaternion', type=_vector(4), default=np.array([0, 0, 0, 1.0]),
+                   metavar='QX,QY,QZ,QW', help='ring_b orientation in ring_a (default: identity)')
+    p = add('fk', 'forward kinematics: the pose for six leg lengths (Newton from a seed)')
+    p.add_argument('--lengths', type=_vector(6), required=True, metavar='L1,...,L6',
+                   help='actuator lengths [m]')
+    p.add_argument('--seed', type=_vector(7), metavar='X,Y,Z,QX,QY,QZ,QW',
+                   help='seed pose (default: the robot\'s home pose)')
+    p = add('modes', 'all assembly modes: every real pose for six leg lengths')
+    p.add_argument('--lengths', type=_vector(6), required=True, metavar='L1,...,L6',
+                   help='actuator lengths [m]')
+    return parser
+
+
+def _load(robot: str) -> RobotGeometry:
+    try:
+        return load_robot(robot)
+    except RobotDescriptionError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _fmt(v: Any, digits: int = 6) -> str:
+    return '[' + ', '.join(f'{x:.{digits}f}' for x in np.ravel(v)) + ']'
+
+
+def _margins_dict(m: Margins) -> dict[str, Any]:
+    return {'within_limits': bool(m.ok), 'violations': m.violations(),
+            'min_stroke_m': float(np.min(m.stroke)),
+            'min_universal_rad': float(np.min(m.universal)),
+            'min_spherical_rad': float(np.min(m.spherical)),
+            'min_interference_m': float(np.min(m.interference)),
+            'inverse_condition': float(m.inverse_condition),
+            'conditioning_margin': float(m.conditioning)}
+
+
+def _margin_lines(m: Margins) -> list[str]:
+    d = _margins_dict(m)
+    lines = [f'margins:  stroke {d["min_stroke_m"]:+.4f} m, universal {d["min_universal_rad"]:+.3f} rad, '
+             f'spherical {d["min_spherical_rad"]:+.3f} rad, interference {d["min_interference_m"]:+.4f} m, '
+             f'conditioning {d["conditioning_margin"]:+.4f} (1/cond {d["inverse_condition"]:.4f})',
+             f'within limits: {"yes" if m.ok else "no"}']
+    lines += [f'  - {v}' for v in m.violations()]
+    return lines
+
+
+def _info(g: RobotGeometry) -> tuple[dict, list[str]]:
+    ik = inverse_kinematics(g, g.home_position, g.home_quaternion_xyzw)
+    m = margins(g, ik)
+    data = {'name': g.name, 'description': g.description,
+            'ring_a_anchors': g.ring_a_anchors.tolist(), 'ring_b_anchors': g.ring_b_anchors.tolist(),
+            'home_position': g.home_position.tolist(),
+            'home_quaternion_xyzw': g.home_quaternion_xyzw.tolist(),
+            'home_lengths': g.home_lengths.tolist(),
+            'min_length': g.min_length, 'max_length': g.max_length, 'max_speed': g.max_speed,
+            'max_force': g.max_force, 'leg_radius': g.leg_radius,
+            'universal_max_angle': g.universal_max_angle, 'spherical_max_angle': g.spherical_max_angle,
+            'min_conditioning': g.min_conditioning, 'characteristic_length': g.characteristic_length,
+            'grippers': dict(g.grippers),
+            'extra_dof': {k: {'axis': v.axis.tolist(), 'min_angle': v.min_angle, 'max_angle': v.max_angle}
+                          for k, v in g.extra_dof.items()},
+            'margins_at_home': _margins_dict(m)}
+    lines = [f'robot: {g.name}', f'  {g.description}' if g.description else '',
+             'leg  ring_a anchor (U-joint) [m]          ring_b anchor (S-joint) [m]          home length [m]']
+    lines = [line for line in lines if line]
+    for i in range(6):
+        lines.append(f'leg_{i + 1} {_fmt(g.ring_a_anchors[i], 4):36s} {_fmt(g.ring_b_anchors[i], 4):36s} '
+                     f'{g.home_lengths[i]:.4f}')
+    lines += [f'home pose: position {_fmt(g.home_position, 4)} m, quaternion {_fmt(g.home_quaternion_xyzw, 4)}',
+              f'stroke: {g.min_length:.4f} .. {g.max_length:.4f} m, max speed {g.max_speed} m/s, '
+              f'max force {g.max_force} N, leg radius {g.leg_radius} m',
+              f'joint limits: universal {g.universal_max_angle} rad, spherical {g.spherical_max_angle} rad, '
+              f'min 1/cond {g.min_conditioning}',
+              f'grippers: ring_a {g.grippers["ring_a"]}, ring_b {g.grippers["ring_b"]}'
+              + (f'; extra ring DOF on {", ".join(sorted(g.extra_dof))}' if g.extra_dof else '')]
+    lines += _margin_lines(m)
+    return data, lines
+
+
+def _ik(g: RobotGeometry, position: np.ndarray, quaternion: np.ndarray) -> tuple[dict, list[str]]:
+    ik = inverse_kinematics(g, position, quaternion)
+    m = margins(g, ik)
+    data = {'position': position.tolist(), 'quaternion_xyzw': (quaternion / np.linalg.norm(quaternion)).tolist(),
+            'lengths': ik.lengths.tolist(), 'universal_angles': ik.universal_angles.tolist(),
+            'universal_cone_angles': ik.universal_cone_angles.tolist(),
+            'spherical_cone_angles': ik.spherical_cone_angles.tolist(), 'margins': _margins_dict(m)}
+    lines = [f'robot: {g.name}', f'pose: position {_fmt(position, 4)} m, quaternion {_fmt(data["quaternion_xyzw"], 4)}',
+             'leg    length [m]  U-joint angles [rad]   U cone [rad]  S cone [rad]']
+    for i in range(6):
+        lines.append(f'leg_{i + 1}  {ik.lengths[i]:.6f}   {_fmt(ik.universal_angles[i], 4):20s}   '
+                     f'{ik.universal_cone_angles[i]:.4f}        {ik.spherical_cone_angles[i]:.4f}')
+    lines.append('lengths: ' + ','.join(f'{x:.6f}' for x in ik.lengths))
+    return data, lines + _margin_lines(m)
+
+
+def _fk(g: RobotGeometry, lengths: np.ndarray, seed: np.ndarray | None) -> tuple[dict, list[str]]:
+    seed_p = g.home_position if seed is None else seed[:3]
+    seed_q = g.home_quaternion_xyzw if seed is None else seed[3:]
+    fk = forward_kinematics(g, lengths, seed_p, seed_q)
+    m = margins(g, inverse_kinematics(g, fk.position, fk.quaternion_xyzw))
+    data = {'position': fk.position.tolist(), 'quaternion_xyzw': fk.quaternion_xyzw.tolist(),
+            'converged': fk.converged, 'iterations': fk.iterations, 'residual': fk.residual,
+            'singular': fk.singular, 'margins': _margins_dict(m)}
+    status = 'converged' if fk.converged else ('singular Jacobian' if fk.singular else 'NOT converged')
+    lines = [f'robot: {g.name}',
+             f'{status} in {fk.iterations} iterations, residual {fk.residual:.2e} m',
+             f'position   {_fmt(fk.position)} m', f'quaternion {_fmt(fk.quaternion_xyzw)} (x, y, z, w)']
+    return data, lines + _margin_lines(m)
+
+
+def _modes(g: RobotGeometry, lengths: np.ndarray) -> tuple[dict, list[str]]:
+    modes = assembly_modes(g, lengths)
+    ok = (margins(g, inverse_kinematics(g, modes.positions, modes.quaternions_xyzw)).ok
+          if len(modes) else np.zeros(0, dtype=bool))
+    data = {'count': len(modes), 'seeds': modes.seeds,
+            'modes': [{'position': p.tolist(), 'quaternion_xyzw': q.tolist(), 'residual': float(r),
+                       'within_limits': bool(k)}
+                      for p, q, r, k in zip(modes.positions, modes.quaternions_xyzw, modes.residuals, ok)]}
+    lines = [f'robot: {g.name}', f'{len(modes)} real assembly modes ({modes.seeds} seeds), nearest to home first',
+             '  #  position [m]                        quaternion (x, y, z, w)                 in limits']
+    for k, (p, q) in enumerate(zip(modes.positions, modes.quaternions_xyzw)):
+        lines.append(f'{k + 1:3d}  {_fmt(p, 5):34s}  {_fmt(q, 5):40s} {"yes" if ok[k] else "no"}')
+    return data, lines
+
+
+def run(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser()
+    try:
+        args = parser.parse_args(_join_negative_vectors(argv))
+        g = _load(args.robot)
+        if args.command == 'info':
+            data, lines = _info(g)
+        elif args.command == 'ik':
+            data, lines = _ik(g, args.position, args.quaternion)
+        elif args.command == 'fk':
+            data, lines = _fk(g, args.lengths, args.seed)
+        else:
+            data, lines = _modes(g, args.lengths)
+    except (UsageError, ValueError) as exc:
+        print(f'{PROG}: error: {exc}', file=sys.stderr)
+        return 2
+    print(json.dumps(data, indent=2) if args.json else '\n'.join(lines))
+    return 1 if args.command == 'fk' and not data['converged'] else 0
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    """Console entry point ``rrps-kinematics``."""
+    sys.exit(run(argv))
+
+
+if __name__ == '__main__':
+    main()
