@@ -1,0 +1,201 @@
+#!/usr/bin/env python3
+"""Benchmark of the kinematics core: IK and warm-started FK, against baselines in the same run.
+
+    python benchmarks/kinematics.py [--robot pole_climber] [--samples 2000] [--batch 200000]
+
+A smooth trajectory of ring_b (1 mm and 0.01 rad between successive poses, i.e. a fast motion
+sampled at a few hundred Hz) is solved by inverse kinematics; forward kinematics then recovers
+each pose from its lengths, seeded by the previous pose (the real-time use of fk_node).
+Baselines: ``scipy.optimize.fsolve`` on the six leg equations (unknowns: position and a rotation
+vector relative to the seed) and a plain NumPy Newton loop (np.linalg.solve per iteration).
+Single-solve times are medians over ``--samples`` calls; batches report throughput.
+Targets (issue 2, this 2-core machine): FK single <= 25 us median and >= 10x faster than
+fsolve; batch IK >= 2 M poses/s; batch FK >= 200 k solves/s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import sys
+import time
+
+import numpy as np
+from scipy.optimize import fsolve
+
+from rrps_kinematics import (
+    InverseKinematicsResult,
+    compiled_backend_available,
+    forward_kinematics,
+    inverse_jacobian,
+    inverse_kinematics,
+    leg_lengths,
+    load_robot,
+)
+from rrps_kinematics.rotations import (
+    quat_multiply_xyzw,
+    quat_xyzw_to_matrix,
+    rotation_angle_between,
+    rotation_vector_to_matrix,
+    rotation_vector_to_quat_xyzw,
+)
+
+
+def trajectory(g, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """n poses, each 1 mm and 0.01 rad from the previous one, kept near home (a bounded walk)."""
+    rng = np.random.default_rng(seed)
+    P = np.empty((n, 3))
+    Q = np.empty((n, 4))
+    p = g.home_position.copy()
+    q = g.home_quaternion_xyzw.copy()
+    for k in range(n):
+        step = rng.normal(size=3)
+        step = 1e-3 * step / np.linalg.norm(step) - 0.02 * (p - g.home_position)
+        p = p + step
+        rv = rng.normal(size=3)
+        rv = 0.01 * rv / np.linalg.norm(rv)
+        q = quat_multiply_xyzw(rotation_vector_to_quat_xyzw(rv), q)
+        # Pull the orientation back towards home so the walk stays in the workspace.
+        q = q + 0.02 * (g.home_quaternion_xyzw - q)
+        q /= np.linalg.norm(q)
+        P[k], Q[k] = p, q
+    return P, Q
+
+
+def median_us(fn, args_list) -> float:
+    times = np.empty(len(args_list))
+    for k, args in enumerate(args_list):
+        t0 = time.perf_counter()
+        fn(*args)
+        times[k] = time.perf_counter() - t0
+    return float(np.median(times) * 1e6)
+
+
+def throughput(fn, n: int, repeats: int = 3) -> float:
+    best = np.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return n / best
+
+
+def fsolve_fk(g, L, seed_p, seed_q):
+    """Baseline: scipy.optimize.fsolve on l_i(p, exp(v) R_seed) - L_i = 0."""
+    R0 = quat_xyzw_to_matrix(seed_q)
+    A, B = g.ring_a_anchors, g.ring_b_anchors
+
+    def legs(x):
+        R = rotation_vector_to_matrix(x[3:]) @ R0
+        return np.linalg.norm(x[:3] + B @ R.T - A, axis=1) - L
+
+    x = fsolve(legs, np.concatenate([seed_p, np.zeros(3)]), xtol=1e-13)
+    return x[:3], rotation_vector_to_matrix(x[3:]) @ R0
+
+
+def numpy_newton_fk(g, L, seed_p, seed_q, tol=1e-12, max_iterations=30):
+    """Baseline: a plain Newton loop with NumPy calls (IK, inverse Jacobian, np.linalg.solve)."""
+    p = np.array(seed_p, dtype=float)
+    R = quat_xyzw_to_matrix(seed_q)
+    for _ in range(max_iterations):
+        ik = InverseKinematicsResult(g, p, R)
+        err = L - ik.lengths
+        if np.max(np.abs(err)) <= tol:
+            break
+        dx = np.linalg.solve(inverse_jacobian(ik), err)
+        p = p + dx[:3]
+        R = rotation_vector_to_matrix(dx[3:]) @ R
+    return p, R
+
+
+def pose_error(P, R, P_ref, Q_ref) -> float:
+    return float(np.max(np.linalg.norm(P - P_ref, axis=-1))
+                 + np.max(rotation_angle_between(R, quat_xyzw_to_matrix(Q_ref))))
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--robot', default='pole_climber')
+    parser.add_argument('--samples', type=int, default=2000, help='single solves to time')
+    parser.add_argument('--batch', type=int, default=200_000, help='poses per batch')
+    args = parser.parse_args(argv)
+    g = load_robot(args.robot)
+    numba_ok = compiled_backend_available()
+    n = args.samples
+    P, Q = trajectory(g, n + 1)
+    L = inverse_kinematics(g, P, Q).lengths
+    PB, QB = trajectory(g, args.batch + 1, seed=1)
+    LB = leg_lengths(g, PB, QB, backend='numpy')
+
+    # Warm up (numba compiles or loads its cache here, outside every timing).
+    forward_kinematics(g, L[1], P[0], Q[0])
+    forward_kinematics(g, L[1:3], P[0:2], Q[0:2])
+    leg_lengths(g, P[:2], Q[:2])
+
+    rows = []  # (name, value, unit, note)
+    singles = [(g, P[k], Q[k]) for k in range(n)]
+    ik_single = median_us(lambda g_, p, q: inverse_kinematics(g_, p, q).lengths, singles)
+    rows.append(('IK single (inverse_kinematics, NumPy)', ik_single, 'us median', ''))
+    ik_fast_single = median_us(lambda g_, p, q: leg_lengths(g_, p, q), singles)
+    rows.append(('IK single (leg_lengths, auto backend)', ik_fast_single, 'us median', ''))
+    ik_batch_numpy = throughput(lambda: inverse_kinematics(g, PB, QB).lengths, args.batch)
+    rows.append(('IK batch (inverse_kinematics, NumPy)', ik_batch_numpy / 1e6, 'M poses/s', ''))
+    ik_batch = throughput(lambda: leg_lengths(g, PB, QB), args.batch)
+    rows.append(('IK batch (leg_lengths, auto backend)', ik_batch / 1e6, 'M poses/s', ''))
+
+    warm = [(g, L[k + 1], P[k], Q[k]) for k in range(n)]
+    fk_single = median_us(lambda g_, l, p, q: forward_kinematics(g_, l, p, q), warm)
+    res = [forward_kinematics(g, L[k + 1], P[k], Q[k]) for k in range(n)]
+    fk_err = pose_error(np.array([r.position for r in res]), np.array([r.rotation for r in res]),
+                        P[1:], Q[1:])
+    its = np.array([r.iterations for r in res])
+    rows.append(('FK warm single (forward_kinematics, auto)', fk_single, 'us median',
+                 f'{np.mean(its):.2f} iterations, max pose error {fk_err:.1e}'))
+    fk_single_np = median_us(lambda g_, l, p, q: forward_kinematics(g_, l, p, q, backend='numpy'),
+                             warm[: max(n // 4, 10)])
+    rows.append(('FK warm single (forward_kinematics, NumPy)', fk_single_np, 'us median', ''))
+    fk_newton = median_us(lambda g_, l, p, q: numpy_newton_fk(g_, l, p, q), warm)
+    out = [numpy_newton_fk(g, L[k + 1], P[k], Q[k]) for k in range(n)]
+    err_newton = pose_error(np.array([o[0] for o in out]), np.array([o[1] for o in out]), P[1:], Q[1:])
+    rows.append(('baseline: plain NumPy Newton loop', fk_newton, 'us median',
+                 f'max pose error {err_newton:.1e}'))
+    fk_fsolve = median_us(lambda g_, l, p, q: fsolve_fk(g_, l, p, q), warm)
+    out = [fsolve_fk(g, L[k + 1], P[k], Q[k]) for k in range(n)]
+    err_fsolve = pose_error(np.array([o[0] for o in out]), np.array([o[1] for o in out]), P[1:], Q[1:])
+    rows.append(('baseline: scipy.optimize.fsolve', fk_fsolve, 'us median',
+                 f'max pose error {err_fsolve:.1e}'))
+
+    fk_batch = throughput(lambda: forward_kinematics(g, LB[1:], PB[:-1], QB[:-1]), args.batch)
+    fb = forward_kinematics(g, LB[1:], PB[:-1], QB[:-1])
+    rows.append(('FK warm batch (forward_kinematics, auto)', fk_batch / 1e3, 'k solves/s',
+                 f'{np.mean(fb.converged) * 100:.1f} % converged'))
+    nb = min(args.batch, 20_000)
+    fk_batch_np = throughput(lambda: forward_kinematics(g, LB[1:nb + 1], PB[:nb], QB[:nb], backend='numpy'),
+                             nb, repeats=2)
+    rows.append(('FK warm batch (forward_kinematics, NumPy)', fk_batch_np / 1e3, 'k solves/s', ''))
+
+    print(f'rrps kinematics benchmark: robot {g.name}, numba backend '
+          f'{"on" if numba_ok else "OFF"}, Python {platform.python_version()}, '
+          f'{os.cpu_count()} CPUs, {n} single solves, batches of {args.batch}')
+    print(f'{"what":46s} {"value":>12s}  {"unit":11s} note')
+    print('-' * 100)
+    for name, value, unit, note in rows:
+        print(f'{name:46s} {value:12.3f}  {unit:11s} {note}')
+    print('-' * 100)
+    print(f'FK warm single vs fsolve: {fk_fsolve / fk_single:.1f}x faster; '
+          f'vs plain NumPy Newton: {fk_newton / fk_single:.1f}x faster')
+    targets = [
+        ('FK warm single <= 25 us median', fk_single <= 25.0, f'{fk_single:.1f} us'),
+        ('FK warm single >= 10x faster than fsolve', fk_fsolve / fk_single >= 10.0,
+         f'{fk_fsolve / fk_single:.1f}x'),
+        ('batch IK >= 2 M poses/s', ik_batch >= 2e6, f'{ik_batch / 1e6:.2f} M/s'),
+        ('batch FK >= 200 k solves/s', fk_batch >= 2e5, f'{fk_batch / 1e3:.0f} k/s'),
+    ]
+    for name, met, value in targets:
+        print(f'target {name:42s} {"MET" if met else "MISSED":7s} ({value})')
+    return 0 if all(met for _, met, _ in targets) else 1
+
+
+if __name__ == '__main__':
+    sys.exit(main())
