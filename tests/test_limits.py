@@ -14,7 +14,7 @@ from rrps_kinematics import (
     margins,
 )
 from rrps_kinematics.limits import segment_distances
-from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
+from rrps_kinematics.rotations import quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
 
 POLE = load_robot('pole_climber')
 
@@ -176,3 +176,27 @@ def test_segment_distance_special_cases():
     assert segment_distances(o, o, z, z) == pytest.approx(1.0)              # two points
     assert segment_distances(o, x, 0.5 * x + z, 0.5 * x + z) == pytest.approx(1.0)  # one point
     assert segment_distances(-x, x, -y + z, y + z) == pytest.approx(1.0)    # crossing, skew
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.tuples(*[st.floats(-0.6, 0.6, allow_nan=False)] * 3),
+       st.tuples(*[st.floats(-0.8, 0.8, allow_nan=False)] * 3))
+def test_margin_signs_match_direct_checks(dp, rv):
+    """Each margin is >= 0 exactly when the limit, checked directly from the anchors, holds."""
+    g = POLE
+    p = g.home_position + np.array(dp) * g.characteristic_length
+    q = rotation_vector_to_quat_xyzw(np.array(rv))
+    ok, _, m = check_pose(g, p, q)
+    R = quat_xyzw_to_matrix(q)
+    B = p + g.ring_b_anchors @ R.T
+    L = np.linalg.norm(B - g.ring_a_anchors, axis=1)
+    inside = (L >= g.min_length) & (L <= g.max_length)
+    np.testing.assert_array_equal(m.stroke >= 0, inside)
+    np.testing.assert_allclose(np.abs(m.stroke), np.minimum(np.abs(L - g.min_length), np.abs(L - g.max_length)),
+                               atol=1e-12)
+    for k, (i, j) in enumerate(PAIRS):
+        d = _brute_force_distance(g.ring_a_anchors[i], B[i], g.ring_a_anchors[j], B[j], n=201)
+        assert m.segment_distances[k] <= d + 1e-12
+        assert m.segment_distances[k] >= d - 0.01  # one sample step of the longest legs
+    assert ok == bool(np.all(m.stroke >= 0) and np.all(m.universal >= 0) and np.all(m.spherical >= 0)
+                      and np.all(m.interference >= 0) and m.conditioning >= 0)
