@@ -3,10 +3,11 @@
 The trajectory is given as samples (t_k, r_k, q_k). Velocities and accelerations come from
 C2 cubic splines through the samples (scipy ``CubicSpline``, not-a-knot ends), one for the
 position and one for the quaternion's four components (signs made continuous first). For the
-spline quaternion q(t), not exactly unit between samples, the angular velocity in ring_a's frame
-is omega = 2 vec(q_dot ⊗ q*) / |q|^2 and its rate omega_dot = (2 vec(q_ddot ⊗ q*) - 2 (q . q_dot)
-omega) / |q|^2, exact derivatives of the same curve. The forces then solve eq. 19 written in
-ring_b's twist (:mod:`rrps_sim.reduced`): J^T f = M t_dot + Q0(x, t), at every sample.
+spline quaternion q(t), not exactly unit between samples, the angular velocity in ring_a's
+frame is omega = 2 vec(q_dot ⊗ q*) / |q|^2 and its rate
+omega_dot = (2 vec(q_ddot ⊗ q*) - 2 (q . q_dot) omega) / |q|^2: exact derivatives of one curve.
+The forces then solve eq. 19 written in ring_b's twist (:mod:`rrps_sim.reduced`):
+J^T f = M t_dot + Q0(x, t), at every sample.
 """
 
 from __future__ import annotations
@@ -30,7 +31,8 @@ def _validated(t, positions, quaternions_xyzw) -> tuple[np.ndarray, np.ndarray, 
     p = np.asarray(positions, dtype=float)
     q = np.asarray(quaternions_xyzw, dtype=float)
     if t.ndim != 1 or t.shape[0] < MIN_SAMPLES:
-        raise ValueError(f't must be a 1-D array of at least {MIN_SAMPLES} samples, got shape {t.shape}')
+        raise ValueError(
+            f't must be a 1-D array of at least {MIN_SAMPLES} samples, got shape {t.shape}')
     k = t.shape[0]
     if p.shape != (k, 3):
         raise ValueError(f'positions must have shape ({k}, 3), got {p.shape}')

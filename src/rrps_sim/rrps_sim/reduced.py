@@ -2,8 +2,8 @@
 
 The paper integrates 13 bodies x 7 coordinates with 91 constraints (eqs. 19-20). Here the same
 mechanism is written in its 6 independent velocities, the twist t = (v, omega) of ring_b (origin
-velocity and angular velocity, both in ring_a's frame, the twist of :mod:`rrps_kinematics.jacobian`),
-by Kane's method / virtual power::
+velocity and angular velocity, both in ring_a's frame: the twist of
+:mod:`rrps_kinematics.jacobian`), by Kane's method / virtual power::
 
     M(x) t_dot + Q0(x, t) = J(x)^T f
 
@@ -321,10 +321,11 @@ def simulate_reduced(geometry: RobotGeometry, position, quaternion_xyzw,
     """Integrate the reduced model from a pose (at rest unless velocities are given).
 
     ``forces``: constant actuator forces (6,) [N] (+ = pushing the rings apart) — the paper's
-    constant-force run — or ``forces(t, ReducedState) -> (6,)``. Samples every ``dt`` from 0 to
-    ``duration`` (a multiple of ``dt``). Integration: scipy's DOP853 (8th order, adaptive) at
-    ``rtol``/``atol`` on the state (r, q, v, omega, W); the quaternion is normalised inside the
-    right-hand side, q_dot = 1/2 (omega, 0) ⊗ q.
+    constant-force run — or ``forces(t, ReducedState) -> (6,)``, best smooth in t (the step
+    size adapts: kinks, e.g. of linearly interpolated samples, cost many steps). Samples every
+    ``dt`` from 0 to ``duration`` (a multiple of ``dt``). Integration: scipy's DOP853 (8th
+    order, adaptive) at ``rtol``/``atol`` on the state (r, q, v, omega, W); the quaternion is
+    normalised inside the right-hand side, q_dot = 1/2 (omega, 0) ⊗ q.
     """
     for key, value in (('duration', duration), ('dt', dt)):
         if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
