@@ -81,11 +81,11 @@ def test_with_massless_legs_the_forces_are_the_pose_level_statics():
 def test_the_legs_weight_is_carried_too():
     geom = load_robot('frame_climber')
     p, q = geom.home_position, geom.home_quaternion_xyzw
-    ring_only = holding_forces(geom, p, q)
+    with_legs = holding_forces(geom, p, q)
     light = LinkInertia(mass=1e-12, com_from_joint=0.1, inertia_transverse=1e-15, inertia_axial=1e-15)
     ring_alone = holding_forces(geom.with_(lower_link=light, upper_link=light), p, q)
     # Upper links hang on ring_b; lower links lean on ring_a: the legs add a load of their own.
-    assert np.all(ring_only > ring_alone + 1.0)
+    assert np.all(with_legs > ring_alone + 1.0)
 
 
 def test_a_mirror_symmetric_robot_needs_mirror_symmetric_forces():
