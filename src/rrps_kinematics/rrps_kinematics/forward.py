@@ -21,7 +21,7 @@ import numpy as np
 from .backend import compiled_backend_available, kernels, use_numba
 from .geometry import RobotGeometry
 from .inverse import _pose_arrays
-from .rotations import quat_multiply_xyzw, quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
+from .rotations import cross, quat_multiply_xyzw, quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
 
 __all__ = ['ForwardKinematicsResult', 'forward_kinematics', 'compiled_backend_available']
 
@@ -192,7 +192,7 @@ def _newton_numpy(geometry, L, P, Q, tolerance, max_iterations):
         if idx.size == 0:
             break
         u = d[idx] / lengths[idx, :, None]
-        M = np.concatenate([u, np.cross(rb[idx], u) * inv_scale, f[idx, :, None]], axis=2)
+        M = np.concatenate([u, cross(rb[idx], u) * inv_scale, f[idx, :, None]], axis=2)
         dx, ok = _lu_solve_numpy(M)
         dx[:, 3:] *= inv_scale
         singular[idx[~ok]] = True

@@ -17,6 +17,7 @@ import numpy as np
 from .backend import kernels, use_numba
 from .geometry import RobotGeometry
 from .rotations import (
+    cross,
     matrix_to_euler313,
     matrix_to_euler_parameters,
     quat_xyzw_to_matrix,
@@ -47,14 +48,14 @@ def universal_joint_frames(geometry: RobotGeometry) -> np.ndarray:
     """
     z = np.asarray(geometry.ring_a_joint_axes)
     s0 = np.asarray(geometry.ring_a_anchors)
-    x = np.cross(z, s0)
-    fallback = np.cross(z, np.array([1.0, 0.0, 0.0]))
-    fallback2 = np.cross(z, np.array([0.0, 1.0, 0.0]))
+    x = cross(z, s0)
+    fallback = cross(z, np.array([1.0, 0.0, 0.0]))
+    fallback2 = cross(z, np.array([0.0, 1.0, 0.0]))
     bad = np.linalg.norm(x, axis=1) < 1e-9
     x[bad] = np.where(np.linalg.norm(fallback[bad], axis=1, keepdims=True) > 1e-6,
                       fallback[bad], fallback2[bad])
     x /= np.linalg.norm(x, axis=1, keepdims=True)
-    y = np.cross(z, x)
+    y = cross(z, x)
     return np.stack([x, y, z], axis=-1)
 
 
@@ -79,7 +80,7 @@ def lower_link_rotations(geometry: RobotGeometry, universal_angles: np.ndarray) 
 
 def _angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Angle between unit vectors (..., 3), accurate near 0 and pi (atan2 of |u x v| and u . v)."""
-    return np.arctan2(np.linalg.norm(np.cross(u, v), axis=-1), np.einsum('...k,...k->...', u, v))
+    return np.arctan2(np.linalg.norm(cross(u, v), axis=-1), np.einsum('...k,...k->...', u, v))
 
 
 class InverseKinematicsResult:
@@ -116,15 +117,15 @@ class InverseKinematicsResult:
     def leg_frames(self) -> np.ndarray:
         uz = self.unit_vectors
         s0 = np.broadcast_to(self.geometry.ring_a_anchors, uz.shape)
-        ux = np.cross(uz, s0)
+        ux = cross(uz, s0)
         n = np.linalg.norm(ux, axis=-1, keepdims=True)
         # A leg pointing along its own anchor vector (or an anchor at the origin): use ring_a's x.
-        alt = np.cross(uz, np.array([1.0, 0.0, 0.0]))
-        alt2 = np.cross(uz, np.array([0.0, 1.0, 0.0]))
+        alt = cross(uz, np.array([1.0, 0.0, 0.0]))
+        alt2 = cross(uz, np.array([0.0, 1.0, 0.0]))
         alt = np.where(np.linalg.norm(alt, axis=-1, keepdims=True) > 1e-6, alt, alt2)
         ux = np.where(n > 1e-9, ux, alt)
         ux = ux / np.linalg.norm(ux, axis=-1, keepdims=True)
-        uy = np.cross(uz, ux)
+        uy = cross(uz, ux)
         return np.stack([ux, uy, uz], axis=-1)
 
     @cached_property

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .inverse import InverseKinematicsResult
+from .rotations import cross
 
 __all__ = ['inverse_jacobian', 'leg_rates', 'platform_wrench', 'leg_forces']
 
@@ -19,7 +20,7 @@ def inverse_jacobian(ik: InverseKinematicsResult) -> np.ndarray:
     """J with leg rates = J @ twist; shape (..., 6, 6)."""
     u = ik.unit_vectors
     b_rot = ik.leg_vectors + ik.geometry.ring_a_anchors - ik.position[..., None, :]  # A_c s'_i
-    return np.concatenate([u, np.cross(b_rot, u)], axis=-1)
+    return np.concatenate([u, cross(b_rot, u)], axis=-1)
 
 
 def leg_rates(ik: InverseKinematicsResult, twist: np.ndarray) -> np.ndarray:

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
+    'cross',
     'skew',
     'quat_xyzw_to_matrix',
     'matrix_to_quat_xyzw',
@@ -35,6 +36,15 @@ __all__ = [
     'normalize_quat',
     'rotation_angle_between',
 ]
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b over the last axis (size 3) with broadcasting; np.cross without its overhead."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
+                     a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
 
 
 def skew(v: np.ndarray) -> np.ndarray:
