@@ -30,6 +30,7 @@ All functions take a batch of N poses; the twist arguments broadcast against it.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Callable, NamedTuple
 
 import numpy as np
@@ -96,7 +97,7 @@ class PlatformPose:
         self.link_transverse = lo.inertia_transverse + up.inertia_transverse
         self.link_axial = lo.inertia_axial + up.inertia_axial
 
-    @property
+    @cached_property
     def inverse_jacobian(self) -> np.ndarray:
         """J (N, 6, 6) of rrps_kinematics: leg rates = J @ twist."""
         return inverse_jacobian(self.ik)
