@@ -8,6 +8,7 @@ from hypothesis.extra.numpy import arrays
 from scipy.spatial.transform import Rotation
 
 from rrps_kinematics.rotations import (
+    cross,
     euler313_to_matrix,
     euler_parameters_to_matrix,
     euler_parameters_to_quat_xyzw,
@@ -159,3 +160,10 @@ def test_skew_is_the_cross_product():
     a, b = np.array([1.0, -2.0, 0.5]), np.array([0.3, 0.7, -1.1])
     np.testing.assert_allclose(skew(a) @ b, np.cross(a, b))
     np.testing.assert_allclose(skew(a), -skew(a).T)
+
+
+def test_cross_matches_numpy_with_broadcasting():
+    rng = np.random.default_rng(2)
+    a, b = rng.normal(size=(4, 6, 3)), rng.normal(size=(6, 3))
+    np.testing.assert_allclose(cross(a, b), np.cross(a, b), atol=1e-15)
+    np.testing.assert_allclose(cross(a[0, 0], [0.0, 0.0, 1.0]), np.cross(a[0, 0], [0.0, 0.0, 1.0]))
