@@ -49,7 +49,9 @@ def _distinct(modes, scale):
 
 @pytest.mark.slow
 def test_dietmaier_platform_has_all_40_real_postures():
-    """Dietmaier's published example: 40 real solutions, the maximum of the 40 complex ones.
+    """Dietmaier's published example (data looked up, not constructed: see DIETMAIER_* above,
+    six-digit values from the CuikSuite documentation of Dietmaier 1998): 40 real solutions,
+    the maximum of the 40 complex ones.
 
     Finding 40 distinct poses, each reproducing the lengths by IK to 1e-9 m, therefore proves
     that none is missing. Run twice to check the search is deterministic.
