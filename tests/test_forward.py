@@ -194,3 +194,10 @@ def test_numpy_only_when_numba_is_disabled():
     out = subprocess.run([sys.executable, '-c', code_numba], env=env, capture_output=True, text=True,
                          timeout=60)
     assert out.returncode != 0 and 'numba is not available' in out.stderr
+
+
+@pytest.mark.parametrize('backend', BACKENDS)
+def test_overflowing_seed_is_reported_not_raised(backend):
+    g = ROBOTS['pole_climber']
+    fk = forward_kinematics(g, g.home_lengths, [1e300, 0.0, 0.0], backend=backend)
+    assert not fk.converged and fk.residual == np.inf and fk.iterations == 0

@@ -70,8 +70,8 @@ def _residual(A, B, L, p, q, R, rb, d, lengths, f):
             s += d[i, k] * d[i, k]
         lengths[i] = math.sqrt(s)
         f[i] = L[i] - lengths[i]
-        if not abs(f[i]) <= worst:  # also catches NaN
-            worst = abs(f[i])
+        if not abs(f[i]) <= worst:
+            worst = abs(f[i]) if math.isfinite(f[i]) else math.inf  # NaN counts as infinite
         ss += f[i] * f[i]
     return worst, ss
 
