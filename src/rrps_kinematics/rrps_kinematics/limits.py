@@ -104,9 +104,13 @@ def inverse_condition_number(geometry: RobotGeometry, ik: InverseKinematicsResul
 
 @dataclass(frozen=True)
 class Margins:
-    """Signed margins of one pose or a batch (see the module docstring for every field)."""
+    """Signed margins of one pose or a batch (see the module docstring for every field).
 
-    geometry: RobotGeometry
+    Also kept: the raw quantities behind them, ``lengths`` [m], ``universal_cone_angles`` and
+    ``spherical_cone_angles`` [rad], ``segment_distances`` (N, 15) [m].
+    """
+
+    geometry: RobotGeometry = field(repr=False)
     lengths: np.ndarray
     universal_cone_angles: np.ndarray
     spherical_cone_angles: np.ndarray
