@@ -11,6 +11,7 @@ from rrps_kinematics.multibody import (
     MultibodyModel,
     body_slice,
     lower_link_body,
+    structured_solve,
     upper_link_body,
 )
 from rrps_kinematics.rotations import (
@@ -176,7 +177,7 @@ def test_analytic_jacobian_matches_finite_differences(seed):
 @settings(max_examples=15, deadline=None)
 @given(st.lists(st.floats(-0.03, 0.03), min_size=3, max_size=3),
        st.lists(st.floats(-0.1, 0.1), min_size=3, max_size=3),
-       st.sampled_from(['sparse', 'dense']))
+       st.sampled_from(['structured', 'sparse', 'dense']))
 def test_direct_kinematics_agrees_with_pose_level_fk(dp, rv, solver):
     seed_position, seed_quat = POSE
     position, quat = pose(np.asarray(dp) + (POSE[0] - GEOM.home_position), rv)
@@ -205,9 +206,25 @@ def test_direct_kinematics_counts_work_and_reports_non_convergence():
     at_solution = MODEL.direct_kinematics(L, q)
     assert at_solution.converged and at_solution.iterations == 0
     dense = MODEL.direct_kinematics(L, far, solver='dense')
-    assert dense.iterations == full.iterations
-    # A dense LU costs 2/3 n^3 per iteration; the sparse one far less.
-    assert dense.flops > (2 * 91**3 // 3) * dense.iterations > full.flops
+    sparse = MODEL.direct_kinematics(L, far, solver='sparse')
+    assert dense.iterations == sparse.iterations == full.iterations
+    np.testing.assert_allclose(sparse.q, full.q, atol=1e-14)
+    np.testing.assert_allclose(dense.q, full.q, atol=1e-14)
+    # A dense LU costs 2/3 n^3 per iteration; the structured and sparse solves far less.
+    assert dense.flops > (2 * 91**3 // 3) * dense.iterations > max(full.flops, sparse.flops)
+
+
+def test_structured_solve_equals_a_dense_solve():
+    q, L = assembled()
+    rng = np.random.default_rng(3)
+    q = q + 0.01 * rng.normal(size=91)
+    J = MODEL.jacobian(q)
+    rhs = rng.normal(size=91)
+    ok, dq, flops = structured_solve(J, rhs)
+    assert ok and 0 < flops < 30_000
+    np.testing.assert_allclose(dq, np.linalg.solve(J, rhs), rtol=1e-9, atol=1e-12)
+    J[:, 7 * 3:7 * 5] = 0.0                               # leg 1's links lose their columns
+    assert not structured_solve(J, rhs)[0]
 
 
 def test_bad_input_raises_value_error():

@@ -54,6 +54,7 @@ __all__ = [
     'MultibodyDKResult',
     'body_slice',
     'lower_link_body',
+    'structured_solve',
     'upper_link_body',
 ]
 
@@ -297,6 +298,98 @@ def all_jacobian(q, a, ha, sb, cl, cu):
     return J
 
 
+@numba.njit(cache=True)
+def _eliminate(A, nrow, ncol_pivot, ncol):
+    """Gaussian elimination with partial pivoting of A[:nrow, :ncol] on its first ncol_pivot
+    columns (in place); returns (ok, flops)."""
+    flops = 0
+    for j in range(ncol_pivot):
+        p = j
+        big = abs(A[j, j])
+        for i in range(j + 1, nrow):
+            if abs(A[i, j]) > big:
+                big = abs(A[i, j])
+                p = i
+        if big == 0.0:
+            return False, flops
+        if p != j:
+            for m in range(ncol):
+                tmp = A[j, m]
+                A[j, m] = A[p, m]
+                A[p, m] = tmp
+        inv = 1.0 / A[j, j]
+        flops += 1
+        for i in range(j + 1, nrow):
+            f = A[i, j] * inv
+            A[i, j] = 0.0
+            if f != 0.0:
+                for m in range(j + 1, ncol):
+                    A[i, m] -= f * A[j, m]
+                flops += 1 + 2 * (ncol - j - 1)
+    return True, flops
+
+
+@numba.njit(cache=True)
+def structured_solve(J, rhs):
+    """Solve Φ_q Δq = rhs (91) by the robot's structure; returns (ok, Δq, flops).
+
+    Leg k's 15 rows (12 joint, driving, 2 normalisations) touch only its 14 link coordinates and
+    ring_b's 7. Eliminating the 14 link unknowns from those rows (Gaussian elimination with
+    partial pivoting on the 15 x 22 block [A_k | C_k | rhs_k]) leaves one equation in ring_b's
+    coordinates per leg; with ring_b's normalisation that is a 7 x 7 system. Back-substitution
+    then gives each leg's 14 unknowns. ``flops`` counts every multiply, add and division done.
+    """
+    dq = np.zeros(91)
+    U = np.empty((6, 15, 22))
+    S = np.empty((7, 8))
+    flops = 0
+    for k in range(6):
+        c0 = 7 * (1 + 2 * k)
+        rows = np.empty(15, dtype=np.int64)
+        for i in range(12):
+            rows[i] = 12 * k + i
+        rows[12] = 72 + k
+        rows[13] = 78 + 1 + 2 * k
+        rows[14] = 78 + 2 + 2 * k
+        for i in range(15):
+            r = rows[i]
+            for j in range(14):
+                U[k, i, j] = J[r, c0 + j]
+            for j in range(7):
+                U[k, i, 14 + j] = J[r, j]
+            U[k, i, 21] = rhs[r]
+        ok, f = _eliminate(U[k], 15, 14, 22)
+        flops += f
+        if not ok:
+            return False, dq, flops
+        for j in range(8):
+            S[k, j] = U[k, 14, 14 + j]
+    for j in range(7):
+        S[6, j] = J[78, j]
+    S[6, 7] = rhs[78]
+    ok, f = _eliminate(S, 7, 7, 8)
+    flops += f
+    if not ok:
+        return False, dq, flops
+    for i in range(6, -1, -1):
+        s = S[i, 7]
+        for m in range(i + 1, 7):
+            s -= S[i, m] * dq[m]
+        dq[i] = s / S[i, i]
+        flops += 2 * (6 - i) + 1
+    for k in range(6):
+        c0 = 7 * (1 + 2 * k)
+        for i in range(13, -1, -1):
+            s = U[k, i, 21]
+            for m in range(7):
+                s -= U[k, i, 14 + m] * dq[m]
+            for m in range(i + 1, 14):
+                s -= U[k, i, m] * dq[c0 + m]
+            dq[c0 + i] = s / U[k, i, i]
+            flops += 2 * 7 + 2 * (13 - i) + 1
+    return True, dq, flops
+
+
 # --- the model ---------------------------------------------------------------------------------
 
 @dataclass(frozen=True)
@@ -401,19 +494,21 @@ class MultibodyModel:
     # --- direct kinematics ---
 
     def direct_kinematics(self, lengths, q_seed=None, *, tolerance: float = 1e-12,
-                          max_iterations: int = 30, solver: str = 'sparse') -> MultibodyDKResult:
+                          max_iterations: int = 30, solver: str = 'structured') -> MultibodyDKResult:
         """Newton-Raphson Φ_q Δq = -Φ, q <- q + Δq (eqs. 11-12) from a seed (default: home).
 
         Flop model per iteration: residual (6 legs x FLOPS_LEG_RESIDUAL + 13 normalisations),
         Jacobian (6 x FLOPS_LEG_JACOBIAN + 13 x 4), the linear solve and the 91-term update.
-        The solve counts, for ``solver='sparse'`` (SuperLU on the CSC Φ_q), the right-looking
+        The solve counts, for ``solver='structured'`` (the default, :func:`structured_solve`:
+        per-leg elimination and a 7 x 7 ring_b system), every operation it does; for
+        ``solver='sparse'`` (SuperLU on the CSC Φ_q), the right-looking
         LU work Σ_k (l_k + 2 l_k u_k) with l_k, u_k the off-diagonal nonzeros of column k of L
         and row k of U, plus 2 (nnz(L) + nnz(U)) for the triangular solves; for
         ``solver='dense'`` (LAPACK), 2/3 n^3 + 2 n^2 with n = 91. A final residual evaluation is
         counted too. Never raises on non-convergence; the result says so.
         """
-        if solver not in ('sparse', 'dense'):
-            raise ValueError(f"solver must be 'sparse' or 'dense', got {solver!r}")
+        if solver not in ('structured', 'sparse', 'dense'):
+            raise ValueError(f"solver must be 'structured', 'sparse' or 'dense', got {solver!r}")
         L = _check_lengths(lengths)
         if q_seed is None:
             q_seed = self.coordinates_from_pose(self.geometry.home_position,
@@ -438,7 +533,12 @@ class MultibodyModel:
             J = all_jacobian(q, *self._kernel_args)
             flops += jacobian_flops
             try:
-                if solver == 'dense':
+                if solver == 'structured':
+                    ok, dq, solve_flops = structured_solve(J, -phi)
+                    if not ok:
+                        break
+                    flops += solve_flops
+                elif solver == 'dense':
                     dq = np.linalg.solve(J, -phi)
                     flops += (2 * n**3) // 3 + 2 * n**2
                 else:
