@@ -58,13 +58,18 @@ __all__ = ['METHODS', 'MultibodyDynamics', 'SimulationResult', 'simulate']
 
 METHODS = ('baumgarte', 'partitioning', 'hybrid')
 
-# Flop model of one evaluation of eq. 19 (multiply and add count one each), by formula:
-_LEG_BLOCKS = 13 * 3 * 3 * 5 + 700        # Φ_π' = Φ_π A for 3 bodies, vectors, crosses, γ
-_LEG_SCHUR = (12 * 6 * 5 + 2 * 12 * 12 * 6 * 2   # B W and D = Σ B W B^T
-              + 12**3 // 3 + 7 * 2 * 12**2       # Cholesky of D, 7 right-hand sides
-              + 6 * 6 * 12 * 2 + 6 * 12 * 2      # S and t accumulation
-              + 12 * 6 * 2 + 18 * 12 * 2 + 30)   # λ, accelerations
-EVALUATION_FLOPS = 13 * FLOPS_ROTATION + 6 * (_LEG_BLOCKS + _LEG_SCHUR) + 6**3 // 3 + 4 * 6**2 + 13 * 40
+# Flop model of one evaluation of eq. 19 (multiply and add count one each), by formula from the
+# loops of `accelerations` (per leg, then once):
+_LEG_BLOCKS = 13 * 3 * 3 * 5 + 700        # Φ_π' = Φ_π A for 3 bodies; vectors, crosses, γ
+_LEG_SCHUR = (12 * 21                     # B W of the two links
+              + 78 * 12 * 2               # D = Σ B W B^T, lower triangle
+              + 12**3 // 3 + 7 * 2 * 12**2   # Cholesky of D, 7 right-hand sides
+              + 36 * 12 * 2 + 6 * 12 * 2  # S and t accumulation (Woodbury)
+              + 12 * 18 * 2               # Φ W F - γ
+              + 12 * 6 * 2 + 18 * 12 * 2)   # λ and Φ^T λ
+_BAUMGARTE_LEG = FLOPS_LEG_RESIDUAL + 12 * 18 * 2   # Φ and Φ̇ = Φ_x v
+EVALUATION_FLOPS = (13 * FLOPS_ROTATION + 13 * 40                     # rotations, F^A, gyroscopic
+                    + 6 * (_LEG_BLOCKS + _LEG_SCHUR) + 6**3 // 3 + 4 * 6**2 + 78 * 5)
 NEWTON_LEG_FLOPS = FLOPS_LEG_RESIDUAL + FLOPS_LEG_JACOBIAN + (2 * 14**3) // 3 + 2 * 14**2
 VELOCITY_LEG_FLOPS = _LEG_BLOCKS + (2 * 12**3) // 3 + 2 * 12**2 + 12 * 6 * 2
 
@@ -736,6 +741,8 @@ class MultibodyDynamics:
             ok, work = rk4_full(q, v, self.actuator_work, f, dt, alpha, beta, *self._kin,
                                 *self._dyn)
             flops = 4 * EVALUATION_FLOPS + 2 * (91 + 78) * 4
+            if alpha != 0.0 or beta != 0.0:
+                flops += 4 * 6 * _BAUMGARTE_LEG
             if ok and self.method == 'hybrid':
                 drift, norm_error = drift_and_norm(q, *self._kin)
                 flops += 6 * FLOPS_LEG_RESIDUAL
