@@ -133,7 +133,8 @@ def main(argv=None) -> int:
     sec_d, acc_d = best_of(args.repeats, lambda: [dense_accelerations(probe, probe.q, probe.v,
                                                                       forces, M)
                                                   for _ in range(n_eval // 10)])
-    rows.append(('eq. 19 solve, structured (numba)', 1e6 * sec_s / n_eval, 'us', 'Cholesky per leg + Woodbury'))
+    rows.append(('eq. 19 solve, structured (numba)', 1e6 * sec_s / n_eval, 'us',
+                 'Cholesky per leg + Woodbury'))
     rows.append(('eq. 19 solve, dense 150x150 (baseline)', 1e6 * sec_d / (n_eval // 10), 'us',
                  f'{(sec_d / (n_eval // 10)) / (sec_s / n_eval):.0f}x slower; max |Δacc| '
                  f'{np.max(np.abs(acc_d[-1] - acc)):.1e}'))

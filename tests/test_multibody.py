@@ -7,7 +7,10 @@ from hypothesis import strategies as st
 
 from rrps_kinematics import forward_kinematics, inverse_kinematics, load_robot
 from rrps_kinematics.multibody import (
+    N_CONSTRAINTS,
     N_COORDINATES,
+    N_DRIVING,
+    N_JOINT_CONSTRAINTS,
     MultibodyModel,
     body_slice,
     lower_link_body,
@@ -56,6 +59,7 @@ def rows(phi, k):
 def test_sizes_and_counts():
     q, L = assembled()
     assert q.shape == (N_COORDINATES,) == (91,)
+    assert (N_JOINT_CONSTRAINTS, N_DRIVING, N_CONSTRAINTS) == (72, 6, 91)
     assert MODEL.constraints(q, L).shape == (91,)
     J = MODEL.jacobian(q)
     assert J.shape == (91, 91)

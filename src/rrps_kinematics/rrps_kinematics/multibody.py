@@ -48,7 +48,9 @@ from .rotations import (
 
 __all__ = [
     'N_BODIES',
+    'N_CONSTRAINTS',
     'N_COORDINATES',
+    'N_DRIVING',
     'N_JOINT_CONSTRAINTS',
     'MultibodyModel',
     'MultibodyDKResult',
