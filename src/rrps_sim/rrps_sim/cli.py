@@ -429,7 +429,7 @@ def figure6(g: RobotGeometry, out: Path, seeds: int = 8, repeats: int = 5
     ax[1, 0].set(xlabel='phase', ylabel='[ms]', title='wall time per DK solve (best of 5)')
     for i, (name, marker) in enumerate((('ring_a', 's'), ('ring_b', 'o'))):
         ax[1, 1].plot(np.arange(len(world)), 1e3 * world[:, i, 2], marker=marker, label=name)
-    ax[1, 1].set(xlabel='phase', ylabel='height along the trunk [mm]',
+    ax[1, 1].set(xlabel='phase', ylabel='world height z [mm]',
                  title=f'the climb: {CLIMB_DISTANCE * 1e3:.0f} mm in {CLIMB_PHASES} phases')
     ax[1, 1].legend()
     fig.suptitle(f'Figure 6: multibody direct kinematics (91 coordinates), {g.name}')
