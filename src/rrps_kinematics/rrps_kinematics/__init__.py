@@ -9,6 +9,10 @@ Pure Python/NumPy (no ROS import outside ``rrps_kinematics.nodes``). The public 
     m = margins(geom, ik); m.ok, m.violations()                 # limits as signed margins
     ok, reason, m = check_pose(geom, position, quaternion_xyzw)
     modes = assembly_modes(geom, lengths)                        # every real FK solution
+    model = MultibodyModel(geom)                                 # 13 bodies, 91 coordinates
+    dk = model.direct_kinematics(lengths, model.coordinates_from_pose(position, quaternion_xyzw))
+
+The multibody model is imported on first use (it compiles with numba).
 """
 
 from .assembly import AssemblyModes, assembly_modes
@@ -27,6 +31,16 @@ from .inverse import InverseKinematicsResult, inverse_kinematics, leg_lengths
 from .jacobian import inverse_jacobian, leg_forces, leg_rates, platform_wrench
 from .limits import PAIRS, Margins, check_pose, margins
 
+_LAZY = {'MultibodyModel': 'multibody', 'MultibodyDKResult': 'multibody'}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+        return getattr(importlib.import_module(f'.{_LAZY[name]}', __name__), name)
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+
+
 __all__ = [
     'AssemblyModes',
     'ExtraRingDof',
@@ -34,6 +48,8 @@ __all__ = [
     'InverseKinematicsResult',
     'LinkInertia',
     'Margins',
+    'MultibodyDKResult',
+    'MultibodyModel',
     'PAIRS',
     'RigidBodyInertia',
     'RobotDescriptionError',
