@@ -1,0 +1,51 @@
+"""The rrps web viewer for remote operators (viser), as a small public facade.
+
+Pure scene and control logic (no rclpy, no viser) is importable and testable on its own::
+
+    from rrps_teleop.viewer import Pose, robot_figure, world_ring_poses, OperatorControl
+    world_T_a, world_T_b = world_ring_poses(a_T_b=pose, gripping='ring_a', world_T_gripping=odom)
+    fig = robot_figure(geom, a_T_b=pose, world_T_a=world_T_a, efforts=efforts)
+    fig.leg_points      # (6, 2, 3) world: universal-joint centre -> spherical-joint centre
+    fig.leg_colours     # (6, 3) uint8 from the stroke, joint-angle and force margins
+    control = OperatorControl(token='...')   # token, single controller, hand-over, deadman
+
+The viser layer (``ViewerServer``, ``Frame``) is imported on first use so that the pure parts
+do not need viser.
+"""
+
+from ._control import ControlResult, OperatorControl
+from ._scene import (
+    WARN_FRACTION,
+    Pose,
+    RobotFigure,
+    Trail,
+    leg_margin_fractions,
+    margin_colours,
+    robot_figure,
+    torus_mesh,
+    world_ring_poses,
+)
+
+__all__ = [
+    'ControlResult',
+    'Frame',
+    'OperatorActions',
+    'OperatorControl',
+    'Pose',
+    'RobotFigure',
+    'Trail',
+    'ViewerServer',
+    'WARN_FRACTION',
+    'leg_margin_fractions',
+    'margin_colours',
+    'robot_figure',
+    'torus_mesh',
+    'world_ring_poses',
+]
+
+
+def __getattr__(name: str):
+    if name in ('Frame', 'OperatorActions', 'ViewerServer'):
+        from . import _render
+        return getattr(_render, name)
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
