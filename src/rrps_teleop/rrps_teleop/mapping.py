@@ -1,0 +1,456 @@
+"""Teleoperation of an RRPS slave from a parallel master robot (paper section 3.1), pure NumPy.
+
+The operator moves a small master platform; the climbing robot (the slave) follows. The mapping
+runs in the spirit of MoveIt Servo: every control step turns the latest master sample into a
+guarded, speed-limited slave command and a :class:`StatusCode` saying what limited it.
+
+Two modes:
+
+* ``cartesian``: slave target = slave pose at engage + ``translation_scale`` · (master − master at
+  engage) for the position (both in their ring_a frames); the orientation is ``relative``
+  (R = R_master R_master,engage^T R_slave,engage: the master's rotation since engage, applied in
+  ring_a's frame) or ``absolute`` (R = R_master; engaging requires the two to be aligned).
+* ``joint``: leg lengths by an affine map per leg, L_slave,i = a_i · L_master,i + b_i, with b_i
+  calibrated at engage so that engaging never moves the slave; for a kinematically similar
+  master scaled by k (the shipped ``master_robot`` is the pole climber / 4) a_i = k reproduces
+  the Cartesian mapping with ``translation_scale`` = k. No FK is needed for the mapping itself;
+  the guards solve one warm-started FK of the candidate lengths for the joint angles.
+
+Engaging is a clutch (indexing): the references are re-captured at every engage, so the first
+command is the slave's own pose. The mapping is engaged only while the deadman holds — the last
+``teleop/enable`` sample was ``true`` and is at most ``enable_timeout`` old — while the master
+data is fresher than ``master_timeout``, a slave pose is known and no climb step executes. When
+any of these lapses the mapping disengages and produces no command: the slave holds.
+
+Guards, applied to the step from the last command towards the mapped target:
+
+1. speed: |Δp| ≤ max_linear_speed·dt, |Δθ| ≤ max_angular_speed·dt, |ΔL_i| ≤ geometry.max_speed·dt;
+2. deceleration near a singularity (inverse condition number below ``singularity_slowdown``) or
+   near leg-leg interference (margin below ``collision_slowdown``): the step is scaled by the
+   remaining fraction of the band, only when the step reduces that margin (moving back out is at
+   full speed);
+3. halt: a step is refused if it makes any stroke, joint-angle, interference or conditioning
+   margin negative or, where already negative, smaller (so a motion that increases the margin
+   is always allowed).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from enum import IntEnum
+
+import numpy as np
+
+from rrps_kinematics import RobotGeometry, forward_kinematics, inverse_kinematics, margins
+from rrps_kinematics.limits import Margins
+from rrps_kinematics.rotations import (
+    normalize_quat,
+    quat_conjugate_xyzw,
+    quat_multiply_xyzw,
+    quat_xyzw_to_rotation_vector,
+    rotation_vector_to_quat_xyzw,
+)
+
+__all__ = [
+    'MODES',
+    'ROTATION_MODES',
+    'StatusCode',
+    'TeleopConfig',
+    'TeleopOutput',
+    'TeleopMapping',
+    'validate_scale',
+    'validate_pose',
+    'pose_step',
+    'rotation_angle',
+]
+
+MODES = ('cartesian', 'joint')
+ROTATION_MODES = ('relative', 'absolute')
+#: A quaternion further than this from unit norm is rejected, not silently normalised.
+QUATERNION_NORM_TOLERANCE = 1e-3
+
+
+class StatusCode(IntEnum):
+    """Teleop status, numbered like MoveIt Servo's where the meaning is the same."""
+
+    INVALID = -1                      # bad input or a failed FK of the candidate lengths
+    NO_WARNING = 0                    # engaged, following the master unhindered
+    DECELERATE_FOR_APPROACHING_SINGULARITY = 1
+    HALT_FOR_SINGULARITY = 2
+    DECELERATE_FOR_COLLISION = 3      # approaching leg-leg interference (paper Figure 8c)
+    HALT_FOR_COLLISION = 4
+    JOINT_BOUND = 5                   # stroke or universal/spherical joint-angle limit
+    SPEED_LIMITED = 7                 # the master moves faster than the slave may
+    DEADMAN_RELEASED = 10             # teleop/enable not true, or older than enable_timeout
+    MASTER_STALE = 11                 # no master data for master_timeout
+    WAITING_FOR_SLAVE_POSE = 12       # nothing to engage from yet
+    CLIMB_EXECUTING = 13              # a climb step owns the robot
+    ORIENTATION_MISMATCH = 14         # absolute rotation mode: align the master first
+
+
+#: Codes under which the mapping is not engaged (no command is produced: the slave holds).
+DISENGAGED_CODES = frozenset({StatusCode.DEADMAN_RELEASED, StatusCode.MASTER_STALE,
+                              StatusCode.WAITING_FOR_SLAVE_POSE, StatusCode.CLIMB_EXECUTING,
+                              StatusCode.ORIENTATION_MISMATCH})
+
+
+def validate_scale(value, name: str = 'translation_scale') -> float:
+    """A scale factor as float; ValueError unless it is finite and > 0."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f'{name} must be a number, got {value!r}') from None
+    if not (math.isfinite(v) and v > 0.0):
+        raise ValueError(f'{name} must be finite and > 0, got {value!r}')
+    return v
+
+
+def validate_pose(position, quaternion_xyzw, what: str = 'pose') -> tuple[np.ndarray, np.ndarray]:
+    """(position (3,), unit quaternion (4,) with w >= 0); ValueError for NaN/inf or a non-unit quaternion."""
+    p = np.asarray(position, dtype=float)
+    q = np.asarray(quaternion_xyzw, dtype=float)
+    if p.shape != (3,) or q.shape != (4,):
+        raise ValueError(f'{what}: position must have shape (3,) and quaternion (4,), got {p.shape}, {q.shape}')
+    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
+        raise ValueError(f'{what}: contains NaN or infinite values')
+    norm = float(np.linalg.norm(q))
+    if abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE:
+        raise ValueError(f'{what}: quaternion norm {norm:.6g} is not 1 (x, y, z, w expected)')
+    return p, normalize_quat(q)
+
+
+def rotation_angle(q_from: np.ndarray, q_to: np.ndarray) -> float:
+    """Angle [rad] of the rotation taking orientation q_from to q_to."""
+    return float(np.linalg.norm(quat_xyzw_to_rotation_vector(quat_multiply_xyzw(q_to, quat_conjugate_xyzw(q_from)))))
+
+
+def pose_step(p0: np.ndarray, q0: np.ndarray, p1: np.ndarray, q1: np.ndarray,
+              fraction: float) -> tuple[np.ndarray, np.ndarray]:
+    """The pose a ``fraction`` of the way from (p0, q0) to (p1, q1): straight line, constant-axis rotation."""
+    rv = quat_xyzw_to_rotation_vector(quat_multiply_xyzw(q1, quat_conjugate_xyzw(q0)))
+    q = quat_multiply_xyzw(rotation_vector_to_quat_xyzw(fraction * rv), q0)
+    return p0 + fraction * (p1 - p0), normalize_quat(q)
+
+
+@dataclass(frozen=True)
+class TeleopConfig:
+    """Mapping and guard parameters (SI units); validated on construction (ValueError)."""
+
+    mode: str = 'cartesian'
+    translation_scale: float = 4.0
+    rotation_mode: str = 'relative'
+    #: a_i of the joint-space map, one per leg (a scalar is broadcast).
+    joint_scale: tuple = (4.0,) * 6
+    enable_timeout: float = 0.2
+    master_timeout: float = 0.1
+    max_linear_speed: float = 0.05
+    max_angular_speed: float = 0.25
+    #: inverse condition number below which steps towards the singularity slow down.
+    singularity_slowdown: float = 0.08
+    #: inverse condition number where motion towards the singularity halts (None: the robot's min_conditioning).
+    singularity_halt: float | None = None
+    #: leg-leg interference margin [m] below which steps towards interference slow down.
+    collision_slowdown: float = 0.02
+    #: absolute rotation mode engages only if master and slave orientations differ less [rad].
+    align_tolerance: float = 0.1
+    #: longest time step [s] the speed limits allow (a late step never gets a large jump).
+    max_period: float = 0.05
+
+    def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            raise ValueError(f'mode must be one of {MODES}, got {self.mode!r}')
+        if self.rotation_mode not in ROTATION_MODES:
+            raise ValueError(f'rotation_mode must be one of {ROTATION_MODES}, got {self.rotation_mode!r}')
+        object.__setattr__(self, 'translation_scale', validate_scale(self.translation_scale))
+        a = np.broadcast_to(np.asarray(self.joint_scale, dtype=float), (6,)) if np.ndim(self.joint_scale) == 0 \
+            else np.asarray(self.joint_scale, dtype=float)
+        if a.shape != (6,):
+            raise ValueError(f'joint_scale must be a scalar or 6 values, got shape {a.shape}')
+        object.__setattr__(self, 'joint_scale', tuple(validate_scale(v, 'joint_scale') for v in a))
+        for name in ('enable_timeout', 'master_timeout', 'max_linear_speed', 'max_angular_speed',
+                     'singularity_slowdown', 'collision_slowdown', 'align_tolerance', 'max_period'):
+            validate_scale(getattr(self, name), name)
+        if self.singularity_halt is not None:
+            h = float(self.singularity_halt)
+            if not (math.isfinite(h) and 0.0 <= h < self.singularity_slowdown):
+                raise ValueError(f'singularity_halt must be in [0, singularity_slowdown), got {self.singularity_halt!r}')
+
+    def with_(self, **changes) -> 'TeleopConfig':
+        """A validated copy with some fields changed."""
+        return replace(self, **changes)
+
+
+@dataclass
+class TeleopOutput:
+    """One control step: the status, and the command to publish (None: publish nothing, hold)."""
+
+    code: StatusCode
+    engaged: bool
+    detail: str = ''
+    position: np.ndarray | None = None
+    quaternion_xyzw: np.ndarray | None = None
+    lengths: np.ndarray | None = None
+    margins: dict = field(default_factory=dict)
+
+    @property
+    def has_command(self) -> bool:
+        return self.position is not None or self.lengths is not None
+
+
+@dataclass
+class _Command:
+    """A guarded slave command: its pose, lengths and margins."""
+
+    position: np.ndarray
+    quaternion: np.ndarray
+    lengths: np.ndarray
+    margins: Margins
+
+
+class TeleopMapping:
+    """The teleop state machine: feed it samples (with their receive time, s) and call :meth:`step`."""
+
+    def __init__(self, slave: RobotGeometry, config: TeleopConfig | None = None):
+        self.slave = slave
+        self.config = config or TeleopConfig()
+        self._enable_value = False
+        self._enable_time = -math.inf
+        self._master_pose: tuple[np.ndarray, np.ndarray] | None = None
+        self._master_pose_time = -math.inf
+        self._master_lengths: np.ndarray | None = None
+        self._master_lengths_time = -math.inf
+        self._slave_pose: tuple[np.ndarray, np.ndarray] | None = None
+        self._climb_executing = False
+        self._last_step_time: float | None = None
+        self.engaged = False
+        self._command: _Command | None = None
+        self._master_ref = None
+        self._slave_ref: tuple[np.ndarray, np.ndarray] | None = None
+        self._offsets: np.ndarray | None = None
+
+    # --- inputs -------------------------------------------------------------------------
+
+    def configure(self, config: TeleopConfig) -> None:
+        """New parameters; disengages, so the next engage is a clutch with the new mapping."""
+        self.config = config
+        self.disengage()
+
+    def on_enable(self, t: float, value: bool) -> None:
+        """A ``teleop/enable`` sample received at ``t``; ``false`` releases at once."""
+        self._enable_value = bool(value)
+        self._enable_time = float(t)
+
+    def on_master_pose(self, t: float, position, quaternion_xyzw) -> None:
+        """The master's pose (its FK, frame master_ring_a) received at ``t``; ValueError if malformed."""
+        self._master_pose = validate_pose(position, quaternion_xyzw, 'master pose')
+        self._master_pose_time = float(t)
+
+    def on_master_lengths(self, t: float, lengths) -> None:
+        """The master's leg lengths (encoders) received at ``t``; ValueError if malformed."""
+        L = np.asarray(lengths, dtype=float)
+        if L.shape != (6,) or not np.all(np.isfinite(L)) or np.any(L <= 0.0):
+            raise ValueError(f'master lengths must be 6 finite positive values, got {lengths!r}')
+        self._master_lengths = L
+        self._master_lengths_time = float(t)
+
+    def on_slave_pose(self, position, quaternion_xyzw) -> None:
+        """The slave's measured pose a_T_b (its FK): the reference captured at engage."""
+        self._slave_pose = validate_pose(position, quaternion_xyzw, 'slave pose')
+
+    def set_climb_executing(self, executing: bool) -> None:
+        """True while a climb step owns the robot: refuses to engage (disengages if engaged)."""
+        self._climb_executing = bool(executing)
+
+    def disengage(self) -> None:
+        """Release the clutch: no command until the next engage."""
+        self.engaged = False
+        self._command = None
+        self._last_step_time = None
+
+    # --- the state machine -------------------------------------------------------------
+
+    def blocking_reason(self, t: float) -> tuple[StatusCode, str] | None:
+        """Why the mapping may not be engaged at ``t`` (None: it may)."""
+        c = self.config
+        if self._climb_executing:
+            return StatusCode.CLIMB_EXECUTING, 'a climb step is executing'
+        if not self._enable_value:
+            return StatusCode.DEADMAN_RELEASED, 'teleop/enable is not true'
+        if t - self._enable_time > c.enable_timeout:
+            return StatusCode.DEADMAN_RELEASED, f'no teleop/enable true for {t - self._enable_time:.3g} s'
+        age = t - (self._master_pose_time if c.mode == 'cartesian' else self._master_lengths_time)
+        if age > c.master_timeout:
+            what = 'master/pose' if c.mode == 'cartesian' else 'master/actuators/state'
+            return StatusCode.MASTER_STALE, f'no {what} for {age:.3g} s (timeout {c.master_timeout:g} s)'
+        if self._slave_pose is None:
+            return StatusCode.WAITING_FOR_SLAVE_POSE, 'no slave pose yet'
+        return None
+
+    def check(self, t: float) -> tuple[StatusCode, str] | None:
+        """The watchdog: disengage if something blocks at ``t``; return the blocking reason."""
+        blocked = self.blocking_reason(t)
+        if blocked is not None:
+            self.disengage()
+        return blocked
+
+    def step(self, t: float) -> TeleopOutput:
+        """One control step at time ``t`` [s]: engage if needed, map, guard, return the command."""
+        blocked = self.check(t)
+        if blocked is not None:
+            return TeleopOutput(blocked[0], False, blocked[1])
+        if not self.engaged:
+            mismatch = self._engage()
+            if mismatch is not None:
+                return mismatch
+        dt = 0.0 if self._last_step_time is None else min(max(t - self._last_step_time, 0.0),
+                                                          self.config.max_period)
+        self._last_step_time = t
+        if self.config.mode == 'cartesian':
+            code, detail = self._cartesian_step(dt)
+        else:
+            code, detail = self._joint_step(dt)
+        cmd = self._command
+        return TeleopOutput(code, True, detail, position=cmd.position.copy(),
+                            quaternion_xyzw=cmd.quaternion.copy(), lengths=cmd.lengths.copy(),
+                            margins={k: float(v) for k, v in cmd.margins.minimum.items()})
+
+    @property
+    def command(self) -> _Command | None:
+        """The last guarded command (None when disengaged)."""
+        return self._command
+
+    def desired(self) -> tuple[np.ndarray, np.ndarray] | np.ndarray:
+        """The unguarded mapped target: (position, quaternion) in Cartesian mode, lengths in joint mode."""
+        c = self.config
+        if c.mode == 'joint':
+            return np.asarray(c.joint_scale) * self._master_lengths + self._offsets
+        pm, qm = self._master_pose
+        pm0, qm0 = self._master_ref
+        ps0, qs0 = self._slave_ref
+        p = ps0 + c.translation_scale * (pm - pm0)
+        if c.rotation_mode == 'absolute':
+            q = qm
+        else:
+            q = quat_multiply_xyzw(quat_multiply_xyzw(qm, quat_conjugate_xyzw(qm0)), qs0)
+        return p, normalize_quat(q)
+
+    def _engage(self) -> TeleopOutput | None:
+        c = self.config
+        ps, qs = self._slave_pose
+        if c.mode == 'cartesian' and c.rotation_mode == 'absolute':
+            error = rotation_angle(qs, self._master_pose[1])
+            if error > c.align_tolerance:
+                return TeleopOutput(StatusCode.ORIENTATION_MISMATCH, False,
+                                    f'master and slave orientations differ by {error:.3f} rad '
+                                    f'> align_tolerance {c.align_tolerance:g} rad: align the master')
+        ik = inverse_kinematics(self.slave, ps, qs)
+        self._command = _Command(ps.copy(), qs.copy(), ik.lengths.copy(), margins(self.slave, ik))
+        self._slave_ref = (ps.copy(), qs.copy())
+        if c.mode == 'cartesian':
+            self._master_ref = (self._master_pose[0].copy(), self._master_pose[1].copy())
+        else:
+            self._offsets = ik.lengths - np.asarray(c.joint_scale) * self._master_lengths
+        self.engaged = True
+        self._last_step_time = None
+        return None
+
+    # --- guarded steps -------------------------------------------------------------------
+
+    def _evaluate_pose(self, p, q) -> _Command:
+        ik = inverse_kinematics(self.slave, p, q)
+        return _Command(p, q, ik.lengths.copy(), margins(self.slave, ik))
+
+    def _cartesian_step(self, dt: float) -> tuple[StatusCode, str]:
+        c = self.config
+        prev = self._command
+        p1, q1 = self.desired()
+        dp = float(np.linalg.norm(p1 - prev.position))
+        dth = rotation_angle(prev.quaternion, q1)
+        if dp < 1e-12 and dth < 1e-12:
+            return StatusCode.NO_WARNING, ''
+        fraction, code = 1.0, StatusCode.NO_WARNING
+        limit = min(c.max_linear_speed * dt / dp if dp > 0 else math.inf,
+                    c.max_angular_speed * dt / dth if dth > 0 else math.inf)
+        if limit < 1.0:
+            fraction, code = limit, StatusCode.SPEED_LIMITED
+        cand = self._evaluate_pose(*pose_step(prev.position, prev.quaternion, p1, q1, fraction))
+        leg_step = float(np.max(np.abs(cand.lengths - prev.lengths)))
+        if leg_step > self.slave.max_speed * dt:
+            fraction *= self.slave.max_speed * dt / leg_step
+            code = StatusCode.SPEED_LIMITED
+            cand = self._evaluate_pose(*pose_step(prev.position, prev.quaternion, p1, q1, fraction))
+        factor, slow_code = self._deceleration(prev.margins, cand.margins)
+        if factor < 1.0:
+            fraction *= factor
+            code = slow_code
+            cand = self._evaluate_pose(*pose_step(prev.position, prev.quaternion, p1, q1, fraction))
+        return self._accept(cand, code)
+
+    def _joint_step(self, dt: float) -> tuple[StatusCode, str]:
+        prev = self._command
+        L1 = self.desired()
+        dL = L1 - prev.lengths
+        largest = float(np.max(np.abs(dL)))
+        if largest < 1e-12:
+            return StatusCode.NO_WARNING, ''
+        fraction, code = 1.0, StatusCode.NO_WARNING
+        if largest > self.slave.max_speed * dt:
+            fraction, code = self.slave.max_speed * dt / largest, StatusCode.SPEED_LIMITED
+        cand = self._evaluate_lengths(prev, prev.lengths + fraction * dL)
+        if cand is None:
+            return StatusCode.INVALID, 'FK of the mapped leg lengths did not converge: holding'
+        factor, slow_code = self._deceleration(prev.margins, cand.margins)
+        if factor < 1.0:
+            fraction *= factor
+            code = slow_code
+            cand = self._evaluate_lengths(prev, prev.lengths + fraction * dL)
+            if cand is None:
+                return StatusCode.INVALID, 'FK of the mapped leg lengths did not converge: holding'
+        return self._accept(cand, code)
+
+    def _evaluate_lengths(self, prev: _Command, lengths: np.ndarray) -> _Command | None:
+        fk = forward_kinematics(self.slave, lengths, prev.position, prev.quaternion)
+        if not fk.converged:
+            return None
+        ik = inverse_kinematics(self.slave, fk.position, fk.quaternion_xyzw)
+        return _Command(fk.position, fk.quaternion_xyzw, np.asarray(lengths, dtype=float).copy(),
+                        margins(self.slave, ik))
+
+    def _deceleration(self, before: Margins, after: Margins) -> tuple[float, StatusCode]:
+        """Step scale in [0, 1] near a singularity or interference, when the step approaches it."""
+        c = self.config
+        factor, code = 1.0, StatusCode.NO_WARNING
+        halt = self.slave.min_conditioning if c.singularity_halt is None else c.singularity_halt
+        c0, c1 = float(before.inverse_condition), float(after.inverse_condition)
+        if c1 < c0 and c0 < c.singularity_slowdown:
+            f = min(max((c0 - halt) / (c.singularity_slowdown - halt), 0.0), 1.0)
+            if f < factor:
+                factor, code = f, StatusCode.DECELERATE_FOR_APPROACHING_SINGULARITY
+        d0, d1 = float(np.min(before.interference)), float(np.min(after.interference))
+        if d1 < d0 and d0 < c.collision_slowdown:
+            f = min(max(d0 / c.collision_slowdown, 0.0), 1.0)
+            if f < factor:
+                factor, code = f, StatusCode.DECELERATE_FOR_COLLISION
+        return factor, code
+
+    def _accept(self, cand: _Command, code: StatusCode) -> tuple[StatusCode, str]:
+        """Take ``cand`` unless it breaks a limit, or worsens one already broken (then hold)."""
+        prev = self._command.margins
+        m = cand.margins
+        halt = self.slave.min_conditioning if self.config.singularity_halt is None else self.config.singularity_halt
+        checks = (
+            ('stroke', m.stroke, prev.stroke, StatusCode.JOINT_BOUND),
+            ('universal joint', m.universal, prev.universal, StatusCode.JOINT_BOUND),
+            ('spherical joint', m.spherical, prev.spherical, StatusCode.JOINT_BOUND),
+            ('interference', m.interference, prev.interference, StatusCode.HALT_FOR_COLLISION),
+            ('conditioning', np.atleast_1d(m.inverse_condition - halt),
+             np.atleast_1d(prev.inverse_condition - halt), StatusCode.HALT_FOR_SINGULARITY),
+        )
+        for name, new, old, halt_code in checks:
+            worse = ~(new >= 0.0) & ~(new >= old)
+            if np.any(worse):
+                k = int(np.flatnonzero(worse)[0])
+                return halt_code, f'{name} margin {float(new[k]):.4g} would be negative: holding'
+        self._command = cand
+        return code, ''
