@@ -1,0 +1,122 @@
+"""ik_node: target_pose (PoseStamped a_T_b, frame ring_a) -> actuators/command (leg lengths).
+
+Every target is checked (:func:`rrps_kinematics.commands.validate_target`: frame, NaN/inf,
+quaternion norm, stroke, joint angles, interference, conditioning) and its stamp's age against
+``timeout``; a rejected target is not acted on: the last valid command stands, the reason is
+logged (throttled) and reported on /diagnostics. With ``limit_velocity`` the published command
+never asks a leg to move faster than ``max_speed`` since the previous command.
+
+    ik_node --ros-args -r __ns:=/rrps -p robot:=pole_climber
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from geometry_msgs.msg import PoseStamped
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+
+from ..commands import RejectedCommand, check_fresh, limit_velocity, validate_target
+from .common import (COMMAND_QOS, OK, STALE, STATE_QOS, WARN, Diagnostics, declare_parameter,
+                     declare_robot_parameter, joint_state_msg, lengths_from_joint_state,
+                     pose_from_msg, run_nodes, stamp_to_seconds)
+
+__all__ = ['IkNode', 'main']
+
+
+class IkNode(Node):
+    """Inverse kinematics of the slave robot as a guarded command filter."""
+
+    def __init__(self, **kwargs):
+        super().__init__('ik_node', **kwargs)
+        self.geometry = declare_robot_parameter(self)
+        self.frame_id = declare_parameter(self, 'frame_id', 'ring_a',
+                                          'frame_id a target_pose must have (ring_a)', read_only=True)
+        self.timeout = declare_parameter(self, 'timeout', 0.1,
+                                         'a target_pose whose stamp is older than this [s] is rejected',
+                                         min_value=1e-3, max_value=60.0)
+        self.quaternion_tolerance = declare_parameter(
+            self, 'quaternion_tolerance', 1e-3, 'largest accepted | |q| - 1 | of a target quaternion',
+            min_value=0.0, max_value=0.5)
+        self.limit_velocity = declare_parameter(
+            self, 'limit_velocity', False,
+            'scale each command so no leg moves faster than max_speed since the previous one',
+            read_only=True)
+        speed = declare_parameter(self, 'max_speed', 0.0,
+                                  "leg speed limit [m/s] of limit_velocity; 0 = the robot's max_speed",
+                                  min_value=0.0, max_value=100.0)
+        self.max_speed = speed if speed > 0.0 else self.geometry.max_speed
+        if self.limit_velocity and math.isinf(self.max_speed):
+            raise ValueError('limit_velocity needs a finite max_speed (the robot has none): set max_speed')
+        self.last_command: np.ndarray | None = None
+        self._last_command_time: float | None = None
+        self._measured: np.ndarray | None = None
+        self.accepted = 0
+        self.rejected = 0
+        self._status = (STALE, 'waiting for target_pose')
+        self._margins: dict = {}
+        self._pub = self.create_publisher(JointState, 'actuators/command', COMMAND_QOS)
+        self.create_subscription(PoseStamped, 'target_pose', self._on_target, COMMAND_QOS)
+        if self.limit_velocity:
+            self.create_subscription(JointState, 'actuators/state', self._on_state, STATE_QOS)
+        self._diag = Diagnostics(self, 'inverse kinematics')
+        self.create_timer(0.5, self._report)
+
+    def _report(self) -> None:
+        level, message = self._status
+        self._diag.report(level, message, {'accepted': self.accepted, 'rejected': self.rejected,
+                                           'robot': self.geometry.name, **self._margins})
+
+    def _reject(self, reason: str, level=WARN) -> None:
+        self.rejected += 1
+        self._status = (level, f'target rejected, holding the last valid command: {reason}')
+        self.get_logger().warning(self._status[1], throttle_duration_sec=1.0)
+        self._report()
+
+    def _on_state(self, msg: JointState) -> None:
+        try:
+            self._measured = lengths_from_joint_state(msg)
+        except ValueError:
+            pass  # the driver reports its own faults; velocity limiting uses the last good state
+
+    def _on_target(self, msg: PoseStamped) -> None:
+        now = self.get_clock().now()
+        now_s = now.nanoseconds * 1e-9
+        try:
+            stamp = stamp_to_seconds(msg.header.stamp)
+            check_fresh(stamp, now_s, self.timeout)
+            position, quaternion = pose_from_msg(msg)
+            target = validate_target(self.geometry, position, quaternion, frame_id=msg.header.frame_id,
+                                     expected_frame=self.frame_id,
+                                     quaternion_tolerance=self.quaternion_tolerance)
+        except RejectedCommand as exc:
+            self._reject(str(exc))
+            return
+        lengths = target.lengths
+        if self.limit_velocity:
+            base = self.last_command if self.last_command is not None else self._measured
+            if base is None:
+                self._reject('velocity limiting waits for the first actuators/state', level=STALE)
+                return
+            dt = 0.0 if self._last_command_time is None else min(now_s - self._last_command_time,
+                                                                  self.timeout)
+            lengths = limit_velocity(base, lengths, self.max_speed, max(dt, 0.0))
+        self.last_command = lengths
+        self._last_command_time = now_s
+        self.accepted += 1
+        self._pub.publish(joint_state_msg(msg.header.stamp if stamp != 0.0 else now.to_msg(), lengths))
+        margins = target.margins.minimum
+        self._margins = {f'min_{k}_margin': float(v) for k, v in margins.items()}
+        if self._status[0] != OK:
+            self._status = (OK, 'tracking target_pose')
+            self._report()
+
+
+def main(args=None) -> None:
+    run_nodes([IkNode], args)
+
+
+if __name__ == '__main__':
+    main()

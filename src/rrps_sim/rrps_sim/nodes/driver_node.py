@@ -1,0 +1,294 @@
+"""driver_node: the simulated hardware. actuators/command -> actuators/state, plus the grippers.
+
+Modes (parameter ``mode``): ``kinematic`` (:class:`rrps_sim.actuators.KinematicActuators`: lag,
+speed and stroke limits) and ``dynamic`` (:class:`rrps_sim.actuators.DynamicActuators`: the
+multibody dynamics of eqs. 19-20 with a PD force loop per leg, effort = force [N]). The state
+is published at ``rate`` Hz (and at once on each accepted command with ``publish_on_command``).
+
+A command is not acted on (the actuators keep tracking the last accepted one; /diagnostics and
+the log say why) when it is malformed (names, sizes, NaN), outside the stroke, or stamped more
+than ``timeout`` s ago. With ``hold_when_silent`` the actuators also stop where they are when no
+command arrived for ``timeout`` s. Grippers: ``grippers/state`` and the SetBool services
+``grippers/ring_a/set`` / ``grippers/ring_b/set`` (true = close), never both open.
+Faults for tests, settable at run time: ``stuck_legs``, ``sensor_noise``, ``drop_probability``.
+
+    driver_node --ros-args -r __ns:=/rrps -p robot:=pole_climber
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+from rcl_interfaces.msg import ParameterDescriptor, ParameterType, SetParametersResult
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
+from std_srvs.srv import SetBool
+
+from rrps_kinematics.commands import RejectedCommand, check_fresh
+from rrps_kinematics.forward import forward_kinematics
+from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, LEG_NAMES, OK, STALE, STATE_QOS, WARN,
+                                          Diagnostics, declare_parameter, declare_robot_parameter,
+                                          joint_state_msg, lengths_from_joint_state, run_nodes,
+                                          stamp_to_seconds)
+
+from ..actuators import DynamicActuators, KinematicActuators, SensorFaults
+from ..grippers import RINGS, Grippers
+
+__all__ = ['DriverNode', 'main']
+
+MODES = ('kinematic', 'dynamic')
+
+
+def _declare_array(node: Node, name: str, kind, description: str) -> list:
+    """An array parameter that may be left unset (returns [])."""
+    descriptor = ParameterDescriptor(description=description, type={
+        Parameter.Type.DOUBLE_ARRAY: ParameterType.PARAMETER_DOUBLE_ARRAY,
+        Parameter.Type.INTEGER_ARRAY: ParameterType.PARAMETER_INTEGER_ARRAY}[kind])
+    value = node.declare_parameter(name, kind, descriptor).value
+    return list(value) if value is not None else []
+
+
+class DriverNode(Node):
+    """Simulated actuators and grippers of one robot."""
+
+    def __init__(self, **kwargs):
+        super().__init__('driver_node', **kwargs)
+        g = self.geometry = declare_robot_parameter(self)
+        self.mode = declare_parameter(self, 'mode', 'kinematic', 'actuator fidelity: kinematic | dynamic',
+                                      read_only=True, additional_constraints='kinematic or dynamic')
+        if self.mode not in MODES:
+            raise ValueError(f'mode must be one of {MODES}, got {self.mode!r}')
+        self.rate = declare_parameter(self, 'rate', 500.0, 'actuators/state publication rate [Hz]',
+                                      min_value=1.0, max_value=5000.0, read_only=True)
+        self.timeout = declare_parameter(self, 'timeout', 0.1,
+                                         'a command stamped longer ago than this [s] is not acted on',
+                                         min_value=1e-3, max_value=60.0)
+        time_constant = declare_parameter(self, 'time_constant', 0.02,
+                                          'first-order lag of the actuators [s]; 0 = none',
+                                          min_value=0.0, max_value=10.0, read_only=True)
+        limit_speed = declare_parameter(self, 'limit_speed', True,
+                                        "limit the actuators to the robot's max_speed", read_only=True)
+        self.publish_on_command = declare_parameter(
+            self, 'publish_on_command', False,
+            'also publish actuators/state at once when a command is accepted', read_only=True)
+        self.hold_when_silent = declare_parameter(
+            self, 'hold_when_silent', False,
+            'stop the actuators where they are when no command arrived for timeout s', read_only=True)
+        kp = declare_parameter(self, 'kp', 1.0e5, 'dynamic mode: PD stiffness per leg [N/m]',
+                               min_value=0.0, max_value=1e8, read_only=True)
+        kd = declare_parameter(self, 'kd', 1.0e3, 'dynamic mode: PD damping per leg [N s/m]',
+                               min_value=0.0, max_value=1e6, read_only=True)
+        dynamics_step = declare_parameter(self, 'dynamics_step', 1e-3,
+                                          'dynamic mode: largest integration step [s]',
+                                          min_value=1e-5, max_value=0.01, read_only=True)
+        ring_speed = declare_parameter(self, 'ring_rotation_speed', 1.0,
+                                       'speed of the extra ring DOF [rad/s] (robots that have one)',
+                                       min_value=1e-3, max_value=100.0, read_only=True)
+        initial = _declare_array(self, 'initial_lengths', Parameter.Type.DOUBLE_ARRAY,
+                                 'initial leg lengths [m] (6); unset = the home pose')
+        self._stuck = _declare_array(self, 'stuck_legs', Parameter.Type.INTEGER_ARRAY,
+                                     'fault: legs (1..6) that ignore commands and keep their length')
+        self._noise = declare_parameter(self, 'sensor_noise', 0.0,
+                                        'fault: std of Gaussian noise on the published lengths [m]',
+                                        min_value=0.0, max_value=0.1)
+        self._drop = declare_parameter(self, 'drop_probability', 0.0,
+                                       'fault: probability of dropping an actuators/state message',
+                                       min_value=0.0, max_value=1.0)
+        seed = declare_parameter(self, 'fault_seed', 0, 'seed of the fault injection',
+                                 min_value=0, max_value=2**31 - 1, read_only=True)
+
+        lengths0 = np.array(initial if initial else g.home_lengths, dtype=float)
+        if lengths0.shape != (6,) or not np.all(np.isfinite(lengths0)):
+            raise ValueError(f'initial_lengths must be 6 finite lengths [m], got {initial}')
+        if np.any(lengths0 < g.min_length) or np.any(lengths0 > g.max_length):
+            raise ValueError(f'initial_lengths {lengths0} outside the stroke [{g.min_length}, {g.max_length}] m')
+        max_speed = g.max_speed if limit_speed else math.inf
+        if self.mode == 'dynamic':
+            if not forward_kinematics(g, lengths0).converged:
+                raise ValueError(f'initial_lengths {lengths0} do not assemble near the home pose')
+            self.actuators = DynamicActuators(g, lengths0, kp=kp, kd=kd, time_constant=time_constant,
+                                              max_speed=max_speed, max_step=dynamics_step)
+        else:
+            self.actuators = KinematicActuators(g.min_length, g.max_length, max_speed, time_constant,
+                                                lengths0)
+        self.ring_names = [f'{ring}_rotation' for ring in RINGS if ring in g.extra_dof]
+        self.rings = None
+        if self.ring_names:
+            dofs = [g.extra_dof[name.removesuffix('_rotation')] for name in self.ring_names]
+            lo = np.array([d.min_angle for d in dofs])
+            hi = np.array([d.max_angle for d in dofs])
+            self.rings = KinematicActuators(lo, hi, ring_speed, time_constant, np.clip(0.0, lo, hi))
+        self.names = list(LEG_NAMES) + self.ring_names
+        self.reference = lengths0.copy()
+        self.ring_reference = None if self.rings is None else self.rings.positions.copy()
+        self.faults = SensorFaults(self._noise, self._drop, seed)
+        self._apply_stuck(self._stuck)
+        self.grippers = Grippers(g.grippers)
+
+        self.accepted = 0
+        self.rejected = 0
+        self.dropped = 0
+        self._last_command_time: float | None = None
+        self._last_step = time.monotonic()
+        self._max_dt = 5.0 / self.rate
+        self._status = (OK, f'{self.mode} actuators holding the initial lengths')
+        self._state_pub = self.create_publisher(JointState, 'actuators/state', STATE_QOS)
+        self._grippers_pub = self.create_publisher(JointState, 'grippers/state', STATE_QOS)
+        self.create_subscription(JointState, 'actuators/command', self._on_command, COMMAND_QOS)
+        for ring in RINGS:
+            self.create_service(SetBool, f'grippers/{ring}/set',
+                                lambda request, response, ring=ring: self._on_gripper(ring, request, response))
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self._diag = Diagnostics(self, f'{self.mode} actuators')
+        self.create_timer(1.0 / self.rate, self._on_tick)
+        self.create_timer(0.1, self._publish_grippers)
+        self.create_timer(0.5, self._report)
+
+    # --- faults ---
+
+    def _apply_stuck(self, legs) -> None:
+        stuck = np.zeros(6, dtype=bool)
+        stuck[[int(i) - 1 for i in legs]] = True
+        self.actuators.stuck = stuck
+
+    def _on_set_parameters(self, parameters) -> SetParametersResult:
+        for p in parameters:
+            if p.name == 'stuck_legs':
+                legs = list(p.value or [])
+                if any(not 1 <= int(i) <= 6 for i in legs):
+                    return SetParametersResult(successful=False, reason=f'stuck_legs must be in 1..6, got {legs}')
+        for p in parameters:
+            if p.name == 'stuck_legs':
+                self._apply_stuck(list(p.value or []))
+            elif p.name == 'sensor_noise':
+                self.faults.noise = float(p.value)
+            elif p.name == 'drop_probability':
+                self.faults.drop_probability = float(p.value)
+        return SetParametersResult(successful=True)
+
+    # --- diagnostics ---
+
+    def _report(self) -> None:
+        level, message = self._status
+        self._diag.report(level, message, {
+            'mode': self.mode, 'accepted': self.accepted, 'rejected': self.rejected,
+            'dropped': self.dropped, 'lengths': self.actuators.positions,
+            'stuck_legs': [i + 1 for i in np.flatnonzero(self.actuators.stuck)],
+            'grippers': dict(zip(RINGS, self.grippers.positions()))})
+
+    def _set_status(self, level, message: str) -> None:
+        if (level, message) != self._status:
+            self._status = (level, message)
+            if level != OK:
+                self.get_logger().warning(message, throttle_duration_sec=1.0)
+            self._report()
+
+    # --- commands ---
+
+    def _parse(self, msg: JointState) -> tuple[np.ndarray, np.ndarray | None]:
+        now = self.get_clock().now().nanoseconds * 1e-9
+        check_fresh(stamp_to_seconds(msg.header.stamp), now, self.timeout)
+        try:
+            lengths = lengths_from_joint_state(msg)
+        except ValueError as exc:
+            raise RejectedCommand(str(exc)) from None
+        g = self.geometry
+        if np.any(lengths < g.min_length) or np.any(lengths > g.max_length):
+            legs = [LEG_NAMES[i] for i in np.flatnonzero((lengths < g.min_length) | (lengths > g.max_length))]
+            raise RejectedCommand(f'lengths of {legs} outside the stroke [{g.min_length}, {g.max_length}] m')
+        rings = None
+        if self.rings is not None and any(name in msg.name for name in self.ring_names):
+            index = {n: i for i, n in enumerate(msg.name)}
+            rings = self.ring_reference.copy()
+            for k, name in enumerate(self.ring_names):
+                if name in index:
+                    rings[k] = msg.position[index[name]]
+            if not np.all(np.isfinite(rings)) or np.any(rings < self.rings.min_position) or \
+                    np.any(rings > self.rings.max_position):
+                raise RejectedCommand(f'ring rotations {rings} outside their limits')
+        return lengths, rings
+
+    def _on_command(self, msg: JointState) -> None:
+        try:
+            lengths, rings = self._parse(msg)
+        except RejectedCommand as exc:
+            self.rejected += 1
+            self._set_status(WARN, f'command rejected, tracking the last accepted one: {exc}')
+            return
+        self.accepted += 1
+        self.reference = lengths
+        if rings is not None:
+            self.ring_reference = rings
+        self._last_command_time = time.monotonic()
+        self._set_status(OK, f'{self.mode} actuators tracking actuators/command')
+        if self.publish_on_command:
+            self._step()
+            self._publish_state()
+
+    # --- simulation ---
+
+    def _step(self) -> None:
+        t = time.monotonic()
+        dt = min(t - self._last_step, self._max_dt)
+        self._last_step = t
+        if (self.hold_when_silent and self._last_command_time is not None
+                and t - self._last_command_time > self.timeout):
+            self.reference = self.actuators.positions
+            if self.rings is not None:
+                self.ring_reference = self.rings.positions.copy()
+            self._last_command_time = None
+            self._set_status(STALE, f'no command for {self.timeout:.3f} s: holding')
+        try:
+            self.actuators.step(self.reference, dt)
+        except RuntimeError as exc:
+            dyn = self.actuators.dynamics
+            dyn.reset(dyn.position, dyn.quaternion_xyzw)
+            self.reference = self.actuators.positions
+            self._set_status(ERROR, f'dynamics failed ({exc}): reset at rest, holding')
+        if self.rings is not None:
+            self.rings.step(self.ring_reference, dt)
+
+    def _on_tick(self) -> None:
+        self._step()
+        self._publish_state()
+
+    def _publish_state(self) -> None:
+        if self.faults.drop():
+            self.dropped += 1
+            return
+        a = self.actuators
+        positions, velocities, efforts = self.faults.measure(a.positions), a.velocities, a.efforts
+        if self.rings is not None:
+            positions = np.concatenate([positions, self.rings.positions])
+            velocities = np.concatenate([velocities, self.rings.velocities])
+            if efforts.size:
+                efforts = np.concatenate([efforts, np.zeros(len(self.ring_names))])
+        self._state_pub.publish(joint_state_msg(self.get_clock().now().to_msg(), positions, velocities,
+                                                efforts if efforts.size else None, names=self.names))
+
+    # --- grippers ---
+
+    def _publish_grippers(self) -> None:
+        self._grippers_pub.publish(joint_state_msg(self.get_clock().now().to_msg(),
+                                                   self.grippers.positions(), names=RINGS))
+
+    def _on_gripper(self, ring: str, request, response):
+        before = self.grippers.positions()
+        response.success, response.message = self.grippers.set(ring, close=bool(request.data))
+        if not response.success:
+            self.get_logger().warning(response.message, throttle_duration_sec=1.0)
+        if self.grippers.positions() != before:
+            self._publish_grippers()
+            self._report()
+        return response
+
+
+def main(args=None) -> None:
+    run_nodes([DriverNode], args)
+
+
+if __name__ == '__main__':
+    main()
