@@ -426,12 +426,15 @@ class TeleopMapping:
         if c1 < c0 and c0 < c.singularity_slowdown:
             f = min(max((c0 - halt) / (c.singularity_slowdown - halt), 0.0), 1.0)
             if f < factor:
-                factor, code = f, StatusCode.DECELERATE_FOR_APPROACHING_SINGULARITY
+                factor = f
+                code = (StatusCode.DECELERATE_FOR_APPROACHING_SINGULARITY if f > 0.0
+                        else StatusCode.HALT_FOR_SINGULARITY)
         d0, d1 = float(np.min(before.interference)), float(np.min(after.interference))
         if d1 < d0 and d0 < c.collision_slowdown:
             f = min(max(d0 / c.collision_slowdown, 0.0), 1.0)
             if f < factor:
-                factor, code = f, StatusCode.DECELERATE_FOR_COLLISION
+                factor = f
+                code = StatusCode.DECELERATE_FOR_COLLISION if f > 0.0 else StatusCode.HALT_FOR_COLLISION
         return factor, code
 
     def _accept(self, cand: _Command, code: StatusCode) -> tuple[StatusCode, str]:
