@@ -81,7 +81,9 @@ class KinematicActuators:
         r = np.clip(r, self.min_position, self.max_position)
         r = np.where(self.stuck, x, r)
         lagged = r if self.time_constant == 0.0 else r + (x - r) * math.exp(-dt / self.time_constant)
-        reach = np.where(np.isinf(self.max_speed), np.inf, self.max_speed * dt)
+        reach = np.full_like(x, np.inf)
+        finite = np.isfinite(self.max_speed)
+        reach[finite] = self.max_speed[finite] * dt
         delta = np.clip(lagged - x, -reach, reach)
         self.positions = x + delta
         self.velocities = delta / dt if dt > 0.0 else np.zeros_like(delta)

@@ -59,6 +59,13 @@ class FkNode(Node):
         self.create_subscription(JointState, 'actuators/state', self._on_state, STATE_QOS)
         self._diag = Diagnostics(self, 'forward kinematics')
         self.create_timer(0.5, self._report)
+        self.add_post_set_parameters_callback(self._apply_parameters)
+
+    def _apply_parameters(self, parameters) -> None:
+        """``tolerance``, ``max_iterations`` and ``max_jump`` take effect at run time."""
+        for p in parameters:
+            if p.name in ('tolerance', 'max_iterations', 'max_jump'):
+                setattr(self, p.name, p.value)
 
     def _jacobian_sign(self, position, quaternion_xyzw) -> float:
         return float(np.sign(np.linalg.det(inverse_jacobian(

@@ -63,6 +63,13 @@ class IkNode(Node):
             self.create_subscription(JointState, 'actuators/state', self._on_state, STATE_QOS)
         self._diag = Diagnostics(self, 'inverse kinematics')
         self.create_timer(0.5, self._report)
+        self.add_post_set_parameters_callback(self._apply_parameters)
+
+    def _apply_parameters(self, parameters) -> None:
+        """``timeout`` and ``quaternion_tolerance`` take effect at run time (ranges checked by rclpy)."""
+        for p in parameters:
+            if p.name in ('timeout', 'quaternion_tolerance'):
+                setattr(self, p.name, p.value)
 
     def _report(self) -> None:
         level, message = self._status

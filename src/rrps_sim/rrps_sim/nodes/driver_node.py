@@ -167,6 +167,8 @@ class DriverNode(Node):
                 self.faults.noise = float(p.value)
             elif p.name == 'drop_probability':
                 self.faults.drop_probability = float(p.value)
+            elif p.name == 'timeout':
+                self.timeout = float(p.value)
         return SetParametersResult(successful=True)
 
     # --- diagnostics ---

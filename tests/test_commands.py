@@ -1,0 +1,72 @@
+"""Command validation shared by the nodes: target poses, staleness, joint-space velocity limits."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from rrps_kinematics import inverse_kinematics, load_robot
+from rrps_kinematics.commands import RejectedCommand, check_fresh, limit_velocity, validate_target
+
+
+@pytest.fixture(scope='module')
+def robot():
+    return load_robot('pole_climber')
+
+
+def test_valid_target_gives_the_ik_lengths_and_normalises_a_nearly_unit_quaternion(robot):
+    p = robot.home_position + [0.01, 0.0, 0.02]
+    q = np.array([0.0, 0.0, 0.0, 1.0 + 5e-4])
+    t = validate_target(robot, p, q, frame_id='ring_a')
+    np.testing.assert_allclose(t.lengths, inverse_kinematics(robot, p, [0, 0, 0, 1]).lengths, atol=1e-15)
+    assert np.linalg.norm(t.quaternion_xyzw) == pytest.approx(1.0, abs=1e-15)
+    assert t.margins.ok
+
+
+@pytest.mark.parametrize('position, quaternion, frame, message', [
+    ([0.0, 0.0, 0.42], [0, 0, 0, 1], 'world', "frame_id is 'world'"),
+    ([0.0, np.nan, 0.42], [0, 0, 0, 1], 'ring_a', 'NaN'),
+    ([0.0, 0.0, 0.42], [0, 0, 0, np.inf], 'ring_a', 'NaN'),
+    ([0.0, 0.0], [0, 0, 0, 1], 'ring_a', 'shape|position'),
+    ([0.0, 0.0, 0.42], [0, 0, 0, 1.1], 'ring_a', 'quaternion norm'),
+    ([0.0, 0.0, 0.42], [0, 0, 0, 0], 'ring_a', 'quaternion norm'),
+    ([0.0, 0.0, 0.9], [0, 0, 0, 1], 'ring_a', 'stroke'),
+])
+def test_rejections_say_why(robot, position, quaternion, frame, message):
+    with pytest.raises(RejectedCommand, match=message):
+        validate_target(robot, position, quaternion, frame_id=frame)
+
+
+def test_check_fresh():
+    assert check_fresh(0.0, 100.0, 0.1) == 0.0          # unset stamp: taken as now
+    assert check_fresh(99.95, 100.0, 0.1) == pytest.approx(0.05)
+    assert check_fresh(100.5, 100.0, 0.1) == pytest.approx(-0.5)  # clock offset: accepted
+    with pytest.raises(RejectedCommand, match='stale'):
+        check_fresh(99.8, 100.0, 0.1)
+    with pytest.raises(RejectedCommand, match='stale'):
+        check_fresh(math.nan, 100.0, 0.1)
+
+
+@settings(max_examples=60, deadline=None)
+@given(current=st.lists(st.floats(0.3, 0.55), min_size=6, max_size=6),
+       desired=st.lists(st.floats(0.3, 0.55), min_size=6, max_size=6),
+       dt=st.floats(0.0, 0.1))
+def test_limit_velocity_keeps_the_direction_and_the_speed(current, desired, dt):
+    c, d = np.array(current), np.array(desired)
+    out = limit_velocity(c, d, 0.05, dt)
+    step = out - c
+    assert np.max(np.abs(step)) <= 0.05 * dt + 1e-15
+    if np.max(np.abs(d - c)) <= 0.05 * dt:
+        np.testing.assert_array_equal(out, d)
+    else:  # a positive multiple of the requested step
+        k = np.dot(step, d - c) / np.dot(d - c, d - c)
+        np.testing.assert_allclose(step, k * (d - c), atol=1e-15)
+        assert 0.0 <= k < 1.0
+
+
+def test_limit_velocity_unlimited_and_invalid():
+    np.testing.assert_array_equal(limit_velocity(np.zeros(6), np.ones(6), math.inf, 0.0), np.ones(6))
+    with pytest.raises(ValueError):
+        limit_velocity(np.zeros(6), np.ones(6), 0.0, 0.1)

@@ -1,0 +1,82 @@
+"""fk_node in-process: actuators/state -> pose, warm-started; bad input, non-convergence and jumps."""
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseStamped
+from rclpy.parameter import Parameter
+
+from sensor_msgs.msg import JointState
+
+from node_helpers import pose_error, said, statuses
+from ros_harness import Probe, Spinner, wait_for
+from rrps_kinematics import inverse_kinematics, load_robot
+from rrps_kinematics.nodes.common import joint_state_msg
+from rrps_kinematics.nodes.fk_node import FkNode
+from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
+
+POLE = load_robot('pole_climber')
+
+
+def test_pose_of_measured_lengths_and_every_failure_keeps_the_last_estimate(ros_context):
+    node = FkNode(context=ros_context, namespace='/t')
+    probe = Probe(context=ros_context, namespace='/t')
+    poses = probe.collect(PoseStamped, 'pose')
+    diagnostics = probe.collect(DiagnosticArray, '/diagnostics')
+    pub = probe.publisher(JointState, 'actuators/state')
+    stamp = probe.get_clock().now().to_msg()
+    p = POLE.home_position + [0.012, -0.008, 0.02]
+    q = rotation_vector_to_quat_xyzw(np.array([0.04, 0.03, -0.06]))
+    lengths = inverse_kinematics(POLE, p, q).lengths
+    with Spinner(ros_context, [node, probe]):
+        assert wait_for(lambda: pub.get_subscription_count() == 1, 5.0)
+        pub.publish(joint_state_msg(stamp, lengths))
+        assert wait_for(lambda: poses, 3.0)
+        translation, rotation = pose_error(poses[0], p, q)
+        assert translation < 1e-9 and rotation < 1e-9
+        assert poses[0].header.frame_id == 'ring_a' and poses[0].header.stamp == stamp
+        assert wait_for(lambda: any(s.message == 'tracking actuators/state' and
+                                    {'converged', 'iterations', 'residual', 'inverse_condition'}
+                                    <= {kv.key for kv in s.values}
+                                    for s in statuses(diagnostics, 'fk_node')), 3.0)
+        bad = [
+            (joint_state_msg(stamp, [0.4] * 5, names=['leg_1', 'leg_2', 'leg_3', 'leg_4', 'leg_5']), 'missing joints'),
+            (joint_state_msg(stamp, [0.4] * 5 + [np.nan]), 'NaN'),
+            (JointState(position=[0.4] * 7), 'expected 6 positions'),
+            (joint_state_msg(stamp, [0.01, 0.9, 0.01, 0.9, 0.01, 0.9]), 'no convergence'),
+            (joint_state_msg(stamp, inverse_kinematics(POLE, p + [0.0, 0.0, 0.1], q).lengths), 'jumped'),
+        ]
+        for msg, text in bad:
+            failed = node.failed
+            pub.publish(msg)
+            assert wait_for(lambda: node.failed > failed and said(diagnostics, 'fk_node', text), 3.0), text
+            assert len(poses) == 1, text
+            translation, _ = pose_error(poses[0], node.position, node.quaternion_xyzw)
+            assert translation == 0.0
+        pub.publish(joint_state_msg(stamp, inverse_kinematics(POLE, p + [0.0, 0.0, 0.001], q).lengths))
+        assert wait_for(lambda: len(poses) == 2, 3.0)
+        assert pose_error(poses[1], p + [0.0, 0.0, 0.001], q)[0] < 1e-9
+
+
+def test_first_solve_from_far_initial_lengths_and_max_jump_disabled(ros_context):
+    node = FkNode(context=ros_context, namespace='/t')
+    probe = Probe(context=ros_context, namespace='/t')
+    poses = probe.collect(PoseStamped, 'pose')
+    pub = probe.publisher(JointState, 'actuators/state')
+    far = [POLE.home_position + [0.0, 0.0, 0.06], POLE.home_position + [0.0, 0.0, -0.05]]
+    with Spinner(ros_context, [node, probe]):
+        assert wait_for(lambda: pub.get_subscription_count() == 1, 5.0)
+        for k, p in enumerate(far):  # 0.06 m from home (first solve: accepted), then 0.11 m
+            if k == 1:
+                assert node.set_parameters([Parameter('max_jump', value=0.0)])[0].successful
+            pub.publish(joint_state_msg(probe.get_clock().now().to_msg(),
+                                        inverse_kinematics(POLE, p, [0, 0, 0, 1]).lengths))
+            assert wait_for(lambda: len(poses) == k + 1, 3.0)
+            assert pose_error(poses[k], p, [0, 0, 0, 1])[0] < 1e-9
+
+
+def test_parameter_ranges_are_enforced(ros_context):
+    node = FkNode(context=ros_context)
+    assert not node.set_parameters([Parameter('max_jump', value=-1.0)])[0].successful
+    assert not node.set_parameters([Parameter('robot', value='frame_climber')])[0].successful  # read-only
+    assert node.max_jump == 0.05
+    node.destroy_node()
