@@ -15,15 +15,21 @@ from __future__ import annotations
 
 import argparse
 import json
-import re
 import sys
 from typing import Any, Sequence
 
 import numpy as np
 
 from .assembly import assembly_modes
+from .cli_support import (
+    OneLineParser,
+    UsageError,
+    join_negative_vectors,
+    load_robot_or_usage_error,
+    vector,
+)
 from .forward import forward_kinematics
-from .geometry import RobotDescriptionError, RobotGeometry, load_robot, shipped_robots
+from .geometry import RobotGeometry, shipped_robots
 from .inverse import inverse_kinematics
 from .limits import Margins, margins
 
@@ -31,52 +37,14 @@ PROG = 'rrps-kinematics'
 _VECTOR_OPTIONS = ('--position', '--quaternion', '--lengths', '--seed')
 
 
-class UsageError(Exception):
-    """A bad command line: reported on one line, exit status 2."""
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str):  # one line instead of usage + error
-        raise UsageError(message)
-
-
-def _vector(n: int):
-    def parse(text: str) -> np.ndarray:
-        try:
-            values = np.array([float(v) for v in text.split(',')])
-        except ValueError:
-            raise argparse.ArgumentTypeError(f'expected {n} comma-separated numbers, got {text!r}')
-        if values.shape != (n,):
-            raise argparse.ArgumentTypeError(f'expected {n} numbers, got {values.size}')
-        if not np.all(np.isfinite(values)):
-            raise argparse.ArgumentTypeError(f'values must be finite, got {text!r}')
-        return values
-    return parse
-
-
-def _join_negative_vectors(argv: Sequence[str]) -> list[str]:
-    """``--position -0.1,0,0.4`` -> ``--position=-0.1,0,0.4`` (argparse would take it for a flag)."""
-    out: list[str] = []
-    args = list(argv)
-    i = 0
-    while i < len(args):
-        if args[i] in _VECTOR_OPTIONS and i + 1 < len(args) and re.match(r'^-[\d.]', args[i + 1]):
-            out.append(f'{args[i]}={args[i + 1]}')
-            i += 2
-        else:
-            out.append(args[i])
-            i += 1
-    return out
-
-
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(
+    parser = OneLineParser(
         prog=PROG,
         description='Kinematics of RRPS parallel climbing robots: robot summary, inverse and '
                     'forward kinematics, all assembly modes. Poses are ring_b in ring_a (a_T_b), '
                     'SI units, quaternions (x, y, z, w).',
         epilog=f'shipped robots: {", ".join(shipped_robots())}')
-    sub = parser.add_subparsers(dest='command', metavar='{info,ik,fk,modes}', parser_class=_Parser)
+    sub = parser.add_subparsers(dest='command', metavar='{info,ik,fk,modes}', parser_class=OneLineParser)
     sub.required = True
 
     def add(name: str, help_text: str) -> argparse.ArgumentParser:
@@ -88,26 +56,19 @@ def build_parser() -> argparse.ArgumentParser:
 
     add('info', 'robot summary: anchors, home pose, stroke, home lengths, margins at home')
     p = add('ik', 'inverse kinematics of one pose: leg lengths, joint angles, margins')
-    p.add_argument('--position', type=_vector(3), required=True, metavar='X,Y,Z',
+    p.add_argument('--position', type=vector(3), required=True, metavar='X,Y,Z',
                    help='ring_b origin in ring_a [m]')
-    p.add_argument('--quaternion', type=_vector(4), default=np.array([0, 0, 0, 1.0]),
+    p.add_argument('--quaternion', type=vector(4), default=np.array([0, 0, 0, 1.0]),
                    metavar='QX,QY,QZ,QW', help='ring_b orientation in ring_a (default: identity)')
     p = add('fk', 'forward kinematics: the pose for six leg lengths (Newton from a seed)')
-    p.add_argument('--lengths', type=_vector(6), required=True, metavar='L1,...,L6',
+    p.add_argument('--lengths', type=vector(6), required=True, metavar='L1,...,L6',
                    help='actuator lengths [m]')
-    p.add_argument('--seed', type=_vector(7), metavar='X,Y,Z,QX,QY,QZ,QW',
+    p.add_argument('--seed', type=vector(7), metavar='X,Y,Z,QX,QY,QZ,QW',
                    help='seed pose (default: the robot\'s home pose)')
     p = add('modes', 'all assembly modes: every real pose for six leg lengths')
-    p.add_argument('--lengths', type=_vector(6), required=True, metavar='L1,...,L6',
+    p.add_argument('--lengths', type=vector(6), required=True, metavar='L1,...,L6',
                    help='actuator lengths [m]')
     return parser
-
-
-def _load(robot: str) -> RobotGeometry:
-    try:
-        return load_robot(robot)
-    except RobotDescriptionError as exc:
-        raise UsageError(str(exc)) from None
 
 
 def _fmt(v: Any, digits: int = 6) -> str:
@@ -218,8 +179,8 @@ def run(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     try:
-        args = parser.parse_args(_join_negative_vectors(argv))
-        g = _load(args.robot)
+        args = parser.parse_args(join_negative_vectors(argv, _VECTOR_OPTIONS))
+        g = load_robot_or_usage_error(args.robot)
         if args.command == 'info':
             data, lines = _info(g)
         elif args.command == 'ik':

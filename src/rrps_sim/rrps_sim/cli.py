@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import re
 import sys
 import time
 from pathlib import Path
@@ -26,7 +25,16 @@ from typing import Sequence
 
 import numpy as np
 
-from rrps_kinematics.geometry import RobotDescriptionError, RobotGeometry, load_robot, shipped_robots
+from rrps_kinematics.cli_support import (
+    OneLineParser,
+    UsageError,
+    count,
+    join_negative_vectors,
+    load_robot_or_usage_error,
+    positive,
+    vector,
+)
+from rrps_kinematics.geometry import RobotGeometry, shipped_robots
 from rrps_kinematics.inverse import inverse_kinematics
 from rrps_kinematics.multibody import MultibodyModel
 from rrps_kinematics.rotations import (
@@ -55,69 +63,12 @@ CLIMB_CURVATURE = (0.0, 0.5)  # trunk curvature κ(s) = κ0 + κ1 s [1/m, 1/m^2]
 REPORT_EXTRA_FORCES = np.array([1.2, 1.2, 1.0, 0.8, 0.8, 1.0])   # [N] over the holding forces
 
 
-class UsageError(Exception):
-    """A bad command line or input file: reported on one line, exit status 2."""
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str):  # one line instead of usage + error
-        raise UsageError(message)
-
-
-def _vector(n: int):
-    def parse(text: str) -> np.ndarray:
-        try:
-            values = np.array([float(v) for v in text.split(',')])
-        except ValueError:
-            raise argparse.ArgumentTypeError(f'expected {n} comma-separated numbers, got {text!r}')
-        if values.shape != (n,):
-            raise argparse.ArgumentTypeError(f'expected {n} numbers, got {values.size}')
-        if not np.all(np.isfinite(values)):
-            raise argparse.ArgumentTypeError(f'values must be finite, got {text!r}')
-        return values
-    return parse
-
-
 def _forces(text: str):
-    return 'hold' if text.strip() == 'hold' else _vector(6)(text)
-
-
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f'expected a number, got {text!r}')
-    if not (np.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f'must be a positive number, got {text!r}')
-    return value
-
-
-def _count(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f'expected an integer, got {text!r}')
-    if value < 1:
-        raise argparse.ArgumentTypeError(f'must be >= 1, got {value}')
-    return value
-
-
-def _join_negative_vectors(argv: Sequence[str]) -> list[str]:
-    """``--position -0.1,0,0.4`` -> ``--position=-0.1,0,0.4`` (argparse would take it for a flag)."""
-    out: list[str] = []
-    i = 0
-    while i < len(argv):
-        if argv[i] in _VECTOR_OPTIONS and i + 1 < len(argv) and re.match(r'^-[\d.]', argv[i + 1]):
-            out.append(f'{argv[i]}={argv[i + 1]}')
-            i += 2
-        else:
-            out.append(argv[i])
-            i += 1
-    return out
+    return 'hold' if text.strip() == 'hold' else vector(6)(text)
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(
+    parser = OneLineParser(
         prog=PROG,
         description='Multibody dynamics of RRPS parallel climbing robots (13 bodies, 91 '
                     'coordinates, DAE of eqs. 19-20): simulate, statics, inverse dynamics and the '
@@ -125,7 +76,7 @@ def build_parser() -> argparse.ArgumentParser:
                     'quaternions (x, y, z, w); forces > 0 push the rings apart.',
         epilog=f'shipped robots: {", ".join(shipped_robots())}')
     sub = parser.add_subparsers(dest='command', metavar='{simulate,statics,inverse,report}',
-                                parser_class=_Parser)
+                                parser_class=OneLineParser)
     sub.required = True
 
     def robot(p):
@@ -133,9 +84,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help='shipped robot name or robot YAML path (default: pole_climber)')
 
     def pose(p):
-        p.add_argument('--position', type=_vector(3), metavar='x,y,z',
+        p.add_argument('--position', type=vector(3), metavar='x,y,z',
                        help='ring_b position in ring_a [m] (default: home)')
-        p.add_argument('--quaternion', type=_vector(4), metavar='qx,qy,qz,qw',
+        p.add_argument('--quaternion', type=vector(4), metavar='qx,qy,qz,qw',
                        help='ring_b orientation (default: home)')
 
     p = sub.add_parser('simulate', help='constant actuator forces from rest; CSV (and plot) out')
@@ -143,11 +94,11 @@ def build_parser() -> argparse.ArgumentParser:
     pose(p)
     p.add_argument('--forces', type=_forces, required=True, metavar='f1,...,f6|hold',
                    help="constant actuator forces [N], or 'hold' for the holding forces")
-    p.add_argument('--duration', type=_positive, default=0.5, help='[s] (default 0.5)')
-    p.add_argument('--dt', type=_positive, default=0.001, help='RK4 step [s] (default 0.001)')
+    p.add_argument('--duration', type=positive, default=0.5, help='[s] (default 0.5)')
+    p.add_argument('--dt', type=positive, default=0.001, help='RK4 step [s] (default 0.001)')
     p.add_argument('--method', choices=METHODS, default='hybrid',
                    help='DAE integrator (default: hybrid, as in the paper)')
-    p.add_argument('--output-every', type=_count, default=1, metavar='N',
+    p.add_argument('--output-every', type=count, default=1, metavar='N',
                    help='write every N-th step (default 1)')
     p.add_argument('--csv', required=True, type=Path, help='output CSV, one row per output step')
     p.add_argument('--plot', type=Path, help='output PNG of the run')
@@ -166,19 +117,12 @@ def build_parser() -> argparse.ArgumentParser:
     robot(p)
     p.add_argument('--out-dir', type=Path, default=Path('.'), help='where the PNGs go (default .)')
     p.add_argument('--method', choices=METHODS, default='hybrid')
-    p.add_argument('--duration', type=_positive, default=0.5)
-    p.add_argument('--dt', type=_positive, default=0.001)
+    p.add_argument('--duration', type=positive, default=0.5)
+    p.add_argument('--dt', type=positive, default=0.001)
     return parser
 
 
 # --- helpers --------------------------------------------------------------------------------
-
-def _load(robot: str) -> RobotGeometry:
-    try:
-        return load_robot(robot)
-    except RobotDescriptionError as exc:
-        raise UsageError(str(exc)) from None
-
 
 def _pose(g: RobotGeometry, args) -> tuple[np.ndarray, np.ndarray]:
     position = g.home_position if args.position is None else args.position
@@ -532,8 +476,8 @@ def run(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     try:
-        args = parser.parse_args(_join_negative_vectors(argv))
-        g = _load(args.robot)
+        args = parser.parse_args(join_negative_vectors(argv, _VECTOR_OPTIONS))
+        g = load_robot_or_usage_error(args.robot)
         handler = {'simulate': _simulate, 'statics': _statics, 'inverse': _inverse,
                    'report': _report}[args.command]
         lines = handler(g, args)
