@@ -116,7 +116,7 @@ def test_velocity_limiting_never_asks_more_than_max_speed(ros_context):
 
         def stream():
             pub.publish(target(probe, goal))
-            return commands and np.allclose(commands[-1][1].position, goal_lengths, atol=1e-12)
+            return commands and np.allclose(commands[-1][1].position, goal_lengths, rtol=0, atol=1e-12)
         assert wait_for(stream, 3.0, period=0.01)
     lengths = np.array([m.position for _, m in commands])
     t = np.array([s for s, _ in commands])

@@ -1,0 +1,178 @@
+"""driver_node in-process: kinematic and dynamic actuators, rejections, staleness, grippers, faults."""
+
+import time
+
+import numpy as np
+import pytest
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
+from std_srvs.srv import SetBool
+
+from node_helpers import command, said
+from ros_harness import Probe, Spinner, wait_for
+from rrps_kinematics import inverse_kinematics, load_robot
+from rrps_kinematics.nodes.common import LEG_NAMES
+from rrps_sim.nodes.driver_node import DriverNode
+from rrps_sim.statics import holding_forces
+
+POLE = load_robot('pole_climber')
+
+
+def driver(ros_context, **overrides):
+    return DriverNode(context=ros_context, namespace='/t',
+                      parameter_overrides=[Parameter(k, value=v) for k, v in overrides.items()])
+
+
+def setup(ros_context, node):
+    probe = Probe(context=ros_context, namespace='/t')
+    return (probe, probe.collect(JointState, 'actuators/state'),
+            probe.collect(DiagnosticArray, '/diagnostics'),
+            probe.publisher(JointState, 'actuators/command', command=True))
+
+
+def test_kinematic_actuators_track_within_the_speed_limit_and_reject_bad_commands(ros_context):
+    node = driver(ros_context)
+    probe, states, diagnostics, pub = setup(ros_context, node)
+    goal = inverse_kinematics(POLE, POLE.home_position + [0.0, 0.0, 0.005], [0, 0, 0, 1]).lengths
+    with Spinner(ros_context, [node, probe]):
+        assert wait_for(lambda: len(states) > 20 and pub.get_subscription_count() == 1, 5.0)
+        first = states[-1]
+        assert list(first.name) == list(LEG_NAMES) and list(first.effort) == []
+        np.testing.assert_allclose(first.position, POLE.home_lengths, atol=1e-12)
+        n0, t0 = len(states), time.monotonic()
+        time.sleep(0.4)
+        rate = (len(states) - n0) / (time.monotonic() - t0)
+        assert rate > 200  # 500 Hz nominal; generous for a loaded 2-core machine
+        bad = [
+            (command(probe, goal, age=0.5), 'stale'),
+            (command(probe, goal + 0.2), 'outside the stroke'),
+            (command(probe, [0.4] * 5 + [np.nan]), 'NaN'),
+            (command(probe, [0.4] * 5, names=LEG_NAMES[:5]), 'missing joints'),
+            (JointState(position=[0.4] * 7), 'expected 6 positions'),
+        ]
+        for msg, text in bad:
+            rejected = node.rejected
+            pub.publish(msg)
+            assert wait_for(lambda: node.rejected > rejected and said(diagnostics, 'driver_node', text), 3.0), text
+            np.testing.assert_allclose(node.reference, POLE.home_lengths, atol=1e-12)
+        assert wait_for(lambda: (pub.publish(command(probe, goal)), node.accepted)[1], 3.0)
+        assert wait_for(lambda: np.allclose(states[-1].position, goal, rtol=0, atol=1e-9), 3.0)
+    velocities = np.array([m.velocity for m in states])
+    assert np.max(np.abs(velocities)) <= POLE.max_speed + 1e-9
+    assert np.max(np.abs(velocities)) > 0.5 * POLE.max_speed
+
+
+def test_hold_when_silent_stops_short_of_a_command_that_is_not_refreshed(ros_context):
+    node = driver(ros_context, hold_when_silent=True, timeout=0.05)
+    probe, states, diagnostics, pub = setup(ros_context, node)
+    goal = inverse_kinematics(POLE, POLE.home_position + [0.0, 0.0, 0.05], [0, 0, 0, 1]).lengths  # ~1 s away
+    with Spinner(ros_context, [node, probe]):
+        assert wait_for(lambda: pub.get_subscription_count() == 1, 5.0)
+        assert wait_for(lambda: (pub.publish(command(probe, goal)), node.accepted)[1], 3.0)
+        assert wait_for(lambda: said(diagnostics, 'driver_node', 'holding'), 3.0)
+        held = np.array(states[-1].position)
+        time.sleep(0.2)
+        np.testing.assert_allclose(states[-1].position, held, atol=1e-4)
+    assert np.max(np.abs(held - POLE.home_lengths)) < 0.5 * np.max(np.abs(goal - POLE.home_lengths))
+
+
+def test_gripper_services_enforce_the_interlock(ros_context):
+    node = driver(ros_context)
+    probe = Probe(context=ros_context, namespace='/t')
+    grippers = probe.collect(JointState, 'grippers/state')
+    clients = {ring: probe.create_client(SetBool, f'grippers/{ring}/set') for ring in ('ring_a', 'ring_b')}
+
+    def call(ring, close):
+        future = clients[ring].call_async(SetBool.Request(data=close))
+        assert wait_for(future.done, 3.0)
+        return future.result()
+
+    with Spinner(ros_context, [node, probe]):
+        assert all(c.wait_for_service(timeout_sec=5.0) for c in clients.values())
+        assert wait_for(lambda: grippers, 3.0)
+        assert list(grippers[-1].name) == ['ring_a', 'ring_b'] and list(grippers[-1].position) == [1.0, 1.0]
+        assert call('ring_b', False).success
+        assert wait_for(lambda: list(grippers[-1].position) == [1.0, 0.0], 1.0)
+        refused = call('ring_a', False)
+        assert not refused.success and 'ring_b is open' in refused.message
+        assert list(grippers[-1].position) == [1.0, 0.0]
+        assert call('ring_b', True).success and call('ring_a', False).success
+        assert wait_for(lambda: list(grippers[-1].position) == [0.0, 1.0], 1.0)
+
+
+def test_fault_injection_at_run_time(ros_context):
+    node = driver(ros_context, time_constant=0.0, limit_speed=False)
+    probe, states, diagnostics, pub = setup(ros_context, node)
+    goal = inverse_kinematics(POLE, POLE.home_position + [0.0, 0.0, 0.01], [0, 0, 0, 1]).lengths
+    with Spinner(ros_context, [node, probe]):
+        assert wait_for(lambda: pub.get_subscription_count() == 1 and states, 5.0)
+        assert not node.set_parameters([Parameter('stuck_legs', value=[7])])[0].successful
+        assert node.set_parameters([Parameter('stuck_legs', value=[2, 5])])[0].successful
+        assert wait_for(lambda: (pub.publish(command(probe, goal)), node.accepted)[1], 3.0)
+        assert wait_for(lambda: np.allclose(np.array(states[-1].position)[[0, 2, 3, 5]], goal[[0, 2, 3, 5]], rtol=0, atol=1e-12), 3.0)
+        np.testing.assert_allclose(np.array(states[-1].position)[[1, 4]], POLE.home_lengths[[1, 4]], atol=1e-12)
+        assert node.set_parameters([Parameter('sensor_noise', value=1e-3)])[0].successful
+        n = len(states)
+        assert wait_for(lambda: len(states) > n + 50, 3.0)
+        noise = np.array([m.position for m in states[n + 5:]]) - np.array(states[n + 5].position)
+        assert 2e-4 < np.std(noise) < 5e-3
+        assert node.set_parameters([Parameter('drop_probability', value=1.0)])[0].successful
+        time.sleep(0.05)
+        n = len(states)
+        time.sleep(0.2)
+        assert len(states) == n and node.dropped > 50
+
+
+def test_dynamic_mode_holds_and_tracks_with_effort_as_force(ros_context):
+    node = driver(ros_context, mode='dynamic')
+    probe, states, diagnostics, pub = setup(ros_context, node)
+    p = POLE.home_position + [0.005, 0.0, 0.005]
+    goal = inverse_kinematics(POLE, p, [0, 0, 0, 1]).lengths
+    with Spinner(ros_context, [node, probe]):
+        assert wait_for(lambda: len(states) > 100 and pub.get_subscription_count() == 1, 5.0)
+        np.testing.assert_allclose(states[-1].position, POLE.home_lengths, atol=1e-7)
+        np.testing.assert_allclose(states[-1].effort, holding_forces(POLE, POLE.home_position, [0, 0, 0, 1]),
+                                   rtol=1e-3)
+
+        def stream():  # a 20 Hz stream, as a teleop would send
+            pub.publish(command(probe, goal))
+            return np.allclose(states[-1].position, goal, rtol=0, atol=1e-9)
+        assert wait_for(stream, 4.0, period=0.05)
+    np.testing.assert_allclose(node.actuators.dynamics.position, p, atol=1e-7)
+    assert np.max(np.abs([m.effort for m in states])) <= POLE.max_force
+
+
+def test_frame_climber_ring_rotations(ros_context):
+    frame = load_robot('frame_climber')
+    node = DriverNode(context=ros_context, namespace='/t',
+                      parameter_overrides=[Parameter('robot', value='frame_climber')])
+    probe, states, diagnostics, pub = setup(ros_context, node)
+    names = list(LEG_NAMES) + ['ring_b_rotation']
+    with Spinner(ros_context, [node, probe]):
+        assert wait_for(lambda: pub.get_subscription_count() == 1 and states, 5.0)
+        assert list(states[-1].name) == list(LEG_NAMES) + ['ring_a_rotation', 'ring_b_rotation']
+        msg = command(probe, list(frame.home_lengths) + [0.1], names=names)
+        assert wait_for(lambda: (pub.publish(msg), node.accepted)[1], 3.0)
+        assert wait_for(lambda: abs(states[-1].position[7] - 0.1) < 1e-6, 3.0)
+        assert states[-1].position[6] == 0.0
+        rejected = node.rejected
+        pub.publish(command(probe, list(frame.home_lengths) + [4.0], names=names))
+        assert wait_for(lambda: node.rejected > rejected and said(diagnostics, 'driver_node', 'ring rotations'), 3.0)
+
+
+@pytest.mark.parametrize('overrides, message', [
+    (dict(mode='fast'), 'mode must be one of'),
+    (dict(initial_lengths=[0.4] * 5), 'initial_lengths must be 6'),
+    (dict(initial_lengths=[0.2] * 6), 'outside the stroke'),
+])
+def test_invalid_parameters_refuse_to_start(ros_context, overrides, message):
+    with pytest.raises(ValueError, match=message):
+        driver(ros_context, **overrides)
+
+
+def test_initial_lengths(ros_context):
+    lengths = inverse_kinematics(POLE, POLE.home_position + [0.0, 0.01, 0.0], [0, 0, 0, 1]).lengths
+    node = driver(ros_context, initial_lengths=list(lengths))
+    np.testing.assert_array_equal(node.actuators.positions, lengths)
+    node.destroy_node()
