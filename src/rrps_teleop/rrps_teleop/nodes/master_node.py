@@ -1,0 +1,140 @@
+"""master_node: the simulated parallel master robot (pure core: :mod:`rrps_teleop.master`).
+
+Subscribes ``master/target_pose`` (PoseStamped, frame master_ring_a: where the operator moves the
+handle); with the parameter ``trajectory`` = circle | lissajous it moves by itself instead. At
+``rate`` Hz the handle moves towards its target within its speed and its own limits, and the node
+publishes ``master/actuators/state`` (JointState: the leg lengths, what encoders would give) and
+``master/pose`` (PoseStamped: its own FK of those lengths, seeded by the previous estimate).
+``trajectory``, ``amplitude``, ``period`` and ``angular_amplitude`` may be set at run time.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from geometry_msgs.msg import PoseStamped
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+
+from rrps_kinematics import forward_kinematics
+from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, OK, STATE_QOS, WARN, Diagnostics,
+                                          declare_parameter, declare_robot_parameter,
+                                          joint_state_msg, pose_from_msg, pose_to_msg, run_nodes)
+
+from ..master import TRAJECTORIES, MasterModel, scripted_pose
+
+__all__ = ['MasterNode', 'main']
+
+
+class MasterNode(Node):
+    """The master robot: operator or scripted handle in, encoder lengths and FK pose out."""
+
+    def __init__(self, **kwargs):
+        super().__init__('master_node', **kwargs)
+        self.geometry = declare_robot_parameter(self, default='master_robot')
+        self.frame_id = declare_parameter(self, 'frame_id', 'master_ring_a',
+                                          'frame of master/target_pose and master/pose', read_only=True)
+        rate = declare_parameter(self, 'rate', 200.0, 'encoder (publication) rate [Hz]',
+                                 min_value=1.0, max_value=2000.0, read_only=True)
+        self.trajectory = declare_parameter(self, 'trajectory', 'none', 'scripted motion of the handle',
+                                            additional_constraints=' | '.join(TRAJECTORIES))
+        self.amplitude = declare_parameter(self, 'amplitude', 0.005, 'scripted translation amplitude [m]',
+                                           min_value=0.0, max_value=0.05)
+        self.period = declare_parameter(self, 'period', 10.0, 'scripted trajectory period [s]',
+                                        min_value=0.1, max_value=1000.0)
+        self.angular_amplitude = declare_parameter(self, 'angular_amplitude', 0.05,
+                                                   'lissajous rotation amplitude [rad]',
+                                                   min_value=0.0, max_value=1.0)
+        linear = declare_parameter(self, 'max_linear_speed', 0.05, 'handle speed limit [m/s]',
+                                   min_value=1e-4, max_value=10.0, read_only=True)
+        angular = declare_parameter(self, 'max_angular_speed', 1.0, 'handle angular speed limit [rad/s]',
+                                    min_value=1e-4, max_value=100.0, read_only=True)
+        if self.trajectory not in TRAJECTORIES:
+            raise ValueError(f'trajectory must be one of {TRAJECTORIES}, got {self.trajectory!r}')
+        self.model = MasterModel(self.geometry, max_linear_speed=linear, max_angular_speed=angular)
+        self._target = (self.model.position.copy(), self.model.quaternion_xyzw.copy())
+        self._fk_pose = (self.model.position.copy(), self.model.quaternion_xyzw.copy())
+        self._start = time.monotonic()
+        self._last_tick: float | None = None
+        self._status = (OK, 'holding the home pose')
+        self._diag = Diagnostics(self, 'master robot', hardware_id=self.geometry.name)
+        self._state_pub = self.create_publisher(JointState, 'master/actuators/state', STATE_QOS)
+        self._pose_pub = self.create_publisher(PoseStamped, 'master/pose', STATE_QOS)
+        self.create_subscription(PoseStamped, 'master/target_pose', self._on_target, COMMAND_QOS)
+        self.add_on_set_parameters_callback(self._check_parameters)
+        self.add_post_set_parameters_callback(self._apply_parameters)
+        self.create_timer(1.0 / rate, self._on_tick)
+        self.create_timer(0.5, self._report)
+
+    def _check_parameters(self, parameters) -> SetParametersResult:
+        for p in parameters:
+            if p.name == 'trajectory' and p.value not in TRAJECTORIES:
+                return SetParametersResult(successful=False,
+                                           reason=f'trajectory must be one of {TRAJECTORIES}, got {p.value!r}')
+        return SetParametersResult(successful=True)
+
+    def _apply_parameters(self, parameters) -> None:
+        for p in parameters:
+            if p.name in ('trajectory', 'amplitude', 'period', 'angular_amplitude'):
+                setattr(self, p.name, p.value)
+            if p.name == 'trajectory':
+                self._start = time.monotonic()  # scripted time restarts; the handle walks there
+                self._target = (self.model.position.copy(), self.model.quaternion_xyzw.copy())
+
+    def _set_status(self, level, message: str) -> None:
+        if (level, message) != self._status:
+            self._status = (level, message)
+            self._report()
+            if level != OK:
+                self.get_logger().warning(message, throttle_duration_sec=1.0)
+
+    def _report(self) -> None:
+        level, message = self._status
+        self._diag.report(level, message, {'trajectory': self.trajectory, 'lengths': self.model.lengths,
+                                           'position': self.model.position})
+
+    def _on_target(self, msg: PoseStamped) -> None:
+        if self.trajectory != 'none':
+            self._set_status(WARN, f'master/target_pose ignored: trajectory {self.trajectory} is running')
+            return
+        if msg.header.frame_id != self.frame_id:
+            self._set_status(WARN, f'master/target_pose rejected: frame_id {msg.header.frame_id!r} '
+                                   f'is not {self.frame_id!r}')
+            return
+        position, quaternion = pose_from_msg(msg)
+        if not (np.all(np.isfinite(position)) and np.all(np.isfinite(quaternion))
+                and abs(np.linalg.norm(quaternion) - 1.0) <= 1e-3):
+            self._set_status(WARN, 'master/target_pose rejected: NaN/inf or a non-unit quaternion')
+            return
+        self._target = (position, quaternion)
+
+    def _on_tick(self) -> None:
+        now = time.monotonic()
+        dt = 0.0 if self._last_tick is None else now - self._last_tick
+        self._last_tick = now
+        if self.trajectory != 'none':
+            self._target = scripted_pose(self.trajectory, now - self._start, self.geometry.home_position,
+                                         self.geometry.home_quaternion_xyzw, amplitude=self.amplitude,
+                                         period=self.period, angular_amplitude=self.angular_amplitude)
+        note = self.model.move_toward(*self._target, dt)
+        if note.startswith('stopped'):
+            self._set_status(WARN, f'handle {note}')
+        else:
+            self._set_status(OK, f'trajectory {self.trajectory}' if self.trajectory != 'none'
+                             else 'following master/target_pose')
+        stamp = self.get_clock().now().to_msg()
+        lengths = self.model.lengths
+        self._state_pub.publish(joint_state_msg(stamp, lengths))
+        fk = forward_kinematics(self.geometry, lengths, *self._fk_pose)
+        if fk.converged:
+            self._fk_pose = (fk.position, fk.quaternion_xyzw)
+        else:
+            self._set_status(ERROR, f'master FK did not converge (residual {fk.residual:.3g} m): '
+                                    'holding the last estimate')
+        self._pose_pub.publish(pose_to_msg(*self._fk_pose, frame_id=self.frame_id, stamp=stamp))
+
+
+def main(args=None) -> None:
+    run_nodes([MasterNode], args)

@@ -1,0 +1,245 @@
+"""teleop_node: the slave follows the master (pure core: :mod:`rrps_teleop.mapping`).
+
+Subscribes ``master/pose`` (frame master_ring_a), ``master/actuators/state``, ``teleop/enable``
+(std_msgs/Bool, the deadman: true at >= 10 Hz; engaging is a clutch), ``pose`` (the slave's FK,
+frame ring_a: the engage reference) and ``climb/status`` (no engage while a step executes).
+Publishes ``target_pose`` (Cartesian mode, through ik_node's guards) or ``actuators/command``
+(joint mode), and ``teleop/status`` (diagnostic_msgs/DiagnosticStatus: message = the status code
+name; values code, mode, scale, rotation_mode, engaged, detail and the smallest margins).
+
+Control runs on every master sample (``control`` = message, the default: one callback from master
+state to command, see benchmarks/teleop_latency.py) or on a timer at ``control_rate`` Hz. A 50 Hz
+watchdog releases the clutch when the deadman or the master data lapse, so the slave holds within
+one watchdog period of the timeout even when no master message arrives at all. ``mode``,
+``translation_scale``, ``rotation_mode``, ``joint_scale`` and the guard parameters are settable
+at run time (validated; any change is a clutch).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PoseStamped
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Bool
+
+from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, OK, STALE, STATE_QOS, WARN, Diagnostics,
+                                          declare_parameter, declare_robot_parameter, joint_state_msg,
+                                          lengths_from_joint_state, pose_from_msg, pose_to_msg, run_nodes)
+
+from ..mapping import MODES, ROTATION_MODES, StatusCode, TeleopConfig, TeleopMapping, TeleopOutput
+
+__all__ = ['TeleopNode', 'main']
+
+CONTROL_TRIGGERS = ('message', 'timer')
+WATCHDOG_PERIOD = 0.02
+#: Parameters that map onto TeleopConfig fields (settable at run time).
+CONFIG_PARAMETERS = ('mode', 'translation_scale', 'rotation_mode', 'joint_scale', 'enable_timeout',
+                     'master_timeout', 'max_linear_speed', 'max_angular_speed', 'singularity_slowdown',
+                     'singularity_halt', 'collision_slowdown', 'align_tolerance')
+_LEVELS = {
+    StatusCode.NO_WARNING: OK, StatusCode.SPEED_LIMITED: OK, StatusCode.DEADMAN_RELEASED: OK,
+    StatusCode.CLIMB_EXECUTING: OK, StatusCode.MASTER_STALE: STALE,
+    StatusCode.WAITING_FOR_SLAVE_POSE: STALE, StatusCode.INVALID: ERROR,
+}
+
+
+class TeleopNode(Node):
+    """Master → slave mapping with clutch, deadman and guards; see the module docstring."""
+
+    def __init__(self, **kwargs):
+        super().__init__('teleop_node', **kwargs)
+        self.geometry = declare_robot_parameter(self)
+        self.frame_id = declare_parameter(self, 'frame_id', 'ring_a', 'frame of pose and target_pose',
+                                          read_only=True)
+        self.master_frame_id = declare_parameter(self, 'master_frame_id', 'master_ring_a',
+                                                 'frame of master/pose', read_only=True)
+        self.control = declare_parameter(self, 'control', 'message',
+                                         'run the control step on each master sample or on a timer',
+                                         read_only=True, additional_constraints='message | timer')
+        control_rate = declare_parameter(self, 'control_rate', 200.0, 'control rate in timer mode [Hz]',
+                                         min_value=1.0, max_value=2000.0, read_only=True)
+        status_rate = declare_parameter(self, 'status_rate', 10.0, 'teleop/status rate when unchanged [Hz]',
+                                        min_value=0.1, max_value=100.0, read_only=True)
+        if self.control not in CONTROL_TRIGGERS:
+            raise ValueError(f'control must be one of {CONTROL_TRIGGERS}, got {self.control!r}')
+        d = TeleopConfig()
+        values = {
+            'mode': declare_parameter(self, 'mode', d.mode, 'cartesian | joint',
+                                      additional_constraints=' | '.join(MODES)),
+            'translation_scale': declare_parameter(
+                self, 'translation_scale', d.translation_scale,
+                'slave translation = scale x master translation since engage (> 0)',
+                min_value=1e-3, max_value=1e3),
+            'rotation_mode': declare_parameter(self, 'rotation_mode', d.rotation_mode, 'relative | absolute',
+                                               additional_constraints=' | '.join(ROTATION_MODES)),
+            'joint_scale': list(declare_parameter(
+                self, 'joint_scale', list(d.joint_scale),
+                'joint mode: a_i of L_slave,i = a_i L_master,i + b_i (6 values > 0; b_i set at engage)')),
+            'enable_timeout': declare_parameter(self, 'enable_timeout', d.enable_timeout,
+                                                'hold when teleop/enable was not true for this long [s]',
+                                                min_value=0.01, max_value=5.0),
+            'master_timeout': declare_parameter(self, 'master_timeout', d.master_timeout,
+                                                'hold when the master data is older than this [s]',
+                                                min_value=0.005, max_value=5.0),
+            'max_linear_speed': declare_parameter(self, 'max_linear_speed', d.max_linear_speed,
+                                                  'slave translation speed limit [m/s]',
+                                                  min_value=1e-4, max_value=10.0),
+            'max_angular_speed': declare_parameter(self, 'max_angular_speed', d.max_angular_speed,
+                                                   'slave rotation speed limit [rad/s]',
+                                                   min_value=1e-4, max_value=100.0),
+            'singularity_slowdown': declare_parameter(
+                self, 'singularity_slowdown', d.singularity_slowdown,
+                'inverse condition number below which motion towards a singularity slows down',
+                min_value=1e-4, max_value=1.0),
+            'singularity_halt': declare_parameter(
+                self, 'singularity_halt', float(self.geometry.min_conditioning),
+                'inverse condition number where motion towards a singularity halts',
+                min_value=0.0, max_value=1.0),
+            'collision_slowdown': declare_parameter(
+                self, 'collision_slowdown', d.collision_slowdown,
+                'leg-leg interference margin [m] below which motion towards it slows down',
+                min_value=1e-5, max_value=1.0),
+            'align_tolerance': declare_parameter(
+                self, 'align_tolerance', d.align_tolerance,
+                'absolute rotation mode: largest master/slave orientation difference to engage [rad]',
+                min_value=1e-4, max_value=math.pi),
+        }
+        self.mapping = TeleopMapping(self.geometry, TeleopConfig(**values))
+        self._pending: TeleopConfig | None = None
+        self._last_status: tuple | None = None
+        self._last_status_time = -math.inf
+        self._status_period = 1.0 / status_rate
+        self._output = TeleopOutput(StatusCode.DEADMAN_RELEASED, False, 'waiting for teleop/enable')
+        self._diag = Diagnostics(self, 'teleop', hardware_id=self.geometry.name)
+        self._target_pub = self.create_publisher(PoseStamped, 'target_pose', COMMAND_QOS)
+        self._command_pub = self.create_publisher(JointState, 'actuators/command', COMMAND_QOS)
+        self._status_pub = self.create_publisher(DiagnosticStatus, 'teleop/status', STATE_QOS)
+        self.create_subscription(PoseStamped, 'master/pose', self._on_master_pose, STATE_QOS)
+        self.create_subscription(JointState, 'master/actuators/state', self._on_master_state, STATE_QOS)
+        self.create_subscription(Bool, 'teleop/enable', self._on_enable, COMMAND_QOS)
+        self.create_subscription(PoseStamped, 'pose', self._on_slave_pose, STATE_QOS)
+        self.create_subscription(DiagnosticStatus, 'climb/status', self._on_climb_status, STATE_QOS)
+        self.add_on_set_parameters_callback(self._check_parameters)
+        self.add_post_set_parameters_callback(self._apply_parameters)
+        self.create_timer(WATCHDOG_PERIOD, self._watchdog)
+        if self.control == 'timer':
+            self.create_timer(1.0 / control_rate, self._control)
+
+    # --- parameters ----------------------------------------------------------------------
+
+    def _check_parameters(self, parameters) -> SetParametersResult:
+        """Validate the whole new configuration (TeleopConfig raises ValueError with the reason)."""
+        changes = {p.name: (list(p.value) if p.name == 'joint_scale' else p.value)
+                   for p in parameters if p.name in CONFIG_PARAMETERS}
+        if not changes:
+            return SetParametersResult(successful=True)
+        try:
+            self._pending = self.mapping.config.with_(**changes)
+        except (TypeError, ValueError) as exc:
+            return SetParametersResult(successful=False, reason=str(exc))
+        return SetParametersResult(successful=True)
+
+    def _apply_parameters(self, parameters) -> None:
+        if self._pending is not None and any(p.name in CONFIG_PARAMETERS for p in parameters):
+            self.mapping.configure(self._pending)  # a clutch: the next engage re-indexes
+            self._pending = None
+            self.get_logger().info(f'teleop parameters changed: mode {self.mapping.config.mode}, '
+                                   f'translation_scale {self.mapping.config.translation_scale:g}, '
+                                   f'rotation_mode {self.mapping.config.rotation_mode} (clutch released)')
+            self._watchdog()
+
+    # --- inputs --------------------------------------------------------------------------
+
+    def _on_master_pose(self, msg: PoseStamped) -> None:
+        if msg.header.frame_id != self.master_frame_id:
+            self._reject(f'master/pose frame_id {msg.header.frame_id!r} is not {self.master_frame_id!r}')
+            return
+        try:
+            self.mapping.on_master_pose(time.monotonic(), *pose_from_msg(msg))
+        except ValueError as exc:
+            self._reject(str(exc))
+            return
+        if self.control == 'message' and self.mapping.config.mode == 'cartesian':
+            self._control()
+
+    def _on_master_state(self, msg: JointState) -> None:
+        try:
+            self.mapping.on_master_lengths(time.monotonic(), lengths_from_joint_state(msg))
+        except ValueError as exc:
+            self._reject(f'master/actuators/state: {exc}')
+            return
+        if self.control == 'message' and self.mapping.config.mode == 'joint':
+            self._control()
+
+    def _on_enable(self, msg: Bool) -> None:
+        self.mapping.on_enable(time.monotonic(), msg.data)
+        if not msg.data and self.mapping.engaged:
+            self._watchdog()  # a released deadman holds at once
+
+    def _on_slave_pose(self, msg: PoseStamped) -> None:
+        if msg.header.frame_id != self.frame_id:
+            self._reject(f'pose frame_id {msg.header.frame_id!r} is not {self.frame_id!r}')
+            return
+        try:
+            self.mapping.on_slave_pose(*pose_from_msg(msg))
+        except ValueError as exc:
+            self._reject(str(exc))
+
+    def _on_climb_status(self, msg: DiagnosticStatus) -> None:
+        self.mapping.set_climb_executing(msg.message == 'executing')
+        if msg.message == 'executing' and self.mapping.engaged:
+            self._watchdog()
+
+    def _reject(self, reason: str) -> None:
+        self.get_logger().warning(f'input rejected: {reason}', throttle_duration_sec=1.0)
+        self._publish_status(TeleopOutput(StatusCode.INVALID, self.mapping.engaged, reason))
+
+    # --- control -------------------------------------------------------------------------
+
+    def _control(self) -> None:
+        out = self.mapping.step(time.monotonic())
+        if out.has_command:
+            stamp = self.get_clock().now().to_msg()
+            if self.mapping.config.mode == 'cartesian':
+                self._target_pub.publish(pose_to_msg(out.position, out.quaternion_xyzw,
+                                                     frame_id=self.frame_id, stamp=stamp))
+            else:
+                self._command_pub.publish(joint_state_msg(stamp, out.lengths))
+        self._publish_status(out)
+
+    def _watchdog(self) -> None:
+        blocked = self.mapping.check(time.monotonic())
+        if blocked is not None:
+            self._publish_status(TeleopOutput(blocked[0], False, blocked[1]))
+        else:
+            self._publish_status(self._output)
+
+    def _publish_status(self, out: TeleopOutput) -> None:
+        """teleop/status and /diagnostics: at once when the code or engagement changes, else at status_rate."""
+        self._output = out
+        now = time.monotonic()
+        key = (out.code, out.engaged)
+        if key == self._last_status and now - self._last_status_time < self._status_period:
+            return
+        self._last_status, self._last_status_time = key, now
+        c = self.mapping.config
+        level = _LEVELS.get(out.code, WARN)
+        values = {'code': int(out.code), 'mode': c.mode, 'scale': c.translation_scale,
+                  'rotation_mode': c.rotation_mode, 'joint_scale': list(c.joint_scale),
+                  'engaged': 'true' if out.engaged else 'false', 'detail': out.detail}
+        values.update({f'margin_{k}': v for k, v in out.margins.items()})
+        status = DiagnosticStatus(level=level, name=self.get_name(), message=out.code.name,
+                                  hardware_id=self.geometry.name)
+        status.values = [KeyValue(key=k, value=f'{v:.6g}' if isinstance(v, float) else str(v))
+                         for k, v in values.items()]
+        self._status_pub.publish(status)
+        self._diag.report(level, out.code.name, values)
+
+
+def main(args=None) -> None:
+    run_nodes([TeleopNode], args)
