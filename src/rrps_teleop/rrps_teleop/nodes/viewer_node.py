@@ -1,0 +1,398 @@
+"""viewer_node: the viser web viewer for remote operators (issue 6).
+
+Subscribes (relative names): ``actuators/state``, ``pose`` (FK a_T_b, frame ring_a), ``target_pose``
+(the commanded a_T_b, drawn as a ghost), ``master/pose`` (frame master_ring_a),
+``grippers/state``, ``odometry/ring_a|ring_b`` (frame world), ``teleop/status``, ``climb/status``
+and ``/diagnostics`` (FK iterations of fk_node). Publishes ``teleop/enable`` (the deadman, true at
+``enable_rate`` Hz while the operator holds it) and ``master/target_pose`` (the gizmo). Calls
+``climb/step_up|step_down``, ``grippers/ring_a|ring_b/set`` and ``teleop_node/set_parameters``.
+
+Drawing runs in the viewer's own thread at ``render_rate`` Hz, whatever the control rate: ROS
+callbacks only store the latest messages. Requests from the browser are queued and executed on
+the executor's thread by the ``enable_rate`` timer, so every rclpy call stays on one thread.
+
+Safety: the server binds ``host`` (default 127.0.0.1); every browser is read-only until it enters
+``token`` (generated with ``secrets`` and printed when empty); one operator at a time; a
+disconnected operator loses control, the deadman stops and the teleop mapping holds the robot.
+
+Deadman semantics (documented for operators): ``teleop/enable`` is true while the controlling
+operator has "Engage (clutch)" ticked AND either presses and holds the "Hold to move" button
+(the browser sends hold events at 20 Hz; the deadman expires ``deadman_timeout`` s after the last
+one) or is dragging the master's gizmo with the mouse (grabbing the handle is holding it).
+Releasing either one stops the stream; a few ``false`` samples follow, then silence (stale).
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+import queue
+import secrets
+import threading
+import time
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from geometry_msgs.msg import PoseStamped
+from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+from rcl_interfaces.srv import SetParameters
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Bool
+from std_srvs.srv import SetBool, Trigger
+
+from rrps_kinematics.geometry import load_robot
+from rrps_kinematics.nodes.common import (
+    COMMAND_QOS,
+    STATE_QOS,
+    declare_parameter,
+    declare_robot_parameter,
+    lengths_from_joint_state,
+    pose_from_msg,
+    pose_to_msg,
+    run_nodes,
+    stamp_to_seconds,
+)
+
+from ..viewer import Pose, Trail, robot_figure, world_ring_poses
+from ..viewer._render import Frame, ViewerServer
+
+_LEVEL_NAMES = {DiagnosticStatus.OK: 'OK', DiagnosticStatus.WARN: 'WARN',
+                DiagnosticStatus.ERROR: 'ERROR', DiagnosticStatus.STALE: 'STALE'}
+
+
+def _structure_drawer(geometry, radius: float, height: float):
+    """The climbed member for viser: the climbing engineer's structure if shipped, else a pole."""
+    try:
+        from .. import structures
+    except ImportError:
+        structures = None
+    draw = getattr(structures, 'draw_in_viser', None) if structures is not None else None
+    if draw is not None:
+        return lambda scene: draw(scene, geometry)
+
+    def pole(scene) -> None:
+        scene.add_cylinder('/structure', radius=radius, height=height, color=(150, 110, 70),
+                           position=(0.0, 0.0, 0.5 * height - 0.5), radial_segments=32)
+    return pole
+
+
+def _status_text(status: DiagnosticStatus | None) -> str:
+    if status is None:
+        return '—'
+    values = {kv.key: kv.value for kv in status.values}
+    extra = ', '.join(f'{k} {values[k]}' for k in ('mode', 'scale', 'engaged', 'step', 'phase')
+                      if k in values)
+    level = _LEVEL_NAMES.get(bytes(status.level), str(status.level))
+    return f'{status.message or "—"} ({level}{", " + extra if extra else ""})'
+
+
+class ViewerNode(Node):
+    """The web viewer and remote-operator console; see the module docstring."""
+
+    def __init__(self, **kwargs):
+        super().__init__('viewer_node', **kwargs)
+        self.geometry = declare_robot_parameter(self)
+        master_name = declare_parameter(self, 'master_robot', 'master_robot',
+                                        'master robot to draw (shipped name or YAML path; '
+                                        'empty: none)', read_only=True)
+        self.master_geometry = load_robot(master_name) if master_name else None
+        host = declare_parameter(self, 'host', '127.0.0.1',
+                                 'address the web server binds (0.0.0.0: every interface)',
+                                 read_only=True)
+        port = declare_parameter(self, 'port', 8080, 'web server port', min_value=1,
+                                 max_value=65535, read_only=True)
+        token = declare_parameter(self, 'token', '', 'operator token (empty: generate one)',
+                                  read_only=True)
+        render_rate = declare_parameter(self, 'render_rate', 40.0, 'scene updates per second [Hz]',
+                                        min_value=1.0, max_value=120.0, read_only=True)
+        enable_rate = declare_parameter(self, 'enable_rate', 20.0,
+                                        'teleop/enable and master/target_pose rate [Hz]',
+                                        min_value=10.0, max_value=100.0, read_only=True)
+        deadman_timeout = declare_parameter(self, 'deadman_timeout', 0.25,
+                                            'deadman expiry after the last hold event [s]',
+                                            min_value=0.05, max_value=2.0, read_only=True)
+        origin = declare_parameter(self, 'master_origin', [0.0, -0.9, 0.0],
+                                   'world position of the master robot console [m]',
+                                   read_only=True)
+        pole_radius = declare_parameter(self, 'pole_radius', 0.1, 'pole radius if no structure '
+                                        'model is available [m]', min_value=0.001, max_value=10.0,
+                                        read_only=True)
+        self._plot_window = declare_parameter(self, 'plot_window', 20.0,
+                                              'leg-length plot window [s]', min_value=1.0,
+                                              max_value=600.0, read_only=True)
+        if len(origin) != 3 or not all(math.isfinite(v) for v in origin):
+            raise ValueError(f'master_origin must be 3 finite numbers, got {list(origin)}')
+        self.token = token or secrets.token_urlsafe(12)
+        if len(self.token) < 8:
+            raise ValueError('token must have at least 8 characters')
+
+        from ..viewer import OperatorControl
+        self.control = OperatorControl(token=self.token, deadman_timeout=deadman_timeout)
+        self._lock = threading.Lock()
+        self._latest: dict[str, object] = {}
+        self._t0 = time.monotonic()
+        self._plot_t: collections.deque = collections.deque()
+        self._plot_l: collections.deque = collections.deque()
+        self._trails = {'ring_a': Trail(), 'ring_b': Trail()}
+        self._fk_status: DiagnosticStatus | None = None
+        self._actions: queue.SimpleQueue = queue.SimpleQueue()
+        self._master_target: Pose | None = None
+        self._enable_was = False
+        self._false_left = 0
+        self._master_origin = Pose(np.asarray(origin, dtype=float))
+
+        self._enable_pub = self.create_publisher(Bool, 'teleop/enable', COMMAND_QOS)
+        self._master_pub = self.create_publisher(PoseStamped, 'master/target_pose', COMMAND_QOS)
+        self.create_subscription(JointState, 'actuators/state', self._on_state, STATE_QOS)
+        for topic, qos in (('pose', STATE_QOS), ('target_pose', COMMAND_QOS),
+                           ('master/pose', STATE_QOS), ('odometry/ring_a', STATE_QOS),
+                           ('odometry/ring_b', STATE_QOS)):
+            self.create_subscription(PoseStamped, topic,
+                                     lambda msg, topic=topic: self._store(topic, msg), qos)
+        self.create_subscription(JointState, 'grippers/state',
+                                 lambda msg: self._store('grippers/state', msg), STATE_QOS)
+        for topic in ('teleop/status', 'climb/status'):
+            self.create_subscription(DiagnosticStatus, topic,
+                                     lambda msg, topic=topic: self._store(topic, msg), STATE_QOS)
+        self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, STATE_QOS)
+        self._service_clients = {
+            'up': self.create_client(Trigger, 'climb/step_up'),
+            'down': self.create_client(Trigger, 'climb/step_down'),
+            'ring_a': self.create_client(SetBool, 'grippers/ring_a/set'),
+            'ring_b': self.create_client(SetBool, 'grippers/ring_b/set'),
+            'teleop': self.create_client(SetParameters, 'teleop_node/set_parameters'),
+        }
+        self.create_timer(1.0 / enable_rate, self._tick)
+
+        self.viewer = ViewerServer(
+            host=host, port=port, control=self.control, actions=self, frame_source=self.frame,
+            geometry=self.geometry, master_geometry=self.master_geometry,
+            master_origin=self._master_origin,
+            structure=_structure_drawer(self.geometry, pole_radius, 6.0), rate=render_rate,
+            title=f'rrps · {self.geometry.name}')
+        shown = '127.0.0.1' if host in ('0.0.0.0', '::', '') else host
+        self.url = f'http://{shown}:{self.viewer.port}'
+        self.get_logger().info(f'viewer at {self.url} (bound to {host}); operator token: {self.token}')
+
+    # --- ROS callbacks (store only) ----------------------------------------------------------
+
+    def _store(self, key: str, msg) -> None:
+        with self._lock:
+            self._latest[key] = msg
+        if key.startswith('odometry/'):
+            position, _ = pose_from_msg(msg)
+            if np.all(np.isfinite(position)):
+                with self._lock:
+                    self._trails[key.split('/')[1]].add(position)
+
+    def _on_state(self, msg: JointState) -> None:
+        try:
+            lengths = lengths_from_joint_state(msg)
+        except ValueError as exc:
+            self.get_logger().warn(f'actuators/state ignored: {exc}', throttle_duration_sec=5.0)
+            return
+        efforts = None
+        if len(msg.effort) == len(msg.name) and msg.name:
+            index = {n: i for i, n in enumerate(msg.name)}
+            efforts = np.array([msg.effort[index[f'leg_{i}']] for i in range(1, 7)])
+        now = time.monotonic() - self._t0
+        with self._lock:
+            self._latest['actuators/state'] = (lengths, efforts, stamp_to_seconds(msg.header.stamp))
+            if not self._plot_t or now - self._plot_t[-1] >= 0.05:
+                self._plot_t.append(now)
+                self._plot_l.append(lengths)
+                while self._plot_t and now - self._plot_t[0] > self._plot_window:
+                    self._plot_t.popleft()
+                    self._plot_l.popleft()
+
+    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        for status in msg.status:
+            if status.name.startswith('fk_node'):
+                with self._lock:
+                    self._fk_status = status
+
+    # --- the picture (drawing thread) ---------------------------------------------------------
+
+    def _gripping(self, grippers: dict) -> str:
+        if grippers.get('ring_a', 1.0) is not None and grippers.get('ring_a', 1.0) >= 0.5:
+            return 'ring_a'
+        return 'ring_b' if (grippers.get('ring_b') or 0.0) >= 0.5 else 'ring_a'
+
+    def frame(self) -> Frame:
+        """The latest picture: robot, ghost, master, grippers, trails, panel and plot."""
+        with self._lock:
+            latest = dict(self._latest)
+            plot = ((np.array(self._plot_t), np.array(self._plot_l))
+                    if len(self._plot_t) >= 2 else None)
+            trails = {ring: trail.points for ring, trail in self._trails.items()}
+            fk_status = self._fk_status
+        grippers: dict[str, float | None] = {'ring_a': None, 'ring_b': None}
+        gmsg = latest.get('grippers/state')
+        if gmsg is not None:
+            for name, value in zip(gmsg.name, gmsg.position):
+                if name in grippers and math.isfinite(value):
+                    grippers[name] = float(value)
+        frame = Frame(grippers=grippers, trails=trails, plot=plot)
+        state = latest.get('actuators/state')
+        efforts = state[1] if state is not None else None
+        pose_msg = latest.get('pose')
+        world_T_a = None
+        if pose_msg is not None:
+            try:
+                a_T_b = Pose(*pose_from_msg(pose_msg))
+                gripping = self._gripping(grippers)
+                odom = latest.get(f'odometry/{gripping}')
+                world_T_g = Pose(*pose_from_msg(odom)) if odom is not None else None
+                if world_T_g is None:  # no odometry yet: ring_a at the world origin
+                    gripping, world_T_g = 'ring_a', Pose()
+                world_T_a, _ = world_ring_poses(a_T_b=a_T_b, gripping=gripping,
+                                                world_T_gripping=world_T_g)
+                frame.slave = robot_figure(self.geometry, a_T_b=a_T_b, world_T_a=world_T_a,
+                                           efforts=efforts)
+            except ValueError as exc:
+                self.get_logger().warn(f'cannot draw pose: {exc}', throttle_duration_sec=5.0)
+        target = latest.get('target_pose')
+        if target is not None and world_T_a is not None:
+            try:
+                frame.ghost_world_T_b = world_T_a.compose(Pose(*pose_from_msg(target)))
+            except ValueError:
+                pass
+        master_msg = latest.get('master/pose')
+        if master_msg is not None and self.master_geometry is not None:
+            try:
+                m_pose = Pose(*pose_from_msg(master_msg))
+                frame.master = robot_figure(self.master_geometry, a_T_b=m_pose,
+                                            world_T_a=self._master_origin)
+                frame.master_handle = frame.master.world_T_b
+            except ValueError:
+                pass
+        frame.panel = self._panel(latest, frame, fk_status)
+        return frame
+
+    def _panel(self, latest: dict, frame: Frame, fk_status) -> str:
+        lines = [f'**Teleop:** {_status_text(latest.get("teleop/status"))}',
+                 f'**Climb:** {_status_text(latest.get("climb/status"))}']
+        g = frame.grippers
+        lines.append('**Grippers:** ' + ', '.join(
+            f'{ring} {"?" if v is None else "closed" if v >= 0.5 else "open"}'
+            for ring, v in g.items()))
+        if frame.slave is not None:
+            m = frame.slave.margins
+            mins = m.minimum
+            f = frame.slave.fractions
+            lines.append(f'**Conditioning:** 1/cond {float(m.inverse_condition):.3f} '
+                         f'(min {self.geometry.min_conditioning:.3f})')
+            lines.append(f'**Margins:** stroke {float(mins["stroke"]) * 1e3:.1f} mm, '
+                         f'U-joint {math.degrees(float(mins["universal"])):.1f}°, '
+                         f'S-joint {math.degrees(float(mins["spherical"])):.1f}°, '
+                         f'interference {float(mins["interference"]) * 1e3:.1f} mm, '
+                         f'force {100.0 * float(np.min(f["force"])):.0f} %')
+            lines.append('**Legs:** ' + ' '.join(
+                f'{i + 1}:{length * 1e3:.0f}mm' for i, length in enumerate(frame.slave.lengths)))
+        if fk_status is not None:
+            values = {kv.key: kv.value for kv in fk_status.values}
+            lines.append(f'**FK:** {fk_status.message or "—"}, iterations '
+                         f'{values.get("iterations", "?")}, residual {values.get("residual", "?")}')
+        now = self.get_clock().now().nanoseconds * 1e-9
+        ages = []
+        state = latest.get('actuators/state')
+        if state is not None:
+            ages.append(f'state {1e3 * (now - state[2]):.1f} ms')
+        if latest.get('pose') is not None:
+            ages.append(f'FK pose {1e3 * (now - stamp_to_seconds(latest["pose"].header.stamp)):.1f} ms')
+        lines.append('**Latency:** ' + (', '.join(ages) if ages else 'no data yet'))
+        controller = self.control.controller
+        lines.append(f'**Operators:** {len(self.control.clients())} viewer(s); control: '
+                     f'{"free" if controller is None else f"operator {controller}"}; '
+                     f'deadman {"ON" if self.control.enable() else "off"}')
+        return '  \n'.join(lines)
+
+    # --- operator actions (viser threads -> queue -> executor thread) ---------------------------
+
+    def step(self, client_id: int, direction: str) -> None:
+        self._actions.put(('step', client_id, direction))
+
+    def set_gripper(self, client_id: int, ring: str, close: bool) -> None:
+        self._actions.put(('gripper', client_id, (ring, close)))
+
+    def set_mapping(self, client_id: int, mode: str, rotation_mode: str, scale: float) -> None:
+        self._actions.put(('mapping', client_id, (mode, rotation_mode, scale)))
+
+    def master_target(self, client_id: int, world_T_handle: Pose | None) -> None:
+        """The gizmo moved (or was removed: None). Streamed by the timer while control is held."""
+        with self._lock:
+            self._master_target = world_T_handle
+
+    def _tick(self) -> None:
+        enable = self.control.enable()
+        if enable:
+            self._enable_pub.publish(Bool(data=True))
+            self._false_left = 5
+        elif self._false_left > 0:  # a few explicit falses, then silence (stale = hold)
+            self._enable_pub.publish(Bool(data=False))
+            self._false_left -= 1
+        with self._lock:
+            target = self._master_target
+        if target is not None and self.control.controller is not None:
+            in_master = self._master_origin.inverse().compose(target)
+            self._master_pub.publish(pose_to_msg(in_master.position, in_master.quaternion_xyzw,
+                                                 frame_id='master_ring_a',
+                                                 stamp=self.get_clock().now().to_msg()))
+        while True:
+            try:
+                kind, client_id, arg = self._actions.get_nowait()
+            except queue.Empty:
+                break
+            if not self.control.may_control(client_id):
+                self.viewer.tell(client_id, 'read-only: you do not have control', ok=False)
+                continue
+            self._call(kind, client_id, arg)
+
+    def _call(self, kind: str, client_id: int, arg) -> None:
+        if kind == 'step':
+            client, request, what = self._service_clients[arg], Trigger.Request(), f'climb step {arg}'
+        elif kind == 'gripper':
+            ring, close = arg
+            client = self._service_clients[ring]
+            request, what = SetBool.Request(data=close), f'{"close" if close else "open"} {ring}'
+        else:
+            mode, rotation_mode, scale = arg
+            client, what = self._service_clients['teleop'], f'mapping {mode}/{rotation_mode} ×{scale:g}'
+            request = SetParameters.Request(parameters=[
+                Parameter(name='mode', value=ParameterValue(
+                    type=ParameterType.PARAMETER_STRING, string_value=mode)),
+                Parameter(name='rotation_mode', value=ParameterValue(
+                    type=ParameterType.PARAMETER_STRING, string_value=rotation_mode)),
+                Parameter(name='translation_scale', value=ParameterValue(
+                    type=ParameterType.PARAMETER_DOUBLE, double_value=float(scale)))])
+        if not client.service_is_ready():
+            self.viewer.tell(client_id, f'{what}: service {client.srv_name} is not available',
+                             ok=False)
+            return
+        future = client.call_async(request)
+
+        def done(fut) -> None:
+            response = fut.result()
+            if response is None:
+                self.viewer.tell(client_id, f'{what}: no response', ok=False)
+            elif kind == 'mapping':
+                bad = [r.reason for r in response.results if not r.successful]
+                self.viewer.tell(client_id, f'{what}: ' + ('; '.join(bad) if bad else 'applied'),
+                                 ok=not bad)
+            else:
+                self.viewer.tell(client_id, f'{what}: {response.message or "done"}',
+                                 ok=response.success)
+        future.add_done_callback(done)
+
+    def destroy_node(self) -> None:
+        self.viewer.stop()
+        super().destroy_node()
+
+
+def main(args=None) -> None:
+    run_nodes([ViewerNode], args)
+
+
+if __name__ == '__main__':
+    main()
