@@ -1,0 +1,184 @@
+"""Inchworm gait: every limit along every motion, the interlock, odometry, the frame junction."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from rrps_kinematics import inverse_kinematics, load_robot, margins
+from rrps_kinematics.rotations import matrix_to_quat_xyzw, rotation_vector_to_quat_xyzw
+from rrps_teleop.gait import GaitPlanner, PlanError, check_interlock, plan_climb
+from rrps_teleop.odometry import InterlockError, RingOdometry, invert, pose_matrix
+from rrps_teleop.structures import facade, palm_trunk, pole, structural_frame
+
+CASES = {
+    'pole': ('pole_climber', lambda: pole(3.0), 0.8, 11),
+    'palm_trunk': ('pole_climber', lambda: palm_trunk(3.0), 2.4, None),
+    'frame': ('frame_climber', lambda: structural_frame(), 2.5, None),
+    'frame_bent': ('frame_climber', lambda: structural_frame(bend_deg=10.0), 2.5, 12),
+    'facade': ('facade_climber', lambda: facade(4.0), 3.0, None),
+}
+
+
+@pytest.fixture(scope='module')
+def plans():
+    out = {}
+    for key, (robot, make, distance, steps) in CASES.items():
+        planner = GaitPlanner(load_robot(robot), make())
+        out[key] = (planner, planner.plan(distance, steps))
+    return out
+
+
+@pytest.mark.parametrize('key', list(CASES))
+def test_every_sampled_pose_keeps_every_limit(plans, key):
+    planner, plan = plans[key]
+    g = planner.geometry
+    path = np.concatenate([ph.path for ph in plan.phases])
+    m = margins(g, inverse_kinematics(g, path[:, :3, 3], matrix_to_quat_xyzw(path[:, :3, :3])))
+    assert np.all(m.ok), m.violations()[:3]
+    for ph in plan.phases:
+        assert all(v >= 0.0 for v in ph.min_margins.values() if not np.isnan(v)), (ph.step, ph.phase)
+    # Motions are sampled finely: no jump between consecutive checked poses > spacing (+ rotation).
+    for ph in plan.phases:
+        if ph.phase.startswith('move'):
+            assert np.max(np.linalg.norm(np.diff(ph.path[:, :3, 3], axis=0), axis=1)) < 2 * planner.spacing
+
+
+@pytest.mark.parametrize('key', list(CASES))
+def test_interlock_on_every_phase(plans, key):
+    _, plan = plans[key]
+    grips = np.array([(ph.gripper_a, ph.gripper_b) for ph in plan.phases])
+    assert np.all(grips.any(axis=1))                                 # never both open
+    assert np.all(np.abs(np.diff(grips.astype(int), axis=0)).sum(axis=1) <= 1)  # one switch at a time
+    for prev, ph in zip(plan.phases[:-1], plan.phases[1:]):
+        moved = not np.allclose(ph.a_T_b, prev.a_T_b, atol=1e-9)
+        if moved:
+            assert ph.phase.startswith('move') and grips[plan.phases.index(ph)].sum() == 1
+        if ph.s_a != prev.s_a:
+            assert not ph.gripper_a and ph.gripper_b
+        if ph.s_b != prev.s_b:
+            assert not ph.gripper_b and ph.gripper_a
+    check_interlock(plan.phases)
+
+
+@pytest.mark.parametrize('key', list(CASES))
+def test_odometry_matches_the_structure(plans, key):
+    """The chained odometry (a_T_b + grippers only) lands every ring on its grip frame."""
+    planner, plan = plans[key]
+    for ph in plan.phases:
+        wa, wb = planner.world_rings(ph.s_a, ph.s_b, ph.theta_a, ph.theta_b)
+        assert np.allclose(ph.world_T_a, wa, atol=1e-7), (ph.step, ph.phase)
+        assert np.allclose(ph.world_T_b, wb, atol=1e-7), (ph.step, ph.phase)
+        assert np.allclose(invert(ph.world_T_a) @ ph.world_T_b, ph.a_T_b, atol=1e-9)
+
+
+def test_pole_climber_800_mm_in_11_steps(plans):
+    planner, plan = plans['pole']
+    assert plan.steps == 11 and plan.step_length == pytest.approx(0.8 / 11)
+    assert plan.climbed == pytest.approx(0.8)
+    ends = [ph for ph in plan.phases if ph.phase == 'grip_a']
+    assert len(ends) == 11
+    assert np.allclose([ph.world_T_a[2, 3] for ph in ends], 0.8 / 11 * np.arange(1, 12))
+    assert np.allclose(plan.phases[-1].world_T_a[:3, 3], [0.0, 0.0, 0.8])
+
+
+def test_palm_trunk_is_followed_with_tilted_rings(plans):
+    planner, plan = plans['palm_trunk']
+    assert plan.climbed == pytest.approx(2.4)
+    tilt = max(np.arccos(np.clip(ph.a_T_b[2, 2], -1, 1)) for ph in plan.phases)
+    assert tilt > 0.03  # the rings' relative pose tilts to follow the curvature
+    assert plan.phases[-1].s_b <= planner.structure.length  # stayed on the 3 m trunk
+    assert plan.min_margins['clearance'] > 0.0              # legs clear of the swollen trunk
+
+
+def test_frame_junction_needs_the_extra_dof(plans):
+    planner, plan = plans['frame']
+    junction = planner.structure.junctions[0]
+    assert plan.phases[-1].s_a > junction and plan.phases[-1].s_b > junction
+    assert abs(plan.phases[-1].theta_b) == pytest.approx(np.pi / 2, abs=1e-6)
+    assert plan.min_margins['interference'] > 0.0
+    with pytest.raises(PlanError) as info:
+        plan_climb(planner.geometry, planner.structure, 2.5, use_extra_dof=False)
+    err = info.value
+    assert err.limit in ('stroke', 'universal', 'spherical', 'interference', 'conditioning')
+    assert err.legs and err.phase == 'move_b' and f'step {err.step}' in str(err)
+    assert err.limit in str(err) or err.limit.replace('_', ' ') in str(err)
+    # Twisting the legs brings them closer: the interference margin where the plan breaks
+    # is below the smallest one of the plan that uses the extra DOF.
+    assert err.margins['interference'] < plan.min_margins['interference']
+
+
+def test_refusal_names_limit_legs_step_and_phase():
+    g = load_robot('pole_climber')
+    with pytest.raises(PlanError) as info:
+        plan_climb(g, pole(3.0), 0.8, 1)  # one 800 mm step: beyond the stroke
+    err = info.value
+    assert err.limit == 'stroke'
+    assert err.legs and all(leg.startswith('leg_') for leg in err.legs)
+    assert str(err).startswith(f'step {err.step}, phase {err.phase}')
+    assert 'min_length' in str(err) or 'max_length' in str(err)
+
+
+def test_climb_down_returns_to_the_start():
+    g = load_robot('pole_climber')
+    planner = GaitPlanner(g, pole(3.0))
+    up = planner.plan(0.5, 4, start=0.2)
+    last = up.phases[-1]
+    down = planner.plan(-0.5, 4, start=last.s_a, initial_separation=last.s_b - last.s_a)
+    assert [ph.phase for ph in down.phases[:3]] == ['start', 'release_a', 'move_a']  # ring_a leads
+    assert down.phases[-1].s_a == pytest.approx(0.2)
+    assert np.allclose(down.phases[-1].world_T_a[:3, 3], [0.0, 0.0, 0.2])
+
+
+def test_facade_rings_stay_on_the_plane(plans):
+    planner, plan = plans['facade']
+    for ph in plan.phases:
+        if ph.gripper_a:
+            assert ph.world_T_a[1, 3] == pytest.approx(0.0, abs=1e-9)
+    # a traverse: the rings move along x, their axes stay the wall normal
+    assert plan.phases[-1].world_T_a[0, 3] - plan.phases[0].world_T_a[0, 3] == pytest.approx(3.0)
+    assert np.allclose(plan.phases[-1].world_T_a[:3, 2], [0.0, -1.0, 0.0])
+
+
+def test_check_interlock_catches_bad_sequences(plans):
+    _, plan = plans['pole']
+    phases = copy.deepcopy(plan.phases[:4])
+    phases[2].gripper_a = False  # move_b with ring_a open too
+    with pytest.raises(PlanError, match='both grippers open') as info:
+        check_interlock(phases)
+    assert info.value.limit == 'interlock'
+    phases = copy.deepcopy(plan.phases[:4])
+    phases[2].gripper_b = True   # ring_b moves while gripping
+    with pytest.raises(PlanError, match='interlock'):
+        check_interlock(phases)
+
+
+def test_bad_requests_raise_value_error():
+    g = load_robot('pole_climber')
+    with pytest.raises(ValueError, match='distance'):
+        plan_climb(g, pole(3.0), 0.0)
+    with pytest.raises(ValueError, match='steps'):
+        plan_climb(g, pole(3.0), 0.5, 0)
+    with pytest.raises(ValueError, match='leaves the pole'):
+        plan_climb(g, pole(3.0), 5.0)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.tuples(st.floats(-0.2, 0.2), st.floats(-0.2, 0.2), st.floats(0.3, 0.5),
+                          st.floats(-0.3, 0.3), st.booleans()), min_size=1, max_size=8))
+def test_odometry_keeps_the_gripping_ring_fixed(moves):
+    """Whatever a_T_b does, the ring that grips stays put; with both closed ring_a is the reference."""
+    odo = RingOdometry(pose_matrix([1.0, 2.0, 3.0], [0, 0, 0, 1]), pose_matrix([0, 0, 0.4], [0, 0, 0, 1]))
+    for x, y, z, angle, a_grips in moves:
+        a_T_b = pose_matrix([x, y, z], rotation_vector_to_quat_xyzw(np.array([angle, 0.0, 0.0])))
+        before_a, before_b = odo.world_T_a.copy(), odo.world_T_b.copy()
+        odo.update(a_T_b, a_grips, not a_grips)
+        fixed, moved = (odo.world_T_a, before_a) if a_grips else (odo.world_T_b, before_b)
+        assert np.allclose(fixed, moved, atol=1e-9)
+        assert np.allclose(invert(odo.world_T_a) @ odo.world_T_b, a_T_b, atol=1e-9)
+    with pytest.raises(InterlockError):
+        odo.update(np.eye(4), False, False)
