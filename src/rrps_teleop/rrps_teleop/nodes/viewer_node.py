@@ -61,20 +61,29 @@ _LEVEL_NAMES = {DiagnosticStatus.OK: 'OK', DiagnosticStatus.WARN: 'WARN',
                 DiagnosticStatus.ERROR: 'ERROR', DiagnosticStatus.STALE: 'STALE'}
 
 
-def _structure_drawer(geometry, radius: float, height: float):
-    """The climbed member for viser: the climbing engineer's structure if shipped, else a pole."""
+def _structure_drawer(name: str, length: float):
+    """The climbed member for viser, from ``rrps_teleop.structures`` (a plain pole without it)."""
+    if not name:
+        return None
     try:
-        from .. import structures
+        from ..structures import make_structure
     except ImportError:
-        structures = None
-    draw = getattr(structures, 'draw_in_viser', None) if structures is not None else None
-    if draw is not None:
-        return lambda scene: draw(scene, geometry)
+        make_structure = None
+    if make_structure is None:
+        if name != 'pole':
+            raise ValueError(f'structure {name!r} needs rrps_teleop.structures')
 
-    def pole(scene) -> None:
-        scene.add_cylinder('/structure', radius=radius, height=height, color=(150, 110, 70),
-                           position=(0.0, 0.0, 0.5 * height - 0.5), radial_segments=32)
-    return pole
+        def plain_pole(scene) -> None:
+            scene.add_cylinder('/structure', radius=0.1, height=length, color=(150, 110, 70),
+                               position=(0.0, 0.0, 0.5 * length))
+        return plain_pole
+    vertices, faces = make_structure(name, length).mesh()
+
+    def draw(scene) -> None:
+        scene.add_mesh_simple('/structure', np.asarray(vertices, dtype=np.float32),
+                              np.asarray(faces, dtype=np.uint32), color=(150, 110, 70),
+                              side='double')
+    return draw
 
 
 def _status_text(status: DiagnosticStatus | None) -> str:
@@ -115,9 +124,12 @@ class ViewerNode(Node):
         origin = declare_parameter(self, 'master_origin', [0.0, -0.9, 0.0],
                                    'world position of the master robot console [m]',
                                    read_only=True)
-        pole_radius = declare_parameter(self, 'pole_radius', 0.1, 'pole radius if no structure '
-                                        'model is available [m]', min_value=0.001, max_value=10.0,
-                                        read_only=True)
+        structure = declare_parameter(self, 'structure', 'pole',
+                                      'structure to draw (pole, palm_trunk, frame, facade; '
+                                      'empty: none)', read_only=True)
+        structure_length = declare_parameter(self, 'structure_length', 3.0,
+                                             'length of the drawn structure [m]', min_value=0.5,
+                                             max_value=100.0, read_only=True)
         self._plot_window = declare_parameter(self, 'plot_window', 20.0,
                                               'leg-length plot window [s]', min_value=1.0,
                                               max_value=600.0, read_only=True)
@@ -169,7 +181,7 @@ class ViewerNode(Node):
             host=host, port=port, control=self.control, actions=self, frame_source=self.frame,
             geometry=self.geometry, master_geometry=self.master_geometry,
             master_origin=self._master_origin,
-            structure=_structure_drawer(self.geometry, pole_radius, 6.0), rate=render_rate,
+            structure=_structure_drawer(structure, structure_length), rate=render_rate,
             title=f'rrps · {self.geometry.name}')
         shown = '127.0.0.1' if host in ('0.0.0.0', '::', '') else host
         self.url = f'http://{shown}:{self.viewer.port}'

@@ -1,0 +1,160 @@
+"""The scripted operator of ``rrps-demo --headless``: a teleop session and a climb, no browser.
+
+It uses the same topics and services as a person at the viewer: ``master/target_pose`` (the
+handle), ``teleop/enable`` (the deadman, 20 Hz while held), ``climb/step_up``; it checks the
+robot's answer on ``pose``, ``teleop/status``, ``climb/status`` and ``odometry/*``.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticStatus
+from geometry_msgs.msg import PoseStamped
+from rclpy.node import Node
+from std_msgs.msg import Bool
+from std_srvs.srv import Trigger
+
+from rrps_kinematics.nodes.common import COMMAND_QOS, STATE_QOS, pose_from_msg, pose_to_msg
+
+#: Master handle displacement of the scripted session [m] (the slave moves translation_scale x).
+HANDLE_STEP = 0.004
+
+
+class DemoScript(Node):
+    """Plays the operator; :meth:`run` returns True when every check passed."""
+
+    def __init__(self, **kwargs):
+        super().__init__('demo_script', **kwargs)
+        self._lock = threading.Lock()
+        self._latest: dict[str, object] = {}
+        for topic in ('pose', 'master/pose', 'odometry/ring_a', 'odometry/ring_b'):
+            self.create_subscription(PoseStamped, topic,
+                                     lambda m, topic=topic: self._store(topic, m), STATE_QOS)
+        for topic in ('teleop/status', 'climb/status'):
+            self.create_subscription(DiagnosticStatus, topic,
+                                     lambda m, topic=topic: self._store(topic, m), STATE_QOS)
+        self._enable = self.create_publisher(Bool, 'teleop/enable', COMMAND_QOS)
+        self._handle = self.create_publisher(PoseStamped, 'master/target_pose', COMMAND_QOS)
+        self._step_up = self.create_client(Trigger, 'climb/step_up')
+
+    def _store(self, topic: str, msg) -> None:
+        with self._lock:
+            self._latest[topic] = msg
+
+    def _get(self, topic: str):
+        with self._lock:
+            return self._latest.get(topic)
+
+    def _wait(self, predicate, timeout: float, stop: threading.Event, every=None) -> bool:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline and not stop.is_set():
+            if every is not None:
+                every()
+            if predicate():
+                return True
+            time.sleep(0.05)
+        return bool(predicate())
+
+    def _position(self, topic: str) -> np.ndarray | None:
+        msg = self._get(topic)
+        return None if msg is None else pose_from_msg(msg)[0]
+
+    def _status(self, topic: str) -> tuple[str, dict]:
+        msg = self._get(topic)
+        if msg is None:
+            return '', {}
+        return msg.message, {kv.key: kv.value for kv in msg.values}
+
+    @staticmethod
+    def _say(text: str) -> None:
+        print(f'rrps demo --headless: {text}', flush=True)
+
+    def run(self, stop: threading.Event, *, viewer=None) -> bool:
+        """The scripted session; prints each step and returns overall success."""
+        checks: list[tuple[str, bool]] = []
+        ok = self._wait(lambda: self._get('pose') is not None and self._get('master/pose') is not None,
+                        15.0, stop)
+        checks.append(('robot and master publish their FK poses', ok))
+        self._say(f'robot and master up: {ok}')
+        if ok:
+            checks += self._teleop(stop)
+        if not stop.is_set():
+            checks += self._climb(stop)
+        if viewer is not None:
+            drawn = viewer.viewer.frames_drawn
+            checks.append((f'viewer drew {drawn} frames at {viewer.url}', drawn > 0))
+        self._say('summary:')
+        for text, passed in checks:
+            print(f'  [{"PASS" if passed else "FAIL"}] {text}', flush=True)
+        return bool(checks) and all(passed for _, passed in checks)
+
+    def _teleop(self, stop: threading.Event) -> list[tuple[str, bool]]:
+        checks = []
+        start = self._position('pose')
+        m_pos, m_quat = pose_from_msg(self._get('master/pose'))
+        enable = lambda: self._enable.publish(Bool(data=True))  # noqa: E731
+        engaged = self._wait(lambda: self._status('teleop/status')[1].get('engaged') == 'true',
+                             5.0, stop, every=enable)
+        checks.append(('deadman held: teleop engaged', engaged))
+        self._say(f'deadman held, teleop status {self._status("teleop/status")[0]!r}')
+        target = pose_to_msg(m_pos + [0.0, 0.0, HANDLE_STEP], m_quat, frame_id='master_ring_a',
+                             stamp=self.get_clock().now().to_msg())
+
+        def hold_and_move() -> None:
+            enable()
+            target.header.stamp = self.get_clock().now().to_msg()
+            self._handle.publish(target)
+
+        scale = float(self._status('teleop/status')[1].get('scale', '4'))
+        expected = scale * HANDLE_STEP
+        followed = self._wait(lambda: self._position('pose')[2] - start[2] > 0.8 * expected,
+                              6.0, stop, every=hold_and_move)
+        moved = self._position('pose') - start
+        checks.append((f'slave followed the master: moved {moved[2] * 1e3:.1f} mm up '
+                       f'(master {HANDLE_STEP * 1e3:.1f} mm x scale {scale:g})', followed))
+        self._say(f'master handle up {HANDLE_STEP * 1e3:.1f} mm -> slave up {moved[2] * 1e3:.1f} mm')
+        # Release the deadman: the mapping disengages and the robot holds.
+        released = self._wait(lambda: self._status('teleop/status')[1].get('engaged') == 'false',
+                              2.0, stop)
+        held_at = self._position('pose')
+        time.sleep(0.5)
+        drift = float(np.linalg.norm(self._position('pose') - held_at))
+        checks.append((f'deadman released: disengaged ({self._status("teleop/status")[0]}) and '
+                       f'the robot holds (drift {drift * 1e3:.2f} mm)', released and drift < 1e-3))
+        self._say(f'deadman released, teleop status {self._status("teleop/status")[0]!r}, '
+                  f'drift {drift * 1e3:.2f} mm in 0.5 s')
+        return checks
+
+    def _climb(self, stop: threading.Event) -> list[tuple[str, bool]]:
+        if not self._step_up.wait_for_service(timeout_sec=5.0):
+            return [('climb/step_up service available', False)]
+        before = {ring: self._position(f'odometry/{ring}') for ring in ('ring_a', 'ring_b')}
+        future = self._step_up.call_async(Trigger.Request())
+        got = self._wait(future.done, 10.0, stop)
+        response = future.result() if got else None
+        accepted = response is not None and response.success
+        self._say(f'climb/step_up -> {response.message if response is not None else "no answer"!r}')
+        checks = [('climb step up accepted', accepted)]
+        if not accepted:
+            return checks
+        seen_executing = self._wait(lambda: self._status('climb/status')[0] == 'executing', 5.0,
+                                    stop)
+        t0 = time.monotonic()
+        done = self._wait(lambda: self._status('climb/status')[0] in ('idle', 'error'), 120.0,
+                          stop)
+        message, values = self._status('climb/status')
+        self._say(f'climb finished in {time.monotonic() - t0:.1f} s: {message} {values}')
+        checks.append(('climb step executed and ended idle',
+                       seen_executing and done and message == 'idle'))
+        after = {ring: self._position(f'odometry/{ring}') for ring in ('ring_a', 'ring_b')}
+        if all(p is not None for p in (*before.values(), *after.values())):
+            rise = {ring: float(after[ring][2] - before[ring][2]) for ring in before}
+            checks.append((f'both rings climbed: ring_a {rise["ring_a"] * 1e3:+.0f} mm, ring_b '
+                           f'{rise["ring_b"] * 1e3:+.0f} mm (world odometry)',
+                           min(rise.values()) > 0.01))
+        else:
+            checks.append(('world odometry of both rings received', False))
+        return checks
