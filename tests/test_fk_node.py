@@ -13,6 +13,7 @@ from rrps_kinematics import inverse_kinematics, load_robot
 from rrps_kinematics.nodes.common import joint_state_msg
 from rrps_kinematics.nodes.fk_node import FkNode
 from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
+from rrps_kinematics.tracking import PoseTracker
 
 POLE = load_robot('pole_climber')
 
@@ -27,6 +28,11 @@ def test_pose_of_measured_lengths_and_every_failure_keeps_the_last_estimate(ros_
     p = POLE.home_position + [0.012, -0.008, 0.02]
     q = rotation_vector_to_quat_xyzw(np.array([0.04, 0.03, -0.06]))
     lengths = inverse_kinematics(POLE, p, q).lengths
+    # lengths of a far pose whose solution from here lies across a singularity (checked offline)
+    far_lengths = inverse_kinematics(POLE, [0.1625, -0.0235, 0.3632], [-0.2923, 0.5986, 0.4026, 0.6278]).lengths
+    tracker = PoseTracker(POLE)
+    tracker.reset(p, q)
+    assert 'det(J)' in tracker.update(far_lengths).reason
     with Spinner(ros_context, [node, probe]):
         assert wait_for(lambda: pub.get_subscription_count() == 1, 5.0)
         pub.publish(joint_state_msg(stamp, lengths))
@@ -43,7 +49,7 @@ def test_pose_of_measured_lengths_and_every_failure_keeps_the_last_estimate(ros_
             (joint_state_msg(stamp, [0.4] * 5 + [np.nan]), 'NaN'),
             (JointState(position=[0.4] * 7), 'expected 6 positions'),
             (joint_state_msg(stamp, [0.01, 0.9, 0.01, 0.9, 0.01, 0.9]), 'no convergence'),
-            (joint_state_msg(stamp, inverse_kinematics(POLE, p + [0.0, 0.0, 0.1], q).lengths), 'jumped'),
+            (joint_state_msg(stamp, far_lengths), 'det(J) changed sign'),
         ]
         for msg, text in bad:
             failed = node.failed
@@ -57,7 +63,7 @@ def test_pose_of_measured_lengths_and_every_failure_keeps_the_last_estimate(ros_
         assert pose_error(poses[1], p + [0.0, 0.0, 0.001], q)[0] < 1e-9
 
 
-def test_first_solve_from_far_initial_lengths_and_max_jump_disabled(ros_context):
+def test_far_initial_lengths_and_run_time_max_jump(ros_context):
     node = FkNode(context=ros_context, namespace='/t')
     probe = Probe(context=ros_context, namespace='/t')
     poses = probe.collect(PoseStamped, 'pose')
@@ -65,9 +71,10 @@ def test_first_solve_from_far_initial_lengths_and_max_jump_disabled(ros_context)
     far = [POLE.home_position + [0.0, 0.0, 0.06], POLE.home_position + [0.0, 0.0, -0.05]]
     with Spinner(ros_context, [node, probe]):
         assert wait_for(lambda: pub.get_subscription_count() == 1, 5.0)
-        for k, p in enumerate(far):  # 0.06 m from home (first solve: accepted), then 0.11 m
+        for k, p in enumerate(far):  # 0.06 m from home, then 0.11 m: solved by continuation
             if k == 1:
-                assert node.set_parameters([Parameter('max_jump', value=0.0)])[0].successful
+                assert node.set_parameters([Parameter('max_jump', value=0.2)])[0].successful
+                assert node.tracker.max_jump == 0.2  # direct solve
             pub.publish(joint_state_msg(probe.get_clock().now().to_msg(),
                                         inverse_kinematics(POLE, p, [0, 0, 0, 1]).lengths))
             assert wait_for(lambda: len(poses) == k + 1, 3.0)
@@ -78,5 +85,5 @@ def test_parameter_ranges_are_enforced(ros_context):
     node = FkNode(context=ros_context)
     assert not node.set_parameters([Parameter('max_jump', value=-1.0)])[0].successful
     assert not node.set_parameters([Parameter('robot', value='frame_climber')])[0].successful  # read-only
-    assert node.max_jump == 0.05
+    assert node.tracker.max_jump == 0.05
     node.destroy_node()
