@@ -27,6 +27,8 @@ POLE = load_robot('pole_climber')
 IDEAL = dict(time_constant=0.0, limit_speed=False, publish_on_command=True)
 TOL = 1e-6
 
+pytestmark = pytest.mark.ros
+
 
 class Chain:
     def __init__(self, context, **driver_overrides):

@@ -18,6 +18,8 @@ from rrps_sim.statics import holding_forces
 
 POLE = load_robot('pole_climber')
 
+pytestmark = pytest.mark.ros
+
 
 def driver(ros_context, **overrides):
     return DriverNode(context=ros_context, namespace='/t',

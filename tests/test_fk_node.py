@@ -1,6 +1,7 @@
 """fk_node in-process: actuators/state -> pose, warm-started; bad input, non-convergence and jumps."""
 
 import numpy as np
+import pytest
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
 from rclpy.parameter import Parameter
@@ -16,6 +17,8 @@ from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
 from rrps_kinematics.tracking import PoseTracker
 
 POLE = load_robot('pole_climber')
+
+pytestmark = pytest.mark.ros
 
 
 def test_pose_of_measured_lengths_and_every_failure_keeps_the_last_estimate(ros_context):

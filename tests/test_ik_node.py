@@ -17,6 +17,8 @@ from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
 
 POLE = load_robot('pole_climber')
 
+pytestmark = pytest.mark.ros
+
 
 @pytest.fixture
 def relaxed_robot(tmp_path):
