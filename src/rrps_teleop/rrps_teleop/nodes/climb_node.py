@@ -1,0 +1,342 @@
+"""climb_node: executes inchworm gait steps (``rrps_teleop.gait``) on the robot over ROS.
+
+Every phase of a checked plan is executed through the same paths as any other command: motions
+stream ``target_pose`` (PoseStamped a_T_b, frame ring_a; so the IK node's guards apply) along
+the planned path at ``speed``, and grippers switch through the driver's
+``grippers/ring_a|ring_b/set`` services. Before a gripper switches, the measured ``pose`` (FK of
+the measured lengths) must have arrived within ``position_tolerance`` / ``orientation_tolerance``
+of the planned pose, and a gripper is only opened when ``grippers/state`` shows the other one
+closed (the interlock, on top of the planner's and the driver's).
+
+Services ``climb/step_up``, ``climb/step_down`` (std_srvs/Trigger) plan and start one step;
+``auto_steps`` > 0 climbs that many steps up once the robot's state is known (scripted runs).
+A step is refused while ``teleop/status`` says engaged, while another executes, or when the
+planner refuses it (the reply says which limit and where).
+
+Publishes ``climb/status`` (DiagnosticStatus: message idle | executing | error; values step,
+phase, structure, s_a, s_b, steps_done, detail) and the world odometry of both rings
+``odometry/ring_a``, ``odometry/ring_b`` (PoseStamped, frame ``world``) chained from ``pose``
+and ``grippers/state`` (``rrps_teleop.odometry``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PoseStamped
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_srvs.srv import SetBool, Trigger
+
+from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, OK, STATE_QOS, WARN, Diagnostics,
+                                          declare_parameter, declare_robot_parameter, pose_from_msg,
+                                          pose_to_msg, run_nodes)
+from rrps_kinematics.rotations import (matrix_to_quat_xyzw, quat_multiply_xyzw, quat_conjugate_xyzw,
+                                       quat_xyzw_to_rotation_vector)
+
+from ..gait import GaitPlanner, PlanError
+from ..odometry import RingOdometry, matrix_pose, pose_matrix
+from ..structures import STRUCTURES, make_structure
+
+IDLE, EXECUTING, FAILED = 'idle', 'executing', 'error'
+
+
+def pose_error(T1: np.ndarray, T2: np.ndarray) -> tuple[float, float]:
+    """(position error [m], rotation angle [rad]) between two 4x4 poses."""
+    p1, q1 = matrix_pose(T1)
+    p2, q2 = matrix_pose(T2)
+    angle = float(np.linalg.norm(quat_xyzw_to_rotation_vector(quat_multiply_xyzw(quat_conjugate_xyzw(q1), q2))))
+    return float(np.linalg.norm(p1 - p2)), angle
+
+
+class ClimbNode(Node):
+    """Executes climbing steps on the driver; see the module docstring."""
+
+    def __init__(self, **kwargs):
+        super().__init__('climb_node', **kwargs)
+        self.geometry = declare_robot_parameter(self)
+        name = declare_parameter(self, 'structure', 'pole', f'climbed structure: {", ".join(sorted(STRUCTURES))}',
+                                 read_only=True)
+        length = declare_parameter(self, 'structure_length', 0.0,
+                                   'route length of the structure [m]; 0 = its shipped length',
+                                   min_value=0.0, max_value=1000.0, read_only=True)
+        start = declare_parameter(self, 'start', -1.0,
+                                  "route position of ring_a's gripper at start [m]; negative = the lowest that fits",
+                                  min_value=-1.0, max_value=1000.0, read_only=True)
+        step = declare_parameter(self, 'step_length', 0.0,
+                                 "length of one step [m]; 0 = the planner's default for the robot",
+                                 min_value=0.0, max_value=10.0, read_only=True)
+        self.auto_steps = declare_parameter(self, 'auto_steps', 0,
+                                            'scripted climb: steps up to climb at start (0 = none)',
+                                            min_value=0, max_value=10000, read_only=True)
+        self.speed = declare_parameter(self, 'speed', 0.02, 'speed of the moving gripper along its path [m/s]',
+                                       min_value=1e-3, max_value=1.0, read_only=True)
+        rate = declare_parameter(self, 'rate', 50.0, 'target_pose stream and state machine rate [Hz]',
+                                 min_value=1.0, max_value=1000.0, read_only=True)
+        self.position_tolerance = declare_parameter(
+            self, 'position_tolerance', 0.002, 'arrival tolerance of the measured pose [m]',
+            min_value=1e-5, max_value=0.1, read_only=True)
+        self.orientation_tolerance = declare_parameter(
+            self, 'orientation_tolerance', 0.01, 'arrival tolerance of the measured pose [rad]',
+            min_value=1e-5, max_value=0.5, read_only=True)
+        self.settle_timeout = declare_parameter(
+            self, 'settle_timeout', 5.0, 'longest wait for the pose to arrive or a gripper to switch [s]',
+            min_value=0.1, max_value=600.0, read_only=True)
+        use_dof = declare_parameter(self, 'use_extra_dof', True,
+                                    'use the extra ring DOF where the robot has one', read_only=True)
+        if name not in STRUCTURES:
+            raise ValueError(f'structure must be one of {sorted(STRUCTURES)}, got {name!r}')
+        self.structure = make_structure(name, length or None)
+        self.planner = GaitPlanner(self.geometry, self.structure, use_extra_dof=use_dof)
+        self.step_length = step or self.planner.default_step
+        sep = self.planner.sep_home
+        s_a = max(0.0, -sep) if start < 0.0 else start
+        if not (0.0 <= s_a and s_a + sep <= self.structure.length):
+            raise ValueError(f'start {s_a} m: the robot does not fit on the {name} '
+                             f'(route 0 .. {self.structure.length:.3f} m)')
+        self.s_a, self.s_b, self.theta = s_a, s_a + sep, 0.0
+        self.dt = 1.0 / rate
+
+        self.mode = IDLE
+        self.detail = 'waiting for pose and grippers/state'
+        self.steps_done = 0
+        self.pose: np.ndarray | None = None
+        self.grippers: dict[str, bool] | None = None
+        self.teleop_engaged = False
+        self.odometry: RingOdometry | None = None
+        self._phases: list = []
+        self._index = 0
+        self._stage = ''
+        self._t = 0.0
+        self._deadline = 0.0
+        self._future = None
+        self._phase_times = np.zeros(1)
+        self._auto_started = False
+        self._last_status = None
+
+        self._target_pub = self.create_publisher(PoseStamped, 'target_pose', COMMAND_QOS)
+        self._status_pub = self.create_publisher(DiagnosticStatus, 'climb/status', STATE_QOS)
+        self._odo_pubs = {ring: self.create_publisher(PoseStamped, f'odometry/{ring}', STATE_QOS)
+                          for ring in ('ring_a', 'ring_b')}
+        self.create_subscription(PoseStamped, 'pose', self._on_pose, STATE_QOS)
+        self.create_subscription(JointState, 'grippers/state', self._on_grippers, STATE_QOS)
+        self.create_subscription(DiagnosticStatus, 'teleop/status', self._on_teleop, STATE_QOS)
+        self._gripper_clients = {ring: self.create_client(SetBool, f'grippers/{ring}/set') for ring in ('ring_a', 'ring_b')}
+        self.create_service(Trigger, 'climb/step_up', lambda req, res: self._on_step(res, +1))
+        self.create_service(Trigger, 'climb/step_down', lambda req, res: self._on_step(res, -1))
+        self._diag = Diagnostics(self, 'climb')
+        self.create_timer(self.dt, self._on_tick)
+        self.create_timer(0.5, lambda: self._publish_status(force=True))
+
+    # --- inputs ---------------------------------------------------------------------------------
+
+    def _on_pose(self, msg: PoseStamped) -> None:
+        p, q = pose_from_msg(msg)
+        if msg.header.frame_id != 'ring_a' or not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
+            return
+        self.pose = pose_matrix(p, q / np.linalg.norm(q))
+        if self.grippers is None:
+            return
+        ma, mb = self.planner.mounts(*self._thetas())
+        if self.odometry is None:
+            world_T_a = self.planner.world_rings(self.s_a, self.s_b, self.theta, self.theta)[0]
+            self.odometry = RingOdometry(world_T_a, self.pose, a_T_grip=ma, b_T_grip=mb)
+        elif self.grippers['ring_a'] or self.grippers['ring_b']:
+            self.odometry.update(self.pose, self.grippers['ring_a'], self.grippers['ring_b'],
+                                 a_T_grip=ma, b_T_grip=mb)
+        else:
+            self._fail('interlock: grippers/state shows both grippers open')
+            return
+        stamp = msg.header.stamp
+        for ring, T in (('ring_a', self.odometry.world_T_a), ('ring_b', self.odometry.world_T_b)):
+            position, quaternion = matrix_pose(T)
+            self._odo_pubs[ring].publish(pose_to_msg(position, quaternion, frame_id='world', stamp=stamp))
+
+    def _on_grippers(self, msg: JointState) -> None:
+        state = dict(zip(msg.name, msg.position))
+        if 'ring_a' in state and 'ring_b' in state:
+            self.grippers = {ring: state[ring] > 0.5 for ring in ('ring_a', 'ring_b')}
+
+    def _on_teleop(self, msg: DiagnosticStatus) -> None:
+        values = {kv.key: kv.value for kv in msg.values}
+        self.teleop_engaged = values.get('engaged', 'false').lower() in ('true', '1')
+
+    def _thetas(self) -> tuple[float, float]:
+        if self.mode == EXECUTING and self._phases:
+            ph = self._phases[min(self._index, len(self._phases) - 1)]
+            return ph.theta_a, ph.theta_b
+        return self.theta, self.theta
+
+    # --- starting a climb -----------------------------------------------------------------------
+
+    def _on_step(self, response, direction: int):
+        response.success, response.message = self.start_climb(direction * self.step_length, 1)
+        return response
+
+    def start_climb(self, distance: float, steps: int) -> tuple[bool, str]:
+        """Plan and start a climb of ``distance`` [m] in ``steps``; (accepted, message)."""
+        if self.mode == EXECUTING:
+            return False, 'refused: a climb is executing'
+        if self.mode == FAILED:
+            return False, f'refused: climb_node is in error ({self.detail})'
+        if self.teleop_engaged:
+            return False, 'refused: teleoperation is engaged'
+        if self.pose is None or self.grippers is None:
+            return False, 'refused: no pose or grippers/state received yet'
+        try:
+            plan = self.planner.plan(distance, steps, start=self.s_a,
+                                     initial_separation=self.s_b - self.s_a, initial_theta=self.theta)
+        except (PlanError, ValueError) as exc:
+            self.detail = f'plan refused: {exc}'
+            self.get_logger().warning(self.detail)
+            self._publish_status(force=True)
+            return False, f'refused: {exc}'
+        self._phases = plan.phases
+        self._index = 0
+        self._enter_phase()
+        self.mode = EXECUTING
+        self.detail = f'{plan.steps} step(s) of {plan.step_length:.3f} m, {len(plan.phases)} phases'
+        self._publish_status(force=True)
+        return True, f'started: {self.detail}'
+
+    # --- execution ------------------------------------------------------------------------------
+
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def _enter_phase(self) -> None:
+        ph = self._phases[self._index]
+        self._t = 0.0
+        self._future = None
+        self._deadline = self._now() + self.settle_timeout
+        if ph.phase.startswith('move'):
+            p = ph.path[:, :3, 3]
+            angles = [pose_error(a, b)[1] for a, b in zip(ph.path[:-1], ph.path[1:])]
+            seg = np.linalg.norm(np.diff(p, axis=0), axis=1) + self.geometry.characteristic_length * np.array(angles)
+            self._phase_times = np.concatenate([[0.0], np.cumsum(seg)]) / self.speed
+            self._stage = 'stream'
+        else:
+            self._stage = 'arrive'
+
+    def _target(self, t: float) -> np.ndarray:
+        """The planned a_T_b at time t of the current motion (positions lerped, rotations nlerped)."""
+        path = self._phases[self._index].path
+        times = self._phase_times
+        if t >= times[-1]:
+            return path[-1]
+        k = int(np.searchsorted(times, t, side='right')) - 1
+        w = (t - times[k]) / max(times[k + 1] - times[k], 1e-12)
+        p = (1 - w) * path[k, :3, 3] + w * path[k + 1, :3, 3]
+        q0, q1 = matrix_to_quat_xyzw(path[k, :3, :3]), matrix_to_quat_xyzw(path[k + 1, :3, :3])
+        q1 = q1 if q0 @ q1 >= 0 else -q1
+        q = (1 - w) * q0 + w * q1
+        return pose_matrix(p, q / np.linalg.norm(q))
+
+    def _publish_target(self, T: np.ndarray) -> None:
+        position, quaternion = matrix_pose(T)
+        self._target_pub.publish(pose_to_msg(position, quaternion, frame_id='ring_a',
+                                             stamp=self.get_clock().now().to_msg()))
+
+    def _arrived(self, T: np.ndarray) -> bool:
+        if self.pose is None:
+            return False
+        dp, da = pose_error(self.pose, T)
+        return dp <= self.position_tolerance and da <= self.orientation_tolerance
+
+    def _on_tick(self) -> None:
+        if self.mode == IDLE and self.auto_steps > 0 and not self._auto_started \
+                and self.pose is not None and self.grippers is not None:
+            self._auto_started = True
+            ok, message = self.start_climb(self.auto_steps * self.step_length, self.auto_steps)
+            self.get_logger().info(f'scripted climb of {self.auto_steps} steps: {message}')
+        if self.mode != EXECUTING:
+            return
+        ph = self._phases[self._index]
+        now = self._now()
+        if self._stage == 'stream':
+            self._t += self.dt
+            self._publish_target(self._target(self._t))
+            if self._t >= self._phase_times[-1]:
+                self._stage = 'arrive'
+                self._deadline = now + self.settle_timeout
+            return
+        if self._stage == 'arrive':
+            self._publish_target(ph.a_T_b)  # keep the IK node's command stream fresh
+            if self._arrived(ph.a_T_b):
+                self._stage = 'gripper' if ph.phase.startswith(('release', 'grip')) else 'done'
+                self._deadline = now + self.settle_timeout
+            elif now > self._deadline:
+                dp, da = pose_error(self.pose, ph.a_T_b) if self.pose is not None else (math.inf, math.inf)
+                self._fail(f'step {ph.step}, phase {ph.phase}: the pose did not arrive within '
+                           f'{self.settle_timeout:.1f} s (error {dp * 1000:.1f} mm, {math.degrees(da):.2f} deg)')
+                return
+        if self._stage == 'gripper':
+            self._publish_target(ph.a_T_b)
+            ring = 'ring_a' if ph.phase.endswith('_a') else 'ring_b'
+            close = ph.phase.startswith('grip')
+            if self._future is None:
+                other = 'ring_b' if ring == 'ring_a' else 'ring_a'
+                if not close and not self.grippers[other]:
+                    self._fail(f'step {ph.step}, phase {ph.phase}: interlock: {other} is not closed')
+                    return
+                self._future = self._gripper_clients[ring].call_async(SetBool.Request(data=close))
+            elif self._future.done():
+                result = self._future.result()
+                if result is None or not result.success:
+                    self._fail(f'step {ph.step}, phase {ph.phase}: {ring} gripper refused: '
+                               f'{getattr(result, "message", "no reply")}')
+                    return
+                if self.grippers[ring] == close:
+                    self._stage = 'done'
+            if self._stage != 'done' and now > self._deadline:
+                self._fail(f'step {ph.step}, phase {ph.phase}: {ring} gripper did not switch within '
+                           f'{self.settle_timeout:.1f} s')
+                return
+        if self._stage == 'done':
+            self.s_a, self.s_b = ph.s_a, ph.s_b
+            self._index += 1
+            if self._index >= len(self._phases):
+                self.theta = ph.theta_a
+                self.steps_done += max(p.step for p in self._phases)
+                self.mode = IDLE
+                self.detail = f'done: ring_a at s={self.s_a:.3f} m, ring_b at s={self.s_b:.3f} m'
+                self._phases = []
+                self._publish_status(force=True)
+                return
+            self._enter_phase()
+            self._publish_status()
+
+    def _fail(self, reason: str) -> None:
+        self.mode = FAILED
+        self.detail = reason
+        self.get_logger().error(reason)
+        self._publish_status(force=True)
+
+    # --- status ---------------------------------------------------------------------------------
+
+    def _publish_status(self, force: bool = False) -> None:
+        ph = self._phases[self._index] if self.mode == EXECUTING and self._phases else None
+        values = {'step': str(ph.step if ph else self.steps_done), 'phase': ph.phase if ph else '',
+                  'structure': self.structure.name, 's_a': f'{self.s_a:.4f}', 's_b': f'{self.s_b:.4f}',
+                  'steps_done': str(self.steps_done), 'detail': self.detail}
+        key = (self.mode, values['phase'], values['step'])
+        if not force and key == self._last_status:
+            return
+        self._last_status = key
+        level = {IDLE: OK, EXECUTING: OK, FAILED: ERROR}[self.mode]
+        if self.mode == IDLE and self.detail.startswith('plan refused'):
+            level = WARN
+        status = DiagnosticStatus(level=level, name='climb_node', message=self.mode, hardware_id='')
+        status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
+        self._status_pub.publish(status)
+        self._diag.report(level, f'{self.mode}: {self.detail}', values)
+
+
+def main(args=None) -> None:
+    run_nodes([ClimbNode], args)
+
+
+if __name__ == '__main__':
+    main()

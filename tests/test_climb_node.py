@@ -1,0 +1,139 @@
+"""climb_node over ROS, launch-free: a climb executed on the driver through IK and FK.
+
+Tolerance of "ends where the plan says": the node switches a gripper only once the measured pose
+is within ``position_tolerance`` (2 mm) and ``orientation_tolerance`` of the planned one. The
+world odometry is chained from the measured pose at every gripper hand-over, so its error is at
+most one tolerance per hand-over (ring_b then ring_a per step, plus the preparing move); the
+kinematic pose a_T_b itself ends within one tolerance of the plan.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PoseStamped
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
+from std_srvs.srv import Trigger
+
+from ros_harness import Probe, Spinner, wait_for
+from rrps_kinematics.nodes.common import pose_from_msg
+from rrps_kinematics.nodes.fk_node import FkNode
+from rrps_kinematics.nodes.ik_node import IkNode
+from rrps_sim.nodes.driver_node import DriverNode
+from rrps_teleop.gait import GaitPlanner
+from rrps_teleop.nodes.climb_node import ClimbNode
+from rrps_teleop.odometry import pose_matrix
+from rrps_teleop.structures import make_structure
+
+TOL = 0.002  # position_tolerance of the node [m]
+
+
+def _stack(ctx, **climb):
+    params = {'robot': 'pole_climber', 'structure': 'pole', 'speed': 0.05, 'step_length': 0.06,
+              'position_tolerance': TOL, 'start': 0.2, **climb}
+    return [DriverNode(context=ctx, parameter_overrides=[Parameter('rate', value=200.0)]),
+            IkNode(context=ctx), FkNode(context=ctx),
+            ClimbNode(context=ctx, parameter_overrides=[Parameter(k, value=v) for k, v in params.items()])]
+
+
+def _values(status: DiagnosticStatus) -> dict:
+    return {kv.key: kv.value for kv in status.values}
+
+
+def _idle_after(statuses, steps_done: int):
+    return any(s.message == 'idle' and _values(s)['steps_done'] == str(steps_done) for s in statuses)
+
+
+def test_scripted_climb_ends_where_the_plan_says(ros_context):
+    steps = 2
+    probe = Probe(context=ros_context)
+    status = probe.collect(DiagnosticStatus, 'climb/status')
+    grippers = probe.collect(JointState, 'grippers/state')
+    odo_a = probe.collect(PoseStamped, 'odometry/ring_a')
+    odo_b = probe.collect(PoseStamped, 'odometry/ring_b')
+    poses = probe.collect(PoseStamped, 'pose')
+    nodes = _stack(ros_context, auto_steps=steps)
+    with Spinner(ros_context, nodes + [probe]):
+        assert wait_for(lambda: _idle_after(status, steps), timeout=40.0), \
+            [(s.message, _values(s)['detail']) for s in status[-3:]]
+        wait_for(lambda: False, timeout=0.3)  # a few more pose/odometry messages at rest
+    assert not any(s.message == 'error' for s in status)
+    phases = [_values(s)['phase'] for s in status if s.message == 'executing']
+    assert {'release_b', 'move_b', 'grip_b', 'release_a', 'move_a', 'grip_a'} <= set(phases)
+
+    # The interlock in the observed gripper stream: never both open; ring_a opened once per step.
+    closed = np.array([[p > 0.5 for p in dict(zip(m.name, m.position)).values()] for m in grippers])
+    assert len(closed) > 10 and np.all(closed.any(axis=1))
+    openings_a = np.sum(closed[:-1, 0] & ~closed[1:, 0])
+    assert openings_a == steps
+
+    # The plan the node executed: from the home pose at s=0.2, two steps of 60 mm.
+    planner = GaitPlanner(nodes[0].geometry, make_structure('pole'))
+    plan = planner.plan(steps * 0.06, steps, start=0.2)
+    final = plan.phases[-1]
+    handovers = sum(1 for a, b in zip(plan.phases[:-1], plan.phases[1:])
+                    if (a.gripper_a, a.gripper_b) != (b.gripper_a, b.gripper_b))
+    p, q = pose_from_msg(poses[-1])
+    assert np.linalg.norm(p - final.a_T_b[:3, 3]) <= TOL
+    pa, _ = pose_from_msg(odo_a[-1])
+    pb, _ = pose_from_msg(odo_b[-1])
+    assert odo_a[-1].header.frame_id == 'world'
+    assert np.linalg.norm(pa - final.world_T_a[:3, 3]) <= handovers * TOL
+    assert np.linalg.norm(pb - final.world_T_b[:3, 3]) <= handovers * TOL
+    assert pa[2] == pytest.approx(0.2 + steps * 0.06, abs=handovers * TOL)
+    # odometry is consistent with the measured kinematics: world_T_b = world_T_a · a_T_b
+    assert np.allclose(pose_matrix(*pose_from_msg(odo_a[-1])) @ pose_matrix(p, q),
+                       pose_matrix(*pose_from_msg(odo_b[-1])), atol=1e-6)
+
+
+def _call(probe, client, timeout=5.0):
+    assert client.wait_for_service(timeout_sec=timeout)
+    future = client.call_async(Trigger.Request())
+    assert wait_for(future.done, timeout=timeout)
+    return future.result()
+
+
+def test_step_services_teleop_refusal_and_plan_refusal(ros_context):
+    probe = Probe(context=ros_context)
+    status = probe.collect(DiagnosticStatus, 'climb/status')
+    odo_a = probe.collect(PoseStamped, 'odometry/ring_a')
+    teleop = probe.publisher(DiagnosticStatus, 'teleop/status')
+    up = probe.create_client(Trigger, 'climb/step_up')
+    down = probe.create_client(Trigger, 'climb/step_down')
+    with Spinner(ros_context, _stack(ros_context) + [probe]):
+        assert wait_for(lambda: odo_a, timeout=5.0)
+        z0 = pose_from_msg(odo_a[-1])[0][2]
+        assert z0 == pytest.approx(0.2, abs=1e-6)
+        # Teleoperation engaged: no step.
+        assert wait_for(lambda: teleop.get_subscription_count() > 0, timeout=3.0)
+        teleop.publish(DiagnosticStatus(message='ENGAGED', values=[KeyValue(key='engaged', value='true')]))
+        wait_for(lambda: False, timeout=0.3)  # delivered (reliable, matched)
+        reply = _call(probe, up)
+        assert not reply.success and 'teleoperation' in reply.message
+        teleop.publish(DiagnosticStatus(message='IDLE', values=[KeyValue(key='engaged', value='false')]))
+        assert wait_for(lambda: _call(probe, up).success, timeout=3.0)
+        busy = _call(probe, up)
+        assert not busy.success and 'executing' in busy.message
+        assert wait_for(lambda: _idle_after(status, 1), timeout=20.0)
+        z_up = pose_from_msg(odo_a[-1])[0][2]
+        assert z_up == pytest.approx(0.26, abs=3 * TOL)
+        assert _call(probe, down).success
+        assert wait_for(lambda: _idle_after(status, 2), timeout=20.0)
+        wait_for(lambda: False, timeout=0.2)
+        assert pose_from_msg(odo_a[-1])[0][2] == pytest.approx(0.2, abs=6 * TOL)
+    assert not any(s.message == 'error' for s in status)
+
+
+def test_a_step_beyond_the_stroke_is_refused_with_the_limit(ros_context):
+    probe = Probe(context=ros_context)
+    odo_a = probe.collect(PoseStamped, 'odometry/ring_a')
+    status = probe.collect(DiagnosticStatus, 'climb/status')
+    up = probe.create_client(Trigger, 'climb/step_up')
+    with Spinner(ros_context, _stack(ros_context, step_length=0.6) + [probe]):
+        assert wait_for(lambda: odo_a, timeout=5.0)
+        reply = _call(probe, up)
+        assert wait_for(lambda: any(_values(s)['detail'].startswith('plan refused') for s in status), 2.0)
+    assert not reply.success and 'stroke' in reply.message and 'leg_' in reply.message
+    assert status[-1].message == 'idle' and status[-1].level == DiagnosticStatus.WARN
