@@ -7,8 +7,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from rrps_kinematics import inverse_kinematics, load_robot
-from rrps_kinematics.commands import RejectedCommand, check_fresh, limit_velocity, validate_target
+from rrps_kinematics import inverse_kinematics, load_robot, margins
+from rrps_kinematics.commands import RejectedCommand, check_fresh, limit_velocity, pose_limits, validate_target
+from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
 
 
 @pytest.fixture(scope='module')
@@ -22,7 +23,7 @@ def test_valid_target_gives_the_ik_lengths_and_normalises_a_nearly_unit_quaterni
     t = validate_target(robot, p, q, frame_id='ring_a')
     np.testing.assert_allclose(t.lengths, inverse_kinematics(robot, p, [0, 0, 0, 1]).lengths, atol=1e-15)
     assert np.linalg.norm(t.quaternion_xyzw) == pytest.approx(1.0, abs=1e-15)
-    assert t.margins.ok
+    assert all(v >= 0 for v in t.minimum.values())
 
 
 @pytest.mark.parametrize('position, quaternion, frame, message', [
@@ -70,3 +71,18 @@ def test_limit_velocity_unlimited_and_invalid():
     np.testing.assert_array_equal(limit_velocity(np.zeros(6), np.ones(6), math.inf, 0.0), np.ones(6))
     with pytest.raises(ValueError):
         limit_velocity(np.zeros(6), np.ones(6), 0.0, 0.1)
+
+
+@settings(max_examples=150, deadline=None)
+@given(dp=st.lists(st.floats(-0.2, 0.2), min_size=3, max_size=3),
+       rv=st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=3))
+def test_compiled_pose_limits_match_the_reference_margins(robot, dp, rv):
+    p = robot.home_position + np.array(dp)
+    q = rotation_vector_to_quat_xyzw(np.array(rv))
+    ok, lengths, minimum = pose_limits(robot, p, q)
+    m = margins(robot, inverse_kinematics(robot, p, q))
+    assert ok == m.ok
+    np.testing.assert_allclose(lengths, m.lengths, rtol=0, atol=1e-14)
+    for kind, value in m.minimum.items():
+        assert minimum[kind] == pytest.approx(float(value), abs=1e-12), kind
+    assert pose_limits(robot, p, q, backend='numpy')[0] == ok

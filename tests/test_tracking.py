@@ -62,3 +62,14 @@ def test_reset_mirror_mode_and_invalid_input():
         tracker.update([np.nan] * 6)
     with pytest.raises(ValueError):
         PoseTracker(POLE, continuation_steps=0)
+
+
+def test_jacobian_sign_backends_agree(monkeypatch):
+    tracker = PoseTracker(POLE)
+    rng = np.random.default_rng(5)
+    poses = [(POLE.home_position + rng.uniform(-0.2, 0.2, 3), rotation_vector_to_quat_xyzw(rng.uniform(-1.5, 1.5, 3)))
+             for _ in range(50)] + [(POLE.home_position * [1, 1, -1], np.array([0.0, 0.0, 0.0, 1.0]))]
+    compiled = [tracker.jacobian_sign(p, q) for p, q in poses]
+    monkeypatch.setattr('rrps_kinematics.tracking.use_numba', lambda backend: False)
+    assert [tracker.jacobian_sign(p, q) for p, q in poses] == compiled
+    assert {-1.0, 1.0} <= set(compiled)

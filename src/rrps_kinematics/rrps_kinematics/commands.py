@@ -4,7 +4,8 @@ Pure NumPy, no ROS import. Every check raises :class:`RejectedCommand` (a ValueE
 message that says why, so a node can keep its last safe command and report the reason::
 
     target = validate_target(geom, position, quaternion_xyzw, frame_id='ring_a')
-    target.lengths, target.margins          # IK lengths (6,) [m] and every signed margin
+    target.lengths, target.minimum          # IK lengths (6,) [m], smallest margin of each limit
+    ok, lengths, minimum = pose_limits(geom, position, quaternion_xyzw)   # the fast check alone
     check_fresh(stamp_s, now_s, timeout)     # raises when the command is older than timeout
     limit_velocity(current, desired, max_speed, dt)   # joint-space step within max_speed
 """
@@ -16,11 +17,50 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .backend import use_numba
 from .geometry import RobotGeometry
 from .inverse import inverse_kinematics
-from .limits import Margins, margins
+from .limits import margins
 
-__all__ = ['RejectedCommand', 'ValidTarget', 'validate_target', 'check_fresh', 'limit_velocity']
+__all__ = ['RejectedCommand', 'ValidTarget', 'validate_target', 'pose_limits', 'check_fresh',
+           'limit_velocity']
+
+MARGIN_KINDS = ('stroke', 'universal', 'spherical', 'interference', 'conditioning')
+_packed: dict[int, tuple] = {}
+
+
+def _pack(geometry: RobotGeometry) -> tuple:
+    """The geometry as the contiguous arrays of :mod:`.compiled_limits` (cached per object)."""
+    entry = _packed.get(id(geometry))
+    if entry is None or entry[0] is not geometry:
+        g = geometry
+        limits = np.array([g.min_length, g.max_length, g.universal_max_angle, g.spherical_max_angle,
+                           g.leg_radius, g.characteristic_length, g.min_conditioning])
+        arrays = tuple(np.ascontiguousarray(a, dtype=float) for a in (
+            g.ring_a_anchors, g.ring_b_anchors, g.ring_a_joint_axes, g.ring_b_joint_axes)) + (limits,)
+        entry = _packed[id(geometry)] = (geometry, arrays)
+    return entry[1]
+
+
+def pose_limits(geometry: RobotGeometry, position, quaternion_xyzw, *,
+                backend: str = 'auto') -> tuple[bool, np.ndarray, dict[str, float]]:
+    """(within limits, lengths (6,), smallest margin of each kind) of one pose a_T_b.
+
+    The numbers of :func:`rrps_kinematics.limits.margins` (``Margins.minimum``, ``ok``), from a
+    numba kernel when available (a few microseconds). ``quaternion_xyzw`` must be unit.
+    """
+    p = np.ascontiguousarray(position, dtype=float)
+    q = np.ascontiguousarray(quaternion_xyzw, dtype=float)
+    if use_numba(backend):
+        from .compiled_limits import N_MARGINS, pose_margins
+        out = np.empty(N_MARGINS)
+        lengths = np.empty(6)
+        pose_margins(*_pack(geometry), p, q, out, lengths)
+        minimum = dict(zip(MARGIN_KINDS, (float(v) for v in out[:5])))
+        ok = bool(np.all(out[:5] >= 0.0) and out[5] > 0.0)
+        return ok, lengths, minimum
+    m = margins(geometry, inverse_kinematics(geometry, p, q))
+    return bool(m.ok), np.array(m.lengths), {k: float(v) for k, v in m.minimum.items()}
 
 
 class RejectedCommand(ValueError):
@@ -29,12 +69,14 @@ class RejectedCommand(ValueError):
 
 @dataclass(frozen=True)
 class ValidTarget:
-    """A target pose a_T_b that passed every check: unit quaternion, lengths, margins."""
+    """A target pose a_T_b that passed every check: unit quaternion, lengths [m] and the
+    smallest margin of each limit (``stroke``, ``universal``, ``spherical``, ``interference``,
+    ``conditioning``; as :attr:`rrps_kinematics.limits.Margins.minimum`)."""
 
     position: np.ndarray
     quaternion_xyzw: np.ndarray
     lengths: np.ndarray
-    margins: Margins
+    minimum: dict
 
 
 def validate_target(geometry: RobotGeometry, position, quaternion_xyzw, *, frame_id: str,
@@ -58,10 +100,10 @@ def validate_target(geometry: RobotGeometry, position, quaternion_xyzw, *, frame
     if abs(norm - 1.0) > quaternion_tolerance:
         raise RejectedCommand(f'quaternion norm {norm:.6g} is not 1 (tolerance {quaternion_tolerance:g})')
     q = q / norm
-    m = margins(geometry, inverse_kinematics(geometry, p, q))
-    if not m.ok:
-        raise RejectedCommand(f'pose outside the limits: {m.reason}')
-    return ValidTarget(position=p, quaternion_xyzw=q, lengths=np.array(m.lengths), margins=m)
+    ok, lengths, minimum = pose_limits(geometry, p, q)
+    if not ok:  # word the reason with the reference implementation
+        raise RejectedCommand(f'pose outside the limits: {margins(geometry, inverse_kinematics(geometry, p, q)).reason}')
+    return ValidTarget(position=p, quaternion_xyzw=q, lengths=lengths, minimum=minimum)
 
 
 def check_fresh(stamp: float, now: float, timeout: float) -> float:

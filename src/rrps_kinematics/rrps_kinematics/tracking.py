@@ -17,15 +17,16 @@ if the walk fails, the estimate is refused. A refused update keeps the last good
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from .backend import use_numba
 from .forward import ForwardKinematicsResult, forward_kinematics
 from .geometry import RobotGeometry
 from .inverse import inverse_kinematics
 from .jacobian import inverse_jacobian
-from .rotations import quat_xyzw_to_matrix, rotation_angle_between
 
 __all__ = ['PoseTracker', 'TrackingUpdate']
 
@@ -66,13 +67,21 @@ class PoseTracker:
 
     def jacobian_sign(self, position, quaternion_xyzw) -> float:
         """Sign of det J at a pose: +1 or -1 in an assembly mode's region, 0 when singular."""
+        if use_numba('auto'):
+            from .compiled_limits import jacobian_determinant
+            g = self.geometry
+            return float(np.sign(jacobian_determinant(
+                g.ring_a_anchors, g.ring_b_anchors, np.ascontiguousarray(position, dtype=float),
+                np.ascontiguousarray(quaternion_xyzw, dtype=float))))
         return float(np.sign(np.linalg.det(inverse_jacobian(
             inverse_kinematics(self.geometry, position, quaternion_xyzw)))))
 
     def distance(self, position, quaternion_xyzw) -> float:
         """Translation plus rotation angle times the characteristic length, from the estimate [m]."""
-        angle = rotation_angle_between(quat_xyzw_to_matrix(np.asarray(quaternion_xyzw, dtype=float)),
-                                       quat_xyzw_to_matrix(self.quaternion_xyzw))
+        q1 = np.asarray(quaternion_xyzw, dtype=float)
+        q2 = self.quaternion_xyzw if np.dot(q1, self.quaternion_xyzw) >= 0.0 else -self.quaternion_xyzw
+        # rotation angle = 2 x the angle between the unit quaternions, robust near 0 and pi
+        angle = 4.0 * math.atan2(np.linalg.norm(q1 - q2), np.linalg.norm(q1 + q2))
         return (float(np.linalg.norm(np.asarray(position) - self.position))
                 + self.geometry.characteristic_length * float(angle))
 

@@ -1,0 +1,170 @@
+"""Numba kernels for the real-time guards of one pose: every limit's smallest margin, det J.
+
+The same equations as :func:`rrps_kinematics.limits.margins` (the reference, which also words
+the reasons) and :func:`rrps_kinematics.jacobian.inverse_jacobian`, for a single pose without
+NumPy's per-call overhead: the IK node checks each target in a few microseconds instead of a
+few hundred. The tests check both paths give the same numbers. Imported lazily.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+__all__ = ['pose_margins', 'jacobian_determinant', 'N_MARGINS']
+
+_jit = numba.njit(cache=True, nogil=True)
+
+#: Layout of :func:`pose_margins`' output: min stroke, universal, spherical, interference
+#: margins, conditioning margin, inverse condition number.
+N_MARGINS = 6
+
+
+@_jit
+def _pose(A, B, p, q, R, b_in_a, u, lengths):
+    """R(q), ring_b anchors in ring_a's frame, unit leg vectors and lengths (eq. 1)."""
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    R[0, 0] = 1.0 - 2.0 * (y * y + z * z)
+    R[0, 1] = 2.0 * (x * y - z * w)
+    R[0, 2] = 2.0 * (x * z + y * w)
+    R[1, 0] = 2.0 * (x * y + z * w)
+    R[1, 1] = 1.0 - 2.0 * (x * x + z * z)
+    R[1, 2] = 2.0 * (y * z - x * w)
+    R[2, 0] = 2.0 * (x * z - y * w)
+    R[2, 1] = 2.0 * (y * z + x * w)
+    R[2, 2] = 1.0 - 2.0 * (x * x + y * y)
+    for i in range(6):
+        s = 0.0
+        for k in range(3):
+            b_in_a[i, k] = p[k] + R[k, 0] * B[i, 0] + R[k, 1] * B[i, 1] + R[k, 2] * B[i, 2]
+            d = b_in_a[i, k] - A[i, k]
+            u[i, k] = d
+            s += d * d
+        lengths[i] = math.sqrt(s)
+        for k in range(3):
+            u[i, k] /= lengths[i]
+
+
+@_jit
+def _angle(u0, u1, u2, v0, v1, v2):
+    """Angle between unit vectors: atan2(|u x v|, u . v)."""
+    c0 = u1 * v2 - u2 * v1
+    c1 = u2 * v0 - u0 * v2
+    c2 = u0 * v1 - u1 * v0
+    return math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), u0 * v0 + u1 * v1 + u2 * v2)
+
+
+@_jit
+def _clip01(x):
+    return 0.0 if x < 0.0 else (1.0 if x > 1.0 else x)
+
+
+@_jit
+def _segment_distance(p0, p1, q0, q1):
+    """Closest distance of segments p0->p1 and q0->q1; the branches of limits.segment_distances."""
+    d1 = p1 - p0
+    d2 = q1 - q0
+    r = p0 - q0
+    a = d1 @ d1
+    e = d2 @ d2
+    b = d1 @ d2
+    c = d1 @ r
+    f = d2 @ r
+    tiny = 1e-30
+    a_pt = a <= tiny
+    e_pt = e <= tiny
+    a_safe = 1.0 if a_pt else a
+    e_safe = 1.0 if e_pt else e
+    denom = a * e - b * b
+    parallel = denom <= 1e-12 * a * e
+    s = 0.0 if parallel else _clip01((b * f - c * e) / denom)
+    t = (b * s + f) / e_safe
+    if t < 0.0:
+        s = _clip01(-c / a_safe)
+    elif t > 1.0:
+        s = _clip01((b - c) / a_safe)
+    t = _clip01(t)
+    if e_pt:
+        s = _clip01(-c / a_safe)
+        t = 0.0
+    if a_pt:
+        s = 0.0
+        t = 0.0 if e_pt else _clip01(f / e_safe)
+    g = (p0 + s * d1) - (q0 + t * d2)
+    return math.sqrt(g @ g)
+
+
+@_jit
+def _jacobian(u, b_in_a, p, scale, J):
+    """Rows [u_i, scale * (A_c s'_i) x u_i] (jacobian.inverse_jacobian, angular columns scaled)."""
+    for i in range(6):
+        b0, b1, b2 = b_in_a[i, 0] - p[0], b_in_a[i, 1] - p[1], b_in_a[i, 2] - p[2]
+        J[i, 0], J[i, 1], J[i, 2] = u[i, 0], u[i, 1], u[i, 2]
+        J[i, 3] = scale * (b1 * u[i, 2] - b2 * u[i, 1])
+        J[i, 4] = scale * (b2 * u[i, 0] - b0 * u[i, 2])
+        J[i, 5] = scale * (b0 * u[i, 1] - b1 * u[i, 0])
+
+
+@_jit
+def pose_margins(A, B, axes_a, axes_b, limits, p, q, out, lengths):
+    """Smallest margin of each limit of one pose (layout ``N_MARGINS``) and its lengths.
+
+    ``limits`` = [min_length, max_length, universal_max_angle, spherical_max_angle,
+    leg_radius, characteristic_length, min_conditioning]; q a unit quaternion (x, y, z, w).
+    """
+    R = np.empty((3, 3))
+    b_in_a = np.empty((6, 3))
+    u = np.empty((6, 3))
+    _pose(A, B, p, q, R, b_in_a, u, lengths)
+    stroke = np.inf
+    universal = np.inf
+    spherical = np.inf
+    for i in range(6):
+        stroke = min(stroke, min(lengths[i] - limits[0], limits[1] - lengths[i]))
+        universal = min(universal, limits[2] - _angle(u[i, 0], u[i, 1], u[i, 2],
+                                                      axes_a[i, 0], axes_a[i, 1], axes_a[i, 2]))
+        # the leg from the S-joint towards ring_a in ring_b's frame: -R^T u
+        t0 = -(R[0, 0] * u[i, 0] + R[1, 0] * u[i, 1] + R[2, 0] * u[i, 2])
+        t1 = -(R[0, 1] * u[i, 0] + R[1, 1] * u[i, 1] + R[2, 1] * u[i, 2])
+        t2 = -(R[0, 2] * u[i, 0] + R[1, 2] * u[i, 1] + R[2, 2] * u[i, 2])
+        spherical = min(spherical, limits[3] - _angle(t0, t1, t2, axes_b[i, 0], axes_b[i, 1], axes_b[i, 2]))
+    interference = np.inf
+    for i in range(6):
+        for j in range(i + 1, 6):
+            dist = _segment_distance(A[i], b_in_a[i], A[j], b_in_a[j])
+            interference = min(interference, dist - 2.0 * limits[4])
+    J = np.empty((6, 6))
+    _jacobian(u, b_in_a, p, 1.0 / limits[5], J)
+    inv_cond = 0.0
+    finite = True
+    for i in range(6):
+        for k in range(6):
+            if not math.isfinite(J[i, k]):
+                finite = False
+    if finite:
+        sv = np.linalg.svd(J)[1]
+        if sv[0] > 0.0:
+            inv_cond = sv[5] / sv[0]
+    else:
+        inv_cond = np.nan
+    out[0] = stroke
+    out[1] = universal
+    out[2] = spherical
+    out[3] = interference
+    out[4] = inv_cond - limits[6]
+    out[5] = inv_cond
+
+
+@_jit
+def jacobian_determinant(A, B, p, q):
+    """det J (unscaled inverse Jacobian, rows [u_i, (A_c s'_i) x u_i]) at one pose."""
+    R = np.empty((3, 3))
+    b_in_a = np.empty((6, 3))
+    u = np.empty((6, 3))
+    lengths = np.empty(6)
+    _pose(A, B, p, q, R, b_in_a, u, lengths)
+    J = np.empty((6, 6))
+    _jacobian(u, b_in_a, p, 1.0, J)
+    return np.linalg.det(J)
