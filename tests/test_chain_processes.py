@@ -75,3 +75,14 @@ def test_installed_executables_close_the_chain_and_stop_on_ctrl_c(ros_context, r
     for name, (code, err) in results.items():
         assert code == 0, f'{name} exited with {code}: {err[-2000:]}'
         assert 'Traceback' not in err, err
+
+
+@pytest.mark.ros
+@pytest.mark.parametrize('executable, param, message', [
+    ('ik_node', 'robot:=no_such_robot', 'no_such_robot'),
+    ('driver_node', 'mode:=fast', 'mode must be one of'),
+])
+def test_invalid_parameters_exit_2_with_one_line(ros_domain_id, executable, param, message):
+    process = start(executable, ros_domain_id, param)
+    code, err = stop(process, timeout=20.0) if process.wait(timeout=20.0) is not None else (None, '')
+    assert code == 2 and message in err and 'Traceback' not in err, err

@@ -5,7 +5,6 @@ import pytest
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
 from rclpy.parameter import Parameter
-
 from sensor_msgs.msg import JointState
 
 from node_helpers import pose_error, said, statuses
