@@ -102,7 +102,8 @@ def validate_target(geometry: RobotGeometry, position, quaternion_xyzw, *, frame
     q = q / norm
     ok, lengths, minimum = pose_limits(geometry, p, q)
     if not ok:  # word the reason with the reference implementation
-        raise RejectedCommand(f'pose outside the limits: {margins(geometry, inverse_kinematics(geometry, p, q)).reason}')
+        reason = margins(geometry, inverse_kinematics(geometry, p, q)).reason
+        raise RejectedCommand(f'pose outside the limits: {reason}')
     return ValidTarget(position=p, quaternion_xyzw=q, lengths=lengths, minimum=minimum)
 
 

@@ -32,7 +32,8 @@ class FkNode(Node):
         self.geometry = declare_robot_parameter(self)
         self.frame_id = declare_parameter(self, 'frame_id', 'ring_a', 'frame_id of the published pose',
                                           read_only=True)
-        tolerance = declare_parameter(self, 'tolerance', 1e-12, 'Newton convergence: max leg-length residual [m]',
+        tolerance = declare_parameter(self, 'tolerance', 1e-12,
+                                      'Newton convergence: max leg-length residual [m]',
                                       min_value=1e-15, max_value=1e-3)
         max_iterations = declare_parameter(self, 'max_iterations', 30, 'Newton iterations per solve',
                                            min_value=1, max_value=1000)

@@ -18,7 +18,7 @@ from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
-from ..commands import RejectedCommand, check_fresh, limit_velocity, validate_target
+from ..commands import RejectedCommand, check_fresh, limit_velocity, pose_limits, validate_target
 from .common import (COMMAND_QOS, OK, STALE, STATE_QOS, WARN, Diagnostics, declare_parameter,
                      declare_robot_parameter, joint_state_msg, lengths_from_joint_state,
                      pose_from_msg, run_nodes, stamp_to_seconds)
@@ -50,6 +50,8 @@ class IkNode(Node):
         self.max_speed = speed if speed > 0.0 else self.geometry.max_speed
         if self.limit_velocity and math.isinf(self.max_speed):
             raise ValueError('limit_velocity needs a finite max_speed (the robot has none): set max_speed')
+        # load the compiled guard now, not on the first target (which would then go stale)
+        pose_limits(self.geometry, self.geometry.home_position, self.geometry.home_quaternion_xyzw)
         self.last_command: np.ndarray | None = None
         self._last_command_time: float | None = None
         self._measured: np.ndarray | None = None

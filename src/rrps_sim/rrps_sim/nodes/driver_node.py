@@ -104,7 +104,8 @@ class DriverNode(Node):
         if lengths0.shape != (6,) or not np.all(np.isfinite(lengths0)):
             raise ValueError(f'initial_lengths must be 6 finite lengths [m], got {initial}')
         if np.any(lengths0 < g.min_length) or np.any(lengths0 > g.max_length):
-            raise ValueError(f'initial_lengths {lengths0} outside the stroke [{g.min_length}, {g.max_length}] m')
+            raise ValueError(f'initial_lengths {lengths0} outside the stroke '
+                             f'[{g.min_length}, {g.max_length}] m')
         max_speed = g.max_speed if limit_speed else math.inf
         if self.mode == 'dynamic':
             if not forward_kinematics(g, lengths0).converged:
@@ -140,7 +141,8 @@ class DriverNode(Node):
         self.create_subscription(JointState, 'actuators/command', self._on_command, COMMAND_QOS)
         for ring in RINGS:
             self.create_service(SetBool, f'grippers/{ring}/set',
-                                lambda request, response, ring=ring: self._on_gripper(ring, request, response))
+                                lambda request, response, ring=ring:
+                                self._on_gripper(ring, request, response))
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._diag = Diagnostics(self, f'{self.mode} actuators')
         self.create_timer(1.0 / self.rate, self._on_tick)
@@ -159,7 +161,8 @@ class DriverNode(Node):
             if p.name == 'stuck_legs':
                 legs = list(p.value or [])
                 if any(not 1 <= int(i) <= 6 for i in legs):
-                    return SetParametersResult(successful=False, reason=f'stuck_legs must be in 1..6, got {legs}')
+                    return SetParametersResult(successful=False,
+                                               reason=f'stuck_legs must be in 1..6, got {legs}')
         for p in parameters:
             if p.name == 'stuck_legs':
                 self._apply_stuck(list(p.value or []))
