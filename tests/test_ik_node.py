@@ -124,8 +124,11 @@ def test_velocity_limiting_never_asks_more_than_max_speed(ros_context):
     t = np.array([s for s, _ in commands])
     np.testing.assert_allclose(lengths[0], POLE.home_lengths, atol=1e-12)  # the first step is 0 s
     steps = np.max(np.abs(np.diff(lengths, axis=0)), axis=1)
-    assert np.all(steps <= POLE.max_speed * (np.diff(t) + 0.005) + 1e-12)  # 5 ms receipt jitter
-    assert len(commands) > 10  # it took several steps: 0.01 m at 0.05 m/s is 0.2 s
+    assert np.all(steps <= POLE.max_speed * node.timeout + 1e-12)  # the node's dt is capped at timeout
+    # receipt times jitter, so the speed is checked over the whole move: 0.01 m at 0.05 m/s
+    distance = np.max(np.abs(goal_lengths - POLE.home_lengths))
+    assert t[-1] - t[0] >= distance / POLE.max_speed - 0.02
+    assert np.median(steps) <= 1.5 * POLE.max_speed * np.median(np.diff(t)) + 1e-12
 
 
 def test_an_invalid_robot_refuses_to_start(ros_context):
