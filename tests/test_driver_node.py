@@ -45,7 +45,7 @@ def test_kinematic_actuators_track_within_the_speed_limit_and_reject_bad_command
         n0, t0 = len(states), time.monotonic()
         time.sleep(0.4)
         rate = (len(states) - n0) / (time.monotonic() - t0)
-        assert rate > 200  # 500 Hz nominal; generous for a loaded 2-core machine
+        assert rate > 100  # 500 Hz nominal; generous for a loaded, shared 2-core machine
         bad = [
             (command(probe, goal, age=0.5), 'stale'),
             (command(probe, goal + 0.2), 'outside the stroke'),
