@@ -7,10 +7,15 @@
 //   {"check": "Checkbox label"}                click the checkbox with that label
 //   {"hold": "Button label", "ms": 1500}        press the mouse on a button, hold, release
 //   {"sleep": ms}
+//   {"sync": "name"}                           print {"sync": name}, wait for a line on stdin
 //   {"disabled": "Button label"}               record whether the button is disabled
 //   {"text": true}                             record the page's visible text
+// Any step may carry "page": N to act on the N-th page (each page is a separate viewer client).
 // Prints one JSON object: {"ok": true, "results": [...]} or {"ok": false, "error": "..."}.
 const { chromium } = require('playwright-core');
+const readline = require('readline');
+
+const stdinLines = readline.createInterface({ input: process.stdin })[Symbol.asyncIterator]();
 
 async function main() {
   const [url, stepsJson] = process.argv.slice(2);
@@ -23,9 +28,15 @@ async function main() {
   });
   const results = [];
   try {
-    const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
-    await page.goto(url);
+    const pages = {};
     for (const step of steps) {
+      // Each step acts on page 1 unless it names another ("page": 2): two browsers at once.
+      const id = step.page || 1;
+      if (pages[id] === undefined) {
+        pages[id] = await browser.newPage({ viewport: { width: 1100, height: 700 } });
+        await pages[id].goto(url);
+      }
+      const page = pages[id];
       if (step.wait_text !== undefined) {
         await page.getByText(step.wait_text, { exact: false }).first()
           .waitFor({ timeout: step.timeout || 20000 });
@@ -54,6 +65,11 @@ async function main() {
         await page.waitForTimeout(step.ms || 1000);
         await page.mouse.up();
         results.push({ hold: step.hold, ms: step.ms || 1000 });
+      } else if (step.sync !== undefined) {
+        // Hand over to the test (it changes something), continue when it writes a line.
+        console.log(JSON.stringify({ sync: step.sync }));
+        await stdinLines.next();
+        results.push({ sync: step.sync });
       } else if (step.sleep !== undefined) {
         await page.waitForTimeout(step.sleep);
       } else if (step.disabled !== undefined) {
@@ -70,6 +86,7 @@ async function main() {
     console.log(JSON.stringify({ ok: false, error: String(err), results }));
   } finally {
     await browser.close();
+    process.exit(0);
   }
 }
 

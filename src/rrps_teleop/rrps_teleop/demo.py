@@ -44,8 +44,12 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def build_stack(context, *, robot: str, host: str, port: int, token: str,
-                viewer: bool = True, namespace: str = NAMESPACE) -> dict:
+                viewer: bool = True, climb: bool = True, driver_rate: float = 500.0,
+                namespace: str = NAMESPACE) -> dict:
     """Create every node of the demo on ``context`` under ``namespace``; returns name -> node.
+
+    ``viewer=False`` / ``climb=False`` leave the viewer / climbing node out; ``driver_rate`` is
+    the simulated driver's actuators/state rate [Hz].
 
     Raises ValueError / RobotDescriptionError with a clear message for bad arguments.
     """
@@ -60,18 +64,20 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
 
     robot_param = [Parameter('robot', value=robot)]
     plan = [
-        ('driver_node', DriverNode, robot_param + [Parameter('rate', value=500.0)]),
+        ('driver_node', DriverNode, robot_param + [Parameter('rate', value=float(driver_rate))]),
         ('ik_node', IkNode, robot_param),
         ('fk_node', FkNode, robot_param),
         ('master_node', MasterNode, []),
         ('teleop_node', TeleopNode, robot_param),
     ]
-    try:
-        from .nodes.climb_node import ClimbNode
-    except ImportError as exc:  # the climbing node is optional for the teleop part
-        print(f'rrps demo: warning: no climb node ({exc}); climbing is unavailable', file=sys.stderr)
-    else:
-        plan.append(('climb_node', ClimbNode, robot_param))
+    if climb:
+        try:
+            from .nodes.climb_node import ClimbNode
+        except ImportError as exc:  # the climbing node is optional for the teleop part
+            print(f'rrps demo: warning: no climb node ({exc}); climbing is unavailable',
+                  file=sys.stderr)
+        else:
+            plan.append(('climb_node', ClimbNode, robot_param))
     if viewer:
         from .nodes.viewer_node import ViewerNode
         plan.append(('viewer_node', ViewerNode, robot_param + [

@@ -134,8 +134,11 @@ class _ClientControls:
         self.release.on_click(guarded(lambda: control.release(cid)))
         self.hand.on_click(guarded(lambda: self._hand_over()))
         self.clutch.on_update(guarded(lambda: self._clutch()))
-        self.deadman.on_hold(lambda event: control.hold(cid) if event.client_id == cid else None,
-                             callback_hz=20.0)
+        async def on_hold(event) -> None:  # on viser's event loop: no thread-pool delay
+            if event.client_id == cid:
+                control.hold(cid)
+
+        self.deadman.on_hold(on_hold, callback_hz=20.0)
         actions = server.actions
         self.apply.on_click(controller_only(lambda: actions.set_mapping(
             cid, str(self.mode.value), str(self.rotation.value), float(self.scale.value))))
@@ -349,8 +352,10 @@ class ViewerServer:
                 ghost.visible = True
             else:
                 ghost.visible = False
-        if frame.panel and frame.panel != self._panel.content:
-            self._panel.content = frame.panel
+        now = time.monotonic()
+        if frame.panel and frame.panel != self._panel.content and now - self._last_panel >= 0.25:
+            self._panel.content = frame.panel  # text for people: 4 Hz is plenty
+            self._last_panel = now
         with self._lock:
             self._handle_pose = frame.master_handle
 
@@ -371,6 +376,7 @@ class ViewerServer:
                         'y': viser.uplot.Scale(auto=True)},
                 legend=viser.uplot.Legend(show=True), aspect=1.6)
         self._last_plot = 0.0
+        self._last_panel = 0.0
 
     def _update_plot(self, frame: Frame, now: float) -> None:
         if frame.plot is None or now - self._last_plot < 0.2:
