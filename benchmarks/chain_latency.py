@@ -230,7 +230,8 @@ def main() -> None:
     domain_id = 100 + os.getpid() % 100
     poses = targets(64)
     print(f'# chain latency: target_pose -> ik -> driver -> fk -> pose ({platform.processor() or platform.machine()}, '
-          f'{os.cpu_count()} cores, Python {platform.python_version()}, {args.samples} samples each)\n')
+          f'{os.cpu_count()} cores, Python {platform.python_version()}, {args.samples} samples each, '
+          f'load average {os.getloadavg()[0]:.1f} at start)\n')
     print('| run | samples | lost | p50 [us] | p99 [us] | max [us] |')
     print('|---|---|---|---|---|---|')
     verdicts = []
