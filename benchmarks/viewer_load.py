@@ -1,0 +1,215 @@
+"""Viewer load: the 500 Hz control loop and the viewers' update rate with N web clients.
+
+Starts the demo stack (``python -m rrps_teleop.demo``: driver at 500 Hz, IK, FK, master, teleop,
+climb, viewer) as its own process, makes the robot move (the master runs its circle trajectory
+and this script holds the deadman), then measures twice in the same run:
+
+* baseline: no browser connected;
+* loaded: ``--clients`` websocket clients speaking viser's protocol (what a browser receives:
+  zstd-compressed msgpack batches), each counting the batches that update the robot's pose.
+
+The control loop's period is taken from the driver's ``actuators/state`` header stamps (its
+timer), received by a separate process so that measuring does not load the stack.
+
+    python benchmarks/viewer_load.py [--clients 10] [--seconds 10]
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import os
+import secrets
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+
+os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 80))
+
+POSE_NODE = '/robot/ring_b'
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(('127.0.0.1', 0))
+        return s.getsockname()[1]
+
+
+def _decode(data: bytes) -> list[dict]:
+    """The messages of one viser batch (see viser.infra._infra's wire format)."""
+    import msgspec
+    import zstandard
+    size = int.from_bytes(data[0:8], 'little')
+    compressed = int.from_bytes(data[8:16], 'little')
+    inner = zstandard.ZstdDecompressor().decompress(data[16:16 + compressed], max_output_size=size)
+    return msgspec.msgpack.decode(inner)['messages']
+
+
+class Client:
+    """One websocket viewer: counts every batch and those that move the robot."""
+
+    def __init__(self, url: str):
+        self.url = url
+        self.batches: list[float] = []
+        self.pose_updates: list[float] = []
+        self.bytes = 0
+        self.error: str | None = None
+
+    async def run(self, stop: asyncio.Event) -> None:
+        import viser
+        import websockets
+        try:
+            async with websockets.connect(self.url, subprotocols=[f'viser-v{viser.__version__}'],
+                                          max_size=None) as ws:
+                while not stop.is_set():
+                    try:
+                        data = await asyncio.wait_for(ws.recv(), timeout=0.5)
+                    except asyncio.TimeoutError:
+                        continue
+                    now = time.monotonic()
+                    self.batches.append(now)
+                    self.bytes += len(data)
+                    if any(m.get('name') == POSE_NODE for m in _decode(data)):
+                        self.pose_updates.append(now)
+        except Exception as exc:  # reported in the table
+            self.error = repr(exc)
+
+    def rate(self, t0: float, t1: float, which: str = 'pose_updates') -> float:
+        times = np.asarray(getattr(self, which))
+        return float(np.count_nonzero((times >= t0) & (times < t1)) / (t1 - t0))
+
+
+def _clients_thread(url: str, n: int, stop_flag: threading.Event) -> tuple[list[Client], threading.Thread]:
+    clients = [Client(url) for _ in range(n)]
+
+    def main() -> None:
+        async def go() -> None:
+            stop = asyncio.Event()
+            tasks = [asyncio.create_task(c.run(stop)) for c in clients]
+            while not stop_flag.is_set():
+                await asyncio.sleep(0.1)
+            stop.set()
+            await asyncio.gather(*tasks)
+        asyncio.run(go())
+
+    thread = threading.Thread(target=main, daemon=True)
+    thread.start()
+    return clients, thread
+
+
+def _periods(stamps: list[tuple[float, float]], t0: float, t1: float) -> np.ndarray:
+    s = np.array([stamp for recv, stamp in stamps if t0 <= recv < t1])
+    return np.diff(s) if len(s) > 2 else np.array([np.nan])
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--clients', type=int, default=10)
+    parser.add_argument('--seconds', type=float, default=10.0)
+    args = parser.parse_args()
+
+    import rclpy
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import SetParameters
+    from rclpy.node import Node
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Bool
+
+    from rrps_kinematics.nodes.common import (COMMAND_QOS, STATE_QOS, make_executor,
+                                              spin_until_shutdown, stamp_to_seconds)
+
+    port, token = _free_port(), secrets.token_urlsafe(12)
+    demo = subprocess.Popen([sys.executable, '-m', 'rrps_teleop.demo', '--port', str(port),
+                             '--token', token], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True)
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    stop = threading.Event()
+    node = Node('viewer_load', context=context, namespace='/rrps')
+    stamps: list[tuple[float, float]] = []
+    lock = threading.Lock()
+
+    def on_state(msg) -> None:
+        with lock:
+            stamps.append((time.monotonic(), stamp_to_seconds(msg.header.stamp)))
+
+    node.create_subscription(JointState, 'actuators/state', on_state, STATE_QOS)
+    enable = node.create_publisher(Bool, 'teleop/enable', COMMAND_QOS)
+    node.create_timer(0.05, lambda: enable.publish(Bool(data=True)))  # hold the deadman
+    executor = make_executor(context, 'events')
+    executor.add_node(node)
+    spinner = threading.Thread(target=spin_until_shutdown, args=(executor, context, stop),
+                               daemon=True)
+    spinner.start()
+    try:
+        deadline = time.monotonic() + 60.0
+        for line in demo.stdout:
+            if 'operator token' in line or time.monotonic() > deadline:
+                break
+        threading.Thread(target=lambda: [None for _ in demo.stdout], daemon=True).start()
+        client = node.create_client(SetParameters, 'master_node/set_parameters')
+        if not client.wait_for_service(timeout_sec=20.0):
+            print('error: the demo did not come up', file=sys.stderr)
+            return 1
+        future = client.call_async(SetParameters.Request(parameters=[Parameter(
+            name='trajectory', value=ParameterValue(type=ParameterType.PARAMETER_STRING,
+                                                    string_value='circle'))]))
+        while not future.done():
+            time.sleep(0.05)
+        time.sleep(2.0)
+
+        t0 = time.monotonic()
+        time.sleep(args.seconds)
+        t1 = time.monotonic()
+        stop_clients = threading.Event()
+        clients, thread = _clients_thread(f'ws://127.0.0.1:{port}', args.clients, stop_clients)
+        time.sleep(3.0)  # connect, receive the scene
+        t2 = time.monotonic()
+        time.sleep(args.seconds)
+        t3 = time.monotonic()
+        stop_clients.set()
+        thread.join(timeout=10.0)
+        with lock:
+            recorded = list(stamps)
+    finally:
+        stop.set()
+        spinner.join(timeout=5.0)
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+        demo.send_signal(signal.SIGINT)
+        try:
+            demo.wait(timeout=15.0)
+        except subprocess.TimeoutExpired:
+            demo.kill()
+            demo.wait()
+
+    base, loaded = _periods(recorded, t0, t1), _periods(recorded, t2, t3)
+    print(f'\nViewer load: demo stack (driver 500 Hz) with {args.clients} websocket viewers, '
+          f'{args.seconds:g} s per phase, {os.cpu_count()} CPUs')
+    print(f'{"phase":<22}{"driver period p50 [ms]":>24}{"p99 [ms]":>10}{"max [ms]":>10}'
+          f'{"state rate [Hz]":>17}')
+    for name, p in (('baseline: 0 viewers', base), (f'loaded: {args.clients} viewers', loaded)):
+        print(f'{name:<22}{1e3 * np.median(p):>24.3f}{1e3 * np.percentile(p, 99):>10.3f}'
+              f'{1e3 * np.max(p):>10.3f}{len(p) / max(np.sum(p), 1e-9):>17.1f}')
+    print(f'\n{"viewer":<8}{"pose updates [Hz]":>19}{"batches [Hz]":>14}{"kB/s":>8}  error')
+    rates = []
+    for i, c in enumerate(clients):
+        rate = c.rate(t2, t3)
+        rates.append(rate)
+        print(f'{i:<8}{rate:>19.1f}{c.rate(t2, t3, "batches"):>14.1f}'
+              f'{c.bytes / 1e3 / (t3 - t2 + 3.0):>8.1f}  {c.error or ""}')
+    ok = bool(rates) and min(rates) >= 30.0
+    print(f'\nslowest viewer {min(rates):.1f} Hz (target >= 30 Hz): {"OK" if ok else "BELOW TARGET"}; '
+          f'driver period p99 {1e3 * np.percentile(loaded, 99):.2f} ms loaded vs '
+          f'{1e3 * np.percentile(base, 99):.2f} ms baseline (nominal 2.000 ms)')
+    return 0 if ok else 1
+
+
+if __name__ == '__main__':
+    sys.exit(main())
