@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from rrps_kinematics import check_pose, inverse_kinematics, load_robot
 from rrps_teleop.mapping import rotation_angle
-from rrps_teleop.master import TRAJECTORIES, MasterModel, scripted_pose
+from rrps_teleop.master import MasterModel, scripted_pose
 
 MASTER = load_robot('master_robot')
 HOME_P, HOME_Q = MASTER.home_position, MASTER.home_quaternion_xyzw

@@ -382,3 +382,17 @@ def test_property_commands_stay_within_limits_and_speed_and_clutch_never_jumps(s
                 assert np.linalg.norm(out.position - prev[0]) <= 0.1 * DT + 1e-12
                 assert rotation_angle(prev[1], out.quaternion_xyzw) <= 0.5 * DT + 1e-9
             prev = (out.position, out.quaternion_xyzw)
+
+
+def test_samples_bunched_by_the_transport_keep_the_masters_time_budget():
+    """Two master samples 10 ms apart that arrive together are not speed-limited: dt is the stamps' 10 ms."""
+    for stamped in (True, False):
+        m = TeleopMapping(SLAVE, TeleopConfig(max_linear_speed=0.05))
+        m.on_slave_pose(SLAVE.home_position, SLAVE.home_quaternion_xyzw)
+        m.on_enable(0.0, True)
+        m.on_master_pose(0.0, MASTER.home_position, MASTER.home_quaternion_xyzw, stamp=0.0 if stamped else None)
+        m.step(0.0)
+        m.on_master_pose(0.0005, MASTER.home_position + [0.0001, 0.0, 0.0], MASTER.home_quaternion_xyzw,
+                         stamp=0.01 if stamped else None)
+        out = m.step(0.0005)  # 0.4 mm for the slave: 0.04 m/s over the 10 ms between the samples
+        assert out.code == (StatusCode.NO_WARNING if stamped else StatusCode.SPEED_LIMITED)

@@ -223,6 +223,8 @@ class TeleopMapping:
         self._slave_pose: tuple[np.ndarray, np.ndarray] | None = None
         self._climb_executing = False
         self._last_step_time: float | None = None
+        self._sample_stamp: float | None = None
+        self._last_step_stamp: float | None = None
         self.engaged = False
         self._command: _Command | None = None
         self._master_ref = None
@@ -241,18 +243,25 @@ class TeleopMapping:
         self._enable_value = bool(value)
         self._enable_time = float(t)
 
-    def on_master_pose(self, t: float, position, quaternion_xyzw) -> None:
-        """The master's pose (its FK, frame master_ring_a) received at ``t``; ValueError if malformed."""
+    def on_master_pose(self, t: float, position, quaternion_xyzw, stamp: float | None = None) -> None:
+        """The master's pose (its FK, frame master_ring_a) received at ``t``; ValueError if malformed.
+
+        ``stamp``: when the master sampled it (its header), used only for the step's time budget.
+        """
         self._master_pose = validate_pose(position, quaternion_xyzw, 'master pose')
         self._master_pose_time = float(t)
+        if self.config.mode == 'cartesian':
+            self._sample_stamp = stamp
 
-    def on_master_lengths(self, t: float, lengths) -> None:
+    def on_master_lengths(self, t: float, lengths, stamp: float | None = None) -> None:
         """The master's leg lengths (encoders) received at ``t``; ValueError if malformed."""
         L = np.asarray(lengths, dtype=float)
         if L.shape != (6,) or not np.all(np.isfinite(L)) or np.any(L <= 0.0):
             raise ValueError(f'master lengths must be 6 finite positive values, got {lengths!r}')
         self._master_lengths = L
         self._master_lengths_time = float(t)
+        if self.config.mode == 'joint':
+            self._sample_stamp = stamp
 
     def on_slave_pose(self, position, quaternion_xyzw) -> None:
         """The slave's measured pose a_T_b (its FK): the reference captured at engage."""
@@ -266,7 +275,7 @@ class TeleopMapping:
         """Release the clutch: no command until the next engage."""
         self.engaged = False
         self._command = None
-        self._last_step_time = None
+        self._last_step_time = self._last_step_stamp = None
 
     # --- the state machine -------------------------------------------------------------
 
@@ -303,9 +312,7 @@ class TeleopMapping:
             mismatch = self._engage()
             if mismatch is not None:
                 return mismatch
-        dt = 0.0 if self._last_step_time is None else min(max(t - self._last_step_time, 0.0),
-                                                          self.config.max_period)
-        self._last_step_time = t
+        dt = self._time_budget(t)
         if self.config.mode == 'cartesian':
             code, detail = self._cartesian_step(dt)
         else:
@@ -314,6 +321,17 @@ class TeleopMapping:
         return TeleopOutput(code, True, detail, position=cmd.position.copy(),
                             quaternion_xyzw=cmd.quaternion.copy(), lengths=cmd.lengths.copy(),
                             margins={k: float(v) for k, v in cmd.margins.minimum.items()})
+
+    def _time_budget(self, t: float) -> float:
+        """dt [s] of this step for the speed limits: the time since the last step, or the time
+        between the master samples if longer (samples bunched by the transport still carry the
+        master's own time), at most ``max_period``."""
+        dt = 0.0 if self._last_step_time is None else t - self._last_step_time
+        stamp, last = self._sample_stamp, self._last_step_stamp
+        if stamp is not None and last is not None:
+            dt = max(dt, stamp - last)
+        self._last_step_time, self._last_step_stamp = t, stamp
+        return min(max(dt, 0.0), self.config.max_period)
 
     @property
     def command(self) -> _Command | None:
@@ -352,7 +370,7 @@ class TeleopMapping:
         else:
             self._offsets = ik.lengths - np.asarray(c.joint_scale) * self._master_lengths
         self.engaged = True
-        self._last_step_time = None
+        self._last_step_time = self._last_step_stamp = None
         return None
 
     # --- guarded steps -------------------------------------------------------------------

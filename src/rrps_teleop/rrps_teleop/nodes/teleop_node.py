@@ -29,7 +29,8 @@ from std_msgs.msg import Bool
 
 from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, OK, STALE, STATE_QOS, WARN, Diagnostics,
                                           declare_parameter, declare_robot_parameter, joint_state_msg,
-                                          lengths_from_joint_state, pose_from_msg, pose_to_msg, run_nodes)
+                                          lengths_from_joint_state, pose_from_msg, pose_to_msg, run_nodes,
+                                          stamp_to_seconds)
 
 from ..mapping import MODES, ROTATION_MODES, StatusCode, TeleopConfig, TeleopMapping, TeleopOutput
 
@@ -151,7 +152,7 @@ class TeleopNode(Node):
             self.get_logger().info(f'teleop parameters changed: mode {self.mapping.config.mode}, '
                                    f'translation_scale {self.mapping.config.translation_scale:g}, '
                                    f'rotation_mode {self.mapping.config.rotation_mode} (clutch released)')
-            self._watchdog()
+            self._publish_status(TeleopOutput(self._output.code, False, 'parameters changed: clutch released'))
 
     # --- inputs --------------------------------------------------------------------------
 
@@ -160,7 +161,8 @@ class TeleopNode(Node):
             self._reject(f'master/pose frame_id {msg.header.frame_id!r} is not {self.master_frame_id!r}')
             return
         try:
-            self.mapping.on_master_pose(time.monotonic(), *pose_from_msg(msg))
+            self.mapping.on_master_pose(time.monotonic(), *pose_from_msg(msg),
+                                        stamp=stamp_to_seconds(msg.header.stamp) or None)
         except ValueError as exc:
             self._reject(str(exc))
             return
@@ -169,7 +171,8 @@ class TeleopNode(Node):
 
     def _on_master_state(self, msg: JointState) -> None:
         try:
-            self.mapping.on_master_lengths(time.monotonic(), lengths_from_joint_state(msg))
+            self.mapping.on_master_lengths(time.monotonic(), lengths_from_joint_state(msg),
+                                           stamp=stamp_to_seconds(msg.header.stamp) or None)
         except ValueError as exc:
             self._reject(f'master/actuators/state: {exc}')
             return
