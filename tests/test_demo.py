@@ -1,0 +1,102 @@
+"""rrps-demo as users run it: the headless smoke test, the URL and token banner, Ctrl-C, bad input."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+pytestmark = [pytest.mark.ros]
+
+DEMO = Path(sys.executable).parent / 'rrps-demo'
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(('127.0.0.1', 0))
+        return s.getsockname()[1]
+
+
+def _env(domain_id: int) -> dict:
+    return {**os.environ, 'ROS_DOMAIN_ID': str(domain_id),
+            'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'PYTHONUNBUFFERED': '1'}
+
+
+def _command() -> list[str]:
+    return [str(DEMO)] if DEMO.exists() else [sys.executable, '-m', 'rrps_teleop.demo']
+
+
+def _stop(proc: subprocess.Popen) -> None:
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+@pytest.mark.slow
+def test_headless_demo_runs_a_teleop_session_and_a_climb(ros_domain_id):
+    proc = subprocess.Popen([*_command(), '--headless', '--port', str(_free_port())],
+                            env=_env(ros_domain_id), stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+    try:
+        out, _ = proc.communicate(timeout=240)
+    finally:
+        _stop(proc)
+    assert proc.returncode == 0, out[-3000:]
+    for line in ('[PASS] deadman held: teleop engaged', '[PASS] slave followed the master',
+                 '[PASS] deadman released: disengaged', '[PASS] climb step executed and ended idle',
+                 '[PASS] both rings climbed', '[PASS] viewer drew'):
+        assert line in out, out[-3000:]
+    assert '[FAIL]' not in out
+
+
+def test_demo_prints_url_and_token_serves_the_viewer_and_stops_on_ctrl_c(ros_domain_id):
+    port = _free_port()
+    proc = subprocess.Popen([*_command(), '--port', str(port), '--token', 'token-for-test'],
+                            env=_env(ros_domain_id), stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+    try:
+        lines = []
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            line = proc.stdout.readline()
+            if not line:
+                break
+            lines.append(line)
+            if 'operator token:' in line and 'token-for-test' in line and 'viewer:' in ''.join(lines):
+                break
+        text = ''.join(lines)
+        assert f'http://127.0.0.1:{port}' in text, text
+        assert 'operator token: token-for-test' in text, text
+        with urllib.request.urlopen(f'http://127.0.0.1:{port}', timeout=10) as page:
+            assert page.status == 200 and b'<html' in page.read().lower()
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=20)
+    finally:
+        _stop(proc)
+    assert proc.returncode == 0, out[-2000:]
+    assert 'rrps demo: stopping' in out
+    assert 'Traceback' not in out, out[-2000:]
+
+
+@pytest.mark.parametrize('args, message', [
+    (['--token', 'short'], '--token must have at least 8 characters'),
+    (['--port', '70000'], '--port must be 1..65535'),
+    (['--robot', 'no_such_robot'], "unknown robot 'no_such_robot'"),
+])
+def test_demo_rejects_bad_arguments_with_one_line(ros_domain_id, args, message):
+    proc = subprocess.run([*_command(), *args], env=_env(ros_domain_id), capture_output=True,
+                          text=True, timeout=60)
+    assert proc.returncode == 2
+    assert message in proc.stderr
+    assert 'Traceback' not in proc.stderr
