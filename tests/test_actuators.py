@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rrps_kinematics import inverse_kinematics, load_robot
-from rrps_sim.actuators import DynamicActuators, KinematicActuators, SensorFaults
+from rrps_sim.actuators import DynamicActuators, KinematicActuators, QuasiStaticEfforts, SensorFaults
 from rrps_sim.statics import holding_forces
 
 LO, HI = 0.3, 0.55
@@ -151,3 +151,18 @@ def test_sensor_faults_are_seeded_and_have_their_statistics():
         SensorFaults(noise=-1.0)
     with pytest.raises(ValueError):
         SensorFaults(drop_probability=1.5)
+
+
+def test_quasi_static_efforts_hold_the_pose_and_refresh_on_period():
+    robot = load_robot('pole_climber')
+    home = robot.home_lengths
+    efforts = QuasiStaticEfforts(robot, home, period=0.05)
+    np.testing.assert_allclose(efforts.efforts, holding_forces(robot, robot.home_position,
+                                                               robot.home_quaternion_xyzw), rtol=1e-9)
+    raised = inverse_kinematics(robot, robot.home_position + [0.0, 0.0, 0.05], [0, 0, 0, 1]).lengths
+    before = efforts.efforts.copy()
+    np.testing.assert_array_equal(efforts.update(raised, 0.02), before)      # not yet due
+    after = efforts.update(raised, 0.04)                                      # 0.06 s >= period
+    np.testing.assert_allclose(after, holding_forces(robot, robot.home_position + [0.0, 0.0, 0.05],
+                                                     [0, 0, 0, 1]), rtol=1e-9)
+    assert not np.allclose(after, before)

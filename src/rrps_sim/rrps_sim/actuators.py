@@ -8,6 +8,8 @@ Pure NumPy, no ROS import. Both models take a reference (commanded lengths [m]) 
     dyn = DynamicActuators(geometry, initial_lengths)
     dyn.step(reference, dt)                 # multibody dynamics with a PD force loop per leg
 
+Position-controlled actuators report the quasi-static forces of :class:`QuasiStaticEfforts`.
+
 Fault injection: ``stuck`` (per axis: the actuator ignores commands and keeps its length) on
 both models, and :class:`SensorFaults` (Gaussian noise on the measured lengths, dropped
 messages) applied by the driver to what it publishes.
@@ -25,7 +27,7 @@ from rrps_kinematics.geometry import RobotGeometry
 from .dynamics import MultibodyDynamics
 from .statics import holding_forces
 
-__all__ = ['KinematicActuators', 'DynamicActuators', 'SensorFaults']
+__all__ = ['KinematicActuators', 'DynamicActuators', 'QuasiStaticEfforts', 'SensorFaults']
 
 
 def _vector(value, n: int, name: str) -> np.ndarray:
@@ -175,6 +177,45 @@ class DynamicActuators:
             dyn.step(f, h)
             self.forces = f
             self._since_feedforward += h
+
+
+class QuasiStaticEfforts:
+    """Efforts [N] of position-controlled (kinematic) actuators: the statics of eq. 19 at rest.
+
+    The forces that hold the current pose against gravity (legs included,
+    :func:`rrps_sim.statics.holding_forces`) at the pose found by FK from the current lengths,
+    refreshed at most every ``period`` s (one solve costs about a millisecond). A pose where FK
+    fails or the Jacobian is singular keeps the previous efforts.
+    """
+
+    def __init__(self, geometry: RobotGeometry, initial_lengths, *, period: float = 0.05):
+        if not (math.isfinite(period) and period >= 0.0):
+            raise ValueError(f'period must be finite and >= 0, got {period}')
+        self.geometry = geometry
+        self.period = float(period)
+        self._position = geometry.home_position
+        self._quaternion = geometry.home_quaternion_xyzw
+        self.efforts = np.zeros(6)
+        self._since = 0.0
+        self._refresh(np.asarray(initial_lengths, dtype=float))
+
+    def _refresh(self, lengths: np.ndarray) -> None:
+        fk = forward_kinematics(self.geometry, lengths, self._position, self._quaternion)
+        if not fk.converged:
+            return
+        self._position, self._quaternion = fk.position, fk.quaternion_xyzw
+        try:
+            self.efforts = holding_forces(self.geometry, fk.position, fk.quaternion_xyzw)
+        except ValueError:
+            pass
+
+    def update(self, lengths, dt: float) -> np.ndarray:
+        """Advance the refresh clock by ``dt`` s; re-solve when ``period`` has passed."""
+        self._since += dt
+        if self._since >= self.period:
+            self._since = 0.0
+            self._refresh(np.asarray(lengths, dtype=float))
+        return self.efforts
 
 
 class SensorFaults:

@@ -1,7 +1,7 @@
 """driver_node: the simulated hardware. actuators/command -> actuators/state, plus the grippers.
 
 Modes (parameter ``mode``): ``kinematic`` (:class:`rrps_sim.actuators.KinematicActuators`: lag,
-speed and stroke limits) and ``dynamic`` (:class:`rrps_sim.actuators.DynamicActuators`: the
+speed and stroke limits; effort = the quasi-static holding forces of the pose, refreshed every 50 ms) and ``dynamic`` (:class:`rrps_sim.actuators.DynamicActuators`: the
 multibody dynamics of eqs. 19-20 with a PD force loop per leg, effort = force [N]). The state
 is published at ``rate`` Hz (and at once on each accepted command with ``publish_on_command``).
 
@@ -34,7 +34,7 @@ from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, LEG_NAMES, OK, STA
                                           joint_state_msg, lengths_from_joint_state, run_nodes,
                                           stamp_to_seconds)
 
-from ..actuators import DynamicActuators, KinematicActuators, SensorFaults
+from ..actuators import DynamicActuators, KinematicActuators, QuasiStaticEfforts, SensorFaults
 from ..grippers import RINGS, Grippers
 
 __all__ = ['DriverNode', 'main']
@@ -115,6 +115,7 @@ class DriverNode(Node):
         else:
             self.actuators = KinematicActuators(g.min_length, g.max_length, max_speed, time_constant,
                                                 lengths0)
+            self.static_efforts = QuasiStaticEfforts(g, lengths0)
         self.ring_names = [f'{ring}_rotation' for ring in RINGS if ring in g.extra_dof]
         self.rings = None
         if self.ring_names:
@@ -253,6 +254,8 @@ class DriverNode(Node):
             dyn.reset(dyn.position, dyn.quaternion_xyzw)
             self.reference = self.actuators.positions
             self._set_status(ERROR, f'dynamics failed ({exc}): reset at rest, holding')
+        if self.mode == 'kinematic':
+            self.static_efforts.update(self.actuators.positions, dt)
         if self.rings is not None:
             self.rings.step(self.ring_reference, dt)
 
@@ -265,14 +268,14 @@ class DriverNode(Node):
             self.dropped += 1
             return
         a = self.actuators
-        positions, velocities, efforts = self.faults.measure(a.positions), a.velocities, a.efforts
+        efforts = a.efforts if self.mode == 'dynamic' else self.static_efforts.efforts
+        positions, velocities = self.faults.measure(a.positions), a.velocities
         if self.rings is not None:
             positions = np.concatenate([positions, self.rings.positions])
             velocities = np.concatenate([velocities, self.rings.velocities])
-            if efforts.size:
-                efforts = np.concatenate([efforts, np.zeros(len(self.ring_names))])
+            efforts = np.concatenate([efforts, np.zeros(len(self.ring_names))])
         self._state_pub.publish(joint_state_msg(self.get_clock().now().to_msg(), positions, velocities,
-                                                efforts if efforts.size else None, names=self.names))
+                                                efforts, names=self.names))
 
     # --- grippers ---
 
