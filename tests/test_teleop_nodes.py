@@ -340,3 +340,58 @@ def test_no_engage_while_a_climb_step_executes(ros_context):
         assert not rig.targets and rig.values()['engaged'] == 'false'
         rig.climb_pub.publish(DiagnosticStatus(name='climb_node', message='idle'))
         assert wait_for(lambda: rig.targets, 2.0)
+
+
+def test_master_node_follows_the_handle_within_its_limits_and_rejects_bad_targets(ros_context):
+    from diagnostic_msgs.msg import DiagnosticArray
+    master = MasterNode(context=ros_context, namespace=NS, parameter_overrides=params(rate=100.0))
+    probe = Probe(context=ros_context, namespace=NS)
+    states = probe.collect(JointState, 'master/actuators/state')
+    poses = probe.collect(PoseStamped, 'master/pose')
+    diagnostics = probe.collect(DiagnosticArray, '/diagnostics')
+    handle = probe.publisher(PoseStamped, 'master/target_pose', command=True)
+    said = lambda text: any(text in s.message for d in diagnostics for s in d.status)  # noqa: E731
+
+    def send(position, quaternion=(0.0, 0.0, 0.0, 1.0), frame='master_ring_a'):
+        msg = pose_to_msg(position, quaternion, frame_id=frame, stamp=probe.get_clock().now().to_msg())
+        handle.publish(msg)
+
+    goal = MASTER.home_position + [0.003, 0.0, 0.002]
+    with Spinner(ros_context, [master, probe]):
+        assert wait_for(lambda: poses and handle.get_subscription_count(), 5.0)
+        np.testing.assert_allclose(lengths_from_joint_state(states[-1]), MASTER.home_lengths, atol=1e-12)
+        assert wait_for(lambda: (send(goal), np.allclose(pose_from_msg(poses[-1])[0], goal, atol=1e-9))[1], 3.0)
+        # Encoders and FK agree: master/pose is the FK of master/actuators/state.
+        np.testing.assert_allclose(lengths_from_joint_state(states[-1]),
+                                   inverse_kinematics(MASTER, goal, [0, 0, 0, 1]).lengths, atol=1e-9)
+        for args, text in ((([0.0, 0.0, 0.2], (0, 0, 0, 1), 'world'), 'frame_id'),
+                           (([0.0, np.nan, 0.1],), 'NaN'),
+                           (([0.0, 0.0, 0.1], (0, 0, 0, 3)), 'non-unit quaternion')):
+            assert wait_for(lambda: (send(*args), said(text))[1], 3.0), text
+        np.testing.assert_allclose(pose_from_msg(poses[-1])[0], goal, atol=1e-9)
+        # Far beyond the stroke: the handle stops on the master's own limits.
+        assert wait_for(lambda: (send(MASTER.home_position + [0.0, 0.0, 0.2]), said('stopped at the limits'))[1],
+                        5.0)
+        assert check_pose(MASTER, *pose_from_msg(poses[-1]))[0]
+        assert master.set_parameters([Parameter('trajectory', value='square')])[0].successful is False
+        assert master.set_parameters([Parameter('trajectory', value='circle')])[0].successful
+
+
+def test_teleop_node_rejects_malformed_master_data_and_says_why(ros_context):
+    teleop = TeleopNode(context=ros_context, namespace=NS)
+    probe = Probe(context=ros_context, namespace=NS)
+    status = probe.collect(DiagnosticStatus, 'teleop/status')
+    pose_pub = probe.publisher(PoseStamped, 'master/pose')
+    state_pub = probe.publisher(JointState, 'master/actuators/state')
+    said = lambda text: any(s.message == 'INVALID' and text in {kv.key: kv.value for kv in s.values}['detail']
+                            for s in status)  # noqa: E731
+    stamp = lambda: probe.get_clock().now().to_msg()  # noqa: E731
+    with Spinner(ros_context, [teleop, probe]):
+        assert wait_for(lambda: pose_pub.get_subscription_count() and state_pub.get_subscription_count(), 5.0)
+        pose_pub.publish(pose_to_msg(MASTER.home_position, [0, 0, 0, 1], frame_id='world', stamp=stamp()))
+        assert wait_for(lambda: said("frame_id 'world'"), 3.0)
+        pose_pub.publish(pose_to_msg([0.0, 0.0, np.inf], [0, 0, 0, 1], frame_id='master_ring_a', stamp=stamp()))
+        assert wait_for(lambda: said('NaN or infinite'), 3.0)
+        state_pub.publish(joint_state_msg(stamp(), [0.1] * 5, names=['leg_1', 'leg_2', 'leg_3', 'leg_4', 'leg_5']))
+        assert wait_for(lambda: said("missing joints ['leg_6']"), 3.0)
+    assert not teleop.mapping.engaged

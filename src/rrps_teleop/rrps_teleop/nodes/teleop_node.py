@@ -223,10 +223,11 @@ class TeleopNode(Node):
             self._publish_status(self._output)
 
     def _publish_status(self, out: TeleopOutput) -> None:
-        """teleop/status and /diagnostics: at once when the code or engagement changes, else at status_rate."""
+        """teleop/status and /diagnostics: at once when the code or engagement changes (or a new
+        rejection reason comes), else at status_rate."""
         self._output = out
         now = time.monotonic()
-        key = (out.code, out.engaged)
+        key = (out.code, out.engaged, out.detail if out.code == StatusCode.INVALID else '')
         if key == self._last_status and now - self._last_status_time < self._status_period:
             return
         self._last_status, self._last_status_time = key, now
