@@ -1,7 +1,7 @@
 """climb_node over ROS, launch-free: a climb executed on the driver through IK and FK.
 
 Tolerance of "ends where the plan says": the node switches a gripper only once the measured pose
-is within ``position_tolerance`` (2 mm) and ``orientation_tolerance`` of the planned one. The
+is within ``position_tolerance`` (1 mm) and ``orientation_tolerance`` of the planned one. The
 world odometry is chained from the measured pose at every gripper hand-over, so its error is at
 most one tolerance per hand-over (ring_b then ring_a per step, plus the preparing move); the
 kinematic pose a_T_b itself ends within one tolerance of the plan.
@@ -27,7 +27,9 @@ from rrps_teleop.nodes.climb_node import ClimbNode
 from rrps_teleop.odometry import pose_matrix
 from rrps_teleop.structures import make_structure
 
-TOL = 0.002  # position_tolerance of the node [m]
+pytestmark = pytest.mark.ros
+
+TOL = 0.001  # position_tolerance of the node [m]
 
 
 def _stack(ctx, **climb):
@@ -46,6 +48,7 @@ def _idle_after(statuses, steps_done: int):
     return any(s.message == 'idle' and _values(s)['steps_done'] == str(steps_done) for s in statuses)
 
 
+@pytest.mark.slow
 def test_scripted_climb_ends_where_the_plan_says(ros_context):
     steps = 2
     probe = Probe(context=ros_context)
@@ -95,6 +98,7 @@ def _call(probe, client, timeout=5.0):
     return future.result()
 
 
+@pytest.mark.slow
 def test_step_services_teleop_refusal_and_plan_refusal(ros_context):
     probe = Probe(context=ros_context)
     status = probe.collect(DiagnosticStatus, 'climb/status')

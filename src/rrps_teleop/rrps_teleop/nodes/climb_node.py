@@ -76,7 +76,7 @@ class ClimbNode(Node):
         rate = declare_parameter(self, 'rate', 50.0, 'target_pose stream and state machine rate [Hz]',
                                  min_value=1.0, max_value=1000.0, read_only=True)
         self.position_tolerance = declare_parameter(
-            self, 'position_tolerance', 0.002, 'arrival tolerance of the measured pose [m]',
+            self, 'position_tolerance', 0.001, 'arrival tolerance of the measured pose [m]',
             min_value=1e-5, max_value=0.1, read_only=True)
         self.orientation_tolerance = declare_parameter(
             self, 'orientation_tolerance', 0.01, 'arrival tolerance of the measured pose [rad]',
