@@ -360,13 +360,14 @@ def test_malformed_samples_are_refused_and_change_nothing():
 
 
 @settings(max_examples=20, deadline=None)
-@given(scale=st.floats(0.5, 12.0),
+@given(mode=st.sampled_from(['cartesian', 'joint']), scale=st.floats(0.5, 12.0),
        moves=st.lists(st.tuples(st.floats(-0.03, 0.03), st.floats(-0.03, 0.03), st.floats(-0.03, 0.03),
                                 st.floats(-0.5, 0.5), st.floats(-0.5, 0.5), st.floats(-0.5, 0.5),
                                 st.booleans()),
                       min_size=1, max_size=5))
-def test_property_commands_stay_within_limits_and_speed_and_clutch_never_jumps(scale, moves):
-    config = TeleopConfig(translation_scale=scale, max_linear_speed=0.1, max_angular_speed=0.5)
+def test_property_commands_stay_within_limits_and_speed_and_clutch_never_jumps(mode, scale, moves):
+    config = TeleopConfig(mode=mode, translation_scale=scale, joint_scale=scale,
+                          max_linear_speed=0.1, max_angular_speed=0.5)
     s = Session(config)
     prev = None
     for x, y, z, rx, ry, rz, enable in moves:
@@ -378,10 +379,30 @@ def test_property_commands_stay_within_limits_and_speed_and_clutch_never_jumps(s
                 assert out.code == StatusCode.DEADMAN_RELEASED
                 continue
             assert check_pose(SLAVE, out.position, out.quaternion_xyzw)[0]
-            if prev is not None:
-                assert np.linalg.norm(out.position - prev[0]) <= 0.1 * DT + 1e-12
-                assert rotation_angle(prev[1], out.quaternion_xyzw) <= 0.5 * DT + 1e-9
-            prev = (out.position, out.quaternion_xyzw)
+            if prev is not None:  # the first command after a clutch is the slave's own pose
+                assert np.max(np.abs(out.lengths - prev[2])) <= SLAVE.max_speed * DT + 1e-9
+                if mode == 'cartesian':
+                    assert np.linalg.norm(out.position - prev[0]) <= 0.1 * DT + 1e-12
+                    assert rotation_angle(prev[1], out.quaternion_xyzw) <= 0.5 * DT + 1e-9
+            prev = (out.position, out.quaternion_xyzw, out.lengths)
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.lists(st.tuples(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), st.floats(-1.0, 1.0),
+                          st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), st.floats(-1.0, 1.0)),
+                min_size=1, max_size=30))
+def test_property_joint_space_equals_cartesian_for_any_slow_master_path(steps):
+    """Any master path slow enough for both speed limits gives the same leg lengths in both modes."""
+    cart = Session(TeleopConfig(mode='cartesian', translation_scale=4.0))
+    joint = Session(TeleopConfig(mode='joint', joint_scale=4.0))
+    cart.tick(), joint.tick()
+    p, q = MASTER.home_position.copy(), MASTER.home_quaternion_xyzw
+    for dx, dy, dz, rx, ry, rz in steps:
+        p = p + 5e-5 * np.array([dx, dy, dz])  # <= 0.9 mm/s per axis for the master
+        q = rotated(q, 5e-4 * np.array([rx, ry, rz]))
+        oc, oj = cart.tick((p, q)), joint.tick((p, q))
+        assert oc.code == oj.code == StatusCode.NO_WARNING
+        np.testing.assert_allclose(oj.lengths, oc.lengths, atol=1e-9)
 
 
 def test_samples_bunched_by_the_transport_keep_the_masters_time_budget():

@@ -55,6 +55,7 @@ from rrps_kinematics.rotations import (
 __all__ = [
     'MODES',
     'ROTATION_MODES',
+    'DISENGAGED_CODES',
     'StatusCode',
     'TeleopConfig',
     'TeleopOutput',
@@ -69,6 +70,8 @@ MODES = ('cartesian', 'joint')
 ROTATION_MODES = ('relative', 'absolute')
 #: A quaternion further than this from unit norm is rejected, not silently normalised.
 QUATERNION_NORM_TOLERANCE = 1e-3
+#: Most re-scalings of a Cartesian step for the leg speed limit (leg lengths are not linear in it).
+LEG_SPEED_ITERATIONS = 4
 
 
 class StatusCode(IntEnum):
@@ -393,9 +396,12 @@ class TeleopMapping:
         if limit < 1.0:
             fraction, code = limit, StatusCode.SPEED_LIMITED
         cand = self._evaluate_pose(*pose_step(prev.position, prev.quaternion, p1, q1, fraction))
-        leg_step = float(np.max(np.abs(cand.lengths - prev.lengths)))
-        if leg_step > self.slave.max_speed * dt:
-            fraction *= self.slave.max_speed * dt / leg_step
+        leg_limit = self.slave.max_speed * dt
+        for _ in range(LEG_SPEED_ITERATIONS):  # lengths are nearly linear in the fraction: 1-2 passes
+            leg_step = float(np.max(np.abs(cand.lengths - prev.lengths)))
+            if leg_step <= leg_limit:
+                break
+            fraction *= leg_limit / leg_step * (1.0 - 1e-9)
             code = StatusCode.SPEED_LIMITED
             cand = self._evaluate_pose(*pose_step(prev.position, prev.quaternion, p1, q1, fraction))
         factor, slow_code = self._deceleration(prev.margins, cand.margins)
