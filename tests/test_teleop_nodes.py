@@ -32,6 +32,8 @@ from rrps_teleop.master import scripted_pose
 from rrps_teleop.nodes.master_node import MasterNode
 from rrps_teleop.nodes.teleop_node import TeleopNode
 
+pytestmark = pytest.mark.ros
+
 SLAVE = load_robot('pole_climber')
 MASTER = load_robot('master_robot')
 NS = '/rrps'
