@@ -368,7 +368,7 @@ def test_master_node_follows_the_handle_within_its_limits_and_rejects_bad_target
                                    inverse_kinematics(MASTER, goal, [0, 0, 0, 1]).lengths, atol=1e-9)
         for args, text in ((([0.0, 0.0, 0.2], (0, 0, 0, 1), 'world'), 'frame_id'),
                            (([0.0, np.nan, 0.1],), 'NaN'),
-                           (([0.0, 0.0, 0.1], (0, 0, 0, 3)), 'non-unit quaternion')):
+                           (([0.0, 0.0, 0.1], (0, 0, 0, 3)), 'quaternion norm 3 is not 1')):
             assert wait_for(lambda: (send(*args), said(text))[1], 3.0), text
         np.testing.assert_allclose(pose_from_msg(poses[-1])[0], goal, atol=1e-9)
         # Far beyond the stroke: the handle stops on the master's own limits.

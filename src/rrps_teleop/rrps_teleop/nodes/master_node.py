@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
 from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
@@ -23,6 +22,7 @@ from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, OK, STATE_QOS, WAR
                                           declare_parameter, declare_robot_parameter,
                                           joint_state_msg, pose_from_msg, pose_to_msg, run_nodes)
 
+from ..mapping import validate_pose
 from ..master import TRAJECTORIES, MasterModel, scripted_pose
 
 __all__ = ['MasterNode', 'main']
@@ -103,12 +103,10 @@ class MasterNode(Node):
             self._set_status(WARN, f'master/target_pose rejected: frame_id {msg.header.frame_id!r} '
                                    f'is not {self.frame_id!r}')
             return
-        position, quaternion = pose_from_msg(msg)
-        if not (np.all(np.isfinite(position)) and np.all(np.isfinite(quaternion))
-                and abs(np.linalg.norm(quaternion) - 1.0) <= 1e-3):
-            self._set_status(WARN, 'master/target_pose rejected: NaN/inf or a non-unit quaternion')
-            return
-        self._target = (position, quaternion)
+        try:
+            self._target = validate_pose(*pose_from_msg(msg), 'master/target_pose')
+        except ValueError as exc:
+            self._set_status(WARN, f'rejected {exc}')
 
     def _on_tick(self) -> None:
         now = time.monotonic()
