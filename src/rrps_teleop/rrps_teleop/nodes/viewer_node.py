@@ -5,7 +5,9 @@ Subscribes (relative names): ``actuators/state``, ``pose`` (FK a_T_b, frame ring
 ``grippers/state``, ``odometry/ring_a|ring_b`` (frame world), ``teleop/status``, ``climb/status``
 and ``/diagnostics`` (FK iterations of fk_node). Publishes ``teleop/enable`` (the deadman, true at
 ``enable_rate`` Hz while the operator holds it) and ``master/target_pose`` (the gizmo). Calls
-``climb/step_up|step_down``, ``grippers/ring_a|ring_b/set`` and ``teleop_node/set_parameters``.
+``climb/step_up|step_down``, ``grippers/ring_a|ring_b/set`` and the teleop node's standard
+parameter service (``teleop_node/set_parameters_atomically``: mode, rotation and scale change
+together or not at all, never half).
 
 Drawing runs in the viewer's own thread at ``render_rate`` Hz, whatever the control rate: ROS
 callbacks only store the latest messages. Requests from the browser are queued and executed on
@@ -35,7 +37,7 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
-from rcl_interfaces.srv import SetParameters
+from rcl_interfaces.srv import SetParametersAtomically
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool
@@ -173,7 +175,8 @@ class ViewerNode(Node):
             'down': self.create_client(Trigger, 'climb/step_down'),
             'ring_a': self.create_client(SetBool, 'grippers/ring_a/set'),
             'ring_b': self.create_client(SetBool, 'grippers/ring_b/set'),
-            'teleop': self.create_client(SetParameters, 'teleop_node/set_parameters'),
+            'teleop': self.create_client(SetParametersAtomically,
+                                        'teleop_node/set_parameters_atomically'),
         }
         self.create_timer(1.0 / enable_rate, self._tick)
 
@@ -371,7 +374,7 @@ class ViewerNode(Node):
         else:
             mode, rotation_mode, scale = arg
             client, what = self._service_clients['teleop'], f'mapping {mode}/{rotation_mode} ×{scale:g}'
-            request = SetParameters.Request(parameters=[
+            request = SetParametersAtomically.Request(parameters=[
                 Parameter(name='mode', value=ParameterValue(
                     type=ParameterType.PARAMETER_STRING, string_value=mode)),
                 Parameter(name='rotation_mode', value=ParameterValue(
@@ -389,9 +392,10 @@ class ViewerNode(Node):
             if response is None:
                 self.viewer.tell(client_id, f'{what}: no response', ok=False)
             elif kind == 'mapping':
-                bad = [r.reason for r in response.results if not r.successful]
-                self.viewer.tell(client_id, f'{what}: ' + ('; '.join(bad) if bad else 'applied'),
-                                 ok=not bad)
+                result = response.result
+                self.viewer.tell(client_id, f'{what}: ' + ('applied' if result.successful
+                                                           else f'refused: {result.reason}'),
+                                 ok=result.successful)
             else:
                 self.viewer.tell(client_id, f'{what}: {response.message or "done"}',
                                  ok=response.success)
