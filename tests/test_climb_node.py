@@ -32,11 +32,13 @@ pytestmark = pytest.mark.ros
 TOL = 0.001  # position_tolerance of the node [m]
 
 
-def _stack(ctx, **climb):
-    params = {'robot': 'pole_climber', 'structure': 'pole', 'speed': 0.05, 'step_length': 0.06,
+def _stack(ctx, robot='pole_climber', **climb):
+    params = {'robot': robot, 'structure': 'pole', 'speed': 0.05, 'step_length': 0.06,
               'position_tolerance': TOL, 'start': 0.2, **climb}
-    return [DriverNode(context=ctx, parameter_overrides=[Parameter('rate', value=200.0)]),
-            IkNode(context=ctx), FkNode(context=ctx),
+    robot_param = Parameter('robot', value=robot)
+    return [DriverNode(context=ctx, parameter_overrides=[robot_param, Parameter('rate', value=200.0)]),
+            IkNode(context=ctx, parameter_overrides=[robot_param]),
+            FkNode(context=ctx, parameter_overrides=[robot_param]),
             ClimbNode(context=ctx, parameter_overrides=[Parameter(k, value=v) for k, v in params.items()])]
 
 

@@ -168,8 +168,10 @@ class GaitPlanner:
     """Plans inchworm climbs of one robot on one structure.
 
     ``spacing`` [m] (and about 1 degree): the largest distance between checked poses of a
-    motion. ``use_extra_dof``: let robots that have it re-arrange with the extra ring DOF.
-    ``step_fraction``: the default step is this fraction of the straight-member reach.
+    motion. ``use_extra_dof``: robots that have the extra ring DOF turn the open ring's joint
+    so the legs are never twisted by a member's section orientation (off: the rings stay bolted
+    to their grippers). ``step_fraction``: the default step is this fraction of the
+    straight-member reach ``reach`` (the separations ring_b - ring_a within every limit).
     """
 
     def __init__(self, geometry: RobotGeometry, structure: Structure, *, use_extra_dof: bool = True,
@@ -381,8 +383,8 @@ class GaitPlanner:
         """A checked plan climbing ``distance`` [m] along the route (negative: down), from ring_a
         at route position ``start`` (default: as low as both rings fit on the route) with ring_b
         ``initial_separation`` ahead of it (default: the home pose; step 0 then brings ring_b to
-        the contracted separation). Raises PlanError
-        when a limit would break, ValueError on bad input."""
+        the contracted separation), both extra-DOF angles ``initial_theta`` [rad]. Raises
+        PlanError when a limit would break, ValueError on bad input."""
         if not math.isfinite(distance) or distance == 0.0:
             raise ValueError(f'distance must be finite and non-zero, got {distance}')
         if steps is None:
