@@ -1,10 +1,11 @@
 """climb_node over ROS, launch-free: a climb executed on the driver through IK and FK.
 
 Tolerance of "ends where the plan says": the node switches a gripper only once the measured pose
-is within ``position_tolerance`` (1 mm) and ``orientation_tolerance`` of the planned one. The
-world odometry is chained from the measured pose at every gripper hand-over, so its error is at
-most one tolerance per hand-over (ring_b then ring_a per step, plus the preparing move); the
-kinematic pose a_T_b itself ends within one tolerance of the plan.
+has stayed within ``position_tolerance`` (1 mm) and ``orientation_tolerance`` of the planned one
+for ``settle_time``. The world odometry is chained from the measured pose at every gripper
+hand-over, so its error is at most one tolerance per hand-over (the bound asserted; measured
+here < 1e-3 mm after 4 steps, the kinematic driver settles well inside it); the kinematic pose
+a_T_b itself ends within one tolerance of the plan.
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ stream ``target_pose`` (PoseStamped a_T_b, frame ring_a; so the IK node's guards
 the planned path at ``speed``, and grippers switch through the driver's
 ``grippers/ring_a|ring_b/set`` services. Before a gripper switches, the measured ``pose`` (FK of
 the measured lengths) must have arrived within ``position_tolerance`` / ``orientation_tolerance``
-of the planned pose, and a gripper is only opened when ``grippers/state`` shows the other one
+of the planned pose and stayed there ``settle_time``, and a gripper is only opened when ``grippers/state`` shows the other one
 closed (the interlock, on top of the planner's and the driver's).
 
 Services ``climb/step_up``, ``climb/step_down`` (std_srvs/Trigger) plan and start one step;
@@ -84,6 +84,9 @@ class ClimbNode(Node):
         self.settle_timeout = declare_parameter(
             self, 'settle_timeout', 5.0, 'longest wait for the pose to arrive or a gripper to switch [s]',
             min_value=0.1, max_value=600.0, read_only=True)
+        self.settle_time = declare_parameter(
+            self, 'settle_time', 0.1, 'the pose must stay within tolerance this long before a gripper switches [s]',
+            min_value=0.0, max_value=10.0, read_only=True)
         use_dof = declare_parameter(self, 'use_extra_dof', True,
                                     'use the extra ring DOF where the robot has one', read_only=True)
         if name not in STRUCTURES:
@@ -111,6 +114,7 @@ class ClimbNode(Node):
         self._stage = ''
         self._t = 0.0
         self._deadline = 0.0
+        self._arrived_since: float | None = None
         self._future = None
         self._phase_times = np.zeros(1)
         self._auto_started = False
@@ -210,6 +214,7 @@ class ClimbNode(Node):
         ph = self._phases[self._index]
         self._t = 0.0
         self._future = None
+        self._arrived_since = None
         self._deadline = self._now() + self.settle_timeout
         if ph.phase.startswith('move'):
             p = ph.path[:, :3, 3]
@@ -264,7 +269,11 @@ class ClimbNode(Node):
             return
         if self._stage == 'arrive':
             self._publish_target(ph.a_T_b)  # keep the IK node's command stream fresh
-            if self._arrived(ph.a_T_b):
+            if not self._arrived(ph.a_T_b):
+                self._arrived_since = None
+            elif self._arrived_since is None:
+                self._arrived_since = now
+            if self._arrived_since is not None and now - self._arrived_since >= self.settle_time:
                 self._stage = 'gripper' if ph.phase.startswith(('release', 'grip')) else 'done'
                 self._deadline = now + self.settle_timeout
             elif now > self._deadline:
