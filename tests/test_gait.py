@@ -182,3 +182,18 @@ def test_odometry_keeps_the_gripping_ring_fixed(moves):
         assert np.allclose(invert(odo.world_T_a) @ odo.world_T_b, a_T_b, atol=1e-9)
     with pytest.raises(InterlockError):
         odo.update(np.eye(4), False, False)
+
+
+def test_approach_brings_ring_b_back_to_the_gait():
+    g = load_robot('pole_climber')
+    planner = GaitPlanner(g, pole(3.0))
+    off = pose_matrix(g.home_position + [0.02, -0.01, 0.0], rotation_vector_to_quat_xyzw(np.array([0.05, 0, 0])))
+    phases = planner.approach(off, 0.2, 0.2 + planner.sep_home)
+    assert [ph.phase for ph in phases] == ['release_b', 'move_b', 'grip_b']
+    assert np.allclose(phases[0].a_T_b, off) and np.allclose(phases[1].path[0], off)
+    assert np.allclose(phases[-1].a_T_b, pose_matrix(g.home_position, [0, 0, 0, 1]))
+    check_interlock(phases + planner.plan(0.1, 1, start=0.2).phases)
+    beyond = pose_matrix(g.home_position + [0.0, 0.0, 0.2], [0, 0, 0, 1])  # legs past max_length
+    with pytest.raises(PlanError, match='stroke') as info:
+        planner.approach(beyond, 0.2, 0.2 + planner.sep_home)
+    assert info.value.step == 0 and info.value.phase == 'release_b'

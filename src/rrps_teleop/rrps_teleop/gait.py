@@ -35,7 +35,7 @@ from rrps_kinematics import RobotGeometry, inverse_kinematics, margins
 from rrps_kinematics.rotations import matrix_to_quat_xyzw
 
 from .odometry import RingOdometry, invert, matrix_pose, rot_z, transform
-from .structures import Structure
+from .structures import Structure, interpolate_frames
 
 __all__ = ['PlanError', 'Phase', 'ClimbPlan', 'GaitPlanner', 'plan_climb', 'check_interlock',
            'MARGIN_KINDS', 'CSV_COLUMNS']
@@ -377,6 +377,30 @@ class GaitPlanner:
         return out
 
     # --- public ---------------------------------------------------------------------------------
+
+    def approach(self, a_T_b: np.ndarray, s_a: float, s_b: float, theta_a: float = 0.0,
+                 theta_b: float = 0.0) -> list[Phase]:
+        """Phases (step 0) that bring ring_b from a measured pose ``a_T_b`` to its grip at route
+        position ``s_b`` while ring_a grips at ``s_a``: release_b, move_b (straight line and
+        slerp, every sample checked), grip_b. For a robot that was moved off the gait (by
+        teleoperation) before a climb starts. Raises PlanError like ``plan``."""
+        state = _State(s_a, s_b, theta_a, theta_b)
+        wa, wb = self.world_rings(s_a, s_b, theta_a, theta_b)
+        target = invert(wa) @ wb
+        a_T_b = np.asarray(a_T_b, dtype=float)
+        R = a_T_b[:3, :3].T @ target[:3, :3]
+        angle = math.degrees(math.acos(min(max((np.trace(R) - 1.0) / 2.0, -1.0), 1.0)))
+        n = max(int(math.ceil(np.linalg.norm(target[:3, 3] - a_T_b[:3, 3]) / self.spacing)),
+                int(math.ceil(angle)), 1) + 1
+        p, rot = interpolate_frames(a_T_b[:3, 3], a_T_b[:3, :3], target[:3, 3], target[:3, :3], n)
+        path = np.array([transform(pi, Ri) for pi, Ri in zip(p, rot)])
+        world_T_a = np.broadcast_to(wa, path.shape)
+        world_T_b = wa @ path
+        return [self._phase(state, 0, 'release_b', True, False, world_T_a=world_T_a[:1],
+                            world_T_b=world_T_b[:1]),
+                self._phase(state, 0, 'move_b', True, False, world_T_a=world_T_a, world_T_b=world_T_b),
+                self._phase(state, 0, 'grip_b', True, True)]
+
 
     def plan(self, distance: float, steps: int | None = None, *, start: float | None = None,
              initial_separation: float | None = None, initial_theta: float = 0.0) -> ClimbPlan:

@@ -11,7 +11,9 @@ closed (the interlock, on top of the planner's and the driver's).
 Services ``climb/step_up``, ``climb/step_down`` (std_srvs/Trigger) plan and start one step;
 ``auto_steps`` > 0 climbs that many steps up once the robot's state is known (scripted runs).
 A step is refused while ``teleop/status`` says engaged, while another executes, or when the
-planner refuses it (the reply says which limit and where).
+planner refuses it (the reply says which limit and where). When the measured pose is off the
+gait (teleoperation moved ring_b), ring_b is first released, brought back and re-gripped
+(``GaitPlanner.approach``, checked like any motion) before the step.
 
 Publishes ``climb/status`` (DiagnosticStatus: message idle | executing | error; values step,
 phase, structure, s_a, s_b, steps_done, detail) and the world odometry of both rings
@@ -197,7 +199,17 @@ class ClimbNode(Node):
             self.get_logger().warning(self.detail)
             self._publish_status(force=True)
             return False, f'refused: {exc}'
-        self._phases = plan.phases
+        phases = plan.phases
+        dp, da = pose_error(self.pose, phases[0].a_T_b)
+        if dp > self.position_tolerance or da > self.orientation_tolerance:
+            try:  # moved off the gait (teleoperation): ring_b first re-grips where the plan starts
+                phases = self.planner.approach(self.pose, self.s_a, self.s_b, self.theta, self.theta) + phases
+            except PlanError as exc:
+                self.detail = f'plan refused: cannot bring ring_b back to the gait: {exc}'
+                self.get_logger().warning(self.detail)
+                self._publish_status(force=True)
+                return False, f'refused: {self.detail}'
+        self._phases = phases
         self._index = 0
         self._enter_phase()
         self.mode = EXECUTING
