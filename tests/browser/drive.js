@@ -28,15 +28,17 @@ async function main() {
   });
   const results = [];
   try {
+    const t0 = Date.now();
     const pages = {};
     for (const step of steps) {
       // Each step acts on page 1 unless it names another ("page": 2): two browsers at once.
       const id = step.page || 1;
       if (pages[id] === undefined) {
-        pages[id] = await browser.newPage({ viewport: { width: 1100, height: 700 } });
+        pages[id] = await browser.newPage({ viewport: { width: 860, height: 600 } });
         await pages[id].goto(url);
       }
       const page = pages[id];
+      const before = results.length;
       if (step.wait_text !== undefined) {
         await page.getByText(step.wait_text, { exact: false }).first()
           .waitFor({ timeout: step.timeout || 20000 });
@@ -55,7 +57,7 @@ async function main() {
         results.push({ check: step.check });
       } else if (step.click !== undefined) {
         const button = page.getByRole('button', { name: step.click, exact: true });
-        await button.click({ timeout: step.timeout || 10000, force: !!step.force });
+        await button.click({ timeout: step.timeout || 10000, force: step.force !== false });
         results.push({ click: step.click });
       } else if (step.hold !== undefined) {
         const button = page.getByRole('button', { name: step.hold, exact: true });
@@ -80,6 +82,7 @@ async function main() {
       } else {
         throw new Error('unknown step ' + JSON.stringify(step));
       }
+      if (results.length > before) results[results.length - 1].ms = Date.now() - t0;
     }
     console.log(JSON.stringify({ ok: true, results }));
   } catch (err) {
