@@ -95,7 +95,6 @@ def test_gizmo_drives_the_master_in_its_own_frame_only_while_in_control(ros_cont
 
 
 def test_requests_run_only_for_the_controller_and_answers_reach_the_operator(ros_context, viewer):
-    from rclpy.parameter import Parameter
     from std_srvs.srv import SetBool
 
     from rrps_teleop.nodes.teleop_node import TeleopNode

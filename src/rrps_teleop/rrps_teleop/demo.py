@@ -19,7 +19,6 @@ import os
 import signal
 import sys
 import threading
-import time
 
 __all__ = ['main', 'build_stack']
 

@@ -116,7 +116,7 @@ class _ClientControls:
                 result = fn()
                 if result is not None:
                     server.tell(cid, result.message, ok=result.ok)
-                server.refresh_client(cid)
+                server.refresh_all()
             return callback
 
         def controller_only(fn: Callable[[], None]):
@@ -130,7 +130,7 @@ class _ClientControls:
             return callback
 
         self.enter.on_click(guarded(lambda: control.authenticate(cid, self.token.value)))
-        self.take.on_click(guarded(lambda: self._take()))
+        self.take.on_click(guarded(lambda: control.take_control(cid)))
         self.release.on_click(guarded(lambda: control.release(cid)))
         self.hand.on_click(guarded(lambda: self._hand_over()))
         self.clutch.on_update(guarded(lambda: self._clutch()))
@@ -147,10 +147,6 @@ class _ClientControls:
         for (ring, close), button in self.grip_buttons.items():
             button.on_click(controller_only(
                 lambda ring=ring, close=close: actions.set_gripper(cid, ring, close)))
-
-    def _take(self) -> ControlResult:
-        result = self.server.control.take_control(self.client_id)
-        return result
 
     def _hand_over(self) -> ControlResult:
         text = str(self.hand_to.value)
@@ -404,11 +400,8 @@ class ViewerServer:
             self.actions.master_target(client.client_id, None)
         self.refresh_all()
 
-    def refresh_client(self, client_id: int) -> None:
-        """Bring every client's controls in line with who controls now (control changed)."""
-        self.refresh_all()
-
     def refresh_all(self) -> None:
+        """Bring every client's controls in line with who controls now (control changed)."""
         with self._lock:
             clients = list(self._clients.values())
             handle_pose = self._handle_pose
