@@ -398,7 +398,8 @@ class ViewerServer:
             controls = self._clients.pop(client.client_id, None)
         if self.control.disconnect(client.client_id) and controls is not None:
             self.actions.master_target(client.client_id, None)
-        self.refresh_all()
+        if not self._stop.is_set():  # when the server stops, every client leaves at once
+            self.refresh_all()
 
     def refresh_all(self) -> None:
         """Bring every client's controls in line with who controls now (control changed)."""
