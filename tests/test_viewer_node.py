@@ -172,5 +172,6 @@ def test_the_picture_places_the_robot_by_its_gripping_ring(ros_context, viewer):
         frame = viewer.frame()
         assert np.allclose(frame.slave.world_T_b.position, world_b.position)
         assert np.allclose(frame.slave.world_T_a.position, world_b.position - a_T_b.position)
-        assert 'Conditioning' in frame.panel and 'Margins' in frame.panel
+        assert wait_for(lambda: 'Conditioning' in viewer.frame().panel, timeout=2.0)  # 4 Hz text
+        assert 'Margins' in viewer.frame().panel
         assert len(frame.trails['ring_a']) == 1 and len(frame.trails['ring_b']) == 1

@@ -155,6 +155,8 @@ class ViewerNode(Node):
         self._enable_was = False
         self._false_left = 0
         self._master_origin = Pose(np.asarray(origin, dtype=float))
+        self._figures: dict[str, tuple] = {}
+        self._panel_text, self._panel_time = '', -1.0
 
         self._enable_pub = self.create_publisher(Bool, 'teleop/enable', COMMAND_QOS)
         self._master_pub = self.create_publisher(PoseStamped, 'master/target_pose', COMMAND_QOS)
@@ -263,8 +265,7 @@ class ViewerNode(Node):
                     gripping, world_T_g = 'ring_a', Pose()
                 world_T_a, _ = world_ring_poses(a_T_b=a_T_b, gripping=gripping,
                                                 world_T_gripping=world_T_g)
-                frame.slave = robot_figure(self.geometry, a_T_b=a_T_b, world_T_a=world_T_a,
-                                           efforts=efforts)
+                frame.slave = self._figure('slave', self.geometry, a_T_b, world_T_a, efforts)
             except ValueError as exc:
                 self.get_logger().warn(f'cannot draw pose: {exc}', throttle_duration_sec=5.0)
         target = latest.get('target_pose')
@@ -277,13 +278,28 @@ class ViewerNode(Node):
         if master_msg is not None and self.master_geometry is not None:
             try:
                 m_pose = Pose(*pose_from_msg(master_msg))
-                frame.master = robot_figure(self.master_geometry, a_T_b=m_pose,
-                                            world_T_a=self._master_origin)
+                frame.master = self._figure('master', self.master_geometry, m_pose,
+                                            self._master_origin, None)
                 frame.master_handle = frame.master.world_T_b
             except ValueError:
                 pass
-        frame.panel = self._panel(latest, frame, fk_status)
+        now = time.monotonic()
+        if now - self._panel_time >= 0.25:  # text for people: 4 Hz
+            self._panel_text, self._panel_time = self._panel(latest, frame, fk_status), now
+        frame.panel = self._panel_text
         return frame
+
+    def _figure(self, key: str, geometry, a_T_b: Pose, world_T_a: Pose, efforts):
+        """robot_figure, recomputed only when its inputs changed (a still robot costs nothing)."""
+        inputs = (a_T_b.position.tobytes(), a_T_b.quaternion_xyzw.tobytes(),
+                  world_T_a.position.tobytes(), world_T_a.quaternion_xyzw.tobytes(),
+                  None if efforts is None else np.asarray(efforts).tobytes())
+        cached = self._figures.get(key)
+        if cached is None or cached[0] != inputs:
+            cached = (inputs, robot_figure(geometry, a_T_b=a_T_b, world_T_a=world_T_a,
+                                           efforts=efforts))
+            self._figures[key] = cached
+        return cached[1]
 
     def _panel(self, latest: dict, frame: Frame, fk_status) -> str:
         lines = [f'**Teleop:** {_status_text(latest.get("teleop/status"))}',

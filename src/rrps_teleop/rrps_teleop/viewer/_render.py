@@ -317,8 +317,12 @@ class ViewerServer:
             n[f'{prefix}/{ring}'].position = pose.position
             n[f'{prefix}/{ring}'].wxyz = pose.wxyz
         legs = n[f'{prefix}/legs']
-        legs.points = figure.leg_points.astype(np.float32)
-        legs.colors = np.repeat(figure.leg_colours[:, None, :], 2, axis=1)
+        points = figure.leg_points.astype(np.float32)
+        if not np.array_equal(points, legs.points):  # arrays are not de-duplicated by viser
+            legs.points = points
+        colours = np.repeat(figure.leg_colours[:, None, :], 2, axis=1)
+        if not np.array_equal(colours, legs.colors):
+            legs.colors = colours
 
     def _draw(self, frame: Frame) -> None:
         n = self.nodes
