@@ -96,20 +96,58 @@ def test_palm_trunk_is_followed_with_tilted_rings(plans):
 
 
 def test_frame_junction_needs_the_extra_dof(plans):
+    """The Figure 8c problem: without the extra ring DOF the junction's 90 deg section turn twists
+    ring_b against ring_a and the intermediate actuators of a pair touch; that, and nothing
+    else, is the first limit the motion breaks. With the DOF the same climb passes."""
     planner, plan = plans['frame']
     junction = planner.structure.junctions[0]
     assert plan.phases[-1].s_a > junction and plan.phases[-1].s_b > junction
     assert abs(plan.phases[-1].theta_b) == pytest.approx(np.pi / 2, abs=1e-6)
-    assert plan.min_margins['interference'] > 0.0
     with pytest.raises(PlanError) as info:
         plan_climb(planner.geometry, planner.structure, 2.5, use_extra_dof=False)
     err = info.value
-    assert err.limit in ('stroke', 'universal', 'spherical', 'interference', 'conditioning')
-    assert err.legs and err.phase == 'move_b' and f'step {err.step}' in str(err)
-    assert err.limit in str(err) or err.limit.replace('_', ' ') in str(err)
-    # Twisting the legs brings them closer: the interference margin where the plan breaks
-    # is below the smallest one of the plan that uses the extra DOF.
-    assert err.margins['interference'] < plan.min_margins['interference']
+    assert err.limit == 'interference' and err.legs == ('leg_1', 'leg_2')
+    assert err.phase == 'move_b' and str(err).startswith(f'step {err.step}, phase move_b')
+    assert '): interference: leg_1 and leg_2 are ' in str(err)  # the first violation named
+    # Only interference is broken at the first pose that breaks a limit: stroke, joint cones and
+    # conditioning still have room there (the planner stops at the first such pose).
+    assert err.margins['interference'] < 0.0
+    assert all(err.margins[k] > 0.0 for k in ('stroke', 'universal', 'spherical', 'conditioning'))
+    # It breaks while ring_b crosses the junction (the move that turns its gripper).
+    crossing = next(ph for ph in plan.phases if ph.phase == 'move_b' and ph.s_b > junction)
+    assert err.step == crossing.step
+
+
+def test_frame_plan_with_the_extra_dof_keeps_the_legs_apart(plans):
+    """Every sampled pose of the frame climb (with the DOF) is within every limit, the rings never
+    twist against each other, and the interference margin stays positive all along."""
+    planner, plan = plans['frame']
+    g = planner.geometry
+    path = np.concatenate([ph.path for ph in plan.phases])
+    m = margins(g, inverse_kinematics(g, path[:, :3, 3], matrix_to_quat_xyzw(path[:, :3, :3])))
+    assert np.all(m.ok)
+    assert np.min(m.interference) > 0.05          # > 50 mm between the 100 mm thick actuators
+    assert np.min(m.interference) == pytest.approx(plan.min_margins['interference'])
+    twist = np.arctan2(path[:, 1, 0], path[:, 0, 0])
+    assert np.max(np.abs(twist)) < 1e-9
+
+
+def test_frame_climber_legs_touch_when_the_rings_twist():
+    """The interference margin of the frame climber along a relative twist of the rings about
+    the member axis (at the home height): it falls steadily, and interference is the first limit
+    broken, well before the junction's 90 deg."""
+    g = load_robot('frame_climber')
+    deg = np.arange(0.0, 90.5, 0.5)
+    q = np.array([rotation_vector_to_quat_xyzw(np.array([0.0, 0.0, np.radians(d)])) for d in deg])
+    m = margins(g, inverse_kinematics(g, np.tile(g.home_position, (len(deg), 1)), q))
+    inter = m.minimum['interference']
+    assert inter[0] > 0.05 and inter[-1] < -0.05
+    assert np.all(np.diff(inter) < 0.0)
+    first = int(np.flatnonzero(~np.asarray(m.ok))[0])
+    assert 30.0 <= deg[first] <= 60.0
+    assert m.violations()[0].startswith(f'pose {first}: interference: leg_1 and leg_2')
+    for kind in ('stroke', 'universal', 'spherical', 'conditioning'):
+        assert np.all(m.minimum[kind][:first + 20] > 0.0), kind  # 10 deg further still inside
 
 
 def test_refusal_names_limit_legs_step_and_phase():
