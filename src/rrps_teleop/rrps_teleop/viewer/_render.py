@@ -249,8 +249,8 @@ class ViewerServer:
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         self.server.gui.set_panel_label(title)
         self.server.scene.set_up_direction('+z')
-        self.server.initial_camera.position = (1.5, -1.9, 1.3)
-        self.server.initial_camera.look_at = (0.0, -0.3, 0.35)
+        self.server.initial_camera.position = (1.2, -2.0, 1.2)
+        self.server.initial_camera.look_at = (0.3, -0.35, 0.4)  # robot left of the panel
         self.nodes: dict[str, object] = {}
         self._build_scene(geometry, master_geometry, structure)
         self._build_panel()
