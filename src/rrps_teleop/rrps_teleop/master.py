@@ -58,6 +58,11 @@ def scripted_pose(kind: str, t: float, home_position, home_quaternion_xyzw, *, a
     return p, q
 
 
+# Within these of its target the handle counts as there [m, rad].
+AT_TARGET_POSITION = 1e-12
+AT_TARGET_ANGLE = 1e-9
+
+
 class MasterModel:
     """The master's pose, moved towards targets within its speed and its own limits."""
 
@@ -85,6 +90,8 @@ class MasterModel:
         p0, q0 = self.position, self.quaternion_xyzw
         dp = float(np.linalg.norm(p1 - p0))
         dth = rotation_angle(q0, q1)
+        if dp < AT_TARGET_POSITION and dth < AT_TARGET_ANGLE:
+            return ''  # at the target (the current pose was checked when reached): nothing to do
         fraction, note = 1.0, ''
         limit = min(self.max_linear_speed * dt / dp if dp > 0 else math.inf,
                     self.max_angular_speed * dt / dth if dth > 0 else math.inf)

@@ -19,6 +19,7 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.signals import SignalHandlerOptions
+from rclpy.task import Future
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
@@ -217,10 +218,13 @@ def spin_until_shutdown(executor, context, stop: threading.Event | None = None, 
     """Spin until the context shuts down, ``stop`` is set, or Ctrl-C.
 
     rclpy 7.1's EventsExecutor.spin() blocks in C++ and never sees SIGINT (and shutting it down
-    from another thread hangs), so spin in short slices and check between them.
+    from another thread hangs), so spin in slices of ``period`` s (on a future that never
+    completes: every event of a slice is handled in C++, cheaper than one spin_once per event)
+    and check between them.
     """
+    never = Future()
     while context.ok() and not (stop is not None and stop.is_set()):
-        executor.spin_once(timeout_sec=period)
+        executor.spin_until_future_complete(never, timeout_sec=period)
 
 
 def run_nodes(factories: Sequence[Callable[..., Node]], args=None, *, executor_kind: str = 'events') -> None:

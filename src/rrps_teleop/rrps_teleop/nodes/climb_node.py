@@ -18,7 +18,7 @@ gait (teleoperation moved ring_b), ring_b is first released, brought back and re
 Publishes ``climb/status`` (DiagnosticStatus: message idle | executing | error; values step,
 phase, structure, s_a, s_b, steps_done, detail) and the world odometry of both rings
 ``odometry/ring_a``, ``odometry/ring_b`` (PoseStamped, frame ``world``) chained from ``pose``
-and ``grippers/state`` (``rrps_teleop.odometry``).
+and ``grippers/state`` (``rrps_teleop.odometry``), published at ``rate`` when a new pose came in.
 """
 
 from __future__ import annotations
@@ -111,6 +111,7 @@ class ClimbNode(Node):
         self.grippers: dict[str, bool] | None = None
         self.teleop_engaged = False
         self.odometry: RingOdometry | None = None
+        self._odometry_stamp = None
         self._phases: list = []
         self._index = 0
         self._stage = ''
@@ -155,10 +156,17 @@ class ClimbNode(Node):
         else:
             self._fail('interlock: grippers/state shows both grippers open')
             return
-        stamp = msg.header.stamp
+        self._odometry_stamp = msg.header.stamp
+
+    def _publish_odometry(self) -> None:
+        """The latest world poses of both rings, at the node's ``rate`` (not at the pose rate)."""
+        if self.odometry is None or self._odometry_stamp is None:
+            return
         for ring, T in (('ring_a', self.odometry.world_T_a), ('ring_b', self.odometry.world_T_b)):
             position, quaternion = matrix_pose(T)
-            self._odo_pubs[ring].publish(pose_to_msg(position, quaternion, frame_id='world', stamp=stamp))
+            self._odo_pubs[ring].publish(pose_to_msg(position, quaternion, frame_id='world',
+                                                     stamp=self._odometry_stamp))
+        self._odometry_stamp = None
 
     def _on_grippers(self, msg: JointState) -> None:
         state = dict(zip(msg.name, msg.position))
@@ -263,6 +271,7 @@ class ClimbNode(Node):
         return dp <= self.position_tolerance and da <= self.orientation_tolerance
 
     def _on_tick(self) -> None:
+        self._publish_odometry()
         if self.mode == IDLE and self.auto_steps > 0 and not self._auto_started \
                 and self.pose is not None and self.grippers is not None:
             self._auto_started = True
