@@ -26,7 +26,6 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import signal
 import subprocess
 import sys
 import threading
@@ -38,6 +37,7 @@ from typing import Callable
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 
 import numpy as np  # noqa: E402
+from _processes import stop_processes  # noqa: E402
 import rclpy  # noqa: E402
 from geometry_msgs.msg import PoseStamped  # noqa: E402
 from rclpy.node import Node  # noqa: E402
@@ -299,13 +299,7 @@ def across_processes(samples: int, domain_id: int) -> list[Run]:
         thread.join(5.0)
         bench.destroy_node()
         rclpy.shutdown(context=context)
-        for p in processes:
-            p.send_signal(signal.SIGINT)
-        for p in processes:
-            try:
-                p.wait(5.0)
-            except subprocess.TimeoutExpired:
-                p.kill()
+        stop_processes(processes)
 
 
 def row(run: Run) -> str:

@@ -13,6 +13,8 @@ import math
 import numba
 import numpy as np
 
+from .compiled import _quat_to_matrix
+
 __all__ = ['pose_margins', 'jacobian_determinant', 'N_MARGINS']
 
 _jit = numba.njit(cache=True, nogil=True)
@@ -25,16 +27,7 @@ N_MARGINS = 6
 @_jit
 def _pose(A, B, p, q, R, b_in_a, u, lengths):
     """R(q), ring_b anchors in ring_a's frame, unit leg vectors and lengths (eq. 1)."""
-    x, y, z, w = q[0], q[1], q[2], q[3]
-    R[0, 0] = 1.0 - 2.0 * (y * y + z * z)
-    R[0, 1] = 2.0 * (x * y - z * w)
-    R[0, 2] = 2.0 * (x * z + y * w)
-    R[1, 0] = 2.0 * (x * y + z * w)
-    R[1, 1] = 1.0 - 2.0 * (x * x + z * z)
-    R[1, 2] = 2.0 * (y * z - x * w)
-    R[2, 0] = 2.0 * (x * z - y * w)
-    R[2, 1] = 2.0 * (y * z + x * w)
-    R[2, 2] = 1.0 - 2.0 * (x * x + y * y)
+    _quat_to_matrix(q, R)
     for i in range(6):
         s = 0.0
         for k in range(3):

@@ -1,0 +1,17 @@
+"""Process handling shared by the benchmarks that start the installed nodes."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+
+
+def stop_processes(processes, timeout: float = 5.0) -> None:
+    """SIGINT every process (the nodes' clean Ctrl-C path), then kill those still running."""
+    for p in processes:
+        p.send_signal(signal.SIGINT)
+    for p in processes:
+        try:
+            p.wait(timeout)
+        except subprocess.TimeoutExpired:
+            p.kill()
