@@ -156,7 +156,7 @@ def test_sensor_faults_are_seeded_and_have_their_statistics():
 def test_quasi_static_efforts_hold_the_pose_and_refresh_on_period():
     robot = load_robot('pole_climber')
     home = robot.home_lengths
-    efforts = QuasiStaticEfforts(robot, home, period=0.05)
+    efforts = QuasiStaticEfforts(robot, home, period=0.05)  # a short period keeps the test quick
     np.testing.assert_allclose(efforts.efforts, holding_forces(robot, robot.home_position,
                                                                robot.home_quaternion_xyzw), rtol=1e-9)
     raised = inverse_kinematics(robot, robot.home_position + [0.0, 0.0, 0.05], [0, 0, 0, 1]).lengths

@@ -15,8 +15,8 @@ from rrps_kinematics.rotations import (
     rotation_vector_to_quat_xyzw,
 )
 from rrps_sim.dynamics import MultibodyDynamics, simulate
-from rrps_sim.reduced import simulate_reduced
-from rrps_sim.statics import holding_forces
+from rrps_sim.reduced import PlatformPose, generalized_forces, simulate_reduced
+from rrps_sim.statics import gravity_load, holding_forces
 
 ROBOTS = ['pole_climber', 'frame_climber', 'facade_climber', 'master_robot']
 
@@ -162,3 +162,17 @@ def test_a_locked_universal_joint_raises():
                            home_position=[0.0, 0.0, 0.4])
     with pytest.raises(ValueError, match='universal joint is locked'):
         holding_forces(locked, locked.home_position, locked.home_quaternion_xyzw)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.sampled_from(ROBOTS), st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), st.floats(-1.0, 1.0),
+       st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), st.floats(-1.0, 1.0))
+def test_closed_form_gravity_load_equals_the_reduced_models(name, dx, dy, dz, rx, ry, rz):
+    """gravity_load (closed form) = generalized_forces at rest of the reduced model."""
+    robot = load_robot(name)
+    position = robot.home_position + 0.03 * np.array([dx, dy, dz])
+    quaternion = rotation_vector_to_quat_xyzw(0.1 * np.array([rx, ry, rz]))
+    pose = PlatformPose(robot, position, quaternion)
+    zero = np.zeros((1, 6))
+    np.testing.assert_allclose(gravity_load(robot, pose.ik), generalized_forces(pose, zero, zero),
+                               rtol=1e-10, atol=1e-10)

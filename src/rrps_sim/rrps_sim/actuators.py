@@ -188,7 +188,7 @@ class QuasiStaticEfforts:
     fails or the Jacobian is singular keeps the previous efforts.
     """
 
-    def __init__(self, geometry: RobotGeometry, initial_lengths, *, period: float = 0.05):
+    def __init__(self, geometry: RobotGeometry, initial_lengths, *, period: float = 0.2):
         if not (math.isfinite(period) and period >= 0.0):
             raise ValueError(f'period must be finite and >= 0, got {period}')
         self.geometry = geometry

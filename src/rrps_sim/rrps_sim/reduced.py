@@ -39,6 +39,7 @@ from scipy.integrate import solve_ivp
 from rrps_kinematics.geometry import RobotGeometry
 from rrps_kinematics.inverse import inverse_kinematics, universal_joint_frames
 from rrps_kinematics.jacobian import inverse_jacobian
+from rrps_kinematics.rotations import cross
 
 __all__ = [
     'ReducedState',
@@ -63,32 +64,44 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.sum(a * b, axis=-1)
 
 
+def assembled_pose(geometry: RobotGeometry, position, quaternion_xyzw):
+    """IK of N poses (position (N, 3) or (3,)) checked to be a valid assembly of the model.
+
+    Returns (ik, x1, n): the IK result, each universal joint's fixed axis x1 (6, 3) and
+    n = u × x1 (N, 6, 3). Raises ValueError for a non-RobotGeometry, invalid poses (shapes, NaN,
+    zero quaternion), a zero-length leg, or a locked universal joint (leg along its fixed axis).
+    """
+    if not isinstance(geometry, RobotGeometry):
+        raise ValueError(f'geometry must be a RobotGeometry, got {type(geometry).__name__}')
+    p = np.asarray(position, dtype=float)
+    q = np.asarray(quaternion_xyzw, dtype=float)
+    if p.ndim == 1:
+        p, q = p[None], q[None]
+    ik = inverse_kinematics(geometry, p, q)  # validates shapes, NaN, zero quaternions
+    if np.any(ik.lengths < 1e-9):
+        raise ValueError('a leg has zero length: the pose is not a valid assembly')
+    x1 = universal_joint_frames(geometry)[:, :, 0]
+    n = cross(ik.unit_vectors, x1)
+    if np.any(_dot(n, n) < _UNIVERSAL_LOCK):
+        raise ValueError('a universal joint is locked (leg along its fixed axis): '
+                         'the link rotation is undefined at this pose')
+    return ik, x1, n
+
+
 class PlatformPose:
     """Pose-dependent quantities of N poses of ring_b (position (N, 3), quaternion (N, 4))."""
 
     def __init__(self, geometry: RobotGeometry, position, quaternion_xyzw):
-        if not isinstance(geometry, RobotGeometry):
-            raise ValueError(f'geometry must be a RobotGeometry, got {type(geometry).__name__}')
-        p = np.asarray(position, dtype=float)
-        q = np.asarray(quaternion_xyzw, dtype=float)
-        if p.ndim == 1:
-            p, q = p[None], q[None]
         self.geometry = geometry
-        self.ik = inverse_kinematics(geometry, p, q)  # validates shapes, NaN, zero quaternions
+        self.ik, self.x1, self.n = assembled_pose(geometry, position, quaternion_xyzw)
+        p = self.ik.position
         self.rotation = self.ik.rotation                                   # (N, 3, 3)
-        self.position = self.ik.position                                   # (N, 3)
+        self.position = p                                                  # (N, 3)
         self.lengths = self.ik.lengths                                     # (N, 6)
-        if np.any(self.lengths < 1e-9):
-            raise ValueError('a leg has zero length: the pose is not a valid assembly')
         self.u = self.ik.unit_vectors                                      # (N, 6, 3)
         self.anchors_b = self.ik.leg_vectors + geometry.ring_a_anchors - p[:, None, :]  # A_c s'_i
-        self.x1 = universal_joint_frames(geometry)[:, :, 0]                # (6, 3)
-        self.n = np.cross(self.u, self.x1)
         self.n_sq = _dot(self.n, self.n)
-        if np.any(self.n_sq < _UNIVERSAL_LOCK):
-            raise ValueError('a universal joint is locked (leg along its fixed axis): '
-                             'the link rotation is undefined at this pose')
-        self.m = np.cross(self.n, self.u)
+        self.m = cross(self.n, self.u)
         self.com_b = np.einsum('nij,j->ni', self.rotation, geometry.ring_b_inertia.com)
         self.inertia_b = self.rotation @ geometry.ring_b_inertia.inertia @ np.swapaxes(
             self.rotation, -1, -2)
@@ -139,7 +152,7 @@ class _LegRates(NamedTuple):
 
 def _leg_rates(pose: PlatformPose, twist: np.ndarray) -> _LegRates:
     v, w = twist[..., None, :3], twist[..., None, 3:]
-    b_dot = v + np.cross(w, pose.anchors_b)                      # velocity of B_i
+    b_dot = v + cross(w, pose.anchors_b)                      # velocity of B_i
     l_dot = _dot(pose.u, b_dot)
     u_dot = (b_dot - l_dot[..., None] * pose.u) / pose.lengths[..., None]
     alpha = -_dot(pose.n, u_dot) / pose.n_sq
@@ -154,7 +167,7 @@ def body_velocities(pose: PlatformPose, twist) -> BodyMotion:
     r = _leg_rates(pose, twist)
     w = twist[..., 3:]
     return BodyMotion(
-        ring=twist[..., :3] + np.cross(w, pose.com_b),
+        ring=twist[..., :3] + cross(w, pose.com_b),
         ring_angular=w,
         lower=g.lower_link.com_from_joint * r.u_dot,
         upper=r.b_dot - g.upper_link.com_from_joint * r.u_dot,
@@ -171,19 +184,19 @@ def body_accelerations(pose: PlatformPose, twist, twist_dot) -> BodyMotion:
     r = _leg_rates(pose, twist)
     w, w_dot = twist[..., None, 3:], twist_dot[..., None, 3:]
     u, n, L = pose.u, pose.n, pose.lengths[..., None]
-    b_ddot = (twist_dot[..., None, :3] + np.cross(w_dot, pose.anchors_b)
-              + np.cross(w, np.cross(w, pose.anchors_b)))
+    b_ddot = (twist_dot[..., None, :3] + cross(w_dot, pose.anchors_b)
+              + cross(w, cross(w, pose.anchors_b)))
     l_ddot = _dot(r.u_dot, r.b_dot) + _dot(u, b_ddot)
     u_ddot = (b_ddot - l_ddot[..., None] * u - 2.0 * r.l_dot[..., None] * r.u_dot) / L
-    n_dot = np.cross(r.u_dot, pose.x1)
+    n_dot = cross(r.u_dot, pose.x1)
     s_dot = 2.0 * _dot(n, n_dot)
-    m_dot = np.cross(n_dot, u) + np.cross(n, r.u_dot)
+    m_dot = cross(n_dot, u) + cross(n, r.u_dot)
     alpha_dot = (-(_dot(n_dot, r.u_dot) + _dot(n, u_ddot)) - r.alpha * s_dot) / pose.n_sq
     beta_dot = (_dot(m_dot, r.u_dot) + _dot(pose.m, u_ddot) - r.beta * s_dot) / pose.n_sq
     wr, wr_dot = twist[..., 3:], twist_dot[..., 3:]
     return BodyMotion(
-        ring=(twist_dot[..., :3] + np.cross(wr_dot, pose.com_b)
-              + np.cross(wr, np.cross(wr, pose.com_b))),
+        ring=(twist_dot[..., :3] + cross(wr_dot, pose.com_b)
+              + cross(wr, cross(wr, pose.com_b))),
         ring_angular=wr_dot,
         lower=g.lower_link.com_from_joint * u_ddot,
         upper=b_ddot - g.upper_link.com_from_joint * u_ddot,
@@ -225,11 +238,11 @@ def generalized_forces(pose: PlatformPose, twist, twist_dot) -> np.ndarray:
     grav = g.gravity
     ring_force = g.ring_b_inertia.mass * (A.ring - grav)
     ring_moment = (pose.ring_inertia_times(A.ring_angular)
-                   + np.cross(w.ring_angular, pose.ring_inertia_times(w.ring_angular)))
+                   + cross(w.ring_angular, pose.ring_inertia_times(w.ring_angular)))
     lower_force = g.lower_link.mass * (A.lower - grav)
     upper_force = g.upper_link.mass * (A.upper - grav)
     link_moment = (pose.link_inertia_times(A.link_angular)
-                   + np.cross(w.link_angular, pose.link_inertia_times(w.link_angular)))
+                   + cross(w.link_angular, pose.link_inertia_times(w.link_angular)))
     Q = (np.einsum('kni,ni->nk', V.ring, ring_force)
          + np.einsum('kni,ni->nk', V.ring_angular, ring_moment)
          + np.einsum('knli,nli->nk', V.lower, lower_force)
@@ -360,7 +373,7 @@ def simulate_reduced(geometry: RobotGeometry, position, quaternion_xyzw,
         acc = platform_accelerations(pose, twist, f[None])[0]
         w = y[10:13]
         qv, qw = s.quaternion_xyzw[:3], s.quaternion_xyzw[3]
-        q_dot = 0.5 * np.concatenate([qw * w + np.cross(w, qv), [-np.dot(w, qv)]])
+        q_dot = 0.5 * np.concatenate([qw * w + cross(w, qv), [-np.dot(w, qv)]])
         work_rate = np.dot(f, pose.inverse_jacobian[0] @ y[7:13])
         return np.concatenate([y[7:10], q_dot, acc, [work_rate]])
 

@@ -1,7 +1,7 @@
 """driver_node: the simulated hardware. actuators/command -> actuators/state, plus the grippers.
 
 Modes (parameter ``mode``): ``kinematic`` (:class:`rrps_sim.actuators.KinematicActuators`: lag,
-speed and stroke limits; effort = the quasi-static holding forces of the pose, refreshed every 50 ms) and ``dynamic`` (:class:`rrps_sim.actuators.DynamicActuators`: the
+speed and stroke limits; effort = the quasi-static holding forces of the pose, refreshed at 5 Hz) and ``dynamic`` (:class:`rrps_sim.actuators.DynamicActuators`: the
 multibody dynamics of eqs. 19-20 with a PD force loop per leg, effort = force [N]). The state
 is published at ``rate`` Hz (and at once on each accepted command with ``publish_on_command``).
 
