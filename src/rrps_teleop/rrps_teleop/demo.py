@@ -1,8 +1,10 @@
 """rrps-demo: the whole stack in one process, with the web viewer (``./rrps demo``).
 
-Composes driver, IK, FK, master, teleop, climb and viewer nodes under the namespace ``/rrps`` in
-one process and one executor (like a component container), prints the viewer's URL and operator
-token, and runs until Ctrl-C (or SIGTERM), which stops everything cleanly.
+Composes the IK, FK, master, teleop, climb and viewer nodes under the namespace ``/rrps`` in one
+process and one executor (like a component container) and runs the simulated hardware
+(driver_node, 500 Hz) in a process of its own, as a real robot's driver would be. Prints the
+viewer's URL and operator token, and runs until Ctrl-C (or SIGTERM), which stops everything
+cleanly.
 
 ``--headless`` runs no browser: a scripted teleop session (the operator's handle moves the
 master, a deadman stream engages the mapping, the slave follows; releasing the deadman holds the
@@ -17,10 +19,11 @@ from __future__ import annotations
 import argparse
 import os
 import signal
+import subprocess
 import sys
 import threading
 
-__all__ = ['main', 'build_stack']
+__all__ = ['main', 'build_stack', 'start_driver', 'stop_driver']
 
 NAMESPACE = '/rrps'
 
@@ -43,12 +46,13 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def build_stack(context, *, robot: str, host: str, port: int, token: str,
-                viewer: bool = True, climb: bool = True, driver_rate: float = 500.0,
-                namespace: str = NAMESPACE) -> dict:
+                viewer: bool = True, climb: bool = True, driver: bool = True,
+                driver_rate: float = 500.0, namespace: str = NAMESPACE) -> dict:
     """Create every node of the demo on ``context`` under ``namespace``; returns name -> node.
 
-    ``viewer=False`` / ``climb=False`` leave the viewer / climbing node out; ``driver_rate`` is
-    the simulated driver's actuators/state rate [Hz].
+    ``viewer=False`` / ``climb=False`` / ``driver=False`` leave the viewer / climbing node /
+    simulated driver out (the demo runs its driver in a process of its own: :func:`start_driver`);
+    ``driver_rate`` is the simulated driver's actuators/state rate [Hz].
 
     Raises ValueError / RobotDescriptionError with a clear message for bad arguments.
     """
@@ -62,8 +66,9 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
     from .nodes.teleop_node import TeleopNode
 
     robot_param = [Parameter('robot', value=robot)]
-    plan = [
-        ('driver_node', DriverNode, robot_param + [Parameter('rate', value=float(driver_rate))]),
+    plan = [('driver_node', DriverNode, robot_param + [Parameter('rate', value=float(driver_rate))])
+            ] if driver else []
+    plan += [
         ('ik_node', IkNode, robot_param),
         ('fk_node', FkNode, robot_param),
         ('master_node', MasterNode, []),
@@ -91,6 +96,29 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
             node.destroy_node()
         raise
     return nodes
+
+
+def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE) -> subprocess.Popen:
+    """The simulated hardware (driver_node) in a process of its own, as a real robot's driver.
+
+    Its 500 Hz loop then has an interpreter and a core to itself instead of sharing one GIL with
+    the viewer's web server and the rest of the stack. It inherits the environment (domain id,
+    discovery range); stop it with :func:`stop_driver`.
+    """
+    return subprocess.Popen([sys.executable, '-m', 'rrps_sim.nodes.driver_node', '--ros-args',
+                             '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
+                             '-p', f'rate:={float(rate)}'])
+
+
+def stop_driver(process: subprocess.Popen, timeout: float = 5.0) -> None:
+    """SIGINT (the driver's clean shutdown), then kill if it has not stopped after ``timeout`` s."""
+    if process.poll() is None:
+        process.send_signal(signal.SIGINT)
+        try:
+            process.wait(timeout)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
 
 
 def _banner(viewer) -> str:
@@ -123,14 +151,18 @@ def main(argv=None) -> int:
     previous = {sig: signal.signal(sig, lambda *_: stop.set())
                 for sig in (signal.SIGINT, signal.SIGTERM)}
     nodes: dict = {}
+    driver = None
     status = 0
     try:
         try:
             nodes = build_stack(context, robot=args.robot, host=args.host, port=args.port,
-                                token=args.token, viewer=True)
+                                token=args.token, viewer=True, driver=False)
         except (RobotDescriptionError, ValueError) as exc:
             print(f'error: {exc}', file=sys.stderr)
             return 2
+        driver = start_driver(robot=args.robot)
+        # A driver that dies ends the demo (the robot is gone), with an error status.
+        threading.Thread(target=lambda: (driver.wait(), stop.set()), daemon=True).start()
         script = None
         if args.headless:
             from ._demo_script import DemoScript
@@ -162,6 +194,12 @@ def main(argv=None) -> int:
         for node in nodes.values():
             node.destroy_node()
         rclpy.try_shutdown(context=context)
+        if driver is not None:
+            if driver.poll() not in (None, 0):
+                print(f'rrps demo: the driver process exited with status {driver.returncode}',
+                      file=sys.stderr)
+                status = status or 1
+            stop_driver(driver)
     return status
 
 
