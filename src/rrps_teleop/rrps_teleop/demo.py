@@ -22,6 +22,7 @@ import signal
 import subprocess
 import sys
 import threading
+import time
 
 __all__ = ['main', 'build_stack', 'start_driver', 'stop_driver']
 
@@ -111,14 +112,34 @@ def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE)
 
 
 def stop_driver(process: subprocess.Popen, timeout: float = 5.0) -> None:
-    """SIGINT (the driver's clean shutdown), then kill if it has not stopped after ``timeout`` s."""
+    """SIGTERM, then kill if it has not stopped after ``timeout`` s.
+
+    SIGTERM (not SIGINT): once the driver runs it is its clean shutdown, like Ctrl-C, and before
+    its handlers exist (still importing) it ends the process without a traceback.
+    """
     if process.poll() is None:
-        process.send_signal(signal.SIGINT)
+        process.send_signal(signal.SIGTERM)
         try:
             process.wait(timeout)
         except subprocess.TimeoutExpired:
             process.kill()
             process.wait()
+
+
+def wait_for_driver(executor, context, node, driver: subprocess.Popen, stop: threading.Event, *,
+                    timeout: float = 60.0) -> bool:
+    """Spin until the driver's ``actuators/state`` publisher is seen from ``node`` (it is up);
+    False if the driver exits, ``stop`` is set or ``timeout`` s pass first."""
+    from rclpy.task import Future
+
+    topic = f'{node.get_namespace().rstrip("/")}/actuators/state'
+    never = Future()
+    deadline = time.monotonic() + timeout
+    while context.ok() and not stop.is_set() and driver.poll() is None and time.monotonic() < deadline:
+        if node.count_publishers(topic) > 0:
+            return True
+        executor.spin_until_future_complete(never, timeout_sec=0.05)
+    return False
 
 
 def _banner(viewer) -> str:
@@ -171,6 +192,11 @@ def main(argv=None) -> int:
         executor = make_executor(context, 'events')
         for node in nodes.values():
             executor.add_node(node)
+        if not wait_for_driver(executor, context, nodes['fk_node'], driver, stop):
+            if not stop.is_set():
+                print('error: the simulated driver did not start', file=sys.stderr)
+                status = 1
+            return status
         if script is None:
             print(_banner(nodes['viewer_node']), flush=True)
             spin_until_shutdown(executor, context, stop)
