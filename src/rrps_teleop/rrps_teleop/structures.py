@@ -23,6 +23,7 @@ Pure NumPy (and SciPy's cubic spline); no ROS import.
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
 import numpy as np
@@ -90,7 +91,7 @@ def _box_mesh(p0: np.ndarray, p1: np.ndarray, x: np.ndarray, half_width: float):
     return np.array(verts), np.array(faces, dtype=int)
 
 
-class Structure:
+class Structure(ABC):
     """Common interface (see the module docstring)."""
 
     name = 'structure'
@@ -98,14 +99,17 @@ class Structure:
     length = 0.0
     forbidden: tuple[tuple[float, float], ...] = ()
 
+    @abstractmethod
     def grip_frame(self, s: float) -> tuple[np.ndarray, np.ndarray]:
-        raise NotImplementedError
+        """See the module docstring."""
 
+    @abstractmethod
     def swing(self, s0: float, s1: float, spacing: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
-        raise NotImplementedError
+        """See the module docstring."""
 
+    @abstractmethod
     def mesh(self) -> tuple[np.ndarray, np.ndarray]:
-        raise NotImplementedError
+        """See the module docstring."""
 
     def clearance_points(self, s0: float, s1: float):
         return None
