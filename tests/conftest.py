@@ -35,3 +35,15 @@ def ros_context(ros_domain_id):
     finally:
         if context.ok():
             rclpy.shutdown(context=context)
+
+
+def require(condition: bool, reason: str) -> None:
+    """Skip a test whose dependency is missing on a developer's machine; fail it in CI.
+
+    CI installs every dependency (./rrps test), so there a missing one is a defect, never a skip.
+    """
+    if condition:
+        return
+    if os.environ.get('CI'):
+        pytest.fail(f'{reason} (CI must have it)')
+    pytest.skip(reason)

@@ -14,6 +14,7 @@ from rrps_kinematics import (
 )
 from rrps_kinematics.assembly import halton
 from rrps_kinematics.rotations import quat_xyzw_to_matrix, rotation_angle_between
+from conftest import require
 
 # Dietmaier's platform (P. Dietmaier, "The Stewart-Gough platform of general geometry can have
 # 40 real postures", Advances in Robot Kinematics: Analysis and Control, 1998, pp. 7-16), with
@@ -86,8 +87,8 @@ def test_home_pose_is_the_first_mode_and_planar_rings_mirror():
         assert sum(match) == 1
 
 
-@pytest.mark.skipif(not compiled_backend_available(), reason='numba not available')
 def test_backends_find_the_same_modes():
+    require(compiled_backend_available(), 'numba not available')
     g = load_robot('master_robot')
     L = g.home_lengths * [1.05, 0.97, 1.02, 1.0, 0.95, 1.03]
     a = assembly_modes(g, L, n_seeds=1500, backend='numpy')

@@ -16,6 +16,7 @@ from node_helpers import pose_error, target
 from ros_harness import Probe, Spinner, wait_for
 from rrps_kinematics import load_robot
 from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
+from conftest import require
 
 BIN = Path(sys.executable).parent
 POLE = load_robot('pole_climber')
@@ -24,8 +25,7 @@ NAMESPACE = '/rrps_test'
 
 def start(executable, domain_id, *params):
     path = BIN / executable
-    if not path.exists():
-        pytest.skip(f'{path} is not installed (pip install -e src/...)')
+    require(path.exists(), f'{path} is not installed (pip install -e src/...)')
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id), ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST',
                PYTHONUNBUFFERED='1')
     args = [str(path), '--ros-args', '-r', f'__ns:={NAMESPACE}', '-p', 'robot:=pole_climber']

@@ -10,6 +10,7 @@ import yaml
 
 from rrps_kinematics import forward_kinematics, inverse_kinematics, load_robot, robot_path
 from rrps_kinematics.cli import run
+from conftest import require
 
 
 def _run(capsys, *argv):
@@ -134,8 +135,7 @@ def test_malformed_robot_file_names_the_key(capsys, tmp_path):
 
 def test_console_script_help_and_error_status():
     exe = shutil.which('rrps-kinematics')
-    if exe is None:
-        pytest.skip('rrps-kinematics is not on PATH (package not installed)')
+    require(exe is not None, 'rrps-kinematics is not on PATH (package not installed)')
     out = subprocess.run([exe, '--help'], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0 and 'usage: rrps-kinematics' in out.stdout
     assert 'pole_climber' in out.stdout

@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
+from conftest import require
 from rrps_kinematics import (
     compiled_backend_available,
     forward_kinematics,
@@ -86,8 +87,7 @@ def test_every_pose_within_limits_is_found_from_home(name, backend):
 
 @pytest.mark.parametrize('name', sorted(ROBOTS))
 def test_backends_compute_the_same_iterates(name):
-    if not compiled_backend_available():
-        pytest.skip('numba not available')
+    require(compiled_backend_available(), 'numba not available')
     g = ROBOTS[name]
     P, Q, L = _workspace_sample(g, 400, 2, within_limits=False)
     rng = np.random.default_rng(3)

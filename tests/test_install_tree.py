@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import require
 
 ROOT = Path(__file__).resolve().parents[1]
 SRC = ROOT / 'src'
@@ -50,8 +51,7 @@ def module_exists(target: str) -> bool:
 @pytest.fixture(scope='module')
 def install_base(tmp_path_factory) -> Path:
     colcon = shutil.which('colcon') or str(Path(sys.executable).parent / 'colcon')
-    if not Path(colcon).exists():
-        pytest.skip('colcon is not installed')
+    require(Path(colcon).exists(), 'colcon is not installed')
     base = tmp_path_factory.mktemp('colcon')
     cmd = [colcon, '--log-base', str(base / 'log'), 'build', '--base-paths', str(SRC),
            '--build-base', str(base / 'build'), '--install-base', str(base / 'install'),

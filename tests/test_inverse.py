@@ -6,6 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
+from conftest import require
 from rrps_kinematics import (
     compiled_backend_available,
     inverse_jacobian,
@@ -143,8 +144,7 @@ def test_batch_equals_single(robot):
 
 @pytest.mark.parametrize('backend', ['numpy', 'numba'])
 def test_leg_lengths_fast_path(backend):
-    if backend == 'numba' and not compiled_backend_available():
-        pytest.skip('numba not available')
+    require(backend != 'numba' or compiled_backend_available(), 'numba not available')
     g = ROBOTS['frame_climber']
     P, Q = _batch(g, 500, 5)
     ref = inverse_kinematics(g, P, Q).lengths

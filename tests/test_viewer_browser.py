@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 from ros_harness import Probe, Spinner, wait_for
+from conftest import require
 
 pytestmark = [pytest.mark.browser, pytest.mark.ros, pytest.mark.slow]
 
@@ -37,10 +38,8 @@ def _free_port() -> int:
 @pytest.fixture(scope='module')
 def playwright_dir() -> Path:
     """tests/browser with playwright-core installed (npm ci from the lock file if missing)."""
-    if not Path(CHROMIUM).exists():
-        pytest.skip(f'no Chromium at {CHROMIUM} (./rrps test installs Debian\'s chromium as root)')
-    if shutil.which('npm') is None or shutil.which('node') is None:
-        pytest.skip('node and npm are needed for playwright-core')
+    require(Path(CHROMIUM).exists(), f'no Chromium at {CHROMIUM} (./rrps test installs Debian\'s chromium as root)')
+    require(shutil.which('npm') is not None and shutil.which('node') is not None, 'node and npm are needed for playwright-core')
     if not (BROWSER_DIR / 'node_modules' / 'playwright-core').exists():
         subprocess.run(['npm', 'ci', '--no-audit', '--no-fund'], cwd=BROWSER_DIR, check=True,
                        stdout=subprocess.DEVNULL, timeout=300)
