@@ -61,6 +61,7 @@ __all__ = [
     'MultibodyModel',
     'MultibodyDKResult',
     'body_slice',
+    'gauss_eliminate',
     'lower_link_body',
     'structured_solve',
     'upper_link_body',
@@ -307,7 +308,7 @@ def all_jacobian(q, a, ha, sb, cl, cu):
 
 
 @numba.njit(cache=True)
-def _eliminate(A, nrow, ncol_pivot, ncol):
+def gauss_eliminate(A, nrow, ncol_pivot, ncol):
     """Gaussian elimination with partial pivoting of A[:nrow, :ncol] on its first ncol_pivot
     columns (in place); returns (ok, flops)."""
     flops = 0
@@ -366,7 +367,7 @@ def structured_solve(J, rhs):
             for j in range(7):
                 U[k, i, 14 + j] = J[r, j]
             U[k, i, 21] = rhs[r]
-        ok, f = _eliminate(U[k], 15, 14, 22)
+        ok, f = gauss_eliminate(U[k], 15, 14, 22)
         flops += f
         if not ok:
             return False, dq, flops
@@ -375,7 +376,7 @@ def structured_solve(J, rhs):
     for j in range(7):
         S[6, j] = J[78, j]
     S[6, 7] = rhs[78]
-    ok, f = _eliminate(S, 7, 7, 8)
+    ok, f = gauss_eliminate(S, 7, 7, 8)
     flops += f
     if not ok:
         return False, dq, flops

@@ -48,6 +48,7 @@ from rrps_kinematics.multibody import (
     FLOPS_LEG_RESIDUAL,
     FLOPS_ROTATION,
     MultibodyModel,
+    gauss_eliminate,
     leg_jacobian,
     leg_residual,
     rotation,
@@ -262,38 +263,19 @@ def _cholesky_solve(Lc, X, n, nrhs):
 
 @numba.njit(cache=True)
 def _lu_solve(A, b, n):
-    """Solve A x = b (n x n) in place by Gaussian elimination with partial pivoting: x -> b.
-
-    A is overwritten. Returns False if A is singular."""
-    for j in range(n):
-        p = j
-        big = abs(A[j, j])
-        for i in range(j + 1, n):
-            if abs(A[i, j]) > big:
-                big = abs(A[i, j])
-                p = i
-        if big == 0.0:
-            return False
-        if p != j:
-            for m in range(n):
-                tmp = A[j, m]
-                A[j, m] = A[p, m]
-                A[p, m] = tmp
-            tmp = b[j]
-            b[j] = b[p]
-            b[p] = tmp
-        inv = 1.0 / A[j, j]
-        for i in range(j + 1, n):
-            f = A[i, j] * inv
-            if f != 0.0:
-                for m in range(j + 1, n):
-                    A[i, m] -= f * A[j, m]
-                b[i] -= f * b[j]
+    """Solve A x = b (n x n) by Gaussian elimination with partial pivoting (multibody's
+    ``gauss_eliminate`` on [A | b]) and back substitution: x -> b. Returns False if A is singular."""
+    Ab = np.empty((n, n + 1))
+    Ab[:, :n] = A[:n, :n]
+    Ab[:, n] = b[:n]
+    ok, _ = gauss_eliminate(Ab, n, n, n + 1)
+    if not ok:
+        return False
     for i in range(n - 1, -1, -1):
-        s = b[i]
+        s = Ab[i, n]
         for m in range(i + 1, n):
-            s -= A[i, m] * b[m]
-        b[i] = s / A[i, i]
+            s -= Ab[i, m] * b[m]
+        b[i] = s / Ab[i, i]
     return True
 
 
