@@ -31,7 +31,7 @@ from pathlib import Path
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 
 import numpy as np  # noqa: E402
-from _processes import stop_processes  # noqa: E402
+from _common import stop_processes, wait_until  # noqa: E402
 import rclpy  # noqa: E402
 from geometry_msgs.msg import PoseStamped  # noqa: E402
 from rclpy.node import Node  # noqa: E402
@@ -123,15 +123,6 @@ def interleaved(runs, poses, samples: int, warmup: int = 100) -> list[tuple[np.n
             else:
                 lat[k].append(t)
     return [(np.array(x), n) for x, n in zip(lat, lost)]
-
-
-def wait_until(predicate, timeout: float) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.01)
-    return False
 
 
 def in_process(kind: str, samples: int, poses, domain_id: int):

@@ -37,7 +37,7 @@ from typing import Callable
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 
 import numpy as np  # noqa: E402
-from _processes import stop_processes  # noqa: E402
+from _common import stop_processes, wait_until  # noqa: E402
 import rclpy  # noqa: E402
 from geometry_msgs.msg import PoseStamped  # noqa: E402
 from rclpy.node import Node  # noqa: E402
@@ -171,15 +171,6 @@ def measure(runs: list[Run], samples: int, warmup: int = 100, timeout: float = 0
                     run.latencies.append(run.waiter.received - t0)
                 else:
                     run.lost += 1
-
-
-def wait_until(predicate, timeout: float) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.01)
-    return False
 
 
 def spin_in_thread(context, nodes):

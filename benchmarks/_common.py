@@ -1,9 +1,20 @@
-"""Process handling shared by the benchmarks that start the installed nodes."""
+"""Helpers shared by the benchmarks that start the installed nodes."""
 
 from __future__ import annotations
 
 import signal
 import subprocess
+import time
+
+
+def wait_until(predicate, timeout: float) -> bool:
+    """Poll ``predicate`` every 10 ms until it is truthy (True) or ``timeout`` s pass (False)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(0.01)
+    return False
 
 
 def stop_processes(processes, timeout: float = 5.0) -> None:
