@@ -41,7 +41,8 @@ def test_rejections_say_why(robot, position, quaternion, frame, message):
 
 
 def test_check_fresh():
-    assert check_fresh(0.0, 100.0, 0.1) == 0.0          # unset stamp: taken as now
+    with pytest.raises(RejectedCommand, match='unstamped'):  # unset stamp: age unknown
+        check_fresh(0.0, 100.0, 0.1)
     assert check_fresh(99.95, 100.0, 0.1) == pytest.approx(0.05)
     assert check_fresh(100.5, 100.0, 0.1) == pytest.approx(-0.5)  # clock offset: accepted
     with pytest.raises(RejectedCommand, match='stale'):

@@ -183,3 +183,16 @@ def test_initial_lengths(ros_context):
     node = driver(ros_context, initial_lengths=list(lengths))
     np.testing.assert_array_equal(node.actuators.positions, lengths)
     node.destroy_node()
+
+
+def test_an_unstamped_command_is_not_acted_on(ros_context):
+    node = driver(ros_context)
+    probe, states, diagnostics, pub = setup(ros_context, node)
+    goal = inverse_kinematics(POLE, POLE.home_position + [0.0, 0.0, 0.005], [0, 0, 0, 1]).lengths
+    unstamped = JointState(name=list(LEG_NAMES), position=[float(v) for v in goal])
+    with Spinner(ros_context, [node, probe]):
+        assert wait_for(lambda: pub.get_subscription_count() == 1, 5.0)
+        assert wait_for(lambda: (pub.publish(unstamped), node.rejected)[1]
+                        and said(diagnostics, 'driver_node', 'unstamped'), 3.0)
+        np.testing.assert_allclose(node.reference, POLE.home_lengths, atol=1e-12)
+        assert node.accepted == 0

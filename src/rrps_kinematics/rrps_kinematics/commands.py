@@ -110,11 +110,11 @@ def validate_target(geometry: RobotGeometry, position, quaternion_xyzw, *, frame
 def check_fresh(stamp: float, now: float, timeout: float) -> float:
     """Age [s] of a command stamped ``stamp`` at time ``now``; RejectedCommand if > timeout.
 
-    A zero stamp (unset) counts as sent now. A stamp slightly in the future (clock offset
-    between machines) is accepted.
+    A zero stamp (unset) is rejected: its age cannot be checked, so it may be stale. A stamp
+    slightly in the future (clock offset between machines) is accepted.
     """
     if stamp == 0.0:
-        return 0.0
+        raise RejectedCommand('command is unstamped (header.stamp = 0): its age cannot be checked')
     age = now - stamp
     if not math.isfinite(age) or age > timeout:
         raise RejectedCommand(f'command is stale: {age:.3f} s old > timeout {timeout:.3f} s')

@@ -115,7 +115,7 @@ class IkNode(Node):
         self.last_command = lengths
         self._last_command_time = now_s
         self.accepted += 1
-        self._pub.publish(joint_state_msg(msg.header.stamp if stamp != 0.0 else now.to_msg(), lengths))
+        self._pub.publish(joint_state_msg(msg.header.stamp, lengths))
         self._margins = {f'min_{k}_margin': v for k, v in target.minimum.items()}
         if self._status[0] != OK:
             self._status = (OK, 'tracking target_pose')

@@ -6,7 +6,7 @@ multibody dynamics of eqs. 19-20 with a PD force loop per leg, effort = force [N
 is published at ``rate`` Hz (and at once on each accepted command with ``publish_on_command``).
 
 A command is not acted on (the actuators keep tracking the last accepted one; /diagnostics and
-the log say why) when it is malformed (names, sizes, NaN), outside the stroke, or stamped more
+the log say why) when it is malformed (names, sizes, NaN), unstamped, outside the stroke, or stamped more
 than ``timeout`` s ago. With ``hold_when_silent`` the actuators also stop where they are when no
 command arrived for ``timeout`` s. Grippers: ``grippers/state`` and the SetBool services
 ``grippers/ring_a/set`` / ``grippers/ring_b/set`` (true = close), never both open.
@@ -195,12 +195,12 @@ class DriverNode(Node):
     # --- commands ---
 
     def _parse(self, msg: JointState) -> tuple[np.ndarray, np.ndarray | None]:
-        now = self.get_clock().now().nanoseconds * 1e-9
-        check_fresh(stamp_to_seconds(msg.header.stamp), now, self.timeout)
         try:
             lengths = lengths_from_joint_state(msg)
         except ValueError as exc:
             raise RejectedCommand(str(exc)) from None
+        now = self.get_clock().now().nanoseconds * 1e-9
+        check_fresh(stamp_to_seconds(msg.header.stamp), now, self.timeout)
         g = self.geometry
         if np.any(lengths < g.min_length) or np.any(lengths > g.max_length):
             legs = [LEG_NAMES[i] for i in np.flatnonzero((lengths < g.min_length) | (lengths > g.max_length))]
