@@ -87,3 +87,19 @@ def test_compiled_pose_limits_match_the_reference_margins(robot, dp, rv):
     for kind, value in m.minimum.items():
         assert minimum[kind] == pytest.approx(float(value), abs=1e-12), kind
     assert pose_limits(robot, p, q, backend='numpy')[0] == ok
+
+
+def test_command_ages_summarise_the_window_and_count_stale_ones():
+    from rrps_kinematics.commands import CommandAges
+    ages = CommandAges(window=1.0)
+    for k in range(100):
+        ages.add(0.01 * k, 0.002, stale=False)
+    ages.add(0.99, 0.5, stale=True)
+    s = ages.summary(1.0)
+    assert s['command_count'] == 101 and s['command_stale_total'] == 1
+    assert s['command_age_p50_ms'] == pytest.approx(2.0)
+    assert s['command_age_max_ms'] == pytest.approx(500.0)
+    later = ages.summary(5.0)  # every sample left the window; the stale count stays
+    assert later == {'command_count': 0, 'command_stale_total': 1}
+    with pytest.raises(ValueError):
+        CommandAges(window=0.0)

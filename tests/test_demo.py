@@ -100,3 +100,12 @@ def test_demo_rejects_bad_arguments_with_one_line(ros_domain_id, args, message):
     assert proc.returncode == 2
     assert message in proc.stderr
     assert 'Traceback' not in proc.stderr
+
+
+def test_compose_names_its_nodes_and_refuses_unknown_ones():
+    from rrps_teleop.compose import NODES, main, node_class
+    assert main(['no_such_node', '--ros-args']) == 2
+    assert main(['ik_node', 'ik_node']) == 2
+    assert main([]) == 2
+    for name in NODES:
+        assert node_class(name).__name__.endswith('Node')

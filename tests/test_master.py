@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rrps_kinematics import check_pose, inverse_kinematics, load_robot
-from rrps_teleop.mapping import rotation_angle
+from rrps_kinematics.pose import rotation_angle
 from rrps_teleop.master import MasterModel, scripted_pose
 
 MASTER = load_robot('master_robot')

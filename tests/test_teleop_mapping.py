@@ -8,13 +8,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rrps_kinematics import check_pose, inverse_kinematics, load_robot, margins
+from rrps_kinematics.pose import rotation_angle
 from rrps_kinematics.rotations import quat_multiply_xyzw, rotation_vector_to_quat_xyzw
 from rrps_teleop.mapping import (
     DISENGAGED_CODES,
     StatusCode,
     TeleopConfig,
     TeleopMapping,
-    rotation_angle,
     validate_scale,
 )
 from rrps_teleop.master import MasterModel, scripted_pose

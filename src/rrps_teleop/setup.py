@@ -25,6 +25,7 @@ setup(
             'viewer_node = rrps_teleop.nodes.viewer_node:main',
             'rrps-climb = rrps_teleop.climb_cli:main',
             'rrps-demo = rrps_teleop.demo:main',
+            'rrps-compose = rrps_teleop.compose:main',
         ],
     },
 )

@@ -12,6 +12,7 @@ message that says why, so a node can keep its last safe command and report the r
 
 from __future__ import annotations
 
+import collections
 import math
 from dataclasses import dataclass
 
@@ -23,7 +24,7 @@ from .inverse import inverse_kinematics
 from .limits import margins
 
 __all__ = ['RejectedCommand', 'ValidTarget', 'validate_target', 'pose_limits', 'check_fresh',
-           'limit_velocity']
+           'limit_velocity', 'CommandAges']
 
 MARGIN_KINDS = ('stroke', 'universal', 'spherical', 'interference', 'conditioning')
 _packed: dict[int, tuple] = {}
@@ -134,3 +135,38 @@ def limit_velocity(current, desired, max_speed: float, dt: float) -> np.ndarray:
     if math.isinf(max_speed) or largest <= allowed:
         return current + delta
     return current + delta * (allowed / largest)
+
+
+class CommandAges:
+    """Ages [s] of the commands a node received (receipt time minus stamp) over the last
+    ``window`` s: how late the commands reach it (transport plus the receiving executor).
+
+    ``summary()`` gives the count in the window, the stale ones since the start (older than the
+    node's timeout) and the 50th and 99th percentiles and the maximum in milliseconds, for
+    /diagnostics.
+    """
+
+    def __init__(self, window: float = 10.0, max_samples: int = 10_000):
+        if not (window > 0.0 and max_samples > 0):
+            raise ValueError('window must be > 0 s and max_samples > 0')
+        self.window = window
+        self._samples: collections.deque = collections.deque(maxlen=max_samples)
+        self.stale = 0
+
+    def add(self, now: float, age: float, *, stale: bool = False) -> None:
+        """One command received at ``now`` [s] that was ``age`` [s] old."""
+        self._samples.append((now, age))
+        self.stale += bool(stale)
+
+    def summary(self, now: float) -> dict[str, float | int]:
+        """{'command_count', 'command_stale_total', 'command_age_p50_ms', ..._p99_ms, ..._max_ms}."""
+        while self._samples and now - self._samples[0][0] > self.window:
+            self._samples.popleft()
+        out: dict[str, float | int] = {'command_count': len(self._samples),
+                                       'command_stale_total': self.stale}
+        if self._samples:
+            ages = 1e3 * np.fromiter((a for _, a in self._samples), dtype=float)
+            p50, p99 = np.percentile(ages, [50.0, 99.0])
+            out.update(command_age_p50_ms=float(p50), command_age_p99_ms=float(p99),
+                       command_age_max_ms=float(np.max(ages)))
+        return out

@@ -1,10 +1,15 @@
-"""rrps-demo: the whole stack in one process, with the web viewer (``./rrps demo``).
+"""rrps-demo: the whole stack with the web viewer (``./rrps demo``).
 
-Composes the IK, FK, master, teleop, climb and viewer nodes under the namespace ``/rrps`` in one
-process and one executor (like a component container) and runs the simulated hardware
-(driver_node, 500 Hz) in a process of its own, as a real robot's driver would be. Prints the
-viewer's URL and operator token, and runs until Ctrl-C (or SIGTERM), which stops everything
-cleanly.
+The demo runs as the system would on a robot and an operator station, in three processes:
+
+* the simulated hardware (``driver_node``, 500 Hz), as a real robot's driver;
+* the robot computer's nodes, IK, FK and climbing, composed in one process (``rrps-compose``);
+* the operator station, master, teleop and the viewer, in this process.
+
+The 500 Hz state fan-out and the viewer's web server therefore never share an executor (or a
+GIL) with the command path of the robot. The children die with this process (a parent-death
+signal), and Ctrl-C or SIGTERM stops all three. The viewer's URL and operator token are
+printed once the robot is up.
 
 ``--headless`` runs no browser: a scripted teleop session (the operator's handle moves the
 master, a deadman stream engages the mapping, the slave follows; releasing the deadman holds the
@@ -24,9 +29,13 @@ import sys
 import threading
 import time
 
-__all__ = ['main', 'build_stack', 'start_driver', 'stop_driver']
+__all__ = ['main', 'build_stack', 'start_driver', 'start_robot_nodes', 'ROBOT_NODES',
+           'OPERATOR_NODES']
 
 NAMESPACE = '/rrps'
+#: The robot computer's nodes (one process) and the operator station's (the demo's own process).
+ROBOT_NODES = ('ik_node', 'fk_node', 'climb_node')
+OPERATOR_NODES = ('master_node', 'teleop_node', 'viewer_node')
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -48,12 +57,15 @@ def _parser() -> argparse.ArgumentParser:
 
 def build_stack(context, *, robot: str, host: str, port: int, token: str,
                 viewer: bool = True, climb: bool = True, driver: bool = True,
-                driver_rate: float = 500.0, namespace: str = NAMESPACE) -> dict:
-    """Create every node of the demo on ``context`` under ``namespace``; returns name -> node.
+                kinematics: bool = True, driver_rate: float = 500.0,
+                namespace: str = NAMESPACE) -> dict:
+    """Create nodes of the demo on ``context`` under ``namespace``; returns name -> node.
 
-    ``viewer=False`` / ``climb=False`` / ``driver=False`` leave the viewer / climbing node /
-    simulated driver out (the demo runs its driver in a process of its own: :func:`start_driver`);
-    ``driver_rate`` is the simulated driver's actuators/state rate [Hz].
+    Every node by default (one process, as the tests use it). ``viewer=False`` / ``climb=False``
+    / ``driver=False`` / ``kinematics=False`` leave out the viewer / climbing node / simulated
+    driver / IK and FK nodes (the demo runs the driver and the robot's nodes in processes of
+    their own: :func:`start_driver`, :func:`start_robot_nodes`); ``driver_rate`` is the
+    simulated driver's actuators/state rate [Hz].
 
     Raises ValueError / RobotDescriptionError with a clear message for bad arguments.
     """
@@ -69,9 +81,9 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
     robot_param = [Parameter('robot', value=robot)]
     plan = [('driver_node', DriverNode, robot_param + [Parameter('rate', value=float(driver_rate))])
             ] if driver else []
+    if kinematics:
+        plan += [('ik_node', IkNode, robot_param), ('fk_node', FkNode, robot_param)]
     plan += [
-        ('ik_node', IkNode, robot_param),
-        ('fk_node', FkNode, robot_param),
         ('master_node', MasterNode, []),
         ('teleop_node', TeleopNode, robot_param),
     ]
@@ -102,41 +114,43 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
 def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE) -> subprocess.Popen:
     """The simulated hardware (driver_node) in a process of its own, as a real robot's driver.
 
-    Its 500 Hz loop then has an interpreter and a core to itself instead of sharing one GIL with
-    the viewer's web server and the rest of the stack. It inherits the environment (domain id,
-    discovery range); stop it with :func:`stop_driver`.
+    Its 500 Hz loop has an interpreter and a core to itself. It inherits the environment
+    (domain id, discovery range) and dies with this process; stop it with
+    :func:`rrps_kinematics.supervision.stop_children`.
     """
-    return subprocess.Popen([sys.executable, '-m', 'rrps_sim.nodes.driver_node', '--ros-args',
-                             '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
-                             '-p', f'rate:={float(rate)}'])
+    from rrps_kinematics.supervision import start_child
+    return start_child([sys.executable, '-m', 'rrps_sim.nodes.driver_node', '--ros-args',
+                        '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
+                        '-p', f'rate:={float(rate)}'])
 
 
-def stop_driver(process: subprocess.Popen, timeout: float = 5.0) -> None:
-    """SIGTERM, then kill if it has not stopped after ``timeout`` s.
-
-    SIGTERM (not SIGINT): once the driver runs it is its clean shutdown, like Ctrl-C, and before
-    its handlers exist (still importing) it ends the process without a traceback.
-    """
-    if process.poll() is None:
-        process.send_signal(signal.SIGTERM)
-        try:
-            process.wait(timeout)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
+def start_robot_nodes(*, robot: str, namespace: str = NAMESPACE) -> subprocess.Popen:
+    """The robot computer's nodes (:data:`ROBOT_NODES`) composed in one process of their own."""
+    from rrps_kinematics.supervision import start_child
+    return start_child([sys.executable, '-m', 'rrps_teleop.compose', *ROBOT_NODES, '--ros-args',
+                        '-r', f'__ns:={namespace}', '-p', f'robot:={robot}'])
 
 
-def wait_for_driver(executor, context, node, driver: subprocess.Popen, stop: threading.Event, *,
-                    timeout: float = 60.0) -> bool:
-    """Spin until the driver's ``actuators/state`` publisher is seen from ``node`` (it is up);
-    False if the driver exits, ``stop`` is set or ``timeout`` s pass first."""
+def wait_for_robot(executor, context, node, children: list[subprocess.Popen],
+                   stop: threading.Event, *, timeout: float = 60.0) -> bool:
+    """Spin until the robot is up, seen from ``node``: the driver's ``actuators/state``, the FK's
+    ``pose`` and the climbing services. False if a child exits, ``stop`` is set or ``timeout``
+    s pass first."""
     from rclpy.task import Future
 
-    topic = f'{node.get_namespace().rstrip("/")}/actuators/state'
+    ns = node.get_namespace().rstrip('/')
     never = Future()
     deadline = time.monotonic() + timeout
-    while context.ok() and not stop.is_set() and driver.poll() is None and time.monotonic() < deadline:
-        if node.count_publishers(topic) > 0:
+
+    def up() -> bool:
+        names = {name for name, _ in node.get_service_names_and_types()}
+        return (node.count_publishers(f'{ns}/actuators/state') > 0
+                and node.count_publishers(f'{ns}/pose') > 0 and f'{ns}/climb/step_up' in names)
+
+    while context.ok() and not stop.is_set() and time.monotonic() < deadline:
+        if any(child.poll() is not None for child in children):
+            return False
+        if up():
             return True
         executor.spin_until_future_complete(never, timeout_sec=0.05)
     return False
@@ -164,26 +178,31 @@ def main(argv=None) -> int:
     from rclpy.signals import SignalHandlerOptions
 
     from rrps_kinematics.geometry import RobotDescriptionError
-    from rrps_kinematics.nodes.common import make_executor, spin_until_shutdown
+    from rrps_kinematics.nodes.common import (freeze_startup_objects, make_executor,
+                                              spin_until_shutdown)
+    from rrps_kinematics.supervision import exit_with_parent, stop_children
 
     stop = threading.Event()
+    exit_with_parent(stop.set)
     context = rclpy.Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     previous = {sig: signal.signal(sig, lambda *_: stop.set())
                 for sig in (signal.SIGINT, signal.SIGTERM)}
     nodes: dict = {}
-    driver = None
+    children: list[subprocess.Popen] = []
     status = 0
     try:
         try:
             nodes = build_stack(context, robot=args.robot, host=args.host, port=args.port,
-                                token=args.token, viewer=True, driver=False)
+                                token=args.token, viewer=True, driver=False, kinematics=False,
+                                climb=False)
         except (RobotDescriptionError, ValueError) as exc:
             print(f'error: {exc}', file=sys.stderr)
             return 2
-        driver = start_driver(robot=args.robot)
-        # A driver that dies ends the demo (the robot is gone), with an error status.
-        threading.Thread(target=lambda: (driver.wait(), stop.set()), daemon=True).start()
+        children = [start_driver(robot=args.robot), start_robot_nodes(robot=args.robot)]
+        # A child that dies ends the demo (the robot is gone), with an error status.
+        for child in children:
+            threading.Thread(target=lambda c=child: (c.wait(), stop.set()), daemon=True).start()
         script = None
         if args.headless:
             from ._demo_script import DemoScript
@@ -192,14 +211,15 @@ def main(argv=None) -> int:
         executor = make_executor(context, 'events')
         for node in nodes.values():
             executor.add_node(node)
-        if not wait_for_driver(executor, context, nodes['fk_node'], driver, stop):
-            if not stop.is_set():
-                print('error: the simulated driver did not start', file=sys.stderr)
+        freeze_startup_objects()
+        if not wait_for_robot(executor, context, nodes['teleop_node'], children, stop):
+            if not stop.is_set() or any(c.poll() not in (None, 0) for c in children):
+                print('error: the simulated robot did not start', file=sys.stderr)
                 status = 1
             return status
         if script is None:
             print(_banner(nodes['viewer_node']), flush=True)
-            spin_until_shutdown(executor, context, stop)
+            spin_until_shutdown(executor, context, stop, period=0.05)
             print('rrps demo: stopping', flush=True)
         else:
             spinner = threading.Thread(target=spin_until_shutdown,
@@ -215,17 +235,20 @@ def main(argv=None) -> int:
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        for child in children:  # both stop while this process tears its own nodes down
+            if child.poll() is None:
+                child.send_signal(signal.SIGTERM)
         for sig, handler in previous.items():
             signal.signal(sig, handler)
         for node in nodes.values():
             node.destroy_node()
         rclpy.try_shutdown(context=context)
-        if driver is not None:
-            if driver.poll() not in (None, 0):
-                print(f'rrps demo: the driver process exited with status {driver.returncode}',
-                      file=sys.stderr)
+        for child in children:
+            if child.poll() not in (None, 0, -signal.SIGTERM):
+                print(f'rrps demo: a robot process ({child.args[2]}) exited with status '
+                      f'{child.returncode}', file=sys.stderr)
                 status = status or 1
-            stop_driver(driver)
+        stop_children(children, timeout=5.0)
     return status
 
 

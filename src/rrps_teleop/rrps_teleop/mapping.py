@@ -44,6 +44,7 @@ import numpy as np
 
 from rrps_kinematics import RobotGeometry, forward_kinematics, inverse_kinematics, margins
 from rrps_kinematics.limits import Margins
+from rrps_kinematics.pose import rotation_angle, validate_pose
 from rrps_kinematics.rotations import (
     normalize_quat,
     quat_conjugate_xyzw,
@@ -61,15 +62,11 @@ __all__ = [
     'TeleopOutput',
     'TeleopMapping',
     'validate_scale',
-    'validate_pose',
     'pose_step',
-    'rotation_angle',
 ]
 
 MODES = ('cartesian', 'joint')
 ROTATION_MODES = ('relative', 'absolute')
-#: A quaternion further than this from unit norm is rejected, not silently normalised.
-QUATERNION_NORM_TOLERANCE = 1e-3
 #: Most re-scalings of a Cartesian step for the leg speed limit (leg lengths are not linear in it).
 LEG_SPEED_ITERATIONS = 4
 
@@ -107,25 +104,6 @@ def validate_scale(value, name: str = 'translation_scale') -> float:
     if not (math.isfinite(v) and v > 0.0):
         raise ValueError(f'{name} must be finite and > 0, got {value!r}')
     return v
-
-
-def validate_pose(position, quaternion_xyzw, what: str = 'pose') -> tuple[np.ndarray, np.ndarray]:
-    """(position (3,), unit quaternion (4,) with w >= 0); ValueError for NaN/inf or a non-unit quaternion."""
-    p = np.asarray(position, dtype=float)
-    q = np.asarray(quaternion_xyzw, dtype=float)
-    if p.shape != (3,) or q.shape != (4,):
-        raise ValueError(f'{what}: position must have shape (3,) and quaternion (4,), got {p.shape}, {q.shape}')
-    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
-        raise ValueError(f'{what}: contains NaN or infinite values')
-    norm = float(np.linalg.norm(q))
-    if abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE:
-        raise ValueError(f'{what}: quaternion norm {norm:.6g} is not 1 (x, y, z, w expected)')
-    return p, normalize_quat(q)
-
-
-def rotation_angle(q_from: np.ndarray, q_to: np.ndarray) -> float:
-    """Angle [rad] of the rotation taking orientation q_from to q_to."""
-    return float(np.linalg.norm(quat_xyzw_to_rotation_vector(quat_multiply_xyzw(q_to, quat_conjugate_xyzw(q_from)))))
 
 
 def pose_step(p0: np.ndarray, q0: np.ndarray, p1: np.ndarray, q1: np.ndarray,
@@ -251,7 +229,7 @@ class TeleopMapping:
 
         ``stamp``: when the master sampled it (its header), used only for the step's time budget.
         """
-        self._master_pose = validate_pose(position, quaternion_xyzw, 'master pose')
+        self._master_pose = validate_pose(position, quaternion_xyzw, what='master pose')
         self._master_pose_time = float(t)
         if self.config.mode == 'cartesian':
             self._sample_stamp = stamp
@@ -268,7 +246,7 @@ class TeleopMapping:
 
     def on_slave_pose(self, position, quaternion_xyzw) -> None:
         """The slave's measured pose a_T_b (its FK): the reference captured at engage."""
-        self._slave_pose = validate_pose(position, quaternion_xyzw, 'slave pose')
+        self._slave_pose = validate_pose(position, quaternion_xyzw, what='slave pose')
 
     def set_climb_executing(self, executing: bool) -> None:
         """True while a climb step owns the robot: refuses to engage (disengages if engaged)."""

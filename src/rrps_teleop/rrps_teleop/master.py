@@ -24,9 +24,10 @@ import math
 import numpy as np
 
 from rrps_kinematics import RobotGeometry, check_pose, inverse_kinematics
+from rrps_kinematics.pose import rotation_angle, validate_pose
 from rrps_kinematics.rotations import quat_multiply_xyzw, rotation_vector_to_quat_xyzw
 
-from .mapping import pose_step, rotation_angle, validate_pose, validate_scale
+from .mapping import pose_step, validate_scale
 
 __all__ = ['TRAJECTORIES', 'scripted_pose', 'MasterModel']
 
@@ -84,7 +85,7 @@ class MasterModel:
         Returns '' when the step was taken in full, else why it was shortened. Raises ValueError
         for a malformed target (NaN, non-unit quaternion).
         """
-        p1, q1 = validate_pose(position, quaternion_xyzw, 'master target')
+        p1, q1 = validate_pose(position, quaternion_xyzw, what='master target')
         if not (math.isfinite(dt) and dt >= 0.0):
             raise ValueError(f'dt must be finite and >= 0, got {dt!r}')
         p0, q0 = self.position, self.quaternion_xyzw

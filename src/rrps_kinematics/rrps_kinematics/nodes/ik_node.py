@@ -3,7 +3,8 @@
 Every target is checked (:func:`rrps_kinematics.commands.validate_target`: frame, NaN/inf,
 quaternion norm, stroke, joint angles, interference, conditioning) and its stamp's age against
 ``timeout``; a rejected target is not acted on: the last valid command stands, the reason is
-logged (throttled) and reported on /diagnostics. With ``limit_velocity`` the published command
+logged (throttled) and reported on /diagnostics, with the ages of the received targets (p50,
+p99, max over 10 s: how late they arrive). With ``limit_velocity`` the published command
 never asks a leg to move faster than ``max_speed`` since the previous command.
 
     ik_node --ros-args -r __ns:=/rrps -p robot:=pole_climber
@@ -18,7 +19,8 @@ from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
-from ..commands import RejectedCommand, check_fresh, limit_velocity, pose_limits, validate_target
+from ..commands import (CommandAges, RejectedCommand, check_fresh, limit_velocity, pose_limits,
+                        validate_target)
 from .common import (COMMAND_QOS, OK, STALE, STATE_QOS, WARN, Diagnostics, declare_parameter,
                      declare_robot_parameter, joint_state_msg, lengths_from_joint_state,
                      pose_from_msg, run_nodes, stamp_to_seconds)
@@ -57,6 +59,7 @@ class IkNode(Node):
         self._measured: np.ndarray | None = None
         self.accepted = 0
         self.rejected = 0
+        self.ages = CommandAges()
         self._status = (STALE, 'waiting for target_pose')
         self._margins: dict = {}
         self._pub = self.create_publisher(JointState, 'actuators/command', COMMAND_QOS)
@@ -75,8 +78,10 @@ class IkNode(Node):
 
     def _report(self) -> None:
         level, message = self._status
+        now = self.get_clock().now().nanoseconds * 1e-9
         self._diag.report(level, message, {'accepted': self.accepted, 'rejected': self.rejected,
-                                           'robot': self.geometry.name, **self._margins})
+                                           'robot': self.geometry.name, **self._margins,
+                                           **self.ages.summary(now)})
 
     def _reject(self, reason: str, level=WARN) -> None:
         self.rejected += 1
@@ -93,8 +98,10 @@ class IkNode(Node):
     def _on_target(self, msg: PoseStamped) -> None:
         now = self.get_clock().now()
         now_s = now.nanoseconds * 1e-9
+        stamp = stamp_to_seconds(msg.header.stamp)
+        if stamp != 0.0:
+            self.ages.add(now_s, now_s - stamp, stale=now_s - stamp > self.timeout)
         try:
-            stamp = stamp_to_seconds(msg.header.stamp)
             check_fresh(stamp, now_s, self.timeout)
             position, quaternion = pose_from_msg(msg)
             target = validate_target(self.geometry, position, quaternion, frame_id=msg.header.frame_id,

@@ -27,7 +27,7 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool
 
-from rrps_kinematics.commands import RejectedCommand, check_fresh
+from rrps_kinematics.commands import CommandAges, RejectedCommand, check_fresh
 from rrps_kinematics.forward import forward_kinematics
 from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, LEG_NAMES, OK, STALE, STATE_QOS, WARN,
                                           Diagnostics, declare_parameter, declare_robot_parameter,
@@ -133,6 +133,7 @@ class DriverNode(Node):
         self.accepted = 0
         self.rejected = 0
         self.dropped = 0
+        self.ages = CommandAges()
         self._last_command_time: float | None = None
         self._last_step = time.monotonic()
         self._max_dt = 5.0 / self.rate
@@ -183,7 +184,8 @@ class DriverNode(Node):
             'mode': self.mode, 'accepted': self.accepted, 'rejected': self.rejected,
             'dropped': self.dropped, 'lengths': self.actuators.positions,
             'stuck_legs': [i + 1 for i in np.flatnonzero(self.actuators.stuck)],
-            'grippers': dict(zip(RINGS, self.grippers.positions()))})
+            'grippers': dict(zip(RINGS, self.grippers.positions())),
+            **self.ages.summary(self.get_clock().now().nanoseconds * 1e-9)})
 
     def _set_status(self, level, message: str) -> None:
         if (level, message) != self._status:
@@ -218,6 +220,10 @@ class DriverNode(Node):
         return lengths, rings
 
     def _on_command(self, msg: JointState) -> None:
+        stamp = stamp_to_seconds(msg.header.stamp)
+        if stamp != 0.0:
+            now = self.get_clock().now().nanoseconds * 1e-9
+            self.ages.add(now, now - stamp, stale=now - stamp > self.timeout)
         try:
             lengths, rings = self._parse(msg)
         except RejectedCommand as exc:

@@ -19,6 +19,9 @@ Publishes ``climb/status`` (DiagnosticStatus: message idle | executing | error; 
 phase, structure, s_a, s_b, steps_done, detail) and the world odometry of both rings
 ``odometry/ring_a``, ``odometry/ring_b`` (PoseStamped, frame ``world``) chained from ``pose``
 and ``grippers/state`` (``rrps_teleop.odometry``), published at ``rate`` when a new pose came in.
+
+``pose`` arrives at the driver's rate (500 Hz); the node keeps only the newest sample and uses
+it at its own ``rate``, so a fast state stream costs it almost nothing and never queues up.
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 
-from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, OK, STATE_QOS, WARN, Diagnostics,
+from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, LATEST_QOS, OK, STATE_QOS, WARN, Diagnostics,
                                           declare_parameter, declare_robot_parameter, pose_from_msg,
                                           pose_to_msg, run_nodes)
 from rrps_kinematics.rotations import (matrix_to_quat_xyzw, quat_multiply_xyzw, quat_conjugate_xyzw,
@@ -127,7 +130,8 @@ class ClimbNode(Node):
         self._status_pub = self.create_publisher(DiagnosticStatus, 'climb/status', STATE_QOS)
         self._odo_pubs = {ring: self.create_publisher(PoseStamped, f'odometry/{ring}', STATE_QOS)
                           for ring in ('ring_a', 'ring_b')}
-        self.create_subscription(PoseStamped, 'pose', self._on_pose, STATE_QOS)
+        self._pose_msg: PoseStamped | None = None
+        self.create_subscription(PoseStamped, 'pose', self._on_pose, LATEST_QOS)
         self.create_subscription(JointState, 'grippers/state', self._on_grippers, STATE_QOS)
         self.create_subscription(DiagnosticStatus, 'teleop/status', self._on_teleop, STATE_QOS)
         self._gripper_clients = {ring: self.create_client(SetBool, f'grippers/{ring}/set') for ring in ('ring_a', 'ring_b')}
@@ -140,6 +144,14 @@ class ClimbNode(Node):
     # --- inputs ---------------------------------------------------------------------------------
 
     def _on_pose(self, msg: PoseStamped) -> None:
+        """Keep the newest measured pose; it is used at the node's rate (:meth:`_take_pose`)."""
+        self._pose_msg = msg
+
+    def _take_pose(self) -> None:
+        """The newest measured pose (if one came since the last tick) and the odometry it chains."""
+        msg, self._pose_msg = self._pose_msg, None
+        if msg is None:
+            return
         p, q = pose_from_msg(msg)
         if msg.header.frame_id != 'ring_a' or not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
             return
@@ -191,6 +203,7 @@ class ClimbNode(Node):
 
     def start_climb(self, distance: float, steps: int) -> tuple[bool, str]:
         """Plan and start a climb of ``distance`` [m] in ``steps``; (accepted, message)."""
+        self._take_pose()
         if self.mode == EXECUTING:
             return False, 'refused: a climb is executing'
         if self.mode == FAILED:
@@ -271,6 +284,7 @@ class ClimbNode(Node):
         return dp <= self.position_tolerance and da <= self.orientation_tolerance
 
     def _on_tick(self) -> None:
+        self._take_pose()
         self._publish_odometry()
         if self.mode == IDLE and self.auto_steps > 0 and not self._auto_started \
                 and self.pose is not None and self.grippers is not None:

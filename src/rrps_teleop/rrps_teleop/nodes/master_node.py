@@ -18,11 +18,11 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from rrps_kinematics import forward_kinematics
+from rrps_kinematics.pose import validate_pose
 from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, OK, STATE_QOS, WARN, Diagnostics,
                                           declare_parameter, declare_robot_parameter,
                                           joint_state_msg, pose_from_msg, pose_to_msg, run_nodes)
 
-from ..mapping import validate_pose
 from ..master import TRAJECTORIES, MasterModel, scripted_pose
 
 __all__ = ['MasterNode', 'main']
@@ -104,7 +104,7 @@ class MasterNode(Node):
                                    f'is not {self.frame_id!r}')
             return
         try:
-            self._target = validate_pose(*pose_from_msg(msg), 'master/target_pose')
+            self._target = validate_pose(*pose_from_msg(msg), what='master/target_pose')
         except ValueError as exc:
             self._set_status(WARN, f'rejected {exc}')
 

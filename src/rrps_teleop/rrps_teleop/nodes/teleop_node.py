@@ -27,7 +27,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool
 
-from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, OK, STALE, STATE_QOS, WARN, Diagnostics,
+from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, LATEST_QOS, OK, STALE, STATE_QOS, WARN, Diagnostics,
                                           declare_parameter, declare_robot_parameter, joint_state_msg,
                                           lengths_from_joint_state, pose_from_msg, pose_to_msg, run_nodes,
                                           stamp_to_seconds)
@@ -123,7 +123,7 @@ class TeleopNode(Node):
         self.create_subscription(PoseStamped, 'master/pose', self._on_master_pose, STATE_QOS)
         self.create_subscription(JointState, 'master/actuators/state', self._on_master_state, STATE_QOS)
         self.create_subscription(Bool, 'teleop/enable', self._on_enable, COMMAND_QOS)
-        self.create_subscription(PoseStamped, 'pose', self._on_slave_pose, STATE_QOS)
+        self.create_subscription(PoseStamped, 'pose', self._on_slave_pose, LATEST_QOS)
         self.create_subscription(DiagnosticStatus, 'climb/status', self._on_climb_status, STATE_QOS)
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)

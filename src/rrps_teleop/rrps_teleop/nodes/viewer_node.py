@@ -10,7 +10,8 @@ parameter service (``teleop_node/set_parameters_atomically``: mode, rotation and
 together or not at all, never half).
 
 Drawing runs in the viewer's own thread at ``render_rate`` Hz, whatever the control rate: ROS
-callbacks only store the latest messages. Requests from the browser are queued and executed on
+callbacks only store the latest messages (state streams are read with keep-last-1, so a 500 Hz
+stream costs the executor one cheap store per sample and never queues up). Requests from the browser are queued and executed on
 the executor's thread by the ``enable_rate`` timer, so every rclpy call stays on one thread.
 
 Safety: the server binds ``host`` (default 127.0.0.1); every browser is read-only until it enters
@@ -46,6 +47,7 @@ from std_srvs.srv import SetBool, Trigger
 from rrps_kinematics.geometry import load_robot
 from rrps_kinematics.nodes.common import (
     COMMAND_QOS,
+    LATEST_QOS,
     STATE_QOS,
     declare_parameter,
     declare_robot_parameter,
@@ -157,12 +159,13 @@ class ViewerNode(Node):
         self._master_origin = Pose(np.asarray(origin, dtype=float))
         self._figures: dict[str, tuple] = {}
         self._panel_text, self._panel_time = '', -1.0
+        self._state_read: tuple = (None, None)
 
         self._enable_pub = self.create_publisher(Bool, 'teleop/enable', COMMAND_QOS)
         self._master_pub = self.create_publisher(PoseStamped, 'master/target_pose', COMMAND_QOS)
-        self.create_subscription(JointState, 'actuators/state', self._on_state, STATE_QOS)
-        for topic, qos in (('pose', STATE_QOS), ('target_pose', COMMAND_QOS),
-                           ('master/pose', STATE_QOS), ('odometry/ring_a', STATE_QOS),
+        self.create_subscription(JointState, 'actuators/state', self._on_state, LATEST_QOS)
+        for topic, qos in (('pose', LATEST_QOS), ('target_pose', COMMAND_QOS),
+                           ('master/pose', LATEST_QOS), ('odometry/ring_a', STATE_QOS),
                            ('odometry/ring_b', STATE_QOS)):
             self.create_subscription(PoseStamped, topic,
                                      lambda msg, topic=topic: self._store(topic, msg), qos)
@@ -204,24 +207,38 @@ class ViewerNode(Node):
                     self._trails[key.split('/')[1]].add(position)
 
     def _on_state(self, msg: JointState) -> None:
+        """Keep the newest actuators/state; it is read at the drawing rate (:meth:`_read_state`)."""
+        with self._lock:
+            self._latest['actuators/state'] = msg
+
+    def _read_state(self, msg: JointState | None):
+        """(lengths, efforts or None, stamp [s]) of an actuators/state, or None; the leg-length
+        plot takes a sample every 0.05 s. Called by the drawing thread only."""
+        if msg is None:
+            return None
+        if msg is self._state_read[0]:
+            return self._state_read[1]
         try:
             lengths = lengths_from_joint_state(msg)
         except ValueError as exc:
             self.get_logger().warn(f'actuators/state ignored: {exc}', throttle_duration_sec=5.0)
-            return
+            self._state_read = (msg, None)
+            return None
         efforts = None
         if len(msg.effort) == len(msg.name) and msg.name:
             index = {n: i for i, n in enumerate(msg.name)}
             efforts = np.array([msg.effort[index[f'leg_{i}']] for i in range(1, 7)])
+        state = (lengths, efforts, stamp_to_seconds(msg.header.stamp))
+        self._state_read = (msg, state)
         now = time.monotonic() - self._t0
         with self._lock:
-            self._latest['actuators/state'] = (lengths, efforts, stamp_to_seconds(msg.header.stamp))
             if not self._plot_t or now - self._plot_t[-1] >= 0.05:
                 self._plot_t.append(now)
                 self._plot_l.append(lengths)
                 while self._plot_t and now - self._plot_t[0] > self._plot_window:
                     self._plot_t.popleft()
                     self._plot_l.popleft()
+        return state
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         for status in msg.status:
@@ -240,6 +257,8 @@ class ViewerNode(Node):
         """The latest picture: robot, ghost, master, grippers, trails, panel and plot."""
         with self._lock:
             latest = dict(self._latest)
+        latest['actuators/state'] = self._read_state(latest.get('actuators/state'))
+        with self._lock:
             plot = ((np.array(self._plot_t), np.array(self._plot_l))
                     if len(self._plot_t) >= 2 else None)
             trails = {ring: trail.points for ring, trail in self._trails.items()}

@@ -1,0 +1,210 @@
+"""Executor lag of the demo stack under load: how late commands reach the robot's nodes.
+
+Runs the demo's nodes in two compositions, one after the other in the same run and under the
+same load, and climbs step after step (``climb/step_up``, ``climb/step_down``) for
+``--seconds`` each:
+
+* ``one operator+robot process`` (the first release): the driver in its own process, IK, FK,
+  master, teleop, climb and viewer in one process and one executor;
+* ``robot / operator split`` (now, ``rrps-demo``): the driver; IK, FK and climb in one process;
+  master, teleop and viewer in another.
+
+The climb node streams ``target_pose`` at 50 Hz to the IK node of its own process; the IK node
+and the driver report the ages of the commands they receive (receipt time minus stamp: the
+executor's queue plus transport) on /diagnostics, read here. A command older than 0.1 s is
+rejected as stale. CPU per process comes from /proc.
+
+Load (``--load``, default on): one core kept busy, a second ROS process flooding the machine
+with DDS messages, and a software-rendered headless Chromium showing the viewer
+(``tests/load.py``).
+
+    python benchmarks/executor_lag.py [--seconds 60] [--no-load]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import secrets
+import socket
+import sys
+import threading
+import time
+from pathlib import Path
+
+os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 50))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'tests'))
+
+from load import Load  # noqa: E402
+
+NAMESPACE = '/rrps'
+COMPOSITIONS = {
+    'one operator+robot process': [('ik_node', 'fk_node', 'master_node', 'teleop_node',
+                                    'climb_node', 'viewer_node')],
+    'robot / operator split': [('ik_node', 'fk_node', 'climb_node'),
+                               ('master_node', 'teleop_node', 'viewer_node')],
+}
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(('127.0.0.1', 0))
+        return s.getsockname()[1]
+
+
+def _cpu_seconds(pid: int) -> float:
+    fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+
+
+class Observer:
+    """The benchmark's own node: climbs step after step, keeps the nodes' latest diagnostics."""
+
+    def __init__(self, context):
+        from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+        from rclpy.node import Node
+        from std_srvs.srv import Trigger
+
+        from rrps_kinematics.nodes.common import STATE_QOS
+
+        self.node = Node('executor_lag', context=context, namespace=NAMESPACE)
+        self.lock = threading.Lock()
+        self.diagnostics: dict[str, dict[str, str]] = {}
+        self.climb_state = ''
+        self.node.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics,
+                                      STATE_QOS)
+        self.node.create_subscription(DiagnosticStatus, 'climb/status', self._on_climb, STATE_QOS)
+        self.steps = {d: self.node.create_client(Trigger, f'climb/step_{d}') for d in ('up', 'down')}
+
+    def _on_diagnostics(self, msg) -> None:
+        with self.lock:
+            for status in msg.status:
+                self.diagnostics[status.name.split(':')[0]] = {kv.key: kv.value for kv in status.values}
+
+    def _on_climb(self, msg) -> None:
+        with self.lock:
+            self.climb_state = msg.message
+
+    def values(self, node: str) -> dict[str, str]:
+        with self.lock:
+            return dict(self.diagnostics.get(node, {}))
+
+
+def _climb_for(observer: Observer, seconds: float) -> int:
+    """Step up and down until ``seconds`` pass; the number of completed steps."""
+    from std_srvs.srv import Trigger
+
+    done, direction = 0, 'up'
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        future = observer.steps[direction].call_async(Trigger.Request())
+        t = time.monotonic()
+        while not future.done() and time.monotonic() - t < 10.0:
+            time.sleep(0.05)
+        if not (future.done() and future.result().success):
+            time.sleep(0.5)
+            continue
+        time.sleep(0.5)
+        state = ''
+        while time.monotonic() < deadline + 120.0:
+            with observer.lock:
+                state = observer.climb_state
+            if state in ('idle', 'error'):
+                break
+            time.sleep(0.1)
+        if state != 'idle':
+            break
+        done += 1
+        direction = 'down' if direction == 'up' else 'up'
+    return done
+
+
+def run_composition(name: str, groups, *, seconds: float, load: bool) -> dict:
+    import rclpy
+
+    from rrps_kinematics.nodes.common import make_executor, spin_until_shutdown
+    from rrps_kinematics.supervision import start_child, stop_children
+
+    port, token = _free_port(), secrets.token_urlsafe(12)
+    common = ['--ros-args', '-r', f'__ns:={NAMESPACE}', '-p', 'robot:=pole_climber']
+    children = [start_child([sys.executable, '-m', 'rrps_sim.nodes.driver_node', *common])]
+    labels = ['driver_node'] + ['+'.join(n.removesuffix('_node') for n in nodes) for nodes in groups]
+    for nodes in groups:
+        extra = ['-p', f'port:={port}', '-p', f'token:={token}'] if 'viewer_node' in nodes else []
+        children.append(start_child([sys.executable, '-m', 'rrps_teleop.compose', *nodes,
+                                     *common, *extra]))
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    observer = Observer(context)
+    executor = make_executor(context, 'events')
+    executor.add_node(observer.node)
+    stop = threading.Event()
+    spinner = threading.Thread(target=spin_until_shutdown, args=(executor, context, stop),
+                               daemon=True)
+    spinner.start()
+    loader = Load(busy=1, flood_rate=2000.0, browser_url=f'http://127.0.0.1:{port}', quiet=True) \
+        if load else None
+    try:
+        if not observer.steps['up'].wait_for_service(timeout_sec=60.0):
+            raise RuntimeError(f'{name}: the climb node did not come up')
+        time.sleep(3.0)
+        if loader is not None:
+            loader.start()
+            time.sleep(5.0)  # the browser loads the viewer
+        cpu0 = {c.pid: _cpu_seconds(c.pid) for c in children}
+        t0 = time.monotonic()
+        steps = _climb_for(observer, seconds)
+        elapsed = time.monotonic() - t0
+        cpu = {label: 100.0 * (_cpu_seconds(c.pid) - cpu0[c.pid]) / elapsed
+               for label, c in zip(labels, children)}
+        time.sleep(1.0)  # the last diagnostics
+        return {'steps': steps, 'ik': observer.values('ik_node'),
+                'driver': observer.values('driver_node'), 'cpu': cpu,
+                'alive': all(c.poll() is None for c in children)}
+    finally:
+        if loader is not None:
+            loader.stop()
+        stop.set()
+        spinner.join(timeout=5.0)
+        observer.node.destroy_node()
+        rclpy.try_shutdown(context=context)
+        stop_children(children)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--seconds', type=float, default=60.0, help='climbing time per composition')
+    parser.add_argument('--no-load', dest='load', action='store_false',
+                        help='no busy core, DDS flood or browser')
+    args = parser.parse_args()
+    results = {name: run_composition(name, groups, seconds=args.seconds, load=args.load)
+               for name, groups in COMPOSITIONS.items()}
+
+    def v(values, key, fmt='{:.1f}'):
+        return fmt.format(float(values[key])) if key in values else '-'
+
+    print(f'\nExecutor lag while climbing ({args.seconds:g} s per composition, '
+          f'{"loaded: busy core + DDS flood + software-rendered browser" if args.load else "no load"}'
+          f', {os.cpu_count()} CPUs). Ages of the commands received, over the last 10 s [ms]:')
+    print(f'{"composition":<28}{"steps":>6}{"IK target age p50":>19}{"p99":>8}{"max":>8}'
+          f'{"stale":>7}{"driver cmd p99":>16}{"max":>8}{"stale":>7}')
+    for name, r in results.items():
+        ik, dr = r['ik'], r['driver']
+        print(f'{name:<28}{r["steps"]:>6}{v(ik, "command_age_p50_ms"):>19}'
+              f'{v(ik, "command_age_p99_ms"):>8}{v(ik, "command_age_max_ms"):>8}'
+              f'{v(ik, "command_stale_total", "{:.0f}"):>7}{v(dr, "command_age_p99_ms"):>16}'
+              f'{v(dr, "command_age_max_ms"):>8}{v(dr, "command_stale_total", "{:.0f}"):>7}')
+    print('\nCPU per process while climbing [% of one core]:')
+    for name, r in results.items():
+        print(f'  {name}: ' + ', '.join(f'{k} {c:.0f} %' for k, c in r['cpu'].items()))
+    now = results['robot / operator split']
+    stale = int(float(now['ik'].get('command_stale_total', 'nan') or 0))
+    ok = now['alive'] and now['steps'] > 0 and stale == 0
+    print(f'\nrobot / operator split: {stale} stale targets in the robot process: '
+          f'{"MET" if ok else "MISSED"} (target: none)')
+    return 0 if ok else 1
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,100 @@
+"""Child processes that never outlive their supervisor, and a clean way to stop them.
+
+A robot's driver left running after its supervisor died keeps publishing and accepting
+commands with nobody watching. :func:`start_child` starts a process that the kernel stops
+(``SIGTERM``) when the process that started it dies, however it dies (Linux
+``PR_SET_PDEATHSIG``; elsewhere the child's own :func:`exit_with_parent` watchdog catches it
+within a second). :func:`stop_child` asks politely (SIGTERM: the nodes' clean shutdown) and
+kills what is still running after a timeout.
+
+Pure Python, no ROS import.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from typing import Sequence
+
+__all__ = ['PARENT_PID_ENV', 'start_child', 'stop_child', 'stop_children', 'exit_with_parent']
+
+#: Environment variable through which a child learns its supervisor's pid.
+PARENT_PID_ENV = 'RRPS_PARENT_PID'
+
+_PR_SET_PDEATHSIG = 1
+
+
+def _die_with_parent(parent: int) -> None:
+    """In the child, before exec: ask the kernel for SIGTERM when the parent dies."""
+    if sys.platform.startswith('linux'):
+        libc = ctypes.CDLL(ctypes.util.find_library('c') or 'libc.so.6', use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
+    if os.getppid() != parent:  # the parent died before prctl took effect
+        os._exit(1)
+
+
+def start_child(args: Sequence[str], *, env: dict | None = None, **popen_kwargs) -> subprocess.Popen:
+    """``subprocess.Popen(args)`` of a child that receives SIGTERM when this process dies.
+
+    Must be called from the main thread (the kernel ties the signal to the forking thread).
+    The child's environment carries :data:`PARENT_PID_ENV` for :func:`exit_with_parent`.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        raise RuntimeError('start_child must be called from the main thread')
+    parent = os.getpid()
+    child_env = dict(os.environ if env is None else env)
+    child_env[PARENT_PID_ENV] = str(parent)
+    return subprocess.Popen(list(args), env=child_env,
+                            preexec_fn=lambda: _die_with_parent(parent), **popen_kwargs)
+
+
+def stop_child(process: subprocess.Popen, timeout: float = 5.0) -> int:
+    """SIGTERM, wait up to ``timeout`` s, then SIGKILL; returns the exit status."""
+    return stop_children([process], timeout)[0]
+
+
+def stop_children(processes: Sequence[subprocess.Popen], timeout: float = 5.0) -> list[int]:
+    """:func:`stop_child` for several processes at once (they stop in parallel)."""
+    for process in processes:
+        if process.poll() is None:
+            try:
+                process.send_signal(signal.SIGTERM)
+            except ProcessLookupError:
+                pass
+    deadline = time.monotonic() + timeout
+    for process in processes:
+        try:
+            process.wait(max(deadline - time.monotonic(), 0.0))
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+    return [process.returncode for process in processes]
+
+
+def exit_with_parent(on_exit, *, period: float = 0.5) -> threading.Thread | None:
+    """In a child started by :func:`start_child`: call ``on_exit()`` once its supervisor is gone.
+
+    A portable second line behind ``PR_SET_PDEATHSIG``: a daemon thread polls the parent pid.
+    Returns the thread, or None when this process was not started by :func:`start_child`.
+    """
+    value = os.environ.pop(PARENT_PID_ENV, None)  # not inherited by this process's own children
+    if not value:
+        return None
+    parent = int(value)
+
+    def watch() -> None:
+        while True:
+            if os.getppid() != parent:
+                on_exit()
+                return
+            time.sleep(period)
+
+    thread = threading.Thread(target=watch, name='exit-with-parent', daemon=True)
+    thread.start()
+    return thread

@@ -1,0 +1,68 @@
+"""Child processes never outlive their supervisor (rrps_kinematics.supervision)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+from rrps_kinematics.supervision import start_child, stop_child
+
+# A supervisor that starts a long-running child, prints the child's pid and waits.
+SUPERVISOR = textwrap.dedent('''
+    import sys, time
+    from rrps_kinematics.supervision import start_child
+    child = start_child([sys.executable, '-c', 'import time\\nwhile True: time.sleep(0.05)'])
+    print(child.pid, flush=True)
+    time.sleep(600)
+''')
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    # a zombie is dead too (its parent, init, reaps it)
+    try:
+        with open(f'/proc/{pid}/stat') as f:
+            return f.read().rsplit(')', 1)[1].split()[0] != 'Z'
+    except FileNotFoundError:
+        return False
+
+
+def _wait_dead(pid: int, timeout: float) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if not _alive(pid):
+            return True
+        time.sleep(0.02)
+    return not _alive(pid)
+
+
+def test_a_killed_supervisor_takes_its_child_with_it():
+    supervisor = subprocess.Popen([sys.executable, '-c', SUPERVISOR], stdout=subprocess.PIPE,
+                                  text=True)
+    try:
+        child = int(supervisor.stdout.readline())
+        assert _alive(child)
+        supervisor.send_signal(signal.SIGKILL)  # no chance to clean up
+        supervisor.wait()
+        assert _wait_dead(child, 10.0), 'the child outlived its supervisor'
+    finally:
+        if supervisor.poll() is None:
+            supervisor.kill()
+
+
+def test_stop_child_terminates_then_kills():
+    stubborn = start_child([sys.executable, '-c',
+                            'import signal, time\nsignal.signal(signal.SIGTERM, signal.SIG_IGN)\n'
+                            'print(1, flush=True)\nwhile True: time.sleep(0.05)'],
+                           stdout=subprocess.PIPE)
+    stubborn.stdout.readline()  # SIGTERM is ignored from here on
+    assert stop_child(stubborn, timeout=0.5) == -signal.SIGKILL
+    polite = start_child([sys.executable, '-c', 'import time\nwhile True: time.sleep(0.05)'])
+    assert stop_child(polite, timeout=10.0) == -signal.SIGTERM
