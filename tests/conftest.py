@@ -1,4 +1,9 @@
-"""Shared pytest fixtures: DDS on loopback, and a private rclpy Context per ROS test."""
+"""Shared pytest fixtures: DDS on loopback, a private rclpy Context per ROS test, and ``--load``.
+
+``./rrps test --load [ARGS]`` runs the tests while tests/load.py keeps one core busy and a
+second ROS process floods the machine with DDS messages: the suite must pass on a busy
+machine, not only on an idle one.
+"""
 
 from __future__ import annotations
 
@@ -47,3 +52,25 @@ def require(condition: bool, reason: str) -> None:
     if os.environ.get('CI'):
         pytest.fail(f'{reason} (CI must have it)')
     pytest.skip(reason)
+
+
+def pytest_addoption(parser):
+    group = parser.getgroup('rrps')
+    group.addoption('--load', action='store_true',
+                    help='run the tests on a loaded machine: a busy core and a DDS flood '
+                         '(tests/load.py)')
+    group.addoption('--load-busy', type=int, default=1, help='with --load: busy processes')
+    group.addoption('--load-flood-rate', type=float, default=2000.0,
+                    help='with --load: DDS messages per second per topic of the flood')
+
+
+@pytest.fixture(scope='session', autouse=True)
+def machine_load(request):
+    """With ``--load``, the load of tests/load.py around the whole session."""
+    if not request.config.getoption('--load'):
+        yield None
+        return
+    from load import Load
+    with Load(busy=request.config.getoption('--load-busy'),
+              flood_rate=request.config.getoption('--load-flood-rate')) as load:
+        yield load

@@ -1,6 +1,6 @@
 """Load harness: run the test suite (or any command) on a busy machine, as CI machines are.
 
-    python tests/load.py [--no-busy] [--no-flood] [--browser URL] -- COMMAND ...
+    python tests/load.py [--busy N] [--flood-rate HZ] [--browser URL] -- COMMAND ...
     ./rrps test --load [PYTEST ARGS]          # the same load around a pytest run
 
 While COMMAND runs, the harness keeps
