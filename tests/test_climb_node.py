@@ -26,7 +26,8 @@ from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_sim.nodes.driver_node import DriverNode
 from rrps_teleop.gait import GaitPlanner
 from rrps_teleop.nodes.climb_node import ClimbNode
-from rrps_teleop.odometry import pose_matrix
+from rrps_kinematics.pose import Pose
+from rrps_teleop.interfaces import ClimbStatus, TeleopCode, TeleopStatus
 from rrps_teleop.structures import make_structure
 
 pytestmark = pytest.mark.ros
@@ -43,6 +44,12 @@ def _stack(ctx, robot='pole_climber', driver=None, **climb):
             IkNode(context=ctx, parameter_overrides=[robot_param]),
             FkNode(context=ctx, parameter_overrides=[robot_param]),
             ClimbNode(context=ctx, parameter_overrides=[Parameter(k, value=v) for k, v in params.items()])]
+
+
+def _teleop_status(code, *, engaged: bool) -> DiagnosticStatus:
+    """A teleop/status as the teleop node writes it (the typed contract)."""
+    values = TeleopStatus(code=code, engaged=engaged).to_values()
+    return DiagnosticStatus(message=code.name, values=[KeyValue(key=k, value=v) for k, v in values.items()])
 
 
 def _values(status: DiagnosticStatus) -> dict:
@@ -68,7 +75,7 @@ def test_scripted_climb_ends_where_the_plan_says(ros_context):
             [(s.message, _values(s)['detail']) for s in status[-3:]]
         wait_for(lambda: False, timeout=0.3)  # a few more pose/odometry messages at rest
     assert not any(s.message == 'error' for s in status)
-    phases = [_values(s)['phase'] for s in status if s.message == 'executing']
+    phases = [ClimbStatus.from_key_values(s.values).phase for s in status if s.message == 'executing']
     assert {'release_b', 'move_b', 'grip_b', 'release_a', 'move_a', 'grip_a'} <= set(phases)
 
     # The interlock in the observed gripper stream: never both open; ring_a opened once per step.
@@ -84,16 +91,16 @@ def test_scripted_climb_ends_where_the_plan_says(ros_context):
     handovers = sum(1 for a, b in zip(plan.phases[:-1], plan.phases[1:])
                     if (a.gripper_a, a.gripper_b) != (b.gripper_a, b.gripper_b))
     p, q = pose_from_msg(poses[-1])
-    assert np.linalg.norm(p - final.a_T_b[:3, 3]) <= TOL
+    assert np.linalg.norm(p - final.a_T_b.position) <= TOL
     pa, _ = pose_from_msg(odo_a[-1])
     pb, _ = pose_from_msg(odo_b[-1])
     assert odo_a[-1].header.frame_id == 'world'
-    assert np.linalg.norm(pa - final.world_T_a[:3, 3]) <= handovers * TOL
-    assert np.linalg.norm(pb - final.world_T_b[:3, 3]) <= handovers * TOL
+    assert np.linalg.norm(pa - final.world_T_a.position) <= handovers * TOL
+    assert np.linalg.norm(pb - final.world_T_b.position) <= handovers * TOL
     assert pa[2] == pytest.approx(0.2 + steps * 0.06, abs=handovers * TOL)
     # odometry is consistent with the measured kinematics: world_T_b = world_T_a · a_T_b
-    assert np.allclose(pose_matrix(*pose_from_msg(odo_a[-1])) @ pose_matrix(p, q),
-                       pose_matrix(*pose_from_msg(odo_b[-1])), atol=1e-6)
+    assert np.allclose((Pose(*pose_from_msg(odo_a[-1])) @ Pose(p, q)).matrix,
+                       Pose(*pose_from_msg(odo_b[-1])).matrix, atol=1e-6)
 
 
 def _call(probe, client, timeout=5.0):
@@ -117,11 +124,11 @@ def test_step_services_teleop_refusal_and_plan_refusal(ros_context):
         assert z0 == pytest.approx(0.2, abs=1e-6)
         # Teleoperation engaged: no step.
         assert wait_for(lambda: teleop.get_subscription_count() > 0, timeout=3.0)
-        teleop.publish(DiagnosticStatus(message='ENGAGED', values=[KeyValue(key='engaged', value='true')]))
+        teleop.publish(_teleop_status(TeleopCode.NO_WARNING, engaged=True))
         wait_for(lambda: False, timeout=0.3)  # delivered (reliable, matched)
         reply = _call(probe, up)
         assert not reply.success and 'teleoperation' in reply.message
-        teleop.publish(DiagnosticStatus(message='IDLE', values=[KeyValue(key='engaged', value='false')]))
+        teleop.publish(_teleop_status(TeleopCode.DEADMAN_RELEASED, engaged=False))
         assert wait_for(lambda: _call(probe, up).success, timeout=3.0)
         busy = _call(probe, up)
         assert not busy.success and 'executing' in busy.message
@@ -161,9 +168,9 @@ def test_a_robot_moved_off_the_gait_is_brought_back_first(ros_context):
     with Spinner(ros_context, nodes + [probe]):
         assert wait_for(lambda: _idle_after(status, 1), timeout=20.0), status[-1:]
         wait_for(lambda: False, timeout=0.2)
-    phases = [_values(s)['phase'] for s in status if s.message == 'executing']
+    phases = [ClimbStatus.from_key_values(s.values).phase for s in status if s.message == 'executing']
     assert phases[:2] == ['release_b', 'move_b']
     plan = GaitPlanner(g, make_structure('pole')).plan(0.04, 1, start=0.2)
     p, _ = pose_from_msg(poses[-1])
-    assert np.linalg.norm(p - plan.phases[-1].a_T_b[:3, 3]) <= TOL
+    assert np.linalg.norm(p - plan.phases[-1].a_T_b.position) <= TOL
     assert pose_from_msg(odo_a[-1])[0][2] == pytest.approx(0.24, abs=4 * TOL)

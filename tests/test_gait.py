@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 from rrps_kinematics import inverse_kinematics, load_robot, margins
 from rrps_kinematics.rotations import matrix_to_quat_xyzw, rotation_vector_to_quat_xyzw
 from rrps_teleop.gait import GaitPlanner, PlanError, check_interlock, plan_climb
-from rrps_teleop.odometry import InterlockError, RingOdometry, invert, pose_matrix
+from rrps_kinematics.pose import Pose
+from rrps_teleop.odometry import InterlockError, RingOdometry, invert
 from rrps_teleop.structures import facade, palm_trunk, pole, structural_frame
 
 CASES = {
@@ -55,7 +56,7 @@ def test_interlock_on_every_phase(plans, key):
     assert np.all(grips.any(axis=1))                                 # never both open
     assert np.all(np.abs(np.diff(grips.astype(int), axis=0)).sum(axis=1) <= 1)  # one switch at a time
     for prev, ph in zip(plan.phases[:-1], plan.phases[1:]):
-        moved = not np.allclose(ph.a_T_b, prev.a_T_b, atol=1e-9)
+        moved = not np.allclose(ph.a_T_b.matrix, prev.a_T_b.matrix, atol=1e-9)
         if moved:
             assert ph.phase.startswith('move') and grips[plan.phases.index(ph)].sum() == 1
         if ph.s_a != prev.s_a:
@@ -71,9 +72,10 @@ def test_odometry_matches_the_structure(plans, key):
     planner, plan = plans[key]
     for ph in plan.phases:
         wa, wb = planner.world_rings(ph.s_a, ph.s_b, ph.theta_a, ph.theta_b)
-        assert np.allclose(ph.world_T_a, wa, atol=1e-7), (ph.step, ph.phase)
-        assert np.allclose(ph.world_T_b, wb, atol=1e-7), (ph.step, ph.phase)
-        assert np.allclose(invert(ph.world_T_a) @ ph.world_T_b, ph.a_T_b, atol=1e-9)
+        assert np.allclose(ph.world_T_a.matrix, wa.matrix, atol=1e-7), (ph.step, ph.phase)
+        assert np.allclose(ph.world_T_b.matrix, wb.matrix, atol=1e-7), (ph.step, ph.phase)
+        assert np.allclose(invert(ph.world_T_a.matrix) @ ph.world_T_b.matrix, ph.a_T_b.matrix,
+                           atol=1e-9)
 
 
 def test_pole_climber_800_mm_in_11_steps(plans):
@@ -82,14 +84,14 @@ def test_pole_climber_800_mm_in_11_steps(plans):
     assert plan.climbed == pytest.approx(0.8)
     ends = [ph for ph in plan.phases if ph.phase == 'grip_a']
     assert len(ends) == 11
-    assert np.allclose([ph.world_T_a[2, 3] for ph in ends], 0.8 / 11 * np.arange(1, 12))
-    assert np.allclose(plan.phases[-1].world_T_a[:3, 3], [0.0, 0.0, 0.8])
+    assert np.allclose([ph.world_T_a.position[2] for ph in ends], 0.8 / 11 * np.arange(1, 12))
+    assert np.allclose(plan.phases[-1].world_T_a.position, [0.0, 0.0, 0.8])
 
 
 def test_palm_trunk_is_followed_with_tilted_rings(plans):
     planner, plan = plans['palm_trunk']
     assert plan.climbed == pytest.approx(2.4)
-    tilt = max(np.arccos(np.clip(ph.a_T_b[2, 2], -1, 1)) for ph in plan.phases)
+    tilt = max(np.arccos(np.clip(ph.a_T_b.rotation[2, 2], -1, 1)) for ph in plan.phases)
     assert tilt > 0.03  # the rings' relative pose tilts to follow the curvature
     assert plan.phases[-1].s_b <= planner.structure.length  # stayed on the 3 m trunk
     assert plan.min_margins['clearance'] > 0.0              # legs clear of the swollen trunk
@@ -169,17 +171,17 @@ def test_climb_down_returns_to_the_start():
     down = planner.plan(-0.5, 4, start=last.s_a, initial_separation=last.s_b - last.s_a)
     assert [ph.phase for ph in down.phases[:3]] == ['start', 'release_a', 'move_a']  # ring_a leads
     assert down.phases[-1].s_a == pytest.approx(0.2)
-    assert np.allclose(down.phases[-1].world_T_a[:3, 3], [0.0, 0.0, 0.2])
+    assert np.allclose(down.phases[-1].world_T_a.position, [0.0, 0.0, 0.2])
 
 
 def test_facade_rings_stay_on_the_plane(plans):
     planner, plan = plans['facade']
     for ph in plan.phases:
         if ph.gripper_a:
-            assert ph.world_T_a[1, 3] == pytest.approx(0.0, abs=1e-9)
+            assert ph.world_T_a.position[1] == pytest.approx(0.0, abs=1e-9)
     # a traverse: the rings move along x, their axes stay the wall normal
-    assert plan.phases[-1].world_T_a[0, 3] - plan.phases[0].world_T_a[0, 3] == pytest.approx(3.0)
-    assert np.allclose(plan.phases[-1].world_T_a[:3, 2], [0.0, -1.0, 0.0])
+    assert plan.phases[-1].world_T_a.position[0] - plan.phases[0].world_T_a.position[0] == pytest.approx(3.0)
+    assert np.allclose(plan.phases[-1].world_T_a.rotation[:, 2], [0.0, -1.0, 0.0])
 
 
 def test_check_interlock_catches_bad_sequences(plans):
@@ -210,28 +212,29 @@ def test_bad_requests_raise_value_error():
                           st.floats(-0.3, 0.3), st.booleans()), min_size=1, max_size=8))
 def test_odometry_keeps_the_gripping_ring_fixed(moves):
     """Whatever a_T_b does, the ring that grips stays put; with both closed ring_a is the reference."""
-    odo = RingOdometry(pose_matrix([1.0, 2.0, 3.0], [0, 0, 0, 1]), pose_matrix([0, 0, 0.4], [0, 0, 0, 1]))
+    odo = RingOdometry(Pose([1.0, 2.0, 3.0], [0, 0, 0, 1]), Pose([0, 0, 0.4], [0, 0, 0, 1]))
     for x, y, z, angle, a_grips in moves:
-        a_T_b = pose_matrix([x, y, z], rotation_vector_to_quat_xyzw(np.array([angle, 0.0, 0.0])))
-        before_a, before_b = odo.world_T_a.copy(), odo.world_T_b.copy()
+        a_T_b = Pose([x, y, z], rotation_vector_to_quat_xyzw(np.array([angle, 0.0, 0.0])))
+        before_a, before_b = odo.world_T_a, odo.world_T_b
         odo.update(a_T_b, a_grips, not a_grips)
         fixed, moved = (odo.world_T_a, before_a) if a_grips else (odo.world_T_b, before_b)
-        assert np.allclose(fixed, moved, atol=1e-9)
-        assert np.allclose(invert(odo.world_T_a) @ odo.world_T_b, a_T_b, atol=1e-9)
+        assert np.allclose(fixed.matrix, moved.matrix, atol=1e-9)
+        assert np.allclose(invert(odo.world_T_a.matrix) @ odo.world_T_b.matrix, a_T_b.matrix,
+                           atol=1e-9)
     with pytest.raises(InterlockError):
-        odo.update(np.eye(4), False, False)
+        odo.update(Pose(), False, False)
 
 
 def test_approach_brings_ring_b_back_to_the_gait():
     g = load_robot('pole_climber')
     planner = GaitPlanner(g, pole(3.0))
-    off = pose_matrix(g.home_position + [0.02, -0.01, 0.0], rotation_vector_to_quat_xyzw(np.array([0.05, 0, 0])))
+    off = Pose(g.home_position + [0.02, -0.01, 0.0], rotation_vector_to_quat_xyzw(np.array([0.05, 0, 0])))
     phases = planner.approach(off, 0.2, 0.2 + planner.sep_home)
     assert [ph.phase for ph in phases] == ['release_b', 'move_b', 'grip_b']
-    assert np.allclose(phases[0].a_T_b, off) and np.allclose(phases[1].path[0], off)
-    assert np.allclose(phases[-1].a_T_b, pose_matrix(g.home_position, [0, 0, 0, 1]))
+    assert np.allclose(phases[0].a_T_b.matrix, off.matrix) and np.allclose(phases[1].path[0], off.matrix)
+    assert np.allclose(phases[-1].a_T_b.matrix, Pose(g.home_position, [0, 0, 0, 1]).matrix)
     check_interlock(phases + planner.plan(0.1, 1, start=0.2).phases)
-    beyond = pose_matrix(g.home_position + [0.0, 0.0, 0.2], [0, 0, 0, 1])  # legs past max_length
+    beyond = Pose(g.home_position + [0.0, 0.0, 0.2], [0, 0, 0, 1])  # legs past max_length
     with pytest.raises(PlanError, match='stroke') as info:
         planner.approach(beyond, 0.2, 0.2 + planner.sep_home)
     assert info.value.step == 0 and info.value.phase == 'release_b'

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rrps_kinematics import check_pose, inverse_kinematics, load_robot
-from rrps_kinematics.pose import rotation_angle
+from rrps_kinematics.rotations import rotation_angle_between
 from rrps_teleop.master import MasterModel, scripted_pose
 
 MASTER = load_robot('master_robot')
@@ -39,10 +39,10 @@ def test_circle_has_the_amplitude_as_radius_and_the_period():
 def test_lissajous_starts_at_home_is_periodic_and_rotates_within_its_amplitude():
     p, q = scripted('lissajous', 0.0)
     np.testing.assert_allclose(p, HOME_P, atol=1e-15)
-    assert rotation_angle(HOME_Q, q) < 1e-12
+    assert rotation_angle_between(HOME_Q, q) < 1e-12
     p10, q10 = scripted('lissajous', 10.0)
     np.testing.assert_allclose(p10, HOME_P, atol=1e-12)
-    angles = [rotation_angle(HOME_Q, scripted('lissajous', t)[1]) for t in np.linspace(0, 10, 101)]
+    angles = [rotation_angle_between(HOME_Q, scripted('lissajous', t)[1]) for t in np.linspace(0, 10, 101)]
     assert 0.02 < max(angles) <= 0.05 * math.sqrt(2.25) + 1e-12
     offsets = np.array([scripted('lissajous', t)[0] - HOME_P for t in np.linspace(0, 10, 101)])
     assert np.all(np.abs(offsets) <= 0.005 + 1e-12) and np.abs(offsets[:, 2]).max() <= 0.0025 + 1e-12
@@ -86,7 +86,7 @@ def test_the_scripted_trajectory_is_tracked_exactly_within_the_speed_limit():
         p, q = scripted('lissajous', 0.01 * k)
         assert m.move_toward(p, q, 0.01) == ''
         np.testing.assert_allclose(m.position, p, atol=1e-15)
-        assert rotation_angle(m.quaternion_xyzw, q) < 1e-9
+        assert rotation_angle_between(m.quaternion_xyzw, q) < 1e-9
 
 
 def test_an_unreachable_target_stops_the_handle_on_its_limits():

@@ -9,9 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from rrps_kinematics.pose import (QUATERNION_TOLERANCE, InvalidPose, Pose, pose_error,
-                                  rotation_angle, validate_pose)
-from rrps_kinematics.rotations import (normalize_quat, quat_xyzw_to_matrix,
+from rrps_kinematics.pose import QUATERNION_TOLERANCE, InvalidPose, Pose, pose_error, validate_pose
+from rrps_kinematics.rotations import (normalize_quat, quat_xyzw_to_matrix, rotation_angle_between,
                                        rotation_vector_to_quat_xyzw)
 
 vectors = st.lists(st.floats(-2.0, 2.0), min_size=3, max_size=3).map(np.array)
@@ -66,7 +65,7 @@ def test_rotation_angle_is_the_angle_of_the_relative_rotation(r, angle):
     axis = r / np.linalg.norm(r) if np.linalg.norm(r) > 1e-6 else np.array([0.0, 0.0, 1.0])
     q0 = rotation_vector_to_quat_xyzw(r)
     q1 = normalize_quat(quat_multiply(rotation_vector_to_quat_xyzw(angle * axis), q0))
-    assert rotation_angle(q0, q1) == pytest.approx(angle, abs=1e-7)
+    assert rotation_angle_between(q0, q1) == pytest.approx(angle, abs=1e-7)
     R = quat_xyzw_to_matrix(q1) @ quat_xyzw_to_matrix(q0).T
     assert math.acos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)) == pytest.approx(angle, abs=1e-6)
 

@@ -8,15 +8,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rrps_kinematics import check_pose, inverse_kinematics, load_robot, margins
-from rrps_kinematics.pose import rotation_angle
-from rrps_kinematics.rotations import quat_multiply_xyzw, rotation_vector_to_quat_xyzw
-from rrps_teleop.mapping import (
-    DISENGAGED_CODES,
-    StatusCode,
-    TeleopConfig,
-    TeleopMapping,
-    validate_scale,
-)
+from rrps_kinematics.rotations import (quat_multiply_xyzw, rotation_angle_between,
+                                       rotation_vector_to_quat_xyzw)
+from rrps_teleop.interfaces import DISENGAGED_CODES, TeleopCode
+from rrps_teleop.mapping import TeleopConfig, TeleopMapping, validate_scale
 from rrps_teleop.master import MasterModel, scripted_pose
 
 SLAVE = load_robot('pole_climber')
@@ -73,16 +68,16 @@ def lissajous(t, amplitude=0.004, period=10.0, angular_amplitude=0.04):
 def test_cartesian_follows_the_master_within_the_scale_and_its_relative_rotation():
     s = Session(TeleopConfig(translation_scale=4.0))
     first = s.tick()
-    assert first.code == StatusCode.NO_WARNING and first.engaged
+    assert first.code == TeleopCode.NO_WARNING and first.engaged
     np.testing.assert_allclose(first.position, SLAVE.home_position)  # engaging is a clutch
     outs = s.run(4.0, lambda t: lissajous(t - 2 * DT))  # starts at home one tick after engage
-    assert all(o.engaged and o.code == StatusCode.NO_WARNING for o in outs)
+    assert all(o.engaged and o.code == TeleopCode.NO_WARNING for o in outs)
     dm = s.master.position - MASTER.home_position
     assert np.linalg.norm(dm) > 2e-3
     np.testing.assert_allclose(s.slave_position - SLAVE.home_position, 4.0 * dm, atol=1e-12)
     # Relative rotation: the slave turned exactly as the master did since engage (both from home).
-    assert rotation_angle(s.master.quaternion_xyzw, s.slave_quaternion) < 1e-9
-    assert rotation_angle(MASTER.home_quaternion_xyzw, s.slave_quaternion) > 0.01
+    assert rotation_angle_between(s.master.quaternion_xyzw, s.slave_quaternion) < 1e-9
+    assert rotation_angle_between(MASTER.home_quaternion_xyzw, s.slave_quaternion) > 0.01
 
 
 def test_relative_rotation_is_applied_in_ring_a_frame_from_a_rotated_slave():
@@ -92,7 +87,7 @@ def test_relative_rotation_is_applied_in_ring_a_frame_from_a_rotated_slave():
     turn = [0.05, -0.03, 0.0]
     s.run(0.5, lambda t: (MASTER.home_position, rotated(MASTER.home_quaternion_xyzw, turn)))
     expected = rotated(q_slave, turn)
-    assert rotation_angle(expected, s.slave_quaternion) < 1e-9
+    assert rotation_angle_between(expected, s.slave_quaternion) < 1e-9
     np.testing.assert_allclose(s.slave_position, SLAVE.home_position, atol=1e-12)
 
 
@@ -100,13 +95,13 @@ def test_absolute_rotation_engages_only_when_aligned_then_copies_the_master_orie
     q_slave = rotated(SLAVE.home_quaternion_xyzw, [0.0, 0.0, 0.3])
     s = Session(TeleopConfig(rotation_mode='absolute'), slave_quaternion=q_slave)
     out = s.tick()
-    assert out.code == StatusCode.ORIENTATION_MISMATCH and not out.has_command
+    assert out.code == TeleopCode.ORIENTATION_MISMATCH and not out.has_command
     assert '0.300 rad' in out.detail
     # The operator aligns the master; engaging then happens with no jump.
     s.run(1.0, lambda t: (MASTER.home_position, rotated(MASTER.home_quaternion_xyzw, [0.0, 0.0, 0.26])))
     assert s.mapping.engaged
     s.run(0.5, lambda t: (MASTER.home_position, rotated(MASTER.home_quaternion_xyzw, [0.02, 0.0, 0.26])))
-    assert rotation_angle(s.master.quaternion_xyzw, s.slave_quaternion) < 1e-9
+    assert rotation_angle_between(s.master.quaternion_xyzw, s.slave_quaternion) < 1e-9
 
 
 def test_clutch_reengaging_never_jumps_and_indexes_the_master():
@@ -119,7 +114,7 @@ def test_clutch_reengaging_never_jumps_and_indexes_the_master():
     # Release the deadman, move the master back down (indexing), engage again.
     s.enable = False
     outs = s.run(1.0, lambda t: (MASTER.home_position, MASTER.home_quaternion_xyzw))
-    assert all(o.code == StatusCode.DEADMAN_RELEASED and not o.has_command for o in outs)
+    assert all(o.code == TeleopCode.DEADMAN_RELEASED and not o.has_command for o in outs)
     s.enable = True
     out = s.tick()
     assert out.engaged
@@ -158,7 +153,7 @@ def test_deadman_lapse_holds_after_the_enable_timeout_and_ten_hertz_keeps_it():
     for t, o in zip(times, outs):
         if abs(t - t_last - 0.2) > 1e-6:  # the step exactly at the timeout may go either way
             assert o.has_command == (t - t_last < 0.2), (t - t_last, o.code)
-    assert outs[-1].code == StatusCode.DEADMAN_RELEASED
+    assert outs[-1].code == TeleopCode.DEADMAN_RELEASED
 
 
 def test_master_dropout_holds_after_the_master_timeout():
@@ -169,22 +164,22 @@ def test_master_dropout_holds_after_the_master_timeout():
     outs = s.run(0.3, lissajous)
     assert [o.has_command for o in outs[:9]] == [True] * 9  # master data younger than 0.1 s
     assert not any(o.has_command for o in outs[10:])  # (outs[9] is exactly at the timeout)
-    assert outs[-1].code == StatusCode.MASTER_STALE and 'master/pose' in outs[-1].detail
+    assert outs[-1].code == TeleopCode.MASTER_STALE and 'master/pose' in outs[-1].detail
 
 
 def test_no_engage_without_a_slave_pose_or_during_a_climb_step():
     m = TeleopMapping(SLAVE)
     m.on_enable(0.0, True)
     m.on_master_pose(0.0, MASTER.home_position, MASTER.home_quaternion_xyzw)
-    assert m.step(0.01).code == StatusCode.WAITING_FOR_SLAVE_POSE
+    assert m.step(0.01).code == TeleopCode.WAITING_FOR_SLAVE_POSE
     m.on_slave_pose(SLAVE.home_position, SLAVE.home_quaternion_xyzw)
     m.set_climb_executing(True)
     out = m.step(0.02)
-    assert out.code == StatusCode.CLIMB_EXECUTING and not out.has_command
+    assert out.code == TeleopCode.CLIMB_EXECUTING and not out.has_command
     m.set_climb_executing(False)
     assert m.step(0.03).engaged
     m.set_climb_executing(True)  # a climb that starts anyway disengages teleop at once
-    assert m.check(0.04)[0] == StatusCode.CLIMB_EXECUTING and not m.engaged
+    assert m.check(0.04)[0] == TeleopCode.CLIMB_EXECUTING and not m.engaged
 
 
 def test_guards_stop_an_unreachable_request_and_allow_moving_back():
@@ -194,12 +189,12 @@ def test_guards_stop_an_unreachable_request_and_allow_moving_back():
     outs = s.run(3.0, up)  # asks the slave for +0.2 m: beyond its 0.55 m stroke
     for o in outs:
         assert check_pose(SLAVE, o.position, o.quaternion_xyzw)[0]
-    assert outs[-1].code == StatusCode.JOINT_BOUND and 'stroke margin' in outs[-1].detail
+    assert outs[-1].code == TeleopCode.JOINT_BOUND and 'stroke margin' in outs[-1].detail
     stuck = s.slave_position.copy()
     assert 0.0 <= outs[-1].margins['stroke'] < 0.2 * 0.01 + 1e-3
     # Moving back (down) is accepted at once.
     out = s.tick((MASTER.home_position, MASTER.home_quaternion_xyzw))
-    assert out.code in (StatusCode.NO_WARNING, StatusCode.SPEED_LIMITED)
+    assert out.code in (TeleopCode.NO_WARNING, TeleopCode.SPEED_LIMITED)
     assert s.slave_position[2] < stuck[2]
 
 
@@ -209,10 +204,10 @@ def test_a_slave_engaged_outside_its_limits_may_only_move_back_in():
     s = Session(slave_position=outside)
     s.tick()
     out = s.tick((MASTER.home_position + [0.0, 0.0, 0.001], MASTER.home_quaternion_xyzw))
-    assert out.code == StatusCode.JOINT_BOUND
+    assert out.code == TeleopCode.JOINT_BOUND
     np.testing.assert_allclose(s.slave_position, outside)
     out = s.tick((MASTER.home_position - [0.0, 0.0, 0.001], MASTER.home_quaternion_xyzw))
-    assert out.code in (StatusCode.NO_WARNING, StatusCode.SPEED_LIMITED)
+    assert out.code in (TeleopCode.NO_WARNING, TeleopCode.SPEED_LIMITED)
     assert s.slave_position[2] < outside[2]
 
 
@@ -231,12 +226,12 @@ def test_singularity_band_slows_down_approaching_and_not_leaving():
     s = Session(config)
     s.tick()
     out = s.tick((MASTER.home_position + 0.002 * UP, MASTER.home_quaternion_xyzw))
-    assert out.code == StatusCode.DECELERATE_FOR_APPROACHING_SINGULARITY
+    assert out.code == TeleopCode.DECELERATE_FOR_APPROACHING_SINGULARITY
     step = np.linalg.norm(s.slave_position - SLAVE.home_position)
     assert 0.0 < step <= 0.5 * 0.05 * DT + 1e-12  # home is half-way through the band
     before = s.slave_position.copy()
     out = s.tick((MASTER.home_position - 0.002 * UP, MASTER.home_quaternion_xyzw))
-    assert out.code == StatusCode.SPEED_LIMITED  # leaving at full speed
+    assert out.code == TeleopCode.SPEED_LIMITED  # leaving at full speed
     np.testing.assert_allclose(np.linalg.norm(s.slave_position - before), 0.05 * DT)
 
 
@@ -248,13 +243,13 @@ def test_singularity_halt_threshold_stops_and_allows_moving_back():
     s = Session(config, slave=SLAVE.with_(max_speed=1.0))  # legs as fast as the Cartesian limit
     s.tick()
     outs = s.run(0.5, lambda t: (MASTER.home_position + 0.01 * UP, MASTER.home_quaternion_xyzw))
-    assert StatusCode.HALT_FOR_SINGULARITY in {o.code for o in outs}
+    assert TeleopCode.HALT_FOR_SINGULARITY in {o.code for o in outs}
     for o in outs:
         assert inverse_condition(o.position, o.quaternion_xyzw) >= halt
     assert s.slave_position[2] - SLAVE.home_position[2] < 0.02  # far short of the 0.04 m asked
     before = s.slave_position.copy()
     outs = s.run(0.05, lambda t: (MASTER.home_position - 0.01 * UP, MASTER.home_quaternion_xyzw))
-    assert outs[-1].code in (StatusCode.NO_WARNING, StatusCode.SPEED_LIMITED)
+    assert outs[-1].code in (TeleopCode.NO_WARNING, TeleopCode.SPEED_LIMITED)
     assert s.slave_position[2] < before[2] - 1e-3
 
 
@@ -264,12 +259,12 @@ def test_collision_band_slows_down_approaching_interference():
     s = Session(TeleopConfig(collision_slowdown=0.1, max_angular_speed=0.25), slave_quaternion=q_start)
     s.tick()
     out = s.tick((MASTER.home_position, rotated(MASTER.home_quaternion_xyzw, [0.0, 0.0, 0.01])))
-    assert out.code == StatusCode.DECELERATE_FOR_COLLISION
-    assert rotation_angle(q_start, s.slave_quaternion) < 0.8 * 0.25 * DT
+    assert out.code == TeleopCode.DECELERATE_FOR_COLLISION
+    assert rotation_angle_between(q_start, s.slave_quaternion) < 0.8 * 0.25 * DT
     before = s.slave_quaternion
     out = s.tick((MASTER.home_position, rotated(MASTER.home_quaternion_xyzw, [0.0, 0.0, -0.01])))
-    assert out.code == StatusCode.SPEED_LIMITED  # untwisting at full speed
-    np.testing.assert_allclose(rotation_angle(before, s.slave_quaternion), 0.25 * DT)
+    assert out.code == TeleopCode.SPEED_LIMITED  # untwisting at full speed
+    np.testing.assert_allclose(rotation_angle_between(before, s.slave_quaternion), 0.25 * DT)
 
 
 def test_speed_limits_bound_every_step():
@@ -280,9 +275,9 @@ def test_speed_limits_bound_every_step():
     saw_limit = False
     for _ in range(100):
         out = s.tick(far)
-        saw_limit |= out.code == StatusCode.SPEED_LIMITED
+        saw_limit |= out.code == TeleopCode.SPEED_LIMITED
         assert np.linalg.norm(out.position - prev_p) <= 0.03 * DT + 1e-12
-        assert rotation_angle(prev_q, out.quaternion_xyzw) <= 0.2 * DT + 1e-9
+        assert rotation_angle_between(prev_q, out.quaternion_xyzw) <= 0.2 * DT + 1e-9
         assert np.max(np.abs(out.lengths - prev_L)) <= SLAVE.max_speed * DT + 1e-9
         prev_p, prev_q, prev_L = out.position, out.quaternion_xyzw, out.lengths
     assert saw_limit
@@ -296,10 +291,10 @@ def test_joint_space_matches_cartesian_for_the_similar_master():
     for _ in range(300):
         target = lissajous(cart.t - DT)
         oc, oj = cart.tick(target), joint.tick(target)
-        assert oc.code == oj.code == StatusCode.NO_WARNING
+        assert oc.code == oj.code == TeleopCode.NO_WARNING
         np.testing.assert_allclose(oj.lengths, oc.lengths, atol=1e-9)
     np.testing.assert_allclose(joint.slave_position, cart.slave_position, atol=1e-9)
-    assert rotation_angle(joint.slave_quaternion, cart.slave_quaternion) < 1e-8
+    assert rotation_angle_between(joint.slave_quaternion, cart.slave_quaternion) < 1e-8
     np.testing.assert_allclose(joint.mapping._offsets, 0.0, atol=1e-9)
 
 
@@ -320,7 +315,7 @@ def test_joint_mode_staleness_watches_the_master_lengths():
     m.on_enable(0.0, True)
     m.on_master_pose(0.0, MASTER.home_position, MASTER.home_quaternion_xyzw)
     out = m.step(0.01)
-    assert out.code == StatusCode.MASTER_STALE and 'master/actuators/state' in out.detail
+    assert out.code == TeleopCode.MASTER_STALE and 'master/actuators/state' in out.detail
 
 
 @pytest.mark.parametrize('value', [0.0, -4.0, math.nan, math.inf, 'four', None])
@@ -356,7 +351,7 @@ def test_malformed_samples_are_refused_and_change_nothing():
         m.on_slave_pose([0.0, 0.0, math.nan], [0, 0, 0, 1])
     m.on_enable(0.0, True)
     m.on_slave_pose(SLAVE.home_position, SLAVE.home_quaternion_xyzw)
-    assert m.step(0.01).code == StatusCode.MASTER_STALE
+    assert m.step(0.01).code == TeleopCode.MASTER_STALE
 
 
 @settings(max_examples=20, deadline=None)
@@ -376,14 +371,14 @@ def test_property_commands_stay_within_limits_and_speed_and_clutch_never_jumps(m
         for _ in range(8):
             out = s.tick(target)
             if not out.has_command:
-                assert out.code == StatusCode.DEADMAN_RELEASED
+                assert out.code == TeleopCode.DEADMAN_RELEASED
                 continue
             assert check_pose(SLAVE, out.position, out.quaternion_xyzw)[0]
             if prev is not None:  # the first command after a clutch is the slave's own pose
                 assert np.max(np.abs(out.lengths - prev[2])) <= SLAVE.max_speed * DT + 1e-9
                 if mode == 'cartesian':
                     assert np.linalg.norm(out.position - prev[0]) <= 0.1 * DT + 1e-12
-                    assert rotation_angle(prev[1], out.quaternion_xyzw) <= 0.5 * DT + 1e-9
+                    assert rotation_angle_between(prev[1], out.quaternion_xyzw) <= 0.5 * DT + 1e-9
             prev = (out.position, out.quaternion_xyzw, out.lengths)
 
 
@@ -401,7 +396,7 @@ def test_property_joint_space_equals_cartesian_for_any_slow_master_path(steps):
         p = p + 5e-5 * np.array([dx, dy, dz])  # <= 0.9 mm/s per axis for the master
         q = rotated(q, 5e-4 * np.array([rx, ry, rz]))
         oc, oj = cart.tick((p, q)), joint.tick((p, q))
-        assert oc.code == oj.code == StatusCode.NO_WARNING
+        assert oc.code == oj.code == TeleopCode.NO_WARNING
         np.testing.assert_allclose(oj.lengths, oc.lengths, atol=1e-9)
 
 
@@ -416,4 +411,4 @@ def test_samples_bunched_by_the_transport_keep_the_masters_time_budget():
         m.on_master_pose(0.0005, MASTER.home_position + [0.0001, 0.0, 0.0], MASTER.home_quaternion_xyzw,
                          stamp=0.01 if stamped else None)
         out = m.step(0.0005)  # 0.4 mm for the slave: 0.04 m/s over the 10 ms between the samples
-        assert out.code == (StatusCode.NO_WARNING if stamped else StatusCode.SPEED_LIMITED)
+        assert out.code == (TeleopCode.NO_WARNING if stamped else TeleopCode.SPEED_LIMITED)

@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 import pytest
-from diagnostic_msgs.msg import DiagnosticStatus
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import Parameter as ParameterMsg
 from rcl_interfaces.msg import ParameterType, ParameterValue
@@ -28,6 +28,7 @@ from rrps_kinematics.nodes.common import (COMMAND_QOS, joint_state_msg, lengths_
 from rrps_kinematics.nodes.fk_node import FkNode
 from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_sim.nodes.driver_node import DriverNode
+from rrps_teleop.interfaces import ClimbState, ClimbStatus
 from rrps_teleop.master import scripted_pose
 from rrps_teleop.nodes.master_node import MasterNode
 from rrps_teleop.nodes.teleop_node import TeleopNode
@@ -335,12 +336,16 @@ def test_no_engage_while_a_climb_step_executes(ros_context):
     rig = Rig(ros_context, master=dict(trajectory='circle'))
     with rig.spin(ros_context):
         assert wait_for(lambda: rig.poses and rig.master_poses, 5.0)
-        rig.climb_pub.publish(DiagnosticStatus(name='climb_node', message='executing'))
+        values = ClimbStatus(state=ClimbState.EXECUTING).to_values()  # as the climb node writes it
+        rig.climb_pub.publish(DiagnosticStatus(name='climb_node', message='executing', values=[
+            KeyValue(key=k, value=v) for k, v in values.items()]))
         rig.enable = True
         assert wait_for(lambda: rig.code() == 'CLIMB_EXECUTING', 2.0), rig.code()
         time.sleep(0.3)
         assert not rig.targets and rig.values()['engaged'] == 'false'
-        rig.climb_pub.publish(DiagnosticStatus(name='climb_node', message='idle'))
+        values = ClimbStatus(state=ClimbState.IDLE).to_values()
+        rig.climb_pub.publish(DiagnosticStatus(name='climb_node', message='idle', values=[
+            KeyValue(key=k, value=v) for k, v in values.items()]))
         assert wait_for(lambda: rig.targets, 2.0)
 
 

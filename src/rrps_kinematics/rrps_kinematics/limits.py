@@ -8,6 +8,7 @@ human-readable reason::
     m = margins(geom, ik)
     m.ok                  # bool, or (N,) bool: every margin >= 0 (and the Jacobian not singular)
     m.violations()        # ['stroke: leg_3 length 0.5612 m > max_length 0.5500 m', ...]
+    m.broken()            # the same as data: [LimitViolation(kind=LimitKind.STROKE, legs=(3,), ...)]
     ok, reason, m = check_pose(geom, position, quaternion_xyzw)   # single pose convenience
 
 Fields (a single pose drops the leading N):
@@ -31,6 +32,8 @@ Pure NumPy, vectorised over the batch; no ROS import.
 
 from __future__ import annotations
 
+import enum
+import math
 from dataclasses import dataclass, field
 from itertools import combinations
 
@@ -42,6 +45,8 @@ from .jacobian import inverse_jacobian
 
 __all__ = [
     'PAIRS',
+    'LimitKind',
+    'LimitViolation',
     'Margins',
     'margins',
     'check_pose',
@@ -52,6 +57,46 @@ __all__ = [
 #: The 15 leg pairs (i, j), i < j, zero-based, in the order of ``Margins.interference``.
 PAIRS = np.array(list(combinations(range(6), 2)), dtype=int)
 PAIRS.setflags(write=False)
+
+
+class LimitKind(str, enum.Enum):
+    """The limits of a pose, named as the margins' fields (a str: ``LimitKind.STROKE == 'stroke'``)."""
+
+    STROKE = 'stroke'
+    UNIVERSAL = 'universal'
+    SPHERICAL = 'spherical'
+    INTERFERENCE = 'interference'
+    CONDITIONING = 'conditioning'
+
+
+@dataclass(frozen=True)
+class LimitViolation:
+    """One broken limit as data: its ``kind``, the ``legs`` involved (numbers 1..6; a pair for
+    interference, none for conditioning), the ``value`` that broke it and the ``bound`` it
+    broke, in SI units (a leg length [m], a joint angle [rad], the distance between two legs
+    [m] against twice the leg radius, the inverse condition number). ``str()`` words it."""
+
+    kind: LimitKind
+    legs: tuple[int, ...]
+    value: float
+    bound: float
+
+    def __str__(self) -> str:
+        legs = [f'leg_{i}' for i in self.legs]
+        if self.kind is LimitKind.STROKE:
+            if not math.isfinite(self.value):
+                return f'stroke: {legs[0]} length is not finite'
+            side = '<' if self.value < self.bound else '>'
+            name = 'min_length' if side == '<' else 'max_length'
+            return f'stroke: {legs[0]} length {self.value:.4f} m {side} {name} {self.bound:.4f} m'
+        if self.kind in (LimitKind.UNIVERSAL, LimitKind.SPHERICAL):
+            return (f'{self.kind.value} joint: {legs[0]} angle {self.value:.3f} rad > '
+                    f'{self.kind.value}_max_angle {self.bound:.3f} rad')
+        if self.kind is LimitKind.INTERFERENCE:
+            return (f'interference: {legs[0]} and {legs[1]} are {self.value:.4f} m apart < '
+                    f'2 * radius {self.bound:.4f} m')
+        return (f'conditioning: inverse condition number {self.value:.4f} < min_conditioning '
+                f'{self.bound:.4f} (near a singularity)')
 
 
 def segment_distances(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
@@ -140,16 +185,23 @@ class Margins:
             'conditioning': self.conditioning,
         }
 
+    def broken(self) -> list[LimitViolation] | list[list[LimitViolation]]:
+        """Every broken limit as :class:`LimitViolation` data, in the order stroke, universal,
+        spherical, interference, conditioning; for a batch, one list per pose."""
+        if np.ndim(self.ok) == 0:
+            return self._pose_broken(())
+        return [self._pose_broken((k,)) for k in range(len(self.ok))]
+
     def violations(self) -> list[str]:
         """One line per violated limit, naming the limit and the leg(s); empty when all are met.
 
-        For a batch each line starts with ``pose k:``.
+        The words of :meth:`broken`; for a batch each line starts with ``pose k:``.
         """
         if np.ndim(self.ok) == 0:
-            return self._pose_violations(())
+            return [str(v) for v in self._pose_broken(())]
         out = []
         for k in np.flatnonzero(~np.asarray(self.ok)):
-            out += [f'pose {k}: {line}' for line in self._pose_violations((k,))]
+            out += [f'pose {k}: {v}' for v in self._pose_broken((k,))]
         return out
 
     @property
@@ -158,32 +210,30 @@ class Margins:
         lines = self.violations()
         return '; '.join(lines) if lines else 'within limits'
 
-    def _pose_violations(self, k: tuple) -> list[str]:
+    def _pose_broken(self, k: tuple) -> list[LimitViolation]:
         g = self.geometry
-        lines = []
+        out = []
         L = self.lengths[k]
         for i in np.flatnonzero(~(self.stroke[k] >= 0.0)):
-            if not np.isfinite(L[i]):
-                lines.append(f'stroke: leg_{i + 1} length is not finite')
-            elif L[i] < g.min_length:
-                lines.append(f'stroke: leg_{i + 1} length {L[i]:.4f} m < min_length {g.min_length:.4f} m')
-            else:
-                lines.append(f'stroke: leg_{i + 1} length {L[i]:.4f} m > max_length {g.max_length:.4f} m')
+            bound = g.min_length if L[i] < g.min_length else g.max_length
+            out.append(LimitViolation(LimitKind.STROKE, (int(i) + 1,), float(L[i]), float(bound)))
         for i in np.flatnonzero(~(self.universal[k] >= 0.0)):
-            lines.append(f'universal joint: leg_{i + 1} angle {self.universal_cone_angles[k][i]:.3f} rad '
-                         f'> universal_max_angle {g.universal_max_angle:.3f} rad')
+            out.append(LimitViolation(LimitKind.UNIVERSAL, (int(i) + 1,),
+                                      float(self.universal_cone_angles[k][i]),
+                                      float(g.universal_max_angle)))
         for i in np.flatnonzero(~(self.spherical[k] >= 0.0)):
-            lines.append(f'spherical joint: leg_{i + 1} angle {self.spherical_cone_angles[k][i]:.3f} rad '
-                         f'> spherical_max_angle {g.spherical_max_angle:.3f} rad')
+            out.append(LimitViolation(LimitKind.SPHERICAL, (int(i) + 1,),
+                                      float(self.spherical_cone_angles[k][i]),
+                                      float(g.spherical_max_angle)))
         for p in np.flatnonzero(~(self.interference[k] >= 0.0)):
             i, j = self.pairs[p]
-            lines.append(f'interference: leg_{i + 1} and leg_{j + 1} are {self.segment_distances[k][p]:.4f} m '
-                         f'apart < 2 * radius {2.0 * g.leg_radius:.4f} m')
+            out.append(LimitViolation(LimitKind.INTERFERENCE, (int(i) + 1, int(j) + 1),
+                                      float(self.segment_distances[k][p]), 2.0 * g.leg_radius))
         c = self.inverse_condition[k]
         if not (self.conditioning[k] >= 0.0 and c > 0.0):
-            lines.append(f'conditioning: inverse condition number {c:.4f} < min_conditioning '
-                         f'{g.min_conditioning:.4f} (near a singularity)')
-        return lines
+            out.append(LimitViolation(LimitKind.CONDITIONING, (), float(c),
+                                      float(g.min_conditioning)))
+        return out
 
 
 def margins(geometry: RobotGeometry, ik: InverseKinematicsResult) -> Margins:

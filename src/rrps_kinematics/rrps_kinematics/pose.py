@@ -26,14 +26,13 @@ import math
 
 import numpy as np
 
-from .rotations import matrix_to_quat_xyzw, quat_xyzw_to_matrix
+from .rotations import matrix_to_quat_xyzw, quat_xyzw_to_matrix, rotation_angle_between
 
 __all__ = [
     'QUATERNION_TOLERANCE',
     'InvalidPose',
     'Pose',
     'validate_pose',
-    'rotation_angle',
     'pose_error',
 ]
 
@@ -65,25 +64,14 @@ def validate_pose(position, quaternion_xyzw, *, tolerance: float | None = QUATER
     if not all(math.isfinite(v) for v in (float(p[0]), float(p[1]), float(p[2]), x, y, z, w)):
         raise InvalidPose(f'{what}: contains NaN or infinite values')
     norm = math.sqrt(x * x + y * y + z * z + w * w)
-    if norm < 1e-12 or (tolerance is not None and abs(norm - 1.0) > tolerance):
-        raise InvalidPose(f'{what}: quaternion norm {norm:.6g} is not 1 (x, y, z, w expected'
-                          + ('' if tolerance is None else f'; tolerance {tolerance:g}') + ')')
+    if norm < 1e-12:
+        raise InvalidPose(f'{what}: quaternion has zero norm (quaternion norm 0 is not 1)')
+    if tolerance is not None and abs(norm - 1.0) > tolerance:
+        raise InvalidPose(f'{what}: quaternion norm {norm:.6g} is not 1 (x, y, z, w expected; '
+                          f'tolerance {tolerance:g})')
     first = w if w != 0.0 else next((v for v in (x, y, z) if v != 0.0), 1.0)
     q *= (1.0 if first > 0.0 else -1.0) / norm
     return p, q
-
-
-def rotation_angle(q_from, q_to) -> float:
-    """Angle [rad] in [0, pi] of the rotation taking unit quaternion ``q_from`` to ``q_to``.
-
-    With q2 on q1's hemisphere, the 4-D angle between them is 2 atan2(|q1 - q2|, |q1 + q2|)
-    and the rotation angle twice that: accurate near 0 and near pi (no arccos).
-    """
-    q1 = np.asarray(q_from, dtype=float)
-    q2 = np.asarray(q_to, dtype=float)
-    if float(q1 @ q2) < 0.0:
-        q2 = -q2
-    return 4.0 * math.atan2(float(np.linalg.norm(q1 - q2)), float(np.linalg.norm(q1 + q2)))
 
 
 class Pose:
@@ -107,6 +95,15 @@ class Pose:
 
     def __setattr__(self, name, value):
         raise AttributeError('Pose is immutable')
+
+    def __copy__(self) -> 'Pose':
+        return self
+
+    def __deepcopy__(self, memo) -> 'Pose':
+        return self
+
+    def __reduce__(self):
+        return Pose, (self.position.copy(), self.quaternion_xyzw.copy())
 
     @classmethod
     def from_matrix(cls, T) -> 'Pose':
@@ -181,4 +178,4 @@ class Pose:
 def pose_error(T1: Pose, T2: Pose) -> tuple[float, float]:
     """(distance [m] between the positions, rotation angle [rad] between the orientations)."""
     return (float(np.linalg.norm(T1.position - T2.position)),
-            rotation_angle(T1.quaternion_xyzw, T2.quaternion_xyzw))
+            rotation_angle_between(T1.quaternion_xyzw, T2.quaternion_xyzw))

@@ -254,7 +254,20 @@ def rotation_vector_to_matrix(v: np.ndarray) -> np.ndarray:
 
 
 def rotation_angle_between(R1: np.ndarray, R2: np.ndarray) -> np.ndarray:
-    """Angle [rad] of the relative rotation R1^T R2 (robust near 0 and pi)."""
-    R = np.swapaxes(np.asarray(R1, dtype=float), -1, -2) @ np.asarray(R2, dtype=float)
-    q = matrix_to_euler_parameters(R)
-    return 2.0 * np.arctan2(np.linalg.norm(q[..., 1:], axis=-1), np.abs(q[..., 0]))
+    """Angle [rad] in [0, pi] of the rotation taking orientation 1 to orientation 2.
+
+    The one rotation-angle function of rrps. Orientations are rotation matrices (..., 3, 3)
+    (the relative rotation R1^T R2) or unit quaternions (x, y, z, w) (..., 4) (conj(q1) q2);
+    2 atan2(|e|, |e0|) of the relative Euler parameters, robust near 0 and pi. A float for
+    one pair.
+    """
+    a = np.asarray(R1, dtype=float)
+    b = np.asarray(R2, dtype=float)
+    if a.shape[-1:] == (4,) and b.shape[-1:] == (4,):
+        r = quat_multiply_xyzw(quat_conjugate_xyzw(a), b)
+        vec, scalar = r[..., :3], r[..., 3]
+    else:
+        q = matrix_to_euler_parameters(np.swapaxes(a, -1, -2) @ b)
+        vec, scalar = q[..., 1:], q[..., 0]
+    angle = 2.0 * np.arctan2(np.linalg.norm(vec, axis=-1), np.abs(scalar))
+    return float(angle) if np.ndim(angle) == 0 else angle

@@ -13,9 +13,9 @@ from __future__ import annotations
 
 from typing import Mapping
 
-__all__ = ['RINGS', 'Grippers']
+from .interfaces import RINGS
 
-RINGS = ('ring_a', 'ring_b')
+__all__ = ['Grippers']
 
 
 class Grippers:

@@ -89,8 +89,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f'{plan.robot} on {plan.structure} ({structure.length:.2f} m route): {plan.steps} steps of '
           f'{plan.step_length * 1000:.1f} mm, {len(plan.phases)} phases, ring_a climbed '
           f'{plan.climbed:.3f} m (reach {planner.reach[0]:.3f} .. {planner.reach[1]:.3f} m)')
-    print(f'  ring_a ends at world ({", ".join(f"{v:.3f}" for v in last.world_T_a[:3, 3])}), '
-          f'ring_b at ({", ".join(f"{v:.3f}" for v in last.world_T_b[:3, 3])}) m'
+    print(f'  ring_a ends at world ({", ".join(f"{v:.3f}" for v in last.world_T_a.position)}), '
+          f'ring_b at ({", ".join(f"{v:.3f}" for v in last.world_T_b.position)}) m'
           + (f'; extra DOF {math.degrees(last.theta_a):.0f} / {math.degrees(last.theta_b):.0f} deg'
              if planner.dof else ''))
     print('  smallest margins: ' + ', '.join(

@@ -25,25 +25,40 @@ Pure NumPy; no ROS import.
 
 from __future__ import annotations
 
+import enum
 import math
-import re
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from rrps_kinematics import RobotGeometry, inverse_kinematics, margins
-from rrps_kinematics.rotations import matrix_to_quat_xyzw
+from rrps_kinematics.pose import Pose
+from rrps_kinematics.rotations import matrix_to_quat_xyzw, rotation_angle_between
 
-from .odometry import RingOdometry, invert, matrix_pose, rot_z, transform
+from .interfaces import PhaseAction
+from .odometry import RingOdometry, invert, rot_z, transform
 from .structures import Structure, interpolate_frames
 
-__all__ = ['PlanError', 'Phase', 'ClimbPlan', 'GaitPlanner', 'plan_climb', 'check_interlock',
+__all__ = ['PlanError', 'PlanLimit', 'Phase', 'ClimbPlan', 'GaitPlanner', 'plan_climb', 'check_interlock',
            'MARGIN_KINDS', 'CSV_COLUMNS']
 
 MARGIN_KINDS = ('stroke', 'universal', 'spherical', 'interference', 'conditioning', 'clearance')
-_LIMIT_OF_LINE = {'stroke': 'stroke', 'universal joint': 'universal', 'spherical joint': 'spherical',
-                  'interference': 'interference', 'conditioning': 'conditioning',
-                  'structure clearance': 'clearance'}
+
+
+class PlanLimit(str, enum.Enum):
+    """What a refused plan breaks: a pose limit (:class:`rrps_kinematics.limits.LimitKind`), the
+    legs' clearance to the structure, the gripper interlock, the extra DOF's range, or no grip
+    position (a str: ``PlanLimit.STROKE == 'stroke'``)."""
+
+    STROKE = 'stroke'
+    UNIVERSAL = 'universal'
+    SPHERICAL = 'spherical'
+    INTERFERENCE = 'interference'
+    CONDITIONING = 'conditioning'
+    CLEARANCE = 'clearance'
+    INTERLOCK = 'interlock'
+    EXTRA_DOF = 'extra_dof'
+    GRIP = 'grip'
 
 CSV_COLUMNS = (['step', 'phase', 'gripper_a', 'gripper_b', 's_a', 's_b',
                 'a_x', 'a_y', 'a_z', 'a_qx', 'a_qy', 'a_qz', 'a_qw',
@@ -53,16 +68,14 @@ CSV_COLUMNS = (['step', 'phase', 'gripper_a', 'gripper_b', 's_a', 's_b',
 
 
 class PlanError(ValueError):
-    """A plan that breaks a limit. ``limit``: the kind (``stroke``, ``universal``, ``spherical``,
-    ``interference``, ``conditioning``, ``clearance``, ``interlock``, ``extra_dof``, ``grip``);
-    ``legs``: leg names involved; ``step``, ``phase``: where; ``margins``: the smallest margin of
+    """A plan that breaks a limit. ``limit``: a :class:`PlanLimit`; ``legs``: leg names involved; ``step``, ``phase``: where; ``margins``: the smallest margin of
     each kind at the first pose that breaks a limit (empty for non-pose limits)."""
 
-    def __init__(self, message: str, *, limit: str, legs=(), step: int | None = None,
+    def __init__(self, message: str, *, limit: PlanLimit, legs=(), step: int | None = None,
                  phase: str | None = None, margins: dict | None = None):
         super().__init__(message)
         self.margins = dict(margins or {})
-        self.limit = limit
+        self.limit = PlanLimit(limit)
         self.legs = tuple(legs)
         self.step = step
         self.phase = phase
@@ -70,15 +83,19 @@ class PlanError(ValueError):
 
 @dataclass
 class Phase:
-    """One phase of a plan; poses are 4x4, taken at the end of the phase.
+    """One phase of a plan; its poses (:class:`rrps_kinematics.pose.Pose`) are taken at the
+    end of the phase.
 
+    ``action`` and ``ring`` say what it does (``ring`` is 'ring_a' or 'ring_b', '' for the
+    start); ``phase`` is its name as plans and messages write it ('release_b', 'move_b', ...).
     ``path``: the sampled a_T_b of the motion (n, 4, 4), ends included (one pose for gripper
     phases); ``min_margins``: the smallest margin of each kind over the path (SI units, the
     clearance is NaN where it does not apply).
     """
 
     step: int
-    phase: str
+    action: PhaseAction
+    ring: str
     gripper_a: bool
     gripper_b: bool
     s_a: float
@@ -88,20 +105,26 @@ class Phase:
     path: np.ndarray
     lengths: np.ndarray
     min_margins: dict
-    world_T_a: np.ndarray = field(default_factory=lambda: np.eye(4))
-    world_T_b: np.ndarray = field(default_factory=lambda: np.eye(4))
+    world_T_a: Pose = field(default_factory=Pose)
+    world_T_b: Pose = field(default_factory=Pose)
 
     @property
-    def a_T_b(self) -> np.ndarray:
-        return self.path[-1]
+    def a_T_b(self) -> Pose:
+        """The kinematic pose at the end of the phase (the last of ``path``)."""
+        return Pose.from_matrix(self.path[-1])
+
+    @property
+    def phase(self) -> str:
+        """The phase's name: the action, and the ring's letter ('grip_a'); 'start'."""
+        return self.action.value + (f'_{self.ring[-1]}' if self.ring else '')
 
     def row(self) -> dict:
         """One CSV row (see ``CSV_COLUMNS``)."""
-        pa, qa = matrix_pose(self.world_T_a)
-        pb, qb = matrix_pose(self.world_T_b)
-        p, q = matrix_pose(self.a_T_b)
+        a_T_b = self.a_T_b
         values = [self.step, self.phase, int(self.gripper_a), int(self.gripper_b), self.s_a, self.s_b,
-                  *pa, *qa, *pb, *qb, *p, *q, self.theta_a, self.theta_b, *self.lengths,
+                  *self.world_T_a.position, *self.world_T_a.quaternion_xyzw,
+                  *self.world_T_b.position, *self.world_T_b.quaternion_xyzw,
+                  *a_T_b.position, *a_T_b.quaternion_xyzw, self.theta_a, self.theta_b, *self.lengths,
                   *(self.min_margins[k] for k in MARGIN_KINDS)]
         return dict(zip(CSV_COLUMNS, values))
 
@@ -134,25 +157,25 @@ class ClimbPlan:
 def check_interlock(phases) -> None:
     """The gripper interlock over a phase sequence: never both open; one gripper changes at a
     time; the kinematic pose a_T_b changes only while exactly one gripper is open, and then
-    the open ring is the one that moves. Raises PlanError(limit='interlock')."""
+    the open ring is the one that moves. Raises PlanError(limit=PlanLimit.INTERLOCK)."""
     prev = None
     for ph in phases:
         where = f'step {ph.step}, phase {ph.phase}'
         if not (ph.gripper_a or ph.gripper_b):
-            raise PlanError(f'{where}: interlock: both grippers open', limit='interlock',
+            raise PlanError(f'{where}: interlock: both grippers open', limit=PlanLimit.INTERLOCK,
                             step=ph.step, phase=ph.phase)
         if prev is not None:
             if (prev.gripper_a != ph.gripper_a) and (prev.gripper_b != ph.gripper_b):
                 raise PlanError(f'{where}: interlock: both grippers switch at once',
-                                limit='interlock', step=ph.step, phase=ph.phase)
-            moved = (not np.allclose(ph.path, prev.a_T_b, atol=1e-9)
+                                limit=PlanLimit.INTERLOCK, step=ph.step, phase=ph.phase)
+            moved = (not np.allclose(ph.path, prev.path[-1], atol=1e-9)
                      or (ph.s_a != prev.s_a) or (ph.s_b != prev.s_b))
             if moved and ph.gripper_a and ph.gripper_b:
                 raise PlanError(f'{where}: interlock: the robot moves while both grippers hold',
-                                limit='interlock', step=ph.step, phase=ph.phase)
+                                limit=PlanLimit.INTERLOCK, step=ph.step, phase=ph.phase)
             if moved and ((ph.s_a != prev.s_a and ph.gripper_a) or (ph.s_b != prev.s_b and ph.gripper_b)):
                 raise PlanError(f'{where}: interlock: a gripping ring moves along the structure',
-                                limit='interlock', step=ph.step, phase=ph.phase)
+                                limit=PlanLimit.INTERLOCK, step=ph.step, phase=ph.phase)
         prev = ph
 
 
@@ -215,19 +238,29 @@ class GaitPlanner:
             hi += 1
         return float(sep[lo]), float(sep[hi])
 
-    def mounts(self, theta_a: float, theta_b: float) -> tuple[np.ndarray, np.ndarray]:
-        """(a_T_grip_a, b_T_grip_b): the extra DOF about each ring's z, and on a surface ring_b's
-        stand-off (its feet reach down to the wall)."""
+    def _mount_matrices(self, theta_a, theta_b) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`mounts` as 4x4 matrices, for angles that may be arrays (n,) -> (n, 4, 4)."""
         b = rot_z(theta_b)
         if self.surface:
             b = transform((0.0, 0.0, -self.standoff)) @ b
         return rot_z(theta_a), b
 
-    def world_rings(self, s_a: float, s_b: float, theta_a: float, theta_b: float):
-        """(world_T_a, world_T_b) with both grippers at their grip frames."""
-        ma, mb = self.mounts(theta_a, theta_b)
+    def _ring_matrices(self, s_a: float, s_b: float, theta_a: float, theta_b: float):
+        """:meth:`world_rings` as 4x4 matrices."""
+        ma, mb = self._mount_matrices(theta_a, theta_b)
         return (transform(*self.structure.grip_frame(s_a)) @ invert(ma),
                 transform(*self.structure.grip_frame(s_b)) @ invert(mb))
+
+    def mounts(self, theta_a: float, theta_b: float) -> tuple[Pose, Pose]:
+        """(a_T_grip_a, b_T_grip_b): the extra DOF about each ring's z, and on a surface ring_b's
+        stand-off (its feet reach down to the wall)."""
+        ma, mb = self._mount_matrices(theta_a, theta_b)
+        return Pose.from_matrix(ma), Pose.from_matrix(mb)
+
+    def world_rings(self, s_a: float, s_b: float, theta_a: float, theta_b: float) -> tuple[Pose, Pose]:
+        """(world_T_a, world_T_b) with both grippers at their grip frames."""
+        wa, wb = self._ring_matrices(s_a, s_b, theta_a, theta_b)
+        return Pose.from_matrix(wa), Pose.from_matrix(wb)
 
     # --- checking ----------------------------------------------------------------------------
 
@@ -244,21 +277,23 @@ class GaitPlanner:
         if np.any(bad):
             k = int(np.flatnonzero(bad)[0])
             q_k = matrix_to_quat_xyzw(path[k, :3, :3])
-            lines = margins(g, inverse_kinematics(g, path[k, :3, 3], q_k)).violations()
-            if clearance is not None:
-                for i in np.flatnonzero(~(clearance[k] >= 0.0)):
-                    lines.append(f'structure clearance: leg_{i + 1} is {clearance[k][i] + g.leg_radius:.4f} m '
-                                 f'from the {self.structure.name} surface < leg radius {g.leg_radius:.4f} m')
-            first = lines[0]
-            kind = first.split(':')[0]
-            legs = sorted(set(re.findall(r'leg_\d', first)))
+            broken = margins(g, inverse_kinematics(g, path[k, :3, 3], q_k)).broken()
+            lines = [str(v) for v in broken]
+            too_close = [] if clearance is None else np.flatnonzero(~(clearance[k] >= 0.0))
+            for i in too_close:
+                lines.append(f'structure clearance: leg_{i + 1} is {clearance[k][i] + g.leg_radius:.4f} m '
+                             f'from the {self.structure.name} surface < leg radius {g.leg_radius:.4f} m')
+            if broken:
+                limit, legs = PlanLimit(broken[0].kind.value), [f'leg_{i}' for i in broken[0].legs]
+            else:
+                limit, legs = PlanLimit.CLEARANCE, [f'leg_{too_close[0] + 1}']
             at_k = {'stroke': float(np.min(m.stroke[k])), 'universal': float(np.min(m.universal[k])),
                     'spherical': float(np.min(m.spherical[k])),
                     'interference': float(np.min(m.interference[k])),
                     'conditioning': float(m.conditioning[k]),
                     'clearance': math.nan if clearance is None else float(np.min(clearance[k]))}
             raise PlanError(f'step {step}, phase {phase} ({where}, pose {k + 1}/{len(path)}): '
-                            + '; '.join(lines), limit=_LIMIT_OF_LINE.get(kind, kind), legs=legs,
+                            + '; '.join(lines), limit=limit, legs=legs,
                             step=step, phase=phase, margins=at_k)
         mins = {'stroke': float(np.min(m.stroke)), 'universal': float(np.min(m.universal)),
                 'spherical': float(np.min(m.spherical)), 'interference': float(np.min(m.interference)),
@@ -285,14 +320,15 @@ class GaitPlanner:
 
     # --- phases ---------------------------------------------------------------------------------
 
-    def _phase(self, state: _State, step: int, name: str, grip_a: bool, grip_b: bool,
-               world_T_a=None, world_T_b=None, s_range=None) -> Phase:
+    def _phase(self, state: _State, step: int, action: PhaseAction, ring: str, grip_a: bool,
+               grip_b: bool, world_T_a=None, world_T_b=None, s_range=None) -> Phase:
         if world_T_a is None:
-            wa, wb = self.world_rings(state.s_a, state.s_b, state.theta_a, state.theta_b)
+            wa, wb = self._ring_matrices(state.s_a, state.s_b, state.theta_a, state.theta_b)
             world_T_a, world_T_b = wa[None], wb[None]
+        name = action.value + (f'_{ring[-1]}' if ring else '')
         path, lengths, mins = self._check(world_T_a, world_T_b, s_range or (state.s_a, state.s_b),
                                           f's_a={state.s_a:.3f} m, s_b={state.s_b:.3f} m', step, name)
-        return Phase(step=step, phase=name, gripper_a=grip_a, gripper_b=grip_b, s_a=state.s_a,
+        return Phase(step=step, action=action, ring=ring, gripper_a=grip_a, gripper_b=grip_b, s_a=state.s_a,
                      s_b=state.s_b, theta_a=state.theta_a, theta_b=state.theta_b, path=path,
                      lengths=lengths, min_margins=mins)
 
@@ -309,7 +345,7 @@ class GaitPlanner:
             if dof.min_angle <= theta + shift <= dof.max_angle:
                 return theta + shift
         raise PlanError(f'step {step}, phase move_{ring}: extra_dof: ring_{ring} angle {theta:.3f} rad '
-                        f'outside [{dof.min_angle:.3f}, {dof.max_angle:.3f}] rad', limit='extra_dof',
+                        f'outside [{dof.min_angle:.3f}, {dof.max_angle:.3f}] rad', limit=PlanLimit.EXTRA_DOF,
                         step=step, phase=f'move_{ring}')
 
     def _move(self, state: _State, step: int, ring: str, target: float) -> list[Phase]:
@@ -319,29 +355,30 @@ class GaitPlanner:
         keeps its partner's orientation about its axis wherever the gripper must grip (the legs
         are never twisted by a member's section orientation: the Figure 8c interference)."""
         other_grips = {'a': (False, True), 'b': (True, False)}[ring]
-        out = [self._phase(state, step, f'release_{ring}', *other_grips)]
+        out = [self._phase(state, step, PhaseAction.RELEASE, f'ring_{ring}', *other_grips)]
         s0 = state.s_a if ring == 'a' else state.s_b
         theta0 = state.theta_a if ring == 'a' else state.theta_b
-        wa, wb = self.world_rings(state.s_a, state.s_b, state.theta_a, state.theta_b)
+        wa, wb = self._ring_matrices(state.s_a, state.s_b, state.theta_a, state.theta_b)
         pos, rot = self.structure.swing(s0, target, self.spacing)
         frames = np.array([transform(p, R) for p, R in zip(pos, rot)])
         theta1 = theta0
         if self.dof:
-            ma, mb = self.mounts(theta0, theta0)
+            ma, mb = self._mount_matrices(theta0, theta0)
             end = frames[-1] @ invert(ma if ring == 'a' else mb)
             theta1 = self._dof_target(ring, theta0, self._twist(end, wb if ring == 'a' else wa), step)
         thetas = np.linspace(theta0, theta1, len(frames))
         if ring == 'a':
-            world_T_a = frames @ invert(self.mounts(thetas, state.theta_b)[0])
+            world_T_a = frames @ invert(self._mount_matrices(thetas, state.theta_b)[0])
             world_T_b = np.broadcast_to(wb, world_T_a.shape)
             state.s_a, state.theta_a = target, float(theta1)
         else:
-            world_T_b = frames @ invert(self.mounts(state.theta_a, thetas)[1])
+            world_T_b = frames @ invert(self._mount_matrices(state.theta_a, thetas)[1])
             world_T_a = np.broadcast_to(wa, world_T_b.shape)
             state.s_b, state.theta_b = target, float(theta1)
-        out.append(self._phase(state, step, f'move_{ring}', *other_grips, world_T_a=world_T_a,
+        out.append(self._phase(state, step, PhaseAction.MOVE, f'ring_{ring}', *other_grips,
+                               world_T_a=world_T_a,
                                world_T_b=world_T_b, s_range=(s0, target, state.s_a, state.s_b)))
-        out.append(self._phase(state, step, f'grip_{ring}', True, True))
+        out.append(self._phase(state, step, PhaseAction.GRIP, f'ring_{ring}', True, True))
         return out
 
     def _place(self, s: float, s0: float, partner: float, step: int, ring: str) -> float:
@@ -359,7 +396,7 @@ class GaitPlanner:
             if progress and 0.0 <= e <= self.structure.length and lo_sep <= sep <= hi_sep:
                 return float(e)
         raise PlanError(f'step {step}, phase move_{ring}: grip: no grip position near s={s:.3f} m '
-                        f'outside the junction zones within reach', limit='grip', step=step,
+                        f'outside the junction zones within reach', limit=PlanLimit.GRIP, step=step,
                         phase=f'move_{ring}')
 
     def _step(self, state: _State, step: int, d: float, sep_lo: float, up: bool) -> list[Phase]:
@@ -378,28 +415,28 @@ class GaitPlanner:
 
     # --- public ---------------------------------------------------------------------------------
 
-    def approach(self, a_T_b: np.ndarray, s_a: float, s_b: float, theta_a: float = 0.0,
+    def approach(self, a_T_b: Pose, s_a: float, s_b: float, theta_a: float = 0.0,
                  theta_b: float = 0.0) -> list[Phase]:
         """Phases (step 0) that bring ring_b from a measured pose ``a_T_b`` to its grip at route
         position ``s_b`` while ring_a grips at ``s_a``: release_b, move_b (straight line and
         slerp, every sample checked), grip_b. For a robot that was moved off the gait (by
         teleoperation) before a climb starts. Raises PlanError like ``plan``."""
         state = _State(s_a, s_b, theta_a, theta_b)
-        wa, wb = self.world_rings(s_a, s_b, theta_a, theta_b)
+        wa, wb = self._ring_matrices(s_a, s_b, theta_a, theta_b)
         target = invert(wa) @ wb
-        a_T_b = np.asarray(a_T_b, dtype=float)
-        R = a_T_b[:3, :3].T @ target[:3, :3]
-        angle = math.degrees(math.acos(min(max((np.trace(R) - 1.0) / 2.0, -1.0), 1.0)))
+        a_T_b = a_T_b.matrix
+        angle = math.degrees(rotation_angle_between(a_T_b[:3, :3], target[:3, :3]))
         n = max(int(math.ceil(np.linalg.norm(target[:3, 3] - a_T_b[:3, 3]) / self.spacing)),
                 int(math.ceil(angle)), 1) + 1
         p, rot = interpolate_frames(a_T_b[:3, 3], a_T_b[:3, :3], target[:3, 3], target[:3, :3], n)
         path = np.array([transform(pi, Ri) for pi, Ri in zip(p, rot)])
         world_T_a = np.broadcast_to(wa, path.shape)
         world_T_b = wa @ path
-        return [self._phase(state, 0, 'release_b', True, False, world_T_a=world_T_a[:1],
-                            world_T_b=world_T_b[:1]),
-                self._phase(state, 0, 'move_b', True, False, world_T_a=world_T_a, world_T_b=world_T_b),
-                self._phase(state, 0, 'grip_b', True, True)]
+        return [self._phase(state, 0, PhaseAction.RELEASE, 'ring_b', True, False,
+                            world_T_a=world_T_a[:1], world_T_b=world_T_b[:1]),
+                self._phase(state, 0, PhaseAction.MOVE, 'ring_b', True, False,
+                            world_T_a=world_T_a, world_T_b=world_T_b),
+                self._phase(state, 0, PhaseAction.GRIP, 'ring_b', True, True)]
 
 
     def plan(self, distance: float, steps: int | None = None, *, start: float | None = None,
@@ -429,7 +466,7 @@ class GaitPlanner:
             raise ValueError(f'a climb of {distance:.3f} m from s={start:.3f} m leaves the '
                              f'{self.structure.name} (route 0 .. {self.structure.length:.3f} m)')
         state = _State(start, self.structure.check_s(start + sep0), initial_theta, initial_theta)
-        phases = [self._phase(state, 0, 'start', True, True)]
+        phases = [self._phase(state, 0, PhaseAction.START, '', True, True)]
         if abs(sep0 - sep_lo) > 1e-9:
             phases += self._move(state, 0, 'b', start + sep_lo)
         for k in range(1, steps + 1):
@@ -443,7 +480,7 @@ class GaitPlanner:
                 odo = RingOdometry(wa, ph.a_T_b, a_T_grip=ma, b_T_grip=mb)
             else:
                 odo.update(ph.a_T_b, ph.gripper_a, ph.gripper_b, a_T_grip=ma, b_T_grip=mb)
-            ph.world_T_a, ph.world_T_b = odo.world_T_a.copy(), odo.world_T_b.copy()
+            ph.world_T_a, ph.world_T_b = odo.world_T_a, odo.world_T_b
         return ClimbPlan(robot=self.geometry.name, structure=self.structure.name, step_length=d,
                          steps=steps, phases=phases)
 

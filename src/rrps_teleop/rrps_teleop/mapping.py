@@ -2,7 +2,7 @@
 
 The operator moves a small master platform; the climbing robot (the slave) follows. The mapping
 runs in the spirit of MoveIt Servo: every control step turns the latest master sample into a
-guarded, speed-limited slave command and a :class:`StatusCode` saying what limited it.
+guarded, speed-limited slave command and a :class:`TeleopCode` saying what limited it.
 
 Two modes:
 
@@ -38,26 +38,26 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from enum import IntEnum
 
 import numpy as np
 
 from rrps_kinematics import RobotGeometry, forward_kinematics, inverse_kinematics, margins
 from rrps_kinematics.limits import Margins
-from rrps_kinematics.pose import rotation_angle, validate_pose
+from rrps_kinematics.pose import validate_pose
 from rrps_kinematics.rotations import (
     normalize_quat,
     quat_conjugate_xyzw,
     quat_multiply_xyzw,
     quat_xyzw_to_rotation_vector,
+    rotation_angle_between,
     rotation_vector_to_quat_xyzw,
 )
+
+from .interfaces import TeleopCode
 
 __all__ = [
     'MODES',
     'ROTATION_MODES',
-    'DISENGAGED_CODES',
-    'StatusCode',
     'TeleopConfig',
     'TeleopOutput',
     'TeleopMapping',
@@ -69,30 +69,6 @@ MODES = ('cartesian', 'joint')
 ROTATION_MODES = ('relative', 'absolute')
 #: Most re-scalings of a Cartesian step for the leg speed limit (leg lengths are not linear in it).
 LEG_SPEED_ITERATIONS = 4
-
-
-class StatusCode(IntEnum):
-    """Teleop status, numbered like MoveIt Servo's where the meaning is the same."""
-
-    INVALID = -1                      # bad input or a failed FK of the candidate lengths
-    NO_WARNING = 0                    # engaged, following the master unhindered
-    DECELERATE_FOR_APPROACHING_SINGULARITY = 1
-    HALT_FOR_SINGULARITY = 2
-    DECELERATE_FOR_COLLISION = 3      # approaching leg-leg interference (paper Figure 8c)
-    HALT_FOR_COLLISION = 4
-    JOINT_BOUND = 5                   # stroke or universal/spherical joint-angle limit
-    SPEED_LIMITED = 7                 # the master moves faster than the slave may
-    DEADMAN_RELEASED = 10             # teleop/enable not true, or older than enable_timeout
-    MASTER_STALE = 11                 # no master data for master_timeout
-    WAITING_FOR_SLAVE_POSE = 12       # nothing to engage from yet
-    CLIMB_EXECUTING = 13              # a climb step owns the robot
-    ORIENTATION_MISMATCH = 14         # absolute rotation mode: align the master first
-
-
-#: Codes under which the mapping is not engaged (no command is produced: the slave holds).
-DISENGAGED_CODES = frozenset({StatusCode.DEADMAN_RELEASED, StatusCode.MASTER_STALE,
-                              StatusCode.WAITING_FOR_SLAVE_POSE, StatusCode.CLIMB_EXECUTING,
-                              StatusCode.ORIENTATION_MISMATCH})
 
 
 def validate_scale(value, name: str = 'translation_scale') -> float:
@@ -166,7 +142,7 @@ class TeleopConfig:
 class TeleopOutput:
     """One control step: the status, and the command to publish (None: publish nothing, hold)."""
 
-    code: StatusCode
+    code: TeleopCode
     engaged: bool
     detail: str = ''
     position: np.ndarray | None = None
@@ -260,24 +236,24 @@ class TeleopMapping:
 
     # --- the state machine -------------------------------------------------------------
 
-    def blocking_reason(self, t: float) -> tuple[StatusCode, str] | None:
+    def blocking_reason(self, t: float) -> tuple[TeleopCode, str] | None:
         """Why the mapping may not be engaged at ``t`` (None: it may)."""
         c = self.config
         if self._climb_executing:
-            return StatusCode.CLIMB_EXECUTING, 'a climb step is executing'
+            return TeleopCode.CLIMB_EXECUTING, 'a climb step is executing'
         if not self._enable_value:
-            return StatusCode.DEADMAN_RELEASED, 'teleop/enable is not true'
+            return TeleopCode.DEADMAN_RELEASED, 'teleop/enable is not true'
         if t - self._enable_time > c.enable_timeout:
-            return StatusCode.DEADMAN_RELEASED, f'no teleop/enable true for {t - self._enable_time:.3g} s'
+            return TeleopCode.DEADMAN_RELEASED, f'no teleop/enable true for {t - self._enable_time:.3g} s'
         age = t - (self._master_pose_time if c.mode == 'cartesian' else self._master_lengths_time)
         if age > c.master_timeout:
             what = 'master/pose' if c.mode == 'cartesian' else 'master/actuators/state'
-            return StatusCode.MASTER_STALE, f'no {what} for {age:.3g} s (timeout {c.master_timeout:g} s)'
+            return TeleopCode.MASTER_STALE, f'no {what} for {age:.3g} s (timeout {c.master_timeout:g} s)'
         if self._slave_pose is None:
-            return StatusCode.WAITING_FOR_SLAVE_POSE, 'no slave pose yet'
+            return TeleopCode.WAITING_FOR_SLAVE_POSE, 'no slave pose yet'
         return None
 
-    def check(self, t: float) -> tuple[StatusCode, str] | None:
+    def check(self, t: float) -> tuple[TeleopCode, str] | None:
         """The watchdog: disengage if something blocks at ``t``; return the blocking reason."""
         blocked = self.blocking_reason(t)
         if blocked is not None:
@@ -338,9 +314,9 @@ class TeleopMapping:
         c = self.config
         ps, qs = self._slave_pose
         if c.mode == 'cartesian' and c.rotation_mode == 'absolute':
-            error = rotation_angle(qs, self._master_pose[1])
+            error = rotation_angle_between(qs, self._master_pose[1])
             if error > c.align_tolerance:
-                return TeleopOutput(StatusCode.ORIENTATION_MISMATCH, False,
+                return TeleopOutput(TeleopCode.ORIENTATION_MISMATCH, False,
                                     f'master and slave orientations differ by {error:.3f} rad '
                                     f'> align_tolerance {c.align_tolerance:g} rad: align the master')
         ik = inverse_kinematics(self.slave, ps, qs)
@@ -360,19 +336,19 @@ class TeleopMapping:
         ik = inverse_kinematics(self.slave, p, q)
         return _Command(p, q, ik.lengths.copy(), margins(self.slave, ik))
 
-    def _cartesian_step(self, dt: float) -> tuple[StatusCode, str]:
+    def _cartesian_step(self, dt: float) -> tuple[TeleopCode, str]:
         c = self.config
         prev = self._command
         p1, q1 = self.desired()
         dp = float(np.linalg.norm(p1 - prev.position))
-        dth = rotation_angle(prev.quaternion, q1)
+        dth = rotation_angle_between(prev.quaternion, q1)
         if dp < 1e-12 and dth < 1e-12:
-            return StatusCode.NO_WARNING, ''
-        fraction, code = 1.0, StatusCode.NO_WARNING
+            return TeleopCode.NO_WARNING, ''
+        fraction, code = 1.0, TeleopCode.NO_WARNING
         limit = min(c.max_linear_speed * dt / dp if dp > 0 else math.inf,
                     c.max_angular_speed * dt / dth if dth > 0 else math.inf)
         if limit < 1.0:
-            fraction, code = limit, StatusCode.SPEED_LIMITED
+            fraction, code = limit, TeleopCode.SPEED_LIMITED
         cand = self._evaluate_pose(*pose_step(prev.position, prev.quaternion, p1, q1, fraction))
         leg_limit = self.slave.max_speed * dt
         for _ in range(LEG_SPEED_ITERATIONS):  # lengths are nearly linear in the fraction: 1-2 passes
@@ -380,7 +356,7 @@ class TeleopMapping:
             if leg_step <= leg_limit:
                 break
             fraction *= leg_limit / leg_step * (1.0 - 1e-9)
-            code = StatusCode.SPEED_LIMITED
+            code = TeleopCode.SPEED_LIMITED
             cand = self._evaluate_pose(*pose_step(prev.position, prev.quaternion, p1, q1, fraction))
         factor, slow_code = self._deceleration(prev.margins, cand.margins)
         if factor < 1.0:
@@ -389,26 +365,26 @@ class TeleopMapping:
             cand = self._evaluate_pose(*pose_step(prev.position, prev.quaternion, p1, q1, fraction))
         return self._accept(cand, code)
 
-    def _joint_step(self, dt: float) -> tuple[StatusCode, str]:
+    def _joint_step(self, dt: float) -> tuple[TeleopCode, str]:
         prev = self._command
         L1 = self.desired()
         dL = L1 - prev.lengths
         largest = float(np.max(np.abs(dL)))
         if largest < 1e-12:
-            return StatusCode.NO_WARNING, ''
-        fraction, code = 1.0, StatusCode.NO_WARNING
+            return TeleopCode.NO_WARNING, ''
+        fraction, code = 1.0, TeleopCode.NO_WARNING
         if largest > self.slave.max_speed * dt:
-            fraction, code = self.slave.max_speed * dt / largest, StatusCode.SPEED_LIMITED
+            fraction, code = self.slave.max_speed * dt / largest, TeleopCode.SPEED_LIMITED
         cand = self._evaluate_lengths(prev, prev.lengths + fraction * dL)
         if cand is None:
-            return StatusCode.INVALID, 'FK of the mapped leg lengths did not converge: holding'
+            return TeleopCode.INVALID, 'FK of the mapped leg lengths did not converge: holding'
         factor, slow_code = self._deceleration(prev.margins, cand.margins)
         if factor < 1.0:
             fraction *= factor
             code = slow_code
             cand = self._evaluate_lengths(prev, prev.lengths + fraction * dL)
             if cand is None:
-                return StatusCode.INVALID, 'FK of the mapped leg lengths did not converge: holding'
+                return TeleopCode.INVALID, 'FK of the mapped leg lengths did not converge: holding'
         return self._accept(cand, code)
 
     def _evaluate_lengths(self, prev: _Command, lengths: np.ndarray) -> _Command | None:
@@ -419,38 +395,38 @@ class TeleopMapping:
         return _Command(fk.position, fk.quaternion_xyzw, np.asarray(lengths, dtype=float).copy(),
                         margins(self.slave, ik))
 
-    def _deceleration(self, before: Margins, after: Margins) -> tuple[float, StatusCode]:
+    def _deceleration(self, before: Margins, after: Margins) -> tuple[float, TeleopCode]:
         """Step scale in [0, 1] near a singularity or interference, when the step approaches it."""
         c = self.config
-        factor, code = 1.0, StatusCode.NO_WARNING
+        factor, code = 1.0, TeleopCode.NO_WARNING
         halt = self.slave.min_conditioning if c.singularity_halt is None else c.singularity_halt
         c0, c1 = float(before.inverse_condition), float(after.inverse_condition)
         if c1 < c0 and c0 < c.singularity_slowdown:
             f = min(max((c0 - halt) / (c.singularity_slowdown - halt), 0.0), 1.0)
             if f < factor:
                 factor = f
-                code = (StatusCode.DECELERATE_FOR_APPROACHING_SINGULARITY if f > 0.0
-                        else StatusCode.HALT_FOR_SINGULARITY)
+                code = (TeleopCode.DECELERATE_FOR_APPROACHING_SINGULARITY if f > 0.0
+                        else TeleopCode.HALT_FOR_SINGULARITY)
         d0, d1 = float(np.min(before.interference)), float(np.min(after.interference))
         if d1 < d0 and d0 < c.collision_slowdown:
             f = min(max(d0 / c.collision_slowdown, 0.0), 1.0)
             if f < factor:
                 factor = f
-                code = StatusCode.DECELERATE_FOR_COLLISION if f > 0.0 else StatusCode.HALT_FOR_COLLISION
+                code = TeleopCode.DECELERATE_FOR_COLLISION if f > 0.0 else TeleopCode.HALT_FOR_COLLISION
         return factor, code
 
-    def _accept(self, cand: _Command, code: StatusCode) -> tuple[StatusCode, str]:
+    def _accept(self, cand: _Command, code: TeleopCode) -> tuple[TeleopCode, str]:
         """Take ``cand`` unless it breaks a limit, or worsens one already broken (then hold)."""
         prev = self._command.margins
         m = cand.margins
         halt = self.slave.min_conditioning if self.config.singularity_halt is None else self.config.singularity_halt
         checks = (
-            ('stroke', m.stroke, prev.stroke, StatusCode.JOINT_BOUND),
-            ('universal joint', m.universal, prev.universal, StatusCode.JOINT_BOUND),
-            ('spherical joint', m.spherical, prev.spherical, StatusCode.JOINT_BOUND),
-            ('interference', m.interference, prev.interference, StatusCode.HALT_FOR_COLLISION),
+            ('stroke', m.stroke, prev.stroke, TeleopCode.JOINT_BOUND),
+            ('universal joint', m.universal, prev.universal, TeleopCode.JOINT_BOUND),
+            ('spherical joint', m.spherical, prev.spherical, TeleopCode.JOINT_BOUND),
+            ('interference', m.interference, prev.interference, TeleopCode.HALT_FOR_COLLISION),
             ('conditioning', np.atleast_1d(m.inverse_condition - halt),
-             np.atleast_1d(prev.inverse_condition - halt), StatusCode.HALT_FOR_SINGULARITY),
+             np.atleast_1d(prev.inverse_condition - halt), TeleopCode.HALT_FOR_SINGULARITY),
         )
         for name, new, old, halt_code in checks:
             worse = ~(new >= 0.0) & ~(new >= old)

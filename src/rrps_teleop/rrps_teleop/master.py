@@ -24,8 +24,9 @@ import math
 import numpy as np
 
 from rrps_kinematics import RobotGeometry, check_pose, inverse_kinematics
-from rrps_kinematics.pose import rotation_angle, validate_pose
-from rrps_kinematics.rotations import quat_multiply_xyzw, rotation_vector_to_quat_xyzw
+from rrps_kinematics.pose import validate_pose
+from rrps_kinematics.rotations import (quat_multiply_xyzw, rotation_angle_between,
+                                       rotation_vector_to_quat_xyzw)
 
 from .mapping import pose_step, validate_scale
 
@@ -90,7 +91,7 @@ class MasterModel:
             raise ValueError(f'dt must be finite and >= 0, got {dt!r}')
         p0, q0 = self.position, self.quaternion_xyzw
         dp = float(np.linalg.norm(p1 - p0))
-        dth = rotation_angle(q0, q1)
+        dth = rotation_angle_between(q0, q1)
         if dp < AT_TARGET_POSITION and dth < AT_TARGET_ANGLE:
             return ''  # at the target (the current pose was checked when reached): nothing to do
         fraction, note = 1.0, ''

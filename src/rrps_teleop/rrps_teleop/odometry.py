@@ -1,4 +1,4 @@
-"""World odometry of both rings across climbing steps (DESIGN.md, "The robot model").
+"""World odometry of both rings across climbing steps (README: the robot model).
 
 The kinematics only knows ``a_T_b``. Which ring grips decides how it is placed in the world:
 ``world_T_b = world_T_a · a_T_b`` while ring_a grips, ``world_T_a = world_T_b · inv(a_T_b)``
@@ -7,18 +7,18 @@ while ring_b grips. A gripping ring's *gripper* stays put on the structure; the 
 ring bolted to its gripper, a rotation about the ring axis for the frame climber's extra DOF
 (paper section 3.1) and a stand-off for a facade ring whose feet reach down to the wall.
 
-Poses are 4x4 homogeneous matrices here; ``pose_matrix`` / ``matrix_pose`` convert to and from
-(position, quaternion_xyzw). Pure NumPy, no ROS import.
+Poses are :class:`rrps_kinematics.pose.Pose`. Batches of transforms (the sampled paths of the
+gait planner) are (n, 4, 4) homogeneous matrices: ``transform``, ``invert`` and ``rot_z`` build
+and invert them. Pure NumPy, no ROS import.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from rrps_kinematics.rotations import matrix_to_quat_xyzw, quat_xyzw_to_matrix
+from rrps_kinematics.pose import Pose
 
-__all__ = ['InterlockError', 'transform', 'pose_matrix', 'matrix_pose', 'invert', 'rot_z',
-           'RingOdometry']
+__all__ = ['InterlockError', 'transform', 'invert', 'rot_z', 'RingOdometry']
 
 
 class InterlockError(ValueError):
@@ -32,17 +32,6 @@ def transform(position=(0.0, 0.0, 0.0), rotation=None) -> np.ndarray:
         T[:3, :3] = rotation
     T[:3, 3] = position
     return T
-
-
-def pose_matrix(position, quaternion_xyzw) -> np.ndarray:
-    """(position, quaternion x, y, z, w) -> 4x4."""
-    return transform(np.asarray(position, dtype=float), quat_xyzw_to_matrix(np.asarray(quaternion_xyzw, dtype=float)))
-
-
-def matrix_pose(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """4x4 (or (..., 4, 4)) -> (position, quaternion x, y, z, w)."""
-    T = np.asarray(T, dtype=float)
-    return T[..., :3, 3].copy(), matrix_to_quat_xyzw(T[..., :3, :3])
 
 
 def invert(T: np.ndarray) -> np.ndarray:
@@ -73,29 +62,29 @@ class RingOdometry:
     ``update`` chains one new ``a_T_b`` (measured or planned) with the current grippers.
     """
 
-    def __init__(self, world_T_a: np.ndarray, a_T_b: np.ndarray, *,
-                 a_T_grip: np.ndarray | None = None, b_T_grip: np.ndarray | None = None):
-        a_T_grip = np.eye(4) if a_T_grip is None else a_T_grip
-        b_T_grip = np.eye(4) if b_T_grip is None else b_T_grip
-        self.world_T_a = np.array(world_T_a, dtype=float)
-        self.world_T_b = self.world_T_a @ a_T_b
+    def __init__(self, world_T_a: Pose, a_T_b: Pose, *, a_T_grip: Pose | None = None,
+                 b_T_grip: Pose | None = None):
+        a_T_grip = Pose() if a_T_grip is None else a_T_grip
+        b_T_grip = Pose() if b_T_grip is None else b_T_grip
+        self.world_T_a = world_T_a
+        self.world_T_b = world_T_a @ a_T_b
         self.world_T_grip_a = self.world_T_a @ a_T_grip
         self.world_T_grip_b = self.world_T_b @ b_T_grip
 
-    def update(self, a_T_b: np.ndarray, grip_a: bool, grip_b: bool, *,
-               a_T_grip: np.ndarray | None = None, b_T_grip: np.ndarray | None = None) -> None:
+    def update(self, a_T_b: Pose, grip_a: bool, grip_b: bool, *, a_T_grip: Pose | None = None,
+               b_T_grip: Pose | None = None) -> None:
         """Chain ``a_T_b``: the gripping ring's gripper stays where it is; with both gripping,
         ring_a is the reference. ``a_T_grip``/``b_T_grip``: the rings' current gripper mounts
         (identity when omitted). Raises InterlockError when both grippers are open."""
-        a_T_grip = np.eye(4) if a_T_grip is None else a_T_grip
-        b_T_grip = np.eye(4) if b_T_grip is None else b_T_grip
+        a_T_grip = Pose() if a_T_grip is None else a_T_grip
+        b_T_grip = Pose() if b_T_grip is None else b_T_grip
         if grip_a:
-            self.world_T_a = self.world_T_grip_a @ invert(a_T_grip)
+            self.world_T_a = self.world_T_grip_a @ a_T_grip.inverse()
             self.world_T_b = self.world_T_a @ a_T_b
             self.world_T_grip_b = self.world_T_b @ b_T_grip
         elif grip_b:
-            self.world_T_b = self.world_T_grip_b @ invert(b_T_grip)
-            self.world_T_a = self.world_T_b @ invert(a_T_b)
+            self.world_T_b = self.world_T_grip_b @ b_T_grip.inverse()
+            self.world_T_a = self.world_T_b @ a_T_b.inverse()
             self.world_T_grip_a = self.world_T_a @ a_T_grip
         else:
             raise InterlockError('both grippers are open')

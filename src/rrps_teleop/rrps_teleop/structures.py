@@ -33,6 +33,7 @@ from rrps_kinematics.rotations import (
     matrix_to_quat_xyzw,
     quat_xyzw_to_matrix,
     quat_xyzw_to_rotation_vector,
+    rotation_angle_between,
     rotation_vector_to_quat_xyzw,
 )
 
@@ -296,7 +297,7 @@ class BeamFrame(Structure):
         p0, R0 = self.grip_frame(s0)
         p1, R1 = self.grip_frame(s1)
         n = max(int(math.ceil(np.linalg.norm(p1 - p0) / spacing)),
-                int(math.ceil(np.degrees(np.arccos(np.clip((np.trace(R0.T @ R1) - 1) / 2, -1, 1))))), 1) + 1
+                int(math.ceil(np.degrees(rotation_angle_between(R0, R1)))), 1) + 1
         return interpolate_frames(p0, R0, p1, R1, n)
 
     def mesh(self):

@@ -26,6 +26,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from sensor_msgs.msg import JointState
 
 from ..geometry import RobotDescriptionError, RobotGeometry, load_robot, shipped_robots
+from ..interfaces import DIAGNOSTICS, LEG_NAMES, StatusValues
 from ..supervision import exit_with_parent
 
 __all__ = [
@@ -51,7 +52,6 @@ __all__ = [
     'run_nodes',
 ]
 
-LEG_NAMES = tuple(f'leg_{i}' for i in range(1, 7))
 
 # Command streams best-effort depth 1 (+ a staleness check); state and status reliable (README: the ROS interface).
 COMMAND_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
@@ -180,15 +180,18 @@ class Diagnostics:
         self._name = f'{node.get_name()}: {name}'
         self._hardware_id = hardware_id
         self._period = 1.0 / rate_hz
-        self._pub = node.create_publisher(DiagnosticArray, '/diagnostics', STATE_QOS)
+        self._pub = node.create_publisher(DiagnosticArray, DIAGNOSTICS, STATE_QOS)
         self._last_key: tuple[bytes, str] | None = None
         self._last_time = -math.inf
         self.level = OK
         self.message = ''
 
-    def report(self, level: bytes, message: str, values: dict | None = None, *,
+    def report(self, level: bytes, message: str, values: StatusValues | dict | None = None, *,
                force: bool = False) -> None:
-        """Publish a status now if it changed, if forced, or if the period has elapsed."""
+        """Publish a status now if it changed, if forced, or if the period has elapsed.
+
+        ``values``: the node's typed status (:class:`rrps_kinematics.interfaces.StatusValues`),
+        or a plain dict for values no other node reads."""
         self.level, self.message = level, message
         now = self._node.get_clock().now()
         t = now.nanoseconds * 1e-9
@@ -198,7 +201,11 @@ class Diagnostics:
         self._last_key, self._last_time = key, t
         status = DiagnosticStatus(level=level, name=self._name, message=message,
                                   hardware_id=self._hardware_id)
-        status.values = [KeyValue(key=str(k), value=_format_value(v)) for k, v in (values or {}).items()]
+        if isinstance(values, StatusValues):
+            status.values = [KeyValue(key=k, value=v) for k, v in values.to_values().items()]
+        else:
+            status.values = [KeyValue(key=str(k), value=_format_value(v))
+                             for k, v in (values or {}).items()]
         msg = DiagnosticArray()
         msg.header.stamp = now.to_msg()
         msg.status = [status]

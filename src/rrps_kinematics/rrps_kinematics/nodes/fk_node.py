@@ -23,6 +23,7 @@ from sensor_msgs.msg import JointState
 from ..inverse import inverse_kinematics
 from ..limits import inverse_condition_number
 from ..tracking import PoseTracker
+from ..interfaces import ACTUATORS_STATE, POSE, RING_A_FRAME, FkStatus
 from .common import (ERROR, OK, STALE, STATE_QOS, WARN, Diagnostics, declare_parameter,
                      declare_robot_parameter, lengths_from_joint_state, pose_to_msg, run_nodes)
 
@@ -35,7 +36,7 @@ class FkNode(Node):
     def __init__(self, **kwargs):
         super().__init__('fk_node', **kwargs)
         self.geometry = declare_robot_parameter(self)
-        self.frame_id = declare_parameter(self, 'frame_id', 'ring_a', 'frame_id of the published pose',
+        self.frame_id = declare_parameter(self, 'frame_id', RING_A_FRAME, 'frame_id of the published pose',
                                           read_only=True)
         tolerance = declare_parameter(self, 'tolerance', 1e-12,
                                       'Newton convergence: max leg-length residual [m]',
@@ -56,8 +57,8 @@ class FkNode(Node):
         self._solved_lengths: np.ndarray | None = None
         self._pose_msg: PoseStamped | None = None
         self._status = (STALE, 'waiting for actuators/state')
-        self._pub = self.create_publisher(PoseStamped, 'pose', STATE_QOS)
-        self.create_subscription(JointState, 'actuators/state', self._on_state, STATE_QOS)
+        self._pub = self.create_publisher(PoseStamped, POSE, STATE_QOS)
+        self.create_subscription(JointState, ACTUATORS_STATE, self._on_state, STATE_QOS)
         self._diag = Diagnostics(self, 'forward kinematics')
         self.create_timer(0.5, self._report)
         self.add_post_set_parameters_callback(self._apply_parameters)
@@ -82,7 +83,7 @@ class FkNode(Node):
         if level == OK:
             ik = inverse_kinematics(self.geometry, self.position, self.quaternion_xyzw)
             values['inverse_condition'] = float(inverse_condition_number(self.geometry, ik))
-        self._diag.report(level, message, values)
+        self._diag.report(level, message, FkStatus(**values))
 
     def _fail(self, reason: str, level=ERROR) -> None:
         self.failed += 1
@@ -103,8 +104,9 @@ class FkNode(Node):
             return
         update = self.tracker.update(lengths)
         fk = update.fk
-        self._last = {'converged': fk.converged, 'iterations': fk.iterations, 'residual': fk.residual,
-                      'singular': fk.singular, 'continuation': update.continuation}
+        self._last = {'converged': bool(fk.converged), 'iterations': int(fk.iterations),
+                      'residual': float(fk.residual), 'singular': bool(fk.singular),
+                      'continuation': bool(update.continuation)}
         if not update.accepted:
             self._solved_lengths = self._pose_msg = None
             self._fail(update.reason)

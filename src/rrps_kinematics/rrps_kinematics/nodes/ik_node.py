@@ -21,6 +21,8 @@ from sensor_msgs.msg import JointState
 
 from ..commands import (CommandAges, RejectedCommand, check_fresh, limit_velocity, pose_limits,
                         validate_target)
+from ..interfaces import (ACTUATORS_COMMAND, ACTUATORS_STATE, RING_A_FRAME, TARGET_POSE,
+                          IkStatus)
 from .common import (COMMAND_QOS, OK, STALE, STATE_QOS, WARN, Diagnostics, declare_parameter,
                      declare_robot_parameter, joint_state_msg, lengths_from_joint_state,
                      pose_from_msg, run_nodes, stamp_to_seconds)
@@ -34,7 +36,7 @@ class IkNode(Node):
     def __init__(self, **kwargs):
         super().__init__('ik_node', **kwargs)
         self.geometry = declare_robot_parameter(self)
-        self.frame_id = declare_parameter(self, 'frame_id', 'ring_a',
+        self.frame_id = declare_parameter(self, 'frame_id', RING_A_FRAME,
                                           'frame_id a target_pose must have (ring_a)', read_only=True)
         self.timeout = declare_parameter(self, 'timeout', 0.1,
                                          'a target_pose whose stamp is older than this [s] is rejected',
@@ -62,10 +64,10 @@ class IkNode(Node):
         self.ages = CommandAges()
         self._status = (STALE, 'waiting for target_pose')
         self._margins: dict = {}
-        self._pub = self.create_publisher(JointState, 'actuators/command', COMMAND_QOS)
-        self.create_subscription(PoseStamped, 'target_pose', self._on_target, COMMAND_QOS)
+        self._pub = self.create_publisher(JointState, ACTUATORS_COMMAND, COMMAND_QOS)
+        self.create_subscription(PoseStamped, TARGET_POSE, self._on_target, COMMAND_QOS)
         if self.limit_velocity:
-            self.create_subscription(JointState, 'actuators/state', self._on_state, STATE_QOS)
+            self.create_subscription(JointState, ACTUATORS_STATE, self._on_state, STATE_QOS)
         self._diag = Diagnostics(self, 'inverse kinematics')
         self.create_timer(0.5, self._report)
         self.add_post_set_parameters_callback(self._apply_parameters)
@@ -79,9 +81,9 @@ class IkNode(Node):
     def _report(self) -> None:
         level, message = self._status
         now = self.get_clock().now().nanoseconds * 1e-9
-        self._diag.report(level, message, {'accepted': self.accepted, 'rejected': self.rejected,
-                                           'robot': self.geometry.name, **self._margins,
-                                           **self.ages.summary(now)})
+        self._diag.report(level, message, IkStatus(
+            accepted=self.accepted, rejected=self.rejected, robot=self.geometry.name,
+            **self._margins, **self.ages.summary(now)))
 
     def _reject(self, reason: str, level=WARN) -> None:
         self.rejected += 1

@@ -29,17 +29,19 @@ from std_srvs.srv import SetBool
 
 from rrps_kinematics.commands import CommandAges, RejectedCommand, check_fresh
 from rrps_kinematics.forward import forward_kinematics
+from rrps_kinematics.interfaces import ACTUATORS_COMMAND, ACTUATORS_STATE
 from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, LEG_NAMES, OK, STALE, STATE_QOS, WARN,
                                           Diagnostics, declare_parameter, declare_robot_parameter,
                                           joint_state_msg, lengths_from_joint_state, run_nodes,
                                           stamp_to_seconds)
 
 from ..actuators import DynamicActuators, KinematicActuators, QuasiStaticEfforts, SensorFaults
-from ..grippers import RINGS, Grippers
+from ..grippers import Grippers
+from ..interfaces import GRIPPERS_STATE, RINGS, ActuatorMode, DriverStatus, gripper_service
 
 __all__ = ['DriverNode', 'main']
 
-MODES = ('kinematic', 'dynamic')
+MODES = tuple(m.value for m in ActuatorMode)
 
 
 def _declare_array(node: Node, name: str, kind, description: str) -> list:
@@ -61,6 +63,7 @@ class DriverNode(Node):
                                       read_only=True, additional_constraints='kinematic or dynamic')
         if self.mode not in MODES:
             raise ValueError(f'mode must be one of {MODES}, got {self.mode!r}')
+        self.mode = ActuatorMode(self.mode)
         self.rate = declare_parameter(self, 'rate', 500.0, 'actuators/state publication rate [Hz]',
                                       min_value=1.0, max_value=5000.0, read_only=True)
         self.timeout = declare_parameter(self, 'timeout', 0.1,
@@ -107,7 +110,7 @@ class DriverNode(Node):
             raise ValueError(f'initial_lengths {lengths0} outside the stroke '
                              f'[{g.min_length}, {g.max_length}] m')
         max_speed = g.max_speed if limit_speed else math.inf
-        if self.mode == 'dynamic':
+        if self.mode is ActuatorMode.DYNAMIC:
             if not forward_kinematics(g, lengths0).converged:
                 raise ValueError(f'initial_lengths {lengths0} do not assemble near the home pose')
             self.actuators = DynamicActuators(g, lengths0, kp=kp, kd=kd, time_constant=time_constant,
@@ -137,16 +140,16 @@ class DriverNode(Node):
         self._last_command_time: float | None = None
         self._last_step = time.monotonic()
         self._max_dt = 5.0 / self.rate
-        self._status = (OK, f'{self.mode} actuators holding the initial lengths')
-        self._state_pub = self.create_publisher(JointState, 'actuators/state', STATE_QOS)
-        self._grippers_pub = self.create_publisher(JointState, 'grippers/state', STATE_QOS)
-        self.create_subscription(JointState, 'actuators/command', self._on_command, COMMAND_QOS)
+        self._status = (OK, f'{self.mode.value} actuators holding the initial lengths')
+        self._state_pub = self.create_publisher(JointState, ACTUATORS_STATE, STATE_QOS)
+        self._grippers_pub = self.create_publisher(JointState, GRIPPERS_STATE, STATE_QOS)
+        self.create_subscription(JointState, ACTUATORS_COMMAND, self._on_command, COMMAND_QOS)
         for ring in RINGS:
-            self.create_service(SetBool, f'grippers/{ring}/set',
+            self.create_service(SetBool, gripper_service(ring),
                                 lambda request, response, ring=ring:
                                 self._on_gripper(ring, request, response))
         self.add_on_set_parameters_callback(self._on_set_parameters)
-        self._diag = Diagnostics(self, f'{self.mode} actuators')
+        self._diag = Diagnostics(self, f'{self.mode.value} actuators')
         self.create_timer(1.0 / self.rate, self._on_tick)
         self.create_timer(0.1, self._publish_grippers)
         self.create_timer(0.5, self._report)
@@ -180,12 +183,12 @@ class DriverNode(Node):
 
     def _report(self) -> None:
         level, message = self._status
-        self._diag.report(level, message, {
-            'mode': self.mode, 'accepted': self.accepted, 'rejected': self.rejected,
-            'dropped': self.dropped, 'lengths': self.actuators.positions,
-            'stuck_legs': [i + 1 for i in np.flatnonzero(self.actuators.stuck)],
-            'grippers': dict(zip(RINGS, self.grippers.positions())),
-            **self.ages.summary(self.get_clock().now().nanoseconds * 1e-9)})
+        self._diag.report(level, message, DriverStatus(
+            mode=self.mode, accepted=self.accepted, rejected=self.rejected, dropped=self.dropped,
+            lengths=tuple(float(v) for v in self.actuators.positions),
+            stuck_legs=tuple(int(i) + 1 for i in np.flatnonzero(self.actuators.stuck)),
+            **DriverStatus.grippers(self.grippers.closed),
+            **self.ages.summary(self.get_clock().now().nanoseconds * 1e-9)))
 
     def _set_status(self, level, message: str) -> None:
         if (level, message) != self._status:
@@ -235,7 +238,7 @@ class DriverNode(Node):
         if rings is not None:
             self.ring_reference = rings
         self._last_command_time = time.monotonic()
-        self._set_status(OK, f'{self.mode} actuators tracking actuators/command')
+        self._set_status(OK, f'{self.mode.value} actuators tracking actuators/command')
         if self.publish_on_command:
             self._step()
             self._publish_state()
@@ -260,7 +263,7 @@ class DriverNode(Node):
             dyn.reset(dyn.position, dyn.quaternion_xyzw)
             self.reference = self.actuators.positions
             self._set_status(ERROR, f'dynamics failed ({exc}): reset at rest, holding')
-        if self.mode == 'kinematic':
+        if self.mode is ActuatorMode.KINEMATIC:
             self.static_efforts.update(self.actuators.positions, dt)
         if self.rings is not None:
             self.rings.step(self.ring_reference, dt)
@@ -274,7 +277,7 @@ class DriverNode(Node):
             self.dropped += 1
             return
         a = self.actuators
-        efforts = a.efforts if self.mode == 'dynamic' else self.static_efforts.efforts
+        efforts = a.efforts if self.mode is ActuatorMode.DYNAMIC else self.static_efforts.efforts
         positions, velocities = self.faults.measure(a.positions), a.velocities
         if self.rings is not None:
             positions = np.concatenate([positions, self.rings.positions])

@@ -35,25 +35,21 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 
+from rrps_kinematics.interfaces import POSE, RING_A_FRAME, TARGET_POSE, WORLD_FRAME
+from rrps_sim.interfaces import GRIPPERS_STATE, RINGS, gripper_service, gripper_states
 from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, LATEST_QOS, OK, STATE_QOS, WARN, Diagnostics,
                                           declare_parameter, declare_robot_parameter, pose_from_msg,
                                           pose_to_msg, run_nodes)
-from rrps_kinematics.rotations import (matrix_to_quat_xyzw, quat_multiply_xyzw, quat_conjugate_xyzw,
-                                       quat_xyzw_to_rotation_vector)
+from rrps_kinematics.pose import QUATERNION_TOLERANCE, InvalidPose, Pose, pose_error
+from rrps_kinematics.rotations import matrix_to_quat_xyzw, rotation_angle_between
 
 from ..gait import GaitPlanner, PlanError
-from ..odometry import RingOdometry, matrix_pose, pose_matrix
+from ..interfaces import (CLIMB_STATUS, CLIMB_STEP_DOWN, CLIMB_STEP_UP, TELEOP_STATUS, ClimbState,
+                          ClimbStatus, PhaseAction, TeleopStatus, odometry_topic)
+from ..odometry import RingOdometry
 from ..structures import STRUCTURES, make_structure
 
-IDLE, EXECUTING, FAILED = 'idle', 'executing', 'error'
-
-
-def pose_error(T1: np.ndarray, T2: np.ndarray) -> tuple[float, float]:
-    """(position error [m], rotation angle [rad]) between two 4x4 poses."""
-    p1, q1 = matrix_pose(T1)
-    p2, q2 = matrix_pose(T2)
-    angle = float(np.linalg.norm(quat_xyzw_to_rotation_vector(quat_multiply_xyzw(quat_conjugate_xyzw(q1), q2))))
-    return float(np.linalg.norm(p1 - p2)), angle
+IDLE, EXECUTING, FAILED = ClimbState.IDLE, ClimbState.EXECUTING, ClimbState.FAILED
 
 
 class ClimbNode(Node):
@@ -109,8 +105,9 @@ class ClimbNode(Node):
 
         self.mode = IDLE
         self.detail = 'waiting for pose and grippers/state'
+        self._plan_refused = False
         self.steps_done = 0
-        self.pose: np.ndarray | None = None
+        self.pose: Pose | None = None
         self.grippers: dict[str, bool] | None = None
         self.teleop_engaged = False
         self.odometry: RingOdometry | None = None
@@ -126,17 +123,18 @@ class ClimbNode(Node):
         self._auto_started = False
         self._last_status = None
 
-        self._target_pub = self.create_publisher(PoseStamped, 'target_pose', COMMAND_QOS)
-        self._status_pub = self.create_publisher(DiagnosticStatus, 'climb/status', STATE_QOS)
-        self._odo_pubs = {ring: self.create_publisher(PoseStamped, f'odometry/{ring}', STATE_QOS)
-                          for ring in ('ring_a', 'ring_b')}
+        self._target_pub = self.create_publisher(PoseStamped, TARGET_POSE, COMMAND_QOS)
+        self._status_pub = self.create_publisher(DiagnosticStatus, CLIMB_STATUS, STATE_QOS)
+        self._odo_pubs = {ring: self.create_publisher(PoseStamped, odometry_topic(ring), STATE_QOS)
+                          for ring in RINGS}
         self._pose_msg: PoseStamped | None = None
-        self.create_subscription(PoseStamped, 'pose', self._on_pose, LATEST_QOS)
-        self.create_subscription(JointState, 'grippers/state', self._on_grippers, STATE_QOS)
-        self.create_subscription(DiagnosticStatus, 'teleop/status', self._on_teleop, STATE_QOS)
-        self._gripper_clients = {ring: self.create_client(SetBool, f'grippers/{ring}/set') for ring in ('ring_a', 'ring_b')}
-        self.create_service(Trigger, 'climb/step_up', lambda req, res: self._on_step(res, +1))
-        self.create_service(Trigger, 'climb/step_down', lambda req, res: self._on_step(res, -1))
+        self.create_subscription(PoseStamped, POSE, self._on_pose, LATEST_QOS)
+        self.create_subscription(JointState, GRIPPERS_STATE, self._on_grippers, STATE_QOS)
+        self.create_subscription(DiagnosticStatus, TELEOP_STATUS, self._on_teleop, STATE_QOS)
+        self._gripper_clients = {ring: self.create_client(SetBool, gripper_service(ring))
+                                 for ring in RINGS}
+        self.create_service(Trigger, CLIMB_STEP_UP, lambda req, res: self._on_step(res, +1))
+        self.create_service(Trigger, CLIMB_STEP_DOWN, lambda req, res: self._on_step(res, -1))
         self._diag = Diagnostics(self, 'climb')
         self.create_timer(self.dt, self._on_tick)
         self.create_timer(0.5, lambda: self._publish_status(force=True))
@@ -152,10 +150,13 @@ class ClimbNode(Node):
         msg, self._pose_msg = self._pose_msg, None
         if msg is None:
             return
-        p, q = pose_from_msg(msg)
-        if msg.header.frame_id != 'ring_a' or not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
+        if msg.header.frame_id != RING_A_FRAME:
             return
-        self.pose = pose_matrix(p, q / np.linalg.norm(q))
+        try:
+            self.pose = Pose(*pose_from_msg(msg), tolerance=QUATERNION_TOLERANCE)
+        except InvalidPose as exc:
+            self.get_logger().warning(f'pose ignored: {exc}', throttle_duration_sec=5.0)
+            return
         if self.grippers is None:
             return
         ma, mb = self.planner.mounts(*self._thetas())
@@ -175,19 +176,20 @@ class ClimbNode(Node):
         if self.odometry is None or self._odometry_stamp is None:
             return
         for ring, T in (('ring_a', self.odometry.world_T_a), ('ring_b', self.odometry.world_T_b)):
-            position, quaternion = matrix_pose(T)
-            self._odo_pubs[ring].publish(pose_to_msg(position, quaternion, frame_id='world',
-                                                     stamp=self._odometry_stamp))
+            self._odo_pubs[ring].publish(pose_to_msg(T.position, T.quaternion_xyzw,
+                                                     frame_id=WORLD_FRAME, stamp=self._odometry_stamp))
         self._odometry_stamp = None
 
     def _on_grippers(self, msg: JointState) -> None:
-        state = dict(zip(msg.name, msg.position))
-        if 'ring_a' in state and 'ring_b' in state:
-            self.grippers = {ring: state[ring] > 0.5 for ring in ('ring_a', 'ring_b')}
+        state = gripper_states(msg.name, msg.position)
+        if state is not None:
+            self.grippers = state
 
     def _on_teleop(self, msg: DiagnosticStatus) -> None:
-        values = {kv.key: kv.value for kv in msg.values}
-        self.teleop_engaged = values.get('engaged', 'false').lower() in ('true', '1')
+        try:
+            self.teleop_engaged = TeleopStatus.from_key_values(msg.values).engaged
+        except ValueError as exc:
+            self.get_logger().warning(f'{TELEOP_STATUS} ignored: {exc}', throttle_duration_sec=5.0)
 
     def _thetas(self) -> tuple[float, float]:
         if self.mode == EXECUTING and self._phases:
@@ -216,7 +218,7 @@ class ClimbNode(Node):
             plan = self.planner.plan(distance, steps, start=self.s_a,
                                      initial_separation=self.s_b - self.s_a, initial_theta=self.theta)
         except (PlanError, ValueError) as exc:
-            self.detail = f'plan refused: {exc}'
+            self.detail, self._plan_refused = f'plan refused: {exc}', True
             self.get_logger().warning(self.detail)
             self._publish_status(force=True)
             return False, f'refused: {exc}'
@@ -227,6 +229,7 @@ class ClimbNode(Node):
                 phases = self.planner.approach(self.pose, self.s_a, self.s_b, self.theta, self.theta) + phases
             except PlanError as exc:
                 self.detail = f'plan refused: cannot bring ring_b back to the gait: {exc}'
+                self._plan_refused = True
                 self.get_logger().warning(self.detail)
                 self._publish_status(force=True)
                 return False, f'refused: {self.detail}'
@@ -235,6 +238,7 @@ class ClimbNode(Node):
         self._enter_phase()
         self.mode = EXECUTING
         self.detail = f'{plan.steps} step(s) of {plan.step_length:.3f} m, {len(plan.phases)} phases'
+        self._plan_refused = False
         self._publish_status(force=True)
         return True, f'started: {self.detail}'
 
@@ -249,35 +253,33 @@ class ClimbNode(Node):
         self._future = None
         self._arrived_since = None
         self._deadline = self._now() + self.settle_timeout
-        if ph.phase.startswith('move'):
+        if ph.action is PhaseAction.MOVE:
             p = ph.path[:, :3, 3]
-            angles = [pose_error(a, b)[1] for a, b in zip(ph.path[:-1], ph.path[1:])]
-            seg = np.linalg.norm(np.diff(p, axis=0), axis=1) + self.geometry.characteristic_length * np.array(angles)
+            angles = rotation_angle_between(ph.path[:-1, :3, :3], ph.path[1:, :3, :3])
+            seg = np.linalg.norm(np.diff(p, axis=0), axis=1) + self.geometry.characteristic_length * angles
             self._phase_times = np.concatenate([[0.0], np.cumsum(seg)]) / self.speed
             self._stage = 'stream'
         else:
             self._stage = 'arrive'
 
-    def _target(self, t: float) -> np.ndarray:
+    def _target(self, t: float) -> Pose:
         """The planned a_T_b at time t of the current motion (positions lerped, rotations nlerped)."""
         path = self._phases[self._index].path
         times = self._phase_times
         if t >= times[-1]:
-            return path[-1]
+            return Pose.from_matrix(path[-1])
         k = int(np.searchsorted(times, t, side='right')) - 1
         w = (t - times[k]) / max(times[k + 1] - times[k], 1e-12)
         p = (1 - w) * path[k, :3, 3] + w * path[k + 1, :3, 3]
         q0, q1 = matrix_to_quat_xyzw(path[k, :3, :3]), matrix_to_quat_xyzw(path[k + 1, :3, :3])
         q1 = q1 if q0 @ q1 >= 0 else -q1
-        q = (1 - w) * q0 + w * q1
-        return pose_matrix(p, q / np.linalg.norm(q))
+        return Pose(p, (1 - w) * q0 + w * q1)
 
-    def _publish_target(self, T: np.ndarray) -> None:
-        position, quaternion = matrix_pose(T)
-        self._target_pub.publish(pose_to_msg(position, quaternion, frame_id='ring_a',
+    def _publish_target(self, T: Pose) -> None:
+        self._target_pub.publish(pose_to_msg(T.position, T.quaternion_xyzw, frame_id=RING_A_FRAME,
                                              stamp=self.get_clock().now().to_msg()))
 
-    def _arrived(self, T: np.ndarray) -> bool:
+    def _arrived(self, T: Pose) -> bool:
         if self.pose is None:
             return False
         dp, da = pose_error(self.pose, T)
@@ -309,7 +311,8 @@ class ClimbNode(Node):
             elif self._arrived_since is None:
                 self._arrived_since = now
             if self._arrived_since is not None and now - self._arrived_since >= self.settle_time:
-                self._stage = 'gripper' if ph.phase.startswith(('release', 'grip')) else 'done'
+                self._stage = ('gripper' if ph.action in (PhaseAction.RELEASE, PhaseAction.GRIP)
+                               else 'done')
                 self._deadline = now + self.settle_timeout
             elif now > self._deadline:
                 dp, da = pose_error(self.pose, ph.a_T_b) if self.pose is not None else (math.inf, math.inf)
@@ -318,8 +321,8 @@ class ClimbNode(Node):
                 return
         if self._stage == 'gripper':
             self._publish_target(ph.a_T_b)
-            ring = 'ring_a' if ph.phase.endswith('_a') else 'ring_b'
-            close = ph.phase.startswith('grip')
+            ring = ph.ring
+            close = ph.action is PhaseAction.GRIP
             if self._future is None:
                 other = 'ring_b' if ring == 'ring_a' else 'ring_a'
                 if not close and not self.grippers[other]:
@@ -361,21 +364,23 @@ class ClimbNode(Node):
     # --- status ---------------------------------------------------------------------------------
 
     def _publish_status(self, force: bool = False) -> None:
-        ph = self._phases[self._index] if self.mode == EXECUTING and self._phases else None
-        values = {'step': str(ph.step if ph else self.steps_done), 'phase': ph.phase if ph else '',
-                  'structure': self.structure.name, 's_a': f'{self.s_a:.4f}', 's_b': f'{self.s_b:.4f}',
-                  'steps_done': str(self.steps_done), 'detail': self.detail}
-        key = (self.mode, values['phase'], values['step'])
+        ph = self._phases[self._index] if self.mode is EXECUTING and self._phases else None
+        values = ClimbStatus(state=self.mode, step=ph.step if ph else self.steps_done,
+                             action=ph.action if ph else None, ring=ph.ring if ph else '',
+                             structure=self.structure.name, s_a=self.s_a, s_b=self.s_b,
+                             steps_done=self.steps_done, detail=self.detail)
+        key = (self.mode, values.action, values.ring, values.step)
         if not force and key == self._last_status:
             return
         self._last_status = key
         level = {IDLE: OK, EXECUTING: OK, FAILED: ERROR}[self.mode]
-        if self.mode == IDLE and self.detail.startswith('plan refused'):
+        if self.mode is IDLE and self._plan_refused:
             level = WARN
-        status = DiagnosticStatus(level=level, name='climb_node', message=self.mode, hardware_id='')
-        status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
+        status = DiagnosticStatus(level=level, name=self.get_name(), message=self.mode.value,
+                                  hardware_id=self.geometry.name)
+        status.values = [KeyValue(key=k, value=v) for k, v in values.to_values().items()]
         self._status_pub.publish(status)
-        self._diag.report(level, f'{self.mode}: {self.detail}', values)
+        self._diag.report(level, f'{self.mode.value}: {self.detail}', values)
 
 
 def main(args=None) -> None:

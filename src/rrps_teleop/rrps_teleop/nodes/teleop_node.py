@@ -27,12 +27,15 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool
 
+from rrps_kinematics.interfaces import ACTUATORS_COMMAND, POSE, RING_A_FRAME, TARGET_POSE
 from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, LATEST_QOS, OK, STALE, STATE_QOS, WARN, Diagnostics,
                                           declare_parameter, declare_robot_parameter, joint_state_msg,
                                           lengths_from_joint_state, pose_from_msg, pose_to_msg, run_nodes,
                                           stamp_to_seconds)
 
-from ..mapping import MODES, ROTATION_MODES, StatusCode, TeleopConfig, TeleopMapping, TeleopOutput
+from ..interfaces import (CLIMB_STATUS, MASTER_FRAME, MASTER_POSE, MASTER_STATE, TELEOP_ENABLE,
+                          TELEOP_STATUS, ClimbState, ClimbStatus, TeleopCode, TeleopStatus)
+from ..mapping import MODES, ROTATION_MODES, TeleopConfig, TeleopMapping, TeleopOutput
 
 __all__ = ['TeleopNode', 'main']
 
@@ -43,9 +46,9 @@ CONFIG_PARAMETERS = ('mode', 'translation_scale', 'rotation_mode', 'joint_scale'
                      'master_timeout', 'max_linear_speed', 'max_angular_speed', 'singularity_slowdown',
                      'singularity_halt', 'collision_slowdown', 'align_tolerance')
 _LEVELS = {
-    StatusCode.NO_WARNING: OK, StatusCode.SPEED_LIMITED: OK, StatusCode.DEADMAN_RELEASED: OK,
-    StatusCode.CLIMB_EXECUTING: OK, StatusCode.MASTER_STALE: STALE,
-    StatusCode.WAITING_FOR_SLAVE_POSE: STALE, StatusCode.INVALID: ERROR,
+    TeleopCode.NO_WARNING: OK, TeleopCode.SPEED_LIMITED: OK, TeleopCode.DEADMAN_RELEASED: OK,
+    TeleopCode.CLIMB_EXECUTING: OK, TeleopCode.MASTER_STALE: STALE,
+    TeleopCode.WAITING_FOR_SLAVE_POSE: STALE, TeleopCode.INVALID: ERROR,
 }
 
 
@@ -55,9 +58,9 @@ class TeleopNode(Node):
     def __init__(self, **kwargs):
         super().__init__('teleop_node', **kwargs)
         self.geometry = declare_robot_parameter(self)
-        self.frame_id = declare_parameter(self, 'frame_id', 'ring_a', 'frame of pose and target_pose',
+        self.frame_id = declare_parameter(self, 'frame_id', RING_A_FRAME, 'frame of pose and target_pose',
                                           read_only=True)
-        self.master_frame_id = declare_parameter(self, 'master_frame_id', 'master_ring_a',
+        self.master_frame_id = declare_parameter(self, 'master_frame_id', MASTER_FRAME,
                                                  'frame of master/pose', read_only=True)
         self.control = declare_parameter(self, 'control', 'message',
                                          'run the control step on each master sample or on a timer',
@@ -115,16 +118,16 @@ class TeleopNode(Node):
         self._last_status: tuple | None = None
         self._last_status_time = -math.inf
         self._status_period = 1.0 / status_rate
-        self._output = TeleopOutput(StatusCode.DEADMAN_RELEASED, False, 'waiting for teleop/enable')
+        self._output = TeleopOutput(TeleopCode.DEADMAN_RELEASED, False, 'waiting for teleop/enable')
         self._diag = Diagnostics(self, 'teleop', hardware_id=self.geometry.name)
-        self._target_pub = self.create_publisher(PoseStamped, 'target_pose', COMMAND_QOS)
-        self._command_pub = self.create_publisher(JointState, 'actuators/command', COMMAND_QOS)
-        self._status_pub = self.create_publisher(DiagnosticStatus, 'teleop/status', STATE_QOS)
-        self.create_subscription(PoseStamped, 'master/pose', self._on_master_pose, STATE_QOS)
-        self.create_subscription(JointState, 'master/actuators/state', self._on_master_state, STATE_QOS)
-        self.create_subscription(Bool, 'teleop/enable', self._on_enable, COMMAND_QOS)
-        self.create_subscription(PoseStamped, 'pose', self._on_slave_pose, LATEST_QOS)
-        self.create_subscription(DiagnosticStatus, 'climb/status', self._on_climb_status, STATE_QOS)
+        self._target_pub = self.create_publisher(PoseStamped, TARGET_POSE, COMMAND_QOS)
+        self._command_pub = self.create_publisher(JointState, ACTUATORS_COMMAND, COMMAND_QOS)
+        self._status_pub = self.create_publisher(DiagnosticStatus, TELEOP_STATUS, STATE_QOS)
+        self.create_subscription(PoseStamped, MASTER_POSE, self._on_master_pose, STATE_QOS)
+        self.create_subscription(JointState, MASTER_STATE, self._on_master_state, STATE_QOS)
+        self.create_subscription(Bool, TELEOP_ENABLE, self._on_enable, COMMAND_QOS)
+        self.create_subscription(PoseStamped, POSE, self._on_slave_pose, LATEST_QOS)
+        self.create_subscription(DiagnosticStatus, CLIMB_STATUS, self._on_climb_status, STATE_QOS)
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self.create_timer(WATCHDOG_PERIOD, self._watchdog)
@@ -194,13 +197,18 @@ class TeleopNode(Node):
             self._reject(str(exc))
 
     def _on_climb_status(self, msg: DiagnosticStatus) -> None:
-        self.mapping.set_climb_executing(msg.message == 'executing')
-        if msg.message == 'executing' and self.mapping.engaged:
+        try:
+            executing = ClimbStatus.from_key_values(msg.values).state is ClimbState.EXECUTING
+        except ValueError as exc:
+            self._reject(f'{CLIMB_STATUS}: {exc}')
+            return
+        self.mapping.set_climb_executing(executing)
+        if executing and self.mapping.engaged:
             self._watchdog()
 
     def _reject(self, reason: str) -> None:
         self.get_logger().warning(f'input rejected: {reason}', throttle_duration_sec=1.0)
-        self._publish_status(TeleopOutput(StatusCode.INVALID, self.mapping.engaged, reason))
+        self._publish_status(TeleopOutput(TeleopCode.INVALID, self.mapping.engaged, reason))
 
     # --- control -------------------------------------------------------------------------
 
@@ -227,20 +235,19 @@ class TeleopNode(Node):
         rejection reason comes), else at status_rate."""
         self._output = out
         now = time.monotonic()
-        key = (out.code, out.engaged, out.detail if out.code == StatusCode.INVALID else '')
+        key = (out.code, out.engaged, out.detail if out.code == TeleopCode.INVALID else '')
         if key == self._last_status and now - self._last_status_time < self._status_period:
             return
         self._last_status, self._last_status_time = key, now
         c = self.mapping.config
         level = _LEVELS.get(out.code, WARN)
-        values = {'code': int(out.code), 'mode': c.mode, 'scale': c.translation_scale,
-                  'rotation_mode': c.rotation_mode, 'joint_scale': list(c.joint_scale),
-                  'engaged': 'true' if out.engaged else 'false', 'detail': out.detail}
-        values.update({f'margin_{k}': v for k, v in out.margins.items()})
+        values = TeleopStatus(code=out.code, engaged=out.engaged, mode=c.mode,
+                              scale=c.translation_scale, rotation_mode=c.rotation_mode,
+                              joint_scale=tuple(c.joint_scale), detail=out.detail,
+                              **{f'margin_{k}': v for k, v in out.margins.items()})
         status = DiagnosticStatus(level=level, name=self.get_name(), message=out.code.name,
                                   hardware_id=self.geometry.name)
-        status.values = [KeyValue(key=k, value=f'{v:.6g}' if isinstance(v, float) else str(v))
-                         for k, v in values.items()]
+        status.values = [KeyValue(key=k, value=v) for k, v in values.to_values().items()]
         self._status_pub.publish(status)
         self._diag.report(level, out.code.name, values)
 

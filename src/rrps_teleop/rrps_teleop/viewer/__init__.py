@@ -1,6 +1,7 @@
 """The rrps web viewer for remote operators (viser), as a small public facade.
 
-Pure scene and control logic (no rclpy, no viser) is importable and testable on its own::
+Pure scene and control logic (no rclpy, no viser) is importable and testable on its own; poses
+are :class:`rrps_kinematics.pose.Pose` (re-exported here)::
 
     from rrps_teleop.viewer import Pose, robot_figure, world_ring_poses, OperatorControl
     world_T_a, world_T_b = world_ring_poses(a_T_b=pose, gripping='ring_a', world_T_gripping=odom)
@@ -13,10 +14,11 @@ The viser layer (``ViewerServer``, ``Frame``) is imported on first use so that t
 do not need viser.
 """
 
+from rrps_kinematics.pose import Pose
+
 from ._control import ControlResult, OperatorControl
 from ._scene import (
     WARN_FRACTION,
-    Pose,
     RobotFigure,
     Trail,
     leg_margin_fractions,

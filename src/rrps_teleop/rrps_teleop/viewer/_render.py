@@ -26,7 +26,9 @@ import viser.uplot
 from rrps_kinematics.geometry import RobotGeometry
 
 from ._control import ControlResult, OperatorControl
-from ._scene import Pose, RobotFigure, torus_mesh
+from rrps_kinematics.pose import Pose
+
+from ._scene import RobotFigure, torus_mesh
 
 __all__ = ['Frame', 'OperatorActions', 'ViewerServer', 'TELEOP_MODES', 'ROTATION_MODES']
 

@@ -1,7 +1,7 @@
 """Pure scene logic of the viewer: where the rings and legs are in the world and how to colour them.
 
-No rclpy and no viser here. Frames (DESIGN.md): the kinematics gives ``a_T_b`` (ring_b in ring_a);
-the gripping ring is fixed in ``world`` and places the robot there:
+No rclpy and no viser here. Frames (README: the robot model): the kinematics gives ``a_T_b``
+(ring_b in ring_a); the gripping ring is fixed in ``world`` and places the robot there:
 ``world_T_b = world_T_a · a_T_b`` while ring_a grips, ``world_T_a = world_T_b · inv(a_T_b)``
 while ring_b grips.
 """
@@ -16,16 +16,9 @@ import numpy as np
 from rrps_kinematics.geometry import RobotGeometry
 from rrps_kinematics.inverse import inverse_kinematics
 from rrps_kinematics.limits import Margins, margins
-from rrps_kinematics.rotations import (
-    normalize_quat,
-    quat_conjugate_xyzw,
-    quat_multiply_xyzw,
-    quat_xyzw_to_euler_parameters,
-    quat_xyzw_to_matrix,
-)
+from rrps_kinematics.pose import Pose
 
 __all__ = [
-    'Pose',
     'RobotFigure',
     'robot_figure',
     'world_ring_poses',
@@ -45,54 +38,10 @@ _RED = np.array([220.0, 40.0, 40.0])
 _VIOLATED = np.array([150.0, 0.0, 120.0])
 
 
-@dataclass(frozen=True)
-class Pose:
-    """A rigid transform ``parent_T_child``: position [m] and unit quaternion (x, y, z, w)."""
-
-    position: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    quaternion_xyzw: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 0.0, 1.0]))
-
-    def __post_init__(self) -> None:
-        p = np.asarray(self.position, dtype=float)
-        q = np.asarray(self.quaternion_xyzw, dtype=float)
-        if p.shape != (3,) or q.shape != (4,):
-            raise ValueError(f'Pose needs position (3,) and quaternion (4,), got {p.shape}, {q.shape}')
-        if not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
-            raise ValueError('Pose contains NaN or infinite values')
-        if np.linalg.norm(q) < 1e-12:
-            raise ValueError('Pose quaternion has zero norm')
-        object.__setattr__(self, 'position', p)
-        object.__setattr__(self, 'quaternion_xyzw', normalize_quat(q))
-
-    @property
-    def rotation(self) -> np.ndarray:
-        """3x3 rotation matrix parent_R_child."""
-        return quat_xyzw_to_matrix(self.quaternion_xyzw)
-
-    @property
-    def wxyz(self) -> np.ndarray:
-        """The quaternion in viser's (w, x, y, z) order (the paper's Euler parameters)."""
-        return quat_xyzw_to_euler_parameters(self.quaternion_xyzw)
-
-    def compose(self, other: 'Pose') -> 'Pose':
-        """``self · other``: parent_T_child · child_T_grandchild = parent_T_grandchild."""
-        return Pose(self.position + self.rotation @ other.position,
-                    quat_multiply_xyzw(self.quaternion_xyzw, other.quaternion_xyzw))
-
-    def inverse(self) -> 'Pose':
-        """child_T_parent."""
-        q = quat_conjugate_xyzw(self.quaternion_xyzw)
-        return Pose(-(quat_xyzw_to_matrix(q) @ self.position), q)
-
-    def apply(self, points: np.ndarray) -> np.ndarray:
-        """Map points (..., 3) from the child frame to the parent frame."""
-        return np.asarray(points, dtype=float) @ self.rotation.T + self.position
-
-
 def world_ring_poses(*, a_T_b: Pose, gripping: str, world_T_gripping: Pose) -> tuple[Pose, Pose]:
     """(world_T_a, world_T_b) from the kinematic pose and the pose of the gripping ring.
 
-    ``gripping`` is ``'ring_a'`` or ``'ring_b'``: the ring fixed to the structure (DESIGN.md).
+    ``gripping`` is ``'ring_a'`` or ``'ring_b'``: the ring fixed to the structure.
     """
     if gripping == 'ring_a':
         return world_T_gripping, world_T_gripping.compose(a_T_b)

@@ -1,0 +1,136 @@
+"""The contract of the operator-side nodes (master, teleop, climbing, viewer) with the system.
+
+Topics and services (relative names), on top of :mod:`rrps_kinematics.interfaces` and
+:mod:`rrps_sim.interfaces`::
+
+    MASTER_TARGET_POSE  geometry_msgs/PoseStamped  the operator's handle, frame MASTER_FRAME
+    MASTER_STATE        sensor_msgs/JointState     the master's leg lengths (encoders)
+    MASTER_POSE         geometry_msgs/PoseStamped  the master's FK, frame MASTER_FRAME
+    TELEOP_ENABLE       std_msgs/Bool              the deadman, true at >= 10 Hz while held
+    TELEOP_STATUS       diagnostic_msgs/DiagnosticStatus  values: TeleopStatus
+    CLIMB_STATUS        diagnostic_msgs/DiagnosticStatus  values: ClimbStatus
+    CLIMB_STEP_UP, CLIMB_STEP_DOWN  std_srvs/Trigger
+    odometry_topic(ring)            geometry_msgs/PoseStamped  frame world
+
+A status message's ``message`` is for people; nodes read the typed values
+(``TeleopStatus.from_key_values(msg.values)``). Pure Python, no ROS import.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+
+from rrps_kinematics.interfaces import StatusValues
+
+__all__ = [
+    'MASTER_TARGET_POSE', 'MASTER_STATE', 'MASTER_POSE', 'MASTER_FRAME', 'TELEOP_ENABLE',
+    'TELEOP_STATUS', 'CLIMB_STATUS', 'CLIMB_STEP_UP', 'CLIMB_STEP_DOWN', 'odometry_topic',
+    'TeleopCode', 'DISENGAGED_CODES', 'ClimbState', 'PhaseAction', 'TeleopStatus',
+    'ClimbStatus',
+]
+
+MASTER_TARGET_POSE = 'master/target_pose'
+MASTER_STATE = 'master/actuators/state'
+MASTER_POSE = 'master/pose'
+MASTER_FRAME = 'master_ring_a'
+TELEOP_ENABLE = 'teleop/enable'
+TELEOP_STATUS = 'teleop/status'
+CLIMB_STATUS = 'climb/status'
+CLIMB_STEP_UP = 'climb/step_up'
+CLIMB_STEP_DOWN = 'climb/step_down'
+
+
+def odometry_topic(ring: str) -> str:
+    """World pose of ``ring`` ('ring_a' or 'ring_b') chained by the climbing node."""
+    if ring not in ('ring_a', 'ring_b'):
+        raise ValueError(f"ring must be 'ring_a' or 'ring_b', got {ring!r}")
+    return f'odometry/{ring}'
+
+
+class TeleopCode(enum.IntEnum):
+    """What limited the last teleoperation step.
+
+    -1 .. 6 are numbered as MoveIt Servo's ``moveit_servo::StatusCode`` (moveit_servo/utils/
+    datatypes.hpp, MoveIt 2.x) where the meaning is the same (3, decelerating while leaving a
+    singularity, is not used: leaving is at full speed); rrps' own codes start at 100.
+    """
+
+    INVALID = -1                      # bad input or a failed FK of the candidate lengths
+    NO_WARNING = 0                    # engaged, following the master unhindered
+    DECELERATE_FOR_APPROACHING_SINGULARITY = 1
+    HALT_FOR_SINGULARITY = 2
+    DECELERATE_FOR_COLLISION = 4      # approaching leg-leg interference (paper Figure 8c)
+    HALT_FOR_COLLISION = 5
+    JOINT_BOUND = 6                   # stroke or universal/spherical joint-angle limit
+    SPEED_LIMITED = 100               # the master moves faster than the slave may
+    DEADMAN_RELEASED = 101            # teleop/enable not true, or older than enable_timeout
+    MASTER_STALE = 102                # no master data for master_timeout
+    WAITING_FOR_SLAVE_POSE = 103      # nothing to engage from yet
+    CLIMB_EXECUTING = 104             # a climb step owns the robot
+    ORIENTATION_MISMATCH = 105        # absolute rotation mode: align the master first
+
+
+#: Codes under which the mapping is not engaged (no command is produced: the slave holds).
+DISENGAGED_CODES = frozenset({TeleopCode.DEADMAN_RELEASED, TeleopCode.MASTER_STALE,
+                              TeleopCode.WAITING_FOR_SLAVE_POSE, TeleopCode.CLIMB_EXECUTING,
+                              TeleopCode.ORIENTATION_MISMATCH})
+
+
+class ClimbState(enum.Enum):
+    """The climbing node's state machine."""
+
+    IDLE = 'idle'            # no step executing; a step may start
+    EXECUTING = 'executing'  # a step owns the robot (teleoperation refuses to engage)
+    FAILED = 'error'         # a step failed: the robot holds; see the detail
+
+
+class PhaseAction(enum.Enum):
+    """What one phase of a climbing step does (paper section 3: the inchworm gait)."""
+
+    START = 'start'      # the configuration the plan starts from
+    RELEASE = 'release'  # open the ring's gripper
+    MOVE = 'move'        # move the open ring along the structure
+    GRIP = 'grip'        # close the ring's gripper
+
+
+@dataclasses.dataclass(frozen=True)
+class TeleopStatus(StatusValues):
+    """teleop/status values: the code, whether the mapping is engaged, the mapping parameters,
+    the reason in words (``detail``) and the smallest margin of each limit at the command."""
+
+    code: TeleopCode
+    engaged: bool
+    mode: str = 'cartesian'
+    scale: float = 1.0
+    rotation_mode: str = 'relative'
+    joint_scale: tuple[float, ...] = ()
+    detail: str = ''
+    margin_stroke: float | None = None
+    margin_universal: float | None = None
+    margin_spherical: float | None = None
+    margin_interference: float | None = None
+    margin_conditioning: float | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class ClimbStatus(StatusValues):
+    """climb/status values: the state, where the step is (``step``, the phase's ``action`` and
+    ``ring``), the rings' route positions [m] and the reason in words (``detail``)."""
+
+    state: ClimbState
+    step: int = 0
+    action: PhaseAction | None = None
+    ring: str = ''
+    structure: str = ''
+    s_a: float = 0.0
+    s_b: float = 0.0
+    steps_done: int = 0
+    detail: str = ''
+
+    @property
+    def phase(self) -> str:
+        """The phase's name as the plans write it ('move_b', 'grip_a', ...; '' when idle)."""
+        if self.action is None:
+            return ''
+        return self.action.value if not self.ring else f'{self.action.value}_{self.ring[-1]}'
