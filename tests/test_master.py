@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from rrps_kinematics import check_pose, inverse_kinematics, load_robot
 from rrps_kinematics.rotations import rotation_angle_between
-from rrps_teleop.master import MasterModel, scripted_pose
+from rrps_teleop.master import HandleMotion, MasterModel, scripted_pose
 
 MASTER = load_robot('master_robot')
 HOME_P, HOME_Q = MASTER.home_position, MASTER.home_quaternion_xyzw
@@ -71,12 +71,12 @@ def test_a_reachable_target_is_reached_at_the_speed_limit():
     m = MasterModel(MASTER, max_linear_speed=0.05, max_angular_speed=1.0)
     target = HOME_P + [0.004, -0.003, 0.002]
     note = m.move_toward(target, HOME_Q, 0.05)  # 2.5 mm allowed, 5.4 mm asked
-    assert note == 'speed limited'
+    assert note.motion is HandleMotion.SPEED_LIMITED and str(note) == 'speed limited'
     np.testing.assert_allclose(np.linalg.norm(m.position - HOME_P), 0.0025, rtol=1e-9)
     for _ in range(3):
         m.move_toward(target, HOME_Q, 0.05)
     np.testing.assert_allclose(m.position, target, atol=1e-15)
-    assert m.move_toward(target, HOME_Q, 0.05) == ''
+    assert m.move_toward(target, HOME_Q, 0.05).motion is HandleMotion.FULL
     np.testing.assert_allclose(m.lengths, inverse_kinematics(MASTER, target, HOME_Q).lengths)
 
 
@@ -84,7 +84,7 @@ def test_the_scripted_trajectory_is_tracked_exactly_within_the_speed_limit():
     m = MasterModel(MASTER)
     for k in range(1, 200):
         p, q = scripted('lissajous', 0.01 * k)
-        assert m.move_toward(p, q, 0.01) == ''
+        assert m.move_toward(p, q, 0.01).motion is HandleMotion.FULL
         np.testing.assert_allclose(m.position, p, atol=1e-15)
         assert rotation_angle_between(m.quaternion_xyzw, q) < 1e-9
 
@@ -93,7 +93,8 @@ def test_an_unreachable_target_stops_the_handle_on_its_limits():
     m = MasterModel(MASTER)
     target = HOME_P + [0.0, 0.0, 0.1]  # far beyond the 0.1375 m stroke
     note = m.move_toward(target, HOME_Q, 10.0)
-    assert note.startswith('stopped at the limits: stroke: leg_1')
+    assert note.motion is HandleMotion.STOPPED
+    assert str(note).startswith('stopped at the limits: stroke: leg_1')
     ok, _, margins = check_pose(MASTER, m.position, m.quaternion_xyzw)
     assert ok and 0.0 <= margins.minimum['stroke'] < 1e-4
     beyond = m.position + [0.0, 0.0, 1e-3]

@@ -17,7 +17,12 @@ from rclpy.node import Node
 from std_msgs.msg import Bool
 from std_srvs.srv import Trigger
 
+from rrps_kinematics.interfaces import POSE
 from rrps_kinematics.nodes.common import COMMAND_QOS, STATE_QOS, pose_from_msg, pose_to_msg
+
+from .interfaces import (CLIMB_STATUS, CLIMB_STEP_UP, MASTER_FRAME, MASTER_POSE,
+                         MASTER_TARGET_POSE, TELEOP_ENABLE, TELEOP_STATUS, ClimbState,
+                         ClimbStatus, TeleopStatus, odometry_topic)
 
 #: Master handle displacement of the scripted session [m] (the slave moves translation_scale x).
 HANDLE_STEP = 0.004
@@ -30,15 +35,15 @@ class DemoScript(Node):
         super().__init__('demo_script', **kwargs)
         self._lock = threading.Lock()
         self._latest: dict[str, object] = {}
-        for topic in ('pose', 'master/pose', 'odometry/ring_a', 'odometry/ring_b'):
+        for topic in (POSE, MASTER_POSE, odometry_topic('ring_a'), odometry_topic('ring_b')):
             self.create_subscription(PoseStamped, topic,
                                      lambda m, topic=topic: self._store(topic, m), STATE_QOS)
-        for topic in ('teleop/status', 'climb/status'):
+        for topic in (TELEOP_STATUS, CLIMB_STATUS):
             self.create_subscription(DiagnosticStatus, topic,
                                      lambda m, topic=topic: self._store(topic, m), STATE_QOS)
-        self._enable = self.create_publisher(Bool, 'teleop/enable', COMMAND_QOS)
-        self._handle = self.create_publisher(PoseStamped, 'master/target_pose', COMMAND_QOS)
-        self._step_up = self.create_client(Trigger, 'climb/step_up')
+        self._enable = self.create_publisher(Bool, TELEOP_ENABLE, COMMAND_QOS)
+        self._handle = self.create_publisher(PoseStamped, MASTER_TARGET_POSE, COMMAND_QOS)
+        self._step_up = self.create_client(Trigger, CLIMB_STEP_UP)
 
     def _store(self, topic: str, msg) -> None:
         with self._lock:
@@ -62,11 +67,13 @@ class DemoScript(Node):
         msg = self._get(topic)
         return None if msg is None else pose_from_msg(msg)[0]
 
-    def _status(self, topic: str) -> tuple[str, dict]:
-        msg = self._get(topic)
-        if msg is None:
-            return '', {}
-        return msg.message, {kv.key: kv.value for kv in msg.values}
+    def _teleop(self) -> TeleopStatus | None:
+        msg = self._get(TELEOP_STATUS)
+        return None if msg is None else TeleopStatus.from_key_values(msg.values)
+
+    def _climb_state(self) -> ClimbStatus | None:
+        msg = self._get(CLIMB_STATUS)
+        return None if msg is None else ClimbStatus.from_key_values(msg.values)
 
     @staticmethod
     def _say(text: str) -> None:
@@ -75,12 +82,12 @@ class DemoScript(Node):
     def run(self, stop: threading.Event, *, viewer=None) -> bool:
         """The scripted session; prints each step and returns overall success."""
         checks: list[tuple[str, bool]] = []
-        ok = self._wait(lambda: self._get('pose') is not None and self._get('master/pose') is not None,
+        ok = self._wait(lambda: self._get(POSE) is not None and self._get(MASTER_POSE) is not None,
                         15.0, stop)
         checks.append(('robot and master publish their FK poses', ok))
         self._say(f'robot and master up: {ok}')
         if ok:
-            checks += self._teleop(stop)
+            checks += self._teleop_session(stop)
         if not stop.is_set():
             checks += self._climb(stop)
         if viewer is not None:
@@ -91,16 +98,22 @@ class DemoScript(Node):
             print(f'  [{"PASS" if passed else "FAIL"}] {text}', flush=True)
         return bool(checks) and all(passed for _, passed in checks)
 
-    def _teleop(self, stop: threading.Event) -> list[tuple[str, bool]]:
+    def _engaged(self) -> bool | None:
+        status = self._teleop()
+        return None if status is None else status.engaged
+
+    def _teleop_session(self, stop: threading.Event) -> list[tuple[str, bool]]:
         checks = []
-        start = self._position('pose')
-        m_pos, m_quat = pose_from_msg(self._get('master/pose'))
-        enable = lambda: self._enable.publish(Bool(data=True))  # noqa: E731
-        engaged = self._wait(lambda: self._status('teleop/status')[1].get('engaged') == 'true',
-                             5.0, stop, every=enable)
+        start = self._position(POSE)
+        m_pos, m_quat = pose_from_msg(self._get(MASTER_POSE))
+
+        def enable() -> None:
+            self._enable.publish(Bool(data=True))
+
+        engaged = self._wait(lambda: self._engaged() is True, 5.0, stop, every=enable)
         checks.append(('deadman held: teleop engaged', engaged))
-        self._say(f'deadman held, teleop status {self._status("teleop/status")[0]!r}')
-        target = pose_to_msg(m_pos + [0.0, 0.0, HANDLE_STEP], m_quat, frame_id='master_ring_a',
+        self._say(f'deadman held, teleop status {self._teleop().code.name}')
+        target = pose_to_msg(m_pos + [0.0, 0.0, HANDLE_STEP], m_quat, frame_id=MASTER_FRAME,
                              stamp=self.get_clock().now().to_msg())
 
         def hold_and_move() -> None:
@@ -108,30 +121,29 @@ class DemoScript(Node):
             target.header.stamp = self.get_clock().now().to_msg()
             self._handle.publish(target)
 
-        scale = float(self._status('teleop/status')[1].get('scale', '4'))
+        scale = self._teleop().scale
         expected = scale * HANDLE_STEP
-        followed = self._wait(lambda: self._position('pose')[2] - start[2] > 0.8 * expected,
+        followed = self._wait(lambda: self._position(POSE)[2] - start[2] > 0.8 * expected,
                               6.0, stop, every=hold_and_move)
-        moved = self._position('pose') - start
+        moved = self._position(POSE) - start
         checks.append((f'slave followed the master: moved {moved[2] * 1e3:.1f} mm up '
                        f'(master {HANDLE_STEP * 1e3:.1f} mm x scale {scale:g})', followed))
         self._say(f'master handle up {HANDLE_STEP * 1e3:.1f} mm -> slave up {moved[2] * 1e3:.1f} mm')
         # Release the deadman: the mapping disengages and the robot holds.
-        released = self._wait(lambda: self._status('teleop/status')[1].get('engaged') == 'false',
-                              2.0, stop)
-        held_at = self._position('pose')
+        released = self._wait(lambda: self._engaged() is False, 2.0, stop)
+        held_at = self._position(POSE)
         time.sleep(0.5)
-        drift = float(np.linalg.norm(self._position('pose') - held_at))
-        checks.append((f'deadman released: disengaged ({self._status("teleop/status")[0]}) and '
+        drift = float(np.linalg.norm(self._position(POSE) - held_at))
+        code = self._teleop().code.name
+        checks.append((f'deadman released: disengaged ({code}) and '
                        f'the robot holds (drift {drift * 1e3:.2f} mm)', released and drift < 1e-3))
-        self._say(f'deadman released, teleop status {self._status("teleop/status")[0]!r}, '
-                  f'drift {drift * 1e3:.2f} mm in 0.5 s')
+        self._say(f'deadman released, teleop status {code!r}, drift {drift * 1e3:.2f} mm in 0.5 s')
         return checks
 
     def _climb(self, stop: threading.Event) -> list[tuple[str, bool]]:
         if not self._step_up.wait_for_service(timeout_sec=5.0):
             return [('climb/step_up service available', False)]
-        before = {ring: self._position(f'odometry/{ring}') for ring in ('ring_a', 'ring_b')}
+        before = {ring: self._position(odometry_topic(ring)) for ring in ('ring_a', 'ring_b')}
         future = self._step_up.call_async(Trigger.Request())
         got = self._wait(future.done, 10.0, stop)
         response = future.result() if got else None
@@ -140,16 +152,19 @@ class DemoScript(Node):
         checks = [('climb step up accepted', accepted)]
         if not accepted:
             return checks
-        seen_executing = self._wait(lambda: self._status('climb/status')[0] == 'executing', 5.0,
-                                    stop)
+        def state() -> ClimbState | None:
+            status = self._climb_state()
+            return None if status is None else status.state
+
+        seen_executing = self._wait(lambda: state() is ClimbState.EXECUTING, 5.0, stop)
         t0 = time.monotonic()
-        done = self._wait(lambda: self._status('climb/status')[0] in ('idle', 'error'), 120.0,
-                          stop)
-        message, values = self._status('climb/status')
-        self._say(f'climb finished in {time.monotonic() - t0:.1f} s: {message} {values}')
+        done = self._wait(lambda: state() in (ClimbState.IDLE, ClimbState.FAILED), 120.0, stop)
+        final = self._climb_state()
+        self._say(f'climb finished in {time.monotonic() - t0:.1f} s: {final.state.value}, '
+                  f'{final.detail}')
         checks.append(('climb step executed and ended idle',
-                       seen_executing and done and message == 'idle'))
-        after = {ring: self._position(f'odometry/{ring}') for ring in ('ring_a', 'ring_b')}
+                       seen_executing and done and final.state is ClimbState.IDLE))
+        after = {ring: self._position(odometry_topic(ring)) for ring in ('ring_a', 'ring_b')}
         if all(p is not None for p in (*before.values(), *after.values())):
             rise = {ring: float(after[ring][2] - before[ring][2]) for ring in before}
             checks.append((f'both rings climbed: ring_a {rise["ring_a"] * 1e3:+.0f} mm, ring_b '

@@ -19,7 +19,9 @@ Scripted trajectories (:func:`scripted_pose`), around the master's home pose, pe
 
 from __future__ import annotations
 
+import enum
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -30,7 +32,7 @@ from rrps_kinematics.rotations import (quat_multiply_xyzw, rotation_angle_betwee
 
 from .mapping import pose_step, validate_scale
 
-__all__ = ['TRAJECTORIES', 'scripted_pose', 'MasterModel']
+__all__ = ['TRAJECTORIES', 'scripted_pose', 'HandleMotion', 'HandleStep', 'MasterModel']
 
 TRAJECTORIES = ('none', 'circle', 'lissajous')
 #: Halvings of the step when a target lies outside the limits (boundary found to 2^-12 of a step).
@@ -65,6 +67,28 @@ AT_TARGET_POSITION = 1e-12
 AT_TARGET_ANGLE = 1e-9
 
 
+class HandleMotion(enum.Enum):
+    """How far one step of the handle went towards its target."""
+
+    FULL = 'full'                          # the whole step (or already at the target)
+    SPEED_LIMITED = 'speed limited'        # shortened to the speed limits
+    STOPPED = 'stopped at the limits'      # stopped where the master's own limits are
+
+
+@dataclass(frozen=True)
+class HandleStep:
+    """The outcome of :meth:`MasterModel.move_toward`: the ``motion`` and, when the handle
+    stopped at its limits, the limit in words (``reason``)."""
+
+    motion: HandleMotion
+    reason: str = ''
+
+    def __str__(self) -> str:
+        if self.motion is HandleMotion.FULL:
+            return ''
+        return self.motion.value + (f': {self.reason}' if self.reason else '')
+
+
 class MasterModel:
     """The master's pose, moved towards targets within its speed and its own limits."""
 
@@ -80,11 +104,11 @@ class MasterModel:
         self.quaternion_xyzw = np.array(geometry.home_quaternion_xyzw, dtype=float)
         self.lengths = inverse_kinematics(geometry, self.position, self.quaternion_xyzw).lengths.copy()
 
-    def move_toward(self, position, quaternion_xyzw, dt: float) -> str:
+    def move_toward(self, position, quaternion_xyzw, dt: float) -> HandleStep:
         """Move at most one speed-limited step of ``dt`` s towards the target; stop at the limits.
 
-        Returns '' when the step was taken in full, else why it was shortened. Raises ValueError
-        for a malformed target (NaN, non-unit quaternion).
+        Returns how far the step went (:class:`HandleStep`). Raises ValueError for a malformed
+        target (NaN, non-unit quaternion).
         """
         p1, q1 = validate_pose(position, quaternion_xyzw, what='master target')
         if not (math.isfinite(dt) and dt >= 0.0):
@@ -93,12 +117,12 @@ class MasterModel:
         dp = float(np.linalg.norm(p1 - p0))
         dth = rotation_angle_between(q0, q1)
         if dp < AT_TARGET_POSITION and dth < AT_TARGET_ANGLE:
-            return ''  # at the target (the current pose was checked when reached): nothing to do
-        fraction, note = 1.0, ''
+            return HandleStep(HandleMotion.FULL)  # at the target (checked when reached)
+        fraction, note = 1.0, HandleStep(HandleMotion.FULL)
         limit = min(self.max_linear_speed * dt / dp if dp > 0 else math.inf,
                     self.max_angular_speed * dt / dth if dth > 0 else math.inf)
         if limit < 1.0:
-            fraction, note = limit, 'speed limited'
+            fraction, note = limit, HandleStep(HandleMotion.SPEED_LIMITED)
         p, q = pose_step(p0, q0, p1, q1, fraction)
         ok, reason, _ = check_pose(self.geometry, p, q)
         if not ok:
@@ -111,7 +135,7 @@ class MasterModel:
                 else:
                     hi = mid
             p, q = pose_step(p0, q0, p1, q1, lo)
-            note = f'stopped at the limits: {reason}'
+            note = HandleStep(HandleMotion.STOPPED, reason)
         self.position, self.quaternion_xyzw = p, q
         self.lengths = inverse_kinematics(self.geometry, p, q).lengths.copy()
         return note

@@ -23,7 +23,8 @@ from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, OK, STATE_QOS, WAR
                                           declare_parameter, declare_robot_parameter,
                                           joint_state_msg, pose_from_msg, pose_to_msg, run_nodes)
 
-from ..master import TRAJECTORIES, MasterModel, scripted_pose
+from ..interfaces import MASTER_FRAME, MASTER_POSE, MASTER_STATE, MASTER_TARGET_POSE
+from ..master import TRAJECTORIES, HandleMotion, MasterModel, scripted_pose
 
 __all__ = ['MasterNode', 'main']
 
@@ -34,7 +35,7 @@ class MasterNode(Node):
     def __init__(self, **kwargs):
         super().__init__('master_node', **kwargs)
         self.geometry = declare_robot_parameter(self, default='master_robot')
-        self.frame_id = declare_parameter(self, 'frame_id', 'master_ring_a',
+        self.frame_id = declare_parameter(self, 'frame_id', MASTER_FRAME,
                                           'frame of master/target_pose and master/pose', read_only=True)
         rate = declare_parameter(self, 'rate', 200.0, 'encoder (publication) rate [Hz]',
                                  min_value=1.0, max_value=2000.0, read_only=True)
@@ -60,9 +61,9 @@ class MasterNode(Node):
         self._last_tick: float | None = None
         self._status = (OK, 'holding the home pose')
         self._diag = Diagnostics(self, 'master robot', hardware_id=self.geometry.name)
-        self._state_pub = self.create_publisher(JointState, 'master/actuators/state', STATE_QOS)
-        self._pose_pub = self.create_publisher(PoseStamped, 'master/pose', STATE_QOS)
-        self.create_subscription(PoseStamped, 'master/target_pose', self._on_target, COMMAND_QOS)
+        self._state_pub = self.create_publisher(JointState, MASTER_STATE, STATE_QOS)
+        self._pose_pub = self.create_publisher(PoseStamped, MASTER_POSE, STATE_QOS)
+        self.create_subscription(PoseStamped, MASTER_TARGET_POSE, self._on_target, COMMAND_QOS)
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self.create_timer(1.0 / rate, self._on_tick)
@@ -117,7 +118,7 @@ class MasterNode(Node):
                                          self.geometry.home_quaternion_xyzw, amplitude=self.amplitude,
                                          period=self.period, angular_amplitude=self.angular_amplitude)
         note = self.model.move_toward(*self._target, dt)
-        if note.startswith('stopped'):
+        if note.motion is HandleMotion.STOPPED:
             self._set_status(WARN, f'handle {note}')
         else:
             self._set_status(OK, f'trajectory {self.trajectory}' if self.trajectory != 'none'

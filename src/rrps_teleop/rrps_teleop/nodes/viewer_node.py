@@ -45,6 +45,8 @@ from std_msgs.msg import Bool
 from std_srvs.srv import SetBool, Trigger
 
 from rrps_kinematics.geometry import load_robot
+from rrps_kinematics.interfaces import (ACTUATORS_STATE, DIAGNOSTICS, POSE, TARGET_POSE, FkStatus,
+                                        source_node)
 from rrps_kinematics.nodes.common import (
     COMMAND_QOS,
     LATEST_QOS,
@@ -58,6 +60,11 @@ from rrps_kinematics.nodes.common import (
     stamp_to_seconds,
 )
 
+from rrps_sim.interfaces import GRIPPERS_STATE, gripper_service
+
+from ..interfaces import (CLIMB_STATUS, CLIMB_STEP_DOWN, CLIMB_STEP_UP, MASTER_POSE,
+                          MASTER_TARGET_POSE, TELEOP_ENABLE, TELEOP_STATUS, ClimbStatus,
+                          TeleopStatus, odometry_topic)
 from ..viewer import Pose, Trail, robot_figure, world_ring_poses
 from ..viewer._render import Frame, ViewerServer
 
@@ -90,14 +97,32 @@ def _structure_drawer(name: str, length: float):
     return draw
 
 
-def _status_text(status: DiagnosticStatus | None) -> str:
+def _level(status: DiagnosticStatus) -> str:
+    return _LEVEL_NAMES.get(bytes(status.level), str(status.level))
+
+
+def _teleop_text(status: DiagnosticStatus | None) -> str:
+    """teleop/status for people, from its typed values."""
     if status is None:
         return '—'
-    values = {kv.key: kv.value for kv in status.values}
-    extra = ', '.join(f'{k} {values[k]}' for k in ('mode', 'scale', 'engaged', 'step', 'phase')
-                      if k in values)
-    level = _LEVEL_NAMES.get(bytes(status.level), str(status.level))
-    return f'{status.message or "—"} ({level}{", " + extra if extra else ""})'
+    try:
+        t = TeleopStatus.from_key_values(status.values)
+    except ValueError as exc:
+        return f'unreadable ({exc})'
+    return (f'{t.code.name} ({_level(status)}, mode {t.mode}, scale {t.scale:g}, '
+            f'engaged {"yes" if t.engaged else "no"})')
+
+
+def _climb_text(status: DiagnosticStatus | None) -> str:
+    """climb/status for people, from its typed values."""
+    if status is None:
+        return '—'
+    try:
+        c = ClimbStatus.from_key_values(status.values)
+    except ValueError as exc:
+        return f'unreadable ({exc})'
+    where = f', step {c.step}, phase {c.phase}' if c.action is not None else ''
+    return f'{c.state.value} ({_level(status)}{where})'
 
 
 class ViewerNode(Node):
@@ -151,6 +176,7 @@ class ViewerNode(Node):
         self._plot_t: collections.deque = collections.deque()
         self._plot_l: collections.deque = collections.deque()
         self._trails = {'ring_a': Trail(), 'ring_b': Trail()}
+        self._odometry_rings = {odometry_topic(ring): ring for ring in self._trails}
         self._fk_status: DiagnosticStatus | None = None
         self._actions: queue.SimpleQueue = queue.SimpleQueue()
         self._master_target: Pose | None = None
@@ -161,25 +187,25 @@ class ViewerNode(Node):
         self._panel_text, self._panel_time = '', -1.0
         self._state_read: tuple = (None, None)
 
-        self._enable_pub = self.create_publisher(Bool, 'teleop/enable', COMMAND_QOS)
-        self._master_pub = self.create_publisher(PoseStamped, 'master/target_pose', COMMAND_QOS)
-        self.create_subscription(JointState, 'actuators/state', self._on_state, LATEST_QOS)
-        for topic, qos in (('pose', LATEST_QOS), ('target_pose', COMMAND_QOS),
-                           ('master/pose', LATEST_QOS), ('odometry/ring_a', STATE_QOS),
-                           ('odometry/ring_b', STATE_QOS)):
+        self._enable_pub = self.create_publisher(Bool, TELEOP_ENABLE, COMMAND_QOS)
+        self._master_pub = self.create_publisher(PoseStamped, MASTER_TARGET_POSE, COMMAND_QOS)
+        self.create_subscription(JointState, ACTUATORS_STATE, self._on_state, LATEST_QOS)
+        for topic, qos in ((POSE, LATEST_QOS), (TARGET_POSE, COMMAND_QOS),
+                           (MASTER_POSE, LATEST_QOS), (odometry_topic('ring_a'), STATE_QOS),
+                           (odometry_topic('ring_b'), STATE_QOS)):
             self.create_subscription(PoseStamped, topic,
                                      lambda msg, topic=topic: self._store(topic, msg), qos)
-        self.create_subscription(JointState, 'grippers/state',
-                                 lambda msg: self._store('grippers/state', msg), STATE_QOS)
-        for topic in ('teleop/status', 'climb/status'):
+        self.create_subscription(JointState, GRIPPERS_STATE,
+                                 lambda msg: self._store(GRIPPERS_STATE, msg), STATE_QOS)
+        for topic in (TELEOP_STATUS, CLIMB_STATUS):
             self.create_subscription(DiagnosticStatus, topic,
                                      lambda msg, topic=topic: self._store(topic, msg), STATE_QOS)
-        self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, STATE_QOS)
+        self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, STATE_QOS)
         self._service_clients = {
-            'up': self.create_client(Trigger, 'climb/step_up'),
-            'down': self.create_client(Trigger, 'climb/step_down'),
-            'ring_a': self.create_client(SetBool, 'grippers/ring_a/set'),
-            'ring_b': self.create_client(SetBool, 'grippers/ring_b/set'),
+            'up': self.create_client(Trigger, CLIMB_STEP_UP),
+            'down': self.create_client(Trigger, CLIMB_STEP_DOWN),
+            'ring_a': self.create_client(SetBool, gripper_service('ring_a')),
+            'ring_b': self.create_client(SetBool, gripper_service('ring_b')),
             'teleop': self.create_client(SetParametersAtomically,
                                         'teleop_node/set_parameters_atomically'),
         }
@@ -200,16 +226,17 @@ class ViewerNode(Node):
     def _store(self, key: str, msg) -> None:
         with self._lock:
             self._latest[key] = msg
-        if key.startswith('odometry/'):
+        ring = self._odometry_rings.get(key)
+        if ring is not None:
             position, _ = pose_from_msg(msg)
             if np.all(np.isfinite(position)):
                 with self._lock:
-                    self._trails[key.split('/')[1]].add(position)
+                    self._trails[ring].add(position)
 
     def _on_state(self, msg: JointState) -> None:
         """Keep the newest actuators/state; it is read at the drawing rate (:meth:`_read_state`)."""
         with self._lock:
-            self._latest['actuators/state'] = msg
+            self._latest[ACTUATORS_STATE] = msg
 
     def _read_state(self, msg: JointState | None):
         """(lengths, efforts or None, stamp [s]) of an actuators/state, or None; the leg-length
@@ -242,7 +269,7 @@ class ViewerNode(Node):
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         for status in msg.status:
-            if status.name.startswith('fk_node'):
+            if source_node(status.name) == 'fk_node':
                 with self._lock:
                     self._fk_status = status
 
@@ -257,28 +284,28 @@ class ViewerNode(Node):
         """The latest picture: robot, ghost, master, grippers, trails, panel and plot."""
         with self._lock:
             latest = dict(self._latest)
-        latest['actuators/state'] = self._read_state(latest.get('actuators/state'))
+        latest[ACTUATORS_STATE] = self._read_state(latest.get(ACTUATORS_STATE))
         with self._lock:
             plot = ((np.array(self._plot_t), np.array(self._plot_l))
                     if len(self._plot_t) >= 2 else None)
             trails = {ring: trail.points for ring, trail in self._trails.items()}
             fk_status = self._fk_status
         grippers: dict[str, float | None] = {'ring_a': None, 'ring_b': None}
-        gmsg = latest.get('grippers/state')
+        gmsg = latest.get(GRIPPERS_STATE)
         if gmsg is not None:
             for name, value in zip(gmsg.name, gmsg.position):
                 if name in grippers and math.isfinite(value):
                     grippers[name] = float(value)
         frame = Frame(grippers=grippers, trails=trails, plot=plot)
-        state = latest.get('actuators/state')
+        state = latest.get(ACTUATORS_STATE)
         efforts = state[1] if state is not None else None
-        pose_msg = latest.get('pose')
+        pose_msg = latest.get(POSE)
         world_T_a = None
         if pose_msg is not None:
             try:
                 a_T_b = Pose(*pose_from_msg(pose_msg))
                 gripping = self._gripping(grippers)
-                odom = latest.get(f'odometry/{gripping}')
+                odom = latest.get(odometry_topic(gripping))
                 world_T_g = Pose(*pose_from_msg(odom)) if odom is not None else None
                 if world_T_g is None:  # no odometry yet: ring_a at the world origin
                     gripping, world_T_g = 'ring_a', Pose()
@@ -287,13 +314,13 @@ class ViewerNode(Node):
                 frame.slave = self._figure('slave', self.geometry, a_T_b, world_T_a, efforts)
             except ValueError as exc:
                 self.get_logger().warn(f'cannot draw pose: {exc}', throttle_duration_sec=5.0)
-        target = latest.get('target_pose')
+        target = latest.get(TARGET_POSE)
         if target is not None and world_T_a is not None:
             try:
                 frame.ghost_world_T_b = world_T_a.compose(Pose(*pose_from_msg(target)))
             except ValueError:
                 pass
-        master_msg = latest.get('master/pose')
+        master_msg = latest.get(MASTER_POSE)
         if master_msg is not None and self.master_geometry is not None:
             try:
                 m_pose = Pose(*pose_from_msg(master_msg))
@@ -321,8 +348,8 @@ class ViewerNode(Node):
         return cached[1]
 
     def _panel(self, latest: dict, frame: Frame, fk_status) -> str:
-        lines = [f'**Teleop:** {_status_text(latest.get("teleop/status"))}',
-                 f'**Climb:** {_status_text(latest.get("climb/status"))}']
+        lines = [f'**Teleop:** {_teleop_text(latest.get(TELEOP_STATUS))}',
+                 f'**Climb:** {_climb_text(latest.get(CLIMB_STATUS))}']
         g = frame.grippers
         lines.append('**Grippers:** ' + ', '.join(
             f'{ring} {"?" if v is None else "closed" if v >= 0.5 else "open"}'
@@ -341,16 +368,19 @@ class ViewerNode(Node):
             lines.append('**Legs:** ' + ' '.join(
                 f'{i + 1}:{length * 1e3:.0f}mm' for i, length in enumerate(frame.slave.lengths)))
         if fk_status is not None:
-            values = {kv.key: kv.value for kv in fk_status.values}
-            lines.append(f'**FK:** {fk_status.message or "—"}, iterations '
-                         f'{values.get("iterations", "?")}, residual {values.get("residual", "?")}')
+            try:
+                fk = FkStatus.from_key_values(fk_status.values)
+                lines.append(f'**FK:** {fk_status.message or "—"}, iterations {fk.iterations}, '
+                             f'residual {fk.residual:.3g} m')
+            except ValueError as exc:
+                lines.append(f'**FK:** unreadable status ({exc})')
         now = self.get_clock().now().nanoseconds * 1e-9
         ages = []
-        state = latest.get('actuators/state')
+        state = latest.get(ACTUATORS_STATE)
         if state is not None:
             ages.append(f'state {1e3 * (now - state[2]):.1f} ms')
-        if latest.get('pose') is not None:
-            ages.append(f'FK pose {1e3 * (now - stamp_to_seconds(latest["pose"].header.stamp)):.1f} ms')
+        if latest.get(POSE) is not None:
+            ages.append(f'FK pose {1e3 * (now - stamp_to_seconds(latest[POSE].header.stamp)):.1f} ms')
         lines.append('**Latency:** ' + (', '.join(ages) if ages else 'no data yet'))
         controller = self.control.controller
         lines.append(f'**Operators:** {len(self.control.clients())} viewer(s); control: '
