@@ -12,7 +12,7 @@ import os
 
 import pytest
 
-# Every process that starts rclpy here keeps DDS on this machine (NOTES-ros-on-pip.md).
+# Every process that starts rclpy here keeps DDS on this machine (README: deployment).
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 
 _domain_ids = itertools.count()

@@ -205,7 +205,7 @@ def main(argv=None) -> int:
             threading.Thread(target=lambda c=child: (c.wait(), stop.set()), daemon=True).start()
         script = None
         if args.headless:
-            from ._demo_script import DemoScript
+            from .headless import DemoScript
             script = DemoScript(context=context, namespace=NAMESPACE)
             nodes['demo_script'] = script
         executor = make_executor(context, 'events')

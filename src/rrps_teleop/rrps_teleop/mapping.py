@@ -60,6 +60,7 @@ __all__ = [
     'ROTATION_MODES',
     'TeleopConfig',
     'TeleopOutput',
+    'GuardedCommand',
     'TeleopMapping',
     'validate_scale',
     'pose_step',
@@ -156,7 +157,7 @@ class TeleopOutput:
 
 
 @dataclass
-class _Command:
+class GuardedCommand:
     """A guarded slave command: its pose, lengths and margins."""
 
     position: np.ndarray
@@ -183,7 +184,7 @@ class TeleopMapping:
         self._sample_stamp: float | None = None
         self._last_step_stamp: float | None = None
         self.engaged = False
-        self._command: _Command | None = None
+        self._command: GuardedCommand | None = None
         self._master_ref = None
         self._slave_ref: tuple[np.ndarray, np.ndarray] | None = None
         self._offsets: np.ndarray | None = None
@@ -291,7 +292,17 @@ class TeleopMapping:
         return min(max(dt, 0.0), self.config.max_period)
 
     @property
-    def command(self) -> _Command | None:
+    def enable_time(self) -> float:
+        """Receive time [s] of the last ``teleop/enable`` sample (-inf before the first)."""
+        return self._enable_time
+
+    @property
+    def joint_offsets(self) -> np.ndarray | None:
+        """b_i of the joint-space map, calibrated at the last engage in joint mode [m]."""
+        return None if self._offsets is None else self._offsets.copy()
+
+    @property
+    def command(self) -> GuardedCommand | None:
         """The last guarded command (None when disengaged)."""
         return self._command
 
@@ -320,7 +331,7 @@ class TeleopMapping:
                                     f'master and slave orientations differ by {error:.3f} rad '
                                     f'> align_tolerance {c.align_tolerance:g} rad: align the master')
         ik = inverse_kinematics(self.slave, ps, qs)
-        self._command = _Command(ps.copy(), qs.copy(), ik.lengths.copy(), margins(self.slave, ik))
+        self._command = GuardedCommand(ps.copy(), qs.copy(), ik.lengths.copy(), margins(self.slave, ik))
         self._slave_ref = (ps.copy(), qs.copy())
         if c.mode == 'cartesian':
             self._master_ref = (self._master_pose[0].copy(), self._master_pose[1].copy())
@@ -332,9 +343,9 @@ class TeleopMapping:
 
     # --- guarded steps -------------------------------------------------------------------
 
-    def _evaluate_pose(self, p, q) -> _Command:
+    def _evaluate_pose(self, p, q) -> GuardedCommand:
         ik = inverse_kinematics(self.slave, p, q)
-        return _Command(p, q, ik.lengths.copy(), margins(self.slave, ik))
+        return GuardedCommand(p, q, ik.lengths.copy(), margins(self.slave, ik))
 
     def _cartesian_step(self, dt: float) -> tuple[TeleopCode, str]:
         c = self.config
@@ -387,12 +398,12 @@ class TeleopMapping:
                 return TeleopCode.INVALID, 'FK of the mapped leg lengths did not converge: holding'
         return self._accept(cand, code)
 
-    def _evaluate_lengths(self, prev: _Command, lengths: np.ndarray) -> _Command | None:
+    def _evaluate_lengths(self, prev: GuardedCommand, lengths: np.ndarray) -> GuardedCommand | None:
         fk = forward_kinematics(self.slave, lengths, prev.position, prev.quaternion)
         if not fk.converged:
             return None
         ik = inverse_kinematics(self.slave, fk.position, fk.quaternion_xyzw)
-        return _Command(fk.position, fk.quaternion_xyzw, np.asarray(lengths, dtype=float).copy(),
+        return GuardedCommand(fk.position, fk.quaternion_xyzw, np.asarray(lengths, dtype=float).copy(),
                         margins(self.slave, ik))
 
     def _deceleration(self, before: Margins, after: Margins) -> tuple[float, TeleopCode]:
@@ -415,7 +426,7 @@ class TeleopMapping:
                 code = TeleopCode.DECELERATE_FOR_COLLISION if f > 0.0 else TeleopCode.HALT_FOR_COLLISION
         return factor, code
 
-    def _accept(self, cand: _Command, code: TeleopCode) -> tuple[TeleopCode, str]:
+    def _accept(self, cand: GuardedCommand, code: TeleopCode) -> tuple[TeleopCode, str]:
         """Take ``cand`` unless it breaks a limit, or worsens one already broken (then hold)."""
         prev = self._command.margins
         m = cand.margins

@@ -72,6 +72,16 @@ class IkNode(Node):
         self.create_timer(0.5, self._report)
         self.add_post_set_parameters_callback(self._apply_parameters)
 
+    @property
+    def status(self) -> tuple[bytes, str]:
+        """(diagnostic level, message) of the node now."""
+        return self._status
+
+    @property
+    def measured_lengths(self) -> np.ndarray | None:
+        """The last actuators/state lengths [m] (with limit_velocity), or None."""
+        return None if self._measured is None else self._measured.copy()
+
     def _apply_parameters(self, parameters) -> None:
         """``timeout`` and ``quaternion_tolerance`` take effect at run time (ranges checked by rclpy)."""
         for p in parameters:

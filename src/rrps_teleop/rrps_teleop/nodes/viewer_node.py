@@ -65,8 +65,7 @@ from rrps_sim.interfaces import GRIPPERS_STATE, gripper_service
 from ..interfaces import (CLIMB_STATUS, CLIMB_STEP_DOWN, CLIMB_STEP_UP, MASTER_POSE,
                           MASTER_TARGET_POSE, TELEOP_ENABLE, TELEOP_STATUS, ClimbStatus,
                           TeleopStatus, odometry_topic)
-from ..viewer import Pose, Trail, robot_figure, world_ring_poses
-from ..viewer._render import Frame, ViewerServer
+from ..viewer import Frame, Pose, Trail, ViewerServer, robot_figure, world_ring_poses
 
 _LEVEL_NAMES = {DiagnosticStatus.OK: 'OK', DiagnosticStatus.WARN: 'WARN',
                 DiagnosticStatus.ERROR: 'ERROR', DiagnosticStatus.STALE: 'STALE'}
@@ -465,6 +464,11 @@ class ViewerNode(Node):
                 self.viewer.tell(client_id, f'{what}: {response.message or "done"}',
                                  ok=response.success)
         future.add_done_callback(done)
+
+    def service_ready(self, kind: str) -> bool:
+        """Whether the service behind an operator request is up: 'up', 'down' (climbing),
+        'ring_a', 'ring_b' (grippers) or 'teleop' (the mapping parameters)."""
+        return self._service_clients[kind].service_is_ready()
 
     def destroy_node(self) -> None:
         self.viewer.stop()
