@@ -134,7 +134,8 @@ class Workspace:
 
     @property
     def counts(self) -> dict[str, int]:
-        """Grid points: ``total``, ``reachable`` (near-singular included), ``near_singular``, ``unreachable``."""
+        """Grid points: ``total``, ``reachable`` (near-singular included), ``near_singular``,
+        ``unreachable``."""
         n = np.bincount(self.labels.ravel(), minlength=3)
         return {'total': int(self.labels.size), 'reachable': int(n[REACHABLE] + n[NEAR_SINGULAR]),
                 'near_singular': int(n[NEAR_SINGULAR]), 'unreachable': int(n[UNREACHABLE])}
