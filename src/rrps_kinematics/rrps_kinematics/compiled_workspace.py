@@ -70,6 +70,7 @@ def classify_grid(A, B, axes_a, axes_b, limits, xs, ys, zs, Q, status, inverse_c
     ``status[i, j, k]``: WITHIN_LIMITS when the point is within every limit at every orientation,
     else the first limit broken at its first unreachable orientation. ``inverse_condition``: the
     smallest inverse condition number over the orientations (NaN when not within the limits).
+    A serial loop: numba's prange measured no faster on the project's shared two-core machines.
     """
     for i in range(xs.shape[0]):
         p = np.empty(3)

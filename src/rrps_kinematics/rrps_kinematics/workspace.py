@@ -108,7 +108,7 @@ class Workspace:
     @property
     def axes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The grid's x, y and z coordinates [m]."""
-        return tuple(self.origin[d] + self.spacing * np.arange(n) for d, n in enumerate(self.shape))
+        return _axes(self.origin, self.spacing, self.shape)
 
     @property
     def bounds(self) -> np.ndarray:
@@ -160,6 +160,11 @@ class Workspace:
         h = self.spacing
         return np.where(inside, ndimage.distance_transform_edt(inside) * h - 0.5 * h,
                         0.5 * h - ndimage.distance_transform_edt(~inside) * h)
+
+
+def _axes(origin: np.ndarray, spacing: float, shape) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Coordinates origin[d] + spacing * k of the grid's axes, as ``Workspace._points`` computes them."""
+    return tuple(origin[d] + spacing * np.arange(n) for d, n in enumerate(shape))
 
 
 def _unit_quaternions(quaternion_xyzw, what: str) -> np.ndarray:
@@ -234,12 +239,14 @@ def automatic_bounds(geometry: RobotGeometry, orientations) -> np.ndarray:
     return np.column_stack([lo, hi]).ravel()
 
 
-def _grid_axes(bounds, resolution: float, automatic: bool) -> list[np.ndarray]:
-    if automatic:  # multiples of the spacing, one cell beyond the bounds
-        return [resolution * np.arange(math.floor(lo / resolution) - 1, math.ceil(hi / resolution) + 2)
-                for lo, hi in zip(bounds[0::2], bounds[1::2])]
-    return [lo + resolution * np.arange(math.floor((hi - lo) / resolution + 1e-9) + 1)
-            for lo, hi in zip(bounds[0::2], bounds[1::2])]
+def _grid(bounds, resolution: float, automatic: bool) -> tuple[np.ndarray, tuple[int, int, int]]:
+    """Origin [m] and shape of the grid over ``bounds``: explicit bounds are sampled from their
+    minima; automatic ones at multiples of the spacing, one cell beyond them."""
+    lo, hi = np.asarray(bounds[0::2]), np.asarray(bounds[1::2])
+    if automatic:
+        first, last = np.floor(lo / resolution) - 1, np.ceil(hi / resolution) + 1
+        return resolution * first, tuple(int(n) for n in last - first + 1)
+    return lo.copy(), tuple(int(n) for n in np.floor((hi - lo) / resolution + 1e-9) + 1)
 
 
 def _check_bounds(bounds) -> np.ndarray:
@@ -310,19 +317,18 @@ def reachable_workspace(geometry: RobotGeometry, orientations=None, *, resolutio
         raise ValueError(f'singular_threshold must be in [0, 1], got {singular_threshold!r}')
     automatic = bounds is None
     box = automatic_bounds(geometry, Q) if automatic else _check_bounds(bounds)
-    axes = _grid_axes(box, resolution, automatic)
-    total = math.prod(len(a) for a in axes)
+    origin, shape = _grid(box, resolution, automatic)
+    total = math.prod(shape)
     if total > MAX_GRID_POINTS:
         raise ValueError(f'the grid would have {total:,} points > {MAX_GRID_POINTS:,}: '
                          'use a coarser resolution or smaller bounds')
     classify = _classify_numba if use_numba(backend) else _classify_numpy
-    status, inv_cond = classify(geometry, axes, Q)
+    status, inv_cond = classify(geometry, _axes(origin, resolution, shape), Q)
     within = status == _WITHIN_LIMITS
     labels = np.where(within, np.where(inv_cond < threshold, NEAR_SINGULAR, REACHABLE),
                       UNREACHABLE).astype(np.int8)
     counts = np.bincount(status.ravel(), minlength=len(LIMIT_KINDS) + 1)
-    return Workspace(robot=geometry.name, orientations=Q, origin=np.array([a[0] for a in axes]),
-                     spacing=resolution, labels=labels,
+    return Workspace(robot=geometry.name, orientations=Q, origin=origin, spacing=resolution, labels=labels,
                      excluded_by={k: int(counts[i]) for i, k in enumerate(LIMIT_KINDS)},
                      singular_threshold=threshold)
 
