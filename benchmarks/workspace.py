@@ -104,15 +104,15 @@ def main(argv=None) -> int:
           f'{"on" if compiled_backend_available() else "OFF"}, Python {platform.python_version()}, '
           f'{os.cpu_count()} CPUs, grid {n}^3 = {total:,} points, spacing {h * 1e3:.2f} mm, '
           f'every limit, home orientation')
-    print(f'{"what":58s} {"time [s]":>10s} {"points/s":>12s} {"speed-up":>9s}')
-    print('-' * 92)
     rows = [('reachable_workspace, numba kernel (auto backend)', t_ours),
             ('reachable_workspace, vectorised NumPy path (RRPS_NUMBA=0)', t_numpy),
-            (f'baseline: Python loop of margins() per point, EXTRAPOLATED from {len(sample):,} points',
-             t_loop)]
+            (f'baseline: margins() per point in a loop, EXTRAPOLATED from {len(sample):,}', t_loop)]
+    width = max(len(name) for name, _ in rows)
+    print(f'{"what":{width}s} {"time [s]":>10s} {"points/s":>12s} {"speed-up":>9s}')
+    print('-' * (width + 34))
     for name, t in rows:
-        print(f'{name:58s} {t:10.2f} {total / t:12,.0f} {t_loop / t:8.1f}x')
-    print('-' * 92)
+        print(f'{name:{width}s} {t:10.2f} {total / t:12,.0f} {t_loop / t:8.1f}x')
+    print('-' * (width + 34))
     print(f'speed-up of the numba kernel over the per-point loop: {t_loop / t_ours:.1f}x; over the '
           f'vectorised NumPy path: {t_numpy / t_ours:.1f}x')
     print(f'same classification: numba vs NumPy path on all {total:,} points: '
