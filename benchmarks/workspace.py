@@ -1,0 +1,152 @@
+#!/usr/bin/env python3
+"""Benchmark of the reachable workspace: a 100^3 grid with every limit, against baselines in the same run.
+
+    python benchmarks/workspace.py [--robot pole_climber] [--points-per-axis 100] [--loop-sample 2000]
+
+The grid is a cube of ``--points-per-axis``^3 ring_b positions around the robot's automatic
+bounds, at its home orientation; every point is checked against every limit (stroke, joint
+cones, interference, conditioning). Rows:
+
+* ``reachable_workspace`` with the numba kernel (auto backend) and with the vectorised NumPy
+  path (``backend='numpy'``, what ``RRPS_NUMBA=0`` runs), each over the whole grid;
+* baseline: a plain Python loop over the points calling
+  ``limits.margins(inverse_kinematics(...))`` per point, timed on ``--loop-sample`` random grid
+  points and EXTRAPOLATED to the whole grid (labelled as such).
+
+Then the volumes of the shipped robots at their home orientation (constant-orientation
+workspace) at two resolutions (stroke / 25 and stroke / 50), and over an orientation range of
+±0.1 rad in roll, pitch and yaw (total-orientation workspace, 27 orientations, stroke / 25).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import sys
+import time
+
+import numpy as np
+
+from rrps_kinematics import (
+    compiled_backend_available,
+    inverse_kinematics,
+    load_robot,
+    margins,
+    shipped_robots,
+)
+from rrps_kinematics.workspace import (
+    NEAR_SINGULAR,
+    REACHABLE,
+    SINGULAR_THRESHOLD,
+    UNREACHABLE,
+    automatic_bounds,
+    orientation_range,
+    reachable_workspace,
+)
+
+
+def cube_grid(g, n: int) -> tuple[np.ndarray, float]:
+    """Bounds of a cube holding the automatic bounds, and the spacing giving n points per axis."""
+    box = automatic_bounds(g, g.home_quaternion_xyzw).reshape(3, 2)
+    centre = box.mean(axis=1)
+    side = float(np.max(box[:, 1] - box[:, 0])) * 1.02
+    bounds = np.column_stack([centre - side / 2, centre + side / 2]).ravel()
+    return bounds, side / (n - 1)
+
+
+def loop_labels(g, points: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Baseline: one margins(inverse_kinematics(...)) call per point, in a Python loop."""
+    out = np.empty(len(points), dtype=np.int8)
+    for k, p in enumerate(points):
+        m = margins(g, inverse_kinematics(g, p, q))
+        out[k] = (UNREACHABLE if not m.ok
+                  else NEAR_SINGULAR if m.inverse_condition < SINGULAR_THRESHOLD else REACHABLE)
+    return out
+
+
+def timed(fn):
+    t0 = time.perf_counter()
+    value = fn()
+    return value, time.perf_counter() - t0
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--robot', default='pole_climber')
+    parser.add_argument('--points-per-axis', type=int, default=100)
+    parser.add_argument('--loop-sample', type=int, default=2000,
+                        help='grid points timed in the per-point loop (then extrapolated)')
+    args = parser.parse_args(argv)
+    g = load_robot(args.robot)
+    q = g.home_quaternion_xyzw
+    n = args.points_per_axis
+    bounds, h = cube_grid(g, n)
+    total = n ** 3
+
+    # Warm up (numba compiles or loads its cache here, outside every timing).
+    reachable_workspace(g, q, resolution=h * 10, bounds=bounds)
+
+    ours, t_ours = min((timed(lambda: reachable_workspace(g, q, resolution=h, bounds=bounds))
+                        for _ in range(2)), key=lambda r: r[1])
+    assert ours.labels.size == total, ours.shape
+    ref, t_numpy = timed(lambda: reachable_workspace(g, q, resolution=h, bounds=bounds, backend='numpy'))
+    rng = np.random.default_rng(0)
+    flat = rng.choice(total, size=min(args.loop_sample, total), replace=False)
+    index = np.stack(np.unravel_index(flat, ours.shape), axis=-1)
+    sample = ours.origin + h * index
+    loop, t_loop_sample = timed(lambda: loop_labels(g, sample, q))
+    t_loop = t_loop_sample / len(sample) * total
+    agree_numpy = bool(np.array_equal(ours.labels, ref.labels))
+    agree_loop = int(np.sum(loop != ours.labels.ravel()[flat]))
+
+    print(f'rrps workspace benchmark: robot {g.name}, numba backend '
+          f'{"on" if compiled_backend_available() else "OFF"}, Python {platform.python_version()}, '
+          f'{os.cpu_count()} CPUs, grid {n}^3 = {total:,} points, spacing {h * 1e3:.2f} mm, '
+          f'every limit, home orientation')
+    rows = [('reachable_workspace, numba kernel (auto backend)', t_ours),
+            ('reachable_workspace, vectorised NumPy path (RRPS_NUMBA=0)', t_numpy),
+            (f'baseline: margins() per point in a loop, EXTRAPOLATED from {len(sample):,}', t_loop)]
+    width = max(len(name) for name, _ in rows)
+    print(f'{"what":{width}s} {"time [s]":>10s} {"points/s":>12s} {"speed-up":>9s}')
+    print('-' * (width + 34))
+    for name, t in rows:
+        print(f'{name:{width}s} {t:10.2f} {total / t:12,.0f} {t_loop / t:8.1f}x')
+    print('-' * (width + 34))
+    print(f'speed-up of the numba kernel over the per-point loop: {t_loop / t_ours:.1f}x; over the '
+          f'vectorised NumPy path: {t_numpy / t_ours:.1f}x')
+    print(f'same classification: numba vs NumPy path on all {total:,} points: '
+          f'{"yes" if agree_numpy else "NO"}; loop vs numba on the {len(sample):,} sampled points: '
+          f'{"yes" if agree_loop == 0 else f"NO ({agree_loop} differ)"}')
+    print(f'{g.name}: reachable {ours.volume:.6f} m^3, near-singular {ours.near_singular_volume:.6f} m^3 '
+          f'(1/cond < {SINGULAR_THRESHOLD}), excluded by {ours.excluded_by}')
+
+    print()
+    print('Reachable volumes of the shipped robots at their home orientation [m^3] '
+          '(near-singular part in brackets)')
+    print(f'{"robot":16s} {"stroke/25":>24s} {"stroke/50":>24s} {"change":>7s} '
+          f'{"±0.1 rad r/p/y, stroke/25":>27s} {"time [s]":>9s}')
+    print('-' * 112)
+    for name in shipped_robots():
+        r = load_robot(name)
+        stroke = r.max_length - r.min_length
+        t0 = time.perf_counter()
+        coarse = reachable_workspace(r, resolution=stroke / 25)
+        fine = reachable_workspace(r, resolution=stroke / 50)
+        ranged = reachable_workspace(r, orientation_range(r.home_quaternion_xyzw, roll=(-0.1, 0.1),
+                                                          pitch=(-0.1, 0.1), yaw=(-0.1, 0.1), step=0.1),
+                                     resolution=stroke / 25)
+        elapsed = time.perf_counter() - t0
+
+        def cell(ws):
+            return f'{ws.volume:.4e} ({ws.near_singular_volume:.1e})'
+
+        print(f'{name:16s} {cell(coarse):>24s} {cell(fine):>24s} '
+              f'{(fine.volume - coarse.volume) / fine.volume * 100:+6.2f}% {cell(ranged):>27s} '
+              f'{elapsed:9.2f}')
+        print(f'{"":16s} {f"h = {stroke / 25 * 1e3:.2f} mm":>24s} {f"h = {stroke / 50 * 1e3:.2f} mm":>24s}')
+    return 0 if agree_numpy and agree_loop == 0 else 1
+
+
+if __name__ == '__main__':
+    sys.exit(main())
