@@ -21,28 +21,12 @@ import numpy as np
 from .backend import use_numba
 from .geometry import RobotGeometry
 from .inverse import inverse_kinematics
-from .limits import margins
+from .limits import limit_arrays, margins
 
 __all__ = ['RejectedCommand', 'ValidTarget', 'validate_target', 'pose_limits', 'check_fresh',
            'limit_velocity', 'CommandAges']
 
 MARGIN_KINDS = ('stroke', 'universal', 'spherical', 'interference', 'conditioning')
-_packed: dict[int, tuple] = {}
-
-
-def _pack(geometry: RobotGeometry) -> tuple:
-    """The geometry as the contiguous arrays of :mod:`.compiled_limits` (cached per object)."""
-    entry = _packed.get(id(geometry))
-    if entry is None or entry[0] is not geometry:
-        g = geometry
-        limits = np.array([g.min_length, g.max_length, g.universal_max_angle, g.spherical_max_angle,
-                           g.leg_radius, g.characteristic_length, g.min_conditioning])
-        arrays = tuple(np.ascontiguousarray(a, dtype=float) for a in (
-            g.ring_a_anchors, g.ring_b_anchors, g.ring_a_joint_axes, g.ring_b_joint_axes)) + (limits,)
-        entry = _packed[id(geometry)] = (geometry, arrays)
-    return entry[1]
-
-
 def pose_limits(geometry: RobotGeometry, position, quaternion_xyzw, *,
                 backend: str = 'auto') -> tuple[bool, np.ndarray, dict[str, float]]:
     """(within limits, lengths (6,), smallest margin of each kind) of one pose a_T_b.
@@ -56,7 +40,7 @@ def pose_limits(geometry: RobotGeometry, position, quaternion_xyzw, *,
         from .compiled_limits import N_MARGINS, pose_margins
         out = np.empty(N_MARGINS)
         lengths = np.empty(6)
-        pose_margins(*_pack(geometry), p, q, out, lengths)
+        pose_margins(limit_arrays(geometry), p, q, out, lengths)
         minimum = dict(zip(MARGIN_KINDS, (float(v) for v in out[:5])))
         ok = bool(np.all(out[:5] >= 0.0) and out[5] > 0.0)
         return ok, lengths, minimum

@@ -13,9 +13,10 @@ import math
 import numba
 import numpy as np
 
-from .compiled import _quat_to_matrix
+from .compiled import quat_to_matrix
 
-__all__ = ['pose_margins', 'jacobian_determinant', 'N_MARGINS']
+__all__ = ['pose_margins', 'jacobian_determinant', 'N_MARGINS', 'pose_in_ring_a', 'vector_angle',
+           'segment_distance', 'scaled_inverse_jacobian']
 
 _jit = numba.njit(cache=True, nogil=True)
 
@@ -25,9 +26,9 @@ N_MARGINS = 6
 
 
 @_jit
-def _pose(A, B, p, q, R, b_in_a, u, lengths):
+def pose_in_ring_a(A, B, p, q, R, b_in_a, u, lengths):
     """R(q), ring_b anchors in ring_a's frame, unit leg vectors and lengths (eq. 1)."""
-    _quat_to_matrix(q, R)
+    quat_to_matrix(q, R)
     for i in range(6):
         s = 0.0
         for k in range(3):
@@ -41,7 +42,7 @@ def _pose(A, B, p, q, R, b_in_a, u, lengths):
 
 
 @_jit
-def _angle(u0, u1, u2, v0, v1, v2):
+def vector_angle(u0, u1, u2, v0, v1, v2):
     """Angle between unit vectors: atan2(|u x v|, u . v)."""
     c0 = u1 * v2 - u2 * v1
     c1 = u2 * v0 - u0 * v2
@@ -55,7 +56,7 @@ def _clip01(x):
 
 
 @_jit
-def _segment_distance(p0, p1, q0, q1):
+def segment_distance(p0, p1, q0, q1):
     """Closest distance of segments p0->p1 and q0->q1; the branches of limits.segment_distances."""
     d1 = p1 - p0
     d2 = q1 - q0
@@ -90,7 +91,7 @@ def _segment_distance(p0, p1, q0, q1):
 
 
 @_jit
-def _jacobian(u, b_in_a, p, scale, J):
+def scaled_inverse_jacobian(u, b_in_a, p, scale, J):
     """Rows [u_i, scale * (A_c s'_i) x u_i] (jacobian.inverse_jacobian, angular columns scaled)."""
     for i in range(6):
         b0, b1, b2 = b_in_a[i, 0] - p[0], b_in_a[i, 1] - p[1], b_in_a[i, 2] - p[2]
@@ -101,35 +102,37 @@ def _jacobian(u, b_in_a, p, scale, J):
 
 
 @_jit
-def pose_margins(A, B, axes_a, axes_b, limits, p, q, out, lengths):
+def pose_margins(g, p, q, out, lengths):
     """Smallest margin of each limit of one pose (layout ``N_MARGINS``) and its lengths.
 
-    ``limits`` = [min_length, max_length, universal_max_angle, spherical_max_angle,
-    leg_radius, characteristic_length, min_conditioning]; q a unit quaternion (x, y, z, w).
+    ``g``: the robot as :class:`rrps_kinematics.limits.LimitArrays`; q a unit quaternion
+    (x, y, z, w).
     """
+    A, B, axes_a, axes_b, limits = (g.ring_a_anchors, g.ring_b_anchors, g.ring_a_joint_axes,
+                                    g.ring_b_joint_axes, g.limits)
     R = np.empty((3, 3))
     b_in_a = np.empty((6, 3))
     u = np.empty((6, 3))
-    _pose(A, B, p, q, R, b_in_a, u, lengths)
+    pose_in_ring_a(A, B, p, q, R, b_in_a, u, lengths)
     stroke = np.inf
     universal = np.inf
     spherical = np.inf
     for i in range(6):
         stroke = min(stroke, min(lengths[i] - limits[0], limits[1] - lengths[i]))
-        universal = min(universal, limits[2] - _angle(u[i, 0], u[i, 1], u[i, 2],
+        universal = min(universal, limits[2] - vector_angle(u[i, 0], u[i, 1], u[i, 2],
                                                       axes_a[i, 0], axes_a[i, 1], axes_a[i, 2]))
         # the leg from the S-joint towards ring_a in ring_b's frame: -R^T u
         t0 = -(R[0, 0] * u[i, 0] + R[1, 0] * u[i, 1] + R[2, 0] * u[i, 2])
         t1 = -(R[0, 1] * u[i, 0] + R[1, 1] * u[i, 1] + R[2, 1] * u[i, 2])
         t2 = -(R[0, 2] * u[i, 0] + R[1, 2] * u[i, 1] + R[2, 2] * u[i, 2])
-        spherical = min(spherical, limits[3] - _angle(t0, t1, t2, axes_b[i, 0], axes_b[i, 1], axes_b[i, 2]))
+        spherical = min(spherical, limits[3] - vector_angle(t0, t1, t2, axes_b[i, 0], axes_b[i, 1], axes_b[i, 2]))
     interference = np.inf
     for i in range(6):
         for j in range(i + 1, 6):
-            dist = _segment_distance(A[i], b_in_a[i], A[j], b_in_a[j])
+            dist = segment_distance(A[i], b_in_a[i], A[j], b_in_a[j])
             interference = min(interference, dist - 2.0 * limits[4])
     J = np.empty((6, 6))
-    _jacobian(u, b_in_a, p, 1.0 / limits[5], J)
+    scaled_inverse_jacobian(u, b_in_a, p, 1.0 / limits[5], J)
     inv_cond = 0.0
     finite = True
     for i in range(6):
@@ -151,13 +154,14 @@ def pose_margins(A, B, axes_a, axes_b, limits, p, q, out, lengths):
 
 
 @_jit
-def jacobian_determinant(A, B, p, q):
+def jacobian_determinant(g, p, q):
     """det J (unscaled inverse Jacobian, rows [u_i, (A_c s'_i) x u_i]) at one pose."""
+    A, B = g.ring_a_anchors, g.ring_b_anchors
     R = np.empty((3, 3))
     b_in_a = np.empty((6, 3))
     u = np.empty((6, 3))
     lengths = np.empty(6)
-    _pose(A, B, p, q, R, b_in_a, u, lengths)
+    pose_in_ring_a(A, B, p, q, R, b_in_a, u, lengths)
     J = np.empty((6, 6))
-    _jacobian(u, b_in_a, p, 1.0, J)
+    scaled_inverse_jacobian(u, b_in_a, p, 1.0, J)
     return np.linalg.det(J)

@@ -15,7 +15,7 @@ import math
 import numba
 import numpy as np
 
-from .compiled_limits import _angle, _jacobian, _pose, _segment_distance
+from .compiled_limits import pose_in_ring_a, scaled_inverse_jacobian, segment_distance, vector_angle
 from .workspace import LIMIT_KINDS
 
 __all__ = ['classify_grid', 'WITHIN_LIMITS']
@@ -27,17 +27,19 @@ _STROKE, _UNIVERSAL, _SPHERICAL, _INTERFERENCE, _CONDITIONING = (
 
 
 @numba.njit(cache=True, nogil=True)
-def _classify_pose(A, B, axes_a, axes_b, limits, p, q, R, b_in_a, u, lengths, J):
+def _classify_pose(g, p, q, R, b_in_a, u, lengths, J):
     """(first limit broken or WITHIN_LIMITS, inverse condition number) of the pose (p, q).
 
-    ``limits`` as in :func:`.compiled_limits.pose_margins`; a NaN margin counts as broken.
+    ``g``: :class:`rrps_kinematics.limits.LimitArrays`; a NaN margin counts as broken.
     """
-    _pose(A, B, p, q, R, b_in_a, u, lengths)
+    A, B, axes_a, axes_b, limits = (g.ring_a_anchors, g.ring_b_anchors, g.ring_a_joint_axes,
+                                    g.ring_b_joint_axes, g.limits)
+    pose_in_ring_a(A, B, p, q, R, b_in_a, u, lengths)
     for i in range(6):
         if not (lengths[i] - limits[0] >= 0.0 and limits[1] - lengths[i] >= 0.0):
             return _STROKE, math.nan
     for i in range(6):
-        if not (limits[2] - _angle(u[i, 0], u[i, 1], u[i, 2],
+        if not (limits[2] - vector_angle(u[i, 0], u[i, 1], u[i, 2],
                                    axes_a[i, 0], axes_a[i, 1], axes_a[i, 2]) >= 0.0):
             return _UNIVERSAL, math.nan
     for i in range(6):
@@ -45,13 +47,13 @@ def _classify_pose(A, B, axes_a, axes_b, limits, p, q, R, b_in_a, u, lengths, J)
         t0 = -(R[0, 0] * u[i, 0] + R[1, 0] * u[i, 1] + R[2, 0] * u[i, 2])
         t1 = -(R[0, 1] * u[i, 0] + R[1, 1] * u[i, 1] + R[2, 1] * u[i, 2])
         t2 = -(R[0, 2] * u[i, 0] + R[1, 2] * u[i, 1] + R[2, 2] * u[i, 2])
-        if not (limits[3] - _angle(t0, t1, t2, axes_b[i, 0], axes_b[i, 1], axes_b[i, 2]) >= 0.0):
+        if not (limits[3] - vector_angle(t0, t1, t2, axes_b[i, 0], axes_b[i, 1], axes_b[i, 2]) >= 0.0):
             return _SPHERICAL, math.nan
     for i in range(6):
         for j in range(i + 1, 6):
-            if not (_segment_distance(A[i], b_in_a[i], A[j], b_in_a[j]) - 2.0 * limits[4] >= 0.0):
+            if not (segment_distance(A[i], b_in_a[i], A[j], b_in_a[j]) - 2.0 * limits[4] >= 0.0):
                 return _INTERFERENCE, math.nan
-    _jacobian(u, b_in_a, p, 1.0 / limits[5], J)
+    scaled_inverse_jacobian(u, b_in_a, p, 1.0 / limits[5], J)
     for i in range(6):
         for k in range(6):
             if not math.isfinite(J[i, k]):
@@ -64,7 +66,7 @@ def _classify_pose(A, B, axes_a, axes_b, limits, p, q, R, b_in_a, u, lengths, J)
 
 
 @numba.njit(cache=True, nogil=True)
-def classify_grid(A, B, axes_a, axes_b, limits, xs, ys, zs, Q, status, inverse_condition):
+def classify_grid(g, xs, ys, zs, Q, status, inverse_condition):
     """Classify the grid positions (xs[i], ys[j], zs[k]) over the orientations Q (K, 4), in place.
 
     ``status[i, j, k]``: WITHIN_LIMITS when the point is within every limit at every orientation,
@@ -87,8 +89,7 @@ def classify_grid(A, B, axes_a, axes_b, limits, xs, ys, zs, Q, status, inverse_c
                 code = WITHIN_LIMITS
                 worst = math.inf
                 for n in range(Q.shape[0]):
-                    code, inv_cond = _classify_pose(A, B, axes_a, axes_b, limits, p, Q[n], R,
-                                                    b_in_a, u, lengths, J)
+                    code, inv_cond = _classify_pose(g, p, Q[n], R, b_in_a, u, lengths, J)
                     if code != WITHIN_LIMITS:
                         break
                     worst = min(worst, inv_cond)

@@ -36,6 +36,7 @@ import enum
 import math
 from dataclasses import dataclass, field
 from itertools import combinations
+from typing import NamedTuple
 
 import numpy as np
 
@@ -45,6 +46,8 @@ from .jacobian import inverse_jacobian
 
 __all__ = [
     'PAIRS',
+    'LimitArrays',
+    'limit_arrays',
     'LimitKind',
     'LimitViolation',
     'Margins',
@@ -97,6 +100,36 @@ class LimitViolation:
                     f'2 * radius {self.bound:.4f} m')
         return (f'conditioning: inverse condition number {self.value:.4f} < min_conditioning '
                 f'{self.bound:.4f} (near a singularity)')
+
+
+class LimitArrays(NamedTuple):
+    """A robot's limits as contiguous arrays, the one argument of the compiled guards (numba
+    takes a NamedTuple of arrays): anchors (6, 3) [m], joint neutral axes (6, 3), and
+    ``limits`` = [min_length, max_length, universal_max_angle, spherical_max_angle, leg_radius,
+    characteristic_length, min_conditioning] (SI units)."""
+
+    ring_a_anchors: np.ndarray
+    ring_b_anchors: np.ndarray
+    ring_a_joint_axes: np.ndarray
+    ring_b_joint_axes: np.ndarray
+    limits: np.ndarray
+
+
+_limit_arrays: dict[int, tuple[RobotGeometry, LimitArrays]] = {}
+
+
+def limit_arrays(geometry: RobotGeometry) -> LimitArrays:
+    """The :class:`LimitArrays` of ``geometry`` (built once per geometry object)."""
+    entry = _limit_arrays.get(id(geometry))
+    arrays = entry[1] if entry is not None and entry[0] is geometry else None
+    if arrays is None:
+        g = geometry
+        arrays = LimitArrays(*(np.ascontiguousarray(a, dtype=float) for a in (
+            g.ring_a_anchors, g.ring_b_anchors, g.ring_a_joint_axes, g.ring_b_joint_axes)),
+            np.array([g.min_length, g.max_length, g.universal_max_angle, g.spherical_max_angle,
+                      g.leg_radius, g.characteristic_length, g.min_conditioning]))
+        _limit_arrays[id(geometry)] = (geometry, arrays)
+    return arrays
 
 
 def segment_distances(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:

@@ -27,6 +27,7 @@ from .forward import ForwardKinematicsResult, forward_kinematics
 from .geometry import RobotGeometry
 from .inverse import inverse_kinematics
 from .jacobian import inverse_jacobian
+from .limits import limit_arrays
 
 __all__ = ['PoseTracker', 'TrackingUpdate']
 
@@ -69,9 +70,8 @@ class PoseTracker:
         """Sign of det J at a pose: +1 or -1 in an assembly mode's region, 0 when singular."""
         if use_numba('auto'):
             from .compiled_limits import jacobian_determinant
-            g = self.geometry
             return float(np.sign(jacobian_determinant(
-                g.ring_a_anchors, g.ring_b_anchors, np.ascontiguousarray(position, dtype=float),
+                limit_arrays(self.geometry), np.ascontiguousarray(position, dtype=float),
                 np.ascontiguousarray(quaternion_xyzw, dtype=float))))
         return float(np.sign(np.linalg.det(inverse_jacobian(
             inverse_kinematics(self.geometry, position, quaternion_xyzw)))))

@@ -47,7 +47,7 @@ import numpy as np
 from scipy import ndimage
 
 from .backend import use_numba
-from .commands import _pack
+from .limits import limit_arrays
 from .geometry import RobotGeometry
 from .inverse import inverse_kinematics
 from .limits import margins
@@ -288,7 +288,7 @@ def _classify_numba(geometry: RobotGeometry, axes, Q: np.ndarray) -> tuple[np.nd
     shape = tuple(len(a) for a in axes)
     status = np.empty(shape, dtype=np.int8)
     inv_cond = np.empty(shape)
-    classify_grid(*_pack(geometry), *(np.ascontiguousarray(a) for a in axes),
+    classify_grid(limit_arrays(geometry), *(np.ascontiguousarray(a) for a in axes),
                   np.ascontiguousarray(Q), status, inv_cond)
     return status, inv_cond
 

@@ -42,10 +42,11 @@ from typing import Mapping
 import numpy as np
 
 from rrps_kinematics import RobotGeometry, inverse_kinematics, margins
+from rrps_kinematics.pose import validate_pose
 from rrps_kinematics.rotations import quat_multiply_xyzw, rotation_vector_to_quat_xyzw
 from rrps_kinematics.workspace import LIMIT_KINDS
 
-from .mapping import validate_pose, validate_scale
+from .mapping import validate_scale
 
 __all__ = ['DEFAULT_ACTIVATION', 'FixtureConfig', 'FixtureWrench', 'fixture_wrench', 'master_wrench']
 
@@ -124,7 +125,7 @@ def fixture_wrench(geometry: RobotGeometry, position, quaternion_xyzw,
     non-unit quaternion, or a degenerate pose whose margins are not finite.
     """
     config = config or FixtureConfig()
-    p, q = validate_pose(position, quaternion_xyzw, 'slave pose')
+    p, q = validate_pose(position, quaternion_xyzw, what='slave pose')
     P, Q = _perturbed_poses(p, q, GRADIENT_STEP)
     m = margins(geometry, inverse_kinematics(geometry, P, Q))
     components = {'stroke': m.stroke, 'universal': m.universal, 'spherical': m.spherical,
