@@ -60,6 +60,8 @@ class DriverStatus(CommandAgeStatus):
     stuck_legs: tuple[int, ...] = ()
     ring_a_closed: bool = True
     ring_b_closed: bool = True
+    #: gripper requests refused since the start (the interlock, a ring without a gripper)
+    gripper_refusals: int = 0
 
     @classmethod
     def grippers(cls, closed: Mapping[str, bool]) -> dict:

@@ -136,6 +136,7 @@ class DriverNode(Node):
         self.accepted = 0
         self.rejected = 0
         self.dropped = 0
+        self.gripper_refusals = 0
         self.ages = CommandAges()
         self._last_command_time: float | None = None
         self._last_step = time.monotonic()
@@ -187,7 +188,7 @@ class DriverNode(Node):
             mode=self.mode, accepted=self.accepted, rejected=self.rejected, dropped=self.dropped,
             lengths=tuple(float(v) for v in self.actuators.positions),
             stuck_legs=tuple(int(i) + 1 for i in np.flatnonzero(self.actuators.stuck)),
-            **DriverStatus.grippers(self.grippers.closed),
+            **DriverStatus.grippers(self.grippers.closed), gripper_refusals=self.gripper_refusals,
             **self.ages.summary(self.get_clock().now().nanoseconds * 1e-9)))
 
     def _set_status(self, level, message: str) -> None:
@@ -296,7 +297,9 @@ class DriverNode(Node):
         before = self.grippers.positions()
         response.success, response.message = self.grippers.set(ring, close=bool(request.data))
         if not response.success:
+            self.gripper_refusals += 1
             self.get_logger().warning(response.message, throttle_duration_sec=1.0)
+            self._report()
         if self.grippers.positions() != before:
             self._publish_grippers()
             self._report()
