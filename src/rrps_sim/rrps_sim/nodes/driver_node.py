@@ -205,8 +205,6 @@ class DriverNode(Node):
             lengths = lengths_from_joint_state(msg)
         except ValueError as exc:
             raise RejectedCommand(str(exc)) from None
-        now = self.get_clock().now().nanoseconds * 1e-9
-        check_fresh(stamp_to_seconds(msg.header.stamp), now, self.timeout)
         g = self.geometry
         if np.any(lengths < g.min_length) or np.any(lengths > g.max_length):
             legs = [LEG_NAMES[i] for i in np.flatnonzero((lengths < g.min_length) | (lengths > g.max_length))]
@@ -221,6 +219,8 @@ class DriverNode(Node):
             if not np.all(np.isfinite(rings)) or np.any(rings < self.rings.min_position) or \
                     np.any(rings > self.rings.max_position):
                 raise RejectedCommand(f'ring rotations {rings} outside their limits')
+        now = self.get_clock().now().nanoseconds * 1e-9
+        check_fresh(stamp_to_seconds(msg.header.stamp), now, self.timeout)  # content errors first
         return lengths, rings
 
     def _on_command(self, msg: JointState) -> None:
