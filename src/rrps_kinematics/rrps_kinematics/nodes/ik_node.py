@@ -1,8 +1,9 @@
 """ik_node: target_pose (PoseStamped a_T_b, frame ring_a) -> actuators/command (leg lengths).
 
 Every target is checked (:func:`rrps_kinematics.commands.validate_target`: frame, NaN/inf,
-quaternion norm, stroke, joint angles, interference, conditioning) and its stamp's age against
-``timeout``; a rejected target is not acted on: the last valid command stands, the reason is
+quaternion norm, stroke, joint angles, interference, conditioning) and its age against
+``timeout`` (:class:`rrps_kinematics.commands.CommandFreshness`: also when the sender's clock
+is not this host's); a rejected target is not acted on: the last valid command stands, the reason is
 logged (throttled) and reported on /diagnostics, with the ages of the received targets (p50,
 p99, max over 10 s: how late they arrive). With ``limit_velocity`` the published command
 never asks a leg to move faster than ``max_speed`` since the previous command.
@@ -19,8 +20,8 @@ from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
-from ..commands import (CommandAges, RejectedCommand, check_fresh, limit_velocity, pose_limits,
-                        validate_target)
+from ..commands import (CommandAges, CommandFreshness, RejectedCommand, limit_velocity,
+                        pose_limits, validate_target)
 from ..interfaces import (ACTUATORS_COMMAND, ACTUATORS_STATE, RING_A_FRAME, TARGET_POSE,
                           IkStatus)
 from .common import (COMMAND_QOS, OK, STALE, STATE_QOS, WARN, Diagnostics, declare_parameter,
@@ -62,6 +63,7 @@ class IkNode(Node):
         self.accepted = 0
         self.rejected = 0
         self.ages = CommandAges()
+        self.freshness = CommandFreshness(self.timeout)
         self._status = (STALE, 'waiting for target_pose')
         self._margins: dict = {}
         self._pub = self.create_publisher(JointState, ACTUATORS_COMMAND, COMMAND_QOS)
@@ -87,6 +89,8 @@ class IkNode(Node):
         for p in parameters:
             if p.name in ('timeout', 'quaternion_tolerance'):
                 setattr(self, p.name, p.value)
+            if p.name == 'timeout':
+                self.freshness.timeout = p.value
 
     def _report(self) -> None:
         level, message = self._status
@@ -114,7 +118,7 @@ class IkNode(Node):
         if stamp != 0.0:
             self.ages.add(now_s, now_s - stamp, stale=now_s - stamp > self.timeout)
         try:
-            check_fresh(stamp, now_s, self.timeout)
+            self.freshness.check(stamp, now_s)
             position, quaternion = pose_from_msg(msg)
             target = validate_target(self.geometry, position, quaternion, frame_id=msg.header.frame_id,
                                      expected_frame=self.frame_id,

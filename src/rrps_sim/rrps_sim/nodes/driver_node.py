@@ -27,7 +27,7 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool
 
-from rrps_kinematics.commands import CommandAges, RejectedCommand, check_fresh
+from rrps_kinematics.commands import CommandAges, CommandFreshness, RejectedCommand
 from rrps_kinematics.forward import forward_kinematics
 from rrps_kinematics.interfaces import ACTUATORS_COMMAND, ACTUATORS_STATE
 from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, LEG_NAMES, OK, STALE, STATE_QOS, WARN,
@@ -138,6 +138,7 @@ class DriverNode(Node):
         self.dropped = 0
         self.gripper_refusals = 0
         self.ages = CommandAges()
+        self.freshness = CommandFreshness(self.timeout)
         self._last_command_time: float | None = None
         self._last_step = time.monotonic()
         self._max_dt = 5.0 / self.rate
@@ -177,7 +178,7 @@ class DriverNode(Node):
             elif p.name == 'drop_probability':
                 self.faults.drop_probability = float(p.value)
             elif p.name == 'timeout':
-                self.timeout = float(p.value)
+                self.timeout = self.freshness.timeout = float(p.value)
         return SetParametersResult(successful=True)
 
     # --- diagnostics ---
@@ -220,7 +221,7 @@ class DriverNode(Node):
                     np.any(rings > self.rings.max_position):
                 raise RejectedCommand(f'ring rotations {rings} outside their limits')
         now = self.get_clock().now().nanoseconds * 1e-9
-        check_fresh(stamp_to_seconds(msg.header.stamp), now, self.timeout)  # content errors first
+        self.freshness.check(stamp_to_seconds(msg.header.stamp), now)  # content errors first
         return lengths, rings
 
     def _on_command(self, msg: JointState) -> None:
