@@ -46,7 +46,8 @@ from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw  # noqa: E402
 from rrps_sim.nodes.driver_node import DriverNode  # noqa: E402
 
 NAMESPACE = '/rrps_bench'
-IDEAL_DRIVER = {'time_constant': 0.0, 'limit_speed': False, 'publish_on_command': True}
+IDEAL_DRIVER = {'time_constant': 0.0, 'limit_speed': False, 'publish_on_command': True,
+                'auto_activate': True}
 MATCH = 1e-6
 
 

@@ -128,7 +128,8 @@ def run_composition(name: str, groups, *, seconds: float, load: bool) -> dict:
 
     port, token = _free_port(), secrets.token_urlsafe(12)
     common = ['--ros-args', '-r', f'__ns:={NAMESPACE}', '-p', 'robot:=pole_climber']
-    children = [start_child([sys.executable, '-m', 'rrps_sim.nodes.driver_node', *common])]
+    children = [start_child([sys.executable, '-m', 'rrps_sim.nodes.driver_node', *common,
+                             '-p', 'auto_activate:=true'])]
     labels = ['driver_node'] + ['+'.join(n.removesuffix('_node') for n in nodes) for nodes in groups]
     for nodes in groups:
         extra = ['-p', f'port:={port}', '-p', f'token:={token}'] if 'viewer_node' in nodes else []

@@ -32,6 +32,7 @@ class Chain:
     def __init__(self, context, **driver_overrides):
         kw = dict(context=context, namespace='/rrps_test')
         self.ik, self.fk = IkNode(**kw), FkNode(**kw)
+        driver_overrides = {'auto_activate': True, **driver_overrides}
         self.driver = DriverNode(**kw, parameter_overrides=[Parameter(k, value=v) for k, v in driver_overrides.items()])
         self.probe = Probe(**kw)
         self.poses = self.probe.collect(PoseStamped, 'pose')

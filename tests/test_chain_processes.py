@@ -52,7 +52,7 @@ def stop(process, timeout=5.0):
 def test_installed_executables_close_the_chain_and_stop_on_ctrl_c(ros_context, ros_domain_id):
     processes = {}
     try:
-        processes['driver_node'] = start('driver_node', ros_domain_id, 'time_constant:=0.0',
+        processes['driver_node'] = start('driver_node', ros_domain_id, 'auto_activate:=true', 'time_constant:=0.0',
                                          'limit_speed:=false', 'publish_on_command:=true')
         processes['ik_node'] = start('ik_node', ros_domain_id)
         processes['fk_node'] = start('fk_node', ros_domain_id)

@@ -39,7 +39,8 @@ def _stack(ctx, robot='pole_climber', driver=None, **climb):
     params = {'robot': robot, 'structure': 'pole', 'speed': 0.05, 'step_length': 0.06,
               'position_tolerance': TOL, 'start': 0.2, **climb}
     robot_param = Parameter('robot', value=robot)
-    driver = [Parameter(k, value=v) for k, v in {'rate': 200.0, **(driver or {})}.items()]
+    driver = [Parameter(k, value=v) for k, v in {'rate': 200.0, 'auto_activate': True,
+                                                  **(driver or {})}.items()]
     return [DriverNode(context=ctx, parameter_overrides=[robot_param] + driver),
             IkNode(context=ctx, parameter_overrides=[robot_param]),
             FkNode(context=ctx, parameter_overrides=[robot_param]),

@@ -22,6 +22,7 @@ pytestmark = pytest.mark.ros
 
 
 def driver(ros_context, **overrides):
+    overrides = {'auto_activate': True, **overrides}  # an active driver: commands move it
     return DriverNode(context=ros_context, namespace='/t',
                       parameter_overrides=[Parameter(k, value=v) for k, v in overrides.items()])
 
@@ -153,7 +154,8 @@ def test_dynamic_mode_holds_and_tracks_with_effort_as_force(ros_context):
 def test_frame_climber_ring_rotations(ros_context):
     frame = load_robot('frame_climber')
     node = DriverNode(context=ros_context, namespace='/t',
-                      parameter_overrides=[Parameter('robot', value='frame_climber')])
+                      parameter_overrides=[Parameter('robot', value='frame_climber'),
+                                           Parameter('auto_activate', value=True)])
     probe, states, diagnostics, pub = setup(ros_context, node)
     names = list(LEG_NAMES) + ['ring_b_rotation']
     with Spinner(ros_context, [node, probe]):

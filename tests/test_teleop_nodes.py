@@ -67,7 +67,8 @@ class Rig:
         teleop = {'master_timeout': 1.0, 'enable_timeout': 1.0} | (teleop or {})
         self.teleop = TeleopNode(context=ctx, namespace=NS, parameter_overrides=params(**teleop))
         nodes = [self.teleop, IkNode(context=ctx, namespace=NS), FkNode(context=ctx, namespace=NS),
-                 DriverNode(context=ctx, namespace=NS, parameter_overrides=params(rate=100.0))]
+                 DriverNode(context=ctx, namespace=NS,
+                            parameter_overrides=params(rate=100.0, auto_activate=True))]
         if master is not None:
             self.master = MasterNode(context=ctx, namespace=NS,
                                      parameter_overrides=params(**({'rate': 100.0} | master)))

@@ -22,7 +22,8 @@ import threading
 import time
 from typing import Sequence
 
-__all__ = ['PARENT_PID_ENV', 'start_child', 'stop_child', 'stop_children', 'exit_with_parent']
+__all__ = ['PARENT_PID_ENV', 'start_child', 'stop_child', 'stop_children', 'exit_with_parent',
+           'Respawner']
 
 #: Environment variable through which a child learns its supervisor's pid.
 PARENT_PID_ENV = 'RRPS_PARENT_PID'
@@ -98,3 +99,42 @@ def exit_with_parent(on_exit, *, period: float = 0.5) -> threading.Thread | None
     thread = threading.Thread(target=watch, name='exit-with-parent', daemon=True)
     thread.start()
     return thread
+
+
+class Respawner:
+    """Children restarted when they die, as a launch file's ``respawn``: ``starters`` maps a
+    name to a function ``start(first: bool) -> Popen`` (``first`` is False for a restart, e.g.
+    to start a driver inactive). At most ``max_restarts`` restarts of a child per ``window``
+    s; beyond that :meth:`poll` reports it as given up and leaves it dead.
+
+    Call :meth:`poll` periodically from the main thread (children are started there).
+    """
+
+    def __init__(self, starters, *, max_restarts: int = 3, window: float = 60.0):
+        self.starters = dict(starters)
+        self.max_restarts = max_restarts
+        self.window = window
+        self.children = {name: start(True) for name, start in self.starters.items()}
+        self._restarts: dict[str, list[float]] = {name: [] for name in self.starters}
+        self.given_up: set[str] = set()
+
+    def poll(self) -> list[tuple[str, int | None, bool]]:
+        """(name, exit status, restarted) for every child found dead since the last call."""
+        events = []
+        now = time.monotonic()
+        for name, child in list(self.children.items()):
+            if name in self.given_up or child.poll() is None:
+                continue
+            recent = [t for t in self._restarts[name] if now - t < self.window]
+            if len(recent) >= self.max_restarts:
+                self.given_up.add(name)
+                events.append((name, child.returncode, False))
+                continue
+            self._restarts[name] = recent + [now]
+            self.children[name] = self.starters[name](False)
+            events.append((name, child.returncode, True))
+        return events
+
+    def stop(self, timeout: float = 5.0) -> list[int]:
+        """Stop every child (SIGTERM, then SIGKILL after ``timeout`` s)."""
+        return stop_children(list(self.children.values()), timeout)

@@ -53,6 +53,8 @@ class DriverStatus(CommandAgeStatus):
     """driver_node's /diagnostics values."""
 
     mode: ActuatorMode = ActuatorMode.KINEMATIC
+    #: the lifecycle state is active: commands move the robot, the grippers switch
+    active: bool = False
     accepted: int = 0
     rejected: int = 0
     dropped: int = 0

@@ -2,13 +2,16 @@
 
 The demo runs as the system would on a robot and an operator station, in three processes:
 
-* the simulated hardware (``driver_node``, 500 Hz), as a real robot's driver;
+* the simulated hardware (``driver_node``, 500 Hz), as a real robot's driver, active at the
+  first start; it keeps the robot's physical state in a file of the run, and a driver that
+  dies is restarted inactive where the robot is (the viewer's "Activate driver" resumes);
 * the robot computer's nodes, IK, FK and climbing, composed in one process (``rrps-compose``);
 * the operator station, master, teleop and the viewer, in this process.
 
 The 500 Hz state fan-out and the viewer's web server therefore never share an executor (or a
-GIL) with the command path of the robot. The children die with this process (a parent-death
-signal), and Ctrl-C or SIGTERM stops all three. The viewer's URL and operator token are
+GIL) with the command path of the robot. A robot process that dies is restarted (at most 3
+times a minute); the children die with this process (a parent-death signal), and Ctrl-C or
+SIGTERM stops all three. The viewer's URL and operator token are
 printed once the robot is up.
 
 ``--headless`` runs no browser: a scripted teleop session (the operator's handle moves the
@@ -23,9 +26,11 @@ from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 
@@ -79,7 +84,8 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
     from .nodes.teleop_node import TeleopNode
 
     robot_param = [Parameter('robot', value=robot)]
-    plan = [('driver_node', DriverNode, robot_param + [Parameter('rate', value=float(driver_rate))])
+    plan = [('driver_node', DriverNode, robot_param + [Parameter('rate', value=float(driver_rate)),
+                                                       Parameter('auto_activate', value=True)])
             ] if driver else []
     if kinematics:
         plan += [('ik_node', IkNode, robot_param), ('fk_node', FkNode, robot_param)]
@@ -111,17 +117,20 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
     return nodes
 
 
-def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE) -> subprocess.Popen:
+def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
+                 state_file: str = '', activate: bool = False) -> subprocess.Popen:
     """The simulated hardware (driver_node) in a process of its own, as a real robot's driver.
 
-    Its 500 Hz loop has an interpreter and a core to itself. It inherits the environment
-    (domain id, discovery range) and dies with this process; stop it with
-    :func:`rrps_kinematics.supervision.stop_children`.
+    Its 500 Hz loop has an interpreter and a core to itself. It keeps the robot's physical
+    state in ``state_file`` (a restart resumes it) and starts inactive unless ``activate``.
+    It inherits the environment (domain id, discovery range) and dies with this process; stop
+    it with :func:`rrps_kinematics.supervision.stop_children`.
     """
     from rrps_kinematics.supervision import start_child
     return start_child([sys.executable, '-m', 'rrps_sim.nodes.driver_node', '--ros-args',
                         '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
-                        '-p', f'rate:={float(rate)}'])
+                        '-p', f'rate:={float(rate)}', '-p', f'state_file:={state_file}',
+                        '-p', f'auto_activate:={str(activate).lower()}'])
 
 
 def start_robot_nodes(*, robot: str, namespace: str = NAMESPACE) -> subprocess.Popen:
@@ -176,11 +185,12 @@ def main(argv=None) -> int:
     import rclpy
     from rclpy.executors import ExternalShutdownException
     from rclpy.signals import SignalHandlerOptions
+    from rclpy.task import Future
 
     from rrps_kinematics.geometry import RobotDescriptionError
     from rrps_kinematics.nodes.common import (freeze_startup_objects, make_executor,
                                               spin_until_shutdown)
-    from rrps_kinematics.supervision import exit_with_parent, stop_children
+    from rrps_kinematics.supervision import Respawner, exit_with_parent
 
     stop = threading.Event()
     exit_with_parent(stop.set)
@@ -189,7 +199,8 @@ def main(argv=None) -> int:
     previous = {sig: signal.signal(sig, lambda *_: stop.set())
                 for sig in (signal.SIGINT, signal.SIGTERM)}
     nodes: dict = {}
-    children: list[subprocess.Popen] = []
+    robot: Respawner | None = None
+    run_dir = tempfile.mkdtemp(prefix='rrps-demo-')
     status = 0
     try:
         try:
@@ -199,10 +210,15 @@ def main(argv=None) -> int:
         except (RobotDescriptionError, ValueError) as exc:
             print(f'error: {exc}', file=sys.stderr)
             return 2
-        children = [start_driver(robot=args.robot), start_robot_nodes(robot=args.robot)]
-        # A child that dies ends the demo (the robot is gone), with an error status.
-        for child in children:
-            threading.Thread(target=lambda c=child: (c.wait(), stop.set()), daemon=True).start()
+        # The simulated robot: its driver (active at the first start only; a restarted driver
+        # resumes the robot's physical state from the state file and waits for activation)
+        # and its computer's nodes. A child that dies is restarted (at most 3 times a minute).
+        state_file = os.path.join(run_dir, f'{args.robot}-hardware.json')
+        robot = Respawner({
+            'driver': lambda first: start_driver(robot=args.robot, state_file=state_file,
+                                                 activate=first),
+            'robot nodes': lambda first: start_robot_nodes(robot=args.robot),
+        })
         script = None
         if args.headless:
             from .headless import DemoScript
@@ -212,14 +228,22 @@ def main(argv=None) -> int:
         for node in nodes.values():
             executor.add_node(node)
         freeze_startup_objects()
-        if not wait_for_robot(executor, context, nodes['teleop_node'], children, stop):
-            if not stop.is_set() or any(c.poll() not in (None, 0) for c in children):
+        if not wait_for_robot(executor, context, nodes['teleop_node'],
+                              list(robot.children.values()), stop):
+            if not stop.is_set() or robot.poll():
                 print('error: the simulated robot did not start', file=sys.stderr)
                 status = 1
             return status
         if script is None:
             print(_banner(nodes['viewer_node']), flush=True)
-            spin_until_shutdown(executor, context, stop, period=0.05)
+            never = Future()
+            while context.ok() and not stop.is_set():
+                executor.spin_until_future_complete(never, timeout_sec=0.05)
+                for name, code, restarted in robot.poll():
+                    print(f'rrps demo: the {name} process exited (status {code}); '
+                          + ('restarted it' + (': activate the driver in the viewer'
+                                               if name == 'driver' else '')
+                             if restarted else 'not restarting it again'), flush=True)
             print('rrps demo: stopping', flush=True)
         else:
             spinner = threading.Thread(target=spin_until_shutdown,
@@ -231,24 +255,23 @@ def main(argv=None) -> int:
             finally:
                 stop.set()
                 spinner.join(timeout=5.0)
-            status = 0 if ok else 1
+            failed = [c for c in robot.children.values() if c.poll() is not None]
+            status = 0 if ok and not failed else 1
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
-        for child in children:  # both stop while this process tears its own nodes down
-            if child.poll() is None:
-                child.send_signal(signal.SIGTERM)
+        if robot is not None:  # both stop while this process tears its own nodes down
+            for child in robot.children.values():
+                if child.poll() is None:
+                    child.send_signal(signal.SIGTERM)
         for sig, handler in previous.items():
             signal.signal(sig, handler)
         for node in nodes.values():
             node.destroy_node()
         rclpy.try_shutdown(context=context)
-        for child in children:
-            if child.poll() not in (None, 0, -signal.SIGTERM):
-                print(f'rrps demo: a robot process ({child.args[2]}) exited with status '
-                      f'{child.returncode}', file=sys.stderr)
-                status = status or 1
-        stop_children(children, timeout=5.0)
+        if robot is not None:
+            robot.stop(timeout=5.0)
+        shutil.rmtree(run_dir, ignore_errors=True)
     return status
 
 

@@ -1,5 +1,15 @@
 """driver_node: the simulated hardware. actuators/command -> actuators/state, plus the grippers.
 
+A managed (lifecycle) node: it configures itself at start-up and then sits **inactive**:
+``actuators/state`` and ``grippers/state`` are published (the hardware's sensors), but no
+command moves the robot and the grippers do not switch until an explicit ``activate`` through
+the standard ``driver_node/change_state`` service (the operator's button in the viewer). The
+parameter ``auto_activate`` activates at start (the demo's first start only). A restarted
+driver is inactive again. With ``state_file`` the robot's physical state (leg lengths, ring
+angles, grippers) is kept on disk and a restarted driver resumes it
+(:mod:`rrps_sim.hardware_state`): it never teleports home nor reports closed a gripper that was
+open. Deactivating holds the robot where it is.
+
 Modes (parameter ``mode``): ``kinematic`` (:class:`rrps_sim.actuators.KinematicActuators`: lag,
 speed and stroke limits; effort = the quasi-static holding forces of the pose, refreshed at 5 Hz) and ``dynamic`` (:class:`rrps_sim.actuators.DynamicActuators`: the
 multibody dynamics of eqs. 19-20 with a PD force loop per leg, effort = force [N]). The state
@@ -22,6 +32,7 @@ import time
 
 import numpy as np
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType, SetParametersResult
+from rclpy.lifecycle import LifecycleNode, State, TransitionCallbackReturn
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
@@ -37,6 +48,7 @@ from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, LEG_NAMES, OK, STA
 
 from ..actuators import DynamicActuators, KinematicActuators, QuasiStaticEfforts, SensorFaults
 from ..grippers import Grippers
+from ..hardware_state import HardwareState, StateFileError, load_state, save_state
 from ..interfaces import GRIPPERS_STATE, RINGS, ActuatorMode, DriverStatus, gripper_service
 
 __all__ = ['DriverNode', 'main']
@@ -53,8 +65,8 @@ def _declare_array(node: Node, name: str, kind, description: str) -> list:
     return list(value) if value is not None else []
 
 
-class DriverNode(Node):
-    """Simulated actuators and grippers of one robot."""
+class DriverNode(LifecycleNode):
+    """Simulated actuators and grippers of one robot (a lifecycle node; see the module docstring)."""
 
     def __init__(self, **kwargs):
         super().__init__('driver_node', **kwargs)
@@ -102,6 +114,16 @@ class DriverNode(Node):
                                        min_value=0.0, max_value=1.0)
         seed = declare_parameter(self, 'fault_seed', 0, 'seed of the fault injection',
                                  min_value=0, max_value=2**31 - 1, read_only=True)
+        self.state_file = declare_parameter(
+            self, 'state_file', '', "file that keeps the robot's physical state across driver "
+            'restarts (lengths, ring angles, grippers); empty: none', read_only=True)
+        auto_activate = declare_parameter(self, 'auto_activate', False,
+                                          'activate at start (otherwise: change_state activate)',
+                                          read_only=True)
+        ring_names = [f'{ring}_rotation' for ring in RINGS if ring in g.extra_dof]
+        saved = load_state(self.state_file, g, len(ring_names)) if self.state_file else None
+        if saved is not None:
+            initial = list(saved.lengths)
 
         lengths0 = np.array(initial if initial else g.home_lengths, dtype=float)
         if lengths0.shape != (6,) or not np.all(np.isfinite(lengths0)):
@@ -119,19 +141,22 @@ class DriverNode(Node):
             self.actuators = KinematicActuators(g.min_length, g.max_length, max_speed, time_constant,
                                                 lengths0)
             self.static_efforts = QuasiStaticEfforts(g, lengths0)
-        self.ring_names = [f'{ring}_rotation' for ring in RINGS if ring in g.extra_dof]
+        self.ring_names = ring_names
         self.rings = None
         if self.ring_names:
             dofs = [g.extra_dof[name.removesuffix('_rotation')] for name in self.ring_names]
             lo = np.array([d.min_angle for d in dofs])
             hi = np.array([d.max_angle for d in dofs])
-            self.rings = KinematicActuators(lo, hi, ring_speed, time_constant, np.clip(0.0, lo, hi))
+            angles0 = np.clip(saved.rings if saved is not None else 0.0, lo, hi)
+            self.rings = KinematicActuators(lo, hi, ring_speed, time_constant, angles0)
         self.names = list(LEG_NAMES) + self.ring_names
         self.reference = lengths0.copy()
         self.ring_reference = None if self.rings is None else self.rings.positions.copy()
         self.faults = SensorFaults(self._noise, self._drop, seed)
         self._apply_stuck(self._stuck)
-        self.grippers = Grippers(g.grippers)
+        self.grippers = Grippers(g.grippers, None if saved is None else saved.grippers)
+        self.active = False
+        self._saved: tuple | None = None
 
         self.accepted = 0
         self.rejected = 0
@@ -142,7 +167,8 @@ class DriverNode(Node):
         self._last_command_time: float | None = None
         self._last_step = time.monotonic()
         self._max_dt = 5.0 / self.rate
-        self._status = (OK, f'{self.mode.value} actuators holding the initial lengths')
+        resumed = f'resumed from {self.state_file}' if saved is not None else 'initial lengths'
+        self._status = (WARN, f'inactive ({resumed}): activate through {self.get_name()}/change_state')
         self._state_pub = self.create_publisher(JointState, ACTUATORS_STATE, STATE_QOS)
         self._grippers_pub = self.create_publisher(JointState, GRIPPERS_STATE, STATE_QOS)
         self.create_subscription(JointState, ACTUATORS_COMMAND, self._on_command, COMMAND_QOS)
@@ -153,8 +179,61 @@ class DriverNode(Node):
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._diag = Diagnostics(self, f'{self.mode.value} actuators')
         self.create_timer(1.0 / self.rate, self._on_tick)
-        self.create_timer(0.1, self._publish_grippers)
+        self.create_timer(0.05, self._publish_grippers)
         self.create_timer(0.5, self._report)
+        if self.state_file:
+            self.create_timer(0.1, self._save_state)
+            self._save_state()
+        self.trigger_configure()
+        if auto_activate:
+            self.trigger_activate()
+
+    # --- lifecycle ---
+
+    def on_configure(self, state: State) -> TransitionCallbackReturn:
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_activate(self, state: State) -> TransitionCallbackReturn:
+        self._hold()
+        self.active = True
+        self._set_status(OK, f'{self.mode.value} actuators active, holding: waiting for actuators/command')
+        return super().on_activate(state)
+
+    def on_deactivate(self, state: State) -> TransitionCallbackReturn:
+        self.active = False
+        self._hold()
+        self._set_status(WARN, f'inactive: holding; activate through {self.get_name()}/change_state')
+        return super().on_deactivate(state)
+
+    def on_cleanup(self, state: State) -> TransitionCallbackReturn:
+        self._save_state()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_shutdown(self, state: State) -> TransitionCallbackReturn:
+        self.active = False
+        self._save_state()
+        return TransitionCallbackReturn.SUCCESS
+
+    def _hold(self) -> None:
+        """Track where the actuators are now (no jump towards an older reference)."""
+        self.reference = self.actuators.positions.copy()
+        if self.rings is not None:
+            self.ring_reference = self.rings.positions.copy()
+        self._last_command_time = None
+
+    def _save_state(self) -> None:
+        """Keep the physical state on disk (only when it changed by more than 1 um or a gripper
+        switched)."""
+        if not self.state_file:
+            return
+        lengths = tuple(round(float(v), 6) for v in self.actuators.positions)
+        rings = () if self.rings is None else tuple(round(float(v), 6) for v in self.rings.positions)
+        key = (lengths, rings, tuple(self.grippers.closed[r] for r in RINGS))
+        if key == self._saved:
+            return
+        save_state(self.state_file, HardwareState(robot=self.geometry.name, lengths=lengths,
+                                                  rings=rings, grippers=dict(self.grippers.closed)))
+        self._saved = key
 
     # --- faults ---
 
@@ -186,7 +265,7 @@ class DriverNode(Node):
     def _report(self) -> None:
         level, message = self._status
         self._diag.report(level, message, DriverStatus(
-            mode=self.mode, accepted=self.accepted, rejected=self.rejected, dropped=self.dropped,
+            mode=self.mode, active=self.active, accepted=self.accepted, rejected=self.rejected, dropped=self.dropped,
             lengths=tuple(float(v) for v in self.actuators.positions),
             stuck_legs=tuple(int(i) + 1 for i in np.flatnonzero(self.actuators.stuck)),
             **DriverStatus.grippers(self.grippers.closed), gripper_refusals=self.gripper_refusals,
@@ -225,6 +304,11 @@ class DriverNode(Node):
         return lengths, rings
 
     def _on_command(self, msg: JointState) -> None:
+        if not self.active:
+            self.rejected += 1
+            self._set_status(WARN, f'command rejected: the driver is inactive; activate through '
+                                   f'{self.get_name()}/change_state')
+            return
         stamp = stamp_to_seconds(msg.header.stamp)
         if stamp != 0.0:
             now = self.get_clock().now().nanoseconds * 1e-9
@@ -296,12 +380,18 @@ class DriverNode(Node):
 
     def _on_gripper(self, ring: str, request, response):
         before = self.grippers.positions()
-        response.success, response.message = self.grippers.set(ring, close=bool(request.data))
+        if not self.active:
+            response.success = False
+            response.message = (f'refused: the driver is inactive; activate through '
+                                f'{self.get_name()}/change_state')
+        else:
+            response.success, response.message = self.grippers.set(ring, close=bool(request.data))
         if not response.success:
             self.gripper_refusals += 1
             self.get_logger().warning(response.message, throttle_duration_sec=1.0)
             self._report()
         if self.grippers.positions() != before:
+            self._save_state()
             self._publish_grippers()
             self._report()
         return response
