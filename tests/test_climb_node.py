@@ -119,17 +119,20 @@ def test_step_services_teleop_refusal_and_plan_refusal(ros_context):
     teleop = probe.publisher(DiagnosticStatus, 'teleop/status')
     up = probe.create_client(Trigger, 'climb/step_up')
     down = probe.create_client(Trigger, 'climb/step_down')
+    # an operator station on the line: its teleop/status at 10 Hz, as the teleop node sends it
+    station = {'status': _teleop_status(TeleopCode.NO_WARNING, engaged=True)}
+    probe.create_timer(0.1, lambda: teleop.publish(station['status']))
     with Spinner(ros_context, _stack(ros_context) + [probe]):
         assert wait_for(lambda: odo_a, timeout=5.0)
         z0 = pose_from_msg(odo_a[-1])[0][2]
         assert z0 == pytest.approx(0.2, abs=1e-6)
         # Teleoperation engaged: no step.
         assert wait_for(lambda: teleop.get_subscription_count() > 0, timeout=3.0)
-        teleop.publish(_teleop_status(TeleopCode.NO_WARNING, engaged=True))
+        station['status'] = _teleop_status(TeleopCode.NO_WARNING, engaged=True)
         wait_for(lambda: False, timeout=0.3)  # delivered (reliable, matched)
         reply = _call(probe, up)
         assert not reply.success and 'teleoperation' in reply.message
-        teleop.publish(_teleop_status(TeleopCode.DEADMAN_RELEASED, engaged=False))
+        station['status'] = _teleop_status(TeleopCode.DEADMAN_RELEASED, engaged=False)
         assert wait_for(lambda: _call(probe, up).success, timeout=3.0)
         busy = _call(probe, up)
         assert not busy.success and 'executing' in busy.message

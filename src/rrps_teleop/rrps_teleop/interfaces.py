@@ -9,7 +9,8 @@ Topics and services (relative names), on top of :mod:`rrps_kinematics.interfaces
     TELEOP_ENABLE       std_msgs/Bool              the deadman, true at >= 10 Hz while held
     TELEOP_STATUS       diagnostic_msgs/DiagnosticStatus  values: TeleopStatus
     CLIMB_STATUS        diagnostic_msgs/DiagnosticStatus  values: ClimbStatus
-    CLIMB_STEP_UP, CLIMB_STEP_DOWN  std_srvs/Trigger
+    CLIMB_STEP_UP, CLIMB_STEP_DOWN, CLIMB_RESUME  std_srvs/Trigger
+    OPERATOR_ROUND_TRIP std_msgs/Float64           the controlling browser's round trip [s]
     odometry_topic(ring)            geometry_msgs/PoseStamped  frame world
 
 A status message's ``message`` is for people; nodes read the typed values
@@ -25,9 +26,9 @@ from rrps_kinematics.interfaces import StatusValues
 
 __all__ = [
     'MASTER_TARGET_POSE', 'MASTER_STATE', 'MASTER_POSE', 'MASTER_FRAME', 'TELEOP_ENABLE',
-    'TELEOP_STATUS', 'CLIMB_STATUS', 'CLIMB_STEP_UP', 'CLIMB_STEP_DOWN', 'odometry_topic',
-    'TeleopCode', 'DISENGAGED_CODES', 'ClimbState', 'PhaseAction', 'TeleopStatus',
-    'ClimbStatus',
+    'TELEOP_STATUS', 'CLIMB_STATUS', 'CLIMB_STEP_UP', 'CLIMB_STEP_DOWN', 'CLIMB_RESUME',
+    'OPERATOR_ROUND_TRIP', 'odometry_topic', 'TeleopCode', 'DISENGAGED_CODES', 'ClimbState',
+    'PauseReason', 'PhaseAction', 'TeleopStatus', 'ClimbStatus',
 ]
 
 MASTER_TARGET_POSE = 'master/target_pose'
@@ -39,6 +40,8 @@ TELEOP_STATUS = 'teleop/status'
 CLIMB_STATUS = 'climb/status'
 CLIMB_STEP_UP = 'climb/step_up'
 CLIMB_STEP_DOWN = 'climb/step_down'
+CLIMB_RESUME = 'climb/resume'
+OPERATOR_ROUND_TRIP = 'operator/round_trip_time'
 
 
 def odometry_topic(ring: str) -> str:
@@ -69,12 +72,17 @@ class TeleopCode(enum.IntEnum):
     WAITING_FOR_SLAVE_POSE = 103      # nothing to engage from yet
     CLIMB_EXECUTING = 104             # a climb step owns the robot
     ORIENTATION_MISMATCH = 105        # absolute rotation mode: align the master first
+    SLAVE_STATE_LOST = 106            # no slave pose (its actuators/state) for state_timeout
+    LINK_LATENCY = 107                # the operator's round trip is above hold_latency
+    DRIVER_INACTIVE = 108             # the robot's driver is not active (activate it first)
+    LATENCY_SLOWED = 109              # engaged, slowed down: round trip above slow_latency
 
 
 #: Codes under which the mapping is not engaged (no command is produced: the slave holds).
 DISENGAGED_CODES = frozenset({TeleopCode.DEADMAN_RELEASED, TeleopCode.MASTER_STALE,
                               TeleopCode.WAITING_FOR_SLAVE_POSE, TeleopCode.CLIMB_EXECUTING,
-                              TeleopCode.ORIENTATION_MISMATCH})
+                              TeleopCode.ORIENTATION_MISMATCH, TeleopCode.SLAVE_STATE_LOST,
+                              TeleopCode.LINK_LATENCY, TeleopCode.DRIVER_INACTIVE})
 
 
 class ClimbState(enum.Enum):
@@ -82,7 +90,16 @@ class ClimbState(enum.Enum):
 
     IDLE = 'idle'            # no step executing; a step may start
     EXECUTING = 'executing'  # a step owns the robot (teleoperation refuses to engage)
+    PAUSED = 'paused'        # a step holds (see PauseReason) until the operator resumes it
     FAILED = 'error'         # a step failed: the robot holds; see the detail
+
+
+class PauseReason(enum.Enum):
+    """Why a climbing step holds. It resumes only on the operator's ``climb/resume``."""
+
+    ROBOT_STATE_LOST = 'robot state lost'        # pose or grippers/state older than state_timeout
+    OPERATOR_LINK_LOST = 'operator link lost'    # the operator station's teleop/status went silent
+    DRIVER_INACTIVE = 'driver inactive'          # the driver left its active state
 
 
 class PhaseAction(enum.Enum):
@@ -106,6 +123,8 @@ class TeleopStatus(StatusValues):
     rotation_mode: str = 'relative'
     joint_scale: tuple[float, ...] = ()
     detail: str = ''
+    round_trip_time: float | None = None
+    speed_factor: float = 1.0
     margin_stroke: float | None = None
     margin_universal: float | None = None
     margin_spherical: float | None = None
@@ -119,6 +138,7 @@ class ClimbStatus(StatusValues):
     ``ring``), the rings' route positions [m] and the reason in words (``detail``)."""
 
     state: ClimbState
+    pause_reason: PauseReason | None = None
     step: int = 0
     action: PhaseAction | None = None
     ring: str = ''

@@ -25,6 +25,8 @@ any of these lapses the mapping disengages and produces no command: the slave ho
 Guards, applied to the step from the last command towards the mapped target:
 
 1. speed: |Δp| ≤ max_linear_speed·dt, |Δθ| ≤ max_angular_speed·dt, |ΔL_i| ≤ geometry.max_speed·dt;
+   all three scaled down by the operator's round trip above ``slow_latency`` (to 1/4 at
+   ``hold_latency``; above it the robot holds);
 2. deceleration near a singularity (inverse condition number below ``singularity_slowdown``) or
    near leg-leg interference (margin below ``collision_slowdown``): the step is scaled by the
    remaining fraction of the band, only when the step reduces that margin (moving back out is at
@@ -114,6 +116,12 @@ class TeleopConfig:
     align_tolerance: float = 0.1
     #: longest time step [s] the speed limits allow (a late step never gets a large jump).
     max_period: float = 0.05
+    #: hold when the slave's pose (its measured state) is older than this [s].
+    state_timeout: float = 0.2
+    #: the operator's round trip [s] above which the speeds are scaled down (to 1/4 at hold_latency).
+    slow_latency: float = 0.2
+    #: the operator's round trip [s] above which the robot holds.
+    hold_latency: float = 0.3
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -127,8 +135,12 @@ class TeleopConfig:
             raise ValueError(f'joint_scale must be a scalar or 6 values, got shape {a.shape}')
         object.__setattr__(self, 'joint_scale', tuple(validate_scale(v, 'joint_scale') for v in a))
         for name in ('enable_timeout', 'master_timeout', 'max_linear_speed', 'max_angular_speed',
-                     'singularity_slowdown', 'collision_slowdown', 'align_tolerance', 'max_period'):
+                     'singularity_slowdown', 'collision_slowdown', 'align_tolerance', 'max_period',
+                     'state_timeout', 'slow_latency', 'hold_latency'):
             validate_scale(getattr(self, name), name)
+        if not self.slow_latency < self.hold_latency:
+            raise ValueError(f'slow_latency must be < hold_latency, got {self.slow_latency!r}, '
+                             f'{self.hold_latency!r}')
         if self.singularity_halt is not None:
             h = float(self.singularity_halt)
             if not (math.isfinite(h) and 0.0 <= h < self.singularity_slowdown):
@@ -179,6 +191,9 @@ class TeleopMapping:
         self._master_lengths: np.ndarray | None = None
         self._master_lengths_time = -math.inf
         self._slave_pose: tuple[np.ndarray, np.ndarray] | None = None
+        self._slave_pose_time: float | None = None
+        self._round_trip: tuple[float, float] | None = None
+        self._driver_active: bool | None = None
         self._climb_executing = False
         self._last_step_time: float | None = None
         self._sample_stamp: float | None = None
@@ -221,9 +236,38 @@ class TeleopMapping:
         if self.config.mode == 'joint':
             self._sample_stamp = stamp
 
-    def on_slave_pose(self, position, quaternion_xyzw) -> None:
-        """The slave's measured pose a_T_b (its FK): the reference captured at engage."""
+    def on_slave_pose(self, position, quaternion_xyzw, t: float | None = None) -> None:
+        """The slave's measured pose a_T_b (its FK), received at ``t``: the reference captured
+        at engage. With ``t``, a pose older than ``state_timeout`` holds the robot."""
         self._slave_pose = validate_pose(position, quaternion_xyzw, what='slave pose')
+        self._slave_pose_time = None if t is None else float(t)
+
+    def on_round_trip(self, t: float, round_trip: float) -> None:
+        """The operator's measured round trip [s] at ``t``: above ``slow_latency`` the speeds are
+        scaled down, above ``hold_latency`` the robot holds (a NaN or an infinite round trip
+        holds too: the link does not answer)."""
+        self._round_trip = (float(t), float(round_trip))
+
+    def set_driver_active(self, active: bool | None) -> None:
+        """Whether the robot's driver is active (None: not known, not checked)."""
+        self._driver_active = active
+
+    def round_trip(self, t: float) -> float | None:
+        """The operator's round trip [s] if one was measured in the last second."""
+        if self._round_trip is None or t - self._round_trip[0] > 1.0:
+            return None
+        return self._round_trip[1]
+
+    def speed_factor(self, t: float) -> float:
+        """Speed scale from the operator's round trip: 1 up to slow_latency, then linearly down
+        to 0.25 at hold_latency."""
+        c = self.config
+        rtt = self.round_trip(t)
+        if rtt is None or rtt <= c.slow_latency:
+            return 1.0
+        if not rtt < c.hold_latency:
+            return 0.25
+        return 1.0 - 0.75 * (rtt - c.slow_latency) / (c.hold_latency - c.slow_latency)
 
     def set_climb_executing(self, executing: bool) -> None:
         """True while a climb step owns the robot: refuses to engage (disengages if engaged)."""
@@ -252,6 +296,15 @@ class TeleopMapping:
             return TeleopCode.MASTER_STALE, f'no {what} for {age:.3g} s (timeout {c.master_timeout:g} s)'
         if self._slave_pose is None:
             return TeleopCode.WAITING_FOR_SLAVE_POSE, 'no slave pose yet'
+        if self._slave_pose_time is not None and t - self._slave_pose_time > c.state_timeout:
+            return (TeleopCode.SLAVE_STATE_LOST, f'no slave pose for {t - self._slave_pose_time:.3g} s '
+                                                 f'(state_timeout {c.state_timeout:g} s)')
+        if self._driver_active is False:
+            return TeleopCode.DRIVER_INACTIVE, 'the driver is not active: activate it first'
+        rtt = self.round_trip(t)
+        if rtt is not None and not rtt <= c.hold_latency:
+            return (TeleopCode.LINK_LATENCY, f"the operator's round trip {rtt * 1e3:.0f} ms is above "
+                                             f'{c.hold_latency * 1e3:.0f} ms')
         return None
 
     def check(self, t: float) -> tuple[TeleopCode, str] | None:
@@ -270,11 +323,14 @@ class TeleopMapping:
             mismatch = self._engage()
             if mismatch is not None:
                 return mismatch
-        dt = self._time_budget(t)
+        factor = self.speed_factor(t)
+        dt = factor * self._time_budget(t)  # every speed limit scaled by the link's factor
         if self.config.mode == 'cartesian':
             code, detail = self._cartesian_step(dt)
         else:
             code, detail = self._joint_step(dt)
+        if factor < 1.0 and code in (TeleopCode.NO_WARNING, TeleopCode.SPEED_LIMITED):
+            code, detail = TeleopCode.LATENCY_SLOWED, f'speeds x {factor:.2f} for the link latency'
         cmd = self._command
         return TeleopOutput(code, True, detail, position=cmd.position.copy(),
                             quaternion_xyzw=cmd.quaternion.copy(), lengths=cmd.lengths.copy(),

@@ -11,7 +11,14 @@ closed (the interlock, on top of the planner's and the driver's).
 Services ``climb/step_up``, ``climb/step_down`` (std_srvs/Trigger) plan and start one step;
 ``auto_steps`` > 0 climbs that many steps up once the robot's state is known (scripted runs).
 A step is refused while ``teleop/status`` says engaged, while another executes, or when the
-planner refuses it (the reply says which limit and where). When the measured pose is off the
+planner refuses it (the reply says which limit and where).
+
+Liveness: a step **pauses** (state ``paused``, a typed ``PauseReason``) when ``pose`` or
+``grippers/state`` is older than ``state_timeout`` (the driver or FK is gone), when the
+operator station (its ``teleop/status``, once seen) has been silent for ``operator_timeout``
+(the link is down), or when the driver leaves its active state. A paused step sends no target
+and switches no gripper, so the robot holds where it is; it waits for the operator's
+``climb/resume`` once the cause is gone (it never resumes by itself, and it is not aborted). When the measured pose is off the
 gait (teleoperation moved ring_b), ring_b is first released, brought back and re-gripped
 (``GaitPlanner.approach``, checked like any motion) before the step.
 
@@ -27,16 +34,19 @@ it at its own ``rate``, so a fast state stream costs it almost nothing and never
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 
-from rrps_kinematics.interfaces import POSE, RING_A_FRAME, TARGET_POSE, WORLD_FRAME
-from rrps_sim.interfaces import GRIPPERS_STATE, RINGS, gripper_service, gripper_states
+from rrps_kinematics.interfaces import (DIAGNOSTICS, POSE, RING_A_FRAME, TARGET_POSE, WORLD_FRAME,
+                                        source_node)
+from rrps_sim.interfaces import (GRIPPERS_STATE, RINGS, DriverStatus, gripper_service,
+                                 gripper_states)
 from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, LATEST_QOS, OK, STATE_QOS, WARN, Diagnostics,
                                           declare_parameter, declare_robot_parameter, pose_from_msg,
                                           pose_to_msg, run_nodes)
@@ -44,12 +54,14 @@ from rrps_kinematics.pose import QUATERNION_TOLERANCE, InvalidPose, Pose, pose_e
 from rrps_kinematics.rotations import matrix_to_quat_xyzw, rotation_angle_between
 
 from ..gait import GaitPlanner, PlanError
-from ..interfaces import (CLIMB_STATUS, CLIMB_STEP_DOWN, CLIMB_STEP_UP, TELEOP_STATUS, ClimbState,
-                          ClimbStatus, PhaseAction, TeleopStatus, odometry_topic)
+from ..interfaces import (CLIMB_RESUME, CLIMB_STATUS, CLIMB_STEP_DOWN, CLIMB_STEP_UP, TELEOP_STATUS,
+                          ClimbState, ClimbStatus, PauseReason, PhaseAction, TeleopStatus,
+                          odometry_topic)
 from ..odometry import RingOdometry
 from ..structures import STRUCTURES, make_structure
 
-IDLE, EXECUTING, FAILED = ClimbState.IDLE, ClimbState.EXECUTING, ClimbState.FAILED
+IDLE, EXECUTING, PAUSED, FAILED = (ClimbState.IDLE, ClimbState.EXECUTING, ClimbState.PAUSED,
+                                   ClimbState.FAILED)
 
 
 class ClimbNode(Node):
@@ -88,6 +100,13 @@ class ClimbNode(Node):
         self.settle_time = declare_parameter(
             self, 'settle_time', 0.1, 'the pose must stay within tolerance this long before a gripper switches [s]',
             min_value=0.0, max_value=10.0, read_only=True)
+        self.state_timeout = declare_parameter(
+            self, 'state_timeout', 0.2, 'pause when pose or grippers/state is older than this [s]',
+            min_value=0.01, max_value=10.0, read_only=True)
+        self.operator_timeout = declare_parameter(
+            self, 'operator_timeout', 0.5,
+            'pause when the operator station (its teleop/status, once seen) is silent this long [s]',
+            min_value=0.05, max_value=60.0, read_only=True)
         use_dof = declare_parameter(self, 'use_extra_dof', True,
                                     'use the extra ring DOF where the robot has one', read_only=True)
         if name not in STRUCTURES:
@@ -106,6 +125,13 @@ class ClimbNode(Node):
         self.mode = IDLE
         self.detail = 'waiting for pose and grippers/state'
         self._plan_refused = False
+        self.pause_reason: PauseReason | None = None
+        self._pose_receipt: float | None = None
+        self._grippers_receipt: float | None = None
+        self._operator_receipt: float | None = None
+        self.driver_active: bool | None = None
+        self._last_tick = time.monotonic()
+        self._kept_up = True
         self.steps_done = 0
         self.pose: Pose | None = None
         self.grippers: dict[str, bool] | None = None
@@ -135,6 +161,8 @@ class ClimbNode(Node):
                                  for ring in RINGS}
         self.create_service(Trigger, CLIMB_STEP_UP, lambda req, res: self._on_step(res, +1))
         self.create_service(Trigger, CLIMB_STEP_DOWN, lambda req, res: self._on_step(res, -1))
+        self.create_service(Trigger, CLIMB_RESUME, lambda req, res: self._on_resume(res))
+        self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, STATE_QOS)
         self._diag = Diagnostics(self, 'climb')
         self.create_timer(self.dt, self._on_tick)
         self.create_timer(0.5, lambda: self._publish_status(force=True))
@@ -144,6 +172,7 @@ class ClimbNode(Node):
     def _on_pose(self, msg: PoseStamped) -> None:
         """Keep the newest measured pose; it is used at the node's rate (:meth:`_take_pose`)."""
         self._pose_msg = msg
+        self._pose_receipt = time.monotonic()
 
     def _take_pose(self) -> None:
         """The newest measured pose (if one came since the last tick) and the odometry it chains."""
@@ -184,8 +213,20 @@ class ClimbNode(Node):
         state = gripper_states(msg.name, msg.position)
         if state is not None:
             self.grippers = state
+            self._grippers_receipt = time.monotonic()
+
+    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        """The driver's lifecycle state, from its typed status."""
+        for status in msg.status:
+            if source_node(status.name) == 'driver_node':
+                try:
+                    self.driver_active = DriverStatus.from_key_values(status.values).active
+                except ValueError as exc:
+                    self.get_logger().warning(f'driver status ignored: {exc}',
+                                              throttle_duration_sec=5.0)
 
     def _on_teleop(self, msg: DiagnosticStatus) -> None:
+        self._operator_receipt = time.monotonic()  # the operator station is reachable
         try:
             self.teleop_engaged = TeleopStatus.from_key_values(msg.values).engaged
         except ValueError as exc:
@@ -199,6 +240,60 @@ class ClimbNode(Node):
 
     # --- starting a climb -----------------------------------------------------------------------
 
+    def _hold_reason(self) -> PauseReason | None:
+        """Why a step must hold now: the robot's state is stale, the operator station is silent
+        (once it was seen), or the driver is not active."""
+        now = time.monotonic()
+        if any(t is None or now - t > self.state_timeout
+               for t in (self._pose_receipt, self._grippers_receipt)):
+            return PauseReason.ROBOT_STATE_LOST
+        if self._operator_receipt is not None and now - self._operator_receipt > self.operator_timeout:
+            return PauseReason.OPERATOR_LINK_LOST
+        if self.driver_active is False:
+            return PauseReason.DRIVER_INACTIVE
+        return None
+
+    def _ages(self) -> str:
+        now = time.monotonic()
+        return ', '.join(f'{name} ' + ('never received' if t is None else f'{now - t:.2f} s old')
+                         for name, t in (('pose', self._pose_receipt),
+                                         ('grippers/state', self._grippers_receipt),
+                                         ('teleop/status', self._operator_receipt)))
+
+    def _pause(self, reason: PauseReason) -> None:
+        """Hold: no target, no gripper request until the operator resumes."""
+        ph = self._phases[self._index]
+        self.mode, self.pause_reason = PAUSED, reason
+        self.detail = (f'paused at step {ph.step}, phase {ph.phase}: {reason.value} ({self._ages()}); '
+                       f'holding, grippers as they are; {CLIMB_RESUME} resumes')
+        self.get_logger().error(self.detail)
+        self._publish_status(force=True)
+
+    def _on_resume(self, response):
+        if self.mode is not PAUSED:
+            response.success, response.message = False, f'refused: the climb is {self.mode.value}'
+            return response
+        reason = self._hold_reason()
+        if reason is not None:
+            response.success, response.message = False, f'refused: {reason.value}'
+            return response
+        self._take_pose()
+        if self._stage == 'stream':
+            expected = self._target(self._t)
+            dp, da = pose_error(self.pose, expected)
+            if dp > 10 * self.position_tolerance or da > 10 * self.orientation_tolerance:
+                response.success = False
+                response.message = (f'refused: the robot is {dp * 1e3:.1f} mm / {math.degrees(da):.2f} '
+                                    'deg off the paused path')
+                return response
+        self._deadline = self._now() + self.settle_timeout
+        self.mode, self.pause_reason = EXECUTING, None
+        ph = self._phases[self._index]
+        self.detail = f'resumed at step {ph.step}, phase {ph.phase}'
+        self._publish_status(force=True)
+        response.success, response.message = True, self.detail
+        return response
+
     def _on_step(self, response, direction: int):
         response.success, response.message = self.start_climb(direction * self.step_length, 1)
         return response
@@ -206,14 +301,19 @@ class ClimbNode(Node):
     def start_climb(self, distance: float, steps: int) -> tuple[bool, str]:
         """Plan and start a climb of ``distance`` [m] in ``steps``; (accepted, message)."""
         self._take_pose()
-        if self.mode == EXECUTING:
+        if self.mode is EXECUTING:
             return False, 'refused: a climb is executing'
+        if self.mode is PAUSED:
+            return False, f'refused: a climb is paused ({self.pause_reason.value}): resume it'
         if self.mode == FAILED:
             return False, f'refused: climb_node is in error ({self.detail})'
         if self.teleop_engaged:
             return False, 'refused: teleoperation is engaged'
         if self.pose is None or self.grippers is None:
             return False, 'refused: no pose or grippers/state received yet'
+        reason = self._hold_reason()
+        if reason is not None:
+            return False, f'refused: {reason.value}'
         try:
             plan = self.planner.plan(distance, steps, start=self.s_a,
                                      initial_separation=self.s_b - self.s_a, initial_theta=self.theta)
@@ -286,6 +386,17 @@ class ClimbNode(Node):
         return dp <= self.position_tolerance and da <= self.orientation_tolerance
 
     def _on_tick(self) -> None:
+        tick = time.monotonic()
+        # Judge the inputs' age only when this executor kept up (this tick came soon after the
+        # last one ended): after a stall (a plan, a busy machine) the messages that arrived
+        # meanwhile may still be queued behind this tick.
+        self._kept_up = tick - self._last_tick <= 0.5 * self.state_timeout
+        try:
+            self._tick()
+        finally:
+            self._last_tick = time.monotonic()
+
+    def _tick(self) -> None:
         self._take_pose()
         self._publish_odometry()
         if self.mode == IDLE and self.auto_steps > 0 and not self._auto_started \
@@ -293,7 +404,12 @@ class ClimbNode(Node):
             self._auto_started = True
             ok, message = self.start_climb(self.auto_steps * self.step_length, self.auto_steps)
             self.get_logger().info(f'scripted climb of {self.auto_steps} steps: {message}')
-        if self.mode != EXECUTING:
+            return  # planning took this tick: the inputs are judged at the next one
+        if self.mode is not EXECUTING:
+            return
+        reason = self._hold_reason() if self._kept_up else None
+        if reason is not None:
+            self._pause(reason)
             return
         ph = self._phases[self._index]
         now = self._now()
@@ -364,16 +480,17 @@ class ClimbNode(Node):
     # --- status ---------------------------------------------------------------------------------
 
     def _publish_status(self, force: bool = False) -> None:
-        ph = self._phases[self._index] if self.mode is EXECUTING and self._phases else None
-        values = ClimbStatus(state=self.mode, step=ph.step if ph else self.steps_done,
+        ph = self._phases[self._index] if self.mode in (EXECUTING, PAUSED) and self._phases else None
+        values = ClimbStatus(state=self.mode, pause_reason=self.pause_reason,
+                             step=ph.step if ph else self.steps_done,
                              action=ph.action if ph else None, ring=ph.ring if ph else '',
                              structure=self.structure.name, s_a=self.s_a, s_b=self.s_b,
                              steps_done=self.steps_done, detail=self.detail)
-        key = (self.mode, values.action, values.ring, values.step)
+        key = (self.mode, self.pause_reason, values.action, values.ring, values.step)
         if not force and key == self._last_status:
             return
         self._last_status = key
-        level = {IDLE: OK, EXECUTING: OK, FAILED: ERROR}[self.mode]
+        level = {IDLE: OK, EXECUTING: OK, PAUSED: ERROR, FAILED: ERROR}[self.mode]
         if self.mode is IDLE and self._plan_refused:
             level = WARN
         status = DiagnosticStatus(level=level, name=self.get_name(), message=self.mode.value,

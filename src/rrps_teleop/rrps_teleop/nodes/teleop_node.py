@@ -5,7 +5,13 @@ Subscribes ``master/pose`` (frame master_ring_a), ``master/actuators/state``, ``
 frame ring_a: the engage reference) and ``climb/status`` (no engage while a step executes).
 Publishes ``target_pose`` (Cartesian mode, through ik_node's guards) or ``actuators/command``
 (joint mode), and ``teleop/status`` (diagnostic_msgs/DiagnosticStatus: message = the status code
-name; values code, mode, scale, rotation_mode, engaged, detail and the smallest margins).
+name; values: :class:`rrps_teleop.interfaces.TeleopStatus`).
+
+Liveness: the slave's ``pose`` older than ``state_timeout`` (0.2 s: the driver or the FK is
+gone), the driver not active (its typed status on /diagnostics) or the operator's round trip
+(``operator/round_trip_time``, measured by the viewer) above ``hold_latency`` disengage the
+mapping: no command goes out and the robot holds. Above ``slow_latency`` every speed limit is
+scaled down.
 
 Control runs on every master sample (``control`` = message, the default: one callback from master
 state to command, see benchmarks/teleop_latency.py) or on a timer at ``control_rate`` Hz. A 50 Hz
@@ -20,21 +26,24 @@ from __future__ import annotations
 import math
 import time
 
-from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Bool
+from std_msgs.msg import Bool, Float64
 
-from rrps_kinematics.interfaces import ACTUATORS_COMMAND, POSE, RING_A_FRAME, TARGET_POSE
+from rrps_kinematics.interfaces import (ACTUATORS_COMMAND, DIAGNOSTICS, POSE, RING_A_FRAME,
+                                        TARGET_POSE, source_node)
+from rrps_sim.interfaces import DriverStatus
 from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, LATEST_QOS, OK, STALE, STATE_QOS, WARN, Diagnostics,
                                           declare_parameter, declare_robot_parameter, joint_state_msg,
                                           lengths_from_joint_state, pose_from_msg, pose_to_msg, run_nodes,
                                           stamp_to_seconds)
 
-from ..interfaces import (CLIMB_STATUS, MASTER_FRAME, MASTER_POSE, MASTER_STATE, TELEOP_ENABLE,
-                          TELEOP_STATUS, ClimbState, ClimbStatus, TeleopCode, TeleopStatus)
+from ..interfaces import (CLIMB_STATUS, MASTER_FRAME, MASTER_POSE, MASTER_STATE,
+                          OPERATOR_ROUND_TRIP, TELEOP_ENABLE, TELEOP_STATUS, ClimbState,
+                          ClimbStatus, TeleopCode, TeleopStatus)
 from ..mapping import MODES, ROTATION_MODES, TeleopConfig, TeleopMapping, TeleopOutput
 
 __all__ = ['TeleopNode', 'main']
@@ -44,11 +53,14 @@ WATCHDOG_PERIOD = 0.02
 #: Parameters that map onto TeleopConfig fields (settable at run time).
 CONFIG_PARAMETERS = ('mode', 'translation_scale', 'rotation_mode', 'joint_scale', 'enable_timeout',
                      'master_timeout', 'max_linear_speed', 'max_angular_speed', 'singularity_slowdown',
-                     'singularity_halt', 'collision_slowdown', 'align_tolerance')
+                     'singularity_halt', 'collision_slowdown', 'align_tolerance', 'state_timeout',
+                     'slow_latency', 'hold_latency')
 _LEVELS = {
     TeleopCode.NO_WARNING: OK, TeleopCode.SPEED_LIMITED: OK, TeleopCode.DEADMAN_RELEASED: OK,
     TeleopCode.CLIMB_EXECUTING: OK, TeleopCode.MASTER_STALE: STALE,
     TeleopCode.WAITING_FOR_SLAVE_POSE: STALE, TeleopCode.INVALID: ERROR,
+    TeleopCode.SLAVE_STATE_LOST: ERROR, TeleopCode.LINK_LATENCY: WARN,
+    TeleopCode.DRIVER_INACTIVE: WARN, TeleopCode.LATENCY_SLOWED: OK,
 }
 
 
@@ -112,6 +124,18 @@ class TeleopNode(Node):
                 self, 'align_tolerance', d.align_tolerance,
                 'absolute rotation mode: largest master/slave orientation difference to engage [rad]',
                 min_value=1e-4, max_value=math.pi),
+            'state_timeout': declare_parameter(
+                self, 'state_timeout', d.state_timeout,
+                'hold when the slave pose (its measured state) is older than this [s]',
+                min_value=0.01, max_value=5.0),
+            'slow_latency': declare_parameter(
+                self, 'slow_latency', d.slow_latency,
+                "the operator's round trip above which speeds are scaled down [s]",
+                min_value=0.001, max_value=5.0),
+            'hold_latency': declare_parameter(
+                self, 'hold_latency', d.hold_latency,
+                "the operator's round trip above which the robot holds [s]",
+                min_value=0.001, max_value=5.0),
         }
         self.mapping = TeleopMapping(self.geometry, TeleopConfig(**values))
         self._pending: TeleopConfig | None = None
@@ -128,6 +152,8 @@ class TeleopNode(Node):
         self.create_subscription(Bool, TELEOP_ENABLE, self._on_enable, COMMAND_QOS)
         self.create_subscription(PoseStamped, POSE, self._on_slave_pose, LATEST_QOS)
         self.create_subscription(DiagnosticStatus, CLIMB_STATUS, self._on_climb_status, STATE_QOS)
+        self.create_subscription(Float64, OPERATOR_ROUND_TRIP, self._on_round_trip, COMMAND_QOS)
+        self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, STATE_QOS)
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self.create_timer(WATCHDOG_PERIOD, self._watchdog)
@@ -192,9 +218,21 @@ class TeleopNode(Node):
             self._reject(f'pose frame_id {msg.header.frame_id!r} is not {self.frame_id!r}')
             return
         try:
-            self.mapping.on_slave_pose(*pose_from_msg(msg))
+            self.mapping.on_slave_pose(*pose_from_msg(msg), t=time.monotonic())
         except ValueError as exc:
             self._reject(str(exc))
+
+    def _on_round_trip(self, msg: Float64) -> None:
+        self.mapping.on_round_trip(time.monotonic(), msg.data)
+
+    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        """The driver's lifecycle state, from its typed status: no engaging while inactive."""
+        for status in msg.status:
+            if source_node(status.name) == 'driver_node':
+                try:
+                    self.mapping.set_driver_active(DriverStatus.from_key_values(status.values).active)
+                except ValueError as exc:
+                    self._reject(f'driver status: {exc}')
 
     def _on_climb_status(self, msg: DiagnosticStatus) -> None:
         try:
@@ -241,9 +279,12 @@ class TeleopNode(Node):
         self._last_status, self._last_status_time = key, now
         c = self.mapping.config
         level = _LEVELS.get(out.code, WARN)
+        t = time.monotonic()
         values = TeleopStatus(code=out.code, engaged=out.engaged, mode=c.mode,
                               scale=c.translation_scale, rotation_mode=c.rotation_mode,
                               joint_scale=tuple(c.joint_scale), detail=out.detail,
+                              round_trip_time=self.mapping.round_trip(t),
+                              speed_factor=self.mapping.speed_factor(t),
                               **{f'margin_{k}': v for k, v in out.margins.items()})
         status = DiagnosticStatus(level=level, name=self.get_name(), message=out.code.name,
                                   hardware_id=self.geometry.name)
