@@ -38,10 +38,12 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+from lifecycle_msgs.msg import Transition
+from lifecycle_msgs.srv import ChangeState
 from rcl_interfaces.srv import SetParametersAtomically
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Bool
+from std_msgs.msg import Bool, Float64
 from std_srvs.srv import SetBool, Trigger
 
 from rrps_kinematics.geometry import load_robot
@@ -60,11 +62,11 @@ from rrps_kinematics.nodes.common import (
     stamp_to_seconds,
 )
 
-from rrps_sim.interfaces import GRIPPERS_STATE, gripper_service
+from rrps_sim.interfaces import GRIPPERS_STATE, DriverStatus, gripper_service
 
-from ..interfaces import (CLIMB_STATUS, CLIMB_STEP_DOWN, CLIMB_STEP_UP, MASTER_POSE,
-                          MASTER_TARGET_POSE, TELEOP_ENABLE, TELEOP_STATUS, ClimbStatus,
-                          TeleopStatus, odometry_topic)
+from ..interfaces import (CLIMB_RESUME, CLIMB_STATUS, CLIMB_STEP_DOWN, CLIMB_STEP_UP,
+                          MASTER_POSE, MASTER_TARGET_POSE, OPERATOR_ROUND_TRIP, TELEOP_ENABLE,
+                          TELEOP_STATUS, ClimbStatus, TeleopStatus, odometry_topic)
 from ..viewer import Frame, Pose, Trail, ViewerServer, robot_figure, world_ring_poses
 
 _LEVEL_NAMES = {DiagnosticStatus.OK: 'OK', DiagnosticStatus.WARN: 'WARN',
@@ -121,7 +123,19 @@ def _climb_text(status: DiagnosticStatus | None) -> str:
     except ValueError as exc:
         return f'unreadable ({exc})'
     where = f', step {c.step}, phase {c.phase}' if c.action is not None else ''
-    return f'{c.state.value} ({_level(status)}{where})'
+    paused = f': {c.pause_reason.value}, press Resume climb' if c.pause_reason is not None else ''
+    return f'{c.state.value}{paused} ({_level(status)}{where})'
+
+
+def _driver_text(status: DiagnosticStatus | None) -> str:
+    """The driver's lifecycle state for people, from its typed status."""
+    if status is None:
+        return 'not heard yet'
+    try:
+        d = DriverStatus.from_key_values(status.values)
+    except ValueError as exc:
+        return f'unreadable ({exc})'
+    return ('active' if d.active else 'INACTIVE: press Activate driver') + f' ({d.mode.value})'
 
 
 class ViewerNode(Node):
@@ -177,6 +191,7 @@ class ViewerNode(Node):
         self._trails = {'ring_a': Trail(), 'ring_b': Trail()}
         self._odometry_rings = {odometry_topic(ring): ring for ring in self._trails}
         self._fk_status: DiagnosticStatus | None = None
+        self._driver_status: DiagnosticStatus | None = None
         self._actions: queue.SimpleQueue = queue.SimpleQueue()
         self._master_target: Pose | None = None
         self._enable_was = False
@@ -207,7 +222,10 @@ class ViewerNode(Node):
             'ring_b': self.create_client(SetBool, gripper_service('ring_b')),
             'teleop': self.create_client(SetParametersAtomically,
                                         'teleop_node/set_parameters_atomically'),
+            'driver': self.create_client(ChangeState, 'driver_node/change_state'),
+            'resume': self.create_client(Trigger, CLIMB_RESUME),
         }
+        self._round_trip_pub = self.create_publisher(Float64, OPERATOR_ROUND_TRIP, COMMAND_QOS)
         self.create_timer(1.0 / enable_rate, self._tick)
 
         self.viewer = ViewerServer(
@@ -268,9 +286,13 @@ class ViewerNode(Node):
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         for status in msg.status:
-            if source_node(status.name) == 'fk_node':
+            node = source_node(status.name)
+            if node == 'fk_node':
                 with self._lock:
                     self._fk_status = status
+            elif node == 'driver_node':
+                with self._lock:
+                    self._driver_status = status
 
     # --- the picture (drawing thread) ---------------------------------------------------------
 
@@ -289,6 +311,7 @@ class ViewerNode(Node):
                     if len(self._plot_t) >= 2 else None)
             trails = {ring: trail.points for ring, trail in self._trails.items()}
             fk_status = self._fk_status
+            latest['driver'] = self._driver_status
         grippers: dict[str, float | None] = {'ring_a': None, 'ring_b': None}
         gmsg = latest.get(GRIPPERS_STATE)
         if gmsg is not None:
@@ -347,8 +370,15 @@ class ViewerNode(Node):
         return cached[1]
 
     def _panel(self, latest: dict, frame: Frame, fk_status) -> str:
-        lines = [f'**Teleop:** {_teleop_text(latest.get(TELEOP_STATUS))}',
-                 f'**Climb:** {_climb_text(latest.get(CLIMB_STATUS))}']
+        rtt = self.round_trip()
+        lines = [f'**Driver:** {_driver_text(latest.get("driver"))}',
+                 f'**Teleop:** {_teleop_text(latest.get(TELEOP_STATUS))}',
+                 f'**Climb:** {_climb_text(latest.get(CLIMB_STATUS))}',
+                 '**Round trip:** ' + ('—' if rtt is None else
+                                       f'{rtt * 1e3:.0f} ms' + (' (robot holds above 300 ms)'
+                                                                if rtt > 0.3 else
+                                                                ' (slowed above 200 ms)'
+                                                                if rtt > 0.2 else ''))]
         g = frame.grippers
         lines.append('**Grippers:** ' + ', '.join(
             f'{ring} {"?" if v is None else "closed" if v >= 0.5 else "open"}'
@@ -398,12 +428,26 @@ class ViewerNode(Node):
     def set_mapping(self, client_id: int, mode: str, rotation_mode: str, scale: float) -> None:
         self._actions.put(('mapping', client_id, (mode, rotation_mode, scale)))
 
+    def set_driver_active(self, client_id: int, active: bool) -> None:
+        self._actions.put(('driver', client_id, active))
+
+    def resume_climb(self, client_id: int) -> None:
+        self._actions.put(('resume', client_id, None))
+
+    def round_trip(self) -> float | None:
+        """The controlling browser's round trip [s] (None: no controller or not measured yet)."""
+        controller = self.control.controller
+        return None if controller is None else self.viewer.links.round_trip(controller)
+
     def master_target(self, client_id: int, world_T_handle: Pose | None) -> None:
         """The gizmo moved (or was removed: None). Streamed by the timer while control is held."""
         with self._lock:
             self._master_target = world_T_handle
 
     def _tick(self) -> None:
+        rtt = self.round_trip()
+        if rtt is not None:  # the teleop node slows down above 0.2 s and holds above 0.3 s
+            self._round_trip_pub.publish(Float64(data=rtt))
         enable = self.control.enable()
         if enable:
             self._enable_pub.publish(Bool(data=True))
@@ -431,6 +475,12 @@ class ViewerNode(Node):
     def _call(self, kind: str, client_id: int, arg) -> None:
         if kind == 'step':
             client, request, what = self._service_clients[arg], Trigger.Request(), f'climb step {arg}'
+        elif kind == 'resume':
+            client, request, what = self._service_clients['resume'], Trigger.Request(), 'resume climb'
+        elif kind == 'driver':
+            client, what = self._service_clients['driver'], ('activate' if arg else 'deactivate') + ' driver'
+            request = ChangeState.Request(transition=Transition(
+                id=Transition.TRANSITION_ACTIVATE if arg else Transition.TRANSITION_DEACTIVATE))
         elif kind == 'gripper':
             ring, close = arg
             client = self._service_clients[ring]
@@ -455,6 +505,10 @@ class ViewerNode(Node):
             response = fut.result()
             if response is None:
                 self.viewer.tell(client_id, f'{what}: no response', ok=False)
+            elif kind == 'driver':
+                self.viewer.tell(client_id, f'{what}: ' + ('done' if response.success else
+                                                           'refused (not possible from its state)'),
+                                 ok=response.success)
             elif kind == 'mapping':
                 result = response.result
                 self.viewer.tell(client_id, f'{what}: ' + ('applied' if result.successful

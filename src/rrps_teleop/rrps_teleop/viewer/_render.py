@@ -26,6 +26,7 @@ import viser.uplot
 from rrps_kinematics.geometry import RobotGeometry
 
 from ._control import ControlResult, OperatorControl
+from ._latency import LinkMonitor
 from rrps_kinematics.pose import Pose
 
 from ._scene import RobotFigure, torus_mesh
@@ -51,6 +52,10 @@ class OperatorActions(Protocol):
     def set_mapping(self, client_id: int, mode: str, rotation_mode: str, scale: float) -> None: ...
 
     def master_target(self, client_id: int, world_T_handle: Pose | None) -> None: ...
+
+    def set_driver_active(self, client_id: int, active: bool) -> None: ...
+
+    def resume_climb(self, client_id: int) -> None: ...
 
 
 @dataclass
@@ -102,9 +107,16 @@ class _ClientControls:
             self.scale = gui.add_slider('Translation scale', min=0.5, max=8.0, step=0.5,
                                         initial_value=4.0)
             self.apply = gui.add_button('Apply mapping')
-        with gui.add_folder('Climb and grippers', order=2):
+        with gui.add_folder('Robot', order=2):
+            self.activate = gui.add_button('Activate driver', icon=viser.Icon.PLAYER_PLAY,
+                                           hint='the driver starts (and restarts) inactive: '
+                                                'nothing moves until it is activated')
+            self.deactivate = gui.add_button('Deactivate driver', color='gray',
+                                             icon=viser.Icon.PLAYER_PAUSE)
             self.step_up = gui.add_button('Climb one step up', icon=viser.Icon.ARROW_UP)
             self.step_down = gui.add_button('Climb one step down', icon=viser.Icon.ARROW_DOWN)
+            self.resume = gui.add_button('Resume climb', icon=viser.Icon.PLAYER_TRACK_NEXT,
+                                         hint='a paused climb (lost link or state) waits for this')
             self.grip_buttons = {}
             for ring in ('ring_a', 'ring_b'):
                 self.grip_buttons[(ring, True)] = gui.add_button(f'Close {ring}')
@@ -144,6 +156,9 @@ class _ClientControls:
         actions = server.actions
         self.apply.on_click(controller_only(lambda: actions.set_mapping(
             cid, str(self.mode.value), str(self.rotation.value), float(self.scale.value))))
+        self.activate.on_click(controller_only(lambda: actions.set_driver_active(cid, True)))
+        self.deactivate.on_click(controller_only(lambda: actions.set_driver_active(cid, False)))
+        self.resume.on_click(controller_only(lambda: actions.resume_climb(cid)))
         self.step_up.on_click(controller_only(lambda: actions.step(cid, 'up')))
         self.step_down.on_click(controller_only(lambda: actions.step(cid, 'down')))
         for (ring, close), button in self.grip_buttons.items():
@@ -186,7 +201,8 @@ class _ClientControls:
         self.hand_to.options = tuple(others) if others else ('—',)
         self.hand.disabled = not (controlling and others)
         for handle in (self.clutch, self.deadman, self.mode, self.rotation, self.scale, self.apply,
-                       self.step_up, self.step_down, *self.grip_buttons.values()):
+                       self.activate, self.deactivate, self.step_up, self.step_down, self.resume,
+                       *self.grip_buttons.values()):
             handle.disabled = not controlling
         if not controlling and self.clutch.value:
             self.clutch.value = False
@@ -258,6 +274,7 @@ class ViewerServer:
         self._build_panel()
         self.server.on_client_connect(self._on_connect)
         self.server.on_client_disconnect(self._on_disconnect)
+        self.links = LinkMonitor(self.server)
         self._thread = threading.Thread(target=self._run, name='viewer-draw', daemon=True)
         self._thread.start()
 
@@ -459,4 +476,5 @@ class ViewerServer:
         """Stop drawing and close the server (frees the port)."""
         self._stop.set()
         self._thread.join(timeout=2.0)
+        self.links.stop()
         self.server.stop()
