@@ -109,3 +109,55 @@ def test_compose_names_its_nodes_and_refuses_unknown_ones():
     assert main([]) == 2
     for name in NODES:
         assert node_class(name).__name__.endswith('Node')
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f'/proc/{pid}/stat') as f:
+            return f.read().rsplit(')', 1)[1].split()[0] != 'Z'
+    except FileNotFoundError:
+        return False
+
+
+def _children(pid: int) -> list[int]:
+    out = []
+    for entry in os.listdir('/proc'):
+        if entry.isdigit():
+            try:
+                with open(f'/proc/{entry}/stat') as f:
+                    if int(f.read().rsplit(')', 1)[1].split()[1]) == pid:
+                        out.append(int(entry))
+            except (OSError, ValueError):
+                pass
+    return out
+
+
+@pytest.mark.slow
+def test_a_killed_demo_takes_its_robot_processes_with_it_and_ctrl_c_stops_it_fast(ros_domain_id):
+    for how in ('kill', 'ctrl-c'):
+        proc = subprocess.Popen([*_command(), '--port', str(_free_port())], env=_env(ros_domain_id),
+                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        try:
+            deadline = time.monotonic() + 120
+            while time.monotonic() < deadline:
+                line = proc.stdout.readline()
+                if not line or 'is live' in line:  # the banner: the robot processes are up
+                    break
+            children = _children(proc.pid)
+            assert len(children) == 2, children  # the driver and the robot's nodes
+            if how == 'kill':
+                proc.kill()  # no chance to clean up: the parent-death signal stops them
+                proc.wait()
+            else:
+                t0 = time.monotonic()
+                proc.send_signal(signal.SIGINT)
+                proc.wait(timeout=30)
+                assert proc.returncode == 0
+                # the demo itself is done within 2 s here (the CI machine is loaded: generous)
+                assert time.monotonic() - t0 < 10.0
+            deadline = time.monotonic() + 15
+            while time.monotonic() < deadline and any(_alive(c) for c in children):
+                time.sleep(0.05)
+            assert not any(_alive(c) for c in children), f'{how}: a child outlived the demo'
+        finally:
+            _stop(proc)
