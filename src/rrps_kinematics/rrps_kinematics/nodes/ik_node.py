@@ -22,6 +22,8 @@ from sensor_msgs.msg import JointState
 
 from ..commands import (CommandAges, CommandFreshness, RejectedCommand, limit_velocity,
                         pose_limits, validate_target)
+from ..pose import InvalidPose, Pose
+from ..tool import TARGET_FRAMES, b_T_tool, ring_b_pose
 from ..interfaces import (ACTUATORS_COMMAND, ACTUATORS_STATE, RING_A_FRAME, TARGET_POSE,
                           IkStatus)
 from .common import (COMMAND_QOS, OK, STALE, STATE_QOS, WARN, Diagnostics, declare_parameter,
@@ -42,6 +44,14 @@ class IkNode(Node):
         self.timeout = declare_parameter(self, 'timeout', 0.1,
                                          'a target_pose whose stamp is older than this [s] is rejected',
                                          min_value=1e-3, max_value=60.0)
+        self.target_frame = declare_parameter(
+            self, 'target_frame', 'ring_b',
+            "what a target_pose places: ring_b's origin, or the tool-centre point ('tool', robots "
+            'with a tool)', read_only=True, additional_constraints=' | '.join(TARGET_FRAMES))
+        if self.target_frame not in TARGET_FRAMES:
+            raise ValueError(f'target_frame must be one of {TARGET_FRAMES}, got {self.target_frame!r}')
+        if self.target_frame == 'tool':
+            b_T_tool(self.geometry)  # ValueError (exit 2) for a robot without a tool
         self.quaternion_tolerance = declare_parameter(
             self, 'quaternion_tolerance', 1e-3, 'largest accepted | |q| - 1 | of a target quaternion',
             min_value=0.0, max_value=0.5)
@@ -120,10 +130,14 @@ class IkNode(Node):
         try:
             self.freshness.check(stamp, now_s)
             position, quaternion = pose_from_msg(msg)
+            if self.target_frame == 'tool':  # a target for the tool tip: where ring_b must be
+                a_T_b = ring_b_pose(self.geometry, Pose(position, quaternion,
+                                                        tolerance=self.quaternion_tolerance))
+                position, quaternion = a_T_b.position, a_T_b.quaternion_xyzw
             target = validate_target(self.geometry, position, quaternion, frame_id=msg.header.frame_id,
                                      expected_frame=self.frame_id,
                                      quaternion_tolerance=self.quaternion_tolerance)
-        except RejectedCommand as exc:
+        except (RejectedCommand, InvalidPose) as exc:
             self._reject(str(exc))
             return
         lengths = target.lengths

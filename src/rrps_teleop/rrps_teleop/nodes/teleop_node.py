@@ -54,7 +54,7 @@ WATCHDOG_PERIOD = 0.02
 CONFIG_PARAMETERS = ('mode', 'translation_scale', 'rotation_mode', 'joint_scale', 'enable_timeout',
                      'master_timeout', 'max_linear_speed', 'max_angular_speed', 'singularity_slowdown',
                      'singularity_halt', 'collision_slowdown', 'align_tolerance', 'state_timeout',
-                     'slow_latency', 'hold_latency')
+                     'slow_latency', 'hold_latency', 'control_frame')
 _LEVELS = {
     TeleopCode.NO_WARNING: OK, TeleopCode.SPEED_LIMITED: OK, TeleopCode.DEADMAN_RELEASED: OK,
     TeleopCode.CLIMB_EXECUTING: OK, TeleopCode.MASTER_STALE: STALE,
@@ -136,6 +136,10 @@ class TeleopNode(Node):
                 self, 'hold_latency', d.hold_latency,
                 "the operator's round trip above which the robot holds [s]",
                 min_value=0.001, max_value=5.0),
+            'control_frame': declare_parameter(
+                self, 'control_frame', d.control_frame,
+                "the frame the master moves: ring_b's origin or the tool-centre point (tool)",
+                additional_constraints='ring_b | tool'),
         }
         self.mapping = TeleopMapping(self.geometry, TeleopConfig(**values))
         self._pending: TeleopConfig | None = None
