@@ -6,6 +6,8 @@ Topics and services (relative names), on top of :mod:`rrps_kinematics.interfaces
     MASTER_TARGET_POSE  geometry_msgs/PoseStamped  the operator's handle, frame MASTER_FRAME
     MASTER_STATE        sensor_msgs/JointState     the master's leg lengths (encoders)
     MASTER_POSE         geometry_msgs/PoseStamped  the master's FK, frame MASTER_FRAME
+    MASTER_FEEDBACK     geometry_msgs/WrenchStamped  the slave's limits felt on the master's
+                        ring_b (the virtual fixture), frame MASTER_FRAME, torque about ring_b
     TELEOP_ENABLE       std_msgs/Bool              the deadman, true at >= 10 Hz while held
     TELEOP_STATUS       diagnostic_msgs/DiagnosticStatus  values: TeleopStatus
     CLIMB_STATUS        diagnostic_msgs/DiagnosticStatus  values: ClimbStatus
@@ -25,7 +27,7 @@ import enum
 from rrps_kinematics.interfaces import StatusValues
 
 __all__ = [
-    'MASTER_TARGET_POSE', 'MASTER_STATE', 'MASTER_POSE', 'MASTER_FRAME', 'TELEOP_ENABLE',
+    'MASTER_TARGET_POSE', 'MASTER_STATE', 'MASTER_POSE', 'MASTER_FRAME', 'MASTER_FEEDBACK', 'TELEOP_ENABLE',
     'TELEOP_STATUS', 'CLIMB_STATUS', 'CLIMB_STEP_UP', 'CLIMB_STEP_DOWN', 'CLIMB_RESUME',
     'OPERATOR_ROUND_TRIP', 'odometry_topic', 'TeleopCode', 'DISENGAGED_CODES', 'ClimbState',
     'PauseReason', 'PhaseAction', 'TeleopStatus', 'ClimbStatus',
@@ -35,6 +37,7 @@ MASTER_TARGET_POSE = 'master/target_pose'
 MASTER_STATE = 'master/actuators/state'
 MASTER_POSE = 'master/pose'
 MASTER_FRAME = 'master_ring_a'
+MASTER_FEEDBACK = 'master/feedback'
 TELEOP_ENABLE = 'teleop/enable'
 TELEOP_STATUS = 'teleop/status'
 CLIMB_STATUS = 'climb/status'
@@ -125,6 +128,8 @@ class TeleopStatus(StatusValues):
     detail: str = ''
     round_trip_time: float | None = None
     speed_factor: float = 1.0
+    feedback_force: float = 0.0          # |force| of master/feedback [N]
+    feedback_limit: str = ''             # the limit that pushes hardest ('' when none)
     margin_stroke: float | None = None
     margin_universal: float | None = None
     margin_spherical: float | None = None

@@ -6,13 +6,19 @@ handle); with the parameter ``trajectory`` = circle | lissajous it moves by itse
 publishes ``master/actuators/state`` (JointState: the leg lengths, what encoders would give) and
 ``master/pose`` (PoseStamped: its own FK of those lengths, seeded by the previous estimate).
 ``trajectory``, ``amplitude``, ``period`` and ``angular_amplitude`` may be set at run time.
+
+``master/feedback`` (WrenchStamped, the slave's limits as a virtual fixture, from the teleop
+node) pushes the simulated handle back: its target yields ``feedback_compliance`` [m/N] and
+``feedback_angular_compliance`` [rad/(N m)], as an operator's hand would against a master
+that renders the wrench.
 """
 
 from __future__ import annotations
 
 import time
 
-from geometry_msgs.msg import PoseStamped
+import numpy as np
+from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
@@ -23,10 +29,16 @@ from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, OK, STATE_QOS, WAR
                                           declare_parameter, declare_robot_parameter,
                                           joint_state_msg, pose_from_msg, pose_to_msg, run_nodes)
 
-from ..interfaces import MASTER_FRAME, MASTER_POSE, MASTER_STATE, MASTER_TARGET_POSE
+from rrps_kinematics.rotations import quat_multiply_xyzw, rotation_vector_to_quat_xyzw
+
+from ..interfaces import (MASTER_FEEDBACK, MASTER_FRAME, MASTER_POSE, MASTER_STATE,
+                          MASTER_TARGET_POSE)
 from ..master import TRAJECTORIES, HandleMotion, MasterModel, scripted_pose
 
 __all__ = ['MasterNode', 'main']
+
+#: master/feedback older than this [s] is ignored (the teleop node sends it at 20 Hz).
+FEEDBACK_TIMEOUT = 0.2
 
 
 class MasterNode(Node):
@@ -52,6 +64,14 @@ class MasterNode(Node):
                                    min_value=1e-4, max_value=10.0, read_only=True)
         angular = declare_parameter(self, 'max_angular_speed', 1.0, 'handle angular speed limit [rad/s]',
                                     min_value=1e-4, max_value=100.0, read_only=True)
+        self.feedback_compliance = declare_parameter(
+            self, 'feedback_compliance', 2e-4,
+            'how far master/feedback pushes the handle back [m/N] (the operator\'s hand yields)',
+            min_value=0.0, max_value=0.1)
+        self.feedback_angular_compliance = declare_parameter(
+            self, 'feedback_angular_compliance', 0.05,
+            'how far master/feedback turns the handle back [rad/(N m)]', min_value=0.0,
+            max_value=10.0)
         if self.trajectory not in TRAJECTORIES:
             raise ValueError(f'trajectory must be one of {TRAJECTORIES}, got {self.trajectory!r}')
         self.model = MasterModel(self.geometry, max_linear_speed=linear, max_angular_speed=angular)
@@ -64,6 +84,8 @@ class MasterNode(Node):
         self._state_pub = self.create_publisher(JointState, MASTER_STATE, STATE_QOS)
         self._pose_pub = self.create_publisher(PoseStamped, MASTER_POSE, STATE_QOS)
         self.create_subscription(PoseStamped, MASTER_TARGET_POSE, self._on_target, COMMAND_QOS)
+        self._feedback: tuple[float, np.ndarray, np.ndarray] | None = None
+        self.create_subscription(WrenchStamped, MASTER_FEEDBACK, self._on_feedback, COMMAND_QOS)
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self.create_timer(1.0 / rate, self._on_tick)
@@ -109,6 +131,27 @@ class MasterNode(Node):
         except ValueError as exc:
             self._set_status(WARN, f'rejected {exc}')
 
+    def _on_feedback(self, msg: WrenchStamped) -> None:
+        f, t = msg.wrench.force, msg.wrench.torque
+        force, torque = np.array([f.x, f.y, f.z]), np.array([t.x, t.y, t.z])
+        if msg.header.frame_id != self.frame_id or not (np.all(np.isfinite(force))
+                                                        and np.all(np.isfinite(torque))):
+            self._set_status(WARN, f'master/feedback rejected: frame {msg.header.frame_id!r} '
+                                   'or a value not finite')
+            return
+        self._feedback = (time.monotonic(), force, torque)
+
+    def _yielding_target(self, now: float):
+        """The handle's target moved back by the fixture's wrench (a fresh one: < 0.2 s old): the
+        simulated operator's hand yields ``feedback_compliance`` per newton."""
+        position, quaternion = self._target
+        if self._feedback is None or now - self._feedback[0] > FEEDBACK_TIMEOUT:
+            return position, quaternion
+        _, force, torque = self._feedback
+        q = quat_multiply_xyzw(rotation_vector_to_quat_xyzw(self.feedback_angular_compliance * torque),
+                               quaternion)
+        return position + self.feedback_compliance * force, q / np.linalg.norm(q)
+
     def _on_tick(self) -> None:
         now = time.monotonic()
         dt = 0.0 if self._last_tick is None else now - self._last_tick
@@ -117,7 +160,7 @@ class MasterNode(Node):
             self._target = scripted_pose(self.trajectory, now - self._start, self.geometry.home_position,
                                          self.geometry.home_quaternion_xyzw, amplitude=self.amplitude,
                                          period=self.period, angular_amplitude=self.angular_amplitude)
-        note = self.model.move_toward(*self._target, dt)
+        note = self.model.move_toward(*self._yielding_target(now), dt)
         if note.motion is HandleMotion.STOPPED:
             self._set_status(WARN, f'handle {note}')
         else:
