@@ -24,8 +24,8 @@ from ..commands import (CommandAges, CommandFreshness, RejectedCommand, limit_ve
                         pose_limits, validate_target)
 from ..pose import InvalidPose, Pose
 from ..tool import TARGET_FRAMES, b_T_tool, ring_b_pose
-from ..interfaces import (ACTUATORS_COMMAND, ACTUATORS_STATE, RING_A_FRAME, TARGET_POSE,
-                          IkStatus)
+from ..interfaces import (ACTUATORS_COMMAND, ACTUATORS_STATE, LEG_NAMES, RING_A_FRAME, TARGET_POSE,
+                          TARGET_RINGS, IkStatus, ring_joint)
 from .common import (COMMAND_QOS, OK, STALE, STATE_QOS, WARN, Diagnostics, declare_parameter,
                      declare_robot_parameter, joint_state_msg, lengths_from_joint_state,
                      pose_from_msg, run_nodes, stamp_to_seconds)
@@ -78,6 +78,12 @@ class IkNode(Node):
         self._margins: dict = {}
         self._pub = self.create_publisher(JointState, ACTUATORS_COMMAND, COMMAND_QOS)
         self.create_subscription(PoseStamped, TARGET_POSE, self._on_target, COMMAND_QOS)
+        self.ring_joints = [ring_joint(ring) for ring in ('ring_a', 'ring_b')
+                            if ring in self.geometry.extra_dof]
+        self._rings: tuple[float, list[float]] | None = None  # (receipt, angles)
+        self._ring_freshness = CommandFreshness(self.timeout)
+        if self.ring_joints:
+            self.create_subscription(JointState, TARGET_RINGS, self._on_rings, COMMAND_QOS)
         if self.limit_velocity:
             self.create_subscription(JointState, ACTUATORS_STATE, self._on_state, STATE_QOS)
         self._diag = Diagnostics(self, 'inverse kinematics')
@@ -114,6 +120,26 @@ class IkNode(Node):
         self._status = (level, f'target rejected, holding the last valid command: {reason}')
         self.get_logger().warning(self._status[1], throttle_duration_sec=1.0)
         self._report()
+
+    def _on_rings(self, msg: JointState) -> None:
+        """Extra-DOF ring angles to send with the next commands (robots that have the DOF)."""
+        now_s = self.get_clock().now().nanoseconds * 1e-9
+        try:
+            angles = dict(zip(msg.name, msg.position))
+            if len(angles) != len(msg.name) or len(msg.name) != len(msg.position) or \
+                    set(angles) != set(self.ring_joints):
+                raise RejectedCommand(f'{TARGET_RINGS}: joints {list(msg.name)}, expected '
+                                      f'{self.ring_joints} with one angle each')
+            for name, value in angles.items():
+                dof = self.geometry.extra_dof[name.removesuffix('_rotation')]
+                if not (math.isfinite(value) and dof.min_angle <= value <= dof.max_angle):
+                    raise RejectedCommand(f'{TARGET_RINGS}: {name} {value!r} rad outside '
+                                          f'[{dof.min_angle}, {dof.max_angle}]')
+            self._ring_freshness.check(stamp_to_seconds(msg.header.stamp), now_s)
+        except RejectedCommand as exc:
+            self._reject(str(exc))
+            return
+        self._rings = (now_s, [float(angles[name]) for name in self.ring_joints])
 
     def _on_state(self, msg: JointState) -> None:
         try:
@@ -152,7 +178,12 @@ class IkNode(Node):
         self.last_command = lengths
         self._last_command_time = now_s
         self.accepted += 1
-        self._pub.publish(joint_state_msg(msg.header.stamp, lengths))
+        rings = self._rings
+        if rings is not None and now_s - rings[0] <= self.timeout:  # fresh ring angles go along
+            self._pub.publish(joint_state_msg(msg.header.stamp, [*lengths, *rings[1]],
+                                              names=[*LEG_NAMES, *self.ring_joints]))
+        else:
+            self._pub.publish(joint_state_msg(msg.header.stamp, lengths))
         self._margins = {f'min_{k}_margin': v for k, v in target.minimum.items()}
         if self._status[0] != OK:
             self._status = (OK, 'tracking target_pose')

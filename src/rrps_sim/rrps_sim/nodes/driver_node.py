@@ -40,7 +40,7 @@ from std_srvs.srv import SetBool
 
 from rrps_kinematics.commands import CommandAges, CommandFreshness, RejectedCommand
 from rrps_kinematics.forward import forward_kinematics
-from rrps_kinematics.interfaces import ACTUATORS_COMMAND, ACTUATORS_STATE
+from rrps_kinematics.interfaces import ACTUATORS_COMMAND, ACTUATORS_STATE, ring_joint
 from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, LEG_NAMES, OK, STALE, STATE_QOS, WARN,
                                           Diagnostics, declare_parameter, declare_robot_parameter,
                                           joint_state_msg, lengths_from_joint_state, run_nodes,
@@ -120,7 +120,7 @@ class DriverNode(LifecycleNode):
         auto_activate = declare_parameter(self, 'auto_activate', False,
                                           'activate at start (otherwise: change_state activate)',
                                           read_only=True)
-        ring_names = [f'{ring}_rotation' for ring in RINGS if ring in g.extra_dof]
+        ring_names = [ring_joint(ring) for ring in RINGS if ring in g.extra_dof]
         saved = load_state(self.state_file, g, len(ring_names)) if self.state_file else None
         if saved is not None:
             initial = list(saved.lengths)
