@@ -67,7 +67,8 @@ from rrps_sim.interfaces import GRIPPERS_STATE, DriverStatus, gripper_service
 from ..interfaces import (CLIMB_RESUME, CLIMB_STATUS, CLIMB_STEP_DOWN, CLIMB_STEP_UP,
                           MASTER_POSE, MASTER_TARGET_POSE, OPERATOR_ROUND_TRIP, TELEOP_ENABLE,
                           TELEOP_STATUS, ClimbStatus, TeleopStatus, odometry_topic)
-from ..viewer import Frame, Pose, Trail, ViewerServer, robot_figure, world_ring_poses
+from ..viewer import (Frame, Pose, Trail, ViewerServer, WorkspaceView, robot_figure,
+                      world_ring_poses)
 
 _LEVEL_NAMES = {DiagnosticStatus.OK: 'OK', DiagnosticStatus.WARN: 'WARN',
                 DiagnosticStatus.ERROR: 'ERROR', DiagnosticStatus.STALE: 'STALE'}
@@ -172,11 +173,16 @@ class ViewerNode(Node):
         structure_length = declare_parameter(self, 'structure_length', 3.0,
                                              'length of the drawn structure [m]', min_value=0.5,
                                              max_value=100.0, read_only=True)
+        resolution = declare_parameter(
+            self, 'workspace_resolution', 0.02,
+            'grid of the reachable workspace drawn around the robot [m]; 0: not drawn',
+            min_value=0.0, max_value=0.2, read_only=True)
         self._plot_window = declare_parameter(self, 'plot_window', 20.0,
                                               'leg-length plot window [s]', min_value=1.0,
                                               max_value=600.0, read_only=True)
         if len(origin) != 3 or not all(math.isfinite(v) for v in origin):
             raise ValueError(f'master_origin must be 3 finite numbers, got {list(origin)}')
+        self.workspace = WorkspaceView(self.geometry, resolution=resolution) if resolution else None
         self.token = token or secrets.token_urlsafe(12)
         if len(self.token) < 8:
             raise ValueError('token must have at least 8 characters')
@@ -351,11 +357,35 @@ class ViewerNode(Node):
                 frame.master_handle = frame.master.world_T_b
             except ValueError:
                 pass
+        self._add_workspace(frame, latest)
         now = time.monotonic()
         if now - self._panel_time >= 0.25:  # text for people: 4 Hz
             self._panel_text, self._panel_time = self._panel(latest, frame, fk_status), now
         frame.panel = self._panel_text
         return frame
+
+    def _add_workspace(self, frame: Frame, latest: dict) -> None:
+        """The reachable workspace at the slave's orientation (computed in the background), and
+        its copy on the master through the Cartesian mapping: a slave position p is reached
+        when the master is at pm + (p - ps) / scale (pm, ps the current poses)."""
+        if self.workspace is None or frame.slave is None:
+            return
+        a_T_b = frame.slave.world_T_a.inverse() @ frame.slave.world_T_b
+        self.workspace.request(a_T_b.quaternion_xyzw)
+        frame.workspace = self.workspace.latest()
+        master_msg = latest.get(MASTER_POSE)
+        if frame.workspace is None or master_msg is None or self.master_geometry is None:
+            return
+        scale = self._translation_scale(latest.get(TELEOP_STATUS))
+        pm, _ = pose_from_msg(master_msg)
+        frame.master_workspace = (pm - a_T_b.position / scale, scale)
+
+    @staticmethod
+    def _translation_scale(status: DiagnosticStatus | None) -> float:
+        try:
+            return TeleopStatus.from_key_values(status.values).scale if status is not None else 4.0
+        except ValueError:
+            return 4.0
 
     def _figure(self, key: str, geometry, a_T_b: Pose, world_T_a: Pose, efforts):
         """robot_figure, recomputed only when its inputs changed (a still robot costs nothing)."""
@@ -396,6 +426,12 @@ class ViewerNode(Node):
                          f'force {100.0 * float(np.min(f["force"])):.0f} %')
             lines.append('**Legs:** ' + ' '.join(
                 f'{i + 1}:{length * 1e3:.0f}mm' for i, length in enumerate(frame.slave.lengths)))
+        ws = frame.workspace
+        if ws is not None and frame.slave is not None:
+            a_T_b = frame.slave.world_T_a.inverse() @ frame.slave.world_T_b
+            lines.append(f'**Workspace:** {ws.workspace.volume * 1e3:.1f} L at this orientation '
+                         f'({ws.workspace.spacing * 1e3:.0f} mm grid); ring_b '
+                         f'{ws.distance(a_T_b.position) * 1e3:.0f} mm inside its boundary')
         if fk_status is not None:
             try:
                 fk = FkStatus.from_key_values(fk_status.values)

@@ -27,6 +27,7 @@ from ._scene import (
     torus_mesh,
     world_ring_poses,
 )
+from ._workspace import WorkspaceSnapshot, WorkspaceView
 
 __all__ = [
     'ControlResult',
@@ -38,6 +39,8 @@ __all__ = [
     'Trail',
     'ViewerServer',
     'WARN_FRACTION',
+    'WorkspaceSnapshot',
+    'WorkspaceView',
     'leg_margin_fractions',
     'margin_colours',
     'robot_figure',

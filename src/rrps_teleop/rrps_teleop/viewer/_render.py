@@ -30,6 +30,7 @@ from ._latency import LinkMonitor
 from rrps_kinematics.pose import Pose
 
 from ._scene import RobotFigure, torus_mesh
+from ._workspace import WorkspaceSnapshot
 
 __all__ = ['Frame', 'OperatorActions', 'ViewerServer', 'TELEOP_MODES', 'ROTATION_MODES']
 
@@ -65,6 +66,9 @@ class Frame:
     ``grippers`` maps ring name to closedness (1 closed, 0 open, None unknown). ``plot`` is
     (t [s], lengths (N, 6) [m]). ``trails`` maps ring name to (N, 3) world points.
     ``master_handle`` is where the master's ring_b is in the world (the gizmo's start pose).
+    ``workspace``: the slave's reachable workspace at its orientation (drawn in ring_a's frame
+    around the robot); ``master_workspace``: (offset [m] in master_ring_a, scale) placing the
+    same set on the master: a slave position p maps to offset + p / scale.
     """
 
     slave: RobotFigure | None = None
@@ -75,6 +79,8 @@ class Frame:
     trails: dict[str, np.ndarray] = field(default_factory=dict)
     panel: str = ''
     plot: tuple[np.ndarray, np.ndarray] | None = None
+    workspace: WorkspaceSnapshot | None = None
+    master_workspace: tuple[np.ndarray, float] | None = None
 
 
 class _ClientControls:
@@ -264,6 +270,8 @@ class ViewerServer:
         self._handle_pose: Pose | None = None
         self._stop = threading.Event()
         self.frames_drawn = 0
+        self._workspace_version = -1
+        self._workspace_scale = 1.0
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         self.server.gui.set_panel_label(title)
         self.server.scene.set_up_direction('+z')
@@ -326,9 +334,32 @@ class ViewerServer:
                     f'{prefix}/{ring}/gripper', *torus_mesh(radius=0.45 * radius,
                                                             tube=0.06 * radius),
                     color=(200, 200, 200))
+        if geometry.tool is not None:
+            self._add_tool(prefix, geometry.tool, colour=(200, 90, 40) if prefix == '/robot'
+                           else (150, 150, 150))
         thickness = 2.0 * max(geometry.leg_radius, 0.004 * geometry.characteristic_length)
         n[f'{prefix}/legs'] = scene.add_line_segments(
             f'{prefix}/legs', points=np.zeros((6, 2, 3)), colors=(40, 170, 70), thickness=thickness)
+
+    def _add_tool(self, prefix: str, tool, *, colour) -> None:
+        """The tool on ring_b (its frame ``b_T_tool``, the shape ending at the tool-centre point)."""
+        scene = self.server.scene
+        x, y, z, w = tool.quaternion_xyzw
+        frame = f'{prefix}/ring_b/tool'
+        self.nodes[frame] = scene.add_frame(frame, position=tool.position, wxyz=(w, x, y, z),
+                                            axes_length=0.05, axes_radius=0.002)
+        if tool.shape == 'cylinder':
+            radius, length = tool.size
+            self.nodes[f'{frame}/shape'] = scene.add_cylinder(
+                f'{frame}/shape', radius=radius, height=length, color=colour,
+                position=(0.0, 0.0, -0.5 * length))
+        elif tool.shape == 'box':
+            self.nodes[f'{frame}/shape'] = scene.add_box(
+                f'{frame}/shape', dimensions=tool.size, color=colour,
+                position=(0.0, 0.0, -0.5 * tool.size[2]))
+        else:
+            self.nodes[f'{frame}/shape'] = scene.add_icosphere(
+                f'{frame}/shape', radius=tool.size[0], color=colour)
 
     def _draw_robot(self, prefix: str, figure: RobotFigure) -> None:
         n = self.nodes
@@ -375,8 +406,42 @@ class ViewerServer:
         if frame.panel and frame.panel != self._panel.content and now - self._last_panel >= 0.25:
             self._panel.content = frame.panel  # text for people: 4 Hz is plenty
             self._last_panel = now
+        self._draw_workspace(frame)
         with self._lock:
             self._handle_pose = frame.master_handle
+
+    def _draw_workspace(self, frame: Frame) -> None:
+        """The reachable set's boundary around the robot (ring_a's frame: it moves with ring_a)
+        and, scaled, on the master; point clouds are sent only when a new workspace came."""
+        ws = frame.workspace
+        if ws is None:
+            return
+        scene = self.server.scene
+        n = self.nodes
+        master = frame.master_workspace if '/master/ring_a' in n else None
+        if master is not None and '/master/ring_a/workspace' not in n:
+            n['/master/ring_a/workspace'] = scene.add_frame('/master/ring_a/workspace',
+                                                            show_axes=False)
+        if ws.version != self._workspace_version or (
+                master is not None and master[1] != self._workspace_scale):
+            self._workspace_version = ws.version
+            shell = ws.boundary.astype(np.float32).reshape(-1, 3)
+            singular = ws.near_singular.astype(np.float32).reshape(-1, 3)
+            n['/robot/ring_a/workspace'] = scene.add_point_cloud(
+                '/robot/ring_a/workspace', points=shell, colors=(90, 160, 235),
+                point_size=0.005, point_shape='circle')
+            n['/robot/ring_a/workspace_singular'] = scene.add_point_cloud(
+                '/robot/ring_a/workspace_singular', points=singular, colors=(245, 150, 20),
+                point_size=0.007, point_shape='circle', visible=len(singular) > 0)
+            if master is not None:
+                self._workspace_scale = master[1]
+                n['/master/ring_a/workspace/shell'] = scene.add_point_cloud(
+                    '/master/ring_a/workspace/shell', points=shell / np.float32(master[1]),
+                    colors=(90, 160, 235), point_size=0.002, point_shape='circle')
+        if master is not None:
+            node = n['/master/ring_a/workspace']
+            if not np.allclose(node.position, master[0], atol=1e-5):
+                node.position = np.asarray(master[0], dtype=float)
 
     # --- panel -------------------------------------------------------------------------------
 
