@@ -36,7 +36,7 @@ import time
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState
@@ -65,10 +65,13 @@ from rrps_kinematics.nodes.common import (
 from rrps_sim.interfaces import GRIPPERS_STATE, DriverStatus, gripper_service
 
 from ..interfaces import (CLIMB_RESUME, CLIMB_STATUS, CLIMB_STEP_DOWN, CLIMB_STEP_UP,
-                          MASTER_POSE, MASTER_TARGET_POSE, OPERATOR_ROUND_TRIP, TELEOP_ENABLE,
+                          MASTER_FEEDBACK, MASTER_POSE, MASTER_TARGET_POSE, OPERATOR_ROUND_TRIP, TELEOP_ENABLE,
                           TELEOP_STATUS, ClimbStatus, TeleopStatus, odometry_topic)
 from ..viewer import (Frame, Pose, Trail, ViewerServer, WorkspaceView, robot_figure,
                       world_ring_poses)
+
+#: Length of the drawn master/feedback arrow per newton [m/N].
+FEEDBACK_ARROW = 0.01
 
 _LEVEL_NAMES = {DiagnosticStatus.OK: 'OK', DiagnosticStatus.WARN: 'WARN',
                 DiagnosticStatus.ERROR: 'ERROR', DiagnosticStatus.STALE: 'STALE'}
@@ -215,6 +218,8 @@ class ViewerNode(Node):
                            (odometry_topic('ring_b'), STATE_QOS)):
             self.create_subscription(PoseStamped, topic,
                                      lambda msg, topic=topic: self._store(topic, msg), qos)
+        self.create_subscription(WrenchStamped, MASTER_FEEDBACK,
+                                 lambda msg: self._store(MASTER_FEEDBACK, msg), COMMAND_QOS)
         self.create_subscription(JointState, GRIPPERS_STATE,
                                  lambda msg: self._store(GRIPPERS_STATE, msg), STATE_QOS)
         for topic in (TELEOP_STATUS, CLIMB_STATUS):
@@ -355,6 +360,12 @@ class ViewerNode(Node):
                 frame.master = self._figure('master', self.master_geometry, m_pose,
                                             self._master_origin, None)
                 frame.master_handle = frame.master.world_T_b
+                feedback = latest.get(MASTER_FEEDBACK)
+                if feedback is not None:
+                    f = feedback.wrench.force
+                    force = self._master_origin.rotation @ np.array([f.x, f.y, f.z])
+                    start = frame.master.world_T_b.position
+                    frame.master_feedback = np.stack([start, start + FEEDBACK_ARROW * force])
             except ValueError:
                 pass
         self._add_workspace(frame, latest)
@@ -426,6 +437,15 @@ class ViewerNode(Node):
                          f'force {100.0 * float(np.min(f["force"])):.0f} %')
             lines.append('**Legs:** ' + ' '.join(
                 f'{i + 1}:{length * 1e3:.0f}mm' for i, length in enumerate(frame.slave.lengths)))
+        teleop = latest.get(TELEOP_STATUS)
+        if teleop is not None:
+            try:
+                t = TeleopStatus.from_key_values(teleop.values)
+                lines.append('**Feedback on the master:** ' + (
+                    f'{t.feedback_force:.1f} N, {t.feedback_limit} limit near'
+                    if t.feedback_force > 0.0 and t.feedback_limit else 'none'))
+            except ValueError:
+                pass
         ws = frame.workspace
         if ws is not None and frame.slave is not None:
             a_T_b = frame.slave.world_T_a.inverse() @ frame.slave.world_T_b

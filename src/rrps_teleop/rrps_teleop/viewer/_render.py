@@ -81,6 +81,8 @@ class Frame:
     plot: tuple[np.ndarray, np.ndarray] | None = None
     workspace: WorkspaceSnapshot | None = None
     master_workspace: tuple[np.ndarray, float] | None = None
+    #: the limits felt on the master: an arrow (2, 3) [m, world] from its ring_b
+    master_feedback: np.ndarray | None = None
 
 
 class _ClientControls:
@@ -314,6 +316,9 @@ class ViewerServer:
                 visible=False)
         if master_geometry is not None:
             self._add_robot('/master', master_geometry, (160, 160, 160), opacity=None)
+            n['/master/feedback'] = scene.add_line_segments(
+                '/master/feedback', points=np.zeros((1, 2, 3)), colors=(220, 40, 40),
+                thickness=4.0, visible=False)
             n['/master/label'] = scene.add_label('/master/label', 'master robot',
                                                  position=self.master_origin.position + [0, 0, 0.2])
         n['/robot/label'] = scene.add_label('/robot/ring_b/label', 'ring_b', position=(0, 0, 0.05))
@@ -407,6 +412,14 @@ class ViewerServer:
             self._panel.content = frame.panel  # text for people: 4 Hz is plenty
             self._last_panel = now
         self._draw_workspace(frame)
+        arrow = self.nodes.get('/master/feedback')
+        if arrow is not None:
+            if frame.master_feedback is not None and np.linalg.norm(
+                    frame.master_feedback[1] - frame.master_feedback[0]) > 1e-4:
+                arrow.points = frame.master_feedback[None].astype(np.float32)
+                arrow.visible = True
+            elif arrow.visible:
+                arrow.visible = False
         with self._lock:
             self._handle_pose = frame.master_handle
 
