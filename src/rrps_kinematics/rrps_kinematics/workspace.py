@@ -132,7 +132,7 @@ class Workspace:
         """(M, 3) reachable positions whose inverse condition number is below the threshold [m]."""
         return self._points(self.labels == NEAR_SINGULAR)
 
-    @property
+    @cached_property
     def counts(self) -> dict[str, int]:
         """Grid points: ``total``, ``reachable`` (near-singular included), ``near_singular``,
         ``unreachable``."""

@@ -274,6 +274,8 @@ class ViewerServer:
         self.frames_drawn = 0
         self._workspace_version = -1
         self._workspace_scale = 1.0
+        self._drawn_key: tuple | None = None
+        self._frame_figures: tuple = ()
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         self.server.gui.set_panel_label(title)
         self.server.scene.set_up_direction('+z')
@@ -379,7 +381,30 @@ class ViewerServer:
         if not np.array_equal(colours, legs.colors):
             legs.colors = colours
 
+    def _scene_key(self, frame: Frame) -> tuple:
+        """What the 3-D scene of ``frame`` depends on: figures are cached by the node (the same
+        object while their inputs are unchanged), the rest compared by value."""
+        trails = tuple(len(p) for p in frame.trails.values())
+        ghost = None if frame.ghost_world_T_b is None else frame.ghost_world_T_b
+        feedback = None if frame.master_feedback is None else frame.master_feedback.tobytes()
+        workspace = None if frame.workspace is None else frame.workspace.version
+        master_ws = None if frame.master_workspace is None else (
+            frame.master_workspace[0].tobytes(), frame.master_workspace[1])
+        return (id(frame.slave), id(frame.master), ghost, tuple(frame.grippers.items()), trails,
+                feedback, workspace, master_ws)
+
     def _draw(self, frame: Frame) -> None:
+        now = time.monotonic()
+        if frame.panel and frame.panel != self._panel.content and now - self._last_panel >= 0.25:
+            self._panel.content = frame.panel  # text for people: 4 Hz is plenty
+            self._last_panel = now
+        with self._lock:
+            self._handle_pose = frame.master_handle
+        key = self._scene_key(frame)
+        if key == self._drawn_key:
+            return  # nothing moved: no scene message at all (an idle viewer costs little)
+        self._drawn_key = key
+        self._frame_figures = (frame.slave, frame.master)  # keeps the ids of the key alive
         n = self.nodes
         with self.server.atomic():
             if frame.slave is not None:
@@ -407,10 +432,6 @@ class ViewerServer:
                 ghost.visible = True
             else:
                 ghost.visible = False
-        now = time.monotonic()
-        if frame.panel and frame.panel != self._panel.content and now - self._last_panel >= 0.25:
-            self._panel.content = frame.panel  # text for people: 4 Hz is plenty
-            self._last_panel = now
         self._draw_workspace(frame)
         arrow = self.nodes.get('/master/feedback')
         if arrow is not None:
@@ -420,8 +441,6 @@ class ViewerServer:
                 arrow.visible = True
             elif arrow.visible:
                 arrow.visible = False
-        with self._lock:
-            self._handle_pose = frame.master_handle
 
     def _draw_workspace(self, frame: Frame) -> None:
         """The reachable set's boundary around the robot (ring_a's frame: it moves with ring_a)
