@@ -43,8 +43,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from rrps_kinematics import RobotGeometry, forward_kinematics, inverse_kinematics, margins
-from rrps_kinematics.limits import Margins
+from rrps_kinematics import RobotGeometry, forward_kinematics
+from rrps_kinematics.limits import PoseMargins, pose_margins
 from rrps_kinematics.pose import Pose, validate_pose
 from rrps_kinematics.rotations import (
     normalize_quat,
@@ -181,7 +181,7 @@ class GuardedCommand:
     position: np.ndarray
     quaternion: np.ndarray
     lengths: np.ndarray
-    margins: Margins
+    margins: PoseMargins
 
 
 class TeleopMapping:
@@ -404,13 +404,13 @@ class TeleopMapping:
                 return TeleopOutput(TeleopCode.ORIENTATION_MISMATCH, False,
                                     f'master and slave orientations differ by {error:.3f} rad '
                                     f'> align_tolerance {c.align_tolerance:g} rad: align the master')
-        ik = inverse_kinematics(self.slave, ps, qs)
-        self._command = GuardedCommand(ps.copy(), qs.copy(), ik.lengths.copy(), margins(self.slave, ik))
+        m = pose_margins(self.slave, ps, qs)
+        self._command = GuardedCommand(ps.copy(), qs.copy(), m.lengths, m)
         self._slave_ref = (ps.copy(), qs.copy())
         if c.mode == 'cartesian':
             self._master_ref = (self._master_pose[0].copy(), self._master_pose[1].copy())
         else:
-            self._offsets = ik.lengths - np.asarray(c.joint_scale) * self._master_lengths
+            self._offsets = m.lengths - np.asarray(c.joint_scale) * self._master_lengths
         self.engaged = True
         self._last_step_time = self._last_step_stamp = None
         return None
@@ -418,8 +418,8 @@ class TeleopMapping:
     # --- guarded steps -------------------------------------------------------------------
 
     def _evaluate_pose(self, p, q) -> GuardedCommand:
-        ik = inverse_kinematics(self.slave, p, q)
-        return GuardedCommand(p, q, ik.lengths.copy(), margins(self.slave, ik))
+        m = pose_margins(self.slave, p, q)
+        return GuardedCommand(p, q, m.lengths, m)
 
     def _cartesian_step(self, dt: float) -> tuple[TeleopCode, str]:
         c = self.config
@@ -476,11 +476,10 @@ class TeleopMapping:
         fk = forward_kinematics(self.slave, lengths, prev.position, prev.quaternion)
         if not fk.converged:
             return None
-        ik = inverse_kinematics(self.slave, fk.position, fk.quaternion_xyzw)
         return GuardedCommand(fk.position, fk.quaternion_xyzw, np.asarray(lengths, dtype=float).copy(),
-                        margins(self.slave, ik))
+                              pose_margins(self.slave, fk.position, fk.quaternion_xyzw))
 
-    def _deceleration(self, before: Margins, after: Margins) -> tuple[float, TeleopCode]:
+    def _deceleration(self, before: PoseMargins, after: PoseMargins) -> tuple[float, TeleopCode]:
         """Step scale in [0, 1] near a singularity or interference, when the step approaches it."""
         c = self.config
         factor, code = 1.0, TeleopCode.NO_WARNING
