@@ -43,7 +43,8 @@ import scipy.sparse
 import scipy.sparse.linalg
 
 from .geometry import RobotGeometry
-from .inverse import _pose_arrays, inverse_kinematics, universal_joint_frames
+from .forward import check_lengths
+from .inverse import inverse_kinematics, pose_arrays, universal_joint_frames
 from .rotations import (
     euler_parameters_to_quat_xyzw,
     matrix_to_euler_parameters,
@@ -447,7 +448,7 @@ class MultibodyModel:
 
     def coordinates_from_pose(self, position, quaternion_xyzw) -> np.ndarray:
         """Consistent q (91,) for ring_b at a_T_b: every joint constraint satisfied exactly."""
-        p, quat = _pose_arrays(position, quaternion_xyzw)
+        p, quat = pose_arrays(position, quaternion_xyzw)
         if p.ndim != 1:
             raise ValueError('coordinates_from_pose takes a single pose')
         quat = normalize_quat(quat)
@@ -483,7 +484,7 @@ class MultibodyModel:
     def constraints(self, q, lengths) -> np.ndarray:
         """Φ(q) of eq. 2, shape (91,); lengths (6,) enter the driving constraints."""
         q = self._check_q(q)
-        L = _check_lengths(lengths)
+        L = check_lengths(lengths, batch=False)
         return all_constraints(q, L, *self._kernel_args)
 
     def jacobian(self, q, *, sparse: bool = False):
@@ -518,7 +519,7 @@ class MultibodyModel:
         """
         if solver not in ('structured', 'sparse', 'dense'):
             raise ValueError(f"solver must be 'structured', 'sparse' or 'dense', got {solver!r}")
-        L = _check_lengths(lengths)
+        L = check_lengths(lengths, batch=False)
         if q_seed is None:
             q_seed = self.coordinates_from_pose(self.geometry.home_position,
                                                 self.geometry.home_quaternion_xyzw)
@@ -580,7 +581,7 @@ class MultibodyModel:
         return q
 
 
-def _check_lengths(lengths) -> np.ndarray:
+def check_lengths(lengths, batch=False) -> np.ndarray:
     L = np.ascontiguousarray(lengths, dtype=float)
     if L.shape != (6,):
         raise ValueError(f'lengths must have shape (6,), got {L.shape}')

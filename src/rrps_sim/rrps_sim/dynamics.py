@@ -42,7 +42,7 @@ import numba
 import numpy as np
 
 from rrps_kinematics.geometry import RobotGeometry
-from rrps_kinematics.inverse import _pose_arrays
+from rrps_kinematics.inverse import pose_arrays
 from rrps_kinematics.multibody import (
     FLOPS_LEG_JACOBIAN,
     FLOPS_LEG_RESIDUAL,
@@ -858,7 +858,7 @@ def simulate(geometry: RobotGeometry, position, quaternion_xyzw,
     (held over it). Rows are written at t = 0 and every ``output_every`` steps (and at the end).
     ``progress(fraction)`` is called about 100 times. ``options`` go to MultibodyDynamics.
     """
-    _pose_arrays(position, quaternion_xyzw)
+    pose_arrays(position, quaternion_xyzw)
     for name, value in (('duration', duration), ('dt', dt)):
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
             raise ValueError(f'{name} must be a positive number of seconds, got {value!r}')
