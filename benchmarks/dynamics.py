@@ -28,7 +28,8 @@ import numpy as np
 from rrps_kinematics import forward_kinematics, inverse_kinematics, load_robot
 from rrps_kinematics.multibody import MultibodyModel
 from rrps_sim.cli import REPORT_EXTRA_FORCES, climb_poses
-from rrps_sim.dynamics import METHODS, MultibodyDynamics, accelerations, leg_blocks, simulate
+from rrps_sim.dynamics import METHODS, MultibodyDynamics, simulate
+from rrps_sim.dynamics.kernels import accelerations, leg_blocks
 
 
 def dense_accelerations(dyn: MultibodyDynamics, q, v, forces, M):
@@ -42,7 +43,7 @@ def dense_accelerations(dyn: MultibodyDynamics, q, v, forces, M):
     F.reshape(13, 6)[:, :3] = dyn.mass[:, None] * dyn.geometry.gravity
     F.reshape(13, 6)[:, 3:] = -np.cross(W, np.einsum('bij,bj->bi', dyn.inertia, W))
     for k in range(6):
-        leg_blocks(q, v, k, *dyn._kin, B, g)
+        leg_blocks(q, v, k, dyn.parameters.joints, B, g)
         lo, up = 6 * (1 + 2 * k), 6 * (2 + 2 * k)
         cols = np.r_[0:6, lo:lo + 12]
         Phi[12 * k:12 * k + 12, cols] = B[:12]
@@ -128,7 +129,7 @@ def main(argv=None) -> int:
         M[6 * b + 3:6 * b + 6, 6 * b + 3:6 * b + 6] = probe.inertia[b]
     n_eval = 2000
     sec_s, _ = best_of(args.repeats, lambda: [accelerations(probe.q, probe.v, forces, 0.0, 0.0,
-                                                            *probe._kin, *probe._dyn, acc, lam)
+                                                            probe.parameters, acc, lam)
                                               for _ in range(n_eval)])
     sec_d, acc_d = best_of(args.repeats, lambda: [dense_accelerations(probe, probe.q, probe.v,
                                                                       forces, M)

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -59,6 +60,7 @@ __all__ = [
     'N_COORDINATES',
     'N_DRIVING',
     'N_JOINT_CONSTRAINTS',
+    'JointGeometry',
     'MultibodyModel',
     'MultibodyDKResult',
     'body_slice',
@@ -96,6 +98,22 @@ def upper_link_body(k: int) -> int:
 def body_slice(b: int) -> slice:
     """Slice of body b's 7 coordinates [r, p] in q."""
     return slice(7 * b, 7 * b + 7)
+
+
+class JointGeometry(NamedTuple):
+    """The joint data of eqs. 3-10, one typed bundle for the compiled kernels.
+
+    ``a`` (6, 3): universal-joint centres a_k in ring_a's frame; ``ha`` (6, 3): each universal
+    joint's axis h_k fixed in ring_a; ``sb`` (6, 3): the spherical-joint centres s'_b in ring_b's
+    com frame; ``cl``, ``cu``: distances of the lower link's com from the universal joint and of
+    the upper link's com from the spherical joint [m] (s'_l = (0, 0, -c_l), s'_u = (0, 0, c_u)).
+    """
+
+    a: np.ndarray
+    ha: np.ndarray
+    sb: np.ndarray
+    cl: float
+    cu: float
 
 
 # --- compiled kernels (shared with rrps_sim.dynamics) ------------------------------------------
@@ -146,8 +164,9 @@ def das_dp(q, o, s):
 
 
 @numba.njit(cache=True)
-def leg_residual(q, k, length, a, ha, sb, cl, cu, out):
+def leg_residual(q, k, length, joints, out):
     """Leg k's 12 joint constraints (eqs. 3-8) and its driving constraint (eq. 10) -> out[0:13]."""
+    a, ha, sb, cl, cu = joints
     ob = 0
     ol = 7 * (1 + 2 * k)
     ou = 7 * (2 + 2 * k)
@@ -184,8 +203,9 @@ def leg_residual(q, k, length, a, ha, sb, cl, cu, out):
 
 
 @numba.njit(cache=True)
-def leg_jacobian(q, k, a, ha, sb, cl, cu, out):
+def leg_jacobian(q, k, joints, out):
     """∂/∂q of leg k's 13 rows (12 joint + driving); out (13, 21), columns [q_b, q_l, q_u]."""
+    ha, sb, cl, cu = joints.ha, joints.sb, joints.cl, joints.cu
     ob = 0
     ol = 7 * (1 + 2 * k)
     ou = 7 * (2 + 2 * k)
@@ -273,12 +293,12 @@ def leg_jacobian(q, k, a, ha, sb, cl, cu, out):
 
 
 @numba.njit(cache=True)
-def all_constraints(q, lengths, a, ha, sb, cl, cu):
+def all_constraints(q, lengths, joints):
     """Φ(q) of eq. 2 (91,): 72 joint, 6 driving, 13 normalisation constraints."""
     phi = np.empty(91)
     buf = np.empty(13)
     for k in range(6):
-        leg_residual(q, k, lengths[k], a, ha, sb, cl, cu, buf)
+        leg_residual(q, k, lengths[k], joints, buf)
         phi[12 * k:12 * k + 12] = buf[:12]
         phi[72 + k] = buf[12]
     for b in range(13):
@@ -288,12 +308,12 @@ def all_constraints(q, lengths, a, ha, sb, cl, cu):
 
 
 @numba.njit(cache=True)
-def all_jacobian(q, a, ha, sb, cl, cu):
+def all_jacobian(q, joints):
     """Φ_q of eq. 2, dense (91, 91)."""
     J = np.zeros((91, 91))
     buf = np.empty((13, 21))
     for k in range(6):
-        leg_jacobian(q, k, a, ha, sb, cl, cu, buf)
+        leg_jacobian(q, k, joints, buf)
         cols = (0, 7 * (1 + 2 * k), 7 * (2 + 2 * k))
         for blk in range(3):
             c0 = cols[blk]
@@ -426,20 +446,20 @@ class MultibodyModel:
 
     def __init__(self, geometry: RobotGeometry):
         self.geometry = geometry
-        self.a = np.ascontiguousarray(geometry.ring_a_anchors, dtype=float)
-        self.ha = np.ascontiguousarray(universal_joint_frames(geometry)[:, :, 0])
         self.ring_b_com = np.asarray(geometry.ring_b_inertia.com, dtype=float)
-        self.sb = np.ascontiguousarray(geometry.ring_b_anchors - self.ring_b_com)
-        self.cl = float(geometry.lower_link.com_from_joint)
-        self.cu = float(geometry.upper_link.com_from_joint)
-        self._kernel_args = (self.a, self.ha, self.sb, self.cl, self.cu)
+        self.joints = JointGeometry(
+            a=np.ascontiguousarray(geometry.ring_a_anchors, dtype=float),
+            ha=np.ascontiguousarray(universal_joint_frames(geometry)[:, :, 0]),
+            sb=np.ascontiguousarray(geometry.ring_b_anchors - self.ring_b_com),
+            cl=float(geometry.lower_link.com_from_joint),
+            cu=float(geometry.upper_link.com_from_joint))
         pattern = all_jacobian(self.coordinates_from_pose(geometry.home_position,
                                                           geometry.home_quaternion_xyzw),
-                               *self._kernel_args)
+                               self.joints)
         # Structural nonzeros: every entry a kernel writes, found at a generic pose.
         rng = np.random.default_rng(0)
         q_rand = rng.normal(size=91)
-        mask = (pattern != 0) | (all_jacobian(q_rand, *self._kernel_args) != 0)
+        mask = (pattern != 0) | (all_jacobian(q_rand, self.joints) != 0)
         self._sparsity = scipy.sparse.csc_matrix(mask.astype(float))
         self._rows = self._sparsity.indices.copy()
         self._cols = np.repeat(np.arange(91), np.diff(self._sparsity.indptr))
@@ -463,9 +483,9 @@ class MultibodyModel:
         u = ik.unit_vectors
         for k in range(6):
             ol, ou = 7 * lower_link_body(k), 7 * upper_link_body(k)
-            q[ol:ol + 3] = self.a[k] + self.cl * u[k]
+            q[ol:ol + 3] = self.joints.a[k] + self.joints.cl * u[k]
             q[ol + 3:ol + 7] = p_links[k]
-            q[ou:ou + 3] = ik.ring_b_anchors_in_a[k] - self.cu * u[k]
+            q[ou:ou + 3] = ik.ring_b_anchors_in_a[k] - self.joints.cu * u[k]
             q[ou + 3:ou + 7] = p_links[k]
         return q
 
@@ -485,12 +505,12 @@ class MultibodyModel:
         """Φ(q) of eq. 2, shape (91,); lengths (6,) enter the driving constraints."""
         q = self._check_q(q)
         L = check_lengths(lengths, batch=False)
-        return all_constraints(q, L, *self._kernel_args)
+        return all_constraints(q, L, self.joints)
 
     def jacobian(self, q, *, sparse: bool = False):
         """Analytic Φ_q (91 x 91), dense ndarray or scipy.sparse CSC (structural nonzeros)."""
         q = self._check_q(q)
-        J = all_jacobian(q, *self._kernel_args)
+        J = all_jacobian(q, self.joints)
         if not sparse:
             return J
         return scipy.sparse.csc_matrix((J[self._rows, self._cols], self._sparsity.indices,
@@ -531,7 +551,7 @@ class MultibodyModel:
         flops = 0
         iterations = 0
         converged = False
-        phi = all_constraints(q, L, *self._kernel_args)
+        phi = all_constraints(q, L, self.joints)
         flops += residual_flops
         res = float(np.max(np.abs(phi)))
         while True:
@@ -540,7 +560,7 @@ class MultibodyModel:
                 break
             if iterations >= max_iterations or not np.isfinite(res):
                 break
-            J = all_jacobian(q, *self._kernel_args)
+            J = all_jacobian(q, self.joints)
             flops += jacobian_flops
             try:
                 if solver == 'structured':
@@ -563,7 +583,7 @@ class MultibodyModel:
             q += dq
             flops += n
             iterations += 1
-            phi = all_constraints(q, L, *self._kernel_args)
+            phi = all_constraints(q, L, self.joints)
             flops += residual_flops
             res = float(np.max(np.abs(phi)))
         seconds = time.perf_counter() - t0
