@@ -23,13 +23,14 @@ import numpy as np
 
 from .newton_settings import MAX_HALVINGS, MAX_ROTATION_STEP, PIVOT_TOLERANCE
 
-__all__ = ['ik_lengths_batch', 'fk_single', 'fk_batch']
+__all__ = ['ik_lengths_batch', 'fk_single', 'fk_batch', 'quat_to_matrix']
 
 _jit = numba.njit(cache=True, fastmath=False, nogil=True)
 
 
 @_jit
-def _quat_to_matrix(q, R):
+def quat_to_matrix(q, R):
+    """R <- the rotation matrix of the unit quaternion q (x, y, z, w), in place."""
     x, y, z, w = q[0], q[1], q[2], q[3]
     R[0, 0] = 1.0 - 2.0 * (y * y + z * z)
     R[0, 1] = 2.0 * (x * y - z * w)
@@ -47,7 +48,7 @@ def ik_lengths_batch(A, B, P, Q, out):
     """out[n, i] = |P[n] + R(Q[n]) B[i] - A[i]| for unit quaternions Q (x, y, z, w) (eq. 1)."""
     R = np.empty((3, 3))
     for n in range(P.shape[0]):
-        _quat_to_matrix(Q[n], R)
+        quat_to_matrix(Q[n], R)
         for i in range(6):
             s = 0.0
             for k in range(3):
@@ -59,7 +60,7 @@ def ik_lengths_batch(A, B, P, Q, out):
 @_jit
 def _residual(A, B, L, p, q, R, rb, d, lengths, f):
     """Leg vectors d, lengths, residual f = L - l; returns (max |f|, sum f^2)."""
-    _quat_to_matrix(q, R)
+    quat_to_matrix(q, R)
     worst = 0.0
     ss = 0.0
     for i in range(6):

@@ -13,7 +13,7 @@ import math
 import numba
 import numpy as np
 
-from .compiled import _quat_to_matrix
+from .compiled import quat_to_matrix
 
 __all__ = ['pose_margins', 'jacobian_determinant', 'N_MARGINS']
 
@@ -27,7 +27,7 @@ N_MARGINS = 6
 @_jit
 def _pose(A, B, p, q, R, b_in_a, u, lengths):
     """R(q), ring_b anchors in ring_a's frame, unit leg vectors and lengths (eq. 1)."""
-    _quat_to_matrix(q, R)
+    quat_to_matrix(q, R)
     for i in range(6):
         s = 0.0
         for k in range(3):
