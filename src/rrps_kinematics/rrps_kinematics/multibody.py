@@ -601,15 +601,6 @@ class MultibodyModel:
         return q
 
 
-def check_lengths(lengths, batch=False) -> np.ndarray:
-    L = np.ascontiguousarray(lengths, dtype=float)
-    if L.shape != (6,):
-        raise ValueError(f'lengths must have shape (6,), got {L.shape}')
-    if not np.all(np.isfinite(L)):
-        raise ValueError('lengths contain NaN or infinite values')
-    return L
-
-
 _LU_FLOPS_CACHE: dict[tuple, int] = {}
 
 
