@@ -44,6 +44,7 @@ import scipy.sparse
 import scipy.sparse.linalg
 
 from .geometry import RobotGeometry
+from .errors import SingularPoseError
 from .forward import check_lengths
 from .inverse import inverse_kinematics, pose_arrays, universal_joint_frames
 from .rotations import (
@@ -474,7 +475,7 @@ class MultibodyModel:
         quat = normalize_quat(quat)
         ik = inverse_kinematics(self.geometry, p, quat)
         if np.any(ik.lengths < 1e-9):
-            raise ValueError('a leg has zero length at this pose')
+            raise SingularPoseError('singular pose: a leg has zero length')
         q = np.empty(91)
         Rb = quat_xyzw_to_matrix(quat)
         q[0:3] = p + Rb @ self.ring_b_com

@@ -27,9 +27,13 @@ from rrps_kinematics.multibody import gauss_eliminate, leg_jacobian, leg_residua
 
 from .kernels import accelerations, leg_blocks, leg_lengths_rates
 
-__all__ = ['METHODS', 'rk4_full', 'rk4_partitioned', 'solve_dependent']
+__all__ = ['METHODS', 'NOT_CONVERGED', 'SINGULAR', 'rk4_full', 'rk4_partitioned',
+           'solve_dependent']
 
 METHODS = ('baumgarte', 'partitioning', 'hybrid')
+#: Failure codes of the partitioned solves (negative, as no iteration count is).
+NOT_CONVERGED = -1
+SINGULAR = -2
 
 
 @numba.njit(cache=True)
@@ -106,10 +110,11 @@ def solve_dependent(q, v, joints, tolerance, max_iterations):
     """Partitioned correction: e0 of ring_b from eq. 9, each leg's 14 coordinates by Newton on
     its 12 joint constraints + 2 normalisations, then its 12 velocities from Φ_q v = 0 (eq. 20).
 
-    Returns the Newton iterations summed over legs, or -1 if a leg did not converge."""
+    Returns the Newton iterations summed over legs, or NOT_CONVERGED (a leg's Newton solve did not
+    converge, or ring_b's |e| >= 1) or SINGULAR (a leg's Jacobian is singular)."""
     e2 = q[4] ** 2 + q[5] ** 2 + q[6] ** 2
     if e2 >= 1.0:
-        return -1
+        return NOT_CONVERGED
     q[3] = math.copysign(math.sqrt(1.0 - e2), q[3])
     total = 0
     res = np.empty(13)
@@ -134,7 +139,7 @@ def solve_dependent(q, v, joints, tolerance, max_iterations):
             if err <= tolerance:
                 break
             if it >= max_iterations:
-                return -1
+                return NOT_CONVERGED
             leg_jacobian(q, k, joints, Jl)
             Jn[:, :] = 0.0
             for i in range(12):
@@ -146,7 +151,7 @@ def solve_dependent(q, v, joints, tolerance, max_iterations):
             for i in range(14):
                 rn[i] = -rn[i]
             if not _lu_solve(Jn, rn, 14):
-                return -1
+                return SINGULAR
             for j in range(7):
                 q[ol + j] += rn[j]
                 q[ou + j] += rn[7 + j]
@@ -161,7 +166,7 @@ def solve_dependent(q, v, joints, tolerance, max_iterations):
                 acc_r -= B[r, j] * v[j]
             x[r] = acc_r
         if not _lu_solve(M, x, 12):
-            return -1
+            return SINGULAR
         bl = 1 + 2 * k
         for j in range(6):
             v[6 * bl + j] = x[j]
@@ -172,7 +177,8 @@ def solve_dependent(q, v, joints, tolerance, max_iterations):
 @numba.njit(cache=True)
 def rk4_partitioned(q, v, work, forces, dt, params, tolerance, max_iterations):
     """One RK4 step of the independent states (r_b, e_b, ṙ_b, ω'_b, work) with the dependent
-    ones solved at every stage. Returns (ok, work, Newton iterations)."""
+    ones solved at every stage. Returns (status, work, Newton iterations), status 0 or the code
+    of :func:`solve_dependent` or SINGULAR (eq. 19 singular)."""
     y0 = np.empty(12)
     y0[0:3] = q[0:3]
     y0[3:6] = q[4:7]
@@ -192,10 +198,10 @@ def rk4_partitioned(q, v, work, forces, dt, params, tolerance, max_iterations):
             v[0:6] = y[6:12]
         it = solve_dependent(q, v, params.joints, tolerance, max_iterations)
         if it < 0:
-            return False, work, newton
+            return it, work, newton
         newton += it
         if not accelerations(q, v, forces, 0.0, 0.0, params, dv, lam):
-            return False, work, newton
+            return SINGULAR, work, newton
         e0, e1, e2, e3 = q[3], q[4], q[5], q[6]
         w0, w1, w2 = v[3], v[4], v[5]
         ky[s, 0:3] = v[0:3]
@@ -214,6 +220,6 @@ def rk4_partitioned(q, v, work, forces, dt, params, tolerance, max_iterations):
     v[0:6] = y[6:12]
     it = solve_dependent(q, v, params.joints, tolerance, max_iterations)
     if it < 0:
-        return False, work, newton
+        return it, work, newton
     newton += it
-    return True, work + (dt / 6.0) * (kw[0] + 2.0 * kw[1] + 2.0 * kw[2] + kw[3]), newton
+    return 0, work + (dt / 6.0) * (kw[0] + 2.0 * kw[1] + 2.0 * kw[2] + kw[3]), newton

@@ -10,12 +10,20 @@ import math
 
 import numpy as np
 
+from rrps_kinematics.errors import ConvergenceError, SingularPoseError
 from rrps_kinematics.geometry import RobotGeometry
 from rrps_kinematics.multibody import MultibodyModel
 from rrps_kinematics.rotations import euler_parameters_to_quat_xyzw, normalize_quat
 
 from .flops import step_flops
-from .integrators import METHODS, rk4_full, rk4_partitioned, solve_dependent
+from .integrators import (
+    METHODS,
+    NOT_CONVERGED,
+    SINGULAR,
+    rk4_full,
+    rk4_partitioned,
+    solve_dependent,
+)
 from .kernels import DynamicsParameters, Observation, drift_and_norm, leg_blocks, observe
 
 __all__ = ['MultibodyDynamics']
@@ -112,8 +120,9 @@ class MultibodyDynamics:
     def step(self, forces, dt: float) -> None:
         """Advance by dt [s] with actuator forces (6,) [N] held over the step (+ = push apart).
 
-        Raises ValueError for bad input and RuntimeError if the model reaches a singular pose
-        (the state is then left at the start of the step)."""
+        Raises ValueError for bad input, SingularPoseError if the model reaches a singular
+        configuration and ConvergenceError if a dependent-coordinate solve does not converge
+        (both are RuntimeErrors; the state is then left at the start of the step)."""
         f = np.ascontiguousarray(forces, dtype=float)
         if f.shape != (6,) or not np.all(np.isfinite(f)):
             raise ValueError(f'forces must be 6 finite numbers [N], got shape {f.shape}')
@@ -124,27 +133,40 @@ class MultibodyDynamics:
         p = self._params
         newton, corrected = 0, False
         if self.method == 'partitioning':
-            ok, work, newton = rk4_partitioned(q, v, self.actuator_work, f, dt, p,
-                                               self.newton_tolerance, self.max_newton_iterations)
+            status, work, newton = rk4_partitioned(q, v, self.actuator_work, f, dt, p,
+                                                   self.newton_tolerance,
+                                                   self.max_newton_iterations)
         else:
             ok, work = rk4_full(q, v, self.actuator_work, f, dt, self.alpha, self.beta, p)
+            status = 0 if ok else SINGULAR
             if ok and self.method == 'hybrid':
                 drift, norm_error = drift_and_norm(q, p.joints)
                 if drift > self.correction_tolerance or norm_error > self.correction_tolerance:
                     newton = solve_dependent(q, v, p.joints, self.newton_tolerance,
                                              self.max_newton_iterations)
-                    ok = newton >= 0
+                    status = min(newton, 0)
                     newton = max(newton, 0)
                     corrected = True
                     self.corrections += 1
-        if not ok or not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
-            raise RuntimeError(f'dynamics failed at t = {self.time:.6f} s: singular configuration')
+        if status == 0 and not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
+            status = SINGULAR
+        self._raise_for(status)
         self._q, self._v = q, v
         self._obs = None
         self.actuator_work = float(work)
         self.time += dt
         self.last_step_flops = step_flops(self.method, self.alpha != 0.0 or self.beta != 0.0,
                                           newton, corrected)
+
+    def _raise_for(self, status: int) -> None:
+        """The exception of a failed step's status code (nothing for 0)."""
+        if status == NOT_CONVERGED:
+            raise ConvergenceError(
+                f'no convergence at t = {self.time:.6f} s: the dependent coordinates did not '
+                f'converge in {self.max_newton_iterations} Newton iterations')
+        if status != 0:
+            raise SingularPoseError(f'singular configuration at t = {self.time:.6f} s: eq. 19 '
+                                    f'has no solution (a leg lost rank)')
 
     @property
     def observation(self) -> Observation:
@@ -210,7 +232,7 @@ class MultibodyDynamics:
 
         At rest eq. 19 with the 6 driving constraints (eq. 10) added reads Φ_x^T λ = F^A
         (78 x 78, gravity only); the driving multipliers are the actuator forces: f = -λ_D.
-        Raises ValueError at a singular pose."""
+        Raises SingularPoseError (a ValueError) at a singular pose."""
         q = self.model.coordinates_from_pose(position, quaternion_xyzw)
         v = np.zeros(78)
         Phi = np.zeros((78, 78))
@@ -226,7 +248,7 @@ class MultibodyDynamics:
         try:
             lam = np.linalg.solve(Phi.T, F)
         except np.linalg.LinAlgError:
-            raise ValueError('singular pose: no finite holding forces') from None
+            raise SingularPoseError('singular pose: no finite holding forces') from None
         if not np.all(np.isfinite(lam)) or np.linalg.cond(Phi) > 1e12:
-            raise ValueError('singular pose: no finite holding forces')
+            raise SingularPoseError('singular pose: no finite holding forces')
         return -lam[72:78]
