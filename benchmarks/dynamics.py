@@ -27,7 +27,7 @@ import numpy as np
 
 from rrps_kinematics import forward_kinematics, inverse_kinematics, load_robot
 from rrps_kinematics.multibody import MultibodyModel
-from rrps_sim.cli import REPORT_EXTRA_FORCES, climb_poses
+from rrps_sim.figures import REPORT_EXTRA_FORCES, climb_poses
 from rrps_sim.dynamics import METHODS, MultibodyDynamics, simulate
 from rrps_sim.dynamics.kernels import accelerations, leg_blocks
 

@@ -1,4 +1,5 @@
-"""The ``rrps-dynamics`` command: simulate, statics, inverse, report; errors exit with status 2."""
+"""The ``rrps-dynamics`` command: simulate, statics, inverse, report; usage errors exit with status 2,
+failed computations with 1, bugs with 3 and their traceback."""
 
 import csv
 import shutil
@@ -7,9 +8,12 @@ import sys
 
 import numpy as np
 import pytest
+import yaml
 
-from rrps_kinematics import inverse_kinematics, load_robot
-from rrps_sim.cli import SIMULATION_COLUMNS, climb_poses, run
+from rrps_kinematics import inverse_kinematics, load_robot, robot_path
+from rrps_sim import cli
+from rrps_sim.cli import SIMULATION_COLUMNS, run
+from rrps_sim.figures import climb_poses
 from rrps_sim.dynamics import MultibodyDynamics, simulate
 from rrps_sim.inverse_dynamics import inverse_dynamics
 from rrps_sim.statics import holding_forces
@@ -138,7 +142,61 @@ def test_trajectory_with_missing_columns_is_rejected(tmp_path, capsys):
     assert 'missing columns' in capsys.readouterr().err
 
 
-def test_console_script():
+@pytest.mark.parametrize('rows, message', [
+    ('0,0,0,0.4,0,0,0,1\n0.1,0,0,0.4,0,0,x,1\n', 'line 3'),
+    ('0,0,0,0.4,0,0,0,1\n0,0,0,0.4,0,0,0,1\n0.1,0,0,0.4,0,0,0,1\n0.2,0,0,0.4,0,0,0,1\n',
+     'strictly increasing'),
+    ('0,0,0,0.4,0,0,0,1\n0.1,0,0,0.4,0,0,0,1\n', 'at least 4'),
+    ('0,0,0,0.4,0,0,0,1\n0.1,0,0,0.4,0,0,0,0\n0.2,0,0,0.4,0,0,0,1\n0.3,0,0,0.4,0,0,0,1\n',
+     'zero quaternion'),
+])
+def test_a_malformed_trajectory_is_a_usage_error(rows, message, tmp_path, capsys):
+    traj = tmp_path / 'bad.csv'
+    traj.write_text('t,x,y,z,qx,qy,qz,qw\n' + rows)
+    assert run(['inverse', '--trajectory', str(traj), '--csv', str(tmp_path / 'f.csv')]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith('rrps-dynamics: error:') and message in err
+    assert len(err.splitlines()) == 1
+
+
+def pointed_robot(tmp_path):
+    """The pole climber with every spherical joint at ring_b's origin: singular everywhere."""
+    data = yaml.safe_load(robot_path('pole_climber').read_text())
+    data['name'] = 'pointed'
+    data['ring_b']['anchors'] = [[0.0, 0.0, 0.0]] * 6
+    path = tmp_path / 'pointed.yaml'
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def test_a_singular_pose_is_a_failed_computation_with_status_1(tmp_path, capsys):
+    assert run(['statics', '--robot', str(pointed_robot(tmp_path))]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith('rrps-dynamics: error: singular pose')
+    assert len(err.splitlines()) == 1
+
+
+def test_no_convergence_is_a_failed_computation_with_status_1(tmp_path, capsys):
+    # 3 kN per leg throws ring_b far out of the stroke; the partitioned Newton solve gives up.
+    status = run(['simulate', '--forces', '3000,3000,3000,-3000,-3000,-3000', '--duration', '0.1',
+                  '--method', 'partitioning', '--csv', str(tmp_path / 'x.csv')])
+    assert status == 1
+    errors = [line for line in capsys.readouterr().err.splitlines() if 'error' in line]
+    assert len(errors) == 1 and errors[0].startswith('rrps-dynamics: error: no convergence at t =')
+
+
+def test_a_bug_shows_its_traceback_with_status_3(monkeypatch, capsys):
+    def broken(g, args):
+        return [str(1 / 0)]
+
+    monkeypatch.setitem(cli.COMMANDS, 'statics', broken)
+    assert run(['statics']) == 3
+    err = capsys.readouterr().err
+    assert 'Traceback (most recent call last)' in err and 'ZeroDivisionError' in err
+    assert err.strip().splitlines()[-1].startswith('rrps-dynamics: internal error')
+
+
+def test_console_script(tmp_path):
     exe = shutil.which('rrps-dynamics') or sys.executable
     prefix = [] if exe.endswith('rrps-dynamics') else ['-m', 'rrps_sim.cli']
     ok = subprocess.run([exe, *prefix, 'statics'], capture_output=True, text=True, timeout=120)
@@ -146,3 +204,7 @@ def test_console_script():
     bad = subprocess.run([exe, *prefix, 'statics', '--position', '1,2'], capture_output=True,
                          text=True, timeout=120)
     assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1
+    failed = subprocess.run([exe, *prefix, 'statics', '--robot', str(pointed_robot(tmp_path))],
+                            capture_output=True, text=True, timeout=120)
+    assert failed.returncode == 1 and len(failed.stderr.strip().splitlines()) == 1
+    assert 'singular pose' in failed.stderr

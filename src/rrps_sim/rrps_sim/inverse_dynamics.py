@@ -21,12 +21,14 @@ from rrps_kinematics.rotations import quat_conjugate_xyzw, quat_multiply_xyzw
 from .reduced import PlatformPose, generalized_forces
 from .statics import solve_actuator_forces
 
-__all__ = ['trajectory_twists', 'inverse_dynamics']
+__all__ = ['check_trajectory', 'trajectory_twists', 'inverse_dynamics']
 
 MIN_SAMPLES = 4
 
 
-def _validated(t, positions, quaternions_xyzw) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def check_trajectory(t, positions, quaternions_xyzw) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The samples as float arrays, quaternions unit and sign-continuous; ValueError if they are
+    not a trajectory (shapes, fewer than MIN_SAMPLES, NaN/inf, t not increasing, zero quaternion)."""
     t = np.asarray(t, dtype=float)
     p = np.asarray(positions, dtype=float)
     q = np.asarray(quaternions_xyzw, dtype=float)
@@ -69,7 +71,7 @@ def _spline_twists(t: np.ndarray, p: np.ndarray, q: np.ndarray) -> tuple[np.ndar
 
 def trajectory_twists(t, positions, quaternions_xyzw) -> tuple[np.ndarray, np.ndarray]:
     """Twists (K, 6) and their rates (K, 6) of ring_b at the samples, from the splines above."""
-    return _spline_twists(*_validated(t, positions, quaternions_xyzw))
+    return _spline_twists(*check_trajectory(t, positions, quaternions_xyzw))
 
 
 def inverse_dynamics(geometry: RobotGeometry, t, positions, quaternions_xyzw) -> np.ndarray:
@@ -79,7 +81,7 @@ def inverse_dynamics(geometry: RobotGeometry, t, positions, quaternions_xyzw) ->
     give a_T_b at each sample (K >= 4). Includes the inertia and weight of ring_b and of the
     twelve leg links. Raises ValueError for invalid input or a singular pose on the way.
     """
-    t, p, q = _validated(t, positions, quaternions_xyzw)
+    t, p, q = check_trajectory(t, positions, quaternions_xyzw)
     twist, twist_dot = _spline_twists(t, p, q)
     pose = PlatformPose(geometry, p, q)
     return solve_actuator_forces(pose, generalized_forces(pose, twist, twist_dot))
