@@ -25,7 +25,8 @@ centre in ring_b's com frame and d = r_u + A_u s'_u - r_l - A_l s'_l the leg vec
 joint centres, so the driving constraint sets the actuator length exactly. Eq. 8's second
 vector is the upper link's y axis: orthogonal to f_l when assembled, as eq. 8 requires.
 
-Φ_q is analytic (exact derivatives of the polynomial A(p)), compiled with numba, and has 718
+Φ_q is analytic (exact derivatives of the polynomial A(p)), compiled with numba (plain Python
+with ``RRPS_NUMBA=0``, see :mod:`.backend`), and has 718
 structural nonzeros of 8281 (``jacobian(q, sparse=True)`` gives it as scipy CSC). Newton's
 linear solve (eq. 11) exploits that structure by default: each leg's 15 rows touch only its 14
 link coordinates and ring_b's 7, so eliminating the link unknowns per leg leaves a 7 x 7 system
@@ -38,14 +39,14 @@ import time
 from dataclasses import dataclass
 from typing import NamedTuple
 
-import numba
 import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
 
-from .geometry import RobotGeometry
+from .backend import jit
 from .errors import SingularPoseError
 from .forward import check_lengths
+from .geometry import RobotGeometry
 from .inverse import inverse_kinematics, pose_arrays, universal_joint_frames
 from .rotations import (
     euler_parameters_to_quat_xyzw,
@@ -119,7 +120,7 @@ class JointGeometry(NamedTuple):
 
 # --- compiled kernels (shared with rrps_sim.dynamics) ------------------------------------------
 
-@numba.njit(cache=True)
+@jit
 def rotation(q, o):
     """A(p) = (2 e0^2 - 1) I + 2 (e e^T + e0 ẽ) of the Euler parameters q[o:o+4] (section 2.1)."""
     e0, e1, e2, e3 = q[o], q[o + 1], q[o + 2], q[o + 3]
@@ -137,7 +138,7 @@ def rotation(q, o):
     return A
 
 
-@numba.njit(cache=True)
+@jit
 def das_dp(q, o, s):
     """∂(A(p) s')/∂p for p = q[o:o+4] (3 x 4): exact derivative of the polynomial A(p)."""
     e0, e1, e2, e3 = q[o], q[o + 1], q[o + 2], q[o + 3]
@@ -164,7 +165,7 @@ def das_dp(q, o, s):
     return out
 
 
-@numba.njit(cache=True)
+@jit
 def leg_residual(q, k, length, joints, out):
     """Leg k's 12 joint constraints (eqs. 3-8) and its driving constraint (eq. 10) -> out[0:13]."""
     a, ha, sb, cl, cu = joints
@@ -203,7 +204,7 @@ def leg_residual(q, k, length, joints, out):
     out[12] = hd - length
 
 
-@numba.njit(cache=True)
+@jit
 def leg_jacobian(q, k, joints, out):
     """∂/∂q of leg k's 13 rows (12 joint + driving); out (13, 21), columns [q_b, q_l, q_u]."""
     ha, sb, cl, cu = joints.ha, joints.sb, joints.cl, joints.cu
@@ -293,7 +294,7 @@ def leg_jacobian(q, k, joints, out):
         out[12, 7 + i] = -Al[i, 2]
 
 
-@numba.njit(cache=True)
+@jit
 def all_constraints(q, lengths, joints):
     """Φ(q) of eq. 2 (91,): 72 joint, 6 driving, 13 normalisation constraints."""
     phi = np.empty(91)
@@ -308,7 +309,7 @@ def all_constraints(q, lengths, joints):
     return phi
 
 
-@numba.njit(cache=True)
+@jit
 def all_jacobian(q, joints):
     """Φ_q of eq. 2, dense (91, 91)."""
     J = np.zeros((91, 91))
@@ -329,7 +330,7 @@ def all_jacobian(q, joints):
     return J
 
 
-@numba.njit(cache=True)
+@jit
 def gauss_eliminate(A, nrow, ncol_pivot, ncol):
     """Gaussian elimination with partial pivoting of A[:nrow, :ncol] on its first ncol_pivot
     columns (in place); returns (ok, flops)."""
@@ -360,7 +361,7 @@ def gauss_eliminate(A, nrow, ncol_pivot, ncol):
     return True, flops
 
 
-@numba.njit(cache=True)
+@jit
 def structured_solve(J, rhs):
     """Solve Φ_q Δq = rhs (91) by the robot's structure; returns (ok, Δq, flops).
 

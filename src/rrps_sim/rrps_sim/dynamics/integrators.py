@@ -20,9 +20,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from rrps_kinematics.backend import jit
 from rrps_kinematics.multibody import gauss_eliminate, leg_jacobian, leg_residual
 
 from .kernels import accelerations, leg_blocks, leg_lengths_rates
@@ -36,7 +36,7 @@ NOT_CONVERGED = -1
 SINGULAR = -2
 
 
-@numba.njit(cache=True)
+@jit
 def _derivative(q, v, forces, alpha, beta, params, dq, dv):
     """ẏ of the full state: ṙ = v, ṗ = ½ G^T ω', [r̈, ω̇'] from eq. 19; returns (ok, Σ f L̇)."""
     lam = np.empty(72)
@@ -58,7 +58,7 @@ def _derivative(q, v, forces, alpha, beta, params, dq, dv):
     return ok, power
 
 
-@numba.njit(cache=True)
+@jit
 def rk4_full(q, v, work, forces, dt, alpha, beta, params):
     """One RK4 step of all 91 + 78 states (and the actuator work) in place; False if singular."""
     kq = np.empty((4, 91))
@@ -86,7 +86,7 @@ def rk4_full(q, v, work, forces, dt, alpha, beta, params):
     return True, work + h6 * (kw[0] + 2.0 * kw[1] + 2.0 * kw[2] + kw[3])
 
 
-@numba.njit(cache=True)
+@jit
 def _lu_solve(A, b, n):
     """Solve A x = b (n x n) by Gaussian elimination with partial pivoting (multibody's
     ``gauss_eliminate`` on [A | b]) and back substitution: x -> b. Returns False if A is singular."""
@@ -105,7 +105,7 @@ def _lu_solve(A, b, n):
 
 
 
-@numba.njit(cache=True)
+@jit
 def solve_dependent(q, v, joints, tolerance, max_iterations):
     """Partitioned correction: e0 of ring_b from eq. 9, each leg's 14 coordinates by Newton on
     its 12 joint constraints + 2 normalisations, then its 12 velocities from Φ_q v = 0 (eq. 20).
@@ -174,7 +174,7 @@ def solve_dependent(q, v, joints, tolerance, max_iterations):
     return total
 
 
-@numba.njit(cache=True)
+@jit
 def rk4_partitioned(q, v, work, forces, dt, params, tolerance, max_iterations):
     """One RK4 step of the independent states (r_b, e_b, ṙ_b, ω'_b, work) with the dependent
     ones solved at every stage. Returns (status, work, Newton iterations), status 0 or the code

@@ -23,9 +23,9 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import numba
 import numpy as np
 
+from rrps_kinematics.backend import jit
 from rrps_kinematics.multibody import JointGeometry, leg_residual, rotation
 
 __all__ = ['DynamicsParameters', 'Observation', 'accelerations', 'drift_and_norm', 'leg_blocks',
@@ -81,30 +81,30 @@ class Observation(NamedTuple):
     potential: float
 
 
-@numba.njit(cache=True)
+@jit
 def _cross(a, b):
     """a × b of two 3-vectors (tuples or arrays) as a tuple: no allocation."""
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@numba.njit(cache=True)
+@jit
 def _dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@numba.njit(cache=True)
+@jit
 def _col(A, j, scale):
     return (scale * A[0, j], scale * A[1, j], scale * A[2, j])
 
 
-@numba.njit(cache=True)
+@jit
 def _matvec(A, x):
     return (A[0, 0] * x[0] + A[0, 1] * x[1] + A[0, 2] * x[2],
             A[1, 0] * x[0] + A[1, 1] * x[1] + A[1, 2] * x[2],
             A[2, 0] * x[0] + A[2, 1] * x[1] + A[2, 2] * x[2])
 
 
-@numba.njit(cache=True)
+@jit
 def _matvec6(W, x):
     out = np.empty(6)
     for i in range(6):
@@ -115,14 +115,14 @@ def _matvec6(W, x):
     return out
 
 
-@numba.njit(cache=True)
+@jit
 def _omega(A, v, b):
     """Global angular velocity ω = A ω' of body b."""
     o = 6 * b + 3
     return _matvec(A, (v[o], v[o + 1], v[o + 2]))
 
 
-@numba.njit(cache=True)
+@jit
 def _skew_cols(B, row, c0, s, sign):
     """B[row:row+3, c0:c0+3] = sign * s̃ (the π columns of ±(A s'))."""
     B[row, c0 + 1] = -sign * s[2]
@@ -133,7 +133,7 @@ def _skew_cols(B, row, c0, s, sign):
     B[row + 2, c0 + 1] = sign * s[0]
 
 
-@numba.njit(cache=True)
+@jit
 def _dot_row(B, row, ci, a, wi, cj, c, wj, gamma):
     """Row of a dot-1 constraint a·c (a on body ci, c on body cj, global π columns) and its γ.
 
@@ -150,7 +150,7 @@ def _dot_row(B, row, ci, a, wi, cj, c, wj, gamma):
     gamma[row] = -(_dot(_cross(wi, wa), c) + 2.0 * _dot(wa, wc) + _dot(a, _cross(wj, wc)))
 
 
-@numba.njit(cache=True)
+@jit
 def leg_blocks(q, v, k, joints, B, gamma):
     """Leg k's 13 rows (12 joint + driving) of [Φ_r Φ_π'] (13 x 18) and γ (13,) of eq. 19.
 
@@ -231,7 +231,7 @@ def leg_blocks(q, v, k, joints, B, gamma):
                     B[r, c0 + j] = x0 * A[0, j] + x1 * A[1, j] + x2 * A[2, j]
 
 
-@numba.njit(cache=True, fastmath=True)
+@jit(fastmath=True)
 def _cholesky(A, n):
     """In-place lower Cholesky factor of the SPD n x n matrix A; False if not positive."""
     for j in range(n):
@@ -250,7 +250,7 @@ def _cholesky(A, n):
     return True
 
 
-@numba.njit(cache=True, fastmath=True)
+@jit(fastmath=True)
 def _cholesky_solve(Lc, X, n, nrhs):
     """Solve (Lc Lc^T) X = X in place for nrhs columns."""
     for c in range(nrhs):
@@ -266,7 +266,7 @@ def _cholesky_solve(Lc, X, n, nrhs):
             X[i, c] = s / Lc[i, i]
 
 
-@numba.njit(cache=True, fastmath=True)
+@jit(fastmath=True)
 def accelerations(q, v, forces, alpha, beta, params, acc, lam):
     """Solve eq. 19 for [r̈, ω̇'] (78,) -> acc and λ (72,) -> lam; returns False if singular.
 
@@ -394,7 +394,7 @@ def accelerations(q, v, forces, alpha, beta, params, acc, lam):
     return True
 
 
-@numba.njit(cache=True)
+@jit
 def leg_lengths_rates(q, v, joints):
     """Actuator lengths and rates from ring_b's state: S_k = r_b + A_b s'_k, L = |S_k - a_k|."""
     a, sb = joints.a, joints.sb
@@ -412,7 +412,7 @@ def leg_lengths_rates(q, v, joints):
     return L, Ld
 
 
-@numba.njit(cache=True)
+@jit
 def drift_and_norm(q, joints):
     """‖Φ^K‖ (2-norm of the 72 joint constraints) and max_b |p_b^T p_b - 1|."""
     res = np.empty(13)
@@ -428,7 +428,7 @@ def drift_and_norm(q, joints):
     return math.sqrt(s), n
 
 
-@numba.njit(cache=True)
+@jit
 def observe(q, v, params):
     """Everything reported about a state, in one pass: an :class:`Observation`."""
     mass, inertia, gravity, com_b = params.mass, params.inertia, params.gravity, params.com_b
