@@ -10,7 +10,10 @@
 ``--robot`` takes a shipped robot name (default ``pole_climber``) or a YAML path; the pose
 defaults to the robot's home pose. Poses are a_T_b (ring_b in ring_a's frame), SI units, ROS
 (x, y, z, w) quaternions; forces are positive when they push the rings apart. Long runs show
-their progress on stderr. Exit status (one error line on stderr unless 0):
+their progress on stderr. The ``inverse`` trajectory is a CSV with a header row: columns
+t,x,y,z,qx,qy,qz,qw (a_T_b at time t), optionally ring_b's velocity vx,vy,vz,wx,wy,wz (origin
+velocity [m/s] and angular velocity [rad/s], ring_a's frame) and acceleration
+ax,ay,az,dwx,dwy,dwz (their rates); what is missing is differentiated from the samples. Exit status (one error line on stderr unless 0):
 
 * 0 done;
 * 1 the computation failed: a singular pose or configuration, a solve that did not converge;
@@ -53,6 +56,8 @@ SIMULATION_COLUMNS = (['t', 'x', 'y', 'z', 'qx', 'qy', 'qz', 'qw']
                       + ['constraint_drift', 'euler_norm_error', 'energy_balance', 'kinetic',
                          'potential', 'actuator_work', 'step_flops', 'step_seconds'])
 TRAJECTORY_COLUMNS = ('t', 'x', 'y', 'z', 'qx', 'qy', 'qz', 'qw')
+VELOCITY_COLUMNS = ('vx', 'vy', 'vz', 'wx', 'wy', 'wz')
+ACCELERATION_COLUMNS = ('ax', 'ay', 'az', 'dwx', 'dwy', 'dwz')
 
 
 def _forces(text: str):
@@ -102,7 +107,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser('inverse', help='actuator forces along a pose trajectory')
     robot(p)
     p.add_argument('--trajectory', required=True, type=Path,
-                   help='CSV with columns t,x,y,z,qx,qy,qz,qw (a header row)')
+                   help='CSV with columns t,x,y,z,qx,qy,qz,qw (a header row), optionally '
+                        f'{",".join(VELOCITY_COLUMNS)} and {",".join(ACCELERATION_COLUMNS)}')
     p.add_argument('--csv', required=True, type=Path, help='output CSV: t,F1..F6')
 
     p = sub.add_parser('report', help="the paper's Figures 6 and 7: PNG plots and tables")
@@ -161,7 +167,8 @@ def _write_csv(path: Path, header: Sequence[str], rows: np.ndarray) -> None:
             w.writerow([repr(float(x)) for x in row])
 
 
-def _read_trajectory(path: Path) -> np.ndarray:
+def _read_trajectory(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """The samples (K, 8) and, when the file has those columns, the twists and their rates."""
     try:
         with open(path, newline='') as fh:
             reader = csv.reader(fh)
@@ -169,7 +176,14 @@ def _read_trajectory(path: Path) -> np.ndarray:
             missing = [c for c in TRAJECTORY_COLUMNS if c not in header]
             if missing:
                 raise UsageError(f'{path}: missing columns {missing} (need {",".join(TRAJECTORY_COLUMNS)})')
-            idx = [header.index(c) for c in TRAJECTORY_COLUMNS]
+            columns = list(TRAJECTORY_COLUMNS)
+            for group in (VELOCITY_COLUMNS, ACCELERATION_COLUMNS):
+                present = [c for c in group if c in header]
+                if present and len(present) < len(group):
+                    raise UsageError(f'{path}: has {",".join(present)} but not all of '
+                                     f'{",".join(group)}')
+                columns += present
+            idx = [header.index(c) for c in columns]
             rows = []
             for n, row in enumerate(reader, start=2):
                 if not row:
@@ -178,13 +192,15 @@ def _read_trajectory(path: Path) -> np.ndarray:
                     rows.append([float(row[i]) for i in idx])
                 except (ValueError, IndexError):
                     raise UsageError(f'{path}: line {n}: expected numbers in columns '
-                                     f'{",".join(TRAJECTORY_COLUMNS)}') from None
+                                     f'{",".join(columns)}') from None
     except OSError as exc:
         raise UsageError(f'{path}: cannot read: {exc.strerror}') from None
-    data = np.asarray(rows, dtype=float).reshape(-1, 8)
+    data = np.asarray(rows, dtype=float).reshape(-1, len(columns))
     if not np.all(np.isfinite(data)):
         raise UsageError(f'{path}: contains NaN or infinite values')
-    return data
+    twist = data[:, 8:14] if VELOCITY_COLUMNS[0] in columns else None
+    twist_dot = data[:, -6:] if ACCELERATION_COLUMNS[0] in columns else None
+    return data[:, :8], twist, twist_dot
 
 
 def simulation_rows(res: SimulationResult) -> np.ndarray:
@@ -240,12 +256,13 @@ def _statics(g: RobotGeometry, args) -> list[str]:
 
 def _inverse(g: RobotGeometry, args) -> list[str]:
     from .inverse_dynamics import check_trajectory, inverse_dynamics
-    data = _read_trajectory(args.trajectory)
+    data, twist, twist_dot = _read_trajectory(args.trajectory)
     try:
         check_trajectory(data[:, 0], data[:, 1:4], data[:, 4:8])
     except ValueError as exc:
         raise UsageError(f'{args.trajectory}: {exc}') from None
-    forces = inverse_dynamics(g, data[:, 0], data[:, 1:4], data[:, 4:8])
+    forces = inverse_dynamics(g, data[:, 0], data[:, 1:4], data[:, 4:8], twist=twist,
+                              twist_dot=twist_dot)
     _write_csv(args.csv, ['t'] + [f'F{i}' for i in range(1, 7)], np.column_stack([data[:, 0], forces]))
     return [f'wrote {len(data)} rows (t,F1..F6) to {args.csv}; '
             f'max |F| = {np.max(np.abs(forces)):.3f} N']
