@@ -21,7 +21,8 @@ from rrps_kinematics.multibody import MultibodyModel
 from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
 from rrps_sim.dynamics import METHODS, MultibodyDynamics, simulate
 from rrps_sim.dynamics.integrators import solve_dependent
-from rrps_sim.dynamics.kernels import accelerations
+from rrps_sim.dynamics.bundles import new_workspace, workspace
+from rrps_sim.dynamics.kernels import accelerations, multipliers
 
 from conftest import require
 
@@ -52,7 +53,9 @@ def compute() -> dict[str, np.ndarray]:
     v[:6] = [0.05, -0.02, 0.04, 0.3, -0.2, 0.1]
     assert solve_dependent(q, v, dyn.parameters.joints, 1e-13, 20) >= 0
     acc, lam = np.empty(78), np.empty(72)
-    assert accelerations(q, v, forces, 10.0, 10.0, dyn.parameters, acc, lam)
+    ws = workspace(new_workspace())
+    assert accelerations(q, v, forces, 10.0, 10.0, dyn.parameters, ws, acc)
+    assert multipliers(dyn.parameters, ws, acc, lam)
     out['accelerations'], out['multipliers'] = acc, lam
     for method in METHODS:
         dyn = MultibodyDynamics(geom, method)

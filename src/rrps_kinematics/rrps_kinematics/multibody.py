@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from functools import cached_property
 from typing import NamedTuple
 
 import numpy as np
@@ -67,7 +68,12 @@ __all__ = [
     'MultibodyDKResult',
     'body_slice',
     'gauss_eliminate',
+    'leg_jacobian',
+    'leg_residual',
+    'leg_residual_with_rotations',
     'lower_link_body',
+    'rotation',
+    'rotation_into',
     'structured_solve',
     'upper_link_body',
 ]
@@ -123,8 +129,15 @@ class JointGeometry(NamedTuple):
 @jit
 def rotation(q, o):
     """A(p) = (2 e0^2 - 1) I + 2 (e e^T + e0 ẽ) of the Euler parameters q[o:o+4] (section 2.1)."""
-    e0, e1, e2, e3 = q[o], q[o + 1], q[o + 2], q[o + 3]
     A = np.empty((3, 3))
+    rotation_into(q, o, A)
+    return A
+
+
+@jit
+def rotation_into(q, o, A):
+    """A <- A(p) of the Euler parameters q[o:o+4], in place (no allocation)."""
+    e0, e1, e2, e3 = q[o], q[o + 1], q[o + 2], q[o + 3]
     c = 2.0 * e0 * e0 - 1.0
     A[0, 0] = c + 2.0 * e1 * e1
     A[1, 1] = c + 2.0 * e2 * e2
@@ -135,7 +148,6 @@ def rotation(q, o):
     A[2, 0] = 2.0 * (e1 * e3 - e0 * e2)
     A[1, 2] = 2.0 * (e2 * e3 - e0 * e1)
     A[2, 1] = 2.0 * (e2 * e3 + e0 * e1)
-    return A
 
 
 @jit
@@ -168,21 +180,25 @@ def das_dp(q, o, s):
 @jit
 def leg_residual(q, k, length, joints, out):
     """Leg k's 12 joint constraints (eqs. 3-8) and its driving constraint (eq. 10) -> out[0:13]."""
+    leg_residual_with_rotations(q, k, length, joints, rotation(q, 3), rotation(q, 7 * (1 + 2 * k) + 3),
+                                rotation(q, 7 * (2 + 2 * k) + 3), out)
+
+
+@jit
+def leg_residual_with_rotations(q, k, length, joints, Ab, Al, Au, out):
+    """:func:`leg_residual` with the rotation matrices of ring_b and leg k's links given."""
     a, ha, sb, cl, cu = joints
     ob = 0
     ol = 7 * (1 + 2 * k)
     ou = 7 * (2 + 2 * k)
-    Ab = rotation(q, ob + 3)
-    Al = rotation(q, ol + 3)
-    Au = rotation(q, ou + 3)
     for i in range(3):
         s_b = Ab[i, 0] * sb[k, 0] + Ab[i, 1] * sb[k, 1] + Ab[i, 2] * sb[k, 2]
         out[i] = q[ou + i] + Au[i, 2] * cu - q[ob + i] - s_b
         out[3 + i] = q[ol + i] - Al[i, 2] * cl - a[k, i]
     out[6] = ha[k, 0] * Al[0, 1] + ha[k, 1] * Al[1, 1] + ha[k, 2] * Al[2, 1]
-    d = np.empty(3)
-    for i in range(3):
-        d[i] = q[ou + i] + Au[i, 2] * cu - q[ol + i] + Al[i, 2] * cl
+    d = (q[ou] + Au[0, 2] * cu - q[ol] + Al[0, 2] * cl,
+         q[ou + 1] + Au[1, 2] * cu - q[ol + 1] + Al[1, 2] * cl,
+         q[ou + 2] + Au[2, 2] * cu - q[ol + 2] + Al[2, 2] * cl)
     f0 = 0.0
     f1 = 0.0
     g0 = 0.0
@@ -455,16 +471,23 @@ class MultibodyModel:
             sb=np.ascontiguousarray(geometry.ring_b_anchors - self.ring_b_com),
             cl=float(geometry.lower_link.com_from_joint),
             cu=float(geometry.upper_link.com_from_joint))
-        pattern = all_jacobian(self.coordinates_from_pose(geometry.home_position,
-                                                          geometry.home_quaternion_xyzw),
+
+    @cached_property
+    def _sparsity(self) -> scipy.sparse.csc_matrix:
+        """Structural nonzeros of Φ_q: every entry a kernel writes, at home and a generic pose
+        (found on first use: only the sparse Jacobian and solver need them)."""
+        pattern = all_jacobian(self.coordinates_from_pose(self.geometry.home_position,
+                                                          self.geometry.home_quaternion_xyzw),
                                self.joints)
-        # Structural nonzeros: every entry a kernel writes, found at a generic pose.
-        rng = np.random.default_rng(0)
-        q_rand = rng.normal(size=91)
+        q_rand = np.random.default_rng(0).normal(size=91)
         mask = (pattern != 0) | (all_jacobian(q_rand, self.joints) != 0)
-        self._sparsity = scipy.sparse.csc_matrix(mask.astype(float))
-        self._rows = self._sparsity.indices.copy()
-        self._cols = np.repeat(np.arange(91), np.diff(self._sparsity.indptr))
+        return scipy.sparse.csc_matrix(mask.astype(float))
+
+    @cached_property
+    def _entries(self) -> tuple[np.ndarray, np.ndarray]:
+        """Rows and columns of the structural nonzeros, in CSC order."""
+        return (self._sparsity.indices.copy(),
+                np.repeat(np.arange(91), np.diff(self._sparsity.indptr)))
 
     # --- coordinates <-> pose ---
 
@@ -515,7 +538,7 @@ class MultibodyModel:
         J = all_jacobian(q, self.joints)
         if not sparse:
             return J
-        return scipy.sparse.csc_matrix((J[self._rows, self._cols], self._sparsity.indices,
+        return scipy.sparse.csc_matrix((J[self._entries], self._sparsity.indices,
                                         self._sparsity.indptr), shape=(91, 91))
 
     @property
@@ -574,7 +597,7 @@ class MultibodyModel:
                     dq = np.linalg.solve(J, -phi)
                     flops += (2 * n**3) // 3 + 2 * n**2
                 else:
-                    Js = scipy.sparse.csc_matrix((J[self._rows, self._cols],
+                    Js = scipy.sparse.csc_matrix((J[self._entries],
                                                   self._sparsity.indices, self._sparsity.indptr),
                                                  shape=(n, n))
                     lu = scipy.sparse.linalg.splu(Js, permc_spec='COLAMD')

@@ -23,24 +23,27 @@ import math
 import numpy as np
 
 from rrps_kinematics.backend import jit
-from rrps_kinematics.multibody import gauss_eliminate, leg_jacobian, leg_residual
+from rrps_kinematics.multibody import leg_jacobian, leg_residual
 
-from .kernels import accelerations, leg_blocks, leg_lengths_rates
+from .bundles import workspace
+from .constraints import leg_blocks
+from .kernels import accelerations, actuator_power, drift_and_norm, lu_solve, observe_into
 
-__all__ = ['METHODS', 'NOT_CONVERGED', 'SINGULAR', 'rk4_full', 'rk4_partitioned',
-           'solve_dependent']
+__all__ = ['METHODS', 'NOT_CONVERGED', 'SINGULAR', 'rk4_full', 'rk4_partitioned', 'run',
+           'solve_dependent', 'step']
 
 METHODS = ('baumgarte', 'partitioning', 'hybrid')
-#: Failure codes of the partitioned solves (negative, as no iteration count is).
+BAUMGARTE, PARTITIONING, HYBRID = 0, 1, 2
+#: Failure codes of a step (negative, as no iteration count is).
 NOT_CONVERGED = -1
 SINGULAR = -2
 
 
-@jit
-def _derivative(q, v, forces, alpha, beta, params, dq, dv):
+@jit(fastmath=True)
+def _derivative(q, v, forces, alpha, beta, params, ws, dq, dv):
     """ẏ of the full state: ṙ = v, ṗ = ½ G^T ω', [r̈, ω̇'] from eq. 19; returns (ok, Σ f L̇)."""
-    lam = np.empty(72)
-    ok = accelerations(q, v, forces, alpha, beta, params, dv, lam)
+    if not accelerations(q, v, forces, alpha, beta, params, ws, dv):
+        return False, 0.0
     for b in range(13):
         o = 7 * b
         for i in range(3):
@@ -51,30 +54,24 @@ def _derivative(q, v, forces, alpha, beta, params, dq, dv):
         dq[o + 4] = 0.5 * (e0 * w0 + e2 * w2 - e3 * w1)
         dq[o + 5] = 0.5 * (e0 * w1 + e3 * w0 - e1 * w2)
         dq[o + 6] = 0.5 * (e0 * w2 + e1 * w1 - e2 * w0)
-    L, Ld = leg_lengths_rates(q, v, params.joints)
-    power = 0.0
-    for k in range(6):
-        power += forces[k] * Ld[k]
-    return ok, power
+    return True, actuator_power(q, v, forces, params.joints, ws.rotations[0])
 
 
-@jit
-def rk4_full(q, v, work, forces, dt, alpha, beta, params):
-    """One RK4 step of all 91 + 78 states (and the actuator work) in place; False if singular."""
-    kq = np.empty((4, 91))
-    kv = np.empty((4, 78))
-    kw = np.empty(4)
-    qs = q.copy()
-    vs = v.copy()
-    coef = (0.5, 0.5, 1.0)
+@jit(fastmath=True)
+def rk4_full(q, v, work, forces, dt, alpha, beta, params, ws):
+    """One RK4 step of all 91 + 78 states (and the actuator work) in place; (ok, work), ok False
+    if singular (q, v are then partly updated)."""
+    kq, kv, kw, qs, vs = ws.kq, ws.kv, ws.kw, ws.qs, ws.vs
+    qs[:] = q
+    vs[:] = v
     for s in range(4):
         if s > 0:
-            c = coef[s - 1] * dt
+            c = dt if s == 3 else 0.5 * dt
             for i in range(91):
                 qs[i] = q[i] + c * kq[s - 1, i]
             for i in range(78):
                 vs[i] = v[i] + c * kv[s - 1, i]
-        ok, p = _derivative(qs, vs, forces, alpha, beta, params, kq[s], kv[s])
+        ok, p = _derivative(qs, vs, forces, alpha, beta, params, ws, kq[s], kv[s])
         if not ok:
             return False, work
         kw[s] = p
@@ -84,25 +81,6 @@ def rk4_full(q, v, work, forces, dt, alpha, beta, params):
     for i in range(78):
         v[i] += h6 * (kv[0, i] + 2.0 * kv[1, i] + 2.0 * kv[2, i] + kv[3, i])
     return True, work + h6 * (kw[0] + 2.0 * kw[1] + 2.0 * kw[2] + kw[3])
-
-
-@jit
-def _lu_solve(A, b, n):
-    """Solve A x = b (n x n) by Gaussian elimination with partial pivoting (multibody's
-    ``gauss_eliminate`` on [A | b]) and back substitution: x -> b. Returns False if A is singular."""
-    Ab = np.empty((n, n + 1))
-    Ab[:, :n] = A[:n, :n]
-    Ab[:, n] = b[:n]
-    ok, _ = gauss_eliminate(Ab, n, n, n + 1)
-    if not ok:
-        return False
-    for i in range(n - 1, -1, -1):
-        s = Ab[i, n]
-        for m in range(i + 1, n):
-            s -= Ab[i, m] * b[m]
-        b[i] = s / Ab[i, i]
-    return True
-
 
 
 @jit
@@ -150,7 +128,7 @@ def solve_dependent(q, v, joints, tolerance, max_iterations):
                 Jn[13, 10 + j] = 2.0 * q[ou + 3 + j]
             for i in range(14):
                 rn[i] = -rn[i]
-            if not _lu_solve(Jn, rn, 14):
+            if not lu_solve(Jn, rn, 14):
                 return SINGULAR
             for j in range(7):
                 q[ol + j] += rn[j]
@@ -165,7 +143,7 @@ def solve_dependent(q, v, joints, tolerance, max_iterations):
             for j in range(6):
                 acc_r -= B[r, j] * v[j]
             x[r] = acc_r
-        if not _lu_solve(M, x, 12):
+        if not lu_solve(M, x, 12):
             return SINGULAR
         bl = 1 + 2 * k
         for j in range(6):
@@ -175,32 +153,28 @@ def solve_dependent(q, v, joints, tolerance, max_iterations):
 
 
 @jit
-def rk4_partitioned(q, v, work, forces, dt, params, tolerance, max_iterations):
+def rk4_partitioned(q, v, work, forces, dt, params, tolerance, max_iterations, ws):
     """One RK4 step of the independent states (r_b, e_b, ṙ_b, ω'_b, work) with the dependent
-    ones solved at every stage. Returns (status, work, Newton iterations), status 0 or the code
-    of :func:`solve_dependent` or SINGULAR (eq. 19 singular)."""
-    y0 = np.empty(12)
+    ones solved at every stage. Returns (status, work, Newton iterations): status 0, or the
+    failure code of :func:`solve_dependent` or SINGULAR (eq. 19 singular)."""
+    y0, ky, kw, dv = ws.y0, ws.ky, ws.kw, ws.kv[0]
     y0[0:3] = q[0:3]
     y0[3:6] = q[4:7]
     y0[6:12] = v[0:6]
-    ky = np.empty((4, 12))
-    kw = np.empty(4)
-    dv = np.empty(78)
-    lam = np.empty(72)
-    coef = (0.5, 0.5, 1.0)
     newton = 0
     for s in range(4):
         if s > 0:
-            c = coef[s - 1] * dt
-            y = y0 + c * ky[s - 1]
-            q[0:3] = y[0:3]
-            q[4:7] = y[3:6]
-            v[0:6] = y[6:12]
+            c = dt if s == 3 else 0.5 * dt
+            for i in range(3):
+                q[i] = y0[i] + c * ky[s - 1, i]
+                q[4 + i] = y0[3 + i] + c * ky[s - 1, 3 + i]
+            for i in range(6):
+                v[i] = y0[6 + i] + c * ky[s - 1, 6 + i]
         it = solve_dependent(q, v, params.joints, tolerance, max_iterations)
         if it < 0:
             return it, work, newton
         newton += it
-        if not accelerations(q, v, forces, 0.0, 0.0, params, dv, lam):
+        if not accelerations(q, v, forces, 0.0, 0.0, params, ws, dv):
             return SINGULAR, work, newton
         e0, e1, e2, e3 = q[3], q[4], q[5], q[6]
         w0, w1, w2 = v[3], v[4], v[5]
@@ -209,17 +183,94 @@ def rk4_partitioned(q, v, work, forces, dt, params, tolerance, max_iterations):
         ky[s, 4] = 0.5 * (e0 * w1 + e3 * w0 - e1 * w2)
         ky[s, 5] = 0.5 * (e0 * w2 + e1 * w1 - e2 * w0)
         ky[s, 6:12] = dv[0:6]
-        L, Ld = leg_lengths_rates(q, v, params.joints)
-        p = 0.0
-        for k in range(6):
-            p += forces[k] * Ld[k]
-        kw[s] = p
-    y = y0 + (dt / 6.0) * (ky[0] + 2.0 * ky[1] + 2.0 * ky[2] + ky[3])
-    q[0:3] = y[0:3]
-    q[4:7] = y[3:6]
-    v[0:6] = y[6:12]
+        kw[s] = actuator_power(q, v, forces, params.joints, ws.rotations[0])
+    h6 = dt / 6.0
+    for i in range(3):
+        q[i] = y0[i] + h6 * (ky[0, i] + 2.0 * ky[1, i] + 2.0 * ky[2, i] + ky[3, i])
+        q[4 + i] = y0[3 + i] + h6 * (ky[0, 3 + i] + 2.0 * ky[1, 3 + i] + 2.0 * ky[2, 3 + i]
+                                     + ky[3, 3 + i])
+    for i in range(6):
+        v[i] = y0[6 + i] + h6 * (ky[0, 6 + i] + 2.0 * ky[1, 6 + i] + 2.0 * ky[2, 6 + i]
+                                 + ky[3, 6 + i])
     it = solve_dependent(q, v, params.joints, tolerance, max_iterations)
     if it < 0:
         return it, work, newton
-    newton += it
-    return 0, work + (dt / 6.0) * (kw[0] + 2.0 * kw[1] + 2.0 * kw[2] + kw[3]), newton
+    return 0, work + h6 * (kw[0] + 2.0 * kw[1] + 2.0 * kw[2] + kw[3]), newton + it
+
+
+@jit
+def step(q, v, work, forces, dt, method, alpha, beta, correction_tolerance, newton_tolerance,
+         max_iterations, params, buffer):
+    """One step of ``method`` (BAUMGARTE, PARTITIONING or HYBRID) in place, compiled whole, in the
+    workspace ``buffer`` (:func:`~rrps_sim.dynamics.bundles.new_workspace`).
+
+    Returns (status, work, Newton iterations, corrected): status 0, NOT_CONVERGED or SINGULAR
+    (then q, v are left as they were); ``corrected``: the hybrid made a partitioned correction
+    (whenever ‖Φ^K‖ or an Euler-parameter norm error exceeds ``correction_tolerance``)."""
+    return _step(q, v, work, forces, dt, method, alpha, beta, correction_tolerance,
+                 newton_tolerance, max_iterations, params, workspace(buffer))
+
+
+@jit
+def _step(q, v, work, forces, dt, method, alpha, beta, correction_tolerance, newton_tolerance,
+          max_iterations, params, ws):
+    """:func:`step` in the workspace views ``ws``."""
+    ws.q0[:] = q
+    ws.v0[:] = v
+    newton = 0
+    corrected = False
+    if method == PARTITIONING:
+        status, new_work, newton = rk4_partitioned(q, v, work, forces, dt, params,
+                                                   newton_tolerance, max_iterations, ws)
+    else:
+        ok, new_work = rk4_full(q, v, work, forces, dt, alpha, beta, params, ws)
+        status = 0 if ok else SINGULAR
+        if ok and method == HYBRID:
+            drift, norm_error = drift_and_norm(q, params.joints, ws)
+            if drift > correction_tolerance or norm_error > correction_tolerance:
+                corrected = True
+                it = solve_dependent(q, v, params.joints, newton_tolerance, max_iterations)
+                if it < 0:
+                    status = it
+                else:
+                    newton = it
+    if status == 0:
+        for i in range(91):
+            if not math.isfinite(q[i]):
+                status = SINGULAR
+        for i in range(78):
+            if not math.isfinite(v[i]):
+                status = SINGULAR
+    if status != 0:
+        q[:] = ws.q0
+        v[:] = ws.v0
+        return status, work, newton, corrected
+    return 0, new_work, newton, corrected
+
+
+@jit
+def run(q, v, work, forces, dt, first, last, output_every, method, alpha, beta,
+        correction_tolerance, newton_tolerance, max_iterations, params, buffer, observed, work_out,
+        newton_out, corrected_out):
+    """Steps ``first`` .. ``last`` - 1 (0-based) of a constant-force run, in place, recording
+    after step i when i + 1 is a multiple of ``output_every`` or i + 1 = len(newton_out) (the
+    last step): row (i + output_every) // output_every of ``observed`` (:class:`Observations`)
+    and ``work_out``. ``newton_out``, ``corrected_out``: per step, for the flop model.
+
+    Returns (status, work, step): status 0 and ``last``, or the failure code and the step that
+    failed (the state is then that before it)."""
+    n_steps = len(newton_out)
+    ws = workspace(buffer)
+    for i in range(first, last):
+        status, work, newton, corrected = _step(q, v, work, forces, dt, method, alpha, beta,
+                                                correction_tolerance, newton_tolerance,
+                                                max_iterations, params, ws)
+        newton_out[i] = newton
+        corrected_out[i] = corrected
+        if status != 0:
+            return status, work, i
+        if (i + 1) % output_every == 0 or i + 1 == n_steps:
+            row = (i + output_every) // output_every
+            observe_into(q, v, params, ws, observed, row)
+            work_out[row] = work
+    return 0, work, last

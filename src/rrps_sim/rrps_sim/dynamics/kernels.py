@@ -9,226 +9,36 @@ coordinates of :mod:`rrps_kinematics.multibody`. Eq. 19 is
 
 with F^A gravity plus each actuator force f_k applied along leg k's axis, -f_k h on the lower
 link and +f_k h on the upper link (f > 0 pushes the rings apart). It is solved exactly, by the
-structure of the robot: M^-1 is block diagonal and leg k's 12 constraint rows touch only its two
-links and ring_b, so the Schur complement Φ M^-1 Φ^T = D + U M_b^-1 U^T is six 12 x 12 blocks
-plus a rank-6 ring_b coupling, solved by Cholesky per leg and the Woodbury identity (a 6 x 6
-solve).
+structure of the robot. Leg k's 12 joint rows are B_b a_b + B_l a_l = γ_k with B_l (12 x 12, its
+two links) square and B_b non-zero in the 3 spherical-joint rows only: B_b = E P, P = [-I | Y].
+So a leg's link accelerations are a_l = c - H P a_b with H = B_l^-1 E, c = B_l^-1 γ, and its
+multipliers λ = B_l^-T (F_l - M_l a_l) load ring_b with P^T H^T (F_l - M_l a_l): ring_b obeys
 
-Every kernel takes the robot as one :class:`DynamicsParameters` bundle (a NamedTuple of arrays,
-which numba passes as one typed argument).
+    (M_b + Σ_k P^T Λ_k P) a_b = F_b - Σ_k P^T w_k,   Λ_k = H^T M_l H,  w_k = H^T (F_l - M_l c)
+
+(Λ_k, w_k: the leg's effective mass and force at its spherical joint), one 6 x 6 Cholesky solve.
+B_l y = b itself is solved by its structure (:func:`_leg_solve`): the translational rows of the
+two spherical joints give the link translations from their rotations, which leaves 6 x 6 for the
+rotations (partial pivoting).
+
+Every kernel takes the robot as one :class:`~.bundles.DynamicsParameters` bundle and its scratch
+arrays as one :class:`~.bundles.Workspace`, so an evaluation allocates nothing.
 """
 
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
 
 import numpy as np
 
 from rrps_kinematics.backend import jit
-from rrps_kinematics.multibody import JointGeometry, leg_residual, rotation
+from rrps_kinematics.multibody import gauss_eliminate, leg_residual_with_rotations, rotation_into
 
-__all__ = ['DynamicsParameters', 'Observation', 'accelerations', 'drift_and_norm', 'leg_blocks',
-           'leg_lengths_rates', 'observe']
+from .bundles import Observation, Observations, workspace
+from .constraints import angular_velocity, cross3, dot3, leg_blocks_with_rotations, matvec3
 
-
-class DynamicsParameters(NamedTuple):
-    """The robot as the kernels see it: its joints (eqs. 3-10) and its 13 bodies' inertia.
-
-    ``mass`` (13,) [kg], ``inertia`` (13, 3, 3) J' about each com in the body frame [kg m^2] and
-    its inverse ``inertia_inv``, ``gravity`` (3,) in ring_a's frame [m/s^2], ``com_b`` (3,)
-    ring_b's com in its frame [m]. Body 0 is ring_b, 1 + 2k and 2 + 2k leg k's lower and upper
-    link.
-    """
-
-    joints: JointGeometry
-    mass: np.ndarray
-    inertia: np.ndarray
-    inertia_inv: np.ndarray
-    gravity: np.ndarray
-    com_b: np.ndarray
-
-    @classmethod
-    def of(cls, geometry, joints: JointGeometry) -> DynamicsParameters:
-        """The bundle of a RobotGeometry whose multibody model has these joints."""
-        mass = np.empty(13)
-        inertia = np.empty((13, 3, 3))
-        mass[0] = geometry.ring_b_inertia.mass
-        inertia[0] = geometry.ring_b_inertia.inertia
-        for k in range(6):
-            mass[1 + 2 * k] = geometry.lower_link.mass
-            inertia[1 + 2 * k] = geometry.lower_link.inertia_tensor()
-            mass[2 + 2 * k] = geometry.upper_link.mass
-            inertia[2 + 2 * k] = geometry.upper_link.inertia_tensor()
-        return cls(joints, mass, inertia, np.linalg.inv(inertia),
-                   np.ascontiguousarray(geometry.gravity, dtype=float),
-                   np.ascontiguousarray(geometry.ring_b_inertia.com, dtype=float))
-
-
-class Observation(NamedTuple):
-    """What is reported of one state: ring_b's ``position`` (3,) [m] and unit ``euler_parameters``
-    (e0, e1, e2, e3) in ring_a's frame, actuator ``lengths`` (6,) [m] and ``length_rates`` (6,)
-    [m/s], ``constraint_drift`` ‖Φ^K‖, ``euler_norm_error`` max_b |p_b^T p_b - 1| (eq. 9),
-    ``kinetic`` Σ ½ m |ṙ|² + ½ ω'^T J' ω' and ``potential`` -Σ m g·r energies [J]."""
-
-    position: np.ndarray
-    euler_parameters: np.ndarray
-    lengths: np.ndarray
-    length_rates: np.ndarray
-    constraint_drift: float
-    euler_norm_error: float
-    kinetic: float
-    potential: float
-
-
-@jit
-def _cross(a, b):
-    """a × b of two 3-vectors (tuples or arrays) as a tuple: no allocation."""
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-
-@jit
-def _dot(a, b):
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-@jit
-def _col(A, j, scale):
-    return (scale * A[0, j], scale * A[1, j], scale * A[2, j])
-
-
-@jit
-def _matvec(A, x):
-    return (A[0, 0] * x[0] + A[0, 1] * x[1] + A[0, 2] * x[2],
-            A[1, 0] * x[0] + A[1, 1] * x[1] + A[1, 2] * x[2],
-            A[2, 0] * x[0] + A[2, 1] * x[1] + A[2, 2] * x[2])
-
-
-@jit
-def _matvec6(W, x):
-    out = np.empty(6)
-    for i in range(6):
-        s = 0.0
-        for j in range(6):
-            s += W[i, j] * x[j]
-        out[i] = s
-    return out
-
-
-@jit
-def _omega(A, v, b):
-    """Global angular velocity ω = A ω' of body b."""
-    o = 6 * b + 3
-    return _matvec(A, (v[o], v[o + 1], v[o + 2]))
-
-
-@jit
-def _skew_cols(B, row, c0, s, sign):
-    """B[row:row+3, c0:c0+3] = sign * s̃ (the π columns of ±(A s'))."""
-    B[row, c0 + 1] = -sign * s[2]
-    B[row, c0 + 2] = sign * s[1]
-    B[row + 1, c0] = sign * s[2]
-    B[row + 1, c0 + 2] = -sign * s[0]
-    B[row + 2, c0] = -sign * s[1]
-    B[row + 2, c0 + 1] = sign * s[0]
-
-
-@jit
-def _dot_row(B, row, ci, a, wi, cj, c, wj, gamma):
-    """Row of a dot-1 constraint a·c (a on body ci, c on body cj, global π columns) and its γ.
-
-    ci is the first rotational column of a's body in B (-1: ground)."""
-    if ci >= 0:
-        x = _cross(a, c)
-        for i in range(3):
-            B[row, ci + i] = x[i]
-    x = _cross(c, a)
-    for i in range(3):
-        B[row, cj + i] = x[i]
-    wa = _cross(wi, a)
-    wc = _cross(wj, c)
-    gamma[row] = -(_dot(_cross(wi, wa), c) + 2.0 * _dot(wa, wc) + _dot(a, _cross(wj, wc)))
-
-
-@jit
-def leg_blocks(q, v, k, joints, B, gamma):
-    """Leg k's 13 rows (12 joint + driving) of [Φ_r Φ_π'] (13 x 18) and γ (13,) of eq. 19.
-
-    Columns: ring_b [r, π'], lower link [r, π'], upper link [r, π']. Rows are first written
-    for global virtual rotations π (δa = δπ × a), then Φ_π' = Φ_π A."""
-    ha, sb, cl, cu = joints.ha, joints.sb, joints.cl, joints.cu
-    B[:, :] = 0.0
-    bl = 1 + 2 * k
-    bu = 2 + 2 * k
-    Ab = rotation(q, 3)
-    Al = rotation(q, 7 * bl + 3)
-    Au = rotation(q, 7 * bu + 3)
-    wb = _omega(Ab, v, 0)
-    wl = _omega(Al, v, bl)
-    wu = _omega(Au, v, bu)
-    s_b = _matvec(Ab, (sb[k, 0], sb[k, 1], sb[k, 2]))
-    s_u = _col(Au, 2, cu)
-    s_l = _col(Al, 2, -cl)
-    f_l = _col(Al, 0, 1.0)
-    g_l = _col(Al, 1, 1.0)
-    h_l = _col(Al, 2, 1.0)
-    g_u = _col(Au, 1, 1.0)
-    h_u = _col(Au, 2, 1.0)
-    wsu = _cross(wu, s_u)
-    wsl = _cross(wl, s_l)
-    ol = 7 * bl
-    ou = 7 * bu
-    d = (q[ou] + s_u[0] - q[ol] - s_l[0], q[ou + 1] + s_u[1] - q[ol + 1] - s_l[1],
-         q[ou + 2] + s_u[2] - q[ol + 2] - s_l[2])
-    vl = 6 * bl
-    vu = 6 * bu
-    dd = (v[vu] + wsu[0] - v[vl] - wsl[0], v[vu + 1] + wsu[1] - v[vl + 1] - wsl[1],
-          v[vu + 2] + wsu[2] - v[vl + 2] - wsl[2])
-    quad_u = _cross(wu, wsu)
-    quad_l = _cross(wl, wsl)
-    quad_b = _cross(wb, _cross(wb, s_b))
-    # spherical (eq. 3): r_u + s_u - r_b - s_b
-    for i in range(3):
-        B[i, 12 + i] = 1.0
-        B[i, i] = -1.0
-        gamma[i] = -quad_u[i] + quad_b[i]
-    _skew_cols(B, 0, 15, s_u, -1.0)
-    _skew_cols(B, 0, 3, s_b, 1.0)
-    # universal, spherical part (eq. 4): r_l + s_l - a
-    for i in range(3):
-        B[3 + i, 6 + i] = 1.0
-        gamma[3 + i] = -quad_l[i]
-    _skew_cols(B, 3, 9, s_l, -1.0)
-    # universal dot-1 (eq. 5), translational (eqs. 6, 8)
-    _dot_row(B, 6, -1, (ha[k, 0], ha[k, 1], ha[k, 2]), (0.0, 0.0, 0.0), 9, g_l, wl, gamma)
-    _dot_row(B, 7, 9, f_l, wl, 15, h_u, wu, gamma)
-    _dot_row(B, 8, 9, g_l, wl, 15, h_u, wu, gamma)
-    _dot_row(B, 11, 9, f_l, wl, 15, g_u, wu, gamma)
-    # translational (eq. 7) and driving (eq. 10): e·d with e on the lower link
-    dquad = (quad_u[0] - quad_l[0], quad_u[1] - quad_l[1], quad_u[2] - quad_l[2])
-    for row in (9, 10, 12):
-        e = f_l if row == 9 else (g_l if row == 10 else h_l)
-        x = _cross(e, d)
-        y = _cross(s_l, e)
-        z = _cross(s_u, e)
-        for i in range(3):
-            B[row, 12 + i] = e[i]
-            B[row, 6 + i] = -e[i]
-            B[row, 9 + i] = x[i] - y[i]
-            B[row, 15 + i] = z[i]
-        we = _cross(wl, e)
-        gamma[row] = -(_dot(_cross(wl, we), d) + 2.0 * _dot(we, dd) + _dot(e, dquad))
-    # global π columns -> body π' columns: Φ_π' = Φ_π A
-    for blk in range(3):
-        A = Ab if blk == 0 else (Al if blk == 1 else Au)
-        c0 = 3 + 6 * blk
-        for r in range(13):
-            x0 = B[r, c0]
-            x1 = B[r, c0 + 1]
-            x2 = B[r, c0 + 2]
-            if x0 != 0.0 or x1 != 0.0 or x2 != 0.0:
-                for j in range(3):
-                    B[r, c0 + j] = x0 * A[0, j] + x1 * A[1, j] + x2 * A[2, j]
+__all__ = ['accelerations', 'actuator_power', 'drift_and_norm', 'lu_solve', 'multipliers',
+           'observe', 'observe_into']
 
 
 @jit(fastmath=True)
@@ -266,159 +76,236 @@ def _cholesky_solve(Lc, X, n, nrhs):
             X[i, c] = s / Lc[i, i]
 
 
-@jit(fastmath=True)
-def accelerations(q, v, forces, alpha, beta, params, acc, lam):
-    """Solve eq. 19 for [r̈, ω̇'] (78,) -> acc and λ (72,) -> lam; returns False if singular.
 
-    Baumgarte stabilisation with α, β (0, 0: none): γ <- γ - 2 α Φ̇ - β² Φ (joint rows)."""
-    joints, mass, inertia = params.joints, params.mass, params.inertia
-    inertia_inv, gravity = params.inertia_inv, params.gravity
-    F = np.empty(78)
+@jit(fastmath=True)
+def _leg_solve(B, gamma, K, Y):
+    """Solve B_l y = b (B_l: leg rows 0-11 of ``B`` on the link columns 6-17) for b = e_0, e_1,
+    e_2 and b = γ: Y (12 x 4) = [H | c]; False if B_l is singular.
+
+    Rows 0-2 (eq. 3) give r_u = b_0:3 - X_u π_u and rows 3-5 (eq. 4) r_l = b_3:6 - X_l π_l, with
+    X the π' columns of those rows; substituted into rows 9-10 (eq. 7, which alone hold link
+    translations besides them) they leave K [π_l; π_u] = b' on rows 6-11, solved with partial
+    pivoting. y = [r_l, π_l, r_u, π_u]."""
+    for i in range(6):
+        r = 6 + i
+        for j in range(3):
+            K[i, j] = B[r, 9 + j]
+            K[i, 3 + j] = B[r, 15 + j]
+            K[i, 6 + j] = 0.0
+        K[i, 9] = gamma[r]
+    for r in (9, 10):
+        i = r - 6
+        e0, e1, e2 = B[r, 12], B[r, 13], B[r, 14]
+        for j in range(3):
+            K[i, j] += e0 * B[3, 9 + j] + e1 * B[4, 9 + j] + e2 * B[5, 9 + j]
+            K[i, 3 + j] -= e0 * B[0, 15 + j] + e1 * B[1, 15 + j] + e2 * B[2, 15 + j]
+        K[i, 6] = -e0
+        K[i, 7] = -e1
+        K[i, 8] = -e2
+        K[i, 9] += (e0 * (gamma[3] - gamma[0]) + e1 * (gamma[4] - gamma[1])
+                    + e2 * (gamma[5] - gamma[2]))
+    ok, _ = gauss_eliminate(K, 6, 6, 10)
+    if not ok:
+        return False
+    for col in range(4):
+        rhs = 6 + col
+        for i in range(5, -1, -1):
+            s = K[i, rhs]
+            for m in range(i + 1, 6):
+                s -= K[i, m] * K[m, rhs]
+            K[i, rhs] = s / K[i, i]
+        for i in range(3):
+            Y[3 + i, col] = K[i, rhs]
+            Y[9 + i, col] = K[3 + i, rhs]
+            bl = gamma[3 + i] if col == 3 else 0.0
+            bu = gamma[i] if col == 3 else (1.0 if i == col else 0.0)
+            Y[i, col] = bl - (B[3 + i, 9] * K[0, rhs] + B[3 + i, 10] * K[1, rhs]
+                              + B[3 + i, 11] * K[2, rhs])
+            Y[6 + i, col] = bu - (B[i, 15] * K[3, rhs] + B[i, 16] * K[4, rhs]
+                                  + B[i, 17] * K[5, rhs])
+    return True
+
+
+@jit(fastmath=True)
+def accelerations(q, v, forces, alpha, beta, params, ws, acc):
+    """Solve eq. 19 for [r̈, ω̇'] (78,) -> acc; returns False if singular.
+
+    Baumgarte stabilisation with α, β (0, 0: none): γ <- γ - 2 α Φ̇ - β² Φ (joint rows). Leaves
+    the body rotations, F and each leg's blocks in ``ws`` (for :func:`multipliers`)."""
+    joints, mass, inertia, gravity = params.joints, params.mass, params.inertia, params.gravity
+    A = ws.rotations
+    F = ws.forces
     for b in range(13):
+        rotation_into(q, 7 * b + 3, A[b])
         w = (v[6 * b + 3], v[6 * b + 4], v[6 * b + 5])
-        gyro = _cross(w, _matvec(inertia[b], w))
+        gyro = cross3(w, matvec3(inertia[b], w))
         for i in range(3):
             F[6 * b + i] = mass[b] * gravity[i]
             F[6 * b + 3 + i] = -gyro[i]
-    B = np.empty((13, 18))
-    gamma = np.empty(13)
-    res = np.empty(13)
-    legB = np.empty((6, 12, 18))
-    X = np.empty((6, 12, 7))
-    Lc = np.empty((12, 12))
-    BW = np.empty((12, 12))
-    S = np.zeros((6, 6))
-    t = np.zeros(6)
-    Wb = np.zeros((6, 6))
-    Sm = np.zeros((6, 6))
+    S = ws.ring
+    for i in range(6):
+        for j in range(6):
+            S[i, j] = 0.0
+        S[i, 6] = F[i]
     for i in range(3):
-        Wb[i, i] = 1.0 / mass[0]
-        Sm[i, i] = mass[0]
+        S[i, i] = mass[0]
         for j in range(3):
-            Wb[3 + i, 3 + j] = inertia_inv[0, i, j]
-            Sm[3 + i, 3 + j] = inertia[0, i, j]
+            S[3 + i, 3 + j] = inertia[0, i, j]
+    MH = ws.effective
     for k in range(6):
         bl = 1 + 2 * k
         bu = 2 + 2 * k
-        leg_blocks(q, v, k, joints, B, gamma)
-        Al = rotation(q, 7 * bl + 3)
+        B = ws.blocks[k]
+        gamma = ws.gamma[k]
+        leg_blocks_with_rotations(q, v, k, joints, A[0], A[bl], A[bu], B, gamma)
         for i in range(3):
-            F[6 * bl + i] -= forces[k] * Al[i, 2]
-            F[6 * bu + i] += forces[k] * Al[i, 2]
+            F[6 * bl + i] -= forces[k] * A[bl, i, 2]
+            F[6 * bu + i] += forces[k] * A[bl, i, 2]
         if alpha != 0.0 or beta != 0.0:
-            leg_residual(q, k, 0.0, joints, res)
-            idx = (0, bl, bu)
+            res = ws.residual
+            leg_residual_with_rotations(q, k, 0.0, joints, A[0], A[bl], A[bu], res)
             for r in range(12):
                 phidot = 0.0
-                for blk in range(3):
-                    o = 6 * idx[blk]
-                    for j in range(6):
-                        phidot += B[r, 6 * blk + j] * v[o + j]
+                for j in range(6):
+                    phidot += (B[r, j] * v[j] + B[r, 6 + j] * v[6 * bl + j]
+                               + B[r, 12 + j] * v[6 * bu + j])
                 gamma[r] -= 2.0 * alpha * phidot + beta * beta * res[r]
-        legB[k] = B[:12]
-        # B W for the two links; D = Σ B W B^T; right-hand sides [U | Φ W F - γ]
-        for blk in range(2):
-            body = bl if blk == 0 else bu
-            c0 = 6 + 6 * blk
-            for r in range(12):
-                for i in range(3):
-                    BW[r, 6 * blk + i] = B[r, c0 + i] / mass[body]
-                for j in range(3):
-                    s = 0.0
-                    for i in range(3):
-                        s += B[r, c0 + 3 + i] * inertia_inv[body, i, j]
-                    BW[r, 6 * blk + 3 + j] = s
-        for r in range(12):
-            for c in range(r + 1):
-                s = 0.0
-                for j in range(12):
-                    s += BW[r, j] * B[c, 6 + j]
-                Lc[r, c] = s
-                Lc[c, r] = s
-        if not _cholesky(Lc, 12):
+        H = ws.response[k]
+        if not _leg_solve(B, gamma, ws.reduced, H):
             return False
-        WbFb = _matvec6(Wb, F[0:6])
-        for r in range(12):
-            for j in range(6):
-                X[k, r, j] = B[r, j]
-            s = -gamma[r]
-            for j in range(6):
-                s += B[r, j] * WbFb[j] + BW[r, j] * F[6 * bl + j] + BW[r, 6 + j] * F[6 * bu + j]
-            X[k, r, 6] = s
-        _cholesky_solve(Lc, X[k], 12, 7)
-        for i in range(6):
-            for j in range(6):
-                s = 0.0
-                for r in range(12):
-                    s += B[r, i] * X[k, r, j]
-                S[i, j] += s
-            s = 0.0
-            for r in range(12):
-                s += B[r, i] * X[k, r, 6]
-            t[i] += s
-    S += Sm
+        # M_l [H | c]: the links' masses and inertias J' on [r_l, π_l, r_u, π_u]
+        for col in range(4):
+            for i in range(3):
+                MH[i, col] = mass[bl] * H[i, col]
+                MH[6 + i, col] = mass[bu] * H[6 + i, col]
+                MH[3 + i, col] = (inertia[bl, i, 0] * H[3, col] + inertia[bl, i, 1] * H[4, col]
+                                  + inertia[bl, i, 2] * H[5, col])
+                MH[9 + i, col] = (inertia[bu, i, 0] * H[9, col] + inertia[bu, i, 1] * H[10, col]
+                                  + inertia[bu, i, 2] * H[11, col])
+        # Λ = H^T M_l H and w = H^T (F_l - M_l c), then S += P^T Λ P, t -= P^T w (P = [-I | Y])
+        L00 = L01 = L02 = L11 = L12 = L22 = 0.0
+        w0 = w1 = w2 = 0.0
+        for m in range(12):
+            fm = (F[6 * bl + m] if m < 6 else F[6 * bu + m - 6]) - MH[m, 3]
+            h0, h1, h2 = H[m, 0], H[m, 1], H[m, 2]
+            L00 += h0 * MH[m, 0]
+            L01 += h0 * MH[m, 1]
+            L02 += h0 * MH[m, 2]
+            L11 += h1 * MH[m, 1]
+            L12 += h1 * MH[m, 2]
+            L22 += h2 * MH[m, 2]
+            w0 += h0 * fm
+            w1 += h1 * fm
+            w2 += h2 * fm
+        lam = ((L00, L01, L02), (L01, L11, L12), (L02, L12, L22))
+        w = (w0, w1, w2)
+        LY = ws.coupling
+        for i in range(3):
+            for j in range(3):
+                LY[i, j] = lam[i][0] * B[0, 3 + j] + lam[i][1] * B[1, 3 + j] + lam[i][2] * B[2, 3 + j]
+        for i in range(3):
+            S[i, 6] += w[i]
+            S[3 + i, 6] -= B[0, 3 + i] * w0 + B[1, 3 + i] * w1 + B[2, 3 + i] * w2
+            for j in range(3):
+                S[i, j] += lam[i][j]
+                S[i, 3 + j] -= LY[i, j]
+                S[3 + j, i] -= LY[i, j]
+                S[3 + i, 3 + j] += (B[0, 3 + i] * LY[0, j] + B[1, 3 + i] * LY[1, j]
+                                    + B[2, 3 + i] * LY[2, j])
     if not _cholesky(S, 6):
         return False
-    z = t.reshape((6, 1)).copy()
-    _cholesky_solve(S, z, 6, 1)
-    Fb = F[0:6].copy()
+    _cholesky_solve(S, S[:, 6:7], 6, 1)
+    for i in range(6):
+        acc[i] = S[i, 6]
     for k in range(6):
-        bl = 1 + 2 * k
-        bu = 2 + 2 * k
-        for r in range(12):
-            s = X[k, r, 6]
-            for j in range(6):
-                s -= X[k, r, j] * z[j, 0]
-            lam[12 * k + r] = s
-        for j in range(6):
-            s_b = 0.0
-            s_l = 0.0
-            s_u = 0.0
-            for r in range(12):
-                lr = lam[12 * k + r]
-                s_b += legB[k, r, j] * lr
-                s_l += legB[k, r, 6 + j] * lr
-                s_u += legB[k, r, 12 + j] * lr
-            Fb[j] -= s_b
-            F[6 * bl + j] -= s_l
-            F[6 * bu + j] -= s_u
-        # links: M^-1 (F - Φ^T λ)
-        for body in (bl, bu):
-            for i in range(3):
-                acc[6 * body + i] = F[6 * body + i] / mass[body]
-            o = 6 * body + 3
-            wdot = _matvec(inertia_inv[body], (F[o], F[o + 1], F[o + 2]))
-            for i in range(3):
-                acc[o + i] = wdot[i]
-    acc[0:6] = _matvec6(Wb, Fb)
+        B = ws.blocks[k]
+        H = ws.response[k]
+        # P a_b = -ṙ_b + Y ω̇'_b, then a_l = c - H P a_b
+        z = (-acc[0] + B[0, 3] * acc[3] + B[0, 4] * acc[4] + B[0, 5] * acc[5],
+             -acc[1] + B[1, 3] * acc[3] + B[1, 4] * acc[4] + B[1, 5] * acc[5],
+             -acc[2] + B[2, 3] * acc[3] + B[2, 4] * acc[4] + B[2, 5] * acc[5])
+        o = 6 * (1 + 2 * k)
+        for m in range(12):
+            acc[o + m] = H[m, 3] - (H[m, 0] * z[0] + H[m, 1] * z[1] + H[m, 2] * z[2])
     return True
 
 
 @jit
-def leg_lengths_rates(q, v, joints):
-    """Actuator lengths and rates from ring_b's state: S_k = r_b + A_b s'_k, L = |S_k - a_k|."""
-    a, sb = joints.a, joints.sb
-    Ab = rotation(q, 3)
-    wb = _omega(Ab, v, 0)
-    L = np.empty(6)
-    Ld = np.empty(6)
-    for k in range(6):
-        s = _matvec(Ab, (sb[k, 0], sb[k, 1], sb[k, 2]))
-        ws = _cross(wb, s)
-        d = (q[0] + s[0] - a[k, 0], q[1] + s[1] - a[k, 1], q[2] + s[2] - a[k, 2])
-        n = math.sqrt(_dot(d, d))
-        L[k] = n
-        Ld[k] = (_dot(d, v[0:3]) + _dot(d, ws)) / n
-    return L, Ld
+def lu_solve(A, b, n):
+    """Solve A x = b (n x n) by Gaussian elimination with partial pivoting (multibody's
+    ``gauss_eliminate`` on [A | b]) and back substitution: x -> b. Returns False if A is singular."""
+    Ab = np.empty((n, n + 1))
+    Ab[:, :n] = A[:n, :n]
+    Ab[:, n] = b[:n]
+    ok, _ = gauss_eliminate(Ab, n, n, n + 1)
+    if not ok:
+        return False
+    for i in range(n - 1, -1, -1):
+        s = Ab[i, n]
+        for m in range(i + 1, n):
+            s -= Ab[i, m] * b[m]
+        b[i] = s / Ab[i, i]
+    return True
 
 
 @jit
-def drift_and_norm(q, joints):
+def multipliers(params, ws, acc, lam):
+    """The joint multipliers λ (72,) of eq. 19 -> lam, from the last :func:`accelerations` call
+    (its ``ws`` and ``acc``): per leg B_l^T λ_k = F_l - M_l a_l. Returns False if singular."""
+    mass, inertia = params.mass, params.inertia
+    Bt = np.empty((12, 12))
+    rhs = np.empty(12)
+    for k in range(6):
+        B = ws.blocks[k]
+        for r in range(12):
+            for m in range(12):
+                Bt[m, r] = B[r, 6 + m]
+        for half in range(2):
+            body = 1 + 2 * k + half
+            o = 6 * body
+            for i in range(3):
+                rhs[6 * half + i] = ws.forces[o + i] - mass[body] * acc[o + i]
+                rhs[6 * half + 3 + i] = ws.forces[o + 3 + i] - (
+                    inertia[body, i, 0] * acc[o + 3] + inertia[body, i, 1] * acc[o + 4]
+                    + inertia[body, i, 2] * acc[o + 5])
+        if not lu_solve(Bt, rhs, 12):
+            return False
+        for r in range(12):
+            lam[12 * k + r] = rhs[r]
+    return True
+
+
+@jit
+def _leg_length_rate(q, v, k, joints, Ab, wb):
+    """Actuator k's length and rate from ring_b's state: S_k = r_b + A_b s'_k, L = |S_k - a_k|."""
+    a, sb = joints.a, joints.sb
+    s = matvec3(Ab, (sb[k, 0], sb[k, 1], sb[k, 2]))
+    ws = cross3(wb, s)
+    d = (q[0] + s[0] - a[k, 0], q[1] + s[1] - a[k, 1], q[2] + s[2] - a[k, 2])
+    n = math.sqrt(dot3(d, d))
+    return n, (dot3(d, (v[0], v[1], v[2])) + dot3(d, ws)) / n
+
+
+@jit
+def actuator_power(q, v, forces, joints, Ab):
+    """Σ f_k L̇_k [W] at a state, A_b = ring_b's rotation."""
+    wb = angular_velocity(Ab, v, 0)
+    power = 0.0
+    for k in range(6):
+        power += forces[k] * _leg_length_rate(q, v, k, joints, Ab, wb)[1]
+    return power
+
+
+@jit
+def drift_and_norm(q, joints, ws):
     """‖Φ^K‖ (2-norm of the 72 joint constraints) and max_b |p_b^T p_b - 1|."""
-    res = np.empty(13)
+    A = ws.rotations
+    for b in range(13):
+        rotation_into(q, 7 * b + 3, A[b])
+    res = ws.residual
     s = 0.0
     for k in range(6):
-        leg_residual(q, k, 0.0, joints, res)
+        leg_residual_with_rotations(q, k, 0.0, joints, A[0], A[1 + 2 * k], A[2 + 2 * k], res)
         for i in range(12):
             s += res[i] * res[i]
     n = 0.0
@@ -429,26 +316,46 @@ def drift_and_norm(q, joints):
 
 
 @jit
-def observe(q, v, params):
-    """Everything reported about a state, in one pass: an :class:`Observation`."""
+def observe_into(q, v, params, ws, out, row):
+    """Everything reported about a state, in one pass, into row ``row`` of ``out``
+    (:class:`Observations`)."""
     mass, inertia, gravity, com_b = params.mass, params.inertia, params.gravity, params.com_b
-    euler = np.empty(4)
+    drift, norm_error = drift_and_norm(q, params.joints, ws)
     n = math.sqrt(q[3] ** 2 + q[4] ** 2 + q[5] ** 2 + q[6] ** 2)
+    euler = out.euler_parameters[row]
     for i in range(4):
         euler[i] = q[3 + i] / n
-    c = _matvec(rotation(euler, 0), (com_b[0], com_b[1], com_b[2]))
-    position = np.empty(3)
+    Ab = ws.rotations[0]
+    rotation_into(euler, 0, Ab)
+    c = matvec3(Ab, (com_b[0], com_b[1], com_b[2]))
     for i in range(3):
-        position[i] = q[i] - c[i]
-    L, Ld = leg_lengths_rates(q, v, params.joints)
-    drift, norm_error = drift_and_norm(q, params.joints)
+        out.position[row, i] = q[i] - c[i]
+    rotation_into(q, 3, Ab)
+    wb = angular_velocity(Ab, v, 0)
+    for k in range(6):
+        L, Ld = _leg_length_rate(q, v, k, params.joints, Ab, wb)
+        out.lengths[row, k] = L
+        out.length_rates[row, k] = Ld
+    out.constraint_drift[row] = drift
+    out.euler_norm_error[row] = norm_error
     kin = 0.0
     pot = 0.0
     for b in range(13):
         o = 6 * b
         w = (v[o + 3], v[o + 4], v[o + 5])
         kin += 0.5 * mass[b] * (v[o] ** 2 + v[o + 1] ** 2 + v[o + 2] ** 2)
-        kin += 0.5 * _dot(w, _matvec(inertia[b], w))
+        kin += 0.5 * dot3(w, matvec3(inertia[b], w))
         pot -= mass[b] * (gravity[0] * q[7 * b] + gravity[1] * q[7 * b + 1] + gravity[2] * q[7 * b + 2])
-    return Observation(position, euler, L, Ld, drift, norm_error, kin, pot)
+    out.kinetic[row] = kin
+    out.potential[row] = pot
 
+
+@jit
+def observe(q, v, params, buffer):
+    """:func:`observe_into` for one state, as an :class:`Observation` (``buffer``: a workspace)."""
+    out = Observations(np.empty((1, 3)), np.empty((1, 4)), np.empty((1, 6)), np.empty((1, 6)),
+                       np.empty(1), np.empty(1), np.empty(1), np.empty(1))
+    observe_into(q, v, params, workspace(buffer), out, 0)
+    return Observation(out.position[0], out.euler_parameters[0], out.lengths[0],
+                       out.length_rates[0], out.constraint_drift[0], out.euler_norm_error[0],
+                       out.kinetic[0], out.potential[0])

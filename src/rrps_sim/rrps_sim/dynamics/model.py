@@ -7,6 +7,8 @@ states), minus its initial value, so an exact solution keeps it at zero.
 from __future__ import annotations
 
 import math
+import time
+from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -16,23 +18,30 @@ from rrps_kinematics.multibody import MultibodyModel
 from rrps_kinematics.rotations import euler_parameters_to_quat_xyzw, normalize_quat
 
 from .flops import step_flops
-from .integrators import (
-    METHODS,
-    NOT_CONVERGED,
-    SINGULAR,
-    rk4_full,
-    rk4_partitioned,
-    solve_dependent,
-)
-from .kernels import DynamicsParameters, Observation, drift_and_norm, leg_blocks, observe
+from .integrators import METHODS, NOT_CONVERGED, run, step
+from .bundles import DynamicsParameters, Observation, Observations, new_workspace
+from .constraints import leg_blocks
+from .kernels import observe
 
-__all__ = ['MultibodyDynamics']
+__all__ = ['MultibodyDynamics', 'RunRecord']
+
+#: A compiled run is cut into about this many batches, timed one by one: with a progress
+#: callback (called after each batch), else without.
+RUN_BATCHES = 100
+RUN_BATCHES_UNWATCHED = 10
 
 
-def _read_only(a: np.ndarray) -> np.ndarray:
-    view = a.view()
-    view.flags.writeable = False
-    return view
+class RunRecord(NamedTuple):
+    """What :meth:`MultibodyDynamics.run` records: ``t`` (R,) [s], ``observed``
+    (:class:`~rrps_sim.dynamics.kernels.Observations`, R rows) and ``actuator_work`` (R,) [J] of
+    the start (row 0) and of each output step; ``step_flops`` (S,) and ``step_seconds`` (S,) of
+    every step (flop model, wall time)."""
+
+    t: np.ndarray
+    observed: Observations
+    actuator_work: np.ndarray
+    step_flops: np.ndarray
+    step_seconds: np.ndarray
 
 
 class MultibodyDynamics:
@@ -62,6 +71,7 @@ class MultibodyDynamics:
         self._params = DynamicsParameters.of(geometry, self.model.joints)
         for a in self._params[1:]:
             a.flags.writeable = False
+        self._buffer = new_workspace()
         self.corrections = 0
         self.last_step_flops = 0
         self.reset(geometry.home_position, geometry.home_quaternion_xyzw)
@@ -87,13 +97,13 @@ class MultibodyDynamics:
 
     @property
     def q(self) -> np.ndarray:
-        """The 91 coordinates (read-only; :meth:`set_state` changes them)."""
-        return _read_only(self._q)
+        """A copy of the 91 coordinates (:meth:`set_state` changes them)."""
+        return self._q.copy()
 
     @property
     def v(self) -> np.ndarray:
-        """The 78 velocities [ṙ, ω'] per body (read-only; :meth:`set_state` changes them)."""
-        return _read_only(self._v)
+        """A copy of the 78 velocities [ṙ, ω'] per body (:meth:`set_state` changes them)."""
+        return self._v.copy()
 
     def set_state(self, q, v) -> None:
         """Replace the state (91 coordinates, 78 velocities) as given, consistent or not."""
@@ -123,40 +133,65 @@ class MultibodyDynamics:
         Raises ValueError for bad input, SingularPoseError if the model reaches a singular
         configuration and ConvergenceError if a dependent-coordinate solve does not converge
         (both are RuntimeErrors; the state is then left at the start of the step)."""
-        f = np.ascontiguousarray(forces, dtype=float)
-        if f.shape != (6,) or not np.all(np.isfinite(f)):
-            raise ValueError(f'forces must be 6 finite numbers [N], got shape {f.shape}')
-        dt = float(dt)
-        if not (math.isfinite(dt) and dt > 0.0):
-            raise ValueError(f'dt must be a positive finite number of seconds, got {dt}')
-        q, v = self._q.copy(), self._v.copy()
-        p = self._params
-        newton, corrected = 0, False
-        if self.method == 'partitioning':
-            status, work, newton = rk4_partitioned(q, v, self.actuator_work, f, dt, p,
-                                                   self.newton_tolerance,
-                                                   self.max_newton_iterations)
-        else:
-            ok, work = rk4_full(q, v, self.actuator_work, f, dt, self.alpha, self.beta, p)
-            status = 0 if ok else SINGULAR
-            if ok and self.method == 'hybrid':
-                drift, norm_error = drift_and_norm(q, p.joints)
-                if drift > self.correction_tolerance or norm_error > self.correction_tolerance:
-                    newton = solve_dependent(q, v, p.joints, self.newton_tolerance,
-                                             self.max_newton_iterations)
-                    status = min(newton, 0)
-                    newton = max(newton, 0)
-                    corrected = True
-                    self.corrections += 1
-        if status == 0 and not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
-            status = SINGULAR
+        f, dt = _checked(forces, dt)
+        status, work, newton, corrected = step(
+            self._q, self._v, self.actuator_work, f, dt, METHODS.index(self.method), self.alpha,
+            self.beta, self.correction_tolerance, self.newton_tolerance,
+            self.max_newton_iterations, self._params, self._buffer)
+        self.corrections += int(corrected)
         self._raise_for(status)
-        self._q, self._v = q, v
         self._obs = None
         self.actuator_work = float(work)
         self.time += dt
         self.last_step_flops = step_flops(self.method, self.alpha != 0.0 or self.beta != 0.0,
                                           newton, corrected)
+
+    def run(self, forces, dt: float, steps: int, *, output_every: int = 1,
+            progress: Callable[[float], None] | None = None) -> RunRecord:
+        """``steps`` steps of ``dt`` [s] with constant actuator ``forces`` (6,) [N], compiled as
+        one loop: no Python and no allocation between steps.
+
+        Records the start (row 0) and the state after every ``output_every``-th step and after
+        the last. The steps run in about RUN_BATCHES batches, each timed (its mean is the wall
+        time of each of its steps), and ``progress(fraction)`` is called after each batch;
+        without ``progress``, in about RUN_BATCHES_UNWATCHED batches. Raises as :meth:`step`
+        (the state is then that before the failing step)."""
+        f, dt = _checked(forces, dt)
+        steps, output_every = int(steps), int(output_every)
+        if steps < 1 or output_every < 1:
+            raise ValueError(f'steps and output_every must be >= 1, got {steps}, {output_every}')
+        rows = 1 + -(-steps // output_every)
+        observed = Observations.empty(rows)
+        for field, value in zip(observed, self.observation):
+            field[0] = value
+        work = np.empty(rows)
+        work[0] = self.actuator_work
+        newton = np.zeros(steps, dtype=np.int64)
+        corrected = np.zeros(steps, dtype=np.bool_)
+        seconds = np.empty(steps)
+        batch = max(1, steps // (RUN_BATCHES if progress is not None else RUN_BATCHES_UNWATCHED))
+        settings = (METHODS.index(self.method), self.alpha, self.beta, self.correction_tolerance,
+                    self.newton_tolerance, self.max_newton_iterations)
+        t0 = self.time
+        done = 0
+        while done < steps:
+            last = min(steps, done + batch)
+            start = time.perf_counter()
+            status, self.actuator_work, failed = run(
+                self._q, self._v, self.actuator_work, f, dt, done, last, output_every, *settings,
+                self._params, self._buffer, observed, work, newton, corrected)
+            seconds[done:last] = (time.perf_counter() - start) / (last - done)
+            self.time = t0 + failed * dt
+            self.corrections += int(np.count_nonzero(corrected[done:min(failed + 1, last)]))
+            self._obs = None
+            self._raise_for(status)
+            done = last
+            if progress is not None:
+                progress(done / steps)
+        flops = step_flops(self.method, self.alpha != 0.0 or self.beta != 0.0, newton, corrected)
+        self.last_step_flops = int(flops[-1])
+        ends = np.minimum(np.arange(rows) * output_every, steps)
+        return RunRecord(t0 + ends * dt, observed, work, flops, seconds)
 
     def _raise_for(self, status: int) -> None:
         """The exception of a failed step's status code (nothing for 0)."""
@@ -172,7 +207,7 @@ class MultibodyDynamics:
     def observation(self) -> Observation:
         """Everything reported of the current state (computed once per state)."""
         if self._obs is None:
-            self._obs = observe(self._q, self._v, self._params)
+            self._obs = observe(self._q, self._v, self._params, self._buffer)
         return self._obs
 
     @property
@@ -252,3 +287,14 @@ class MultibodyDynamics:
         if not np.all(np.isfinite(lam)) or np.linalg.cond(Phi) > 1e12:
             raise SingularPoseError('singular pose: no finite holding forces')
         return -lam[72:78]
+
+
+def _checked(forces, dt) -> tuple[np.ndarray, float]:
+    """Actuator forces (6,) [N] and a step [s] as the kernels take them; ValueError if invalid."""
+    f = np.ascontiguousarray(forces, dtype=float)
+    if f.shape != (6,) or not np.all(np.isfinite(f)):
+        raise ValueError(f'forces must be 6 finite numbers [N], got shape {f.shape}')
+    dt = float(dt)
+    if not (math.isfinite(dt) and dt > 0.0):
+        raise ValueError(f'dt must be a positive finite number of seconds, got {dt}')
+    return f, dt

@@ -13,7 +13,8 @@ from rrps_kinematics.geometry import RobotGeometry
 from rrps_kinematics.inverse import pose_arrays
 from rrps_kinematics.rotations import euler_parameters_to_quat_xyzw, normalize_quat
 
-from .model import MultibodyDynamics
+from .bundles import Observations
+from .model import MultibodyDynamics, RunRecord
 
 __all__ = ['SimulationResult', 'simulate']
 
@@ -48,7 +49,8 @@ def simulate(geometry: RobotGeometry, position, quaternion_xyzw,
              **options) -> SimulationResult:
     """Start at rest at a pose and integrate for ``duration`` s with steps of ``dt`` s.
 
-    ``forces``: constant (6,) [N] or ``f(t, dyn) -> (6,)`` evaluated at the start of each step
+    ``forces``: constant (6,) [N] (the whole run is then one compiled loop,
+    :meth:`MultibodyDynamics.run`) or ``f(t, dyn) -> (6,)`` evaluated at the start of each step
     (held over it). Rows are written at t = 0 and every ``output_every`` steps (and at the end).
     ``progress(fraction)`` is called about 100 times. ``options`` go to MultibodyDynamics.
     """
@@ -60,55 +62,58 @@ def simulate(geometry: RobotGeometry, position, quaternion_xyzw,
         raise ValueError(f'dt ({dt}) must not exceed duration ({duration})')
     if not (isinstance(output_every, (int, np.integer)) and output_every >= 1):
         raise ValueError(f'output_every must be an integer >= 1, got {output_every!r}')
-    if callable(forces):
-        force_fn = forces
-    else:
-        constant = np.asarray(forces, dtype=float)
-        if constant.shape != (6,) or not np.all(np.isfinite(constant)):
-            raise ValueError(f'forces must be 6 finite numbers [N], got shape {constant.shape}')
-        force_fn = lambda t, dyn: constant  # noqa: E731
     dyn = MultibodyDynamics(geometry, method, **options)
     dyn.reset(position, quaternion_xyzw)
     n_steps = int(round(duration / dt))
-    rows: dict[str, list] = {key: [] for key in (
-        't', 'obs', 'forces', 'actuator_work', 'step_flops', 'step_seconds')}
-
-    def record(f, flops, seconds):
-        rows['t'].append(dyn.time)
-        rows['obs'].append(dyn.observation)
-        rows['forces'].append(f)
-        rows['actuator_work'].append(dyn.actuator_work)
-        rows['step_flops'].append(flops)
-        rows['step_seconds'].append(seconds)
-
-    f = _checked_forces(force_fn(0.0, dyn))
-    record(f, 0, 0.0)
-    report_every = max(1, n_steps // 100)
-    flops_acc, seconds_acc = 0, 0.0
-    for i in range(1, n_steps + 1):
-        f = _checked_forces(force_fn(dyn.time, dyn))
-        t0 = time.perf_counter()
-        dyn.step(f, dt)
-        seconds_acc += time.perf_counter() - t0
-        flops_acc += dyn.last_step_flops
-        if i % output_every == 0 or i == n_steps:
-            k = (i - 1) % output_every + 1
-            record(f, flops_acc // k, seconds_acc / k)
-            flops_acc, seconds_acc = 0, 0.0
-        if progress is not None and (i % report_every == 0 or i == n_steps):
-            progress(i / n_steps)
-    obs = rows.pop('obs')
-    arrays = {key: np.asarray(val) for key, val in rows.items()}
-    fields = {name: np.asarray([getattr(o, name) for o in obs]) for name in obs[0]._fields}
+    if callable(forces):
+        record, applied = _stepwise(dyn, forces, dt, n_steps, output_every, progress)
+    else:
+        constant = _checked_forces(forces)
+        record = dyn.run(constant, dt, n_steps, output_every=output_every, progress=progress)
+        applied = np.tile(constant, (len(record.t), 1))
+    # each row after the first stands for the steps since the previous row: their means
+    starts = np.arange(0, n_steps, output_every)
+    counts = np.diff(np.append(starts, n_steps))
+    obs = record.observed
+    work = record.actuator_work
     return SimulationResult(
-        **arrays, position=fields['position'],
-        quaternion_xyzw=normalize_quat(euler_parameters_to_quat_xyzw(fields['euler_parameters'])),
-        lengths=fields['lengths'], length_rates=fields['length_rates'],
-        constraint_drift=fields['constraint_drift'], euler_norm_error=fields['euler_norm_error'],
-        kinetic=fields['kinetic'], potential=fields['potential'],
-        energy_balance=(fields['kinetic'] + fields['potential'] - arrays['actuator_work']
-                        - dyn.initial_energy),
+        t=record.t, position=obs.position,
+        quaternion_xyzw=normalize_quat(euler_parameters_to_quat_xyzw(obs.euler_parameters)),
+        lengths=obs.lengths, length_rates=obs.length_rates, forces=applied,
+        constraint_drift=obs.constraint_drift, euler_norm_error=obs.euler_norm_error,
+        energy_balance=obs.kinetic + obs.potential - work - dyn.initial_energy,
+        kinetic=obs.kinetic, potential=obs.potential, actuator_work=work,
+        step_flops=np.concatenate([[0], np.add.reduceat(record.step_flops, starts) // counts]),
+        step_seconds=np.concatenate([[0.0], np.add.reduceat(record.step_seconds, starts) / counts]),
         method=method, dt=float(dt), corrections=dyn.corrections)
+
+
+def _stepwise(dyn: MultibodyDynamics, force_fn, dt: float, n_steps: int, output_every: int,
+              progress) -> tuple[RunRecord, np.ndarray]:
+    """The run with forces from ``force_fn(t, dyn)`` at each step: Python between the steps."""
+    rows = 1 + -(-n_steps // output_every)
+    observed = Observations.empty(rows)
+    t, work, applied = np.empty(rows), np.empty(rows), np.empty((rows, 6))
+    flops, seconds = np.empty(n_steps, dtype=np.int64), np.empty(n_steps)
+    report_every = max(1, n_steps // 100)
+
+    def record(row, f):
+        for field, value in zip(observed, dyn.observation):
+            field[row] = value
+        t[row], work[row], applied[row] = dyn.time, dyn.actuator_work, f
+
+    record(0, _checked_forces(force_fn(0.0, dyn)))
+    for i in range(n_steps):
+        f = _checked_forces(force_fn(dyn.time, dyn))
+        start = time.perf_counter()
+        dyn.step(f, dt)
+        seconds[i] = time.perf_counter() - start
+        flops[i] = dyn.last_step_flops
+        if (i + 1) % output_every == 0 or i + 1 == n_steps:
+            record((i + output_every) // output_every, f)
+        if progress is not None and ((i + 1) % report_every == 0 or i + 1 == n_steps):
+            progress((i + 1) / n_steps)
+    return RunRecord(t, observed, work, flops, seconds), applied
 
 
 def _checked_forces(f) -> np.ndarray:
