@@ -1,5 +1,5 @@
-"""The ``rrps-dynamics`` command: simulate, statics, inverse, report; usage errors exit with status 2,
-failed computations with 1, bugs with 3 and their traceback."""
+"""The ``rrps-dynamics`` command: simulate, statics, inverse, report; usage errors exit with
+status 2, failed computations with 1, bugs with 3 and their traceback."""
 
 import csv
 import shutil

@@ -1,4 +1,5 @@
-"""No import cycle anywhere in src/: the module graph, read from the source with ``ast``, is acyclic.
+"""No import cycle anywhere in src/: the module graph, read from the source with ``ast``, is
+acyclic.
 
 Every ``import`` counts, at module level or inside a function (a lazy import still closes a
 cycle once it runs). ``from package import name`` depends on the submodule ``package.name`` when
@@ -89,8 +90,10 @@ def test_the_cycle_finder_finds_direct_lazy_and_long_cycles(tmp_path):
 
 def test_no_import_cycle_in_src():
     modules = source_modules()
-    assert {'rrps_kinematics.backend', 'rrps_kinematics.compiled', 'rrps_sim.dynamics'} <= set(modules)
+    assert {'rrps_kinematics.backend', 'rrps_kinematics.compiled',
+            'rrps_sim.dynamics'} <= set(modules)
     graph = {name: imports_of(name, path, modules) for name, path in modules.items()}
-    assert graph['rrps_kinematics.forward'] >= {'rrps_kinematics.backend', 'rrps_kinematics.inverse'}
+    assert graph['rrps_kinematics.forward'] >= {'rrps_kinematics.backend',
+                                                'rrps_kinematics.inverse'}
     cycle = find_cycle(graph)
     assert cycle is None, 'import cycle: ' + ' -> '.join(cycle)

@@ -100,7 +100,8 @@ def _exact_trajectory(geom, t, period=0.5, shift=(0.02, -0.01, 0.03), turn=(0.05
     s, ds, dds = 0.5 * (1 - np.cos(w * t)), 0.5 * w * np.sin(w * t), 0.5 * w**2 * np.cos(w * t)
     shift, turn = np.asarray(shift), np.asarray(turn)
     p = geom.home_position + s[:, None] * shift
-    q = quat_multiply_xyzw(rotation_vector_to_quat_xyzw(s[:, None] * turn), geom.home_quaternion_xyzw)
+    q = quat_multiply_xyzw(rotation_vector_to_quat_xyzw(s[:, None] * turn),
+                           geom.home_quaternion_xyzw)
     twist = np.concatenate([ds[:, None] * shift, ds[:, None] * turn], axis=1)
     twist_dot = np.concatenate([dds[:, None] * shift, dds[:, None] * turn], axis=1)
     pose = PlatformPose(geom, p, q)

@@ -180,8 +180,9 @@ def das_dp(q, o, s):
 @jit
 def leg_residual(q, k, length, joints, out):
     """Leg k's 12 joint constraints (eqs. 3-8) and its driving constraint (eq. 10) -> out[0:13]."""
-    leg_residual_with_rotations(q, k, length, joints, rotation(q, 3), rotation(q, 7 * (1 + 2 * k) + 3),
-                                rotation(q, 7 * (2 + 2 * k) + 3), out)
+    leg_residual_with_rotations(q, k, length, joints, rotation(q, 3),
+                                rotation(q, 7 * (1 + 2 * k) + 3), rotation(q, 7 * (2 + 2 * k) + 3),
+                                out)
 
 
 @jit

@@ -13,7 +13,8 @@ defaults to the robot's home pose. Poses are a_T_b (ring_b in ring_a's frame), S
 their progress on stderr. The ``inverse`` trajectory is a CSV with a header row: columns
 t,x,y,z,qx,qy,qz,qw (a_T_b at time t), optionally ring_b's velocity vx,vy,vz,wx,wy,wz (origin
 velocity [m/s] and angular velocity [rad/s], ring_a's frame) and acceleration
-ax,ay,az,dwx,dwy,dwz (their rates); what is missing is differentiated from the samples. Exit status (one error line on stderr unless 0):
+ax,ay,az,dwx,dwy,dwz (their rates); what is missing is differentiated from the samples.
+Exit status (one error line on stderr unless 0):
 
 * 0 done;
 * 1 the computation failed: a singular pose or configuration, a solve that did not converge;

@@ -34,8 +34,9 @@ STENCIL = 7
 
 
 def check_trajectory(t, positions, quaternions_xyzw) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The samples as float arrays, quaternions unit and sign-continuous; ValueError if they are
-    not a trajectory (shapes, fewer than MIN_SAMPLES, NaN/inf, t not increasing, zero quaternion)."""
+    """The samples as float arrays, quaternions unit and sign-continuous. ValueError if they are
+    not a trajectory: shapes, fewer than MIN_SAMPLES, NaN/inf, t not increasing, a zero
+    quaternion."""
     t = np.asarray(t, dtype=float)
     p = np.asarray(positions, dtype=float)
     q = np.asarray(quaternions_xyzw, dtype=float)

@@ -45,21 +45,22 @@ VELOCITY_LEG_FLOPS = _LEG_BLOCKS + (2 * 12**3) // 3 + 2 * 12**2 + 12 * 6 * 2
 
 
 def step_flops(method: str, baumgarte: bool, newton_iterations, corrected):
-    """Flops of RK4 steps of ``method`` (an int, or an array for arrays of steps).
+    """Flops of RK4 steps of ``method``: an int for one step, an array for arrays of steps.
 
     ``baumgarte``: the stabilisation terms are on (α or β non-zero); ``newton_iterations``: the
     Newton iterations of a step's dependent-coordinate solves, summed over legs; ``corrected``:
     the hybrid made a partitioned correction in that step.
     """
-    newton = np.asarray(newton_iterations, dtype=np.int64)
+    if isinstance(newton_iterations, np.ndarray) or isinstance(corrected, np.ndarray):
+        newton_iterations = np.asarray(newton_iterations, dtype=np.int64)
+        corrected = np.asarray(corrected, dtype=np.int64)
     if method == 'partitioning':
-        flops = (4 * EVALUATION_FLOPS + _PARTITIONED_STATES + newton * NEWTON_LEG_FLOPS
-                 + 5 * 6 * VELOCITY_LEG_FLOPS)
-    else:
-        flops = 4 * (EVALUATION_FLOPS + _DERIVATIVE) + _RK4_UPDATE + 0 * newton
-        if baumgarte:
-            flops += 4 * 6 * _BAUMGARTE_LEG
-        if method == 'hybrid':
-            repair = newton * NEWTON_LEG_FLOPS + 6 * VELOCITY_LEG_FLOPS
-            flops += _DRIFT_CHECK + np.where(np.asarray(corrected, dtype=bool), repair, 0)
-    return int(flops) if flops.ndim == 0 else flops
+        return (4 * EVALUATION_FLOPS + _PARTITIONED_STATES + newton_iterations * NEWTON_LEG_FLOPS
+                + 5 * 6 * VELOCITY_LEG_FLOPS)
+    flops = 4 * (EVALUATION_FLOPS + _DERIVATIVE) + _RK4_UPDATE + 0 * newton_iterations
+    if baumgarte:
+        flops += 4 * 6 * _BAUMGARTE_LEG
+    if method == 'hybrid':
+        flops += _DRIFT_CHECK + corrected * (newton_iterations * NEWTON_LEG_FLOPS
+                                             + 6 * VELOCITY_LEG_FLOPS)
+    return flops

@@ -202,7 +202,8 @@ def accelerations(q, v, forces, alpha, beta, params, ws, acc):
         LY = ws.coupling
         for i in range(3):
             for j in range(3):
-                LY[i, j] = lam[i][0] * B[0, 3 + j] + lam[i][1] * B[1, 3 + j] + lam[i][2] * B[2, 3 + j]
+                LY[i, j] = (lam[i][0] * B[0, 3 + j] + lam[i][1] * B[1, 3 + j]
+                            + lam[i][2] * B[2, 3 + j])
         for i in range(3):
             S[i, 6] += w[i]
             S[3 + i, 6] -= B[0, 3 + i] * w0 + B[1, 3 + i] * w1 + B[2, 3 + i] * w2

@@ -62,6 +62,7 @@ class MultibodyDynamics:
                 raise ValueError(f'{name} must be finite and >= 0, got {value}')
         self.geometry = geometry
         self.method = method
+        self._method = METHODS.index(method)
         self.alpha = float(alpha)
         self.beta = float(beta)
         self.correction_tolerance = float(correction_tolerance)
@@ -135,7 +136,7 @@ class MultibodyDynamics:
         (both are RuntimeErrors; the state is then left at the start of the step)."""
         f, dt = _checked(forces, dt)
         status, work, newton, corrected = step(
-            self._q, self._v, self.actuator_work, f, dt, METHODS.index(self.method), self.alpha,
+            self._q, self._v, self.actuator_work, f, dt, self._method, self.alpha,
             self.beta, self.correction_tolerance, self.newton_tolerance,
             self.max_newton_iterations, self._params, self._buffer)
         self.corrections += int(corrected)
@@ -144,7 +145,7 @@ class MultibodyDynamics:
         self.actuator_work = float(work)
         self.time += dt
         self.last_step_flops = step_flops(self.method, self.alpha != 0.0 or self.beta != 0.0,
-                                          newton, corrected)
+                                          newton, int(corrected))
 
     def run(self, forces, dt: float, steps: int, *, output_every: int = 1,
             progress: Callable[[float], None] | None = None) -> RunRecord:
@@ -170,7 +171,7 @@ class MultibodyDynamics:
         corrected = np.zeros(steps, dtype=np.bool_)
         seconds = np.empty(steps)
         batch = max(1, steps // (RUN_BATCHES if progress is not None else RUN_BATCHES_UNWATCHED))
-        settings = (METHODS.index(self.method), self.alpha, self.beta, self.correction_tolerance,
+        settings = (self._method, self.alpha, self.beta, self.correction_tolerance,
                     self.newton_tolerance, self.max_newton_iterations)
         t0 = self.time
         done = 0
