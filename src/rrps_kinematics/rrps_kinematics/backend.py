@@ -7,18 +7,29 @@ numba is imported on first use only, so ``import rrps_kinematics`` stays light.
 Kernels written once for both (the multibody model, the dynamics) are decorated with
 :func:`jit`: compiled by numba when it is enabled, otherwise left as the plain Python functions
 they are, which run the same arithmetic interpreted. ``RRPS_NUMBA`` is read once, on first use.
+
+Compiled kernels are cached on disk. numba checks only a kernel's own source file, while a
+compiled kernel contains the kernels it calls (and the layouts they assume); so the cache of
+every :func:`jit` kernel is also stamped with the sources of all of them
+(:func:`kernel_sources_stamp`), and any change to one recompiles them all.
 """
 
 from __future__ import annotations
 
+import hashlib
+import importlib.util
 import os
+from pathlib import Path
 
-__all__ = ['BACKENDS', 'compiled_backend_available', 'jit', 'kernels', 'numba_enabled',
-           'use_numba']
+__all__ = ['BACKENDS', 'compiled_backend_available', 'jit', 'kernel_sources_stamp', 'kernels',
+           'numba_enabled', 'use_numba']
 
 BACKENDS = ('auto', 'numba', 'numpy')
+#: Packages whose modules may hold :func:`jit` kernels.
+KERNEL_PACKAGES = ('rrps_kinematics', 'rrps_sim')
 _compiled = None
 _numba = None
+_stamp = None
 
 
 def numba_enabled() -> bool:
@@ -35,6 +46,24 @@ def numba_enabled() -> bool:
     return _numba is not False
 
 
+def kernel_sources_stamp() -> str:
+    """sha256 of every module of KERNEL_PACKAGES that uses :func:`jit` (computed once)."""
+    global _stamp
+    if _stamp is None:
+        digest = hashlib.sha256()
+        for package in KERNEL_PACKAGES:
+            spec = importlib.util.find_spec(package)
+            if spec is None or not spec.submodule_search_locations:
+                continue
+            for root in spec.submodule_search_locations:
+                for path in sorted(Path(root).rglob('*.py')):
+                    text = path.read_bytes()
+                    if b'@jit' in text:
+                        digest.update(str(path.relative_to(root)).encode() + b'\0' + text)
+        _stamp = digest.hexdigest()
+    return _stamp
+
+
 def jit(function=None, *, fastmath: bool = False):
     """``numba.njit(cache=True, fastmath=...)`` when numba is enabled, else the function itself.
 
@@ -44,7 +73,13 @@ def jit(function=None, *, fastmath: bool = False):
     def decorate(f):
         if not numba_enabled():
             return f
-        return _numba.njit(cache=True, fastmath=fastmath)(f)
+        dispatcher = _numba.njit(cache=True, fastmath=fastmath)(f)
+        # numba's cache index (third-party internals of the pinned numba): stamp it with all
+        # kernel sources too, so that a change to a callee invalidates this kernel's cache.
+        index = getattr(dispatcher._cache, '_cache_file', None)
+        if index is not None and hasattr(index, '_source_stamp'):
+            index._source_stamp = (index._source_stamp, kernel_sources_stamp())
+        return dispatcher
     return decorate if function is None else decorate(function)
 
 
