@@ -60,7 +60,7 @@ def _derivative(q, v, forces, alpha, beta, params, ws, dq, dv):
 @jit(fastmath=True)
 def rk4_full(q, v, work, forces, dt, alpha, beta, params, ws):
     """One RK4 step of all 91 + 78 states (and the actuator work) in place; (ok, work), ok False
-    if singular (q, v are then partly updated)."""
+    if eq. 19 is singular at a stage (q, v are then left as they were)."""
     kq, kv, kw, qs, vs = ws.kq, ws.kv, ws.kw, ws.qs, ws.vs
     qs[:] = q
     vs[:] = v

@@ -17,9 +17,9 @@ multipliers λ = B_l^-T (F_l - M_l a_l) load ring_b with P^T H^T (F_l - M_l a_l)
     (M_b + Σ_k P^T Λ_k P) a_b = F_b - Σ_k P^T w_k,   Λ_k = H^T M_l H,  w_k = H^T (F_l - M_l c)
 
 (Λ_k, w_k: the leg's effective mass and force at its spherical joint), one 6 x 6 Cholesky solve.
-B_l y = b itself is solved by its structure (:func:`_leg_solve`): the translational rows of the
-two spherical joints give the link translations from their rotations, which leaves 6 x 6 for the
-rotations (partial pivoting).
+B_l y = b itself is solved by its structure (:func:`_leg_solve`): the point-coincidence rows of
+the spherical joint and of the universal joint (eqs. 3-4) give the link translations from their
+rotations, which leaves 6 x 6 for the rotations (partial pivoting).
 
 Every kernel takes the robot as one :class:`~.bundles.DynamicsParameters` bundle and its scratch
 arrays as one :class:`~.bundles.Workspace`, so an evaluation allocates nothing.
@@ -74,7 +74,6 @@ def _cholesky_solve(Lc, X, n, nrhs):
             for m in range(i + 1, n):
                 s -= Lc[m, i] * X[m, c]
             X[i, c] = s / Lc[i, i]
-
 
 
 @jit(fastmath=True)

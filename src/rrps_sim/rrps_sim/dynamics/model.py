@@ -17,10 +17,10 @@ from rrps_kinematics.geometry import RobotGeometry
 from rrps_kinematics.multibody import MultibodyModel
 from rrps_kinematics.rotations import euler_parameters_to_quat_xyzw, normalize_quat
 
-from .flops import step_flops
-from .integrators import METHODS, NOT_CONVERGED, run, step
 from .bundles import DynamicsParameters, Observation, Observations, new_workspace
 from .constraints import leg_blocks
+from .flops import step_flops
+from .integrators import METHODS, NOT_CONVERGED, run, step
 from .kernels import observe
 
 __all__ = ['MultibodyDynamics', 'RunRecord']
@@ -33,7 +33,7 @@ RUN_BATCHES_UNWATCHED = 10
 
 class RunRecord(NamedTuple):
     """What :meth:`MultibodyDynamics.run` records: ``t`` (R,) [s], ``observed``
-    (:class:`~rrps_sim.dynamics.kernels.Observations`, R rows) and ``actuator_work`` (R,) [J] of
+    (:class:`~rrps_sim.dynamics.bundles.Observations`, R rows) and ``actuator_work`` (R,) [J] of
     the start (row 0) and of each output step; ``step_flops`` (S,) and ``step_seconds`` (S,) of
     every step (flop model, wall time)."""
 

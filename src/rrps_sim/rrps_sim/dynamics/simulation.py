@@ -21,7 +21,9 @@ __all__ = ['SimulationResult', 'simulate']
 
 @dataclass(frozen=True)
 class SimulationResult:
-    """One row per output step (K rows). Energies [J], times [s], flops per step (model)."""
+    """One row per output step (K rows). Energies [J], times [s]. ``step_flops`` (flop model)
+    and ``step_seconds`` (wall time) per step: the mean over the steps since the previous row
+    (with constant forces, each step's wall time is that of its compiled batch over its steps)."""
 
     t: np.ndarray
     position: np.ndarray
