@@ -25,7 +25,8 @@ centre in ring_b's com frame and d = r_u + A_u s'_u - r_l - A_l s'_l the leg vec
 joint centres, so the driving constraint sets the actuator length exactly. Eq. 8's second
 vector is the upper link's y axis: orthogonal to f_l when assembled, as eq. 8 requires.
 
-Φ_q is analytic (exact derivatives of the polynomial A(p)), compiled with numba, and has 718
+Φ_q is analytic (exact derivatives of the polynomial A(p)), compiled with numba (plain Python
+with ``RRPS_NUMBA=0``, see :mod:`.backend`), and has 718
 structural nonzeros of 8281 (``jacobian(q, sparse=True)`` gives it as scipy CSC). Newton's
 linear solve (eq. 11) exploits that structure by default: each leg's 15 rows touch only its 14
 link coordinates and ring_b's 7, so eliminating the link unknowns per leg leaves a 7 x 7 system
@@ -36,14 +37,18 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from functools import cached_property
+from typing import NamedTuple
 
-import numba
 import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
 
+from .backend import jit
+from .errors import SingularPoseError
+from .forward import check_lengths
 from .geometry import RobotGeometry
-from .inverse import _pose_arrays, inverse_kinematics, universal_joint_frames
+from .inverse import inverse_kinematics, pose_arrays, universal_joint_frames
 from .rotations import (
     euler_parameters_to_quat_xyzw,
     matrix_to_euler_parameters,
@@ -58,11 +63,17 @@ __all__ = [
     'N_COORDINATES',
     'N_DRIVING',
     'N_JOINT_CONSTRAINTS',
+    'JointGeometry',
     'MultibodyModel',
     'MultibodyDKResult',
     'body_slice',
     'gauss_eliminate',
+    'leg_jacobian',
+    'leg_residual',
+    'leg_residual_with_rotations',
     'lower_link_body',
+    'rotation',
+    'rotation_into',
     'structured_solve',
     'upper_link_body',
 ]
@@ -97,13 +108,36 @@ def body_slice(b: int) -> slice:
     return slice(7 * b, 7 * b + 7)
 
 
+class JointGeometry(NamedTuple):
+    """The joint data of eqs. 3-10, one typed bundle for the compiled kernels.
+
+    ``a`` (6, 3): universal-joint centres a_k in ring_a's frame; ``ha`` (6, 3): each universal
+    joint's axis h_k fixed in ring_a; ``sb`` (6, 3): the spherical-joint centres s'_b in ring_b's
+    com frame; ``cl``, ``cu``: distances of the lower link's com from the universal joint and of
+    the upper link's com from the spherical joint [m] (s'_l = (0, 0, -c_l), s'_u = (0, 0, c_u)).
+    """
+
+    a: np.ndarray
+    ha: np.ndarray
+    sb: np.ndarray
+    cl: float
+    cu: float
+
+
 # --- compiled kernels (shared with rrps_sim.dynamics) ------------------------------------------
 
-@numba.njit(cache=True)
+@jit
 def rotation(q, o):
     """A(p) = (2 e0^2 - 1) I + 2 (e e^T + e0 ẽ) of the Euler parameters q[o:o+4] (section 2.1)."""
-    e0, e1, e2, e3 = q[o], q[o + 1], q[o + 2], q[o + 3]
     A = np.empty((3, 3))
+    rotation_into(q, o, A)
+    return A
+
+
+@jit
+def rotation_into(q, o, A):
+    """A <- A(p) of the Euler parameters q[o:o+4], in place (no allocation)."""
+    e0, e1, e2, e3 = q[o], q[o + 1], q[o + 2], q[o + 3]
     c = 2.0 * e0 * e0 - 1.0
     A[0, 0] = c + 2.0 * e1 * e1
     A[1, 1] = c + 2.0 * e2 * e2
@@ -114,10 +148,9 @@ def rotation(q, o):
     A[2, 0] = 2.0 * (e1 * e3 - e0 * e2)
     A[1, 2] = 2.0 * (e2 * e3 - e0 * e1)
     A[2, 1] = 2.0 * (e2 * e3 + e0 * e1)
-    return A
 
 
-@numba.njit(cache=True)
+@jit
 def das_dp(q, o, s):
     """∂(A(p) s')/∂p for p = q[o:o+4] (3 x 4): exact derivative of the polynomial A(p)."""
     e0, e1, e2, e3 = q[o], q[o + 1], q[o + 2], q[o + 3]
@@ -144,23 +177,29 @@ def das_dp(q, o, s):
     return out
 
 
-@numba.njit(cache=True)
-def leg_residual(q, k, length, a, ha, sb, cl, cu, out):
+@jit
+def leg_residual(q, k, length, joints, out):
     """Leg k's 12 joint constraints (eqs. 3-8) and its driving constraint (eq. 10) -> out[0:13]."""
+    leg_residual_with_rotations(q, k, length, joints, rotation(q, 3),
+                                rotation(q, 7 * (1 + 2 * k) + 3), rotation(q, 7 * (2 + 2 * k) + 3),
+                                out)
+
+
+@jit
+def leg_residual_with_rotations(q, k, length, joints, Ab, Al, Au, out):
+    """:func:`leg_residual` with the rotation matrices of ring_b and leg k's links given."""
+    a, ha, sb, cl, cu = joints
     ob = 0
     ol = 7 * (1 + 2 * k)
     ou = 7 * (2 + 2 * k)
-    Ab = rotation(q, ob + 3)
-    Al = rotation(q, ol + 3)
-    Au = rotation(q, ou + 3)
     for i in range(3):
         s_b = Ab[i, 0] * sb[k, 0] + Ab[i, 1] * sb[k, 1] + Ab[i, 2] * sb[k, 2]
         out[i] = q[ou + i] + Au[i, 2] * cu - q[ob + i] - s_b
         out[3 + i] = q[ol + i] - Al[i, 2] * cl - a[k, i]
     out[6] = ha[k, 0] * Al[0, 1] + ha[k, 1] * Al[1, 1] + ha[k, 2] * Al[2, 1]
-    d = np.empty(3)
-    for i in range(3):
-        d[i] = q[ou + i] + Au[i, 2] * cu - q[ol + i] + Al[i, 2] * cl
+    d = (q[ou] + Au[0, 2] * cu - q[ol] + Al[0, 2] * cl,
+         q[ou + 1] + Au[1, 2] * cu - q[ol + 1] + Al[1, 2] * cl,
+         q[ou + 2] + Au[2, 2] * cu - q[ol + 2] + Al[2, 2] * cl)
     f0 = 0.0
     f1 = 0.0
     g0 = 0.0
@@ -182,9 +221,10 @@ def leg_residual(q, k, length, a, ha, sb, cl, cu, out):
     out[12] = hd - length
 
 
-@numba.njit(cache=True)
-def leg_jacobian(q, k, a, ha, sb, cl, cu, out):
+@jit
+def leg_jacobian(q, k, joints, out):
     """∂/∂q of leg k's 13 rows (12 joint + driving); out (13, 21), columns [q_b, q_l, q_u]."""
+    ha, sb, cl, cu = joints.ha, joints.sb, joints.cl, joints.cu
     ob = 0
     ol = 7 * (1 + 2 * k)
     ou = 7 * (2 + 2 * k)
@@ -271,13 +311,13 @@ def leg_jacobian(q, k, a, ha, sb, cl, cu, out):
         out[12, 7 + i] = -Al[i, 2]
 
 
-@numba.njit(cache=True)
-def all_constraints(q, lengths, a, ha, sb, cl, cu):
+@jit
+def all_constraints(q, lengths, joints):
     """Φ(q) of eq. 2 (91,): 72 joint, 6 driving, 13 normalisation constraints."""
     phi = np.empty(91)
     buf = np.empty(13)
     for k in range(6):
-        leg_residual(q, k, lengths[k], a, ha, sb, cl, cu, buf)
+        leg_residual(q, k, lengths[k], joints, buf)
         phi[12 * k:12 * k + 12] = buf[:12]
         phi[72 + k] = buf[12]
     for b in range(13):
@@ -286,13 +326,13 @@ def all_constraints(q, lengths, a, ha, sb, cl, cu):
     return phi
 
 
-@numba.njit(cache=True)
-def all_jacobian(q, a, ha, sb, cl, cu):
+@jit
+def all_jacobian(q, joints):
     """Φ_q of eq. 2, dense (91, 91)."""
     J = np.zeros((91, 91))
     buf = np.empty((13, 21))
     for k in range(6):
-        leg_jacobian(q, k, a, ha, sb, cl, cu, buf)
+        leg_jacobian(q, k, joints, buf)
         cols = (0, 7 * (1 + 2 * k), 7 * (2 + 2 * k))
         for blk in range(3):
             c0 = cols[blk]
@@ -307,7 +347,7 @@ def all_jacobian(q, a, ha, sb, cl, cu):
     return J
 
 
-@numba.njit(cache=True)
+@jit
 def gauss_eliminate(A, nrow, ncol_pivot, ncol):
     """Gaussian elimination with partial pivoting of A[:nrow, :ncol] on its first ncol_pivot
     columns (in place); returns (ok, flops)."""
@@ -338,7 +378,7 @@ def gauss_eliminate(A, nrow, ncol_pivot, ncol):
     return True, flops
 
 
-@numba.njit(cache=True)
+@jit
 def structured_solve(J, rhs):
     """Solve Φ_q Δq = rhs (91) by the robot's structure; returns (ok, Δq, flops).
 
@@ -425,35 +465,42 @@ class MultibodyModel:
 
     def __init__(self, geometry: RobotGeometry):
         self.geometry = geometry
-        self.a = np.ascontiguousarray(geometry.ring_a_anchors, dtype=float)
-        self.ha = np.ascontiguousarray(universal_joint_frames(geometry)[:, :, 0])
         self.ring_b_com = np.asarray(geometry.ring_b_inertia.com, dtype=float)
-        self.sb = np.ascontiguousarray(geometry.ring_b_anchors - self.ring_b_com)
-        self.cl = float(geometry.lower_link.com_from_joint)
-        self.cu = float(geometry.upper_link.com_from_joint)
-        self._kernel_args = (self.a, self.ha, self.sb, self.cl, self.cu)
-        pattern = all_jacobian(self.coordinates_from_pose(geometry.home_position,
-                                                          geometry.home_quaternion_xyzw),
-                               *self._kernel_args)
-        # Structural nonzeros: every entry a kernel writes, found at a generic pose.
-        rng = np.random.default_rng(0)
-        q_rand = rng.normal(size=91)
-        mask = (pattern != 0) | (all_jacobian(q_rand, *self._kernel_args) != 0)
-        self._sparsity = scipy.sparse.csc_matrix(mask.astype(float))
-        self._rows = self._sparsity.indices.copy()
-        self._cols = np.repeat(np.arange(91), np.diff(self._sparsity.indptr))
+        self.joints = JointGeometry(
+            a=np.ascontiguousarray(geometry.ring_a_anchors, dtype=float),
+            ha=np.ascontiguousarray(universal_joint_frames(geometry)[:, :, 0]),
+            sb=np.ascontiguousarray(geometry.ring_b_anchors - self.ring_b_com),
+            cl=float(geometry.lower_link.com_from_joint),
+            cu=float(geometry.upper_link.com_from_joint))
+
+    @cached_property
+    def _sparsity(self) -> scipy.sparse.csc_matrix:
+        """Structural nonzeros of Φ_q: every entry a kernel writes, at home and a generic pose
+        (found on first use: only the sparse Jacobian and solver need them)."""
+        pattern = all_jacobian(self.coordinates_from_pose(self.geometry.home_position,
+                                                          self.geometry.home_quaternion_xyzw),
+                               self.joints)
+        q_rand = np.random.default_rng(0).normal(size=91)
+        mask = (pattern != 0) | (all_jacobian(q_rand, self.joints) != 0)
+        return scipy.sparse.csc_matrix(mask.astype(float))
+
+    @cached_property
+    def _entries(self) -> tuple[np.ndarray, np.ndarray]:
+        """Rows and columns of the structural nonzeros, in CSC order."""
+        return (self._sparsity.indices.copy(),
+                np.repeat(np.arange(91), np.diff(self._sparsity.indptr)))
 
     # --- coordinates <-> pose ---
 
     def coordinates_from_pose(self, position, quaternion_xyzw) -> np.ndarray:
         """Consistent q (91,) for ring_b at a_T_b: every joint constraint satisfied exactly."""
-        p, quat = _pose_arrays(position, quaternion_xyzw)
+        p, quat = pose_arrays(position, quaternion_xyzw)
         if p.ndim != 1:
             raise ValueError('coordinates_from_pose takes a single pose')
         quat = normalize_quat(quat)
         ik = inverse_kinematics(self.geometry, p, quat)
         if np.any(ik.lengths < 1e-9):
-            raise ValueError('a leg has zero length at this pose')
+            raise SingularPoseError('singular pose: a leg has zero length')
         q = np.empty(91)
         Rb = quat_xyzw_to_matrix(quat)
         q[0:3] = p + Rb @ self.ring_b_com
@@ -462,9 +509,9 @@ class MultibodyModel:
         u = ik.unit_vectors
         for k in range(6):
             ol, ou = 7 * lower_link_body(k), 7 * upper_link_body(k)
-            q[ol:ol + 3] = self.a[k] + self.cl * u[k]
+            q[ol:ol + 3] = self.joints.a[k] + self.joints.cl * u[k]
             q[ol + 3:ol + 7] = p_links[k]
-            q[ou:ou + 3] = ik.ring_b_anchors_in_a[k] - self.cu * u[k]
+            q[ou:ou + 3] = ik.ring_b_anchors_in_a[k] - self.joints.cu * u[k]
             q[ou + 3:ou + 7] = p_links[k]
         return q
 
@@ -483,16 +530,16 @@ class MultibodyModel:
     def constraints(self, q, lengths) -> np.ndarray:
         """Φ(q) of eq. 2, shape (91,); lengths (6,) enter the driving constraints."""
         q = self._check_q(q)
-        L = _check_lengths(lengths)
-        return all_constraints(q, L, *self._kernel_args)
+        L = check_lengths(lengths, batch=False)
+        return all_constraints(q, L, self.joints)
 
     def jacobian(self, q, *, sparse: bool = False):
         """Analytic Φ_q (91 x 91), dense ndarray or scipy.sparse CSC (structural nonzeros)."""
         q = self._check_q(q)
-        J = all_jacobian(q, *self._kernel_args)
+        J = all_jacobian(q, self.joints)
         if not sparse:
             return J
-        return scipy.sparse.csc_matrix((J[self._rows, self._cols], self._sparsity.indices,
+        return scipy.sparse.csc_matrix((J[self._entries], self._sparsity.indices,
                                         self._sparsity.indptr), shape=(91, 91))
 
     @property
@@ -518,7 +565,7 @@ class MultibodyModel:
         """
         if solver not in ('structured', 'sparse', 'dense'):
             raise ValueError(f"solver must be 'structured', 'sparse' or 'dense', got {solver!r}")
-        L = _check_lengths(lengths)
+        L = check_lengths(lengths, batch=False)
         if q_seed is None:
             q_seed = self.coordinates_from_pose(self.geometry.home_position,
                                                 self.geometry.home_quaternion_xyzw)
@@ -530,7 +577,7 @@ class MultibodyModel:
         flops = 0
         iterations = 0
         converged = False
-        phi = all_constraints(q, L, *self._kernel_args)
+        phi = all_constraints(q, L, self.joints)
         flops += residual_flops
         res = float(np.max(np.abs(phi)))
         while True:
@@ -539,7 +586,7 @@ class MultibodyModel:
                 break
             if iterations >= max_iterations or not np.isfinite(res):
                 break
-            J = all_jacobian(q, *self._kernel_args)
+            J = all_jacobian(q, self.joints)
             flops += jacobian_flops
             try:
                 if solver == 'structured':
@@ -551,7 +598,7 @@ class MultibodyModel:
                     dq = np.linalg.solve(J, -phi)
                     flops += (2 * n**3) // 3 + 2 * n**2
                 else:
-                    Js = scipy.sparse.csc_matrix((J[self._rows, self._cols],
+                    Js = scipy.sparse.csc_matrix((J[self._entries],
                                                   self._sparsity.indices, self._sparsity.indptr),
                                                  shape=(n, n))
                     lu = scipy.sparse.linalg.splu(Js, permc_spec='COLAMD')
@@ -562,7 +609,7 @@ class MultibodyModel:
             q += dq
             flops += n
             iterations += 1
-            phi = all_constraints(q, L, *self._kernel_args)
+            phi = all_constraints(q, L, self.joints)
             flops += residual_flops
             res = float(np.max(np.abs(phi)))
         seconds = time.perf_counter() - t0
@@ -578,15 +625,6 @@ class MultibodyModel:
         if not np.all(np.isfinite(q)):
             raise ValueError('q contains NaN or infinite values')
         return q
-
-
-def _check_lengths(lengths) -> np.ndarray:
-    L = np.ascontiguousarray(lengths, dtype=float)
-    if L.shape != (6,):
-        raise ValueError(f'lengths must have shape (6,), got {L.shape}')
-    if not np.all(np.isfinite(L)):
-        raise ValueError('lengths contain NaN or infinite values')
-    return L
 
 
 _LU_FLOPS_CACHE: dict[tuple, int] = {}

@@ -36,6 +36,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from rrps_kinematics.errors import ConvergenceError, SingularPoseError
 from rrps_kinematics.geometry import RobotGeometry
 from rrps_kinematics.inverse import inverse_kinematics, universal_joint_frames
 from rrps_kinematics.jacobian import inverse_jacobian
@@ -68,8 +69,9 @@ def assembled_pose(geometry: RobotGeometry, position, quaternion_xyzw):
     """IK of N poses (position (N, 3) or (3,)) checked to be a valid assembly of the model.
 
     Returns (ik, x1, n): the IK result, each universal joint's fixed axis x1 (6, 3) and
-    n = u × x1 (N, 6, 3). Raises ValueError for a non-RobotGeometry, invalid poses (shapes, NaN,
-    zero quaternion), a zero-length leg, or a locked universal joint (leg along its fixed axis).
+    n = u × x1 (N, 6, 3). Raises ValueError for a non-RobotGeometry or invalid poses (shapes, NaN,
+    zero quaternion); SingularPoseError (a ValueError too) for a zero-length leg or a locked
+    universal joint (leg along its fixed axis).
     """
     if not isinstance(geometry, RobotGeometry):
         raise ValueError(f'geometry must be a RobotGeometry, got {type(geometry).__name__}')
@@ -79,12 +81,13 @@ def assembled_pose(geometry: RobotGeometry, position, quaternion_xyzw):
         p, q = p[None], q[None]
     ik = inverse_kinematics(geometry, p, q)  # validates shapes, NaN, zero quaternions
     if np.any(ik.lengths < 1e-9):
-        raise ValueError('a leg has zero length: the pose is not a valid assembly')
+        raise SingularPoseError('singular pose: a leg has zero length, the pose is not a valid '
+                                'assembly')
     x1 = universal_joint_frames(geometry)[:, :, 0]
     n = cross(ik.unit_vectors, x1)
     if np.any(_dot(n, n) < _UNIVERSAL_LOCK):
-        raise ValueError('a universal joint is locked (leg along its fixed axis): '
-                         'the link rotation is undefined at this pose')
+        raise SingularPoseError('singular pose: a universal joint is locked (leg along its fixed '
+                                'axis), the link rotation is undefined')
     return ik, x1, n
 
 
@@ -381,7 +384,7 @@ def simulate_reduced(geometry: RobotGeometry, position, quaternion_xyzw,
     sol = solve_ivp(rhs, (0.0, t_eval[-1]), y0, method='DOP853', t_eval=t_eval,
                     rtol=rtol, atol=atol)
     if not sol.success:
-        raise RuntimeError(f'reduced-model integration failed: {sol.message}')
+        raise ConvergenceError(f'reduced-model integration failed: {sol.message}')
     Y = sol.y.T
     quat = Y[:, 3:7] / np.linalg.norm(Y[:, 3:7], axis=1, keepdims=True)
     pose = PlatformPose(geometry, Y[:, :3], quat)
