@@ -68,7 +68,7 @@ def mjcf(g, position, quaternion_xyzw, dt: float) -> str:
     ik = inverse_kinematics(g, position, quaternion_xyzw)
     links = ik.lower_link_rotations
     axes = universal_joint_frames(g)[:, :, 0]
-    lo, up, rb = g.lower_link, g.upper_link, g.ring_b_inertia
+    lo, up, rb = g.lower_link, g.upper_link, g.ring_b_body
     I = rb.inertia
     legs = []
     for k in range(6):
@@ -120,7 +120,7 @@ class MujocoRun:
         self.model = mujoco.MjModel.from_xml_string(mjcf(g, position, quaternion_xyzw, dt))
         self.data = mujoco.MjData(self.model)
         self.forces = np.asarray(forces, dtype=float)
-        self.com_b = np.asarray(g.ring_b_inertia.com, dtype=float)
+        self.com_b = np.asarray(g.ring_b_body.com, dtype=float)
         spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
         mujoco.mj_resetData(self.model, self.data)
         self.state0 = np.empty(mujoco.mj_stateSize(self.model, spec))

@@ -52,6 +52,7 @@ __all__ = [
     'LimitArrays',
     'limit_arrays',
     'LimitKind',
+    'LIMIT_KINDS',
     'LimitViolation',
     'Margins',
     'margins',
@@ -73,6 +74,10 @@ class LimitKind(str, enum.Enum):
     SPHERICAL = 'spherical'
     INTERFERENCE = 'interference'
     CONDITIONING = 'conditioning'
+
+
+#: The limit kinds in their order of checking (margins, workspace, fixture).
+LIMIT_KINDS = tuple(kind.value for kind in LimitKind)
 
 
 @dataclass(frozen=True)

@@ -465,7 +465,7 @@ class MultibodyModel:
 
     def __init__(self, geometry: RobotGeometry):
         self.geometry = geometry
-        self.ring_b_com = np.asarray(geometry.ring_b_inertia.com, dtype=float)
+        self.ring_b_com = np.asarray(geometry.ring_b_body.com, dtype=float)
         self.joints = JointGeometry(
             a=np.ascontiguousarray(geometry.ring_a_anchors, dtype=float),
             ha=np.ascontiguousarray(universal_joint_frames(geometry)[:, :, 0]),

@@ -47,7 +47,7 @@ import numpy as np
 from scipy import ndimage
 
 from .backend import use_numba
-from .limits import limit_arrays
+from .limits import LIMIT_KINDS, limit_arrays
 from .geometry import RobotGeometry
 from .inverse import inverse_kinematics
 from .limits import margins
@@ -69,7 +69,6 @@ __all__ = [
 ]
 
 #: The limits in the order in which they exclude a point (the kinds of ``Margins.minimum``).
-LIMIT_KINDS = ('stroke', 'universal', 'spherical', 'interference', 'conditioning')
 #: Default near-singular threshold on the inverse condition number: the teleop guard's
 #: ``TeleopConfig.singularity_slowdown``, below which motion towards a singularity slows down.
 SINGULAR_THRESHOLD = 0.08

@@ -105,8 +105,8 @@ class PlatformPose:
         self.anchors_b = self.ik.leg_vectors + geometry.ring_a_anchors - p[:, None, :]  # A_c s'_i
         self.n_sq = _dot(self.n, self.n)
         self.m = cross(self.n, self.u)
-        self.com_b = np.einsum('nij,j->ni', self.rotation, geometry.ring_b_inertia.com)
-        self.inertia_b = self.rotation @ geometry.ring_b_inertia.inertia @ np.swapaxes(
+        self.com_b = np.einsum('nij,j->ni', self.rotation, geometry.ring_b_body.com)
+        self.inertia_b = self.rotation @ geometry.ring_b_body.inertia @ np.swapaxes(
             self.rotation, -1, -2)
         lo, up = geometry.lower_link, geometry.upper_link
         # Both links share one rotation: their angular inertias add up.
@@ -218,7 +218,7 @@ def mass_matrix(pose: PlatformPose) -> np.ndarray:
     """M (N, 6, 6) of the reduced model: kinetic energy = 1/2 t^T M t."""
     g = pose.geometry
     V = _unit_velocities(pose)
-    M = g.ring_b_inertia.mass * np.einsum('kni,jni->njk', V.ring, V.ring)
+    M = g.ring_b_body.mass * np.einsum('kni,jni->njk', V.ring, V.ring)
     M = M + np.einsum('kni,jni->njk', V.ring_angular, pose.ring_inertia_times(V.ring_angular))
     M = M + g.lower_link.mass * np.einsum('knli,jnli->njk', V.lower, V.lower)
     M = M + g.upper_link.mass * np.einsum('knli,jnli->njk', V.upper, V.upper)
@@ -239,7 +239,7 @@ def generalized_forces(pose: PlatformPose, twist, twist_dot) -> np.ndarray:
     A = body_accelerations(pose, twist, twist_dot)
     w = body_velocities(pose, twist)
     grav = g.gravity
-    ring_force = g.ring_b_inertia.mass * (A.ring - grav)
+    ring_force = g.ring_b_body.mass * (A.ring - grav)
     ring_moment = (pose.ring_inertia_times(A.ring_angular)
                    + cross(w.ring_angular, pose.ring_inertia_times(w.ring_angular)))
     lower_force = g.lower_link.mass * (A.lower - grav)
@@ -258,7 +258,7 @@ def kinetic_energy(pose: PlatformPose, twist) -> np.ndarray:
     """T (N,) [J] of ring_b and the twelve links for ring_b twists (N, 6)."""
     g = pose.geometry
     V = body_velocities(pose, twist)
-    return 0.5 * (g.ring_b_inertia.mass * _dot(V.ring, V.ring)
+    return 0.5 * (g.ring_b_body.mass * _dot(V.ring, V.ring)
                   + _dot(V.ring_angular, pose.ring_inertia_times(V.ring_angular))
                   + g.lower_link.mass * np.sum(_dot(V.lower, V.lower), axis=-1)
                   + g.upper_link.mass * np.sum(_dot(V.upper, V.upper), axis=-1)
@@ -271,7 +271,7 @@ def potential_energy(pose: PlatformPose) -> np.ndarray:
     ring_com = pose.position + pose.com_b
     lower_com = g.ring_a_anchors + g.lower_link.com_from_joint * pose.u
     upper_com = pose.ik.ring_b_anchors_in_a - g.upper_link.com_from_joint * pose.u
-    return -(g.ring_b_inertia.mass * _dot(ring_com, g.gravity)
+    return -(g.ring_b_body.mass * _dot(ring_com, g.gravity)
              + g.lower_link.mass * np.sum(_dot(lower_com, g.gravity), axis=-1)
              + g.upper_link.mass * np.sum(_dot(upper_com, g.gravity), axis=-1))
 

@@ -60,8 +60,8 @@ def gravity_load(geometry: RobotGeometry, ik: InverseKinematicsResult) -> np.nda
     w = ((lo.mass * lo.com_from_joint - up.mass * up.com_from_joint) / lengths)[..., None] * g_normal \
         + up.mass * g
     r = ik.ring_b_anchors_in_a - ik.position[..., None, :]                    # A_c s'_i
-    com = np.einsum('...ij,j->...i', ik.rotation, geometry.ring_b_inertia.com)
-    mass = geometry.ring_b_inertia.mass
+    com = np.einsum('...ij,j->...i', ik.rotation, geometry.ring_b_body.com)
+    mass = geometry.ring_b_body.mass
     force = mass * g + w.sum(axis=-2)
     moment = mass * cross(com, g) + cross(r, w).sum(axis=-2)
     return -np.concatenate([force, moment], axis=-1)

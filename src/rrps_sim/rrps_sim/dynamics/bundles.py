@@ -39,8 +39,8 @@ class DynamicsParameters(NamedTuple):
         """The bundle of a RobotGeometry whose multibody model has these joints."""
         mass = np.empty(13)
         inertia = np.empty((13, 3, 3))
-        mass[0] = geometry.ring_b_inertia.mass
-        inertia[0] = geometry.ring_b_inertia.inertia
+        mass[0] = geometry.ring_b_body.mass
+        inertia[0] = geometry.ring_b_body.inertia
         for k in range(6):
             mass[1 + 2 * k] = geometry.lower_link.mass
             inertia[1 + 2 * k] = geometry.lower_link.inertia_tensor()
@@ -48,7 +48,7 @@ class DynamicsParameters(NamedTuple):
             inertia[2 + 2 * k] = geometry.upper_link.inertia_tensor()
         return cls(joints, mass, inertia, np.linalg.inv(inertia),
                    np.ascontiguousarray(geometry.gravity, dtype=float),
-                   np.ascontiguousarray(geometry.ring_b_inertia.com, dtype=float))
+                   np.ascontiguousarray(geometry.ring_b_body.com, dtype=float))
 
 
 class Observation(NamedTuple):
