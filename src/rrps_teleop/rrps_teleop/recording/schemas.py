@@ -30,7 +30,8 @@ import sys
 from pathlib import Path
 
 __all__ = ['BUILTIN_DEFINITIONS', 'SEPARATOR', 'SchemaError', 'split_type_name',
-           'message_text', 'message_schema', 'type_hash', 'dependencies']
+           'message_text', 'message_schema', 'type_hash', 'dependencies',
+           'generated_definition']
 
 #: rosbag2's separator line between the definitions of a schema (80 '=').
 SEPARATOR = '=' * 80
@@ -113,8 +114,9 @@ def _introspection_type(idl: str, package: str) -> str:
     return idl
 
 
-def _generated_text(package: str, name: str) -> str:
+def generated_definition(type_name: str) -> str:
     """A definition from the message class's rosidl introspection (fields only)."""
+    package, name = split_type_name(type_name)
     try:
         cls = getattr(importlib.import_module(f'{package}.msg'), name)
         fields = cls.get_fields_and_field_types()
@@ -136,7 +138,7 @@ def message_text(type_name: str) -> str:
         return path.read_text(encoding='utf-8')
     if full in BUILTIN_DEFINITIONS:
         return BUILTIN_DEFINITIONS[full]
-    return _generated_text(package, name)
+    return generated_definition(full)
 
 
 def _field_types(text: str, package: str) -> list[str]:
