@@ -300,6 +300,7 @@ def test_replay_clock_rate_pause_seek():
     epoch = clock.epoch
     clock.seek(18 * 10**9, 150.0)
     assert clock.epoch == epoch + 1 and clock.elapsed(160.0) == pytest.approx(8.0)
+    assert clock.read_from == 18 * 10**9
     clock.set_paused(False, 160.0)
     assert clock.position(200.0) == 20 * 10**9  # clamped at the end
     clock.seek(0, 200.0)

@@ -92,7 +92,7 @@ class ReplayNode(Node):
         self.finished = False
         self.skipped: dict[str, str] = {}
         self.remapped: dict[str, str] = {}
-        self._publishers: dict[str, object] = {}
+        self._replay_publishers: dict[str, object] = {}
         for name, topic in self.recording.topics.items():
             if topics and not any(name == t or name.startswith(t.rstrip('/') + '/')
                                   for t in topics):
@@ -111,8 +111,8 @@ class ReplayNode(Node):
             qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=spec.depth,
                              reliability=ReliabilityPolicy(spec.reliability),
                              durability=DurabilityPolicy(spec.durability))
-            self._publishers[name] = self.create_publisher(cls, out, qos)
-        if self.allow_commands and any(is_command_topic(n) for n in self._publishers):
+            self._replay_publishers[name] = self.create_publisher(cls, out, qos)
+        if self.allow_commands and any(is_command_topic(n) for n in self._replay_publishers):
             self.get_logger().warning('allow_commands: the recorded command streams go to '
                                       'their live names; a driver listening will act on them')
         self._status_pub = self.create_publisher(DiagnosticStatus, REPLAY_STATUS, STATE_QOS)
@@ -124,7 +124,7 @@ class ReplayNode(Node):
         self._thread.start()
         self.get_logger().info(
             f'replaying {", ".join(files)} ({self.recording.duration:.1f} s, '
-            f'{len(self._publishers)} topics) at {rate:g}x'
+            f'{len(self._replay_publishers)} topics) at {rate:g}x'
             + (f'; commands under {prefix}/: {", ".join(self.remapped.values())}'
                if self.remapped else '')
             + (f'; skipped: {", ".join(sorted(self.skipped))}' if self.skipped else ''))
@@ -173,9 +173,9 @@ class ReplayNode(Node):
         while not self._stop.is_set():
             with self._cond:
                 epoch = self.clock.epoch
-                start = self.clock.position(time.monotonic())
+                start = self.clock.read_from
             restarted = False
-            for topic, t, data in self.recording.messages(start, list(self._publishers)):
+            for topic, t, data in self.recording.messages(start, list(self._replay_publishers)):
                 with self._cond:
                     while not self._stop.is_set() and self.clock.epoch == epoch:
                         wait = self.clock.wait(t, time.monotonic())
@@ -187,7 +187,7 @@ class ReplayNode(Node):
                     if self.clock.epoch != epoch:
                         restarted = True
                         break
-                publisher = self._publishers.get(topic)
+                publisher = self._replay_publishers.get(topic)
                 if publisher is not None:
                     try:
                         publisher.publish(data)

@@ -116,7 +116,7 @@ class _File:
             with open(self.path, 'rb') as stream:
                 reader = make_reader(stream)
                 for _, channel, message in reader.iter_messages(
-                        topics=None if topics is None else list(topics), start_time=start_ns,
+                        topics=None if topics is None else list(topics), starting_at=start_ns,
                         log_time_order=True):
                     yield channel.topic, message.log_time, message.data
             return
@@ -185,8 +185,10 @@ class ReplayClock:
         self.paused = bool(paused)
         self._anchor_wall = now
         self._anchor_ns = self.start_ns
-        #: incremented by every seek: a publisher restarts its reading there
+        #: incremented by every seek: a publisher restarts its reading at :attr:`read_from`
         self.epoch = 0
+        #: recording time [ns] a reader starts from: the start, or the last seek's target
+        self.read_from = self.start_ns
 
     @staticmethod
     def _check_rate(rate: float) -> None:
@@ -218,6 +220,7 @@ class ReplayClock:
         """Jump to a recording time (clamped to the recording)."""
         self._anchor_ns = min(max(int(position_ns), self.start_ns), self.end_ns)
         self._anchor_wall = now
+        self.read_from = self._anchor_ns
         self.epoch += 1
 
     def wait(self, log_time_ns: int, now: float) -> float:
