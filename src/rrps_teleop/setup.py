@@ -1,3 +1,5 @@
+from glob import glob
+
 from setuptools import find_packages, setup
 
 package_name = 'rrps_teleop'
@@ -9,6 +11,7 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
+        ('share/' + package_name + '/config', glob('config/*.yaml')),
     ],
     install_requires=['setuptools', 'numpy', 'PyYAML', 'mcap', 'mcap-ros2-support', 'rrps_kinematics',
                       'rrps_sim'],
@@ -29,6 +32,7 @@ setup(
             'markers_node = rrps_teleop.nodes.markers_node:main',
             'rrps-record = rrps_teleop.record_cli:main',
             'rrps-replay = rrps_teleop.replay_cli:main',
+            'rrps-params = rrps_teleop.params:main',
             'rrps-climb = rrps_teleop.climb_cli:main',
             'rrps-demo = rrps_teleop.demo:main',
             'rrps-compose = rrps_teleop.compose:main',
