@@ -11,6 +11,12 @@ GIL) with the command path of the robot. The children die with this process (a p
 signal), and Ctrl-C or SIGTERM stops all three. The viewer's URL and operator token are
 printed once the robot is up.
 
+Every node reads its parameter file (``config/<node>.yaml`` of its package, :mod:`rrps_teleop.params`)
+before the demo's own settings (robot, rate, host, port, token), which win. A flight recorder
+(``recorder_node``, a process of its own) keeps the last 60 s for the viewer's "Save last 60 s"
+and for fault dumps, in ``--recordings`` (``rrps_recordings``); ``--record`` also records the
+whole session there. ``markers_node`` publishes the robot for RViz2 and Foxglove.
+
 ``--headless`` runs no browser: a scripted teleop session (the operator's handle moves the
 master, a deadman stream engages the mapping, the slave follows; releasing the deadman holds the
 robot) and a scripted climb (one step up through ``climb/step_up``), prints what happened and
@@ -29,8 +35,8 @@ import sys
 import threading
 import time
 
-__all__ = ['main', 'build_stack', 'start_driver', 'start_robot_nodes', 'ROBOT_NODES',
-           'OPERATOR_NODES']
+__all__ = ['main', 'build_stack', 'start_driver', 'start_robot_nodes', 'start_recorder',
+           'ROBOT_NODES', 'OPERATOR_NODES']
 
 NAMESPACE = '/rrps'
 #: The robot computer's nodes (one process) and the operator station's (the demo's own process).
@@ -52,20 +58,25 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument('--headless', action='store_true',
                    help='no browser: run a scripted teleop session and a climb step, then exit '
                         '(0 = success)')
+    p.add_argument('--recordings', default='rrps_recordings',
+                   help='folder of the flight recorder\'s files (and of --record)')
+    p.add_argument('--record', action='store_true',
+                   help='also record the whole session to MCAP in --recordings')
     return p
 
 
 def build_stack(context, *, robot: str, host: str, port: int, token: str,
                 viewer: bool = True, climb: bool = True, driver: bool = True,
                 kinematics: bool = True, driver_rate: float = 500.0,
-                namespace: str = NAMESPACE) -> dict:
+                namespace: str = NAMESPACE, markers: bool = True) -> dict:
     """Create nodes of the demo on ``context`` under ``namespace``; returns name -> node.
 
     Every node by default (one process, as the tests use it). ``viewer=False`` / ``climb=False``
     / ``driver=False`` / ``kinematics=False`` leave out the viewer / climbing node / simulated
     driver / IK and FK nodes (the demo runs the driver and the robot's nodes in processes of
     their own: :func:`start_driver`, :func:`start_robot_nodes`); ``driver_rate`` is the
-    simulated driver's actuators/state rate [Hz].
+    simulated driver's actuators/state rate [Hz]; ``markers`` adds markers_node with the viewer.
+    Each node reads its parameter file first (:func:`rrps_teleop.params.parameter_overrides`).
 
     Raises ValueError / RobotDescriptionError with a clear message for bad arguments.
     """
@@ -95,6 +106,9 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
                   file=sys.stderr)
         else:
             plan.append(('climb_node', ClimbNode, robot_param))
+    if viewer and markers:
+        from .nodes.markers_node import MarkersNode
+        plan.append(('markers_node', MarkersNode, robot_param))
     if viewer:
         from .nodes.viewer_node import ViewerNode
         plan.append(('viewer_node', ViewerNode, robot_param + [
@@ -103,12 +117,20 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
     nodes: dict = {}
     try:
         for name, cls, overrides in plan:
-            nodes[name] = cls(context=context, namespace=namespace, parameter_overrides=overrides)
+            nodes[name] = cls(context=context, namespace=namespace,
+                              parameter_overrides=_with_file(name, overrides))
     except BaseException:
         for node in nodes.values():
             node.destroy_node()
         raise
     return nodes
+
+
+def _with_file(node: str, overrides: list) -> list:
+    """The node's parameter file, then ``overrides`` (which win)."""
+    from .params import parameter_overrides
+    explicit = {p.name for p in overrides}
+    return [p for p in parameter_overrides(node) if p.name not in explicit] + list(overrides)
 
 
 def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE) -> subprocess.Popen:
@@ -119,7 +141,9 @@ def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE)
     :func:`rrps_kinematics.supervision.stop_children`.
     """
     from rrps_kinematics.supervision import start_child
+    from .params import params_file_arguments
     return start_child([sys.executable, '-m', 'rrps_sim.nodes.driver_node', '--ros-args',
+                        *params_file_arguments('driver_node'),
                         '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
                         '-p', f'rate:={float(rate)}'])
 
@@ -127,8 +151,24 @@ def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE)
 def start_robot_nodes(*, robot: str, namespace: str = NAMESPACE) -> subprocess.Popen:
     """The robot computer's nodes (:data:`ROBOT_NODES`) composed in one process of their own."""
     from rrps_kinematics.supervision import start_child
+    from .params import params_file_arguments
     return start_child([sys.executable, '-m', 'rrps_teleop.compose', *ROBOT_NODES, '--ros-args',
+                        *params_file_arguments(*ROBOT_NODES),
                         '-r', f'__ns:={namespace}', '-p', f'robot:={robot}'])
+
+
+def start_recorder(*, robot: str, output_dir: str, record: bool = False,
+                   namespace: str = NAMESPACE) -> subprocess.Popen:
+    """recorder_node in a process of its own: the flight recorder (the last 60 s, written on a
+    fault or on the viewer's "Save last 60 s") and, with ``record``, the whole session."""
+    from rrps_kinematics.supervision import start_child
+
+    from .params import params_file_arguments
+    return start_child([sys.executable, '-m', 'rrps_teleop.nodes.recorder_node', '--ros-args',
+                        *params_file_arguments('recorder_node'),
+                        '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
+                        '-p', f'output_dir:={output_dir}',
+                        '-p', f'record:={"true" if record else "false"}'])
 
 
 def wait_for_robot(executor, context, node, children: list[subprocess.Popen],
@@ -160,6 +200,7 @@ def _banner(viewer) -> str:
     return (f'\nrrps demo: the pole climber is live.\n'
             f'  viewer:         {viewer.url}\n'
             f'  operator token: {viewer.token}\n'
+            f'  robot for RViz2/Foxglove: {NAMESPACE}/robot/markers (MarkerArray, frame ring_a)\n'
             f'  (every browser is read-only until it enters the token; Ctrl-C stops everything)\n')
 
 
@@ -199,7 +240,9 @@ def main(argv=None) -> int:
         except (RobotDescriptionError, ValueError) as exc:
             print(f'error: {exc}', file=sys.stderr)
             return 2
-        children = [start_driver(robot=args.robot), start_robot_nodes(robot=args.robot)]
+        children = [start_driver(robot=args.robot), start_robot_nodes(robot=args.robot),
+                    start_recorder(robot=args.robot, output_dir=args.recordings,
+                                   record=args.record)]
         # A child that dies ends the demo (the robot is gone), with an error status.
         for child in children:
             threading.Thread(target=lambda c=child: (c.wait(), stop.set()), daemon=True).start()

@@ -38,6 +38,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument('--topics', nargs='+', default=None, help='only these recorded topics')
     p.add_argument('--allow-commands', action='store_true',
                    help='publish the command topics on their live names (moves a live robot!)')
+    p.add_argument('--namespace', default='/rrps',
+                   help='namespace of the replay node, its replay/status and the remapped '
+                        'command topics\' viewer (default /rrps; recorded topics keep their names)')
     p.add_argument('--remap-prefix', default='replay',
                    help='where the command topics go otherwise (default replay)')
     return p
@@ -55,7 +58,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print('error: --rate must be 0.01..100 and --start >= 0', file=sys.stderr)
         return 2
     files = ','.join(str(Path(f).resolve()) for f in args.files)
-    ros = ['-p', f'files:=[{files}]', '-p', f'rate:={float(args.rate)}',
+    ros = ['-r', f'__ns:={args.namespace}', '-p', f'files:=[{files}]', '-p', f'rate:={float(args.rate)}',
            '-p', f'start:={float(args.start)}',
            '-p', f'paused:={"true" if args.paused else "false"}',
            '-p', f'loop:={"true" if args.loop else "false"}',

@@ -65,7 +65,8 @@ from rrps_sim.interfaces import GRIPPERS_STATE, gripper_service
 from ..interfaces import (CLIMB_STATUS, CLIMB_STEP_DOWN, CLIMB_STEP_UP, MASTER_POSE,
                           MASTER_TARGET_POSE, TELEOP_ENABLE, TELEOP_STATUS, ClimbStatus,
                           TeleopStatus, odometry_topic)
-from ..viewer import Frame, Pose, Trail, ViewerServer, robot_figure, world_ring_poses
+from ..viewer import Frame, Pose, Trail, ViewerServer, robot_figure, send_file, world_ring_poses
+from .viewer_recording import ViewerRecording
 
 _LEVEL_NAMES = {DiagnosticStatus.OK: 'OK', DiagnosticStatus.WARN: 'WARN',
                 DiagnosticStatus.ERROR: 'ERROR', DiagnosticStatus.STALE: 'STALE'}
@@ -208,6 +209,9 @@ class ViewerNode(Node):
             'teleop': self.create_client(SetParametersAtomically,
                                         'teleop_node/set_parameters_atomically'),
         }
+        self.recording = ViewerRecording(  # "Save last 60 s", the replay timeline (issue 12)
+            self, tell=lambda c, m, ok: self.viewer.tell(c, m, ok=ok),
+            send_file=lambda c, name, content: send_file(self.viewer.server, c, name, content))
         self.create_timer(1.0 / enable_rate, self._tick)
 
         self.viewer = ViewerServer(
@@ -295,7 +299,8 @@ class ViewerNode(Node):
             for name, value in zip(gmsg.name, gmsg.position):
                 if name in grippers and math.isfinite(value):
                     grippers[name] = float(value)
-        frame = Frame(grippers=grippers, trails=trails, plot=plot)
+        frame = Frame(grippers=grippers, trails=trails, plot=plot,
+                      replay=self.recording.replay_status())
         state = latest.get(ACTUATORS_STATE)
         efforts = state[1] if state is not None else None
         pose_msg = latest.get(POSE)
@@ -398,6 +403,12 @@ class ViewerNode(Node):
     def set_mapping(self, client_id: int, mode: str, rotation_mode: str, scale: float) -> None:
         self._actions.put(('mapping', client_id, (mode, rotation_mode, scale)))
 
+    def save_flight_recording(self, client_id: int) -> None:
+        self._actions.put(('recording', client_id, ('save',)))
+
+    def replay_control(self, client_id: int, **changes) -> None:
+        self._actions.put(('recording', client_id, ('replay', changes)))
+
     def master_target(self, client_id: int, world_T_handle: Pose | None) -> None:
         """The gizmo moved (or was removed: None). Streamed by the timer while control is held."""
         with self._lock:
@@ -426,7 +437,11 @@ class ViewerNode(Node):
             if not self.control.may_control(client_id):
                 self.viewer.tell(client_id, 'read-only: you do not have control', ok=False)
                 continue
+            if kind == 'recording':
+                self.recording.handle(client_id, arg)
+                continue
             self._call(kind, client_id, arg)
+        self.recording.poll()
 
     def _call(self, kind: str, client_id: int, arg) -> None:
         if kind == 'step':

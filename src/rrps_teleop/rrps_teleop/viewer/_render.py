@@ -26,6 +26,7 @@ import viser.uplot
 from rrps_kinematics.geometry import RobotGeometry
 
 from ._control import ControlResult, OperatorControl
+from ._recording import RecordingControls
 from rrps_kinematics.pose import Pose
 
 from ._scene import RobotFigure, torus_mesh
@@ -70,6 +71,7 @@ class Frame:
     trails: dict[str, np.ndarray] = field(default_factory=dict)
     panel: str = ''
     plot: tuple[np.ndarray, np.ndarray] | None = None
+    replay: object | None = None  # a ReplayStatus while a replay runs (the timeline)
 
 
 class _ClientControls:
@@ -110,6 +112,9 @@ class _ClientControls:
                 self.grip_buttons[(ring, True)] = gui.add_button(f'Close {ring}')
                 self.grip_buttons[(ring, False)] = gui.add_button(f'Open {ring}', color='orange')
         self.last_message = gui.add_markdown('', order=3)
+        self.recording = RecordingControls(  # "Save last 60 s" and the replay timeline
+            client, server.actions, may_control=control.may_control,
+            refused=lambda c: server.tell(c, 'read-only: you do not have control', ok=False))
 
         def guarded(fn: Callable[[], ControlResult | None]):
             def callback(event) -> None:
@@ -190,6 +195,7 @@ class _ClientControls:
             handle.disabled = not controlling
         if not controlling and self.clutch.value:
             self.clutch.value = False
+        self.recording.sync(controlling)
         if controlling and self.gizmo is None:
             self._add_gizmo(handle_pose)
         elif not controlling and self.gizmo is not None:
@@ -360,6 +366,9 @@ class ViewerServer:
             self._last_panel = now
         with self._lock:
             self._handle_pose = frame.master_handle
+            clients = list(self._clients.values())
+        for controls in clients:
+            controls.recording.show(frame.replay)
 
     # --- panel -------------------------------------------------------------------------------
 
