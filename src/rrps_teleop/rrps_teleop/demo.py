@@ -12,10 +12,11 @@ signal), and Ctrl-C or SIGTERM stops all three. The viewer's URL and operator to
 printed once the robot is up.
 
 Every node reads its parameter file (``config/<node>.yaml`` of its package, :mod:`rrps_teleop.params`)
-before the demo's own settings (robot, rate, host, port, token), which win. A flight recorder
-(``recorder_node``, a process of its own) keeps the last 60 s for the viewer's "Save last 60 s"
-and for fault dumps, in ``--recordings`` (``rrps_recordings``); ``--record`` also records the
-whole session there. ``markers_node`` publishes the robot for RViz2 and Foxglove.
+before the demo's own settings (robot, rate, host, port, token), which win. A fourth process
+runs the observers: the flight recorder (``recorder_node``: the last 60 s for the viewer's
+"Save last 60 s" and for fault dumps, in ``--recordings``, default ``rrps_recordings``;
+``--record`` also records the whole session there) and ``markers_node`` (the robot for RViz2
+and Foxglove).
 
 ``--headless`` runs no browser: a scripted teleop session (the operator's handle moves the
 master, a deadman stream engages the mapping, the slave follows; releasing the deadman holds the
@@ -36,7 +37,7 @@ import threading
 import time
 
 __all__ = ['main', 'build_stack', 'start_driver', 'start_robot_nodes', 'start_recorder',
-           'ROBOT_NODES', 'OPERATOR_NODES']
+           'ROBOT_NODES', 'OPERATOR_NODES', 'OBSERVER_NODES']
 
 NAMESPACE = '/rrps'
 #: The robot computer's nodes (one process) and the operator station's (the demo's own process).
@@ -68,14 +69,14 @@ def _parser() -> argparse.ArgumentParser:
 def build_stack(context, *, robot: str, host: str, port: int, token: str,
                 viewer: bool = True, climb: bool = True, driver: bool = True,
                 kinematics: bool = True, driver_rate: float = 500.0,
-                namespace: str = NAMESPACE, markers: bool = True) -> dict:
+                namespace: str = NAMESPACE) -> dict:
     """Create nodes of the demo on ``context`` under ``namespace``; returns name -> node.
 
     Every node by default (one process, as the tests use it). ``viewer=False`` / ``climb=False``
     / ``driver=False`` / ``kinematics=False`` leave out the viewer / climbing node / simulated
     driver / IK and FK nodes (the demo runs the driver and the robot's nodes in processes of
     their own: :func:`start_driver`, :func:`start_robot_nodes`); ``driver_rate`` is the
-    simulated driver's actuators/state rate [Hz]; ``markers`` adds markers_node with the viewer.
+    simulated driver's actuators/state rate [Hz].
     Each node reads its parameter file first (:func:`rrps_teleop.params.parameter_overrides`).
 
     Raises ValueError / RobotDescriptionError with a clear message for bad arguments.
@@ -106,9 +107,6 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
                   file=sys.stderr)
         else:
             plan.append(('climb_node', ClimbNode, robot_param))
-    if viewer and markers:
-        from .nodes.markers_node import MarkersNode
-        plan.append(('markers_node', MarkersNode, robot_param))
     if viewer:
         from .nodes.viewer_node import ViewerNode
         plan.append(('viewer_node', ViewerNode, robot_param + [
@@ -157,15 +155,20 @@ def start_robot_nodes(*, robot: str, namespace: str = NAMESPACE) -> subprocess.P
                         '-r', f'__ns:={namespace}', '-p', f'robot:={robot}'])
 
 
+#: The observers: the flight recorder and the robot's markers for RViz2 / Foxglove.
+OBSERVER_NODES = ('recorder_node', 'markers_node')
+
+
 def start_recorder(*, robot: str, output_dir: str, record: bool = False,
                    namespace: str = NAMESPACE) -> subprocess.Popen:
-    """recorder_node in a process of its own: the flight recorder (the last 60 s, written on a
-    fault or on the viewer's "Save last 60 s") and, with ``record``, the whole session."""
+    """The observers (:data:`OBSERVER_NODES`) in a process of their own, off the command path:
+    the flight recorder (the last 60 s, written on a fault or on the viewer's "Save last 60 s";
+    with ``record`` the whole session too) and markers_node."""
     from rrps_kinematics.supervision import start_child
 
     from .params import params_file_arguments
-    return start_child([sys.executable, '-m', 'rrps_teleop.nodes.recorder_node', '--ros-args',
-                        *params_file_arguments('recorder_node'),
+    return start_child([sys.executable, '-m', 'rrps_teleop.compose', *OBSERVER_NODES,
+                        '--ros-args', *params_file_arguments(*OBSERVER_NODES),
                         '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
                         '-p', f'output_dir:={output_dir}',
                         '-p', f'record:={"true" if record else "false"}'])

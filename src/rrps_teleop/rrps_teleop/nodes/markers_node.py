@@ -84,10 +84,11 @@ class MarkersNode(Node):
             self, 'structure_period', 1.0, 'the structure is re-sent this often [s]',
             min_value=0.1, max_value=60.0, read_only=True)
         self._structure = None
-        if structure:
+        if structure:  # static: its message is built once (thousands of points)
             from ..structures import make_structure
             vertices, faces = make_structure(structure, length).mesh()
-            self._structure = structure_marker(vertices, faces)
+            self._structure = marker_msg(structure_marker(vertices, faces),
+                                         self.get_clock().now().to_msg())
         self._lock = threading.Lock()
         self._latest: dict[str, object] = {}
         self._structure_due = 0.0
@@ -151,13 +152,15 @@ class MarkersNode(Node):
             return
         now = self.get_clock().now()
         t = now.nanoseconds * 1e-9
-        if self._structure is not None and t >= self._structure_due:
-            specs = specs + [self._structure]
-            self._structure_due = t + self.structure_period
         if not specs:
             return
         stamp = now.to_msg()
-        self._pub.publish(MarkerArray(markers=[marker_msg(s, stamp) for s in specs]))
+        markers = [marker_msg(s, stamp) for s in specs]
+        if self._structure is not None and t >= self._structure_due:
+            self._structure.header.stamp = stamp
+            markers.append(self._structure)
+            self._structure_due = t + self.structure_period
+        self._pub.publish(MarkerArray(markers=markers))
         self.published += 1
 
 

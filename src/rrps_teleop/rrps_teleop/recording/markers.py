@@ -97,8 +97,8 @@ def structure_marker(vertices: np.ndarray, faces: np.ndarray) -> MarkerSpec:
 
 
 def _robot_in(frame: str, ns_prefix: str, frame_T_a: Pose, geometry: RobotGeometry,
-              a_T_b: Pose, efforts, grippers: dict, target: Pose | None) -> list[MarkerSpec]:
-    figure = robot_figure(geometry, a_T_b=a_T_b, world_T_a=frame_T_a, efforts=efforts)
+              a_T_b: Pose, figure, grippers: dict, target: Pose | None) -> list[MarkerSpec]:
+    """The robot's markers in ``frame``; ``figure`` is its robot_figure in ring_a."""
     size = geometry.characteristic_length
     line = max(2.0 * geometry.leg_radius, 0.004 * size)
     r_a = ring_radius(geometry.ring_a_anchors)
@@ -112,7 +112,8 @@ def _robot_in(frame: str, ns_prefix: str, frame_T_a: Pose, geometry: RobotGeomet
     ]
     colours = np.repeat(figure.leg_colours.astype(float) / 255.0, 2, axis=0)
     out.append(MarkerSpec(f'{ns_prefix}legs', 0, 'line_list', frame, (1.0, 1.0, 1.0, 1.0),
-                          (line, 0.0, 0.0), points=figure.leg_points.reshape(-1, 3),
+                          (line, 0.0, 0.0),
+                          points=frame_T_a.apply(figure.leg_points.reshape(-1, 3)),
                           colours=np.hstack([colours, np.ones((12, 1))])))
     for k, (ring, pose, radius) in enumerate((('ring_a', frame_T_a, r_a),
                                                ('ring_b', frame_T_b, r_b))):
@@ -135,8 +136,9 @@ def robot_markers(geometry: RobotGeometry, a_T_b: Pose, *, efforts=None,
     ``grippers`` maps ring -> closed (True/False) or None (unknown); ``target`` is the
     commanded a_T_b (the ghost); ``efforts`` the legs' forces [N] (the force margin)."""
     grippers = grippers or {}
-    out = _robot_in(RING_A_FRAME, '', Pose(), geometry, a_T_b, efforts, grippers, target)
+    figure = robot_figure(geometry, a_T_b=a_T_b, world_T_a=Pose(), efforts=efforts)
+    out = _robot_in(RING_A_FRAME, '', Pose(), geometry, a_T_b, figure, grippers, target)
     if world_T_a is not None:
-        out += _robot_in(WORLD_FRAME, 'world/', world_T_a, geometry, a_T_b, efforts, grippers,
+        out += _robot_in(WORLD_FRAME, 'world/', world_T_a, geometry, a_T_b, figure, grippers,
                          target)
     return out
