@@ -4,7 +4,7 @@ Starts the demo's processes (the driver at 500 Hz; IK, FK and climbing; master a
 master running its circle trajectory while this script holds the deadman, so IK streams
 commands and the driver moves), then measures three phases of ``--seconds`` each in the same
 run: recorder off, recorder on (``rrps-record``: every topic at full rate to a zstd MCAP file,
-the 60 s flight-recorder ring and /tf at 50 Hz), recorder off again. ``--climb`` starts a climb
+the 60 s flight-recorder ring and /tf at 10 Hz), recorder off again. ``--climb`` starts a climb
 step at the start of every phase as well (up, down, up), so climbing runs in each phase.
 
 * CPU: user + system time of every process of the stack (and the recorder's), from

@@ -25,6 +25,7 @@ from rrps_kinematics.geometry import RobotGeometry
 from rrps_kinematics.inverse import inverse_kinematics
 from rrps_kinematics.interfaces import RING_A_FRAME, RING_B_FRAME, WORLD_FRAME
 from rrps_kinematics.pose import Pose
+from rrps_kinematics.rotations import matrix_to_quat_xyzw
 
 from ..viewer import robot_figure
 
@@ -80,11 +81,11 @@ def robot_transforms(geometry: RobotGeometry, a_T_b: Pose,
     if world_T_a is not None:
         out.append((WORLD_FRAME, RING_A_FRAME, world_T_a))
     out.append((RING_A_FRAME, RING_B_FRAME, a_T_b))
-    frames = np.asarray(ik.leg_frames)
+    quaternions = matrix_to_quat_xyzw(np.asarray(ik.leg_frames))  # the six at once
     lengths = np.asarray(ik.lengths)
     for i in range(6):
         base, tip = leg_link_names(i + 1)
-        out.append((RING_A_FRAME, base, Pose.from_rotation(geometry.ring_a_anchors[i], frames[i])))
+        out.append((RING_A_FRAME, base, Pose(geometry.ring_a_anchors[i], quaternions[i])))
         out.append((base, tip, Pose((0.0, 0.0, float(lengths[i])))))
     return out
 

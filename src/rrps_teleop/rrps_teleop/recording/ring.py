@@ -35,12 +35,14 @@ class MessageRing:
             items = self._items
             items.append((topic, log_time_ns, data))
             self._bytes += len(data)
-            horizon = log_time_ns - self.window_ns
-            while items and items[0][1] < horizon:
-                self._bytes -= len(items.popleft()[2])
-            while self._bytes > self.max_bytes and len(items) > 1:
-                self._bytes -= len(items.popleft()[2])
-                self.dropped_for_memory += 1
+            if items[0][1] < log_time_ns - self.window_ns:
+                horizon = log_time_ns - self.window_ns
+                while items[0][1] < horizon:
+                    self._bytes -= len(items.popleft()[2])
+            if self._bytes > self.max_bytes:
+                while self._bytes > self.max_bytes and len(items) > 1:
+                    self._bytes -= len(items.popleft()[2])
+                    self.dropped_for_memory += 1
 
     def snapshot(self) -> list[tuple[str, int, bytes]]:
         """A copy of the window, oldest first."""
