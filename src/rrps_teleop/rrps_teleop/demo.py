@@ -1,14 +1,15 @@
 """rrps-demo: the whole stack with the web viewer (``./rrps demo``).
 
-The demo runs as the system would on a robot and an operator station, in three processes:
+The demo runs as the system would on a robot and an operator station, in four processes:
 
 * the simulated hardware (``driver_node``, 500 Hz), as a real robot's driver;
 * the robot computer's nodes, IK, FK and climbing, composed in one process (``rrps-compose``);
-* the operator station, master, teleop and the viewer, in this process.
+* the operator station, master, teleop and the viewer, in this process;
+* the observers, the flight recorder and markers_node (:func:`start_recorder`).
 
 The 500 Hz state fan-out and the viewer's web server therefore never share an executor (or a
 GIL) with the command path of the robot. The children die with this process (a parent-death
-signal), and Ctrl-C or SIGTERM stops all three. The viewer's URL and operator token are
+signal), and Ctrl-C or SIGTERM stops them all. The viewer's URL and operator token are
 printed once the robot is up.
 
 Every node reads its parameter file (``config/<node>.yaml`` of its package, :mod:`rrps_teleop.params`)
