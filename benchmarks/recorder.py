@@ -17,6 +17,11 @@ not change (within the noise seen between the two recorder-off phases, at least 
 The recording of the "on" phase is read back with the mcap reader: channels, counts, size.
 
     python benchmarks/recorder.py [--seconds 20] [--climb]
+    python benchmarks/recorder.py --session 60     # one recorded session: teleop, then a climb
+
+``--session S`` records one session instead: teleop motion for the first third, then the
+deadman is released and a climb step up runs, S seconds in all; it prints the file's channels,
+message counts and size (no off/on comparison).
 """
 
 from __future__ import annotations
@@ -54,10 +59,54 @@ def cpu_seconds(pids) -> float:
     return total
 
 
+def _report_files(files) -> None:
+    from mcap.reader import make_reader
+    total = sum(f.stat().st_size for f in files)
+    for f in files:
+        with open(f, 'rb') as stream:
+            summary = make_reader(stream).get_summary()
+        st = summary.statistics
+        seconds = (st.message_end_time - st.message_start_time) * 1e-9
+        print(f'{f.name}: {f.stat().st_size / 1e6:.2f} MB, {seconds:.1f} s, {st.message_count} '
+              f'messages, {st.chunk_count} zstd chunks')
+        print(f'{"channel":<32}{"schema":<40}{"messages":>10}{"rate [Hz]":>11}')
+        for cid, channel in sorted(summary.channels.items(), key=lambda c: c[1].topic):
+            n = st.channel_message_counts.get(cid, 0)
+            print(f'{channel.topic:<32}{summary.schemas[channel.schema_id].name:<40}{n:>10d}'
+                  f'{n / max(seconds, 1e-9):>11.1f}')
+    print(f'total {total / 1e6:.2f} MB')
+
+
+def _session(seconds: float, out_dir: Path, deadman, climb, Trigger) -> int:
+    """Record ``seconds`` of teleop motion, then a climb step; print the recording."""
+    recorder = subprocess.Popen(
+        [sys.executable, '-m', 'rrps_teleop.record_cli', '-o', str(out_dir), '--prefix',
+         'session', '--namespace', '/rrps'], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        time.sleep(3.0)  # discovery
+        t0 = time.monotonic()
+        time.sleep(seconds / 3.0)
+        deadman.clear()
+        time.sleep(0.5)
+        future = climb['up'].call_async(Trigger.Request())
+        wait_until(future.done, 10.0)
+        response = future.result()
+        print(f'climb step up: {response.message if response else "no answer"}')
+        time.sleep(max(0.0, seconds - (time.monotonic() - t0)))
+    finally:
+        recorder.send_signal(signal.SIGINT)
+        recorder.wait(timeout=30.0)
+    print(f'\nA {seconds:g} s session (teleop motion, then a climb step), recorded by rrps-record:')
+    _report_files(sorted(out_dir.glob('session_*.mcap')))
+    return 0
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--seconds', type=float, default=20.0, help='length of each phase [s]')
     parser.add_argument('--climb', action='store_true', help='a climb step in every phase')
+    parser.add_argument('--session', type=float, default=0.0,
+                        help='record one teleop + climb session of this many seconds instead')
     args = parser.parse_args()
 
     import rclpy
@@ -92,7 +141,9 @@ def main() -> int:
 
     node.create_subscription(JointState, 'actuators/state', on_state, STATE_QOS)
     enable = node.create_publisher(Bool, 'teleop/enable', COMMAND_QOS)
-    node.create_timer(0.05, lambda: enable.publish(Bool(data=True)))  # hold the deadman
+    deadman = threading.Event()
+    deadman.set()
+    node.create_timer(0.05, lambda: deadman.is_set() and enable.publish(Bool(data=True)))
     climb = {'up': node.create_client(Trigger, 'climb/step_up'),
              'down': node.create_client(Trigger, 'climb/step_down')}
     executor = make_executor(context, 'events')
@@ -115,6 +166,8 @@ def main() -> int:
                                                     string_value='circle'))]))
         wait_until(future.done, 10.0)
         time.sleep(3.0)
+        if args.session > 0.0:
+            return _session(args.session, out_dir, deadman, climb, Trigger)
         pids = [p.pid for p in stack]
         for i, (name, on) in enumerate((('recorder off', False), ('recorder on', True),
                                         ('recorder off again', False))):
@@ -169,18 +222,8 @@ def main() -> int:
     print(f'driver period p99: {p99_on:.3f} ms on vs {p99_off[0]:.3f} / {p99_off[1]:.3f} ms off '
           f'(noise {noise:.3f} ms): {"MET" if p99_ok else "MISSED"}')
 
-    from mcap.reader import make_reader
-    files = sorted(out_dir.glob('bench_*.mcap'))
-    total = sum(f.stat().st_size for f in files)
-    print(f'\nrecording of the "on" phase: {", ".join(f.name for f in files)}, '
-          f'{total / 1e6:.2f} MB ({out_dir})')
-    print(f'{"channel":<32}{"schema":<40}{"messages":>10}')
-    for f in files:
-        with open(f, 'rb') as stream:
-            summary = make_reader(stream).get_summary()
-        for cid, channel in sorted(summary.channels.items(), key=lambda c: c[1].topic):
-            print(f'{channel.topic:<32}{summary.schemas[channel.schema_id].name:<40}'
-                  f'{summary.statistics.channel_message_counts.get(cid, 0):>10d}')
+    print(f'\nrecording of the "on" phase ({out_dir}):')
+    _report_files(sorted(out_dir.glob('bench_*.mcap')))
     return 0 if cpu_ok and p99_ok else 1
 
 
