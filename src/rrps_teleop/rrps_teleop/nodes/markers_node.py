@@ -17,7 +17,6 @@ message, the markers are built at ``rate`` Hz.
 
 from __future__ import annotations
 
-import math
 import threading
 
 import numpy as np

@@ -22,7 +22,6 @@ the replay is, at ``status_rate`` Hz: the viewer draws its timeline from it.
 from __future__ import annotations
 
 import importlib
-import math
 import threading
 import time
 
