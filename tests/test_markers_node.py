@@ -3,6 +3,8 @@ places it; legs coloured as the viewer colours them; grippers and the target gho
 
 from __future__ import annotations
 
+import os
+import secrets
 import math
 
 import numpy as np
@@ -12,7 +14,8 @@ from ros_harness import Probe, Spinner, wait_for
 
 pytestmark = pytest.mark.ros
 
-NS = '/rrps'
+# A namespace of this run only: other ROS processes on the machine may share the domain id.
+NS = f'/rrps_{os.getpid()}_{secrets.token_hex(3)}'
 
 
 def test_markers_of_the_robot_in_ring_a_and_world(ros_context):

@@ -4,6 +4,8 @@ rate through the node's parameters, reported on replay/status."""
 
 from __future__ import annotations
 
+import os
+import secrets
 import time
 
 import numpy as np
@@ -14,7 +16,8 @@ from ros_harness import Probe, Spinner, wait_for
 
 pytestmark = pytest.mark.ros
 
-NS = '/rrps'
+# A namespace of this run only: other ROS processes on the machine may share the domain id.
+NS = f'/rrps_{os.getpid()}_{secrets.token_hex(3)}'
 
 
 def _replay(context, files, **params):
@@ -22,7 +25,7 @@ def _replay(context, files, **params):
 
     from rrps_teleop.nodes.replay_node import ReplayNode
     overrides = {'files': [str(f) for f in files], **params}
-    return ReplayNode(context=context, parameter_overrides=[
+    return ReplayNode(context=context, namespace=NS, parameter_overrides=[
         Parameter(k, value=v) for k, v in overrides.items()])
 
 
@@ -63,23 +66,34 @@ def test_replay_into_a_fresh_fk_and_viewer_reproduces_the_recorded_poses(ros_con
              FkNode(context=ros_context, namespace=NS, parameter_overrides=robot)]
     probe = Probe(context=ros_context, name='session_probe', namespace=NS)
     targets = probe.publisher(PoseStamped, 'target_pose', command=True)
+    seen = probe.collect(PoseStamped, 'pose')
+
+    def moved_enough() -> bool:  # enough of a session, whatever the machine's load
+        z = [p.pose.position.z for p in list(seen)]
+        return len(z) >= 150 and max(z) - min(z) > 0.01
+
     with Spinner(ros_context, [recorder, *stack, probe]):
         assert wait_for(lambda: {f'{NS}/pose', f'{NS}/actuators/state'}
                         <= set(recorder._raw_subscriptions), timeout=15.0)
         assert wait_for(lambda: f'{NS}/target_pose' in recorder._raw_subscriptions, timeout=15.0)
         for i in range(75):  # 1.5 s: ring_b rises 15 mm and turns a little
             angle = 0.002 * i
-            targets.publish(target(probe, [0.0, 0.0, 0.42 + 2e-4 * i],
-                                   [0.0, 0.0, np.sin(angle / 2), np.cos(angle / 2)]))
+            msg = target(probe, [0.0, 0.0, 0.42 + 2e-4 * i],
+                         [0.0, 0.0, np.sin(angle / 2), np.cos(angle / 2)])
+            targets.publish(msg)
             time.sleep(0.02)
-        time.sleep(0.5)
+        # hold the last target (freshly stamped) until the robot got there
+        assert wait_for(lambda: moved_enough() or targets.publish(
+            target(probe, [0.0, 0.0, 0.42 + 2e-4 * 74], [0.0, 0.0, np.sin(0.074), np.cos(0.074)]))
+            or False, timeout=60.0, period=0.02)
+        time.sleep(0.3)
     path = tmp_path / 'session_0.mcap'
     recorded = {}
     with open(path, 'rb') as stream:
         reader = make_reader(stream, decoder_factories=[DecoderFactory()])
         for _, channel, _, pose in reader.iter_decoded_messages(topics=[f'{NS}/pose']):
             recorded[(pose.header.stamp.sec, pose.header.stamp.nanosec)] = pose
-    assert len(recorded) > 100
+    assert len(recorded) >= 150
     z = [p.pose.position.z for p in recorded.values()]
     assert max(z) - min(z) > 0.01  # the robot moved during the session
 
@@ -161,7 +175,7 @@ def test_command_topics_go_under_replay_unless_allowed(ros_context, tmp_path, al
                                                 qos=COMMAND_QOS),
              'teleop/enable': probe.collect(Bool, 'replay/teleop/enable', qos=COMMAND_QOS)}
     states = probe.collect(JointState, 'actuators/state')
-    statuses = probe.collect(DiagnosticStatus, '/replay/status')
+    statuses = probe.collect(DiagnosticStatus, 'replay/status')
     replay = _replay(ros_context, [tmp_path / 'commands.mcap'], paused=True,
                      allow_commands=allow)
     with Spinner(ros_context, [replay, probe]):
@@ -193,7 +207,7 @@ def test_pause_seek_and_rate_through_parameters_and_the_status(ros_context, tmp_
     probe = Probe(context=ros_context, namespace=NS)
     _, JointState, _ = _synthetic_recording(tmp_path / 'session.mcap', probe)
     states = probe.collect(JointState, 'actuators/state')
-    statuses = probe.collect(DiagnosticStatus, '/replay/status')
+    statuses = probe.collect(DiagnosticStatus, 'replay/status')
     replay = _replay(ros_context, [tmp_path / 'session.mcap'], paused=True)
     with Spinner(ros_context, [replay, probe]):
         assert wait_for(lambda: len(statuses) >= 3, timeout=10.0)

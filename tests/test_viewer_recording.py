@@ -4,6 +4,8 @@ replay node's seek, pause and rate."""
 
 from __future__ import annotations
 
+import os
+import secrets
 import socket
 import time
 
@@ -15,7 +17,8 @@ from ros_harness import Probe, Spinner, wait_for
 
 pytestmark = pytest.mark.ros
 
-NS = '/rrps'
+# A namespace of this run only: other ROS processes on the machine may share the domain id.
+NS = f'/rrps_{os.getpid()}_{secrets.token_hex(3)}'
 TOKEN = 'recording-test-token'
 
 
