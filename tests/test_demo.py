@@ -29,6 +29,12 @@ def _env(domain_id: int) -> dict:
             'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'PYTHONUNBUFFERED': '1'}
 
 
+@pytest.fixture(autouse=True)
+def _in_tmp_path(tmp_path, monkeypatch):
+    """The demo writes its flight recordings to ./rrps_recordings: keep them out of the tree."""
+    monkeypatch.chdir(tmp_path)
+
+
 def _command() -> list[str]:
     return [str(DEMO)] if DEMO.exists() else [sys.executable, '-m', 'rrps_teleop.demo']
 

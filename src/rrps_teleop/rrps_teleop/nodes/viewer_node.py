@@ -65,10 +65,11 @@ from rrps_kinematics.nodes.common import (
 from rrps_sim.interfaces import GRIPPERS_STATE, DriverStatus, gripper_service
 
 from ..interfaces import (CLIMB_RESUME, CLIMB_STATUS, CLIMB_STEP_DOWN, CLIMB_STEP_UP,
-                          MASTER_FEEDBACK, MASTER_POSE, MASTER_TARGET_POSE, OPERATOR_ROUND_TRIP, TELEOP_ENABLE,
-                          TELEOP_STATUS, ClimbStatus, TeleopStatus, odometry_topic)
-from ..viewer import (Frame, Pose, Trail, ViewerServer, WorkspaceView, robot_figure,
+                          MASTER_FEEDBACK, MASTER_POSE, MASTER_TARGET_POSE, OPERATOR_ROUND_TRIP,
+                          TELEOP_ENABLE, TELEOP_STATUS, ClimbStatus, TeleopStatus, odometry_topic)
+from ..viewer import (Frame, Pose, Trail, ViewerServer, WorkspaceView, robot_figure, send_file,
                       world_ring_poses)
+from .viewer_recording import ViewerRecording
 
 #: Length of the drawn master/feedback arrow per newton [m/N].
 FEEDBACK_ARROW = 0.01
@@ -237,6 +238,9 @@ class ViewerNode(Node):
             'resume': self.create_client(Trigger, CLIMB_RESUME),
         }
         self._round_trip_pub = self.create_publisher(Float64, OPERATOR_ROUND_TRIP, COMMAND_QOS)
+        self.recording = ViewerRecording(  # "Save last 60 s", the replay timeline (issue 12)
+            self, tell=lambda c, m, ok: self.viewer.tell(c, m, ok=ok),
+            send_file=lambda c, name, content: send_file(self.viewer.server, c, name, content))
         self.create_timer(1.0 / enable_rate, self._tick)
 
         self.viewer = ViewerServer(
@@ -329,7 +333,8 @@ class ViewerNode(Node):
             for name, value in zip(gmsg.name, gmsg.position):
                 if name in grippers and math.isfinite(value):
                     grippers[name] = float(value)
-        frame = Frame(grippers=grippers, trails=trails, plot=plot)
+        frame = Frame(grippers=grippers, trails=trails, plot=plot,
+                      replay=self.recording.replay_status())
         state = latest.get(ACTUATORS_STATE)
         efforts = state[1] if state is not None else None
         pose_msg = latest.get(POSE)
@@ -494,6 +499,11 @@ class ViewerNode(Node):
         """The controlling browser's round trip [s] (None: no controller or not measured yet)."""
         controller = self.control.controller
         return None if controller is None else self.viewer.links.round_trip(controller)
+    def save_flight_recording(self, client_id: int) -> None:
+        self._actions.put(('recording', client_id, ('save',)))
+
+    def replay_control(self, client_id: int, **changes) -> None:
+        self._actions.put(('recording', client_id, ('replay', changes)))
 
     def master_target(self, client_id: int, world_T_handle: Pose | None) -> None:
         """The gizmo moved (or was removed: None). Streamed by the timer while control is held."""
@@ -526,7 +536,11 @@ class ViewerNode(Node):
             if not self.control.may_control(client_id):
                 self.viewer.tell(client_id, 'read-only: you do not have control', ok=False)
                 continue
+            if kind == 'recording':
+                self.recording.handle(client_id, arg)
+                continue
             self._call(kind, client_id, arg)
+        self.recording.poll()
 
     def _call(self, kind: str, client_id: int, arg) -> None:
         if kind == 'step':

@@ -38,6 +38,8 @@ __all__ = [
     'RobotFigure',
     'Trail',
     'ViewerServer',
+    'RecordingControls',
+    'send_file',
     'WARN_FRACTION',
     'WorkspaceSnapshot',
     'WorkspaceView',
@@ -53,4 +55,7 @@ def __getattr__(name: str):
     if name in ('Frame', 'OperatorActions', 'ViewerServer'):
         from . import _render
         return getattr(_render, name)
+    if name in ('RecordingControls', 'send_file'):
+        from . import _recording
+        return getattr(_recording, name)
     raise AttributeError(f'module {__name__!r} has no attribute {name!r}')

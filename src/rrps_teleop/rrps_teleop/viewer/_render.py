@@ -27,6 +27,7 @@ from rrps_kinematics.geometry import RobotGeometry
 
 from ._control import ControlResult, OperatorControl
 from ._latency import LinkMonitor
+from ._recording import RecordingControls
 from rrps_kinematics.pose import Pose
 
 from ._scene import RobotFigure, torus_mesh
@@ -83,6 +84,7 @@ class Frame:
     master_workspace: tuple[np.ndarray, float] | None = None
     #: the limits felt on the master: an arrow (2, 3) [m, world] from its ring_b
     master_feedback: np.ndarray | None = None
+    replay: object | None = None  # a ReplayStatus while a replay runs (the timeline)
 
 
 class _ClientControls:
@@ -130,6 +132,9 @@ class _ClientControls:
                 self.grip_buttons[(ring, True)] = gui.add_button(f'Close {ring}')
                 self.grip_buttons[(ring, False)] = gui.add_button(f'Open {ring}', color='orange')
         self.last_message = gui.add_markdown('', order=3)
+        self.recording = RecordingControls(  # "Save last 60 s" and the replay timeline
+            client, server.actions, may_control=control.may_control,
+            refused=lambda c: server.tell(c, 'read-only: you do not have control', ok=False))
 
         def guarded(fn: Callable[[], ControlResult | None]):
             def callback(event) -> None:
@@ -214,6 +219,7 @@ class _ClientControls:
             handle.disabled = not controlling
         if not controlling and self.clutch.value:
             self.clutch.value = False
+        self.recording.sync(controlling)
         if controlling and self.gizmo is None:
             self._add_gizmo(handle_pose)
         elif not controlling and self.gizmo is not None:
@@ -400,6 +406,9 @@ class ViewerServer:
             self._last_panel = now
         with self._lock:
             self._handle_pose = frame.master_handle
+            clients = list(self._clients.values())
+        for controls in clients:
+            controls.recording.show(frame.replay)
         key = self._scene_key(frame)
         if key == self._drawn_key:
             return  # nothing moved: no scene message at all (an idle viewer costs little)
