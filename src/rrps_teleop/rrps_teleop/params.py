@@ -38,7 +38,7 @@ def config_file(node: str) -> Path:
                                                  get_package_share_directory)
         try:
             candidates.append(Path(get_package_share_directory(package)) / 'config')
-        except PackageNotFoundError:
+        except (PackageNotFoundError, OSError):  # not installed, or no AMENT_PREFIX_PATH
             pass
     except ImportError:
         pass
