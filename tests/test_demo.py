@@ -150,7 +150,7 @@ def test_a_killed_demo_takes_its_robot_processes_with_it_and_ctrl_c_stops_it_fas
                 if not line or 'is live' in line:  # the banner: the robot processes are up
                     break
             children = _children(proc.pid)
-            assert len(children) == 2, children  # the driver and the robot's nodes
+            assert len(children) == 3, children  # the driver, the robot's nodes, the observers
             if how == 'kill':
                 proc.kill()  # no chance to clean up: the parent-death signal stops them
                 proc.wait()

@@ -61,7 +61,8 @@ def test_replay_into_a_fresh_fk_and_viewer_reproduces_the_recorded_poses(ros_con
         Parameter('output_dir', value=str(tmp_path)), Parameter('prefix', value='session'),
         Parameter('discovery_period', value=0.1), Parameter('flight_recorder', value=False)])
     stack = [DriverNode(context=ros_context, namespace=NS,
-                        parameter_overrides=robot + [Parameter('rate', value=200.0)]),
+                        parameter_overrides=robot + [Parameter('rate', value=200.0),
+                                                             Parameter('auto_activate', value=True)]),
              IkNode(context=ros_context, namespace=NS, parameter_overrides=robot),
              FkNode(context=ros_context, namespace=NS, parameter_overrides=robot)]
     probe = Probe(context=ros_context, name='session_probe', namespace=NS)

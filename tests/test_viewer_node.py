@@ -98,6 +98,7 @@ def test_requests_run_only_for_the_controller_and_answers_reach_the_operator(ros
     from std_srvs.srv import SetBool
 
     from rrps_teleop.nodes.teleop_node import TeleopNode
+    from rrps_teleop.nodes.viewer_requests import OperatorRequest
     probe = Probe(context=ros_context)
 
     def refuse(request, response):
@@ -120,7 +121,7 @@ def test_requests_run_only_for_the_controller_and_answers_reach_the_operator(ros
         viewer.step(cid, 'down')                                # no climb node here
         assert wait_for(lambda: len(viewer.told) >= 3, timeout=3.0)
         assert 'climb/step_down is not available' in viewer.told[-1][1]
-        assert wait_for(lambda: viewer._service_clients['teleop'].service_is_ready(), 5.0)
+        assert wait_for(lambda: viewer.requests.ready(OperatorRequest.MAPPING), 5.0)
         viewer.set_mapping(cid, 'joint', 'absolute', 2.5)
         assert wait_for(lambda: len(viewer.told) >= 4, timeout=3.0)
         assert viewer.told[-1][2], viewer.told[-1]

@@ -48,6 +48,28 @@ from .errors import SingularPoseError
 from .forward import check_lengths
 from .geometry import RobotGeometry
 from .inverse import inverse_kinematics, pose_arrays, universal_joint_frames
+from .multibody_constraints import (
+    FLOPS_LEG_JACOBIAN,
+    FLOPS_LEG_RESIDUAL,
+    FLOPS_NORMALISATION,
+    FLOPS_ROTATION,
+    N_BODIES,
+    N_CONSTRAINTS,
+    N_COORDINATES,
+    N_DRIVING,
+    N_JOINT_CONSTRAINTS,
+    JointGeometry,
+    all_constraints,
+    all_jacobian,
+    body_slice,
+    leg_jacobian,
+    leg_residual,
+    leg_residual_with_rotations,
+    lower_link_body,
+    rotation,
+    rotation_into,
+    upper_link_body,
+)
 from .rotations import (
     euler_parameters_to_quat_xyzw,
     matrix_to_euler_parameters,
@@ -55,14 +77,6 @@ from .rotations import (
     quat_xyzw_to_euler_parameters,
     quat_xyzw_to_matrix,
 )
-
-from .multibody_constraints import (FLOPS_LEG_JACOBIAN, FLOPS_LEG_RESIDUAL,
-                                    FLOPS_NORMALISATION, FLOPS_ROTATION, N_BODIES,
-                                    N_CONSTRAINTS, N_COORDINATES, N_DRIVING, N_JOINT_CONSTRAINTS,
-                                    JointGeometry, all_constraints, all_jacobian, body_slice,
-                                    leg_jacobian, leg_residual,
-                                    leg_residual_with_rotations, lower_link_body, rotation,
-                                    rotation_into, upper_link_body)
 
 __all__ = [
     'FLOPS_LEG_JACOBIAN',

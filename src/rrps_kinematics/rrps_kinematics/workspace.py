@@ -47,10 +47,9 @@ import numpy as np
 from scipy import ndimage
 
 from .backend import use_numba
-from .limits import LIMIT_KINDS, limit_arrays
 from .geometry import RobotGeometry
 from .inverse import inverse_kinematics
-from .limits import margins
+from .limits import LIMIT_KINDS, limit_arrays, margins
 from .rotations import quat_multiply_xyzw, quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
 
 __all__ = [

@@ -20,8 +20,15 @@ import sys
 import traceback
 from typing import Sequence
 
-from rrps_kinematics.cli_support import (EXIT_BUG, EXIT_FAILED, EXIT_USAGE, OneLineParser,
-                                         UsageError, count, load_robot_or_usage_error)
+from rrps_kinematics.cli_support import (
+    EXIT_BUG,
+    EXIT_FAILED,
+    EXIT_USAGE,
+    OneLineParser,
+    UsageError,
+    count,
+    load_robot_or_usage_error,
+)
 
 from .gait import CSV_COLUMNS, GaitPlanner, PlanError
 from .structures import STRUCTURES, make_structure

@@ -148,6 +148,7 @@ def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
     it with :func:`rrps_kinematics.supervision.stop_children`.
     """
     from rrps_kinematics.supervision import start_child
+
     from .params import params_file_arguments
     return start_child([sys.executable, '-m', 'rrps_sim.nodes.driver_node', '--ros-args',
                         *params_file_arguments('driver_node'),
@@ -159,6 +160,7 @@ def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
 def start_robot_nodes(*, robot: str, namespace: str = NAMESPACE) -> subprocess.Popen:
     """The robot computer's nodes (:data:`ROBOT_NODES`) composed in one process of their own."""
     from rrps_kinematics.supervision import start_child
+
     from .params import params_file_arguments
     return start_child([sys.executable, '-m', 'rrps_teleop.compose', *ROBOT_NODES, '--ros-args',
                         *params_file_arguments(*ROBOT_NODES),
@@ -233,8 +235,7 @@ def main(argv=None) -> int:
     from rclpy.task import Future
 
     from rrps_kinematics.geometry import RobotDescriptionError
-    from rrps_kinematics.nodes.common import (freeze_startup_objects, make_executor,
-                                              spin_until_shutdown)
+    from rrps_kinematics.nodes.common import freeze_startup_objects, make_executor, spin_until_shutdown
     from rrps_kinematics.supervision import Respawner, exit_with_parent
 
     stop = threading.Event()

@@ -34,8 +34,7 @@ def config_file(node: str) -> Path:
     package = NODE_PACKAGES[node]
     candidates = []
     try:
-        from ament_index_python.packages import (PackageNotFoundError,
-                                                 get_package_share_directory)
+        from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
         try:
             candidates.append(Path(get_package_share_directory(package)) / 'config')
         except (PackageNotFoundError, OSError):  # not installed, or no AMENT_PREFIX_PATH

@@ -72,8 +72,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.max_size < 0 or args.max_duration < 0 or args.buffer <= 0:
         print('error: --max-size and --max-duration must be >= 0, --buffer > 0', file=sys.stderr)
         return 2
-    from .nodes.recorder_node import RecorderNode
     from rrps_kinematics.nodes.common import run_nodes
+
+    from .nodes.recorder_node import RecorderNode
     run_nodes([RecorderNode], ['rrps-record', '--ros-args', *ros_arguments(args),
                                *argv[split + 1:]])
     return 0

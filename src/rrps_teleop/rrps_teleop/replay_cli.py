@@ -67,8 +67,9 @@ def main(argv: Sequence[str] | None = None) -> int:
            '-p', f'remap_prefix:={args.remap_prefix}']
     if args.topics:
         ros += ['-p', f'topics:=[{",".join(args.topics)}]']
-    from .nodes.replay_node import ReplayNode
     from rrps_kinematics.nodes.common import run_nodes
+
+    from .nodes.replay_node import ReplayNode
     run_nodes([ReplayNode], ['rrps-replay', '--ros-args', *ros, *argv[split + 1:]])
     return 0
 

@@ -20,15 +20,41 @@ from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
-from ..commands import (CommandAges, CommandFreshness, RejectedCommand, limit_velocity,
-                        pose_limits, validate_target)
+from ..commands import (
+    CommandAges,
+    CommandFreshness,
+    RejectedCommand,
+    limit_velocity,
+    pose_limits,
+    validate_target,
+)
+from ..interfaces import (
+    ACTUATORS_COMMAND,
+    ACTUATORS_STATE,
+    LEG_NAMES,
+    RING_A_FRAME,
+    TARGET_POSE,
+    TARGET_RINGS,
+    IkStatus,
+    ring_joint,
+)
 from ..pose import InvalidPose, Pose
 from ..tool import TARGET_FRAMES, b_T_tool, ring_b_pose
-from ..interfaces import (ACTUATORS_COMMAND, ACTUATORS_STATE, LEG_NAMES, RING_A_FRAME, TARGET_POSE,
-                          TARGET_RINGS, IkStatus, ring_joint)
-from .common import (COMMAND_QOS, OK, STALE, STATE_QOS, WARN, Diagnostics, declare_parameter,
-                     declare_robot_parameter, joint_state_msg, lengths_from_joint_state,
-                     pose_from_msg, run_nodes, stamp_to_seconds)
+from .common import (
+    COMMAND_QOS,
+    OK,
+    STALE,
+    STATE_QOS,
+    WARN,
+    Diagnostics,
+    declare_parameter,
+    declare_robot_parameter,
+    joint_state_msg,
+    lengths_from_joint_state,
+    pose_from_msg,
+    run_nodes,
+    stamp_to_seconds,
+)
 
 __all__ = ['IkNode', 'main']
 

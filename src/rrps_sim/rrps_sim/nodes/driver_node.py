@@ -42,14 +42,26 @@ from std_srvs.srv import SetBool
 from rrps_kinematics.commands import CommandAges, CommandFreshness, RejectedCommand
 from rrps_kinematics.forward import forward_kinematics
 from rrps_kinematics.interfaces import ACTUATORS_COMMAND, ACTUATORS_STATE, ring_joint
-from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, LEG_NAMES, OK, STALE, STATE_QOS, WARN,
-                                          Diagnostics, declare_parameter, declare_robot_parameter,
-                                          joint_state_msg, lengths_from_joint_state, run_nodes,
-                                          stamp_to_seconds)
+from rrps_kinematics.nodes.common import (
+    COMMAND_QOS,
+    ERROR,
+    LEG_NAMES,
+    OK,
+    STALE,
+    STATE_QOS,
+    WARN,
+    Diagnostics,
+    declare_parameter,
+    declare_robot_parameter,
+    joint_state_msg,
+    lengths_from_joint_state,
+    run_nodes,
+    stamp_to_seconds,
+)
 
 from ..actuators import DynamicActuators, KinematicActuators, QuasiStaticEfforts, SensorFaults
 from ..grippers import Grippers
-from ..hardware_state import HardwareState, StateFileError, load_state, save_state
+from ..hardware_state import HardwareState, load_state, save_state
 from ..interfaces import GRIPPERS_STATE, RINGS, ActuatorMode, DriverStatus, gripper_service
 
 __all__ = ['DriverNode', 'main']

@@ -28,8 +28,15 @@ from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
 from rrps_kinematics.interfaces import ACTUATORS_STATE, POSE, TARGET_POSE
-from rrps_kinematics.nodes.common import (COMMAND_QOS, LATEST_QOS, STATE_QOS, declare_parameter,
-                                          declare_robot_parameter, pose_from_msg, run_nodes)
+from rrps_kinematics.nodes.common import (
+    COMMAND_QOS,
+    LATEST_QOS,
+    STATE_QOS,
+    declare_parameter,
+    declare_robot_parameter,
+    pose_from_msg,
+    run_nodes,
+)
 from rrps_kinematics.pose import Pose
 from rrps_sim.interfaces import GRIPPERS_STATE, gripper_states
 

@@ -43,13 +43,28 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
 from rrps_kinematics.interfaces import DIAGNOSTICS, POSE
-from rrps_kinematics.nodes.common import (OK, STATE_QOS, WARN, Diagnostics, declare_parameter,
-                                          declare_robot_parameter, pose_from_msg, run_nodes)
+from rrps_kinematics.nodes.common import (
+    OK,
+    STATE_QOS,
+    WARN,
+    Diagnostics,
+    declare_parameter,
+    declare_robot_parameter,
+    pose_from_msg,
+    run_nodes,
+)
 from rrps_kinematics.pose import Pose
 from rrps_sim.interfaces import GRIPPERS_STATE, gripper_states
 
-from ..interfaces import (CLIMB_STATUS, FLIGHT_RECORDER_SAVE, TELEOP_STATUS, TF, RecorderStatus,
-                          RecorderTrigger, odometry_topic)
+from ..interfaces import (
+    CLIMB_STATUS,
+    FLIGHT_RECORDER_SAVE,
+    TELEOP_STATUS,
+    TF,
+    RecorderStatus,
+    RecorderTrigger,
+    odometry_topic,
+)
 from ..recording.markers import robot_transforms
 from ..recording.mcap_files import COMPRESSIONS, RotatingRecording, TopicInfo, write_recording
 from ..recording.qos import QosSpec, request_for_offers

@@ -31,8 +31,7 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from rrps_kinematics.nodes.common import (OK, STALE, STATE_QOS, WARN, Diagnostics,
-                                          declare_parameter, run_nodes)
+from rrps_kinematics.nodes.common import OK, STALE, STATE_QOS, WARN, Diagnostics, declare_parameter, run_nodes
 
 from ..interfaces import REPLAY_PREFIX, REPLAY_STATUS, ReplayStatus
 from ..recording.qos import offer_for_replay

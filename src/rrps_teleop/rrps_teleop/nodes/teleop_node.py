@@ -33,26 +33,57 @@ from __future__ import annotations
 import math
 import time
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64
 
-from rrps_kinematics.interfaces import (ACTUATORS_COMMAND, DIAGNOSTICS, POSE, RING_A_FRAME,
-                                        TARGET_POSE, source_node)
+from rrps_kinematics.interfaces import (
+    ACTUATORS_COMMAND,
+    DIAGNOSTICS,
+    POSE,
+    RING_A_FRAME,
+    TARGET_POSE,
+    source_node,
+)
+from rrps_kinematics.nodes.common import (
+    COMMAND_QOS,
+    ERROR,
+    LATEST_QOS,
+    OK,
+    STALE,
+    STATE_QOS,
+    WARN,
+    Diagnostics,
+    declare_parameter,
+    declare_robot_parameter,
+    joint_state_msg,
+    lengths_from_joint_state,
+    pose_from_msg,
+    pose_to_msg,
+    run_nodes,
+    stamp_to_seconds,
+)
 from rrps_sim.interfaces import DriverStatus
-from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, LATEST_QOS, OK, STALE, STATE_QOS, WARN, Diagnostics,
-                                          declare_parameter, declare_robot_parameter, joint_state_msg,
-                                          lengths_from_joint_state, pose_from_msg, pose_to_msg, run_nodes,
-                                          stamp_to_seconds)
 
 from ..fixture import FixtureConfig, fixture_wrench, master_wrench
-from ..interfaces import (CLIMB_STATUS, MASTER_FEEDBACK, MASTER_FRAME, MASTER_POSE, MASTER_STATE,
-                          OPERATOR_ROUND_TRIP, TELEOP_ENABLE, TELEOP_STATUS, ClimbState,
-                          ClimbStatus, TeleopCode, TeleopStatus)
+from ..interfaces import (
+    CLIMB_STATUS,
+    MASTER_FEEDBACK,
+    MASTER_FRAME,
+    MASTER_POSE,
+    MASTER_STATE,
+    OPERATOR_ROUND_TRIP,
+    TELEOP_ENABLE,
+    TELEOP_STATUS,
+    ClimbState,
+    ClimbStatus,
+    TeleopCode,
+    TeleopStatus,
+)
 from ..mapping import MODES, ROTATION_MODES, TeleopConfig, TeleopMapping, TeleopOutput
 
 __all__ = ['TeleopNode', 'main']

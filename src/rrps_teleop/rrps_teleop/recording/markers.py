@@ -22,8 +22,8 @@ import dataclasses
 import numpy as np
 
 from rrps_kinematics.geometry import RobotGeometry
-from rrps_kinematics.inverse import inverse_kinematics
 from rrps_kinematics.interfaces import RING_A_FRAME, RING_B_FRAME, WORLD_FRAME
+from rrps_kinematics.inverse import inverse_kinematics
 from rrps_kinematics.pose import Pose
 from rrps_kinematics.rotations import matrix_to_quat_xyzw
 

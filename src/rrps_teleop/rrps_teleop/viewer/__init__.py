@@ -52,9 +52,12 @@ __all__ = [
 
 
 def __getattr__(name: str):
-    if name in ('Frame', 'OperatorActions', 'ViewerServer'):
+    if name in ('Frame', 'ViewerServer'):
         from . import _render
         return getattr(_render, name)
+    if name == 'OperatorActions':
+        from . import _operator_panel
+        return _operator_panel.OperatorActions
     if name in ('RecordingControls', 'send_file'):
         from . import _recording
         return getattr(_recording, name)

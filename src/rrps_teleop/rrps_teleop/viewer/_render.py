@@ -1,4 +1,5 @@
-"""The viser rendering layer: scene nodes, the status panel and the per-browser operator controls.
+"""The viser rendering layer: scene nodes, the status panel and the plot (the per-browser operator
+controls are in ``_operator_panel``).
 
 Scene names (all in the ``world`` frame, REP-103, z up):
 ``/structure`` (the climbed member), ``/robot/ring_a`` and ``/robot/ring_b`` (ring frames),
@@ -17,47 +18,24 @@ from __future__ import annotations
 import threading
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Protocol
+from typing import Callable
 
 import numpy as np
 import viser
 import viser.uplot
 
 from rrps_kinematics.geometry import RobotGeometry
-
-from ._control import ControlResult, OperatorControl
-from ._latency import LinkMonitor
-from ._recording import RecordingControls
 from rrps_kinematics.pose import Pose
 
+from ._control import OperatorControl
+from ._latency import LinkMonitor
+from ._operator_panel import ClientControls, OperatorActions
 from ._scene import RobotFigure, torus_mesh
 from ._workspace import WorkspaceSnapshot
 
-__all__ = ['Frame', 'OperatorActions', 'ViewerServer', 'TELEOP_MODES', 'ROTATION_MODES']
-
-TELEOP_MODES = ('cartesian', 'joint')
-ROTATION_MODES = ('relative', 'absolute')
+__all__ = ['Frame', 'ViewerServer']
 
 _LEG_SERIES_COLOURS = ('#1f77b4', '#ff7f0e', '#2ca02c', '#d62728', '#9467bd', '#8c564b')
-
-
-class OperatorActions(Protocol):
-    """What the controls ask of the robot; called only for the client holding control.
-
-    Each returns nothing at once; results come back through :meth:`ViewerServer.tell`.
-    """
-
-    def step(self, client_id: int, direction: str) -> None: ...
-
-    def set_gripper(self, client_id: int, ring: str, close: bool) -> None: ...
-
-    def set_mapping(self, client_id: int, mode: str, rotation_mode: str, scale: float) -> None: ...
-
-    def master_target(self, client_id: int, world_T_handle: Pose | None) -> None: ...
-
-    def set_driver_active(self, client_id: int, active: bool) -> None: ...
-
-    def resume_climb(self, client_id: int) -> None: ...
 
 
 @dataclass
@@ -87,184 +65,20 @@ class Frame:
     replay: object | None = None  # a ReplayStatus while a replay runs (the timeline)
 
 
-class _ClientControls:
-    """The operator folder of one browser: token entry, control, teleop, climb, grippers."""
-
-    def __init__(self, server: 'ViewerServer', client: viser.ClientHandle):
-        self.server = server
-        self.client = client
-        self.client_id = client.client_id
-        self.gizmo = None
-        self.version_seen = -1
-        gui = client.gui
-        control = server.control
-        cid = self.client_id
-        with gui.add_folder('Operator', order=0):
-            self.role = gui.add_markdown('**Read-only viewer.** Enter the operator token to drive.')
-            self.token = gui.add_text('Token', '', hint='the operator token printed at start-up')
-            self.enter = gui.add_button('Enter token', icon=viser.Icon.KEY)
-            self.take = gui.add_button('Take control', icon=viser.Icon.STEERING_WHEEL)
-            self.release = gui.add_button('Release control', color='gray')
-            self.hand_to = gui.add_dropdown('Hand over to', ('—',))
-            self.hand = gui.add_button('Hand over')
-        with gui.add_folder('Teleoperation', order=1):
-            self.clutch = gui.add_checkbox('Engage (clutch)', False,
-                                           hint='unchecked = clutch out: move the master freely')
-            self.deadman = gui.add_button('Hold to move (deadman)', color='green',
-                                          hint='press and hold: teleop/enable is sent while held')
-            self.mode = gui.add_dropdown('Mapping mode', TELEOP_MODES)
-            self.rotation = gui.add_dropdown('Rotation', ROTATION_MODES)
-            self.scale = gui.add_slider('Translation scale', min=0.5, max=8.0, step=0.5,
-                                        initial_value=4.0)
-            self.apply = gui.add_button('Apply mapping')
-        with gui.add_folder('Robot', order=2):
-            self.activate = gui.add_button('Activate driver', icon=viser.Icon.PLAYER_PLAY,
-                                           hint='the driver starts (and restarts) inactive: '
-                                                'nothing moves until it is activated')
-            self.deactivate = gui.add_button('Deactivate driver', color='gray',
-                                             icon=viser.Icon.PLAYER_PAUSE)
-            self.step_up = gui.add_button('Climb one step up', icon=viser.Icon.ARROW_UP)
-            self.step_down = gui.add_button('Climb one step down', icon=viser.Icon.ARROW_DOWN)
-            self.resume = gui.add_button('Resume climb', icon=viser.Icon.PLAYER_TRACK_NEXT,
-                                         hint='a paused climb (lost link or state) waits for this')
-            self.grip_buttons = {}
-            for ring in ('ring_a', 'ring_b'):
-                self.grip_buttons[(ring, True)] = gui.add_button(f'Close {ring}')
-                self.grip_buttons[(ring, False)] = gui.add_button(f'Open {ring}', color='orange')
-        self.last_message = gui.add_markdown('', order=3)
-        self.recording = RecordingControls(  # "Save last 60 s" and the replay timeline
-            client, server.actions, may_control=control.may_control,
-            refused=lambda c: server.tell(c, 'read-only: you do not have control', ok=False))
-
-        def guarded(fn: Callable[[], ControlResult | None]):
-            def callback(event) -> None:
-                if event.client_id != cid:
-                    return
-                result = fn()
-                if result is not None:
-                    server.tell(cid, result.message, ok=result.ok)
-                server.refresh_all()
-            return callback
-
-        def controller_only(fn: Callable[[], None]):
-            def callback(event) -> None:
-                if event.client_id != cid:
-                    return
-                if not control.may_control(cid):
-                    server.tell(cid, 'read-only: you do not have control', ok=False)
-                    return
-                fn()
-            return callback
-
-        self.enter.on_click(guarded(lambda: control.authenticate(cid, self.token.value)))
-        self.take.on_click(guarded(lambda: control.take_control(cid)))
-        self.release.on_click(guarded(lambda: control.release(cid)))
-        self.hand.on_click(guarded(lambda: self._hand_over()))
-        self.clutch.on_update(guarded(lambda: self._clutch()))
-        async def on_hold(event) -> None:  # on viser's event loop: no thread-pool delay
-            if event.client_id == cid:
-                control.hold(cid)
-
-        self.deadman.on_hold(on_hold, callback_hz=20.0)
-        actions = server.actions
-        self.apply.on_click(controller_only(lambda: actions.set_mapping(
-            cid, str(self.mode.value), str(self.rotation.value), float(self.scale.value))))
-        self.activate.on_click(controller_only(lambda: actions.set_driver_active(cid, True)))
-        self.deactivate.on_click(controller_only(lambda: actions.set_driver_active(cid, False)))
-        self.resume.on_click(controller_only(lambda: actions.resume_climb(cid)))
-        self.step_up.on_click(controller_only(lambda: actions.step(cid, 'up')))
-        self.step_down.on_click(controller_only(lambda: actions.step(cid, 'down')))
-        for (ring, close), button in self.grip_buttons.items():
-            button.on_click(controller_only(
-                lambda ring=ring, close=close: actions.set_gripper(cid, ring, close)))
-
-    def _hand_over(self) -> ControlResult:
-        text = str(self.hand_to.value)
-        if not text.startswith('operator '):
-            return ControlResult(False, 'choose an operator who entered the token')
-        return self.server.control.hand_over(self.client_id, int(text.split()[1]))
-
-    def _clutch(self) -> ControlResult | None:
-        control = self.server.control
-        if not control.may_control(self.client_id):
-            if self.clutch.value:
-                self.clutch.value = False
-                return ControlResult(False, 'read-only: you do not have control')
-            return None
-        return control.set_clutch(self.client_id, bool(self.clutch.value))
-
-    def sync(self, handle_pose: Pose | None) -> None:
-        """Match the controls to this client's role (called when control changes)."""
-        control = self.server.control
-        role = control.role(self.client_id)
-        controlling = role == 'controller'
-        holder = control.controller
-        if controlling:
-            text = f'**You have control** (operator {self.client_id}).'
-        elif role == 'operator':
-            text = (f'Token accepted (operator {self.client_id}). '
-                    + ('Control is free: take it.' if holder is None
-                       else f'Operator {holder} has control.'))
-        else:
-            text = '**Read-only viewer.** Enter the operator token to drive.'
-        self.role.content = text
-        self.take.disabled = role != 'operator' or holder is not None
-        self.release.disabled = not controlling
-        others = [f'operator {c}' for c in control.authenticated_clients() if c != self.client_id]
-        self.hand_to.options = tuple(others) if others else ('—',)
-        self.hand.disabled = not (controlling and others)
-        for handle in (self.clutch, self.deadman, self.mode, self.rotation, self.scale, self.apply,
-                       self.activate, self.deactivate, self.step_up, self.step_down, self.resume,
-                       *self.grip_buttons.values()):
-            handle.disabled = not controlling
-        if not controlling and self.clutch.value:
-            self.clutch.value = False
-        self.recording.sync(controlling)
-        if controlling and self.gizmo is None:
-            self._add_gizmo(handle_pose)
-        elif not controlling and self.gizmo is not None:
-            self.gizmo.remove()
-            self.gizmo = None
-            self.server.actions.master_target(self.client_id, None)
-
-    def _add_gizmo(self, handle_pose: Pose | None) -> None:
-        pose = handle_pose or self.server.master_origin
-        gizmo = self.client.scene.add_transform_controls(
-            '/operator/master_handle', scale=0.12, depth_test=False,
-            position=pose.position, wxyz=pose.wxyz)
-        cid = self.client_id
-        control = self.server.control
-        actions = self.server.actions
-
-        @gizmo.on_update
-        def _(event) -> None:
-            if event.client_id != cid or not control.may_control(cid):
-                return
-            if event.phase == 'start':
-                control.set_dragging(cid, True)
-            elif event.phase == 'end':
-                control.set_dragging(cid, False)
-            wxyz = np.asarray(event.target.wxyz, dtype=float)
-            actions.master_target(cid, Pose(np.asarray(event.target.position, dtype=float),
-                                            np.array([wxyz[1], wxyz[2], wxyz[3], wxyz[0]])))
-
-        self.gizmo = gizmo
-
-
 class ViewerServer:
     """The viser server of the viewer: draws :class:`Frame` s and runs the operator controls.
 
     Keyword-only: ``host``/``port`` to bind, ``control`` (an :class:`OperatorControl`),
     ``actions`` (an :class:`OperatorActions`), ``frame_source`` (returns the latest Frame),
     ``geometry`` and ``master_geometry`` (ring sizes), ``master_origin`` (world pose of the
-    master's ring_a on its console), ``structure`` (a callable adding the climbed member to a
-    viser scene, or None), ``rate`` [Hz] of the drawing thread.
+    master's ring_a on its console), ``structure`` ((vertices, faces) of the climbed member in
+    the world frame, or None), ``rate`` [Hz] of the drawing thread.
     """
 
     def __init__(self, *, host: str, port: int, control: OperatorControl, actions: OperatorActions,
                  frame_source: Callable[[], Frame], geometry: RobotGeometry,
                  master_geometry: RobotGeometry | None, master_origin: Pose,
-                 structure: Callable[[viser.SceneApi], None] | None = None, rate: float = 40.0,
+                 structure: tuple[np.ndarray, np.ndarray] | None = None, rate: float = 40.0,
                  title: str = 'rrps viewer'):
         if not rate > 0.0:
             raise ValueError(f'rate must be > 0 Hz, got {rate}')
@@ -274,7 +88,7 @@ class ViewerServer:
         self._frame_source = frame_source
         self._period = 1.0 / rate
         self._lock = threading.Lock()
-        self._clients: dict[int, _ClientControls] = {}
+        self._clients: dict[int, ClientControls] = {}
         self._handle_pose: Pose | None = None
         self._stop = threading.Event()
         self.frames_drawn = 0
@@ -311,7 +125,10 @@ class ViewerServer:
         scene = self.server.scene
         n = self.nodes
         if structure is not None:
-            structure(scene)
+            vertices, faces = structure
+            n['/structure'] = scene.add_mesh_simple(
+                '/structure', np.asarray(vertices, dtype=np.float32),
+                np.asarray(faces, dtype=np.uint32), color=(150, 110, 70), side='double')
         n['/grid'] = scene.add_grid('/grid', width=4.0, height=4.0, cell_size=0.25,
                                     plane='xy', position=(0.0, 0.0, 0.0))
         self._add_robot('/robot', geometry, (120, 130, 150), opacity=None)
@@ -517,7 +334,7 @@ class ViewerServer:
 
     def _on_connect(self, client: viser.ClientHandle) -> None:
         self.control.connect(client.client_id)
-        controls = _ClientControls(self, client)
+        controls = ClientControls(self, client)
         with self._lock:
             self._clients[client.client_id] = controls
         self.refresh_all()

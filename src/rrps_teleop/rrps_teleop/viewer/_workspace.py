@@ -20,8 +20,13 @@ from scipy import ndimage
 
 from rrps_kinematics.geometry import RobotGeometry
 from rrps_kinematics.rotations import rotation_angle_between
-from rrps_kinematics.workspace import (NEAR_SINGULAR, UNREACHABLE, Workspace, distance_to_boundary,
-                                       reachable_workspace)
+from rrps_kinematics.workspace import (
+    NEAR_SINGULAR,
+    UNREACHABLE,
+    Workspace,
+    distance_to_boundary,
+    reachable_workspace,
+)
 
 __all__ = ['WorkspaceSnapshot', 'WorkspaceView', 'boundary_points']
 
