@@ -23,8 +23,19 @@ import time
 from typing import Callable, Sequence
 
 from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from rrps_kinematics.nodes.common import COMMAND_QOS, STATE_QOS, make_executor, spin_until_shutdown
+
+#: What a Probe records a stream with: a deep history, so that a stall of the test's executor
+#: loses no sample (the recorded sequence is complete). Reliable for state streams (compatible
+#: with STATE_QOS), best effort for command streams (compatible with COMMAND_QOS).
+RECORD_STATE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
+                              reliability=ReliabilityPolicy.RELIABLE,
+                              durability=DurabilityPolicy.VOLATILE)
+RECORD_COMMAND_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
+                                reliability=ReliabilityPolicy.BEST_EFFORT,
+                                durability=DurabilityPolicy.VOLATILE)
 
 
 #: Deadline [s] of a wait for something that must happen: far above any stall of a loaded
@@ -92,9 +103,17 @@ class Probe(Node):
                 clock: str = 'monotonic') -> list:
         """Subscribe and return the (growing) list of received messages, or with ``stamped``
         (t_received, msg): ``clock`` 'monotonic' (time.monotonic) or 'ros' (this node's ROS
-        clock in s, the clock of the header stamps, so that receipt times and stamps compare)."""
+        clock in s, the clock of the header stamps, so that receipt times and stamps compare).
+
+        ``qos`` says which kind of stream it is (STATE_QOS or COMMAND_QOS, the publishers'
+        profiles); the probe records it with the matching deep-history profile (RECORD_*_QOS).
+        """
         if clock not in ('monotonic', 'ros'):
             raise ValueError(f"clock must be 'monotonic' or 'ros', got {clock!r}")
+        if qos.reliability == ReliabilityPolicy.BEST_EFFORT:
+            qos = RECORD_COMMAND_QOS
+        else:
+            qos = RECORD_STATE_QOS
         received: list = []
         now = time.monotonic if clock == 'monotonic' else self.now
 
