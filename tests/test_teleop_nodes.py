@@ -72,8 +72,9 @@ class Rig:
         self.enable = False
         self.handle = None  # where the operator holds the master's handle (position, quaternion)
         # Unless a test is about them, timeouts far above any stall of a loaded 2-core machine, so
-        # that a stall never re-clutches in the middle of a test.
-        teleop = {'master_timeout': 1.0, 'enable_timeout': 1.0} | (teleop or {})
+        # that a stall never re-clutches in the middle of a test (1 s was not: with other jobs
+        # keeping the load average above 10, the deadman thread was once silent for over 1 s).
+        teleop = {'master_timeout': 5.0, 'enable_timeout': 5.0} | (teleop or {})
         self.teleop = TeleopNode(context=ctx, namespace=NS, parameter_overrides=params(**teleop))
         nodes = [self.teleop, IkNode(context=ctx, namespace=NS), FkNode(context=ctx, namespace=NS),
                  DriverNode(context=ctx, namespace=NS, parameter_overrides=params(rate=100.0))]
@@ -158,20 +159,84 @@ def stamp_of(item):
     return header_time(item)
 
 
+def received_at(items, t):
+    """Indices of the items (a probe's (receipt, msg) list) that a node in the probe's executor
+    had last received at ``t`` [s, ROS clock]: the last one the probe received by then, or the
+    next (a node's callback for a message may run just before the probe's)."""
+    k = int(np.searchsorted([r for r, _ in items], t, 'right')) - 1
+    return [i for i in (k, k + 1) if 0 <= i < len(items)]
+
+
+def mapped_errors(targets, rig, scale=4.0):
+    """|slave displacement - scale x master displacement| since the first target, for every later
+    target, against the master sample it matches best among those stamped before it: exactly 0
+    for a target computed from a sample (message-triggered control), whichever sample it was.
+
+    Which sample teleop_node had when it computed a target cannot be told from the messages
+    behind a backlog of a loaded machine (samples wait in its queue); that it is the latest one,
+    without a delay of its own, is checked sample by sample in _ping_pong_run. The first target
+    (the engage) is taken against the sample that makes the most later targets exact."""
+    m_stamps = np.array([stamp_of(m) for m in rig.master_poses])
+    m_pos = np.array([pose_from_msg(m[1])[0] for m in rig.master_poses])
+    t_pos = np.array([target_position(t) for t in targets])
+    last = np.searchsorted(m_stamps, [stamp_of(t) for t in targets], 'right') - 1
+    later = np.arange(len(m_pos))[None, :] > last[1:, None]  # samples stamped after each target
+    moved = t_pos[1:] - t_pos[0]
+    best = None
+    for k0 in range(max(last[0] - 100, 0), last[0] + 1):  # the engage: within 1 s of samples
+        distance = np.linalg.norm(moved[:, None, :] - scale * (m_pos[None, :, :] - m_pos[k0]), axis=2)
+        distance[later] = np.inf
+        errors = distance.min(axis=1)
+        if best is None or np.sum(errors < 1e-9) > np.sum(best < 1e-9):
+            best = errors
+    return best
+
+
+#: The driver's largest simulated step [s] (5 periods at 100 Hz): a tick later than this after the
+#: previous one simulates less time than passed, so the simulated slave falls behind real time.
+DRIVER_MAX_STEP = 5.0 / 100.0
+
+
+def in_real_time(poses, since, window=0.5):
+    """Indices of the measured poses stamped after ``since`` whose driver ticks over the ``window``
+    s before them all came within DRIVER_MAX_STEP of each other: there the simulated slave kept
+    up with real time (on a machine loaded beyond its cores it may not, by design)."""
+    stamps = np.array([header_time(p) for p in poses])
+    late = np.concatenate([[0], np.flatnonzero(np.diff(stamps) > DRIVER_MAX_STEP) + 1])
+    last_late = late[np.searchsorted(late, np.arange(len(stamps)), 'right') - 1]
+    ok = (stamps > since) & (stamps - stamps[last_late] > window)
+    return np.flatnonzero(ok)
+
+
+def target_codes(targets, status):
+    """The teleop/status code of each target but the last: teleop_node publishes a target and
+    then, at once if the code changed, its status, so a target's code is the latest status the
+    probe received before the next target (it receives both in the order they were published)."""
+    received = np.array([r for r, _ in status])
+    codes = [m.message for _, m in status]
+    nexts = [r for r, _ in targets[1:]]
+    return [codes[k] if k >= 0 else None for k in np.searchsorted(received, nexts, 'left') - 1]
+
+
 def test_the_slave_follows_a_scripted_master_within_the_scale(ros_context):
     rig = Rig(ros_context, master=dict(trajectory='lissajous', amplitude=0.004, period=8.0))
     with rig.spin(ros_context):
         assert wait_for(lambda: rig.poses and len(rig.master_poses) > 10)
         rig.engage()
-        n0, s0 = len(rig.targets), len(rig.status)
+        n0 = len(rig.targets)
 
-        def followed():  # > 100 targets (one per master sample, 100 Hz) and > 5 mm of motion
+        def followed():
+            """> 100 targets (one per master sample, 100 Hz), > 5 mm of motion, 50 targets not
+            speed-limited (after a stall of a loaded machine the slave catches up speed-limited
+            for a while) and 30 poses measured while the simulated slave kept up with real time."""
             t = rig.targets[n0:]
-            return len(t) > 100 and np.linalg.norm(target_position(t[-1]) - target_position(t[0])) > 0.005
-        assert wait_for(followed), len(rig.targets) - n0
+            return (len(t) > 100 and np.linalg.norm(target_position(t[-1]) - target_position(t[0])) > 0.005
+                    and target_codes(t, list(rig.status)).count('NO_WARNING') >= 50
+                    and len(in_real_time(list(rig.poses), stamp_of(t[10]))) >= 30)
+        assert wait_for(followed, period=0.2), len(rig.targets) - n0
         targets = rig.targets[n0:]
-        masters = list(rig.master_poses)
-        codes = {s[1].message for s in rig.status[s0:]}
+        status = list(rig.status)
+        commands = list(rig.commands)
         poses = list(rig.poses)
         # The master stops (its handle holds where it is): the slave must come to rest on the
         # last target.
@@ -179,37 +244,37 @@ def test_the_slave_follows_a_scripted_master_within_the_scale(ros_context):
         rest = rig.wait_at_rest()
         final_target = rig.targets[-1]
     assert len(targets) > 100  # one target per master sample (100 Hz)
-    # A loaded machine may stall the executor beyond max_period: the slave then lags for a step.
-    assert 'NO_WARNING' in codes and codes <= {'NO_WARNING', 'SPEED_LIMITED'}, codes
-    # Each target came from the latest master sample stamped before it (message-triggered control):
-    m_stamps = np.array([stamp_to_seconds(m[1].header.stamp) for m in masters])
-    m_pos = np.array([pose_from_msg(m[1])[0] for m in masters])
-    ref_t = targets[0]
-    ref_m = m_pos[np.searchsorted(m_stamps, stamp_to_seconds(ref_t[1].header.stamp), 'right') - 1]
-    errors = []
-    for t in targets[1:]:
-        k = np.searchsorted(m_stamps, stamp_to_seconds(t[1].header.stamp), 'right') - 1
-        errors.append(np.linalg.norm((target_position(t) - target_position(ref_t)) - 4.0 * (m_pos[k] - ref_m)))
-    moved = np.linalg.norm(target_position(targets[-1]) - target_position(ref_t))
+    # A loaded machine may stall the executor beyond max_period: the slave then lags for a while.
+    codes = np.array(target_codes(targets, status))
+    assert 'NO_WARNING' in codes and set(codes) <= {'NO_WARNING', 'SPEED_LIMITED'}, set(codes)
+    moved = np.linalg.norm(target_position(targets[-1]) - target_position(targets[0]))
     assert moved > 0.005
-    # Within the scale: exact for the matched sample; a sample overtaken on the way or a step
-    # speed-limited after a stall of the loaded machine costs at most a few master periods.
-    assert np.median(errors) < 1e-9 and np.percentile(errors, 90) < 1e-6, (np.median(errors), max(errors))
-    assert max(errors) < 2e-3
+    # Within the scale: every target that was not speed-limited is exactly the mapping of a master
+    # sample (message-triggered control; of the latest one: _ping_pong_run) ...
+    free = codes[1:] == 'NO_WARNING'
+    errors = mapped_errors(targets, rig)[:-1]
+    assert np.sum(free) >= 49 and np.max(errors[free]) < 1e-9, (np.max(errors[free]), np.sum(errors[free] >= 1e-9))
+    # ... and a speed-limited one (after a stall) is a step of at most the speed limit over the
+    # longest step time (0.05 m/s x 0.05 s) from the previous target. (The earlier bound, within
+    # 2 mm of the mapping, held for short stalls only: a 0.2 s stall costs 4 mm, caught up at
+    # 16 mm/s.)
+    steps = np.linalg.norm(np.diff([target_position(t) for t in targets[:-1]], axis=0), axis=1)
+    assert np.all(steps[~free] <= 0.05 * 0.05 + 1e-9), np.max(steps[~free])
     # The measured slave pose (FK of the driver's lengths, stamped when the driver measured it)
-    # tracks the target: each pose is compared with the latest target stamped before it. (A
-    # comparison of the last pose with the last target at an arbitrary moment measured how far
-    # the pipeline had got in a wall-clock window: on a loaded machine the poses received up to
-    # then may lag by a stall. The median over the run is the tracking, free of the stalls.)
-    t_stamps = np.array([stamp_of(t) for t in targets])
+    # tracks the target of the command the driver had last received then (commands carry their
+    # target's stamp; the probe receives them in the driver's executor), wherever the simulation
+    # kept up with real time. (Comparing the last pose with the last target after a fixed sleep
+    # measured how far the pipeline had got in a wall-clock window: a loaded machine's backlog
+    # made the slave look 20 mm behind.)
+    by_stamp = {stamp_of(t): target_position(t) for t in targets}
     tracking = []
-    for _, pose in poses:
-        if header_time(pose) > t_stamps[-1]:
-            break
-        k = np.searchsorted(t_stamps, header_time(pose), 'right') - 1
-        if k >= 10:  # from the 10th target on: the slave was moving with the master
-            tracking.append(np.linalg.norm(pose_from_msg(pose)[0] - target_position(targets[k])))
-    assert len(tracking) > 50 and np.median(tracking) < 3e-3, (len(tracking), np.median(tracking))
+    for i in in_real_time(poses, stamp_of(targets[10])):
+        pose = poses[i][1]
+        errors = [np.linalg.norm(pose_from_msg(pose)[0] - by_stamp[stamp_of(commands[k])])
+                  for k in received_at(commands, header_time(pose)) if stamp_of(commands[k]) in by_stamp]
+        if errors:
+            tracking.append(min(errors))
+    assert len(tracking) >= 30 and np.median(tracking) < 3e-3, (len(tracking), np.median(tracking))
     # ... and comes to rest on the last target (the driver has no steady-state error).
     assert np.linalg.norm(pose_from_msg(rest[1])[0] - target_position(final_target)) < 1e-6
 
@@ -229,23 +294,38 @@ def test_clutch_causes_no_jump(ros_context):
         rig.wait_for_master_time(t_released + 1.0)
         # Disengaged: no target computed after the release was reported.
         assert not stamped_between(rig.targets, t_released), len(stamped_between(rig.targets, t_released))
-        held = target_position(rig.targets[-1])
+        commanded = [target_position(t) for t in rig.targets]
         m_moved = np.linalg.norm(pose_from_msg(rig.master_poses[-1][1])[0] - m_released)
         measured = pose_from_msg(rig.wait_at_rest()[1])[0]  # the slave stands on its last target
         t_engage = rig.probe.now()
         rig.engage()
-        rig.follow(50)
+
+        def followed():  # 50 targets after the clutch, 30 of them not speed-limited
+            after = [t for t in rig.targets if stamp_of(t) > t_engage]
+            return len(after) >= 50 and target_codes(after, list(rig.status)).count('NO_WARNING') >= 30
+        assert wait_for(followed, period=0.05)
         targets = list(rig.targets)
+        status = list(rig.status)
     assert 4.0 * m_moved > 0.005, m_moved  # a jump to the master's new place would show
     after = [t for t in targets if stamp_of(t) > t_engage]
     first = target_position(after[0])
     # The first target after the clutch is where the slave is: no jump.
     assert np.linalg.norm(first - measured) < 1e-6
-    assert np.linalg.norm(first - held) < 2e-3  # the driver's lag behind the last target, no more
+    # While disengaged the slave held exactly where it was commanded: on one of the targets sent
+    # before the release (the driver's lag has run out; it is the last one unless ik_node or the
+    # driver refused the last ones as stale, which a loaded machine's backlog can cause, so the
+    # last target itself is not the reference: the earlier check, within 2 mm of it, failed so).
+    assert min(np.linalg.norm(np.array(commanded) - measured, axis=1)) < 1e-6
     # Never a jump: no step beyond the speed limit over the longest step time (0.05 m/s x 0.05 s).
     # (The probe records every target: a deep history, no sample lost to a stall.)
     steps = [np.linalg.norm(target_position(b) - target_position(a)) for a, b in zip(targets, targets[1:])]
     assert max(steps) <= 0.05 * 0.05 + 1e-9, max(steps)
+    # Re-indexed: from the clutch on, the slave follows the master's motion since the clutch (not
+    # since the first engage: no catching up, even speed-limited, with the disengaged motion).
+    # (Steps speed-limited after a stall of a loaded machine catch up; they are bounded above.)
+    free = np.array(target_codes(after, status))[1:] == 'NO_WARNING'
+    errors = mapped_errors(after, rig)[:-1]
+    assert np.sum(free) >= 29 and np.max(errors[free]) < 1e-9, (np.max(errors[free]), np.sum(errors[free] >= 1e-9))
 
 
 def test_deadman_release_and_lapse_hold_the_slave_within_0_1_s(ros_context):
@@ -289,10 +369,13 @@ def test_deadman_release_and_lapse_hold_the_slave_within_0_1_s(ros_context):
         t_lapse = max(t for t, m in rig.enables if m.data)  # receipt of the last true
         rig.wait_for_master_time(t_lapse + 0.8)  # the master went on for 0.8 s
         last_after_lapse = rig.last_command_stamp()
-        # Held, no drift: the slave stands still while the master goes on.
+        # Held, no drift: the slave stands still (0.3 s of its measured poses) while the master
+        # goes on.
         rest = rig.wait_at_rest()
-        rig.wait_for_master_time(header_time(rest) + 0.3)
-        poses_end = [pose_from_msg(p[1])[0] for p in rig.poses if header_time(p) >= header_time(rest)]
+        t_rest = header_time(rest)
+        assert wait_for(lambda: header_time(rig.poses[-1]) > t_rest + 0.3
+                        and len(stamped_between(rig.poses, t_rest)) > 10)
+        poses_end = [pose_from_msg(p[1])[0] for p in stamped_between(rig.poses, t_rest)]
         lapse_detail = lapsed()[0][1]
     assert last_after_release - t_release < 0.1, last_after_release - t_release
     assert last_after_lapse - t_lapse < 0.2 + 0.1, last_after_lapse - t_lapse  # enable_timeout, then held within 0.1 s
@@ -363,48 +446,68 @@ def test_guards_stop_an_unreachable_request_and_let_it_come_back(ros_context):
 
 
 def _ping_pong_run(ros_context, mode):
-    """The probe is the master: one sample, wait for a command, next. Returns (master L published, commands)."""
+    """The probe is the master: one sample, wait for teleop_node's output and the slave command,
+    next. Returns (master L published, L of teleop_node's first output after each sample,
+    commands L, status codes)."""
     rig = Rig(ros_context, teleop=dict(mode=mode))
-    published = []
+    outputs = rig.targets if mode == 'cartesian' else rig.commands  # teleop_node's own output
+
+    def lengths(item):
+        if mode == 'cartesian':
+            return inverse_kinematics(SLAVE, *pose_from_msg(item[1])).lengths
+        return lengths_from_joint_state(item[1])
+    published, first = [], []
     with rig.spin(ros_context):
         assert wait_for(lambda: rig.poses)
         rig.enable = True
         # The deadman reached teleop_node: only the master's data is missing.
         assert wait_for(lambda: rig.code() == 'MASTER_STALE'), rig.code()
+        sends = 0  # every sample sent makes teleop_node compute one output
         for k in range(80):
             p, q = scripted_pose('lissajous', 0.01 * k, MASTER.home_position, MASTER.home_quaternion_xyzw,
                                  amplitude=0.004, period=8.0, angular_amplitude=0.04)
-            n = len(rig.commands)
+            n = len(outputs)
             published.append(rig.publish_master(p, q))
-            sent = [time.monotonic()]
+            sends += 1
+            assert wait_for(lambda: len(outputs) > n), (mode, k)
+            first.append(lengths(outputs[n]))
+            if mode == 'cartesian':
+                n_commands, sent = len(rig.commands), [time.monotonic()]
 
-            def resend():
-                """The same sample again after 0.5 s without a command (its target may have
-                reached ik_node stale after a stall: refused, so no command came)."""
-                if time.monotonic() - sent[0] > 0.5:
-                    rig.publish_master(p, q)
-                    sent[0] = time.monotonic()
-                return False
-            assert wait_for(lambda: len(rig.commands) > n or resend()), (mode, k)
+                def resend():
+                    """The same sample again after 0.5 s without ik_node's command (a stall may
+                    have made the target stale on arrival: refused)."""
+                    nonlocal sends
+                    if time.monotonic() - sent[0] > 0.5:
+                        rig.publish_master(p, q)
+                        sends += 1
+                        sent[0] = time.monotonic()
+                    return False
+                assert wait_for(lambda: len(rig.commands) > n_commands or resend()), (mode, k)
+                assert wait_for(lambda: len(outputs) >= sends), (mode, k)  # one per sample sent
             # At least 10 ms between samples: the master's step (< 0.2 mm for the slave) stays
             # far below the speed limit over that time (0.5 mm); a loaded machine only adds time.
             time.sleep(0.01)
         commands = [lengths_from_joint_state(m) for _, m in rig.commands]
         codes = [(round(t, 3), s.message) for t, s in rig.status]
-    return np.array(published), np.array(commands), codes
+    return np.array(published), np.array(first), np.array(commands), codes
 
 
 def test_joint_space_mode_matches_cartesian_mode_for_the_similar_master(ros_context):
     runs = {mode: _ping_pong_run(ros_context, mode) for mode in ('cartesian', 'joint')}
-    for mode, (published, commands, codes) in runs.items():
+    for mode, (published, first, commands, codes) in runs.items():
         assert len(commands) > 60, mode
         assert not {c for _, c in codes} & {'SPEED_LIMITED', 'INVALID'}, (mode, codes)
         # Both follow L_slave = 4 L_master (master_robot = pole_climber / 4, engaged at home): the
         # joint map without FK, the Cartesian map through the master's FK, scale 4 and slave IK.
-        # Every command is that of one master sample (a loaded machine may drop or delay some).
+        # teleop_node's output after each sample is that of this very sample (message-triggered,
+        # the latest sample, no delay of its own) ...
+        late = np.abs(first - 4.0 * published).max(axis=1)
+        assert late.max() < 1e-6, (mode, late.max(), np.flatnonzero(late >= 1e-6)[:5])
+        # ... and every command is that of one master sample.
         errors = np.abs(commands[:, None, :] - 4.0 * published[None, :, :]).max(axis=2).min(axis=1)
         assert errors.max() < 1e-6, (mode, errors.max())
-    moved = np.abs(runs['cartesian'][1][-1] - SLAVE.home_lengths).max()
+    moved = np.abs(runs['cartesian'][2][-1] - SLAVE.home_lengths).max()
     assert moved > 0.004
 
 
