@@ -88,8 +88,8 @@ def test_each_parameter_file_loads_into_its_node(node_name, ros_domain_id, tmp_p
     context, node = _start(node_name, path, ros_domain_id, tmp_path)
     try:
         _check(node, values, skip)
-        declared = {n for n in node._parameters
-                    if node._parameters[n].type_ != node._parameters[n].Type.NOT_SET}
+        declared = {n for n, p in node.get_parameters_by_prefix('').items()
+                    if p.type_ != p.Type.NOT_SET}
         missing = declared - set(values) - NOT_IN_FILES
         assert not missing, f'{path.name} lacks {sorted(missing)}'
     finally:

@@ -43,7 +43,7 @@ def _stop(proc: subprocess.Popen) -> None:
     if proc.poll() is None:
         proc.send_signal(signal.SIGINT)
         try:
-            proc.wait(timeout=15)
+            proc.wait(timeout=60)
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait()
@@ -73,7 +73,7 @@ def test_demo_prints_url_and_token_serves_the_viewer_and_stops_on_ctrl_c(ros_dom
                             stderr=subprocess.STDOUT, text=True)
     try:
         lines = []
-        deadline = time.monotonic() + 60
+        deadline = time.monotonic() + 120  # start-up of the processes on a loaded machine
         while time.monotonic() < deadline:
             line = proc.stdout.readline()
             if not line:
@@ -84,10 +84,10 @@ def test_demo_prints_url_and_token_serves_the_viewer_and_stops_on_ctrl_c(ros_dom
         text = ''.join(lines)
         assert f'http://127.0.0.1:{port}' in text, text
         assert 'operator token: token-for-test' in text, text
-        with urllib.request.urlopen(f'http://127.0.0.1:{port}', timeout=10) as page:
+        with urllib.request.urlopen(f'http://127.0.0.1:{port}', timeout=60) as page:
             assert page.status == 200 and b'<html' in page.read().lower()
         proc.send_signal(signal.SIGINT)
-        out, _ = proc.communicate(timeout=20)
+        out, _ = proc.communicate(timeout=60)  # returns as soon as it stopped
     finally:
         _stop(proc)
     assert proc.returncode == 0, out[-2000:]

@@ -132,7 +132,7 @@ class ClimbNode(Node):
         self._operator_receipt: float | None = None
         self.driver_active: bool | None = None
         self._last_tick = time.monotonic()
-        self._kept_up = True
+        self._judge_inputs_from = self._last_tick  # see _on_tick
         self.steps_done = 0
         self.pose: Pose | None = None
         self.grippers: dict[str, bool] | None = None
@@ -412,15 +412,20 @@ class ClimbNode(Node):
         return dp <= self.position_tolerance and da <= self.orientation_tolerance
 
     def _on_tick(self) -> None:
+        # Judge the inputs' age only when this executor has kept up for a state_timeout: after a
+        # stall (a late tick, or a tick that planned) the messages that arrived meanwhile may
+        # still be queued behind the overdue timer, so their receipt times say nothing yet.
+        stall = 0.5 * self.state_timeout
         tick = time.monotonic()
-        # Judge the inputs' age only when this executor kept up (this tick came soon after the
-        # last one ended): after a stall (a plan, a busy machine) the messages that arrived
-        # meanwhile may still be queued behind this tick.
-        self._kept_up = tick - self._last_tick <= 0.5 * self.state_timeout
+        if tick - self._last_tick > stall:
+            self._judge_inputs_from = tick + self.state_timeout
         try:
             self._tick()
         finally:
-            self._last_tick = time.monotonic()
+            end = time.monotonic()
+            if end - tick > stall:
+                self._judge_inputs_from = end + self.state_timeout
+            self._last_tick = end
 
     def _tick(self) -> None:
         self._take_pose()
@@ -433,7 +438,7 @@ class ClimbNode(Node):
             return  # planning took this tick: the inputs are judged at the next one
         if self.mode is not EXECUTING:
             return
-        reason = self._hold_reason() if self._kept_up else None
+        reason = self._hold_reason() if time.monotonic() >= self._judge_inputs_from else None
         if reason is not None:
             self._pause(reason)
             return
