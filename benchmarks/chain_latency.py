@@ -31,15 +31,22 @@ from pathlib import Path
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 
 import numpy as np  # noqa: E402
-from _common import stop_processes, wait_until  # noqa: E402
 import rclpy  # noqa: E402
 from geometry_msgs.msg import PoseStamped  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 
+from _common import stop_processes, wait_until  # noqa: E402
 from rrps_kinematics import check_pose, load_robot  # noqa: E402
-from rrps_kinematics.nodes.common import (COMMAND_QOS, STATE_QOS, make_executor, pose_from_msg,  # noqa: E402
-                                          pose_to_msg, run_nodes, spin_until_shutdown)
+from rrps_kinematics.nodes.common import (  # noqa: E402
+    COMMAND_QOS,
+    STATE_QOS,
+    make_executor,
+    pose_from_msg,
+    pose_to_msg,
+    run_nodes,
+    spin_until_shutdown,
+)
 from rrps_kinematics.nodes.fk_node import FkNode  # noqa: E402
 from rrps_kinematics.nodes.ik_node import IkNode  # noqa: E402
 from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw  # noqa: E402

@@ -69,7 +69,7 @@ def mjcf(g, position, quaternion_xyzw, dt: float) -> str:
     links = ik.lower_link_rotations
     axes = universal_joint_frames(g)[:, :, 0]
     lo, up, rb = g.lower_link, g.upper_link, g.ring_b_body
-    I = rb.inertia
+    inertia = rb.inertia
     legs = []
     for k in range(6):
         R = links[k]
@@ -98,7 +98,7 @@ def mjcf(g, position, quaternion_xyzw, dt: float) -> str:
     <body name="ring_b" pos="{_numbers(position)}" quat="{_numbers([w, x, y, z])}">
       <freejoint/>
       <inertial pos="{_numbers(rb.com)}" mass="{float(rb.mass)!r}"
-                fullinertia="{_numbers([I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]])}"/>
+                fullinertia="{_numbers(inertia[[0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]])}"/>
     </body>{''.join(legs)}
   </worldbody>
   <equality>

@@ -145,22 +145,22 @@ def main(argv=None) -> int:
     rows.append(('IK batch (leg_lengths, auto backend)', ik_batch / 1e6, 'M poses/s', ''))
 
     warm = [(g, L[k + 1], P[k], Q[k]) for k in range(n)]
-    fk_single = median_us(lambda g_, l, p, q: forward_kinematics(g_, l, p, q), warm)
+    fk_single = median_us(lambda g_, lengths, p, q: forward_kinematics(g_, lengths, p, q), warm)
     res = [forward_kinematics(g, L[k + 1], P[k], Q[k]) for k in range(n)]
     fk_err = pose_error(np.array([r.position for r in res]), np.array([r.rotation for r in res]),
                         P[1:], Q[1:])
     its = np.array([r.iterations for r in res])
     rows.append(('FK warm single (forward_kinematics, auto)', fk_single, 'us median',
                  f'{np.mean(its):.2f} iterations, max pose error {fk_err:.1e}'))
-    fk_single_np = median_us(lambda g_, l, p, q: forward_kinematics(g_, l, p, q, backend='numpy'),
+    fk_single_np = median_us(lambda g_, lengths, p, q: forward_kinematics(g_, lengths, p, q, backend='numpy'),
                              warm[: max(n // 4, 10)])
     rows.append(('FK warm single (forward_kinematics, NumPy)', fk_single_np, 'us median', ''))
-    fk_newton = median_us(lambda g_, l, p, q: numpy_newton_fk(g_, l, p, q), warm)
+    fk_newton = median_us(lambda g_, lengths, p, q: numpy_newton_fk(g_, lengths, p, q), warm)
     out = [numpy_newton_fk(g, L[k + 1], P[k], Q[k]) for k in range(n)]
     err_newton = pose_error(np.array([o[0] for o in out]), np.array([o[1] for o in out]), P[1:], Q[1:])
     rows.append(('baseline: plain NumPy Newton loop', fk_newton, 'us median',
                  f'max pose error {err_newton:.1e}'))
-    fk_fsolve = median_us(lambda g_, l, p, q: fsolve_fk(g_, l, p, q), warm)
+    fk_fsolve = median_us(lambda g_, lengths, p, q: fsolve_fk(g_, lengths, p, q), warm)
     out = [fsolve_fk(g, L[k + 1], P[k], Q[k]) for k in range(n)]
     err_fsolve = pose_error(np.array([o[0] for o in out]), np.array([o[1] for o in out]), P[1:], Q[1:])
     rows.append(('baseline: scipy.optimize.fsolve', fk_fsolve, 'us median',

@@ -117,8 +117,13 @@ def main() -> int:
     from std_msgs.msg import Bool
     from std_srvs.srv import Trigger
 
-    from rrps_kinematics.nodes.common import (COMMAND_QOS, STATE_QOS, make_executor,
-                                              spin_until_shutdown, stamp_to_seconds)
+    from rrps_kinematics.nodes.common import (
+        COMMAND_QOS,
+        STATE_QOS,
+        make_executor,
+        spin_until_shutdown,
+        stamp_to_seconds,
+    )
     from rrps_kinematics.supervision import start_child
     from rrps_teleop.demo import start_driver, start_robot_nodes
     from rrps_teleop.params import params_file_arguments

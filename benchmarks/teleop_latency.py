@@ -37,7 +37,6 @@ from typing import Callable
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 
 import numpy as np  # noqa: E402
-from _common import stop_processes, wait_until  # noqa: E402
 import rclpy  # noqa: E402
 from geometry_msgs.msg import PoseStamped  # noqa: E402
 from rclpy.node import Node  # noqa: E402
@@ -45,9 +44,17 @@ from rclpy.parameter import Parameter  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import Bool  # noqa: E402
 
+from _common import stop_processes, wait_until  # noqa: E402
 from rrps_kinematics import inverse_kinematics, load_robot  # noqa: E402
-from rrps_kinematics.nodes.common import (COMMAND_QOS, STATE_QOS, joint_state_msg, make_executor,  # noqa: E402
-                                          pose_to_msg, run_nodes, spin_until_shutdown)
+from rrps_kinematics.nodes.common import (  # noqa: E402
+    COMMAND_QOS,
+    STATE_QOS,
+    joint_state_msg,
+    make_executor,
+    pose_to_msg,
+    run_nodes,
+    spin_until_shutdown,
+)
 from rrps_kinematics.nodes.ik_node import IkNode  # noqa: E402
 from rrps_teleop.nodes.teleop_node import TeleopNode  # noqa: E402
 

@@ -121,8 +121,13 @@ def main() -> int:
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Bool
 
-    from rrps_kinematics.nodes.common import (COMMAND_QOS, STATE_QOS, make_executor,
-                                              spin_until_shutdown, stamp_to_seconds)
+    from rrps_kinematics.nodes.common import (
+        COMMAND_QOS,
+        STATE_QOS,
+        make_executor,
+        spin_until_shutdown,
+        stamp_to_seconds,
+    )
 
     port, token = _free_port(), secrets.token_urlsafe(12)
     demo = subprocess.Popen([sys.executable, '-m', 'rrps_teleop.demo', '--port', str(port),

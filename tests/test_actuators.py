@@ -138,7 +138,8 @@ def test_dynamic_stuck_leg_keeps_its_length(robot):
 
 
 def test_sensor_faults_are_seeded_and_have_their_statistics():
-    a, b = SensorFaults(noise=1e-3, drop_probability=0.25, seed=7), SensorFaults(noise=1e-3, drop_probability=0.25, seed=7)
+    a = SensorFaults(noise=1e-3, drop_probability=0.25, seed=7)
+    b = SensorFaults(noise=1e-3, drop_probability=0.25, seed=7)
     x = np.zeros((4000, 6))
     na, nb = a.measure(x), b.measure(x)
     np.testing.assert_array_equal(na, nb)

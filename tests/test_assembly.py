@@ -5,6 +5,7 @@ import itertools
 import numpy as np
 import pytest
 
+from conftest import require
 from rrps_kinematics import (
     RobotGeometry,
     assembly_modes,
@@ -14,7 +15,6 @@ from rrps_kinematics import (
 )
 from rrps_kinematics.assembly import halton
 from rrps_kinematics.rotations import quat_xyzw_to_matrix, rotation_angle_between
-from conftest import require
 
 # Dietmaier's platform (P. Dietmaier, "The Stewart-Gough platform of general geometry can have
 # 40 real postures", Advances in Robot Kinematics: Analysis and Control, 1998, pp. 7-16), with

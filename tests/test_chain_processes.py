@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 from geometry_msgs.msg import PoseStamped
 
+from conftest import require
 from node_helpers import pose_error, target
 from ros_harness import DEADLINE, Probe, Spinner, wait_for
 from rrps_kinematics import load_robot
 from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
-from conftest import require
 
 BIN = Path(sys.executable).parent
 POLE = load_robot('pole_climber')
@@ -62,8 +62,10 @@ def test_installed_executables_close_the_chain_and_stop_on_ctrl_c(ros_context, r
         probe = Probe(context=ros_context, namespace=NAMESPACE)
         poses = probe.collect(PoseStamped, 'pose')
         pub = probe.publisher(PoseStamped, 'target_pose', command=True)
-        goals = [(POLE.home_position + [0.01, -0.005, 0.02], rotation_vector_to_quat_xyzw(np.array([0.05, 0.0, -0.08]))),
-                 (POLE.home_position + [-0.02, 0.01, -0.01], rotation_vector_to_quat_xyzw(np.array([0.0, -0.06, 0.1])))]
+        goals = [(POLE.home_position + [0.01, -0.005, 0.02],
+                  rotation_vector_to_quat_xyzw(np.array([0.05, 0.0, -0.08]))),
+                 (POLE.home_position + [-0.02, 0.01, -0.01],
+                  rotation_vector_to_quat_xyzw(np.array([0.0, -0.06, 0.1])))]
         with Spinner(ros_context, [probe]):
             assert wait_for(lambda: poses and pub.get_subscription_count() == 1), \
                 {name: p.poll() for name, p in processes.items()}

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import yaml
 
+from conftest import require
 from rrps_kinematics import forward_kinematics, inverse_kinematics, load_robot, robot_path
 from rrps_kinematics.cli import run
-from conftest import require
 
 
 def _run(capsys, *argv):

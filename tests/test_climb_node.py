@@ -15,10 +15,10 @@ import pytest
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
 from rclpy.parameter import Parameter
-from ros_harness import DEADLINE, Probe, Spinner, header_time, wait_for
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
+from ros_harness import DEADLINE, Probe, Spinner, header_time, wait_for
 from rrps_kinematics import inverse_kinematics, load_robot
 from rrps_kinematics.nodes.common import pose_from_msg
 from rrps_kinematics.nodes.fk_node import FkNode

@@ -8,8 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rrps_kinematics import inverse_kinematics, load_robot, margins
-from rrps_kinematics.commands import (CommandFreshness, RejectedCommand, limit_velocity, pose_limits,
-                                     validate_target)
+from rrps_kinematics.commands import CommandFreshness, RejectedCommand, limit_velocity, pose_limits, validate_target
 from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
 
 

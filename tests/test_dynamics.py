@@ -7,9 +7,9 @@ from rrps_kinematics import inverse_kinematics, load_robot
 from rrps_kinematics.errors import ConvergenceError
 from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
 from rrps_sim.dynamics import METHODS, MultibodyDynamics, SimulationResult, simulate
-from rrps_sim.dynamics.integrators import solve_dependent
 from rrps_sim.dynamics.bundles import new_workspace, workspace
 from rrps_sim.dynamics.constraints import leg_blocks
+from rrps_sim.dynamics.integrators import solve_dependent
 from rrps_sim.dynamics.kernels import accelerations, multipliers
 
 GEOM = load_robot('pole_climber')

@@ -13,8 +13,8 @@ import yaml
 from rrps_kinematics import inverse_kinematics, load_robot, robot_path
 from rrps_sim import cli
 from rrps_sim.cli import SIMULATION_COLUMNS, run
-from rrps_sim.figures import climb_poses
 from rrps_sim.dynamics import MultibodyDynamics, simulate
+from rrps_sim.figures import climb_poses
 from rrps_sim.inverse_dynamics import inverse_dynamics
 from rrps_sim.statics import holding_forces
 

@@ -15,7 +15,7 @@ from ros_harness import wait_for
 from rrps_kinematics import check_pose
 from rrps_kinematics.nodes.common import COMMAND_QOS, pose_from_msg
 from rrps_teleop.interfaces import TeleopStatus
-from test_teleop_nodes import MASTER, SLAVE, Rig
+from test_teleop_nodes import SLAVE, Rig
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 DEADLINE = 60.0

@@ -10,9 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rrps_kinematics import inverse_kinematics, load_robot, margins
+from rrps_kinematics.pose import Pose
 from rrps_kinematics.rotations import matrix_to_quat_xyzw, rotation_vector_to_quat_xyzw
 from rrps_teleop.gait import GaitPlanner, PlanError, check_interlock, plan_climb
-from rrps_kinematics.pose import Pose
 from rrps_teleop.odometry import InterlockError, RingOdometry, invert
 from rrps_teleop.structures import facade, palm_trunk, pole, structural_frame
 

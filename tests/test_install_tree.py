@@ -19,6 +19,7 @@ import sys
 from pathlib import Path
 
 import pytest
+
 from conftest import require
 
 ROOT = Path(__file__).resolve().parents[1]

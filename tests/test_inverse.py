@@ -176,8 +176,10 @@ def test_inverse_jacobian_matches_finite_differences(pose, twist):
     g = ROBOTS['pole_climber']
     p, q = pose
     h = 1e-6
-    plus = inverse_kinematics(g, p + h * twist[:3], quat_multiply_xyzw(rotation_vector_to_quat_xyzw(h * twist[3:]), q))
-    minus = inverse_kinematics(g, p - h * twist[:3], quat_multiply_xyzw(rotation_vector_to_quat_xyzw(-h * twist[3:]), q))
+    def turned(sign):
+        return quat_multiply_xyzw(rotation_vector_to_quat_xyzw(sign * h * twist[3:]), q)
+    plus = inverse_kinematics(g, p + h * twist[:3], turned(1.0))
+    minus = inverse_kinematics(g, p - h * twist[:3], turned(-1.0))
     numeric = (plus.lengths - minus.lengths) / (2 * h)
     np.testing.assert_allclose(leg_rates(inverse_kinematics(g, p, q), twist), numeric, atol=1e-7)
 

@@ -22,8 +22,7 @@ from rrps_kinematics import load_robot
 from rrps_kinematics.nodes.fk_node import FkNode
 from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_sim.nodes.driver_node import DriverNode
-from rrps_teleop.interfaces import (ClimbState, ClimbStatus, PauseReason, TeleopCode,
-                                    TeleopStatus)
+from rrps_teleop.interfaces import ClimbState, ClimbStatus, PauseReason, TeleopCode, TeleopStatus
 from rrps_teleop.mapping import TeleopConfig, TeleopMapping
 from rrps_teleop.nodes.climb_node import ClimbNode
 

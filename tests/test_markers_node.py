@@ -3,9 +3,9 @@ places it; legs coloured as the viewer colours them; grippers and the target gho
 
 from __future__ import annotations
 
+import math
 import os
 import secrets
-import math
 
 import numpy as np
 import pytest

@@ -15,16 +15,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import require
 from rrps_kinematics import inverse_kinematics, load_robot
 from rrps_kinematics.backend import numba_enabled
 from rrps_kinematics.multibody import MultibodyModel
 from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
 from rrps_sim.dynamics import METHODS, MultibodyDynamics, simulate
-from rrps_sim.dynamics.integrators import solve_dependent
 from rrps_sim.dynamics.bundles import new_workspace, workspace
+from rrps_sim.dynamics.integrators import solve_dependent
 from rrps_sim.dynamics.kernels import accelerations, multipliers
-
-from conftest import require
 
 POSITION_OFFSET = np.array([0.01, -0.015, 0.02])
 ROTATION = np.array([0.04, -0.03, 0.06])

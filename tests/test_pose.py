@@ -10,8 +10,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rrps_kinematics.pose import QUATERNION_TOLERANCE, InvalidPose, Pose, pose_error, validate_pose
-from rrps_kinematics.rotations import (normalize_quat, quat_xyzw_to_matrix, rotation_angle_between,
-                                       rotation_vector_to_quat_xyzw)
+from rrps_kinematics.rotations import (
+    normalize_quat,
+    quat_xyzw_to_matrix,
+    rotation_angle_between,
+    rotation_vector_to_quat_xyzw,
+)
 
 vectors = st.lists(st.floats(-2.0, 2.0), min_size=3, max_size=3).map(np.array)
 rotvecs = st.lists(st.floats(-3.0, 3.0), min_size=3, max_size=3).map(np.array)

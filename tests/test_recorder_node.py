@@ -191,11 +191,9 @@ def _trigger(client, node, timeout=10.0):
 
 
 def test_flight_recorder_saves_on_request_and_on_faults(ros_context, tmp_path):
-    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
     from geometry_msgs.msg import PoseStamped
     from std_srvs.srv import Trigger
-
-    from diagnostic_msgs.msg import KeyValue
 
     from rrps_sim.interfaces import DriverStatus
     from rrps_teleop.interfaces import FLIGHT_RECORDER_SAVE

@@ -17,12 +17,17 @@ from mcap_ros2.decoder import DecoderFactory
 
 from rrps_teleop.interfaces import COMMAND_TOPICS, RecorderTrigger
 from rrps_teleop.recording.mcap_files import McapRecording, RotatingRecording, TopicInfo, write_recording
-from rrps_teleop.recording.qos import (INFINITE_NS, QosSpec, offer_for_replay, offered_qos_yaml,
-                                       parse_offered_qos, request_for_offers)
-from rrps_teleop.recording.replay import ReplayClock, RecordingSet, is_command_topic, replay_topic
+from rrps_teleop.recording.qos import (
+    INFINITE_NS,
+    QosSpec,
+    offer_for_replay,
+    offered_qos_yaml,
+    parse_offered_qos,
+    request_for_offers,
+)
+from rrps_teleop.recording.replay import RecordingSet, ReplayClock, is_command_topic, replay_topic
 from rrps_teleop.recording.ring import MessageRing
-from rrps_teleop.recording.schemas import (SEPARATOR, dependencies, generated_definition,
-                                           message_schema, type_hash)
+from rrps_teleop.recording.schemas import SEPARATOR, dependencies, generated_definition, message_schema, type_hash
 from rrps_teleop.recording.triggers import ERROR, OK, STALE, WARN, FaultWatch, StatusEvent
 
 
@@ -111,8 +116,8 @@ def test_schema_text_concatenates_dependencies_as_rosbag2_does():
 
 def test_definitions_generated_from_introspection_decode_like_the_msg_files(tmp_path):
     """The fallback for a type without a .msg file gives the same wire format."""
-    from rclpy.serialization import serialize_message
     from mcap.writer import Writer
+    from rclpy.serialization import serialize_message
 
     messages = _messages()
     path = tmp_path / 'generated.mcap'

@@ -8,8 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rrps_kinematics import check_pose, inverse_kinematics, load_robot, margins
-from rrps_kinematics.rotations import (quat_multiply_xyzw, rotation_angle_between,
-                                       rotation_vector_to_quat_xyzw)
+from rrps_kinematics.rotations import quat_multiply_xyzw, rotation_angle_between, rotation_vector_to_quat_xyzw
 from rrps_teleop.interfaces import DISENGAGED_CODES, TeleopCode
 from rrps_teleop.mapping import TeleopConfig, TeleopMapping, validate_scale
 from rrps_teleop.master import MasterModel, scripted_pose
@@ -107,7 +106,8 @@ def test_absolute_rotation_engages_only_when_aligned_then_copies_the_master_orie
 def test_clutch_reengaging_never_jumps_and_indexes_the_master():
     s = Session()
     s.tick()
-    up = lambda t: (MASTER.home_position + [0.0, 0.0, 0.003], MASTER.home_quaternion_xyzw)
+    def up(t):
+        return (MASTER.home_position + [0.0, 0.0, 0.003], MASTER.home_quaternion_xyzw)
     s.run(1.0, up)
     held = s.slave_position.copy()
     np.testing.assert_allclose(held - SLAVE.home_position, [0.0, 0.0, 0.012], atol=1e-12)
@@ -185,7 +185,8 @@ def test_no_engage_without_a_slave_pose_or_during_a_climb_step():
 def test_guards_stop_an_unreachable_request_and_allow_moving_back():
     s = Session(TeleopConfig(translation_scale=8.0, max_linear_speed=0.2))
     s.tick()
-    up = lambda t: (MASTER.home_position + [0.0, 0.0, 0.025], MASTER.home_quaternion_xyzw)
+    def up(t):
+        return (MASTER.home_position + [0.0, 0.0, 0.025], MASTER.home_quaternion_xyzw)
     outs = s.run(3.0, up)  # asks the slave for +0.2 m: beyond its 0.55 m stroke
     for o in outs:
         assert check_pose(SLAVE, o.position, o.quaternion_xyzw)[0]

@@ -26,10 +26,10 @@ from rcl_interfaces.msg import Parameter as ParameterMsg
 from rcl_interfaces.msg import ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
 from rclpy.parameter import Parameter
-from ros_harness import DEADLINE, Probe, Spinner, header_time, stamped_between, wait_for
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool
 
+from ros_harness import DEADLINE, Probe, Spinner, header_time, stamped_between, wait_for
 from rrps_kinematics import check_pose, inverse_kinematics, load_robot
 from rrps_kinematics.nodes.common import (
     COMMAND_QOS,
@@ -628,9 +628,13 @@ def test_teleop_node_rejects_malformed_master_data_and_says_why(ros_context):
     status = probe.collect(DiagnosticStatus, 'teleop/status')
     pose_pub = probe.publisher(PoseStamped, 'master/pose')
     state_pub = probe.publisher(JointState, 'master/actuators/state')
-    said = lambda text: any(s.message == 'INVALID' and text in {kv.key: kv.value for kv in s.values}['detail']
-                            for s in status)  # noqa: E731
-    stamp = lambda: probe.get_clock().now().to_msg()  # noqa: E731
+
+    def said(text):
+        return any(s.message == 'INVALID' and text in {kv.key: kv.value for kv in s.values}['detail']
+                   for s in status)
+
+    def stamp():
+        return probe.get_clock().now().to_msg()
     with Spinner(ros_context, [teleop, probe]):
         assert wait_for(lambda: pose_pub.get_subscription_count() and state_pub.get_subscription_count())
         pose_pub.publish(pose_to_msg(MASTER.home_position, [0, 0, 0, 1], frame_id='world', stamp=stamp()))

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from rrps_kinematics import inverse_kinematics, load_robot
 from rrps_kinematics.geometry import RigidBodyInertia, RobotDescriptionError, RobotGeometry, combine_bodies
 from rrps_kinematics.pose import Pose
-from rrps_kinematics.rotations import quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
+from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
 from rrps_kinematics.tool import b_T_tool, ring_b_pose, tool_pose
 from rrps_teleop.mapping import TeleopConfig, TeleopMapping
 
@@ -50,6 +50,7 @@ def test_combined_inertia_is_the_parallel_axis_sum():
 ])
 def test_a_malformed_tool_names_its_key(tmp_path, change, key):
     import yaml
+
     from rrps_kinematics.geometry import robot_path
     data = yaml.safe_load(robot_path('pole_climber').read_text())
     data['tool'].update(change)

@@ -25,8 +25,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ros_harness import DEADLINE, Probe, Spinner, wait_for
 from conftest import require
+from ros_harness import DEADLINE, Probe, Spinner, wait_for
 
 pytestmark = [pytest.mark.browser, pytest.mark.ros, pytest.mark.slow]
 
@@ -45,7 +45,8 @@ def _free_port() -> int:
 def playwright_dir() -> Path:
     """tests/browser with playwright-core installed (npm ci from the lock file if missing)."""
     require(Path(CHROMIUM).exists(), f'no Chromium at {CHROMIUM} (./rrps test installs Debian\'s chromium as root)')
-    require(shutil.which('npm') is not None and shutil.which('node') is not None, 'node and npm are needed for playwright-core')
+    require(shutil.which('npm') is not None and shutil.which('node') is not None,
+            'node and npm are needed for playwright-core')
     if not (BROWSER_DIR / 'node_modules' / 'playwright-core').exists():
         subprocess.run(['npm', 'ci', '--no-audit', '--no-fund'], cwd=BROWSER_DIR, check=True,
                        stdout=subprocess.DEVNULL, timeout=300)
@@ -97,7 +98,7 @@ def _changed_pixels(a: Path, b: Path, width: int | None = None) -> tuple[int, tu
     return int(changed.sum()), (int(cols.min()), int(rows.min()), int(cols.max()), int(rows.max()))
 
 
-def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(
+def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa: C901 - one scenario, its sync points
         ros_context, playwright_dir, tmp_path):
     from diagnostic_msgs.msg import DiagnosticStatus
     from geometry_msgs.msg import PoseStamped

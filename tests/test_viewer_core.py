@@ -8,6 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rrps_kinematics import inverse_kinematics, load_robot
+from rrps_kinematics.limits import margins
 from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
 from rrps_teleop.viewer import (
     WARN_FRACTION,
@@ -20,7 +21,6 @@ from rrps_teleop.viewer import (
     torus_mesh,
     world_ring_poses,
 )
-from rrps_kinematics.limits import margins
 
 GEOM = load_robot('pole_climber')
 

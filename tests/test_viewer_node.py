@@ -6,6 +6,7 @@ import socket
 
 import numpy as np
 import pytest
+
 from ros_harness import Probe, Spinner, header_time, stamped_between, wait_for
 
 pytestmark = pytest.mark.ros

@@ -11,6 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from conftest import require
 from rrps_kinematics import compiled_backend_available, inverse_kinematics, load_robot, margins
 from rrps_kinematics.cli import run
 from rrps_kinematics.rotations import (
@@ -30,7 +31,6 @@ from rrps_kinematics.workspace import (
     reachable_workspace,
 )
 from rrps_teleop.mapping import TeleopConfig
-from conftest import require
 
 POLE = load_robot('pole_climber')
 #: The pole climber with wide joint cones, a long stroke and thin legs: its workspace reaches

@@ -78,7 +78,7 @@ def _residual(A, B, L, p, q, R, rb, d, lengths, f):
 
 
 @_jit
-def _solve_step(rb, d, lengths, f, inv_scale, M, dx):
+def _solve_step(rb, d, lengths, f, inv_scale, M, dx):  # noqa: C901 - a compiled kernel: flat loops for numba
     """Solve J dx = f by LU with partial pivoting; False when J is singular."""
     for i in range(6):
         li = lengths[i]

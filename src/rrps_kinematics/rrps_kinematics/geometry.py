@@ -211,6 +211,17 @@ class RobotGeometry:
         B = _as_array(self.ring_b_anchors, (6, 3), 'ring_b.anchors')
         object.__setattr__(self, 'ring_a_anchors', A)
         object.__setattr__(self, 'ring_b_anchors', B)
+        self._check_legs()
+        self._check_inertias()
+        if self.tool is not None:
+            self._check_tool()
+        object.__setattr__(self, 'gravity', _as_array(self.gravity, (3,), 'gravity'))
+        self._set_home()
+        self._set_joint_axes()
+        self._check_grippers()
+        self._check_extra_dof()
+
+    def _check_legs(self) -> None:
         lo = _as_scalar(self.min_length, 'legs.min_length', nonnegative=True)
         hi = self.max_length if self.max_length == math.inf else _as_scalar(
             self.max_length, 'legs.max_length', positive=True)
@@ -228,6 +239,8 @@ class RobotGeometry:
         c = _as_scalar(self.min_conditioning, 'limits.min_conditioning', nonnegative=True)
         if c >= 1.0:
             raise RobotDescriptionError('limits.min_conditioning: must be < 1')
+
+    def _check_inertias(self) -> None:
         for key, body in (('ring_a', self.ring_a_inertia), ('ring_b', self.ring_b_inertia)):
             _as_scalar(body.mass, f'{key}.mass', positive=True)
             object.__setattr__(body, 'com', _as_array(body.com, (3,), f'{key}.com'))
@@ -241,9 +254,8 @@ class RobotGeometry:
             if link.inertia_axial > 2.0 * link.inertia_transverse:
                 raise RobotDescriptionError(
                     f'{key}.inertia_axial: must be <= 2 * inertia_transverse (triangle inequality)')
-        if self.tool is not None:
-            self._check_tool()
-        object.__setattr__(self, 'gravity', _as_array(self.gravity, (3,), 'gravity'))
+
+    def _set_home(self) -> None:
         q = _as_array(self.home_quaternion_xyzw, (4,), 'home.quaternion')
         if abs(np.linalg.norm(q) - 1.0) > 1e-6:
             raise RobotDescriptionError('home.quaternion: must be a unit quaternion (x, y, z, w)')
@@ -255,6 +267,9 @@ class RobotGeometry:
         else:
             object.__setattr__(self, 'home_position',
                                _as_array(self.home_position, (3,), 'home.position'))
+
+    def _set_joint_axes(self) -> None:
+        """Universal (ring_a) and spherical (ring_b) joint axes: given, or along the home legs."""
         home_legs = self._home_leg_vectors()
         if np.any(np.linalg.norm(home_legs, axis=1) < 1e-9):
             raise RobotDescriptionError('home: a leg has zero length at the home pose')
@@ -270,6 +285,8 @@ class RobotGeometry:
             axes = axes / norms[:, None]
             axes.setflags(write=False)
             object.__setattr__(self, attr, axes)
+
+    def _check_grippers(self) -> None:
         grippers = dict(self.grippers)
         for ring in ('ring_a', 'ring_b'):
             kind = grippers.get(ring, 'clamp')
@@ -277,6 +294,8 @@ class RobotGeometry:
                 raise RobotDescriptionError(f'{ring}.gripper: must be one of {GRIPPER_KINDS}, got {kind!r}')
             grippers[ring] = kind
         object.__setattr__(self, 'grippers', grippers)
+
+    def _check_extra_dof(self) -> None:
         for ring, dof in self.extra_dof.items():
             if ring not in ('ring_a', 'ring_b'):
                 raise RobotDescriptionError(f'extra_dof.{ring}: only ring_a and ring_b have one')
@@ -382,29 +401,15 @@ class RobotGeometry:
             if 'anchors' not in sec:
                 raise RobotDescriptionError(f'{key}.anchors: missing')
 
-        def body(sec: Mapping[str, Any], key: str) -> RigidBodyInertia:
-            default = RigidBodyInertia()
-            return RigidBodyInertia(
-                mass=_as_scalar(sec.get('mass', default.mass), f'{key}.mass', positive=True),
-                com=_as_array(sec.get('com', default.com), (3,), f'{key}.com'),
-                inertia=_as_array(sec.get('inertia', default.inertia), (3, 3), f'{key}.inertia'))
-
-        def link(key: str) -> LinkInertia:
-            sec = section(key, legs, 'legs.')
-            default = LinkInertia()
-            return LinkInertia(**{
-                name: _as_scalar(sec.get(name, getattr(default, name)), f'legs.{key}.{name}')
-                for name in ('mass', 'com_from_joint', 'inertia_transverse', 'inertia_axial')})
-
         kwargs: dict[str, Any] = {
             'name': str(data.get('name', 'custom')),
             'description': str(data.get('description', '')),
             'ring_a_anchors': _as_array(ring_a['anchors'], (6, 3), 'ring_a.anchors'),
             'ring_b_anchors': _as_array(ring_b['anchors'], (6, 3), 'ring_b.anchors'),
-            'ring_a_inertia': body(ring_a, 'ring_a'),
-            'ring_b_inertia': body(ring_b, 'ring_b'),
-            'lower_link': link('lower'),
-            'upper_link': link('upper'),
+            'ring_a_inertia': _body_from(ring_a, 'ring_a'),
+            'ring_b_inertia': _body_from(ring_b, 'ring_b'),
+            'lower_link': _link_from(section('lower', legs, 'legs.'), 'lower'),
+            'upper_link': _link_from(section('upper', legs, 'legs.'), 'upper'),
             'grippers': {'ring_a': str(ring_a.get('gripper', 'clamp')),
                          'ring_b': str(ring_b.get('gripper', 'clamp'))},
         }
@@ -413,13 +418,7 @@ class RobotGeometry:
                 kwargs['ring_a_joint_axes'] = _as_array(ring_a[key], (6, 3), f'ring_a.{key}')
             if key in ring_b:
                 kwargs['ring_b_joint_axes'] = _as_array(ring_b[key], (6, 3), f'ring_b.{key}')
-        for yaml_key, attr in (('min_length', 'min_length'), ('max_length', 'max_length'),
-                               ('max_speed', 'max_speed'), ('max_force', 'max_force'),
-                               ('radius', 'leg_radius'),
-                               ('universal_max_angle', 'universal_max_angle'),
-                               ('spherical_max_angle', 'spherical_max_angle')):
-            if yaml_key in legs:
-                kwargs[attr] = _as_scalar(legs[yaml_key], f'legs.{yaml_key}')
+        kwargs.update(_leg_limits_from(legs))
         if 'gravity' in data:
             kwargs['gravity'] = _as_array(data['gravity'], (3,), 'gravity')
         home = section('home')
@@ -431,31 +430,9 @@ class RobotGeometry:
         if 'min_conditioning' in limits:
             kwargs['min_conditioning'] = _as_scalar(limits['min_conditioning'],
                                                     'limits.min_conditioning')
-        extra = section('extra_dof')
-        dofs = {}
-        for ring, sec in extra.items():
-            if not isinstance(sec, Mapping):
-                raise RobotDescriptionError(f'extra_dof.{ring}: expected a mapping')
-            dofs[ring] = ExtraRingDof(
-                axis=_as_array(sec.get('axis', [0, 0, 1]), (3,), f'extra_dof.{ring}.axis'),
-                min_angle=_as_scalar(sec.get('min_angle', -math.pi), f'extra_dof.{ring}.min_angle'),
-                max_angle=_as_scalar(sec.get('max_angle', math.pi), f'extra_dof.{ring}.max_angle'))
-        kwargs['extra_dof'] = dofs
+        kwargs['extra_dof'] = _extra_dof_from(section('extra_dof'))
         if 'tool' in data:
-            sec = section('tool')
-            default = Tool()
-            size = sec.get('size', default.size)
-            if not isinstance(size, (list, tuple)):
-                raise RobotDescriptionError(f'tool.size: expected a list of numbers, got {size!r}')
-            kwargs['tool'] = Tool(
-                name=str(sec.get('name', default.name)),
-                position=_as_array(sec.get('position', default.position), (3,), 'tool.position'),
-                quaternion_xyzw=_as_array(sec.get('quaternion', default.quaternion_xyzw), (4,),
-                                          'tool.quaternion'),
-                mass=_as_scalar(sec.get('mass', default.mass), 'tool.mass', positive=True),
-                com=_as_array(sec.get('com', default.com), (3,), 'tool.com'),
-                inertia=_as_array(sec.get('inertia', default.inertia), (3, 3), 'tool.inertia'),
-                shape=str(sec.get('shape', default.shape)), size=tuple(size))
+            kwargs['tool'] = _tool_from(section('tool'))
         return cls(**kwargs)
 
     @classmethod
@@ -471,6 +448,65 @@ class RobotGeometry:
         except yaml.YAMLError as exc:
             raise RobotDescriptionError(f'{path}: invalid YAML: {exc}') from None
         return cls.from_dict(data, source=str(path))
+
+
+
+
+def _body_from(sec: Mapping[str, Any], key: str) -> RigidBodyInertia:
+    """A ring's inertia from its YAML section (defaults where not given)."""
+    default = RigidBodyInertia()
+    return RigidBodyInertia(
+        mass=_as_scalar(sec.get('mass', default.mass), f'{key}.mass', positive=True),
+        com=_as_array(sec.get('com', default.com), (3,), f'{key}.com'),
+        inertia=_as_array(sec.get('inertia', default.inertia), (3, 3), f'{key}.inertia'))
+
+
+def _link_from(sec: Mapping[str, Any], key: str) -> LinkInertia:
+    """A leg link's inertia from the YAML ``legs.lower`` / ``legs.upper`` section."""
+    default = LinkInertia()
+    return LinkInertia(**{
+        name: _as_scalar(sec.get(name, getattr(default, name)), f'legs.{key}.{name}')
+        for name in ('mass', 'com_from_joint', 'inertia_transverse', 'inertia_axial')})
+
+
+def _leg_limits_from(legs: Mapping[str, Any]) -> dict[str, float]:
+    """RobotGeometry keyword arguments of the YAML ``legs`` limits that are given."""
+    return {attr: _as_scalar(legs[yaml_key], f'legs.{yaml_key}')
+            for yaml_key, attr in (('min_length', 'min_length'), ('max_length', 'max_length'),
+                                   ('max_speed', 'max_speed'), ('max_force', 'max_force'),
+                                   ('radius', 'leg_radius'),
+                                   ('universal_max_angle', 'universal_max_angle'),
+                                   ('spherical_max_angle', 'spherical_max_angle'))
+            if yaml_key in legs}
+
+
+def _extra_dof_from(extra: Mapping[str, Any]) -> dict[str, ExtraRingDof]:
+    """The YAML ``extra_dof`` section: a ring rotation per ring that has one."""
+    dofs = {}
+    for ring, sec in extra.items():
+        if not isinstance(sec, Mapping):
+            raise RobotDescriptionError(f'extra_dof.{ring}: expected a mapping')
+        dofs[ring] = ExtraRingDof(
+            axis=_as_array(sec.get('axis', [0, 0, 1]), (3,), f'extra_dof.{ring}.axis'),
+            min_angle=_as_scalar(sec.get('min_angle', -math.pi), f'extra_dof.{ring}.min_angle'),
+            max_angle=_as_scalar(sec.get('max_angle', math.pi), f'extra_dof.{ring}.max_angle'))
+    return dofs
+
+
+def _tool_from(sec: Mapping[str, Any]) -> Tool:
+    """The YAML ``tool`` section: its frame in ring_b, inertia and shape."""
+    default = Tool()
+    size = sec.get('size', default.size)
+    if not isinstance(size, (list, tuple)):
+        raise RobotDescriptionError(f'tool.size: expected a list of numbers, got {size!r}')
+    return Tool(
+        name=str(sec.get('name', default.name)),
+        position=_as_array(sec.get('position', default.position), (3,), 'tool.position'),
+        quaternion_xyzw=_as_array(sec.get('quaternion', default.quaternion_xyzw), (4,), 'tool.quaternion'),
+        mass=_as_scalar(sec.get('mass', default.mass), 'tool.mass', positive=True),
+        com=_as_array(sec.get('com', default.com), (3,), 'tool.com'),
+        inertia=_as_array(sec.get('inertia', default.inertia), (3, 3), 'tool.inertia'),
+        shape=str(sec.get('shape', default.shape)), size=tuple(size))
 
 
 def shipped_robots() -> list[str]:

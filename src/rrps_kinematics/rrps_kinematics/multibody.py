@@ -134,7 +134,7 @@ def gauss_eliminate(A, nrow, ncol_pivot, ncol):
 
 
 @jit
-def structured_solve(J, rhs):
+def structured_solve(J, rhs):  # noqa: C901 - a compiled kernel: flat loops for numba
     """Solve Φ_q Δq = rhs (91) by the robot's structure; returns (ok, Δq, flops).
 
     Leg k's 15 rows (12 joint, driving, 2 normalisations) touch only its 14 link coordinates and

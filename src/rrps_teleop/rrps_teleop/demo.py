@@ -219,23 +219,74 @@ def _banner(viewer) -> str:
             f'  (every browser is read-only until it enters the token; Ctrl-C stops everything)\n')
 
 
+def _argument_error(args) -> str | None:
+    if not 1 <= args.port <= 65535:
+        return f'--port must be 1..65535, got {args.port}'
+    if args.token and len(args.token) < 8:
+        return '--token must have at least 8 characters'
+    return None
+
+
+def _start_robot(args, run_dir: str):
+    """The simulated robot: its driver (active at the first start only; a restarted driver
+    resumes the robot's physical state from the state file and waits for activation), its
+    computer's nodes, and the observers (flight recorder, markers). A child that dies is
+    restarted (at most 3 times a minute)."""
+    from rrps_kinematics.supervision import Respawner
+
+    state_file = os.path.join(run_dir, f'{args.robot}-hardware.json')
+    return Respawner({
+        'driver': lambda first: start_driver(robot=args.robot, state_file=state_file, activate=first),
+        'robot nodes': lambda first: start_robot_nodes(robot=args.robot),
+        'observer': lambda first: start_recorder(robot=args.robot, output_dir=args.recordings,
+                                                 record=args.record),
+    })
+
+
+def _serve(executor, context, robot, stop: threading.Event) -> None:
+    """Spin the operator station's nodes until Ctrl-C, reporting (and restarting) dead children."""
+    from rclpy.task import Future
+
+    never = Future()
+    while context.ok() and not stop.is_set():
+        executor.spin_until_future_complete(never, timeout_sec=0.05)
+        for name, code, restarted in robot.poll():
+            print(f'rrps demo: the {name} process exited (status {code}); '
+                  + ('restarted it' + (': activate the driver in the viewer' if name == 'driver' else '')
+                     if restarted else 'not restarting it again'), flush=True)
+    print('rrps demo: stopping', flush=True)
+
+
+def _run_script(script, executor, context, robot, stop: threading.Event, viewer) -> int:
+    """The headless demo: run the scripted session while another thread spins; 0 if it passed."""
+    from rrps_kinematics.nodes.common import spin_until_shutdown
+
+    spinner = threading.Thread(target=spin_until_shutdown, args=(executor, context, stop),
+                               kwargs={'period': 0.02}, daemon=True)
+    spinner.start()
+    try:
+        ok = script.run(stop, viewer=viewer)
+    finally:
+        stop.set()
+        spinner.join(timeout=5.0)
+    failed = [c for c in robot.children.values() if c.poll() is not None]
+    return 0 if ok and not failed else 1
+
+
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    if not 1 <= args.port <= 65535:
-        print(f'error: --port must be 1..65535, got {args.port}', file=sys.stderr)
-        return 2
-    if args.token and len(args.token) < 8:
-        print('error: --token must have at least 8 characters', file=sys.stderr)
+    error = _argument_error(args)
+    if error is not None:
+        print(f'error: {error}', file=sys.stderr)
         return 2
 
     import rclpy
     from rclpy.executors import ExternalShutdownException
     from rclpy.signals import SignalHandlerOptions
-    from rclpy.task import Future
 
     from rrps_kinematics.geometry import RobotDescriptionError
-    from rrps_kinematics.nodes.common import freeze_startup_objects, make_executor, spin_until_shutdown
+    from rrps_kinematics.nodes.common import freeze_startup_objects, make_executor
     from rrps_kinematics.supervision import Respawner, exit_with_parent
 
     stop = threading.Event()
@@ -256,18 +307,7 @@ def main(argv=None) -> int:
         except (RobotDescriptionError, ValueError) as exc:
             print(f'error: {exc}', file=sys.stderr)
             return 2
-        # The simulated robot: its driver (active at the first start only; a restarted driver
-        # resumes the robot's physical state from the state file and waits for activation),
-        # its computer's nodes, and the observers (flight recorder, markers). A child that dies
-        # is restarted (at most 3 times a minute).
-        state_file = os.path.join(run_dir, f'{args.robot}-hardware.json')
-        robot = Respawner({
-            'driver': lambda first: start_driver(robot=args.robot, state_file=state_file,
-                                                 activate=first),
-            'robot nodes': lambda first: start_robot_nodes(robot=args.robot),
-            'observer': lambda first: start_recorder(robot=args.robot, output_dir=args.recordings,
-                                                     record=args.record),
-        })
+        robot = _start_robot(args, run_dir)
         script = None
         if args.headless:
             from .headless import DemoScript
@@ -285,27 +325,9 @@ def main(argv=None) -> int:
             return status
         if script is None:
             print(_banner(nodes['viewer_node']), flush=True)
-            never = Future()
-            while context.ok() and not stop.is_set():
-                executor.spin_until_future_complete(never, timeout_sec=0.05)
-                for name, code, restarted in robot.poll():
-                    print(f'rrps demo: the {name} process exited (status {code}); '
-                          + ('restarted it' + (': activate the driver in the viewer'
-                                               if name == 'driver' else '')
-                             if restarted else 'not restarting it again'), flush=True)
-            print('rrps demo: stopping', flush=True)
+            _serve(executor, context, robot, stop)
         else:
-            spinner = threading.Thread(target=spin_until_shutdown,
-                                       args=(executor, context, stop), kwargs={'period': 0.02},
-                                       daemon=True)
-            spinner.start()
-            try:
-                ok = script.run(stop, viewer=nodes['viewer_node'])
-            finally:
-                stop.set()
-                spinner.join(timeout=5.0)
-            failed = [c for c in robot.children.values() if c.poll() is not None]
-            status = 0 if ok and not failed else 1
+            status = _run_script(script, executor, context, robot, stop, nodes['viewer_node'])
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

@@ -68,8 +68,9 @@ CSV_COLUMNS = (['step', 'phase', 'gripper_a', 'gripper_b', 's_a', 's_b',
 
 
 class PlanError(ValueError):
-    """A plan that breaks a limit. ``limit``: a :class:`PlanLimit`; ``legs``: leg names involved; ``step``, ``phase``: where; ``margins``: the smallest margin of
-    each kind at the first pose that breaks a limit (empty for non-pose limits)."""
+    """A plan that breaks a limit. ``limit``: a :class:`PlanLimit`; ``legs``: leg names involved;
+    ``step``, ``phase``: where; ``margins``: the smallest margin of each kind at the first pose
+    that breaks a limit (empty for non-pose limits)."""
 
     def __init__(self, message: str, *, limit: PlanLimit, legs=(), step: int | None = None,
                  phase: str | None = None, margins: dict | None = None):

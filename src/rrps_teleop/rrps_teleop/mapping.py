@@ -150,7 +150,8 @@ class TeleopConfig:
         if self.singularity_halt is not None:
             h = float(self.singularity_halt)
             if not (math.isfinite(h) and 0.0 <= h < self.singularity_slowdown):
-                raise ValueError(f'singularity_halt must be in [0, singularity_slowdown), got {self.singularity_halt!r}')
+                raise ValueError('singularity_halt must be in [0, singularity_slowdown), '
+                                 f'got {self.singularity_halt!r}')
 
     def with_(self, **changes) -> 'TeleopConfig':
         """A validated copy with some fields changed."""

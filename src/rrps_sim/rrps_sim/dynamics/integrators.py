@@ -84,7 +84,7 @@ def rk4_full(q, v, work, forces, dt, alpha, beta, params, ws):
 
 
 @jit
-def solve_dependent(q, v, joints, tolerance, max_iterations):
+def solve_dependent(q, v, joints, tolerance, max_iterations):  # noqa: C901 - a compiled kernel: flat loops for numba
     """Partitioned correction: e0 of ring_b from eq. 9, each leg's 14 coordinates by Newton on
     its 12 joint constraints + 2 normalisations, then its 12 velocities from Φ_q v = 0 (eq. 20).
 

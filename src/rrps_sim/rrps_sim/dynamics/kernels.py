@@ -126,7 +126,7 @@ def _leg_solve(B, gamma, K, Y):
 
 
 @jit(fastmath=True)
-def accelerations(q, v, forces, alpha, beta, params, ws, acc):
+def accelerations(q, v, forces, alpha, beta, params, ws, acc):  # noqa: C901 - a compiled kernel: flat loops for numba
     """Solve eq. 19 for [r̈, ω̇'] (78,) -> acc; returns False if singular.
 
     Baumgarte stabilisation with α, β (0, 0: none): γ <- γ - 2 α Φ̇ - β² Φ (joint rows). Leaves

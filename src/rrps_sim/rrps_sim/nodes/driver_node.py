@@ -11,10 +11,11 @@ angles, grippers) is kept on disk and a restarted driver resumes it
 open. Deactivating holds the robot where it is.
 
 Modes (parameter ``mode``): ``kinematic`` (:class:`rrps_sim.actuators.KinematicActuators`: lag,
-speed and stroke limits; effort = the quasi-static holding forces of the pose, refreshed at 5 Hz) and ``dynamic`` (:class:`rrps_sim.actuators.DynamicActuators`: the
-multibody dynamics of eqs. 19-20 with a PD force loop per leg, effort = force [N]). The state
-is published at ``rate`` Hz while the robot moves or is commanded, at ``idle_rate`` (50 Hz) once it has
-rested for 0.5 s (kinematic mode), and at once on each accepted command with ``publish_on_command``.
+speed and stroke limits; effort = the quasi-static holding forces of the pose, refreshed at
+5 Hz) and ``dynamic`` (:class:`rrps_sim.actuators.DynamicActuators`: the multibody dynamics of
+eqs. 19-20 with a PD force loop per leg, effort = force [N]). The state is published at
+``rate`` Hz while the robot moves or is commanded, at ``idle_rate`` (50 Hz) once it has rested
+for 0.5 s (kinematic mode), and at once on each accepted command with ``publish_on_command``.
 
 A command is not acted on (the actuators keep tracking the last accepted one; /diagnostics and
 the log say why) when it is malformed (names, sizes, NaN), unstamped, outside the stroke, or stamped more

@@ -5,8 +5,9 @@ stream ``target_pose`` (PoseStamped a_T_b, frame ring_a; so the IK node's guards
 the planned path at ``speed``, and grippers switch through the driver's
 ``grippers/ring_a|ring_b/set`` services. Before a gripper switches, the measured ``pose`` (FK of
 the measured lengths) must have arrived within ``position_tolerance`` / ``orientation_tolerance``
-of the planned pose and stayed there ``settle_time``, and a gripper is only opened when ``grippers/state`` shows the other one
-closed (the interlock, on top of the planner's and the driver's).
+of the planned pose and stayed there ``settle_time``, and a gripper is only opened when
+``grippers/state`` shows the other one closed (the interlock, on top of the planner's and the
+driver's).
 
 Services ``climb/step_up``, ``climb/step_down`` (std_srvs/Trigger) plan and start one step;
 ``auto_steps`` > 0 climbs that many steps up once the robot's state is known (scripted runs).
@@ -18,9 +19,9 @@ Liveness: a step **pauses** (state ``paused``, a typed ``PauseReason``) when ``p
 operator station (its ``teleop/status``, once seen) has been silent for ``operator_timeout``
 (the link is down), or when the driver leaves its active state. A paused step sends no target
 and switches no gripper, so the robot holds where it is; it waits for the operator's
-``climb/resume`` once the cause is gone (it never resumes by itself, and it is not aborted). When the measured pose is off the
-gait (teleoperation moved ring_b), ring_b is first released, brought back and re-gripped
-(``GaitPlanner.approach``, checked like any motion) before the step.
+``climb/resume`` once the cause is gone (it never resumes by itself, and it is not aborted).
+When the measured pose is off the gait (teleoperation moved ring_b), ring_b is first released,
+brought back and re-gripped (``GaitPlanner.approach``, checked like any motion) before the step.
 
 Publishes ``climb/status`` (DiagnosticStatus: message idle | executing | error; values step,
 phase, structure, s_a, s_b, steps_done, detail) and the world odometry of both rings
@@ -43,21 +44,50 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 
-from rrps_kinematics.interfaces import (ACTUATORS_STATE, DIAGNOSTICS, POSE, RING_A_FRAME,
-                                        TARGET_POSE, TARGET_RINGS, WORLD_FRAME, ring_joint,
-                                        source_node)
-from rrps_sim.interfaces import (GRIPPERS_STATE, RINGS, DriverStatus, gripper_service,
-                                 gripper_states)
-from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, LATEST_QOS, OK, STATE_QOS, WARN, Diagnostics,
-                                          declare_parameter, declare_robot_parameter,
-                                          joint_state_msg, pose_from_msg, pose_to_msg, run_nodes)
+from rrps_kinematics.interfaces import (
+    ACTUATORS_STATE,
+    DIAGNOSTICS,
+    POSE,
+    RING_A_FRAME,
+    TARGET_POSE,
+    TARGET_RINGS,
+    WORLD_FRAME,
+    ring_joint,
+    source_node,
+)
+from rrps_kinematics.nodes.common import (
+    COMMAND_QOS,
+    ERROR,
+    LATEST_QOS,
+    OK,
+    STATE_QOS,
+    WARN,
+    Diagnostics,
+    declare_parameter,
+    declare_robot_parameter,
+    joint_state_msg,
+    pose_from_msg,
+    pose_to_msg,
+    run_nodes,
+)
 from rrps_kinematics.pose import QUATERNION_TOLERANCE, InvalidPose, Pose, pose_error
 from rrps_kinematics.rotations import matrix_to_quat_xyzw, rotation_angle_between
+from rrps_sim.interfaces import GRIPPERS_STATE, RINGS, DriverStatus, gripper_service, gripper_states
 
 from ..gait import GaitPlanner, PlanError
-from ..interfaces import (CLIMB_RESUME, CLIMB_STATUS, CLIMB_STEP_DOWN, CLIMB_STEP_UP, TELEOP_STATUS,
-                          ClimbState, ClimbStatus, PauseReason, PhaseAction, TeleopStatus,
-                          odometry_topic)
+from ..interfaces import (
+    CLIMB_RESUME,
+    CLIMB_STATUS,
+    CLIMB_STEP_DOWN,
+    CLIMB_STEP_UP,
+    TELEOP_STATUS,
+    ClimbState,
+    ClimbStatus,
+    PauseReason,
+    PhaseAction,
+    TeleopStatus,
+    odometry_topic,
+)
 from ..odometry import RingOdometry
 from ..structures import STRUCTURES, make_structure
 
@@ -442,65 +472,85 @@ class ClimbNode(Node):
         if reason is not None:
             self._pause(reason)
             return
-        ph = self._phases[self._index]
-        now = self._now()
-        if self._stage == 'stream':
-            self._t += self.dt
-            self._publish_target(*self._target(self._t))
-            if self._t >= self._phase_times[-1]:
-                self._stage = 'arrive'
-                self._deadline = now + self.settle_timeout
-            return
-        if self._stage == 'arrive':
-            self._publish_target(ph.a_T_b, ph.ring_angles[-1])  # keep the command stream fresh
-            if not self._arrived(ph.a_T_b):
-                self._arrived_since = None
-            elif self._arrived_since is None:
-                self._arrived_since = now
-            if self._arrived_since is not None and now - self._arrived_since >= self.settle_time:
-                self._stage = ('gripper' if ph.action in (PhaseAction.RELEASE, PhaseAction.GRIP)
-                               else 'done')
-                self._deadline = now + self.settle_timeout
-            elif now > self._deadline:
-                dp, da = pose_error(self.pose, ph.a_T_b) if self.pose is not None else (math.inf, math.inf)
-                self._fail(f'step {ph.step}, phase {ph.phase}: the pose did not arrive within '
-                           f'{self.settle_timeout:.1f} s (error {dp * 1000:.1f} mm, {math.degrees(da):.2f} deg)')
-                return
-        if self._stage == 'gripper':
-            self._publish_target(ph.a_T_b, ph.ring_angles[-1])
-            ring = ph.ring
-            close = ph.action is PhaseAction.GRIP
-            if self._future is None:
-                other = 'ring_b' if ring == 'ring_a' else 'ring_a'
-                if not close and not self.grippers[other]:
-                    self._fail(f'step {ph.step}, phase {ph.phase}: interlock: {other} is not closed')
-                    return
-                self._future = self._gripper_clients[ring].call_async(SetBool.Request(data=close))
-            elif self._future.done():
-                result = self._future.result()
-                if result is None or not result.success:
-                    self._fail(f'step {ph.step}, phase {ph.phase}: {ring} gripper refused: '
-                               f'{getattr(result, "message", "no reply")}')
-                    return
-                if self.grippers[ring] == close:
-                    self._stage = 'done'
-            if self._stage != 'done' and now > self._deadline:
-                self._fail(f'step {ph.step}, phase {ph.phase}: {ring} gripper did not switch within '
-                           f'{self.settle_timeout:.1f} s')
+        stages = {'stream': self._stream, 'arrive': self._arrive, 'gripper': self._switch_gripper}
+        ph, now = self._phases[self._index], self._now()
+        while self._stage in stages:
+            if not stages[self._stage](ph, now):
                 return
         if self._stage == 'done':
-            self.s_a, self.s_b = ph.s_a, ph.s_b
-            self._index += 1
-            if self._index >= len(self._phases):
-                self.theta = ph.theta_a
-                self.steps_done += max(p.step for p in self._phases)
-                self.mode = IDLE
-                self.detail = f'done: ring_a at s={self.s_a:.3f} m, ring_b at s={self.s_b:.3f} m'
-                self._phases = []
-                self._publish_status(force=True)
-                return
-            self._enter_phase()
-            self._publish_status()
+            self._next_phase(ph)
+
+    # --- the stages of a phase: stream the path, arrive, switch the gripper, done ---------------
+    # Each returns True when it passed on to the next stage within this tick, False when the
+    # phase cannot go on this tick (still streaming, waiting, or failed).
+
+    def _stream(self, ph, now: float) -> bool:
+        """Stream the phase's path at the node's rate; then wait for the pose to arrive."""
+        self._t += self.dt
+        self._publish_target(*self._target(self._t))
+        if self._t >= self._phase_times[-1]:
+            self._stage = 'arrive'
+            self._deadline = now + self.settle_timeout
+        return False
+
+    def _arrive(self, ph, now: float) -> bool:
+        """Hold the phase's end pose until the measured pose stayed there ``settle_time``."""
+        self._publish_target(ph.a_T_b, ph.ring_angles[-1])  # keep the command stream fresh
+        if not self._arrived(ph.a_T_b):
+            self._arrived_since = None
+        elif self._arrived_since is None:
+            self._arrived_since = now
+        if self._arrived_since is not None and now - self._arrived_since >= self.settle_time:
+            self._stage = ('gripper' if ph.action in (PhaseAction.RELEASE, PhaseAction.GRIP)
+                           else 'done')
+            self._deadline = now + self.settle_timeout
+            return True
+        if now > self._deadline:
+            dp, da = pose_error(self.pose, ph.a_T_b) if self.pose is not None else (math.inf, math.inf)
+            self._fail(f'step {ph.step}, phase {ph.phase}: the pose did not arrive within '
+                       f'{self.settle_timeout:.1f} s (error {dp * 1000:.1f} mm, {math.degrees(da):.2f} deg)')
+        return False
+
+    def _switch_gripper(self, ph, now: float) -> bool:
+        """Ask the driver to switch the phase's gripper (a ring opens only while the other is
+        closed) and wait until ``grippers/state`` shows it switched."""
+        self._publish_target(ph.a_T_b, ph.ring_angles[-1])
+        ring = ph.ring
+        close = ph.action is PhaseAction.GRIP
+        if self._future is None:
+            other = 'ring_b' if ring == 'ring_a' else 'ring_a'
+            if not close and not self.grippers[other]:
+                self._fail(f'step {ph.step}, phase {ph.phase}: interlock: {other} is not closed')
+                return False
+            self._future = self._gripper_clients[ring].call_async(SetBool.Request(data=close))
+        elif self._future.done():
+            result = self._future.result()
+            if result is None or not result.success:
+                self._fail(f'step {ph.step}, phase {ph.phase}: {ring} gripper refused: '
+                           f'{getattr(result, "message", "no reply")}')
+                return False
+            if self.grippers[ring] == close:
+                self._stage = 'done'
+                return True
+        if now > self._deadline:
+            self._fail(f'step {ph.step}, phase {ph.phase}: {ring} gripper did not switch within '
+                       f'{self.settle_timeout:.1f} s')
+        return False
+
+    def _next_phase(self, ph) -> None:
+        """The phase is done: on to the next one, or the climb is over (idle)."""
+        self.s_a, self.s_b = ph.s_a, ph.s_b
+        self._index += 1
+        if self._index >= len(self._phases):
+            self.theta = ph.theta_a
+            self.steps_done += max(p.step for p in self._phases)
+            self.mode = IDLE
+            self.detail = f'done: ring_a at s={self.s_a:.3f} m, ring_b at s={self.s_b:.3f} m'
+            self._phases = []
+            self._publish_status(force=True)
+            return
+        self._enter_phase()
+        self._publish_status()
 
     def _fail(self, reason: str) -> None:
         self.mode = FAILED

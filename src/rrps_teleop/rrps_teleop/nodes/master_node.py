@@ -2,9 +2,10 @@
 
 Subscribes ``master/target_pose`` (PoseStamped, frame master_ring_a: where the operator moves the
 handle); with the parameter ``trajectory`` = circle | lissajous it moves by itself instead. At
-``rate`` Hz the handle moves towards its target within its speed and its own limits (at ``idle_rate`` while
-it rests at its target), and the node publishes ``master/actuators/state`` (JointState: the leg lengths, what encoders would give) and
-``master/pose`` (PoseStamped: its own FK of those lengths, seeded by the previous estimate).
+``rate`` Hz the handle moves towards its target within its speed and its own limits (at
+``idle_rate`` while it rests at its target), and the node publishes ``master/actuators/state``
+(JointState: the leg lengths, what encoders would give) and ``master/pose`` (PoseStamped: its
+own FK of those lengths, seeded by the previous estimate).
 ``trajectory``, ``amplitude``, ``period`` and ``angular_amplitude`` may be set at run time.
 
 ``master/feedback`` (WrenchStamped, the slave's limits as a virtual fixture, from the teleop
