@@ -35,7 +35,6 @@ it at its own ``rate``, so a fast state stream costs it almost nothing and never
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -71,9 +70,9 @@ from rrps_kinematics.nodes.common import (
     run_nodes,
 )
 from rrps_kinematics.pose import QUATERNION_TOLERANCE, InvalidPose, Pose, pose_error
-from rrps_kinematics.rotations import matrix_to_quat_xyzw, rotation_angle_between
 from rrps_sim.interfaces import GRIPPERS_STATE, RINGS, DriverStatus, gripper_service, gripper_states
 
+from ..climb_watch import InputWatch
 from ..gait import GaitPlanner, PlanError
 from ..interfaces import (
     CLIMB_RESUME,
@@ -89,6 +88,7 @@ from ..interfaces import (
     odometry_topic,
 )
 from ..odometry import RingOdometry
+from ..phase_path import PhasePath
 from ..structures import STRUCTURES, make_structure
 
 IDLE, EXECUTING, PAUSED, FAILED = (ClimbState.IDLE, ClimbState.EXECUTING, ClimbState.PAUSED,
@@ -157,12 +157,8 @@ class ClimbNode(Node):
         self.detail = 'waiting for pose and grippers/state'
         self._plan_refused = False
         self.pause_reason: PauseReason | None = None
-        self._pose_receipt: float | None = None
-        self._grippers_receipt: float | None = None
-        self._operator_receipt: float | None = None
+        self.watch = InputWatch(state_timeout=self.state_timeout, operator_timeout=self.operator_timeout)
         self.driver_active: bool | None = None
-        self._last_tick = time.monotonic()
-        self._judge_inputs_from = self._last_tick  # see _on_tick
         self.steps_done = 0
         self.pose: Pose | None = None
         self.grippers: dict[str, bool] | None = None
@@ -176,7 +172,7 @@ class ClimbNode(Node):
         self._deadline = 0.0
         self._arrived_since: float | None = None
         self._future = None
-        self._phase_times = np.zeros(1)
+        self._path: PhasePath | None = None
         self._auto_started = False
         self._last_status = None
 
@@ -210,7 +206,7 @@ class ClimbNode(Node):
     def _on_pose(self, msg: PoseStamped) -> None:
         """Keep the newest measured pose; it is used at the node's rate (:meth:`_take_pose`)."""
         self._pose_msg = msg
-        self._pose_receipt = time.monotonic()
+        self.watch.received('pose')
 
     def _take_pose(self) -> None:
         """The newest measured pose (if one came since the last tick) and the odometry it chains."""
@@ -251,7 +247,7 @@ class ClimbNode(Node):
         state = gripper_states(msg.name, msg.position)
         if state is not None:
             self.grippers = state
-            self._grippers_receipt = time.monotonic()
+            self.watch.received('grippers/state')
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         """The driver's lifecycle state, from its typed status."""
@@ -264,7 +260,7 @@ class ClimbNode(Node):
                                               throttle_duration_sec=5.0)
 
     def _on_teleop(self, msg: DiagnosticStatus) -> None:
-        self._operator_receipt = time.monotonic()  # the operator station is reachable
+        self.watch.received('teleop/status')  # the operator station is reachable
         try:
             self.teleop_engaged = TeleopStatus.from_key_values(msg.values).engaged
         except ValueError as exc:
@@ -289,31 +285,11 @@ class ClimbNode(Node):
 
     # --- starting a climb -----------------------------------------------------------------------
 
-    def _hold_reason(self) -> PauseReason | None:
-        """Why a step must hold now: the robot's state is stale, the operator station is silent
-        (once it was seen), or the driver is not active."""
-        now = time.monotonic()
-        if any(t is None or now - t > self.state_timeout
-               for t in (self._pose_receipt, self._grippers_receipt)):
-            return PauseReason.ROBOT_STATE_LOST
-        if self._operator_receipt is not None and now - self._operator_receipt > self.operator_timeout:
-            return PauseReason.OPERATOR_LINK_LOST
-        if self.driver_active is False:
-            return PauseReason.DRIVER_INACTIVE
-        return None
-
-    def _ages(self) -> str:
-        now = time.monotonic()
-        return ', '.join(f'{name} ' + ('never received' if t is None else f'{now - t:.2f} s old')
-                         for name, t in (('pose', self._pose_receipt),
-                                         ('grippers/state', self._grippers_receipt),
-                                         ('teleop/status', self._operator_receipt)))
-
     def _pause(self, reason: PauseReason) -> None:
         """Hold: no target, no gripper request until the operator resumes."""
         ph = self._phases[self._index]
         self.mode, self.pause_reason = PAUSED, reason
-        self.detail = (f'paused at step {ph.step}, phase {ph.phase}: {reason.value} ({self._ages()}); '
+        self.detail = (f'paused at step {ph.step}, phase {ph.phase}: {reason.value} ({self.watch.ages()}); '
                        f'holding, grippers as they are; {CLIMB_RESUME} resumes')
         self.get_logger().error(self.detail)
         self._publish_status(force=True)
@@ -322,13 +298,13 @@ class ClimbNode(Node):
         if self.mode is not PAUSED:
             response.success, response.message = False, f'refused: the climb is {self.mode.value}'
             return response
-        reason = self._hold_reason()
+        reason = self.watch.hold_reason(driver_active=self.driver_active)
         if reason is not None:
             response.success, response.message = False, f'refused: {reason.value}'
             return response
         self._take_pose()
         if self._stage == 'stream':
-            expected, _ = self._target(self._t)
+            expected, _ = self._path.at(self._t)
             dp, da = pose_error(self.pose, expected)
             if dp > 10 * self.position_tolerance or da > 10 * self.orientation_tolerance:
                 response.success = False
@@ -360,7 +336,7 @@ class ClimbNode(Node):
             return False, 'refused: teleoperation is engaged'
         if self.pose is None or self.grippers is None:
             return False, 'refused: no pose or grippers/state received yet'
-        reason = self._hold_reason()
+        reason = self.watch.hold_reason(driver_active=self.driver_active)
         if reason is not None:
             return False, f'refused: {reason.value}'
         try:
@@ -403,28 +379,11 @@ class ClimbNode(Node):
         self._arrived_since = None
         self._deadline = self._now() + self.settle_timeout
         if ph.action is PhaseAction.MOVE:
-            p = ph.path[:, :3, 3]
-            angles = rotation_angle_between(ph.path[:-1, :3, :3], ph.path[1:, :3, :3])
-            seg = np.linalg.norm(np.diff(p, axis=0), axis=1) + self.geometry.characteristic_length * angles
-            self._phase_times = np.concatenate([[0.0], np.cumsum(seg)]) / self.speed
+            self._path = PhasePath(ph.path, ph.ring_angles, speed=self.speed,
+                                   characteristic_length=self.geometry.characteristic_length)
             self._stage = 'stream'
         else:
             self._stage = 'arrive'
-
-    def _target(self, t: float) -> tuple[Pose, np.ndarray]:
-        """The planned a_T_b and extra-DOF angles (theta_a, theta_b) at time t of the current
-        motion (positions and angles lerped, rotations nlerped)."""
-        ph = self._phases[self._index]
-        path, angles = ph.path, ph.ring_angles
-        times = self._phase_times
-        if t >= times[-1]:
-            return Pose.from_matrix(path[-1]), angles[-1]
-        k = int(np.searchsorted(times, t, side='right')) - 1
-        w = (t - times[k]) / max(times[k + 1] - times[k], 1e-12)
-        p = (1 - w) * path[k, :3, 3] + w * path[k + 1, :3, 3]
-        q0, q1 = matrix_to_quat_xyzw(path[k, :3, :3]), matrix_to_quat_xyzw(path[k + 1, :3, :3])
-        q1 = q1 if q0 @ q1 >= 0 else -q1
-        return Pose(p, (1 - w) * q0 + w * q1), (1 - w) * angles[k] + w * angles[k + 1]
 
     def _publish_target(self, T: Pose, angles: np.ndarray) -> None:
         """target_pose, and the extra-DOF angles on target_rings for robots that have them (the
@@ -442,20 +401,11 @@ class ClimbNode(Node):
         return dp <= self.position_tolerance and da <= self.orientation_tolerance
 
     def _on_tick(self) -> None:
-        # Judge the inputs' age only when this executor has kept up for a state_timeout: after a
-        # stall (a late tick, or a tick that planned) the messages that arrived meanwhile may
-        # still be queued behind the overdue timer, so their receipt times say nothing yet.
-        stall = 0.5 * self.state_timeout
-        tick = time.monotonic()
-        if tick - self._last_tick > stall:
-            self._judge_inputs_from = tick + self.state_timeout
+        self.watch.tick_started()
         try:
             self._tick()
         finally:
-            end = time.monotonic()
-            if end - tick > stall:
-                self._judge_inputs_from = end + self.state_timeout
-            self._last_tick = end
+            self.watch.tick_ended()
 
     def _tick(self) -> None:
         self._take_pose()
@@ -468,7 +418,7 @@ class ClimbNode(Node):
             return  # planning took this tick: the inputs are judged at the next one
         if self.mode is not EXECUTING:
             return
-        reason = self._hold_reason() if time.monotonic() >= self._judge_inputs_from else None
+        reason = self.watch.hold_reason(driver_active=self.driver_active) if self.watch.judged() else None
         if reason is not None:
             self._pause(reason)
             return
@@ -487,8 +437,8 @@ class ClimbNode(Node):
     def _stream(self, ph, now: float) -> bool:
         """Stream the phase's path at the node's rate; then wait for the pose to arrive."""
         self._t += self.dt
-        self._publish_target(*self._target(self._t))
-        if self._t >= self._phase_times[-1]:
+        self._publish_target(*self._path.at(self._t))
+        if self._t >= self._path.duration:
             self._stage = 'arrive'
             self._deadline = now + self.settle_timeout
         return False
