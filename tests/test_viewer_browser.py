@@ -83,6 +83,17 @@ class Browser:
 
 #: Width [px] of the 3-D view left of the panel (the viewport is 860 px wide).
 VIEW_WIDTH = 860 - 330
+#: The reachable workspace's point clouds: around the robot (in ring_a) and scaled on the master.
+WORKSPACE_NODES = {'/robot/ring_a/workspace', '/master/ring_a/workspace/shell'}
+#: Their colour (RGB) in the viewer.
+WORKSPACE_RGB = (90, 160, 235)
+
+
+def _workspace_pixels(path: Path) -> int:
+    """Pixels of the 3-D view in the workspace's colour (within the anti-aliasing's spread)."""
+    from PIL import Image
+    x = np.asarray(Image.open(path).convert('RGB'), dtype=int)[:, :VIEW_WIDTH]
+    return int((np.abs(x - np.array(WORKSPACE_RGB)).max(axis=2) < 30).sum())
 
 
 def _changed_pixels(a: Path, b: Path, width: int | None = None) -> tuple[int, tuple[int, int, int, int] | None]:
@@ -184,7 +195,9 @@ def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa
                 marks[sync] = time.monotonic()
                 reply = 'go'
                 if sync == 'robot shot':
-                    still = shots['previous'].exists() and _changed_pixels(
+                    # still, with the reachable workspace drawn around the robot and the master
+                    drawn = WORKSPACE_NODES <= set(viewer.viewer.nodes)
+                    still = drawn and shots['previous'].exists() and _changed_pixels(
                         shots['previous'], shots['robot'], VIEW_WIDTH)[0] < 50
                     shutil.copy(shots['robot'], shots['previous'])
                     deadline.setdefault(sync, time.monotonic() + DEADLINE)
@@ -239,7 +252,13 @@ def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa
     count, box = _changed_pixels(shots['robot'], shots['hidden'])
     assert count > 2000, f'only {count} pixels changed when the robot was hidden'
     assert box[2] < VIEW_WIDTH, f'changes outside the 3-D view: {box}'  # the panel is on the right
+    # The reachable workspace is drawn around the robot (hidden with it) and on the master.
+    ws_shown, ws_hidden = _workspace_pixels(shots['robot']), _workspace_pixels(shots['hidden'])
+    print(f'workspace-coloured pixels: {ws_shown} with the robot, {ws_hidden} without')
+    assert ws_shown - ws_hidden > 300, (ws_shown, ws_hidden)
+    assert ws_hidden > 20, ws_hidden  # the master's copy
     names = set(viewer.viewer.nodes)
+    assert WORKSPACE_NODES <= names
     assert {'/robot/ring_a', '/robot/ring_b', '/robot/legs', '/ghost/ring_b',
             '/master/legs', '/trail/ring_a'} <= names
     legs = np.asarray(viewer.viewer.nodes['/robot/legs'].points)
