@@ -97,3 +97,29 @@ def test_no_import_cycle_in_src():
                                                 'rrps_kinematics.inverse'}
     cycle = find_cycle(graph)
     assert cycle is None, 'import cycle: ' + ' -> '.join(cycle)
+
+
+def _private_name_imports(root: Path) -> list[str]:
+    """Every ``from M import _name`` (a private name of another module) under ``root``. A package
+    may import its own private modules (``from . import _render``: a facade over them)."""
+    found = []
+    for path in sorted(root.rglob('*.py')):
+        if 'build' in path.parts or 'install' in path.parts:
+            continue
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            if isinstance(node, ast.ImportFrom) and node.module is not None:
+                for alias in node.names:
+                    if alias.name.startswith('_') and not alias.name.startswith('__'):
+                        found.append(f'{path.relative_to(root)}:{node.lineno}: '
+                                     f'from {"." * node.level}{node.module or ""} import {alias.name}')
+    return found
+
+
+def test_no_module_imports_a_private_name_of_another():
+    assert _private_name_imports(SRC) == []
+
+
+def test_the_private_name_check_finds_one(tmp_path):
+    (tmp_path / 'a.py').write_text('from .b import _hidden\nfrom .c import public, __version__\n'
+                                   'from . import _private_module\n')
+    assert _private_name_imports(tmp_path) == ['a.py:1: from .b import _hidden']
