@@ -183,7 +183,8 @@ def main() -> int:
                for name, groups in COMPOSITIONS.items()}
 
     def v(values, key, fmt='{:.1f}'):
-        return fmt.format(float(values[key])) if key in values else '-'
+        """A reported value, '-' when the node did not report it (no command in the window)."""
+        return fmt.format(float(values[key])) if values.get(key) else '-'
 
     print(f'\nExecutor lag while climbing ({args.seconds:g} s per composition, '
           f'{"loaded: busy core + DDS flood + software-rendered browser" if args.load else "no load"}'
