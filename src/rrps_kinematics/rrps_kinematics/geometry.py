@@ -17,6 +17,23 @@ from typing import Any, Mapping
 import numpy as np
 import yaml
 
+from .robot_parts import (
+    TOOL_SHAPES,
+    ExtraRingDof,
+    LinkInertia,
+    RigidBodyInertia,
+    RobotDescriptionError,
+    Tool,
+    as_array,
+    as_scalar,
+    body_from,
+    check_inertia,
+    combine_bodies,
+    extra_dof_from,
+    leg_limits_from,
+    link_from,
+    tool_from,
+)
 from .rotations import normalize_quat, quat_xyzw_to_matrix
 
 __all__ = [
@@ -33,140 +50,6 @@ __all__ = [
 ]
 
 GRIPPER_KINDS = ('clamp', 'hook', 'suction', 'none')
-
-
-class RobotDescriptionError(ValueError):
-    """A robot description is malformed; the message names the offending key."""
-
-
-@dataclass(frozen=True, kw_only=True)
-class RigidBodyInertia:
-    """Mass [kg], centre of mass [m] and inertia about the com [kg m^2], in the body's frame."""
-
-    mass: float = 1.0
-    com: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    inertia: np.ndarray = field(default_factory=lambda: np.diag([0.05, 0.05, 0.1]))
-
-
-@dataclass(frozen=True, kw_only=True)
-class LinkInertia:
-    """One link of a leg, symmetric about the leg axis.
-
-    ``com_from_joint`` is measured from the link's own joint centre along the leg (the lower link
-    from the universal joint towards ring_b, the upper link from the spherical joint towards
-    ring_a). Inertias are about the com: transverse (about axes normal to the leg) and axial.
-    """
-
-    mass: float = 0.2
-    com_from_joint: float = 0.05
-    inertia_transverse: float = 1e-4
-    inertia_axial: float = 1e-5
-
-    def inertia_tensor(self) -> np.ndarray:
-        """Body-frame inertia about the com with the leg axis along the link's z."""
-        return np.diag([self.inertia_transverse, self.inertia_transverse, self.inertia_axial])
-
-
-@dataclass(frozen=True, kw_only=True)
-class ExtraRingDof:
-    """The paper's extra rotational DOF of a ring (section 3.1, Figure 9).
-
-    A revolute joint between the ring and its gripper, about ``axis`` (ring frame, through the
-    ring origin), within ``[min_angle, max_angle]`` rad. It turns the whole hexapod about the
-    gripped member so that the legs can be re-arranged clear of each other.
-    """
-
-    axis: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
-    min_angle: float = -math.pi
-    max_angle: float = math.pi
-
-
-TOOL_SHAPES = ('cylinder', 'box', 'sphere')
-
-
-@dataclass(frozen=True, kw_only=True)
-class Tool:
-    """A tool carried by ring_b (the paper's handler arm for the tool, section 3.2, Figure 10).
-
-    ``position`` [m] and ``quaternion_xyzw``: the tool-centre-point frame in ring_b's frame
-    (``b_T_tool``). ``mass`` [kg], ``com`` [m] and ``inertia`` [kg m^2, about the com] in the tool
-    frame. ``shape`` (cylinder | box | sphere) and ``size`` [m] (cylinder: radius, length along
-    the tool's z ending at the tool centre point; box: x, y, z; sphere: radius) only draw it.
-    """
-
-    name: str = 'tool'
-    position: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    quaternion_xyzw: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 0.0, 1.0]))
-    mass: float = 1.0
-    com: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    inertia: np.ndarray = field(default_factory=lambda: np.diag([1e-3, 1e-3, 1e-3]))
-    shape: str = 'cylinder'
-    size: tuple = (0.02, 0.2)
-
-    @property
-    def b_T_tool(self) -> np.ndarray:
-        """4x4 pose of the tool-centre-point frame in ring_b's frame."""
-        T = np.eye(4)
-        T[:3, :3] = quat_xyzw_to_matrix(self.quaternion_xyzw)
-        T[:3, 3] = self.position
-        return T
-
-
-def combine_bodies(a: RigidBodyInertia, b: RigidBodyInertia, b_R: np.ndarray,
-                   b_p: np.ndarray) -> RigidBodyInertia:
-    """One rigid body from body ``a`` (in frame F) and body ``b`` whose frame sits at ``b_p``
-    with rotation ``b_R`` in F: total mass, mass-weighted com, and the inertia about the new
-    com by the parallel-axis theorem, all in F."""
-    com_b = b_p + b_R @ b.com
-    mass = a.mass + b.mass
-    com = (a.mass * a.com + b.mass * com_b) / mass
-
-    def shifted(inertia: np.ndarray, m: float, d: np.ndarray) -> np.ndarray:
-        return inertia + m * (float(d @ d) * np.eye(3) - np.outer(d, d))
-
-    inertia = shifted(a.inertia, a.mass, a.com - com) + shifted(b_R @ b.inertia @ b_R.T, b.mass,
-                                                              com_b - com)
-    return RigidBodyInertia(mass=mass, com=com, inertia=0.5 * (inertia + inertia.T))
-
-
-def _as_array(value: Any, shape: tuple[int, ...], key: str) -> np.ndarray:
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise RobotDescriptionError(f'{key}: expected numbers of shape {shape}, got {value!r}') from exc
-    if arr.shape != shape:
-        raise RobotDescriptionError(f'{key}: expected shape {shape}, got {arr.shape}')
-    if not np.all(np.isfinite(arr)):
-        raise RobotDescriptionError(f'{key}: contains NaN or infinite values')
-    arr = arr.copy()
-    arr.setflags(write=False)
-    return arr
-
-
-def _as_scalar(value: Any, key: str, *, positive: bool = False, nonnegative: bool = False) -> float:
-    if isinstance(value, bool):
-        raise RobotDescriptionError(f'{key}: expected a number, got {value!r}')
-    try:
-        x = float(value)
-    except (TypeError, ValueError) as exc:
-        raise RobotDescriptionError(f'{key}: expected a number, got {value!r}') from exc
-    if not math.isfinite(x):
-        raise RobotDescriptionError(f'{key}: must be finite, got {value!r}')
-    if positive and x <= 0.0:
-        raise RobotDescriptionError(f'{key}: must be > 0, got {x}')
-    if nonnegative and x < 0.0:
-        raise RobotDescriptionError(f'{key}: must be >= 0, got {x}')
-    return x
-
-
-def _check_inertia(inertia: np.ndarray, key: str) -> None:
-    if not np.allclose(inertia, inertia.T, rtol=1e-9, atol=1e-12):
-        raise RobotDescriptionError(f'{key}: inertia must be symmetric')
-    eig = np.linalg.eigvalsh(inertia)
-    if eig[0] <= 0.0:
-        raise RobotDescriptionError(f'{key}: inertia must be positive definite (eigenvalues {eig})')
-    if eig[0] + eig[1] < eig[2] * (1.0 - 1e-9):
-        raise RobotDescriptionError(f'{key}: principal moments break the triangle inequality {eig}')
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -207,56 +90,56 @@ class RobotGeometry:
     description: str = ''
 
     def __post_init__(self) -> None:
-        A = _as_array(self.ring_a_anchors, (6, 3), 'ring_a.anchors')
-        B = _as_array(self.ring_b_anchors, (6, 3), 'ring_b.anchors')
+        A = as_array(self.ring_a_anchors, (6, 3), 'ring_a.anchors')
+        B = as_array(self.ring_b_anchors, (6, 3), 'ring_b.anchors')
         object.__setattr__(self, 'ring_a_anchors', A)
         object.__setattr__(self, 'ring_b_anchors', B)
         self._check_legs()
         self._check_inertias()
         if self.tool is not None:
             self._check_tool()
-        object.__setattr__(self, 'gravity', _as_array(self.gravity, (3,), 'gravity'))
+        object.__setattr__(self, 'gravity', as_array(self.gravity, (3,), 'gravity'))
         self._set_home()
         self._set_joint_axes()
         self._check_grippers()
         self._check_extra_dof()
 
     def _check_legs(self) -> None:
-        lo = _as_scalar(self.min_length, 'legs.min_length', nonnegative=True)
-        hi = self.max_length if self.max_length == math.inf else _as_scalar(
+        lo = as_scalar(self.min_length, 'legs.min_length', nonnegative=True)
+        hi = self.max_length if self.max_length == math.inf else as_scalar(
             self.max_length, 'legs.max_length', positive=True)
         if lo >= hi:
             raise RobotDescriptionError(
                 f'legs.min_length ({lo}) must be < legs.max_length ({hi})')
         for key in ('max_speed', 'max_force'):
             if getattr(self, key) != math.inf:
-                _as_scalar(getattr(self, key), f'legs.{key}', positive=True)
-        _as_scalar(self.leg_radius, 'legs.radius', nonnegative=True)
+                as_scalar(getattr(self, key), f'legs.{key}', positive=True)
+        as_scalar(self.leg_radius, 'legs.radius', nonnegative=True)
         for key in ('universal_max_angle', 'spherical_max_angle'):
-            value = _as_scalar(getattr(self, key), f'legs.{key}', positive=True)
+            value = as_scalar(getattr(self, key), f'legs.{key}', positive=True)
             if value > math.pi:
                 raise RobotDescriptionError(f'legs.{key}: must be <= pi, got {value}')
-        c = _as_scalar(self.min_conditioning, 'limits.min_conditioning', nonnegative=True)
+        c = as_scalar(self.min_conditioning, 'limits.min_conditioning', nonnegative=True)
         if c >= 1.0:
             raise RobotDescriptionError('limits.min_conditioning: must be < 1')
 
     def _check_inertias(self) -> None:
         for key, body in (('ring_a', self.ring_a_inertia), ('ring_b', self.ring_b_inertia)):
-            _as_scalar(body.mass, f'{key}.mass', positive=True)
-            object.__setattr__(body, 'com', _as_array(body.com, (3,), f'{key}.com'))
-            object.__setattr__(body, 'inertia', _as_array(body.inertia, (3, 3), f'{key}.inertia'))
-            _check_inertia(body.inertia, f'{key}.inertia')
+            as_scalar(body.mass, f'{key}.mass', positive=True)
+            object.__setattr__(body, 'com', as_array(body.com, (3,), f'{key}.com'))
+            object.__setattr__(body, 'inertia', as_array(body.inertia, (3, 3), f'{key}.inertia'))
+            check_inertia(body.inertia, f'{key}.inertia')
         for key, link in (('legs.lower', self.lower_link), ('legs.upper', self.upper_link)):
-            _as_scalar(link.mass, f'{key}.mass', positive=True)
-            _as_scalar(link.com_from_joint, f'{key}.com_from_joint', nonnegative=True)
-            _as_scalar(link.inertia_transverse, f'{key}.inertia_transverse', positive=True)
-            _as_scalar(link.inertia_axial, f'{key}.inertia_axial', positive=True)
+            as_scalar(link.mass, f'{key}.mass', positive=True)
+            as_scalar(link.com_from_joint, f'{key}.com_from_joint', nonnegative=True)
+            as_scalar(link.inertia_transverse, f'{key}.inertia_transverse', positive=True)
+            as_scalar(link.inertia_axial, f'{key}.inertia_axial', positive=True)
             if link.inertia_axial > 2.0 * link.inertia_transverse:
                 raise RobotDescriptionError(
                     f'{key}.inertia_axial: must be <= 2 * inertia_transverse (triangle inequality)')
 
     def _set_home(self) -> None:
-        q = _as_array(self.home_quaternion_xyzw, (4,), 'home.quaternion')
+        q = as_array(self.home_quaternion_xyzw, (4,), 'home.quaternion')
         if abs(np.linalg.norm(q) - 1.0) > 1e-6:
             raise RobotDescriptionError('home.quaternion: must be a unit quaternion (x, y, z, w)')
         q = normalize_quat(q)
@@ -266,7 +149,7 @@ class RobotGeometry:
             object.__setattr__(self, 'home_position', self._default_home_position())
         else:
             object.__setattr__(self, 'home_position',
-                               _as_array(self.home_position, (3,), 'home.position'))
+                               as_array(self.home_position, (3,), 'home.position'))
 
     def _set_joint_axes(self) -> None:
         """Universal (ring_a) and spherical (ring_b) joint axes: given, or along the home legs."""
@@ -278,7 +161,7 @@ class RobotGeometry:
                 ('ring_b.joint_axes', 'ring_b_joint_axes',
                  -(home_legs @ quat_xyzw_to_matrix(self.home_quaternion_xyzw)))):
             axes = getattr(self, attr)
-            axes = frame_legs if axes is None else _as_array(axes, (6, 3), key)
+            axes = frame_legs if axes is None else as_array(axes, (6, 3), key)
             norms = np.linalg.norm(axes, axis=1)
             if np.any(norms < 1e-9):
                 raise RobotDescriptionError(f'{key}: axes must be non-zero')
@@ -299,29 +182,29 @@ class RobotGeometry:
         for ring, dof in self.extra_dof.items():
             if ring not in ('ring_a', 'ring_b'):
                 raise RobotDescriptionError(f'extra_dof.{ring}: only ring_a and ring_b have one')
-            axis = _as_array(dof.axis, (3,), f'extra_dof.{ring}.axis')
+            axis = as_array(dof.axis, (3,), f'extra_dof.{ring}.axis')
             if np.linalg.norm(axis) < 1e-9:
                 raise RobotDescriptionError(f'extra_dof.{ring}.axis: must be non-zero')
             object.__setattr__(dof, 'axis', axis / np.linalg.norm(axis))
-            lo_ = _as_scalar(dof.min_angle, f'extra_dof.{ring}.min_angle')
-            hi_ = _as_scalar(dof.max_angle, f'extra_dof.{ring}.max_angle')
+            lo_ = as_scalar(dof.min_angle, f'extra_dof.{ring}.min_angle')
+            hi_ = as_scalar(dof.max_angle, f'extra_dof.{ring}.max_angle')
             if lo_ >= hi_:
                 raise RobotDescriptionError(f'extra_dof.{ring}: min_angle must be < max_angle')
 
     def _check_tool(self) -> None:
         t = self.tool
-        object.__setattr__(t, 'position', _as_array(t.position, (3,), 'tool.position'))
-        q = _as_array(t.quaternion_xyzw, (4,), 'tool.quaternion')
+        object.__setattr__(t, 'position', as_array(t.position, (3,), 'tool.position'))
+        q = as_array(t.quaternion_xyzw, (4,), 'tool.quaternion')
         if abs(np.linalg.norm(q) - 1.0) > 1e-6:
             raise RobotDescriptionError('tool.quaternion: must be a unit quaternion (x, y, z, w)')
         object.__setattr__(t, 'quaternion_xyzw', normalize_quat(q))
-        _as_scalar(t.mass, 'tool.mass', positive=True)
-        object.__setattr__(t, 'com', _as_array(t.com, (3,), 'tool.com'))
-        object.__setattr__(t, 'inertia', _as_array(t.inertia, (3, 3), 'tool.inertia'))
-        _check_inertia(t.inertia, 'tool.inertia')
+        as_scalar(t.mass, 'tool.mass', positive=True)
+        object.__setattr__(t, 'com', as_array(t.com, (3,), 'tool.com'))
+        object.__setattr__(t, 'inertia', as_array(t.inertia, (3, 3), 'tool.inertia'))
+        check_inertia(t.inertia, 'tool.inertia')
         if t.shape not in TOOL_SHAPES:
             raise RobotDescriptionError(f'tool.shape: must be one of {TOOL_SHAPES}, got {t.shape!r}')
-        size = tuple(_as_scalar(v, 'tool.size', positive=True) for v in t.size)
+        size = tuple(as_scalar(v, 'tool.size', positive=True) for v in t.size)
         wanted = {'cylinder': 2, 'box': 3, 'sphere': 1}[t.shape]
         if len(size) != wanted:
             raise RobotDescriptionError(f'tool.size: a {t.shape} takes {wanted} sizes, got {len(size)}')
@@ -404,35 +287,35 @@ class RobotGeometry:
         kwargs: dict[str, Any] = {
             'name': str(data.get('name', 'custom')),
             'description': str(data.get('description', '')),
-            'ring_a_anchors': _as_array(ring_a['anchors'], (6, 3), 'ring_a.anchors'),
-            'ring_b_anchors': _as_array(ring_b['anchors'], (6, 3), 'ring_b.anchors'),
-            'ring_a_inertia': _body_from(ring_a, 'ring_a'),
-            'ring_b_inertia': _body_from(ring_b, 'ring_b'),
-            'lower_link': _link_from(section('lower', legs, 'legs.'), 'lower'),
-            'upper_link': _link_from(section('upper', legs, 'legs.'), 'upper'),
+            'ring_a_anchors': as_array(ring_a['anchors'], (6, 3), 'ring_a.anchors'),
+            'ring_b_anchors': as_array(ring_b['anchors'], (6, 3), 'ring_b.anchors'),
+            'ring_a_inertia': body_from(ring_a, 'ring_a'),
+            'ring_b_inertia': body_from(ring_b, 'ring_b'),
+            'lower_link': link_from(section('lower', legs, 'legs.'), 'lower'),
+            'upper_link': link_from(section('upper', legs, 'legs.'), 'upper'),
             'grippers': {'ring_a': str(ring_a.get('gripper', 'clamp')),
                          'ring_b': str(ring_b.get('gripper', 'clamp'))},
         }
         for key in ('joint_axes',):
             if key in ring_a:
-                kwargs['ring_a_joint_axes'] = _as_array(ring_a[key], (6, 3), f'ring_a.{key}')
+                kwargs['ring_a_joint_axes'] = as_array(ring_a[key], (6, 3), f'ring_a.{key}')
             if key in ring_b:
-                kwargs['ring_b_joint_axes'] = _as_array(ring_b[key], (6, 3), f'ring_b.{key}')
-        kwargs.update(_leg_limits_from(legs))
+                kwargs['ring_b_joint_axes'] = as_array(ring_b[key], (6, 3), f'ring_b.{key}')
+        kwargs.update(leg_limits_from(legs))
         if 'gravity' in data:
-            kwargs['gravity'] = _as_array(data['gravity'], (3,), 'gravity')
+            kwargs['gravity'] = as_array(data['gravity'], (3,), 'gravity')
         home = section('home')
         if 'position' in home:
-            kwargs['home_position'] = _as_array(home['position'], (3,), 'home.position')
+            kwargs['home_position'] = as_array(home['position'], (3,), 'home.position')
         if 'quaternion' in home:
-            kwargs['home_quaternion_xyzw'] = _as_array(home['quaternion'], (4,), 'home.quaternion')
+            kwargs['home_quaternion_xyzw'] = as_array(home['quaternion'], (4,), 'home.quaternion')
         limits = section('limits')
         if 'min_conditioning' in limits:
-            kwargs['min_conditioning'] = _as_scalar(limits['min_conditioning'],
+            kwargs['min_conditioning'] = as_scalar(limits['min_conditioning'],
                                                     'limits.min_conditioning')
-        kwargs['extra_dof'] = _extra_dof_from(section('extra_dof'))
+        kwargs['extra_dof'] = extra_dof_from(section('extra_dof'))
         if 'tool' in data:
-            kwargs['tool'] = _tool_from(section('tool'))
+            kwargs['tool'] = tool_from(section('tool'))
         return cls(**kwargs)
 
     @classmethod
@@ -450,63 +333,6 @@ class RobotGeometry:
         return cls.from_dict(data, source=str(path))
 
 
-
-
-def _body_from(sec: Mapping[str, Any], key: str) -> RigidBodyInertia:
-    """A ring's inertia from its YAML section (defaults where not given)."""
-    default = RigidBodyInertia()
-    return RigidBodyInertia(
-        mass=_as_scalar(sec.get('mass', default.mass), f'{key}.mass', positive=True),
-        com=_as_array(sec.get('com', default.com), (3,), f'{key}.com'),
-        inertia=_as_array(sec.get('inertia', default.inertia), (3, 3), f'{key}.inertia'))
-
-
-def _link_from(sec: Mapping[str, Any], key: str) -> LinkInertia:
-    """A leg link's inertia from the YAML ``legs.lower`` / ``legs.upper`` section."""
-    default = LinkInertia()
-    return LinkInertia(**{
-        name: _as_scalar(sec.get(name, getattr(default, name)), f'legs.{key}.{name}')
-        for name in ('mass', 'com_from_joint', 'inertia_transverse', 'inertia_axial')})
-
-
-def _leg_limits_from(legs: Mapping[str, Any]) -> dict[str, float]:
-    """RobotGeometry keyword arguments of the YAML ``legs`` limits that are given."""
-    return {attr: _as_scalar(legs[yaml_key], f'legs.{yaml_key}')
-            for yaml_key, attr in (('min_length', 'min_length'), ('max_length', 'max_length'),
-                                   ('max_speed', 'max_speed'), ('max_force', 'max_force'),
-                                   ('radius', 'leg_radius'),
-                                   ('universal_max_angle', 'universal_max_angle'),
-                                   ('spherical_max_angle', 'spherical_max_angle'))
-            if yaml_key in legs}
-
-
-def _extra_dof_from(extra: Mapping[str, Any]) -> dict[str, ExtraRingDof]:
-    """The YAML ``extra_dof`` section: a ring rotation per ring that has one."""
-    dofs = {}
-    for ring, sec in extra.items():
-        if not isinstance(sec, Mapping):
-            raise RobotDescriptionError(f'extra_dof.{ring}: expected a mapping')
-        dofs[ring] = ExtraRingDof(
-            axis=_as_array(sec.get('axis', [0, 0, 1]), (3,), f'extra_dof.{ring}.axis'),
-            min_angle=_as_scalar(sec.get('min_angle', -math.pi), f'extra_dof.{ring}.min_angle'),
-            max_angle=_as_scalar(sec.get('max_angle', math.pi), f'extra_dof.{ring}.max_angle'))
-    return dofs
-
-
-def _tool_from(sec: Mapping[str, Any]) -> Tool:
-    """The YAML ``tool`` section: its frame in ring_b, inertia and shape."""
-    default = Tool()
-    size = sec.get('size', default.size)
-    if not isinstance(size, (list, tuple)):
-        raise RobotDescriptionError(f'tool.size: expected a list of numbers, got {size!r}')
-    return Tool(
-        name=str(sec.get('name', default.name)),
-        position=_as_array(sec.get('position', default.position), (3,), 'tool.position'),
-        quaternion_xyzw=_as_array(sec.get('quaternion', default.quaternion_xyzw), (4,), 'tool.quaternion'),
-        mass=_as_scalar(sec.get('mass', default.mass), 'tool.mass', positive=True),
-        com=_as_array(sec.get('com', default.com), (3,), 'tool.com'),
-        inertia=_as_array(sec.get('inertia', default.inertia), (3, 3), 'tool.inertia'),
-        shape=str(sec.get('shape', default.shape)), size=tuple(size))
 
 
 def shipped_robots() -> list[str]:
