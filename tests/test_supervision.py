@@ -9,7 +9,7 @@ import sys
 import textwrap
 import time
 
-from rrps_kinematics.supervision import start_child, stop_child
+from rrps_kinematics.supervision import CONTROL_NICE, OBSERVER_NICE, priority_of, start_child, stop_child
 
 # A supervisor that starts a long-running child, prints the child's pid and waits.
 SUPERVISOR = textwrap.dedent('''
@@ -66,3 +66,17 @@ def test_stop_child_terminates_then_kills():
     assert stop_child(stubborn, timeout=0.5) == -signal.SIGKILL
     polite = start_child([sys.executable, '-c', 'import time\nwhile True: time.sleep(0.05)'])
     assert stop_child(polite, timeout=60.0) == -signal.SIGTERM  # returns as soon as it is gone
+
+
+def test_a_child_starts_at_the_priority_asked_for_when_permitted():
+    sleeper = [sys.executable, '-c', 'import time; time.sleep(30)']
+    observer = start_child(sleeper, nice=OBSERVER_NICE)  # a higher nice value is always permitted
+    control = start_child(sleeper, nice=CONTROL_NICE)
+    try:
+        assert priority_of(observer.pid) == OBSERVER_NICE
+        # A lower one needs root or CAP_SYS_NICE (CI runs as root); without it: normal priority.
+        expected = CONTROL_NICE if os.geteuid() == 0 else priority_of(os.getpid())
+        assert priority_of(control.pid) == expected
+    finally:
+        stop_child(observer)
+        stop_child(control)

@@ -7,6 +7,12 @@ commands with nobody watching. :func:`start_child` starts a process that the ker
 within a second). :func:`stop_child` asks politely (SIGTERM: the nodes' clean shutdown) and
 kills what is still running after a timeout.
 
+Scheduling: on a small computer the robot's command path (the driver, IK, FK, climbing) must
+not wait behind a browser, a recorder or another job. :func:`start_child` can start a child at
+a higher priority (a lower nice value, :data:`CONTROL_NICE`), as a robot's control processes
+are run in production (systemd ``Nice=``). Raising priority needs root or ``CAP_SYS_NICE``;
+without it the child runs at the normal priority and :func:`priority_of` tells.
+
 Pure Python, no ROS import.
 """
 
@@ -22,13 +28,36 @@ import threading
 import time
 from typing import Sequence
 
-__all__ = ['PARENT_PID_ENV', 'start_child', 'stop_child', 'stop_children', 'exit_with_parent',
+__all__ = ['PARENT_PID_ENV', 'CONTROL_NICE', 'OPERATOR_NICE', 'OBSERVER_NICE', 'start_child',
+           'priority_of', 'raise_priority', 'stop_child', 'stop_children', 'exit_with_parent',
            'Respawner']
 
 #: Environment variable through which a child learns its supervisor's pid.
 PARENT_PID_ENV = 'RRPS_PARENT_PID'
 
 _PR_SET_PDEATHSIG = 1
+
+#: Nice value of the robot's command path (driver; IK, FK, climbing): first in line for a core.
+CONTROL_NICE = -10
+#: Nice value of the operator station (master, teleop, viewer): before other jobs, after the robot.
+OPERATOR_NICE = -5
+#: Nice value of observers (recorder, markers): best effort, they yield to everything above.
+OBSERVER_NICE = 5
+
+
+def raise_priority(nice: int) -> bool:
+    """Set this process's nice value (lower = more CPU under contention); False when not
+    permitted (a lower value needs root or CAP_SYS_NICE): it then keeps its priority."""
+    try:
+        os.setpriority(os.PRIO_PROCESS, 0, nice)
+    except (PermissionError, OSError):
+        return False
+    return True
+
+
+def priority_of(pid: int) -> int:
+    """The nice value of a process."""
+    return os.getpriority(os.PRIO_PROCESS, pid)
 
 
 def _die_with_parent(parent: int) -> None:
@@ -40,8 +69,10 @@ def _die_with_parent(parent: int) -> None:
         os._exit(1)
 
 
-def start_child(args: Sequence[str], *, env: dict | None = None, **popen_kwargs) -> subprocess.Popen:
-    """``subprocess.Popen(args)`` of a child that receives SIGTERM when this process dies.
+def start_child(args: Sequence[str], *, env: dict | None = None, nice: int | None = None,
+                **popen_kwargs) -> subprocess.Popen:
+    """``subprocess.Popen(args)`` of a child that receives SIGTERM when this process dies,
+    with the nice value ``nice`` if given (and permitted, see :func:`raise_priority`).
 
     Must be called from the main thread (the kernel ties the signal to the forking thread).
     The child's environment carries :data:`PARENT_PID_ENV` for :func:`exit_with_parent`.
@@ -51,8 +82,12 @@ def start_child(args: Sequence[str], *, env: dict | None = None, **popen_kwargs)
     parent = os.getpid()
     child_env = dict(os.environ if env is None else env)
     child_env[PARENT_PID_ENV] = str(parent)
-    return subprocess.Popen(list(args), env=child_env,
-                            preexec_fn=lambda: _die_with_parent(parent), **popen_kwargs)
+
+    def prepare() -> None:
+        _die_with_parent(parent)
+        if nice is not None:
+            raise_priority(nice)
+    return subprocess.Popen(list(args), env=child_env, preexec_fn=prepare, **popen_kwargs)
 
 
 def stop_child(process: subprocess.Popen, timeout: float = 5.0) -> int:

@@ -147,24 +147,24 @@ def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
     It inherits the environment (domain id, discovery range) and dies with this process; stop
     it with :func:`rrps_kinematics.supervision.stop_children`.
     """
-    from rrps_kinematics.supervision import start_child
+    from rrps_kinematics.supervision import CONTROL_NICE, start_child
 
     from .params import params_file_arguments
     return start_child([sys.executable, '-m', 'rrps_sim.nodes.driver_node', '--ros-args',
                         *params_file_arguments('driver_node'),
                         '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
                         '-p', f'rate:={float(rate)}', '-p', f'state_file:={state_file}',
-                        '-p', f'auto_activate:={str(activate).lower()}'])
+                        '-p', f'auto_activate:={str(activate).lower()}'], nice=CONTROL_NICE)
 
 
 def start_robot_nodes(*, robot: str, namespace: str = NAMESPACE) -> subprocess.Popen:
     """The robot computer's nodes (:data:`ROBOT_NODES`) composed in one process of their own."""
-    from rrps_kinematics.supervision import start_child
+    from rrps_kinematics.supervision import CONTROL_NICE, start_child
 
     from .params import params_file_arguments
     return start_child([sys.executable, '-m', 'rrps_teleop.compose', *ROBOT_NODES, '--ros-args',
                         *params_file_arguments(*ROBOT_NODES),
-                        '-r', f'__ns:={namespace}', '-p', f'robot:={robot}'])
+                        '-r', f'__ns:={namespace}', '-p', f'robot:={robot}'], nice=CONTROL_NICE)
 
 
 #: The observers: the flight recorder and the robot's markers for RViz2 / Foxglove.
@@ -176,14 +176,14 @@ def start_recorder(*, robot: str, output_dir: str, record: bool = False,
     """The observers (:data:`OBSERVER_NODES`) in a process of their own, off the command path:
     the flight recorder (the last 60 s, written on a fault or on the viewer's "Save last 60 s";
     with ``record`` the whole session too) and markers_node."""
-    from rrps_kinematics.supervision import start_child
+    from rrps_kinematics.supervision import OBSERVER_NICE, start_child
 
     from .params import params_file_arguments
     return start_child([sys.executable, '-m', 'rrps_teleop.compose', *OBSERVER_NODES,
                         '--ros-args', *params_file_arguments(*OBSERVER_NODES),
                         '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
                         '-p', f'output_dir:={output_dir}',
-                        '-p', f'record:={"true" if record else "false"}'])
+                        '-p', f'record:={"true" if record else "false"}'], nice=OBSERVER_NICE)
 
 
 def wait_for_robot(executor, context, node, children: list[subprocess.Popen],
@@ -211,11 +211,16 @@ def wait_for_robot(executor, context, node, children: list[subprocess.Popen],
     return False
 
 
-def _banner(viewer) -> str:
+def _banner(viewer, driver_nice: int) -> str:
+    from rrps_kinematics.supervision import CONTROL_NICE
+    scheduling = (f'driver and robot nodes at nice {driver_nice}' if driver_nice == CONTROL_NICE else
+                  'normal priority (run as root or grant CAP_SYS_NICE to give the robot\'s '
+                  f'processes nice {CONTROL_NICE})')
     return (f'\nrrps demo: the pole climber is live.\n'
             f'  viewer:         {viewer.url}\n'
             f'  operator token: {viewer.token}\n'
             f'  robot for RViz2/Foxglove: {NAMESPACE}/robot/markers (MarkerArray, frame ring_a)\n'
+            f'  scheduling:     {scheduling}\n'
             f'  (every browser is read-only until it enters the token; Ctrl-C stops everything)\n')
 
 
@@ -287,10 +292,11 @@ def main(argv=None) -> int:
 
     from rrps_kinematics.geometry import RobotDescriptionError
     from rrps_kinematics.nodes.common import freeze_startup_objects, make_executor
-    from rrps_kinematics.supervision import Respawner, exit_with_parent
+    from rrps_kinematics.supervision import OPERATOR_NICE, Respawner, exit_with_parent, priority_of, raise_priority
 
     stop = threading.Event()
     exit_with_parent(stop.set)
+    raise_priority(OPERATOR_NICE)  # the operator station: before other jobs, after the robot's processes
     context = rclpy.Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     previous = {sig: signal.signal(sig, lambda *_: stop.set())
@@ -324,7 +330,7 @@ def main(argv=None) -> int:
                 status = 1
             return status
         if script is None:
-            print(_banner(nodes['viewer_node']), flush=True)
+            print(_banner(nodes['viewer_node'], priority_of(robot.children['driver'].pid)), flush=True)
             _serve(executor, context, robot, stop)
         else:
             status = _run_script(script, executor, context, robot, stop, nodes['viewer_node'])

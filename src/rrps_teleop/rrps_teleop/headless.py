@@ -1,8 +1,13 @@
 """The scripted operator of ``rrps-demo --headless``: a teleop session and a climb, no browser.
 
 It uses the same topics and services as a person at the viewer: ``master/target_pose`` (the
-handle), ``teleop/enable`` (the deadman, 20 Hz while held), ``climb/step_up``; it checks the
-robot's answer on ``pose``, ``teleop/status``, ``climb/status`` and ``odometry/*``.
+handle), ``teleop/enable`` (the deadman, 20 Hz while held), ``climb/step_up``, ``climb/resume``;
+it checks the robot's answer on ``pose``, ``teleop/status``, ``climb/status`` and ``odometry/*``.
+
+Like a person, it resumes a climbing step that paused (the robot's state or the operator link
+was late: the step holds, see ``PauseReason``) once the step accepts the resume, at most
+:data:`MAX_RESUMES` times, and says so: on a machine too busy to keep the state fresh the
+summary shows the pauses rather than hiding them.
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ from rrps_kinematics.interfaces import POSE
 from rrps_kinematics.nodes.common import COMMAND_QOS, STATE_QOS, pose_from_msg, pose_to_msg
 
 from .interfaces import (
+    CLIMB_RESUME,
     CLIMB_STATUS,
     CLIMB_STEP_UP,
     MASTER_FRAME,
@@ -36,6 +42,8 @@ from .interfaces import (
 
 #: Master handle displacement of the scripted session [m] (the slave moves translation_scale x).
 HANDLE_STEP = 0.004
+#: Most resumes of a paused climbing step the scripted operator makes.
+MAX_RESUMES = 5
 
 
 class DemoScript(Node):
@@ -54,6 +62,7 @@ class DemoScript(Node):
         self._enable = self.create_publisher(Bool, TELEOP_ENABLE, COMMAND_QOS)
         self._handle = self.create_publisher(PoseStamped, MASTER_TARGET_POSE, COMMAND_QOS)
         self._step_up = self.create_client(Trigger, CLIMB_STEP_UP)
+        self._resume = self.create_client(Trigger, CLIMB_RESUME)
 
     def _store(self, topic: str, msg) -> None:
         with self._lock:
@@ -114,30 +123,50 @@ class DemoScript(Node):
 
     def _teleop_session(self, stop: threading.Event) -> list[tuple[str, bool]]:
         checks = []
-        start = self._position(POSE)
         m_pos, m_quat = pose_from_msg(self._get(MASTER_POSE))
 
         def enable() -> None:
             self._enable.publish(Bool(data=True))
 
+        def handle(position) -> PoseStamped:
+            return pose_to_msg(position, m_quat, frame_id=MASTER_FRAME, stamp=self.get_clock().now().to_msg())
+
         engaged = self._wait(lambda: self._engaged() is True, 5.0, stop, every=enable)
         checks.append(('deadman held: teleop engaged', engaged))
         self._say(f'deadman held, teleop status {self._teleop().code.name}')
-        target = pose_to_msg(m_pos + [0.0, 0.0, HANDLE_STEP], m_quat, frame_id=MASTER_FRAME,
-                             stamp=self.get_clock().now().to_msg())
-
-        def hold_and_move() -> None:
-            enable()
-            target.header.stamp = self.get_clock().now().to_msg()
-            self._handle.publish(target)
-
         scale = self._teleop().scale
         expected = scale * HANDLE_STEP
-        followed = self._wait(lambda: self._position(POSE)[2] - start[2] > 0.8 * expected,
-                              6.0, stop, every=hold_and_move)
-        moved = self._position(POSE) - start
+        interrupted = []
+        for attempt in range(2):
+            # Move the handle up while holding the deadman. A clutch in the middle (the mapping
+            # disengaged because a stream was late on a busy machine, and re-engaged) loses the
+            # master's motion meanwhile; then, like a person, release, bring the handle back
+            # (disengaged: the slave stays) and do it again.
+            start = self._position(POSE)
+
+            def hold_and_move() -> None:
+                enable()
+                self._handle.publish(handle(m_pos + [0.0, 0.0, HANDLE_STEP]))
+
+            clutches = []
+
+            def followed() -> bool:
+                if self._engaged() is False:
+                    clutches.append(self._teleop().code.name)
+                return self._position(POSE)[2] - start[2] > 0.8 * expected
+            ok = self._wait(followed, 6.0, stop, every=hold_and_move)
+            moved = self._position(POSE) - start
+            if ok or attempt == 1 or not clutches:
+                break
+            interrupted.append(clutches[0])
+            self._say(f'the mapping clutched during the motion ({clutches[0]}); again')
+            self._wait(lambda: self._engaged() is False, 2.0, stop)
+            self._wait(lambda: abs(pose_from_msg(self._get(MASTER_POSE))[0][2] - m_pos[2]) < 2e-4, 5.0, stop,
+                       every=lambda: self._handle.publish(handle(m_pos)))
+            self._wait(lambda: self._engaged() is True, 5.0, stop, every=enable)
+        again = f' (again after a clutch: {interrupted[0]})' if interrupted else ''
         checks.append((f'slave followed the master: moved {moved[2] * 1e3:.1f} mm up '
-                       f'(master {HANDLE_STEP * 1e3:.1f} mm x scale {scale:g})', followed))
+                       f'(master {HANDLE_STEP * 1e3:.1f} mm x scale {scale:g}){again}', ok))
         self._say(f'master handle up {HANDLE_STEP * 1e3:.1f} mm -> slave up {moved[2] * 1e3:.1f} mm')
         # Release the deadman: the mapping disengages and the robot holds.
         released = self._wait(lambda: self._engaged() is False, 2.0, stop)
@@ -168,11 +197,21 @@ class DemoScript(Node):
 
         seen_executing = self._wait(lambda: state() is ClimbState.EXECUTING, 5.0, stop)
         t0 = time.monotonic()
-        done = self._wait(lambda: state() in (ClimbState.IDLE, ClimbState.FAILED), 120.0, stop)
-        final = self._climb_state()
+        pauses = []
+        while True:
+            done = self._wait(lambda: state() in (ClimbState.IDLE, ClimbState.FAILED, ClimbState.PAUSED),
+                              120.0, stop)
+            final = self._climb_state()
+            if not done or final.state is not ClimbState.PAUSED or len(pauses) >= MAX_RESUMES:
+                break
+            pauses.append(final.pause_reason.value)
+            self._say(f'climb paused ({final.detail}); resuming')
+            if not self._resume_climb(stop):
+                break
         self._say(f'climb finished in {time.monotonic() - t0:.1f} s: {final.state.value}, '
                   f'{final.detail}')
-        checks.append(('climb step executed and ended idle',
+        resumed = f' after {len(pauses)} resume(s) ({", ".join(pauses)})' if pauses else ''
+        checks.append((f'climb step executed and ended idle{resumed}',
                        seen_executing and done and final.state is ClimbState.IDLE))
         after = {ring: self._position(odometry_topic(ring)) for ring in ('ring_a', 'ring_b')}
         if all(p is not None for p in (*before.values(), *after.values())):
@@ -183,3 +222,16 @@ class DemoScript(Node):
         else:
             checks.append(('world odometry of both rings received', False))
         return checks
+
+    def _resume_climb(self, stop: threading.Event) -> bool:
+        """Call ``climb/resume`` until the step accepts it (it refuses while the cause lasts);
+        True once it executes again."""
+        def accepted() -> bool:
+            future = self._resume.call_async(Trigger.Request())
+            if not self._wait(future.done, 10.0, stop):
+                return False
+            return bool(future.result() is not None and future.result().success)
+        if not (self._resume.wait_for_service(timeout_sec=5.0) and self._wait(accepted, 30.0, stop)):
+            return False
+        status = self._climb_state  # the step says it executes again (its status after the resume)
+        return self._wait(lambda: status() is not None and status().state is not ClimbState.PAUSED, 5.0, stop)
