@@ -13,6 +13,8 @@ from pathlib import Path
 
 import pytest
 
+from rrps_kinematics.supervision import CONTROL_NICE, OBSERVER_NICE, priority_of
+
 pytestmark = [pytest.mark.ros]
 
 DEMO = Path(sys.executable).parent / 'rrps-demo'
@@ -151,6 +153,9 @@ def test_a_killed_demo_takes_its_robot_processes_with_it_and_ctrl_c_stops_it_fas
                     break
             children = _children(proc.pid)
             assert len(children) == 3, children  # the driver, the robot's nodes, the observers
+            if os.geteuid() == 0:  # the robot's command path first in line for a core (CI is root)
+                assert sorted(priority_of(c) for c in children) == [CONTROL_NICE, CONTROL_NICE,
+                                                                     OBSERVER_NICE]
             if how == 'kill':
                 proc.kill()  # no chance to clean up: the parent-death signal stops them
                 proc.wait()
