@@ -29,7 +29,7 @@ def test_the_feedback_grows_towards_the_stroke_limit_and_the_master_yields(ros_c
         assert wait_for(lambda: rig.poses and rig.master_poses, DEADLINE)
         p0, q0 = pose_from_msg(rig.master_poses[-1][1])
         rig.handle = (p0, q0)
-        rig.engage(DEADLINE)
+        rig.engage()
         samples = []  # (slave stroke margin, feedback force z)
         for k in range(1, 40):
             rig.handle = (p0 + [0.0, 0.0, 0.001 * k], q0)   # the handle goes up 1 mm at a time

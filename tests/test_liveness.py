@@ -127,7 +127,7 @@ def test_a_climb_pauses_on_lost_link_or_state_and_resumes_only_on_request(ros_co
         return future.result()
 
     with Spinner(ros_context, nodes + [probe]):
-        assert wait_for(lambda: climb.pose is not None and climb._operator_receipt is not None,
+        assert wait_for(lambda: climb.pose is not None and climb.watch.operator_seen(),
                         DEADLINE)
         assert wait_for(lambda: call(up).success, DEADLINE)
         # fault in the middle of ring_b's motion
