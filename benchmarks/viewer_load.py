@@ -167,7 +167,18 @@ def main() -> int:
                                                     string_value='circle'))]))
         while not future.done():
             time.sleep(0.05)
-        time.sleep(2.0)
+
+        def moving() -> bool:  # the driver publishes at its full rate only while the robot moves
+            now = time.monotonic()
+            with lock:
+                return sum(1 for recv, _ in stamps[-500:] if recv > now - 1.0) > 250
+        deadline = time.monotonic() + 60.0
+        while not moving():
+            if time.monotonic() > deadline:
+                print('error: the robot did not start moving (teleop engaged by the deadman, the '
+                      'master on its circle)', file=sys.stderr)
+                return 1
+            time.sleep(0.2)
 
         t0 = time.monotonic()
         time.sleep(args.seconds)

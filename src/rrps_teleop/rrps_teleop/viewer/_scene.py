@@ -14,8 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rrps_kinematics.geometry import RobotGeometry
-from rrps_kinematics.inverse import inverse_kinematics
-from rrps_kinematics.limits import Margins, margins
+from rrps_kinematics.limits import Margins, PoseMargins, pose_margins
 from rrps_kinematics.pose import Pose
 
 __all__ = [
@@ -50,7 +49,7 @@ def world_ring_poses(*, a_T_b: Pose, gripping: str, world_T_gripping: Pose) -> t
     raise ValueError(f"gripping must be 'ring_a' or 'ring_b', got {gripping!r}")
 
 
-def leg_margin_fractions(geometry: RobotGeometry, m: Margins,
+def leg_margin_fractions(geometry: RobotGeometry, m: Margins | PoseMargins,
                          efforts: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Per-leg margins normalised to their range (1 = far from the limit, 0 = at it, < 0 = beyond).
 
@@ -120,7 +119,7 @@ class RobotFigure:
     world_T_a: Pose
     world_T_b: Pose
     leg_points: np.ndarray
-    margins: Margins
+    margins: PoseMargins
     fractions: dict[str, np.ndarray]
     leg_colours: np.ndarray
 
@@ -133,12 +132,12 @@ class RobotFigure:
 def robot_figure(geometry: RobotGeometry, *, a_T_b: Pose, world_T_a: Pose,
                  efforts: np.ndarray | None = None) -> RobotFigure:
     """Rings, legs and margin colours of ``geometry`` at ``a_T_b`` with ring_a at ``world_T_a``."""
-    ik = inverse_kinematics(geometry, a_T_b.position, a_T_b.quaternion_xyzw)
-    m = margins(geometry, ik)
+    m = pose_margins(geometry, a_T_b.position, a_T_b.quaternion_xyzw)  # compiled: a few us a frame
     fractions = leg_margin_fractions(geometry, m, efforts)
+    world_T_b = world_T_a.compose(a_T_b)
     starts = world_T_a.apply(geometry.ring_a_anchors)
-    ends = world_T_a.apply(ik.ring_b_anchors_in_a)
-    return RobotFigure(world_T_a=world_T_a, world_T_b=world_T_a.compose(a_T_b),
+    ends = world_T_b.apply(geometry.ring_b_anchors)
+    return RobotFigure(world_T_a=world_T_a, world_T_b=world_T_b,
                        leg_points=np.stack([starts, ends], axis=1), margins=m,
                        fractions=fractions, leg_colours=margin_colours(fractions['leg']))
 
