@@ -27,7 +27,7 @@ from ._scene import (
     torus_mesh,
     world_ring_poses,
 )
-from ._workspace import WorkspaceSnapshot, WorkspaceView
+from ._workspace import WorkspaceSnapshot, WorkspaceView, boundary_points
 
 __all__ = [
     'ControlResult',
@@ -43,6 +43,7 @@ __all__ = [
     'WARN_FRACTION',
     'WorkspaceSnapshot',
     'WorkspaceView',
+    'boundary_points',
     'leg_margin_fractions',
     'margin_colours',
     'robot_figure',
