@@ -208,11 +208,15 @@ def test_pose_margins_compiled_equals_the_reference(robot):
     from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
     g = load_robot(robot)
     rng = np.random.default_rng(3)
-    for _ in range(50):
-        p = g.home_position + rng.uniform(-0.08, 0.08, 3)
-        q = rotation_vector_to_quat_xyzw(rng.uniform(-0.4, 0.4, 3))
+    verdicts = set()
+    for _ in range(200):
+        p = g.home_position + rng.uniform(-0.25, 0.25, 3)  # inside and beyond the limits
+        q = rotation_vector_to_quat_xyzw(rng.uniform(-0.6, 0.6, 3))
         fast, ref = pose_margins(g, p, q), pose_margins(g, p, q, backend='numpy')
         m = margins(g, inverse_kinematics(g, p, q))
         for a, b in zip(fast, ref):
             np.testing.assert_allclose(a, b, atol=1e-12)
         assert fast.minimum == pytest.approx({k: float(v) for k, v in m.minimum.items()}, abs=1e-12)
+        assert fast.ok == ref.ok == m.ok
+        verdicts.add(m.ok)
+    assert verdicts == {True, False}  # both within and beyond the limits were tried

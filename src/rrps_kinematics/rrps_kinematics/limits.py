@@ -321,6 +321,13 @@ class PoseMargins(NamedTuple):
     conditioning: float
 
     @property
+    def ok(self) -> bool:
+        """Whether the pose is within every limit (as :attr:`Margins.ok`; NaN is a violation)."""
+        return bool(np.all(self.stroke >= 0.0) and np.all(self.universal >= 0.0)
+                    and np.all(self.spherical >= 0.0) and np.all(self.interference >= 0.0)
+                    and self.conditioning >= 0.0 and self.inverse_condition > 0.0)
+
+    @property
     def minimum(self) -> dict[str, float]:
         """Smallest margin of each kind, as :attr:`Margins.minimum`."""
         return {'stroke': float(np.min(self.stroke)), 'universal': float(np.min(self.universal)),

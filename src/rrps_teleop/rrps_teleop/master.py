@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rrps_kinematics import RobotGeometry, check_pose, inverse_kinematics
+from rrps_kinematics.limits import pose_margins
 from rrps_kinematics.pose import validate_pose
 from rrps_kinematics.rotations import quat_multiply_xyzw, rotation_angle_between, rotation_vector_to_quat_xyzw
 
@@ -123,18 +124,20 @@ class MasterModel:
         if limit < 1.0:
             fraction, note = limit, HandleStep(HandleMotion.SPEED_LIMITED)
         p, q = pose_step(p0, q0, p1, q1, fraction)
-        ok, reason, _ = check_pose(self.geometry, p, q)
-        if not ok:
+        m = pose_margins(self.geometry, p, q)  # the compiled check: a few microseconds
+        if not m.ok:
+            reason = check_pose(self.geometry, p, q)[1]  # which limit, in words (once)
             # Bisect for the furthest feasible fraction: the current pose is feasible.
             lo, hi = 0.0, fraction
             for _ in range(BOUNDARY_BISECTIONS):
                 mid = 0.5 * (lo + hi)
-                if check_pose(self.geometry, *pose_step(p0, q0, p1, q1, mid))[0]:
+                if pose_margins(self.geometry, *pose_step(p0, q0, p1, q1, mid)).ok:
                     lo = mid
                 else:
                     hi = mid
             p, q = pose_step(p0, q0, p1, q1, lo)
+            m = pose_margins(self.geometry, p, q)
             note = HandleStep(HandleMotion.STOPPED, reason)
         self.position, self.quaternion_xyzw = p, q
-        self.lengths = inverse_kinematics(self.geometry, p, q).lengths.copy()
+        self.lengths = m.lengths.copy()
         return note
