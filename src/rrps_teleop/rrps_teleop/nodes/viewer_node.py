@@ -84,6 +84,8 @@ from .viewer_requests import OperatorRequest, ViewerRequests
 
 #: Length of the drawn master/feedback arrow per newton [m/N].
 FEEDBACK_ARROW = 0.01
+#: The leg-length plot is redrawn this often [s] (its arrays are built only then).
+PLOT_PERIOD = 0.2
 #: Queued browser requests for the recording side (the others are OperatorRequests).
 _RECORDING = object()
 
@@ -148,6 +150,7 @@ class ViewerNode(Node):
         self._t0 = time.monotonic()
         self._plot_t: collections.deque = collections.deque()
         self._plot_l: collections.deque = collections.deque()
+        self._plot_time = -math.inf
         self._trails = {'ring_a': Trail(), 'ring_b': Trail()}
         self._odometry_rings = {odometry_topic(ring): ring for ring in self._trails}
         self._fk_status: DiagnosticStatus | None = None
@@ -262,9 +265,11 @@ class ViewerNode(Node):
         with self._lock:
             latest = dict(self._latest)
         latest[ACTUATORS_STATE] = self._read_state(latest.get(ACTUATORS_STATE))
+        now = time.monotonic()
         with self._lock:
-            plot = ((np.array(self._plot_t), np.array(self._plot_l))
-                    if len(self._plot_t) >= 2 else None)
+            plot = None  # the plot is redrawn at 5 Hz: its arrays only then
+            if now - self._plot_time >= PLOT_PERIOD and len(self._plot_t) >= 2:
+                plot, self._plot_time = (np.array(self._plot_t), np.array(self._plot_l)), now
             trails = {ring: trail.points for ring, trail in self._trails.items()}
             fk_status = self._fk_status
             latest['driver'] = self._driver_status
@@ -315,7 +320,6 @@ class ViewerNode(Node):
             except ValueError:
                 pass
         self._add_workspace(frame, latest)
-        now = time.monotonic()
         if now - self._panel_time >= 0.25:  # text for people: 4 Hz
             self._panel_text, self._panel_time = self._panel(latest, frame, fk_status), now
         frame.panel = self._panel_text

@@ -317,16 +317,14 @@ class ViewerServer:
                 scales={'x': viser.uplot.Scale(time=False, auto=True),
                         'y': viser.uplot.Scale(auto=True)},
                 legend=viser.uplot.Legend(show=True), aspect=1.6)
-        self._last_plot = 0.0
         self._last_panel = 0.0
 
-    def _update_plot(self, frame: Frame, now: float) -> None:
-        if frame.plot is None or now - self._last_plot < 0.2:
+    def _update_plot(self, frame: Frame) -> None:
+        if frame.plot is None:  # the frame carries a plot only when it is due (5 Hz)
             return
         t, lengths = frame.plot
         if len(t) < 2:
             return
-        self._last_plot = now
         self._plot.data = (np.asarray(t, dtype=float),
                            *(np.asarray(lengths[:, i], dtype=float) for i in range(6)))
 
@@ -377,11 +375,10 @@ class ViewerServer:
     def _run(self) -> None:
         next_time = time.monotonic()
         while not self._stop.is_set():
-            now = time.monotonic()
             try:
                 frame = self._frame_source()
                 self._draw(frame)
-                self._update_plot(frame, now)
+                self._update_plot(frame)
                 self.frames_drawn += 1
                 with self._lock:
                     stale = any(c.version_seen != self.control.version for c in self._clients.values())

@@ -151,6 +151,7 @@ class Trail:
         self._min_step = min_step
         self._max_points = max_points
         self._points: list[np.ndarray] = []
+        self._array: np.ndarray | None = None  # the points as one array, built when asked
 
     def add(self, position: np.ndarray) -> bool:
         """Append a world position if it moved far enough; return whether it was kept."""
@@ -162,9 +163,13 @@ class Trail:
         self._points.append(p)
         if len(self._points) > self._max_points:
             del self._points[0]
+        self._array = None
         return True
 
     @property
     def points(self) -> np.ndarray:
-        """(N, 3) world positions, oldest first."""
-        return np.array(self._points).reshape(-1, 3)
+        """(N, 3) world positions, oldest first (read-only; rebuilt only after a point was kept)."""
+        if self._array is None:
+            self._array = np.array(self._points).reshape(-1, 3)
+            self._array.setflags(write=False)
+        return self._array
