@@ -209,6 +209,13 @@ def quat_multiply_xyzw(q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
     """Hamilton product q1 ⊗ q2 in (x, y, z, w) order: R(q1 ⊗ q2) = R(q1) R(q2)."""
     q1 = np.asarray(q1, dtype=float)
     q2 = np.asarray(q2, dtype=float)
+    if q1.shape == (4,) and q2.shape == (4,):  # one pair (the teleop step): plain floats, same sums
+        x1, y1, z1, w1 = q1.tolist()
+        x2, y2, z2, w2 = q2.tolist()
+        return np.array([w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                         w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+                         w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+                         w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2])
     x1, y1, z1, w1 = q1[..., 0], q1[..., 1], q1[..., 2], q1[..., 3]
     x2, y2, z2, w2 = q2[..., 0], q2[..., 1], q2[..., 2], q2[..., 3]
     return np.stack([
