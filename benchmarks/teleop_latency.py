@@ -334,7 +334,19 @@ def main() -> None:
     print(f'\nin-process p99: joint mode adds {joint - bare:.3f} ms over bare pub->sub; Cartesian mode adds '
           f'{cart - relay:.3f} ms over the 2-hop relay; control=timer adds {timer - cart:.3f} ms over '
           'message-triggered control.')
+    ok = True
+    for what, ours, baseline in (('joint mode (teleop) vs bare 1 hop', joint, bare),
+                                 ('Cartesian mode (teleop + ik) vs bare 2-hop relay', cart, relay)):
+        met = ours <= TARGET_RATIO * baseline
+        ok &= met
+        print(f'{what}: p99 {ours:.3f} ms / {baseline:.3f} ms = {ours / baseline:.2f} '
+              f'(target <= {TARGET_RATIO}): {"MET" if met else "MISSED"}')
+    return 0 if ok else 1
+
+
+#: The teleop step's p99 may be at most this multiple of the bare transport's p99 (same run).
+TARGET_RATIO = 1.5
 
 
 if __name__ == '__main__':
-    main()
+    sys.exit(main())
