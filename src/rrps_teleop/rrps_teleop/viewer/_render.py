@@ -35,6 +35,8 @@ from ._workspace import WorkspaceSnapshot
 
 __all__ = ['Frame', 'ViewerServer']
 
+#: Drawing period [s] while no browser is connected (the scene stays current for the next one).
+IDLE_DRAW_PERIOD = 0.5
 _LEG_SERIES_COLOURS = ('#1f77b4', '#ff7f0e', '#2ca02c', '#d62728', '#9467bd', '#8c564b')
 
 
@@ -386,9 +388,11 @@ class ViewerServer:
                     self.refresh_all()
             except Exception as exc:  # keep drawing; a bad frame must not kill the viewer
                 print(f'rrps viewer: drawing failed: {exc!r}')
-            next_time += self._period
+            with self._lock:  # nobody looking: keep the scene current at IDLE_DRAW_PERIOD only
+                period = self._period if self._clients else max(self._period, IDLE_DRAW_PERIOD)
+            next_time += period
             delay = next_time - time.monotonic()
-            if delay < -self._period:
+            if delay < -period:
                 next_time = time.monotonic()
             self._stop.wait(max(delay, 0.0))
 
