@@ -211,6 +211,7 @@ class GaitPlanner:
         self.geometry = geometry
         self.structure = structure
         self.spacing = float(spacing)
+        self._last_mounts: tuple | None = None  # ((theta_a, theta_b), mounts): see mounts()
         self.surface = structure.kind == 'surface'
         self.standoff = float(geometry.home_position[2])
         self.dof = (use_extra_dof and structure.kind == 'member'
@@ -261,8 +262,11 @@ class GaitPlanner:
     def mounts(self, theta_a: float, theta_b: float) -> tuple[Pose, Pose]:
         """(a_T_grip_a, b_T_grip_b): the extra DOF about each ring's z, and on a surface ring_b's
         stand-off (its feet reach down to the wall)."""
-        ma, mb = self._mount_matrices(theta_a, theta_b)
-        return Pose.from_matrix(ma), Pose.from_matrix(mb)
+        key = (float(theta_a), float(theta_b))
+        if self._last_mounts is None or self._last_mounts[0] != key:  # odometry asks at 50 Hz
+            ma, mb = self._mount_matrices(theta_a, theta_b)
+            self._last_mounts = (key, (Pose.from_matrix(ma), Pose.from_matrix(mb)))
+        return self._last_mounts[1]
 
     def world_rings(self, s_a: float, s_b: float, theta_a: float, theta_b: float) -> tuple[Pose, Pose]:
         """(world_T_a, world_T_b) with both grippers at their grip frames."""
