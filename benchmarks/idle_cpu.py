@@ -4,8 +4,8 @@ Two measurements in the same run, each over ``--seconds`` after the stack settle
 
 * per node: every node of the demo in a process of its own (``rrps-compose NODE``), so that
   each one's CPU is its own (plus its process' share of the DDS and executor overhead);
-* the demo as it runs (``rrps-demo``: driver, robot nodes and operator station in three
-  processes), the number the target is about: <= 25 % of one core in total.
+* the demo as it runs (``rrps-demo``: driver, robot nodes, observers and operator station in
+  four processes), the number the target is about: <= 25 % of one core in total.
 
 CPU comes from /proc (user + system time of each process and its threads).
 
@@ -18,6 +18,7 @@ import argparse
 import os
 import socket
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -26,7 +27,12 @@ os.environ.setdefault('ROS_DOMAIN_ID', str(100 + os.getpid() % 50))
 
 NAMESPACE = '/rrps'
 NODES = ('driver_node', 'ik_node', 'fk_node', 'climb_node', 'master_node', 'teleop_node',
-         'viewer_node')
+         'viewer_node', 'recorder_node', 'markers_node')
+#: The demo's processes, told apart by a node each one runs.
+PROCESSES = {'driver_node': 'driver process',
+             'climb_node': 'robot process (ik, fk, climb)',
+             'recorder_node': 'observer process (flight recorder, markers)',
+             'rrps_teleop.demo': 'operator process (master, teleop, viewer)'}
 TARGET = 25.0  # % of one core, the whole demo at rest
 
 
@@ -81,6 +87,8 @@ def main() -> int:
         extra = ['-p', 'auto_activate:=true'] if name == 'driver_node' else []
         if name == 'viewer_node':
             extra = ['-p', f'port:={_free_port()}', '-p', 'token:=idle-benchmark-token']
+        if name == 'recorder_node':
+            extra = ['-p', f'output_dir:={tempfile.mkdtemp(prefix="rrps-idle-")}']
         if name == 'master_node':
             common_master = ['--ros-args', '-r', f'__ns:={NAMESPACE}']
             per_node[name] = start_child([sys.executable, '-m', 'rrps_teleop.compose', name,
@@ -98,20 +106,17 @@ def main() -> int:
     try:
         pids: dict[str, int] = {}
         deadline = time.monotonic() + 180.0
-        while len(pids) < 3 and time.monotonic() < deadline:  # the demo starts its children
+        while len(pids) < len(PROCESSES) and time.monotonic() < deadline:  # the demo's children
             time.sleep(1.0)
             for pid in _descendants(demo.pid):
                 try:
                     cmd = Path(f'/proc/{pid}/cmdline').read_bytes().replace(b'\0', b' ').decode()
                 except OSError:
                     continue
-                label = ('driver process' if 'driver_node' in cmd else
-                         'robot process (ik, fk, climb)' if 'rrps_teleop.compose' in cmd else
-                         'operator process (master, teleop, viewer)' if 'rrps_teleop.demo' in cmd
-                         else None)
+                label = next((label for key, label in PROCESSES.items() if key in cmd), None)
                 if label:
                     pids[label] = pid
-        if len(pids) < 3:
+        if len(pids) < len(PROCESSES):
             raise RuntimeError(f'the demo did not start its processes: {sorted(pids)}')
         processes = _measure(pids, args.settle, args.seconds)
     finally:

@@ -10,7 +10,8 @@ fixed frame ``ring_a`` (or ``world``). The recordings also carry ``/tf`` (record
 
 Subscribes (relative names): ``pose``, ``target_pose``, ``actuators/state`` (efforts),
 ``grippers/state``, ``odometry/ring_a|ring_b``; every subscription keeps only the newest
-message, the markers are built at ``rate`` Hz.
+message, the markers are built at ``rate`` Hz while anything they show changes; a robot at rest
+is re-sent every ``structure_period`` s only (for displays that join later).
 
     markers_node --ros-args -r __ns:=/rrps -p robot:=pole_climber
 """
@@ -98,6 +99,8 @@ class MarkersNode(Node):
         self._lock = threading.Lock()
         self._latest: dict[str, object] = {}
         self._structure_due = 0.0
+        self._last_inputs: tuple | None = None
+        self._resend_due = 0.0
         self.published = 0
         self._pub = self.create_publisher(MarkerArray, ROBOT_MARKERS, STATE_QOS)
         for topic, qos in ((POSE, LATEST_QOS), (TARGET_POSE, COMMAND_QOS),
@@ -149,7 +152,28 @@ class MarkersNode(Node):
         return robot_markers(self.geometry, a_T_b, efforts=efforts,
                              grippers=grippers or {}, target=target, world_T_a=world_T_a)
 
+    def _inputs(self) -> tuple:
+        """What the markers are drawn from (the newest messages' values, not their stamps)."""
+        with self._lock:
+            latest = dict(self._latest)
+
+        def pose(msg):
+            if msg is None:
+                return None
+            p, o = msg.pose.position, msg.pose.orientation
+            return (p.x, p.y, p.z, o.x, o.y, o.z, o.w)
+        state, grippers = latest.get(ACTUATORS_STATE), latest.get(GRIPPERS_STATE)
+        return (pose(latest.get(POSE)), pose(latest.get(TARGET_POSE)),
+                pose(latest.get(odometry_topic('ring_a'))), pose(latest.get(odometry_topic('ring_b'))),
+                None if state is None else tuple(state.effort),
+                None if grippers is None else tuple(grippers.position))
+
     def _publish(self) -> None:
+        t = self.get_clock().now().nanoseconds * 1e-9
+        inputs = self._inputs()
+        if inputs == self._last_inputs and t < self._resend_due:
+            return  # a robot at rest: nothing new to draw (re-sent each structure_period)
+        self._last_inputs, self._resend_due = inputs, t + self.structure_period
         try:
             specs = self.markers()
         except ValueError as exc:
