@@ -1,0 +1,227 @@
+"""The stack on two hosts: a robot (driver, IK, FK, climbing) and an operator station (master,
+teleop, viewer, a browser) in two network namespaces joined by a veth pair (tests/netns_rig.py).
+
+DDS discovers across the namespaces for real (multicast on the subnet, or the Fast DDS
+discovery server), and the faults are real: the link goes down (``ip link set down``) for 2 s
+during teleoperation and during each phase of a climbing step, and a browser drives the robot
+through a proxy that adds latency and stalls (tests/latency_proxy.py). What the robot does is
+recorded inside its own namespace by tests/netns_agent.py and judged from message stamps
+(tests/fault_metrics.py): every namespace shares the host's wall clock.
+
+Root is needed (``ip netns``): locally without it these tests skip, in CI they fail.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from conftest import require
+from fault_metrics import (both_open, climb, first, gripper_openings, in_window, last_stamp,
+                           length_change, pose_change, teleop)
+from netns_rig import AgentHandle, Rig, netns_supported, rig_factory, rig_namespaces, wait  # noqa: F401
+from rrps_kinematics.supervision import start_child
+from rrps_teleop.interfaces import ClimbState, PauseReason, TeleopCode
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.netns]
+
+DEADLINE = 90.0            # generous: two cores shared with other jobs
+LINK_DOWN = 2.0            # s, each outage
+COMMAND_TIMEOUT = 0.1      # s, the IK node's and the driver's (their default)
+STATE_TIMEOUT = 0.2        # s, teleop's slave-pose timeout (default)
+OPERATOR_TIMEOUT = 0.5     # s, the climb node's operator-link timeout (default)
+SETTLE = 0.5               # s, the actuators' lag settles (20 ms time constant) well within it
+STILL = 20e-6              # m, "does not move": leg lengths within 20 um
+ROBOT_RECORD = ('pose', 'actuators/command', 'actuators/state', 'grippers/state', 'target_pose',
+                'climb/status')
+OPERATOR_RECORD = ('teleop/status', 'master/pose', 'target_pose', 'teleop/enable',
+                   'operator/round_trip_time')
+
+
+def _engaged(agent: AgentHandle, since: float = -math.inf) -> bool:
+    rows = agent.records('teleop/status', since)
+    return bool(rows) and teleop(rows[-1]).engaged
+
+
+def _moved(agent: AgentHandle, since: float, distance: float) -> bool:
+    poses = agent.records('pose', since)
+    return len(poses) > 1 and pose_change(poses, poses[0]['stamp'], math.inf) > distance
+
+
+def _start_stack(rig: Rig, *, climb_params: dict | None = None, operator_params: dict | None = None,
+                 viewer: bool = False):
+    """Driver, robot nodes and the operator station, plus an agent on each host."""
+    rig.start_driver()
+    rig.start_robot_nodes(**(climb_params or {}))
+    rig.start_operator(viewer=viewer, **{'master_node:trajectory': 'circle', **(operator_params or {})})
+    robot = rig.agent('robot', record=ROBOT_RECORD)
+    operator = rig.agent('operator', record=OPERATOR_RECORD)
+    return robot, operator
+
+
+def _fail_with_logs(rig: Rig, message: str) -> None:
+    logs = '\n'.join(f'--- {name}\n{rig.log_tail(name)}' for name in rig.processes)
+    pytest.fail(f'{message}\n{logs}')
+
+
+# --- the rig itself ---------------------------------------------------------------------------
+
+def test_the_rig_removes_every_namespace_and_process_it_made_also_on_failure(ros_domain_id, tmp_path):
+    ok, reason = netns_supported()
+    require(ok, reason)
+    rig = Rig(ros_domain_id, log_dir=tmp_path)
+    with pytest.raises(RuntimeError, match='a failing test'):
+        with rig:
+            assert {rig.robot, rig.operator} <= set(rig_namespaces())
+            # the namespaces hold only their loopback and their end of the veth pair
+            assert sorted(rig.links('robot')) == ['lo', 'veth0']
+            assert sorted(rig.links('operator')) == ['lo', 'veth1']
+            rig.start('robot', 'sleeper', ['sleep', '600'])
+            # a process that escapes its process group (a new session): found by its namespace
+            rig.start('operator', 'escapee', ['sh', '-c', 'setsid sleep 600 & exec sleep 600'])
+            assert wait(lambda: len(subprocess.run(['ip', 'netns', 'pids', rig.operator],
+                                                   capture_output=True, text=True).stdout.split()) == 2,
+                        10.0)
+            raise RuntimeError('a failing test')
+    assert rig.leftovers() == []
+    assert not {rig.robot, rig.operator} & set(rig_namespaces())
+
+
+# --- discovery across the link ----------------------------------------------------------------
+
+@pytest.mark.parametrize('discovery', ['subnet', 'server'])
+def test_the_operators_teleop_drives_the_robot_across_the_link(rig_factory, ros_domain_id, discovery):
+    rig = rig_factory(discovery)
+    robot = rig.agent('robot', record=ROBOT_RECORD)
+    operator = rig.agent('operator', record=OPERATOR_RECORD)
+    if discovery == 'server':
+        # Both agents exist and publish heartbeats, but clients of an absent server discover
+        # nothing (multicast discovery would have matched them within a second).
+        time.sleep(3.0)
+        assert not robot.records('rig/heartbeat') and not operator.records('rig/heartbeat')
+        rig.start_discovery_server()
+    assert wait(lambda: robot.records('rig/heartbeat') and operator.records('rig/heartbeat'),
+                DEADLINE), 'the agents never discovered each other across the link'
+    if discovery == 'subnet':
+        # Nothing leaves the rig: an agent in the root namespace on the same domain id
+        # (DDS on loopback, as every other test) and the rig's agents never meet.
+        env = {**os.environ, 'ROS_DOMAIN_ID': str(ros_domain_id), 'PYTHONUNBUFFERED': '1',
+               'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST'}
+        env.pop('ROS_DISCOVERY_SERVER', None)
+        outsider = AgentHandle('root', start_child(
+            [sys.executable, os.path.join(os.path.dirname(__file__), 'netns_agent.py'),
+             '--name', 'root', '--ros-args', '-r', '__ns:=/rrps'],
+            env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, bufsize=1))
+        try:
+            assert outsider.ready.wait(DEADLINE)
+            time.sleep(3.0)
+            assert not outsider.records('rig/heartbeat'), 'the root namespace saw the rig'
+            assert all(r['source'] != 'root' for a in (robot, operator)
+                       for r in a.records('rig/heartbeat')), 'the rig saw the root namespace'
+        finally:
+            outsider.process.terminate()
+            outsider.process.wait(10)
+    counters = rig.interface_counters('robot')['veth0']
+    rig.start_driver()
+    rig.start_robot_nodes()
+    rig.start_operator(**{'master_node:trajectory': 'circle'})
+    assert wait(lambda: robot.records('pose') and operator.records('teleop/status'), DEADLINE)
+    operator.send({'deadman': True})
+    t0 = time.time()
+    if not wait(lambda: _engaged(operator, t0) and _moved(robot, t0, 0.002), DEADLINE):
+        _fail_with_logs(rig, 'teleop did not drive the robot across the link')
+    # the operator station's teleop node (the only target_pose publisher) moved it over the veth
+    assert robot.records('target_pose', t0) and robot.records('actuators/command', t0)
+    after = rig.interface_counters('robot')['veth0']
+    assert after['tx']['bytes'] > counters['tx']['bytes'] and after['rx']['bytes'] > counters['rx']['bytes']
+    # the routes of each namespace: its subnet, the multicast route and IPv6 link-local, no way out
+    for host in ('robot', 'operator'):
+        dst = {r.get('dst') for r in rig.routes(host) if r.get('table') in (None, 'main')}
+        assert dst <= {rig.subnet, '224.0.0.0/4', 'fe80::/64'}, dst
+
+
+# --- link loss during teleoperation -----------------------------------------------------------
+
+def test_link_loss_during_teleop_holds_the_robot_and_a_held_deadman_reengages_as_a_clutch(rig_factory):
+    rig = rig_factory('subnet')
+    robot, operator = _start_stack(rig)
+    assert wait(lambda: robot.records('pose') and operator.records('teleop/status'), DEADLINE)
+    operator.send({'deadman': True})
+    t0 = time.time()
+    if not wait(lambda: _engaged(operator, t0) and _moved(robot, t0, 0.002), DEADLINE):
+        _fail_with_logs(rig, 'teleop never engaged across the link')
+
+    # 1. The link drops for 2 s while the operator holds the deadman and moves the master.
+    t_down = rig.link(False)
+    time.sleep(LINK_DOWN)
+    t_up = rig.link(True)
+    assert wait(lambda: _engaged(operator, t_up) and robot.records('target_pose', t_up + 1.0),
+                DEADLINE), 'teleop did not re-engage once the link was back'
+    time.sleep(1.5)
+
+    # The robot holds: no command sent after the link went down reached it ...
+    newest = last_stamp(robot.records('actuators/command'), t_down, t_up)
+    assert newest is None or newest <= t_down + COMMAND_TIMEOUT, newest - t_down
+    assert not in_window(robot.records('target_pose'), t_down + COMMAND_TIMEOUT, t_up, by='stamp')
+    # ... it stops where it is (the last command, reached within the actuators' lag) ...
+    states = robot.records('actuators/state')
+    assert in_window(states, t_down + SETTLE, t_up, by='stamp'), 'no robot state during the outage'
+    assert length_change(states, t_down + SETTLE, t_up) < STILL
+    assert length_change(states, t_down, t_up) < 0.003  # at most the last commands' lag
+    # ... never opens a gripper ...
+    grippers = robot.records('grippers/state')
+    assert gripper_openings(grippers, t_down, t_up) == 0 and not both_open(grippers)
+    # ... and the operator station knows why: the slave's state is lost, teleop disengaged.
+    during = [teleop(r) for r in operator.records('teleop/status', t_down, t_up)]
+    assert any(s.code is TeleopCode.SLAVE_STATE_LOST and not s.engaged for s in during)
+    assert not any(teleop(r).engaged for r in operator.records('teleop/status', t_down + 1.0, t_up))
+
+    # Re-engaging is a clutch: the first command after the link came back is the robot's own
+    # pose, although the master moved on during the outage ...
+    first_target = first(robot.records('target_pose'), lambda r: True, t_up)
+    here = [r for r in robot.records('pose') if r['t'] <= first_target['t']][-1]
+    assert np.linalg.norm(np.subtract(first_target['p'], here['p'])) < 0.5e-3
+    master = operator.records('master/pose')
+    moved_master = np.linalg.norm(np.subtract(
+        [r for r in master if r['stamp'] <= t_up][-1]['p'], [r for r in master if r['stamp'] <= t_down][-1]['p']))
+    assert moved_master > 0.5e-3, 'the master did not move during the outage: no clutch to test'
+    # ... and the slave follows the master's motion from there (scale 4), without catching up
+    # with where the master went meanwhile (the mapping would then run at its speed limit).
+    t_e = first_target['stamp']
+    window = [r for r in robot.records('target_pose') if t_e <= r['stamp'] <= t_e + 1.0]
+    slave_step = np.linalg.norm(np.subtract(window[-1]['p'], window[0]['p']))
+    m0 = [r for r in master if r['stamp'] <= t_e][-1]['p']
+    m1 = [r for r in master if r['stamp'] <= window[-1]['stamp']][-1]['p']
+    assert slave_step <= 4.0 * np.linalg.norm(np.subtract(m1, m0)) + 1e-3, (slave_step, moved_master)
+
+    # 2. A deadman released during an outage is not remembered: after the link is back the
+    # robot does not move until the operator holds the deadman again, and that engage is a
+    # clutch too.
+    t_down = rig.link(False)
+    time.sleep(LINK_DOWN / 2)
+    operator.send({'deadman': False})
+    time.sleep(LINK_DOWN / 2)
+    t_up = rig.link(True)
+    time.sleep(2.0)
+    t_check = time.time()
+    assert not in_window(robot.records('target_pose'), t_down + COMMAND_TIMEOUT, t_check, by='stamp')
+    assert length_change(robot.records('actuators/state'), t_down + SETTLE, t_check) < STILL
+    status = teleop(operator.records('teleop/status')[-1])
+    assert status.code is TeleopCode.DEADMAN_RELEASED and not status.engaged
+    operator.send({'deadman': True})
+    t_press = time.time()
+    assert wait(lambda: _engaged(operator, t_press) and robot.records('target_pose', t_press), DEADLINE)
+    first_target = first(robot.records('target_pose'), lambda r: True, t_press)
+    here = [r for r in robot.records('pose') if r['t'] <= first_target['t']][-1]
+    assert np.linalg.norm(np.subtract(first_target['p'], here['p'])) < 0.5e-3
+    assert not both_open(robot.records('grippers/state'))
