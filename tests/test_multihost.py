@@ -225,3 +225,113 @@ def test_link_loss_during_teleop_holds_the_robot_and_a_held_deadman_reengages_as
     here = [r for r in robot.records('pose') if r['t'] <= first_target['t']][-1]
     assert np.linalg.norm(np.subtract(first_target['p'], here['p'])) < 0.5e-3
     assert not both_open(robot.records('grippers/state'))
+
+
+# --- link loss during each phase of a climbing step -------------------------------------------
+
+CLIMB_PARAMS = {'climb_node:step_length': 0.05, 'climb_node:speed': 0.025}
+PHASES = ('release_b', 'move_b', 'grip_b', 'release_a', 'move_a', 'grip_a')
+
+
+def _climb_status(robot: AgentHandle, since: float = -math.inf):
+    rows = robot.records('climb/status', since)
+    return climb(rows[-1]) if rows else None
+
+
+def _resume(operator: AgentHandle, robot: AgentHandle) -> float:
+    """The operator resumes the paused climb (retried while its link is not confirmed yet)."""
+    t = time.time()
+
+    def resumed() -> bool:
+        reply = operator.call('climb/resume', timeout=10.0)
+        return reply['success']
+    assert wait(resumed, DEADLINE, period=0.3), 'the operator could not resume the climb'
+    assert wait(lambda: (s := _climb_status(robot, t)) is not None and s.state is not ClimbState.PAUSED,
+                DEADLINE)
+    return t
+
+
+def test_link_loss_during_each_climb_phase_pauses_the_climb_until_the_operator_resumes_it(rig_factory):
+    """The product's choice: a climb pauses (PAUSED, OPERATOR_LINK_LOST, once the operator
+    station's teleop/status has been silent for operator_timeout) and waits for the operator's
+    climb/resume; it never resumes by itself."""
+    rig = rig_factory('subnet')
+    robot, operator = _start_stack(rig, climb_params=CLIMB_PARAMS)
+    assert wait(lambda: _climb_status(robot) is not None and robot.records('pose')
+                and operator.records('teleop/status'), DEADLINE)
+    time.sleep(1.0)  # the climb node has heard the operator station (teleop/status)
+    remaining = list(PHASES)
+    faults = []
+    for _ in range(4):  # climbing steps, until the link went down once in every phase
+        t_call = time.time()
+        reply = operator.call('climb/step_up')
+        assert reply['success'], reply['message']
+        seen = None
+        while True:
+            assert wait(lambda: (s := _climb_status(robot, t_call)) is not None and (
+                s.state is not ClimbState.EXECUTING or (s.step, s.phase) != seen), DEADLINE)
+            status = _climb_status(robot, t_call)
+            if status.state is ClimbState.IDLE:
+                break
+            assert status.state is not ClimbState.FAILED, status.detail
+            if status.state is ClimbState.PAUSED:  # a busy machine delayed the robot's state
+                assert status.pause_reason is PauseReason.ROBOT_STATE_LOST, status
+                _resume(operator, robot)
+                continue
+            seen = (status.step, status.phase)
+            if status.phase not in remaining:
+                continue
+            remaining.remove(status.phase)
+            fault = {'phase': status.phase, 'step': status.step, 't_down': rig.link(False)}
+            time.sleep(LINK_DOWN)
+            fault['t_up'] = rig.link(True)
+            # it never resumes by itself: still paused (or done) well after the link is back
+            time.sleep(1.5)
+            after = _climb_status(robot, fault['t_up'] + 1.0)
+            fault['paused'] = next((climb(r) for r in robot.records('climb/status', fault['t_down'])
+                                    if climb(r).state is ClimbState.PAUSED), None)
+            fault['state_after_link'] = after.state
+            if fault['paused'] is not None:
+                assert after.state is ClimbState.PAUSED, after
+                fault['t_resume'] = _resume(operator, robot)
+            else:
+                fault['t_resume'] = time.time()
+            faults.append(fault)
+            seen = (_climb_status(robot).step, _climb_status(robot).phase)
+        if not remaining:
+            break
+    assert not remaining, f'the link never went down during {remaining}'
+
+    targets = robot.records('target_pose')
+    states = robot.records('actuators/state')
+    grippers = robot.records('grippers/state')
+    for f in faults:
+        t_down, t_up, t_resume = f['t_down'], f['t_up'], f['t_resume']
+        paused = f['paused']
+        if paused is None:
+            # the fault came in the last phase: the step completed (both rings gripping, the
+            # robot idle) before the operator link was judged lost, and nothing moved after it
+            assert f['state_after_link'] is ClimbState.IDLE and f['phase'] == 'grip_a', f
+            done = first(robot.records('climb/status'), lambda r: climb(r).state is ClimbState.IDLE, t_down)
+            assert length_change(states, done['t'] + SETTLE, t_resume) < STILL
+            continue
+        assert paused.pause_reason is PauseReason.OPERATOR_LINK_LOST, (f, paused)
+        # the climb held within the operator timeout: its last target was sent at most
+        # operator_timeout (+ one slow tick) after the link went down, none until the resume
+        newest = last_stamp(targets, t_down, t_resume)
+        f['hold_after'] = newest - t_down if newest is not None else 0.0
+        assert f['hold_after'] <= OPERATOR_TIMEOUT + 0.3, f
+        held_from = max(t_down, newest or t_down)
+        assert not in_window(targets, held_from + 1e-6, t_resume, by='stamp')
+        # the robot stood still while paused and no gripper switched
+        assert length_change(states, held_from + SETTLE, t_resume) < STILL, f
+        changes = in_window(grippers, held_from + 0.1, t_resume)
+        assert all(r['closed'] == changes[0]['closed'] for r in changes), f
+        f['openings'] = gripper_openings(grippers, t_down, t_resume)
+        # a gripper can only open in a planned release that was under way when the link
+        # dropped (before the loss could be noticed), never later
+        assert f['openings'] == 0 or gripper_openings(grippers, held_from + 0.1, t_resume) == 0
+    assert not both_open(grippers)
+    assert ClimbState.FAILED not in {climb(r).state for r in robot.records('climb/status')}
+    print('climb link faults:', [(f['phase'], f.get('hold_after'), f.get('openings'),
+                                  f['paused'] and f['paused'].phase) for f in faults])
