@@ -31,7 +31,7 @@ from fault_metrics import (both_open, climb, first, gripper_openings, in_window,
                            length_change, pose_change, teleop)
 from netns_rig import AgentHandle, Rig, netns_supported, rig_factory, rig_namespaces, wait  # noqa: F401
 from rrps_kinematics.supervision import start_child
-from rrps_teleop.interfaces import ClimbState, PauseReason, TeleopCode
+from rrps_teleop.interfaces import ClimbState, PauseReason, PhaseAction, TeleopCode
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.netns]
 
@@ -229,7 +229,11 @@ def test_link_loss_during_teleop_holds_the_robot_and_a_held_deadman_reengages_as
 
 # --- link loss during each phase of a climbing step -------------------------------------------
 
-CLIMB_PARAMS = {'climb_node:step_length': 0.05, 'climb_node:speed': 0.025}
+#: short steps; the robot settles 0.4 s at each gripper's pose before switching it, so that the
+#: link reliably drops before the release is due (the test's reaction takes up to ~0.2 s)
+CLIMB_PARAMS = {'climb_node:step_length': 0.05, 'climb_node:speed': 0.025,
+                'climb_node:settle_time': 0.4}
+LATE = 0.25  # s after a phase began: a drop later than this may come after a release was due
 PHASES = ('release_b', 'move_b', 'grip_b', 'release_a', 'move_a', 'grip_a')
 
 
@@ -262,7 +266,7 @@ def test_link_loss_during_each_climb_phase_pauses_the_climb_until_the_operator_r
     time.sleep(1.0)  # the climb node has heard the operator station (teleop/status)
     remaining = list(PHASES)
     faults = []
-    for _ in range(4):  # climbing steps, until the link went down once in every phase
+    for _ in range(5):  # climbing steps, until the link went down once in every phase
         t_call = time.time()
         reply = operator.call('climb/step_up')
         assert reply['success'], reply['message']
@@ -281,8 +285,11 @@ def test_link_loss_during_each_climb_phase_pauses_the_climb_until_the_operator_r
             seen = (status.step, status.phase)
             if status.phase not in remaining:
                 continue
-            remaining.remove(status.phase)
+            entered = robot.records('climb/status')[-1]['t']
             fault = {'phase': status.phase, 'step': status.step, 't_down': rig.link(False)}
+            fault['late'] = fault['t_down'] - entered > LATE
+            if not fault['late'] or status.action is not PhaseAction.RELEASE:
+                remaining.remove(status.phase)
             time.sleep(LINK_DOWN)
             fault['t_up'] = rig.link(True)
             # it never resumes by itself: still paused (or done) well after the link is back
@@ -327,11 +334,13 @@ def test_link_loss_during_each_climb_phase_pauses_the_climb_until_the_operator_r
         assert length_change(states, held_from + SETTLE, t_resume) < STILL, f
         changes = in_window(grippers, held_from + 0.1, t_resume)
         assert all(r['closed'] == changes[0]['closed'] for r in changes), f
+        # no gripper opened on the lost link (a release waits for the operator station to be
+        # heard after the robot settled, so a drop before that holds it)
         f['openings'] = gripper_openings(grippers, t_down, t_resume)
-        # a gripper can only open in a planned release that was under way when the link
-        # dropped (before the loss could be noticed), never later
-        assert f['openings'] == 0 or gripper_openings(grippers, held_from + 0.1, t_resume) == 0
+        if not f['late']:
+            assert f['openings'] == 0, f
     assert not both_open(grippers)
     assert ClimbState.FAILED not in {climb(r).state for r in robot.records('climb/status')}
-    print('climb link faults:', [(f['phase'], f.get('hold_after'), f.get('openings'),
-                                  f['paused'] and f['paused'].phase) for f in faults])
+    print('climb link faults (phase, hold after [s], openings, paused in, late):',
+          [(f['phase'], f.get('hold_after'), f.get('openings'), f['paused'] and f['paused'].phase,
+            f['late']) for f in faults])
