@@ -59,9 +59,9 @@ def _moved(agent: AgentHandle, since: float, distance: float) -> bool:
 
 
 def _start_stack(rig: Rig, *, climb_params: dict | None = None, operator_params: dict | None = None,
-                 viewer: bool = False):
+                 viewer: bool = False, driver_rate: float = 100.0):
     """Driver, robot nodes and the operator station, plus an agent on each host."""
-    rig.start_driver()
+    rig.start_driver(rate=driver_rate)
     rig.start_robot_nodes(**(climb_params or {}))
     rig.start_operator(viewer=viewer, **{'master_node:trajectory': 'circle', **(operator_params or {})})
     robot = rig.agent('robot', record=ROBOT_RECORD)
@@ -344,3 +344,198 @@ def test_link_loss_during_each_climb_phase_pauses_the_climb_until_the_operator_r
     print('climb link faults (phase, hold after [s], openings, paused in, late):',
           [(f['phase'], f.get('hold_after'), f.get('openings'), f['paused'] and f['paused'].phase,
             f['late']) for f in faults])
+
+
+# --- the viewer over a real network: a browser on the operator station, through a proxy -------
+
+BROWSER_DIR = os.path.join(os.path.dirname(__file__), 'browser')
+CHROMIUM = os.environ.get('CHROMIUM', '/usr/bin/chromium')
+TOKEN = 'multihost-token'
+VIEWER_PORT = 8080             # inside the operator namespace: its own port space
+DEADMAN_TIMEOUT = 0.25         # s, the viewer's (default)
+ENABLE_PERIOD = 0.05           # s, the viewer's teleop/enable period (20 Hz)
+HOLDS = 3
+ENGAGED_CODES = {TeleopCode.NO_WARNING, TeleopCode.LATENCY_SLOWED, TeleopCode.SPEED_LIMITED,
+                 TeleopCode.DECELERATE_FOR_APPROACHING_SINGULARITY, TeleopCode.DECELERATE_FOR_COLLISION}
+
+
+class _Lines:
+    """JSON lines of a child's stdout, read by a thread; commands on its stdin."""
+
+    def __init__(self, process: subprocess.Popen):
+        self.process = process
+        self.lines: list[dict] = []
+        self._thread = threading.Thread(target=self._read, daemon=True)
+        self._thread.start()
+
+    def _read(self) -> None:
+        for line in self.process.stdout:
+            try:
+                self.lines.append(json.loads(line))
+            except json.JSONDecodeError:
+                pass
+
+    def write(self, text: str) -> None:
+        self.process.stdin.write(text + '\n')
+        self.process.stdin.flush()
+
+    def next(self, key: str | tuple, start: int, timeout: float) -> tuple[int, dict]:
+        """The first line from index ``start`` on that has ``key`` (or one of the keys)."""
+        found = {}
+        keys = (key,) if isinstance(key, str) else key
+
+        def look() -> bool:
+            for i in range(start, len(self.lines)):
+                if any(k in self.lines[i] for k in keys):
+                    found.update(index=i, line=self.lines[i])
+                    return True
+            return False
+        if not wait(look, timeout, period=0.02):
+            raise TimeoutError(f'no {key!r} line in {timeout} s')
+        return found['index'], found['line']
+
+
+class _Proxy(_Lines):
+    def command(self, text: str) -> dict:
+        start = len(self.lines)
+        self.write(text)
+        return self.next('ok', start, 30.0)[1]
+
+
+def _round_trip_ms(text: str) -> float:
+    match = re.search(r'Round trip:\**\s*(\d+) ms', text)
+    assert match, f'no round trip on the panel: {text[:500]}'
+    return float(match.group(1))
+
+
+@pytest.mark.browser
+def test_a_browser_on_the_operator_station_drives_the_robot_through_latency_and_stalls(rig_factory):
+    require(os.path.exists(CHROMIUM), f'no Chromium at {CHROMIUM}')
+    require(os.path.isdir(os.path.join(BROWSER_DIR, 'node_modules', 'playwright-core')),
+            'playwright-core is not installed in tests/browser (npm ci)')
+    rig = rig_factory('subnet')
+    # a lighter load for the software-rendered browser on a shared machine: the driver at 50 Hz,
+    # the scene updated at 10 Hz
+    robot, operator = _start_stack(rig, viewer=True, driver_rate=50.0, operator_params={
+        'viewer_node:host': '127.0.0.1', 'viewer_node:port': VIEWER_PORT,
+        'viewer_node:token': TOKEN, 'viewer_node:render_rate': 10.0})
+    proxy = _Proxy(rig.python('operator', 'proxy', [
+        os.path.join(os.path.dirname(__file__), 'latency_proxy.py'), '--listen', '127.0.0.1:0',
+        '--target', f'127.0.0.1:{VIEWER_PORT}', '--delay', '50,150', '--seed', '11'], pipes=True))
+    port = proxy.next('listening', 0, DEADLINE)[1]['listening']
+    assert wait(lambda: robot.records('pose') and operator.records('teleop/status'), DEADLINE)
+    wait_long = 90000
+    steps = [
+        {'wait_text': 'Read-only viewer', 'timeout': wait_long},
+        {'fill': 'Token', 'value': TOKEN, 'timeout': wait_long},
+        {'click': 'Enter token', 'timeout': wait_long},
+        {'wait_text': 'Token accepted', 'timeout': wait_long},
+        {'click': 'Take control', 'timeout': wait_long},
+        {'wait_text': 'You have control', 'timeout': wait_long},
+        {'check': 'Engage (clutch)', 'timeout': wait_long},
+        {'sleep': 1000},
+        # up to three holds: a software-rendered browser on a busy machine can itself pause
+        # longer than the deadman timeout; the link must never be the cause
+        *[step for k in range(HOLDS) for step in (
+            {'sync': f'latency hold {k}'},
+            {'hold': 'Hold to move (deadman)', 'ms': 4000},
+            {'sync': f'latency hold {k} done'},
+            {'sleep': 500})],
+        {'wait_text': 'Round trip:', 'timeout': wait_long},
+        {'text': True},
+        {'sync': 'stall hold'},
+        {'hold': 'Hold to move (deadman)', 'ms': 5000},
+        {'sync': 'stall hold done'},
+        {'sync': 'slow link'},
+        {'wait_text': 'robot holds above 300 ms', 'timeout': wait_long},
+        {'sync': 'slow hold'},
+        {'hold': 'Hold to move (deadman)', 'ms': 3000},
+        {'sync': 'slow hold done'},
+        {'text': True},
+    ]
+    browser = _Lines(rig.start('operator', 'browser', ['node', 'drive.js', f'http://127.0.0.1:{port}',
+                                                       json.dumps(steps)],
+                               env=rig.env(CHROMIUM=CHROMIUM), pipes=True, cwd=BROWSER_DIR))
+    marks: dict[str, float] = {}
+    stall = {}
+    index = 0
+    while True:
+        index, line = browser.next(('sync', 'ok'), index, 240.0)
+        index += 1
+        if 'ok' in line:
+            result = line
+            break
+        name = line['sync']
+        marks[name] = time.time()
+        if name == 'stall hold':
+            def start_stall(t_sync=marks[name]) -> None:
+                # 1 s into the held deadman (the browser's press comes through the proxy)
+                if wait(lambda: any(r['data'] for r in operator.records('teleop/enable', t_sync)), 60.0):
+                    time.sleep(1.0)
+                    stall['t'] = time.time()
+                    stall['reply'] = proxy.command('stall 1.5')
+            threading.Thread(target=start_stall, daemon=True).start()
+        elif name == 'slow link':
+            proxy.command('delay 200 200')  # a 400 ms round trip
+            t = time.time()
+            assert wait(lambda: any(r['data'] > 0.3 for r in operator.records(
+                'operator/round_trip_time', t + 1.0)), DEADLINE), 'the viewer never measured 400 ms'
+        browser.write('go')
+    if not result['ok']:
+        _fail_with_logs(rig, f"browser: {result['error']} after {result['results'][-3:]}")
+    texts = [r['text'] for r in result['results'] if 'text' in r]
+    print('browser steps [ms since its start]:',
+          [(next(iter(r)), r.get('ms')) for r in result['results'] if 'text' not in r])
+
+    enables = operator.records('teleop/enable')
+    statuses = operator.records('teleop/status')
+    targets = robot.records('target_pose')
+
+    # 1. 100 +- 50 ms each way: the held deadman keeps the robot engaged without a break:
+    # from the first engaged status to the end of the deadman stream, every teleop/status says
+    # engaged, and the slave moves. The link never makes teleop hold (LINK_LATENCY).
+    holds = []
+    for k in range(HOLDS):
+        start, end = marks[f'latency hold {k}'], marks[f'latency hold {k} done']
+        on = [r for r in enables if start <= r['t'] <= end and r['data']]
+        assert on, f'hold {k}: no deadman sample'
+        t_on, t_off = on[0]['t'], on[-1]['t']
+        deadman = all(r['data'] for r in enables if t_on <= r['t'] <= t_off)
+        engaged_at = first(statuses, lambda r: teleop(r).engaged, t_on)
+        during = [teleop(r) for r in statuses
+                  if engaged_at is not None and engaged_at['t'] <= r['t'] <= t_off]
+        assert not any(s.code is TeleopCode.LINK_LATENCY for s in during), f'hold {k}: LINK_LATENCY'
+        smooth = (deadman and engaged_at is not None and engaged_at['t'] < t_off - 1.5
+                  and all(s.engaged and s.code in ENGAGED_CODES for s in during)
+                  and pose_change(robot.records('pose'), engaged_at['t'], t_off) > 1e-3)
+        holds.append((smooth, deadman, sorted({s.code.name for s in during if not s.engaged})))
+    assert any(smooth for smooth, _, _ in holds), f'no hold stayed engaged: {holds}'
+    rtt = _round_trip_ms(texts[0])
+    assert 100.0 <= rtt <= 300.0, f'round trip {rtt} ms through a 100 +- 50 ms proxy'
+
+    # 2. A stall longer than the deadman timeout holds the robot: no command stamped later
+    # than the deadman's expiry (+ one enable period, + slack for a busy machine).
+    assert 't' in stall, 'the deadman was never held before the stall'
+    t_stall = stall['t']
+    assert marks['stall hold'] < t_stall < marks['stall hold done']
+    assert any(r['data'] for r in enables if t_stall - 0.3 <= r['t'] <= t_stall), 'deadman not held'
+    newest = last_stamp(targets, t_stall - 1.0, t_stall + 1.5)
+    bound = t_stall + DEADMAN_TIMEOUT + ENABLE_PERIOD + 0.25
+    assert newest is not None and newest <= bound, f'target {newest - t_stall:.3f} s after the stall began'
+    assert not in_window(robot.records('actuators/command'), bound, t_stall + 1.5, by='stamp')
+    assert length_change(robot.records('actuators/state'), bound + SETTLE, t_stall + 1.5) < STILL
+    assert any(not teleop(r).engaged for r in statuses if t_stall <= r['t'] <= t_stall + 1.5)
+
+    # 3. A 400 ms round trip: teleop holds (LINK_LATENCY) although the deadman is held.
+    window = (marks['slow hold'] + 1.0, marks['slow hold done'])
+    slow = [teleop(r) for r in statuses if window[0] <= r['t'] <= window[1]]
+    assert slow and not any(s.engaged for s in slow)
+    assert TeleopCode.LINK_LATENCY in {s.code for s in slow}
+    assert any(r['data'] for r in enables if window[0] <= r['t'] <= window[1]), 'no deadman held'
+    assert not in_window(targets, window[0], window[1], by='stamp')
+    assert _round_trip_ms(texts[-1]) >= 350.0
+    assert '(robot holds above 300 ms)' in texts[-1]
+    print(f'browser through the proxy: holds (engaged throughout, deadman held, codes when not '
+          f'engaged): {holds}; panel round trip {rtt:.0f} ms at 100 +- 50 ms each way; '
+          f'stall: last target {newest - t_stall:.3f} s after it began; '
+          f'400 ms link: {_round_trip_ms(texts[-1]):.0f} ms on the panel, teleop {slow[-1].code.name}')

@@ -10,7 +10,8 @@
 //   {"sync": "name"}                           print {"sync": name}, wait for a line on stdin
 //   {"disabled": "Button label"}               record whether the button is disabled
 //   {"text": true}                             record the page's visible text
-// Any step may carry "page": N to act on the N-th page (each page is a separate viewer client).
+// Any step may carry "page": N to act on the N-th page (each page is a separate viewer client);
+// wait_text, fill, check and click take "timeout": ms.
 // Prints one JSON object: {"ok": true, "results": [...]} or {"ok": false, "error": "..."}.
 const { chromium } = require('playwright-core');
 const readline = require('readline');
@@ -24,7 +25,9 @@ async function main() {
     executablePath: process.env.CHROMIUM || '/usr/bin/chromium',
     args: ['--no-sandbox', '--disable-gpu', '--enable-unsafe-swiftshader', '--disable-quic',
            '--no-first-run', '--disable-background-networking', '--disable-component-update',
-           '--disable-sync'],
+           '--disable-sync',
+           // extra flags, e.g. a smaller canvas on a busy machine (RRPS_CHROMIUM_ARGS)
+           ...(process.env.RRPS_CHROMIUM_ARGS || '').split(' ').filter((a) => a)],
   });
   const results = [];
   try {
@@ -49,11 +52,11 @@ async function main() {
       } else if (step.fill !== undefined) {
         // viser renders a label next to its input: the first input after the label's text.
         await page.locator(`xpath=//*[normalize-space(text())="${step.fill}"]/following::input[1]`)
-          .first().fill(step.value);
+          .first().fill(step.value, { timeout: step.timeout || 30000 });
         results.push({ fill: step.fill });
       } else if (step.check !== undefined) {
         await page.locator(`xpath=//*[normalize-space(text())="${step.check}"]/following::input[@type="checkbox"][1]`)
-          .first().click({ timeout: 10000 });
+          .first().click({ timeout: step.timeout || 10000 });
         results.push({ check: step.check });
       } else if (step.click !== undefined) {
         const button = page.getByRole('button', { name: step.click, exact: true });
