@@ -25,9 +25,7 @@ async function main() {
     executablePath: process.env.CHROMIUM || '/usr/bin/chromium',
     args: ['--no-sandbox', '--disable-gpu', '--enable-unsafe-swiftshader', '--disable-quic',
            '--no-first-run', '--disable-background-networking', '--disable-component-update',
-           '--disable-sync',
-           // extra flags, e.g. a smaller canvas on a busy machine (RRPS_CHROMIUM_ARGS)
-           ...(process.env.RRPS_CHROMIUM_ARGS || '').split(' ').filter((a) => a)],
+           '--disable-sync'],
   });
   const results = [];
   try {
