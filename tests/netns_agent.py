@@ -53,6 +53,7 @@ from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64, String
@@ -67,19 +68,24 @@ from rrps_kinematics.supervision import exit_with_parent
 from rrps_sim.interfaces import gripper_states
 
 HEARTBEAT = 'rig/heartbeat'
+#: command streams are best effort (as their publishers); a deep queue so that a busy agent
+#: records every sample that arrived instead of only the newest
+RECORD_COMMANDS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=200,
+                             reliability=ReliabilityPolicy.BEST_EFFORT,
+                             durability=DurabilityPolicy.VOLATILE)
 
 #: topic -> (type, QoS, decoder name)
 TOPICS = {
     'pose': (PoseStamped, LATEST_QOS, 'pose'),
-    'target_pose': (PoseStamped, COMMAND_QOS, 'pose'),
+    'target_pose': (PoseStamped, RECORD_COMMANDS, 'pose'),
     'master/pose': (PoseStamped, LATEST_QOS, 'pose'),
-    'actuators/command': (JointState, COMMAND_QOS, 'lengths'),
+    'actuators/command': (JointState, RECORD_COMMANDS, 'lengths'),
     'actuators/state': (JointState, LATEST_QOS, 'lengths'),
     'grippers/state': (JointState, STATE_QOS, 'grippers'),
     'teleop/status': (DiagnosticStatus, STATE_QOS, 'status'),
     'climb/status': (DiagnosticStatus, STATE_QOS, 'status'),
-    'teleop/enable': (Bool, COMMAND_QOS, 'data'),
-    'operator/round_trip_time': (Float64, COMMAND_QOS, 'data'),
+    'teleop/enable': (Bool, RECORD_COMMANDS, 'data'),
+    'operator/round_trip_time': (Float64, RECORD_COMMANDS, 'data'),
     '/diagnostics': (DiagnosticArray, STATE_QOS, 'diagnostics'),
 }
 

@@ -478,16 +478,19 @@ class Rig:
     # --- faults --------------------------------------------------------------------------------
 
     def link(self, up: bool) -> float:
-        """Take the veth link down or up (``ip link set``); returns the time.time() of the
-        change. Both ends change state together (a veth's peer loses its carrier)."""
+        """Take the veth link down or up (``ip link set``, the robot's end first: its peer loses
+        its carrier at once); returns the time.time() of the change: for a cut, when it had
+        surely taken effect, for a return, when it may have begun."""
         if not self.can_cut_link:
             raise RuntimeError('loopback rig: no link to cut (needs network namespaces)')
         state = 'up' if up else 'down'
-        t = time.time()
-        _ip('-n', self.robot, 'link', 'set', 'veth0', state)
+        before = time.time()
+        _ip('-n', self.robot, 'link', 'set', 'veth0', state)  # the link is cut (or back) here
+        after = time.time()
         _ip('-n', self.operator, 'link', 'set', 'veth1', state)
         self.link_up = up
-        return t
+        # conservative: a cut from when it surely took effect, a return from when it may have
+        return after if not up else before
 
     def interface_counters(self, host: str) -> dict:
         """rx/tx bytes and packets of the host's veth end and loopback (``ip -s -j link``)."""
