@@ -74,3 +74,66 @@ def machine_load(request):
     with Load(busy=request.config.getoption('--load-busy'),
               flood_rate=request.config.getoption('--load-flood-rate')) as load:
         yield load
+
+
+def _processes_started_since(t0_ticks: int) -> list[tuple[int, int, str]]:
+    """(pid, parent pid, command line) of the processes started after ``t0_ticks`` (clock ticks
+    since boot) that are this session's descendants or orphans (parent 1)."""
+    me = os.getpid()
+    table = {}
+    for entry in os.listdir('/proc'):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f'/proc/{entry}/stat') as f:
+                fields = f.read().rsplit(')', 1)[1].split()
+            with open(f'/proc/{entry}/cmdline', 'rb') as f:
+                cmdline = f.read().replace(b'\0', b' ').decode(errors='replace').strip()
+        except OSError:
+            continue
+        if fields[0] != 'Z':
+            table[int(entry)] = (int(fields[1]), int(fields[19]), cmdline)
+    def descends(pid: int) -> bool:
+        seen = set()
+        while pid in table and pid not in seen:
+            seen.add(pid)
+            pid = table[pid][0]
+            if pid == me:
+                return True
+        return False
+    return [(pid, ppid, cmd) for pid, (ppid, start, cmd) in table.items()
+            if start > t0_ticks and pid != me and (descends(pid) or ppid == 1) and cmd]
+
+
+def _ticks_now() -> int:
+    with open('/proc/self/stat') as f:
+        return int(f.read().rsplit(')', 1)[1].split()[19])
+
+
+def pytest_sessionstart(session):
+    session.config._rrps_t0 = _ticks_now() if os.path.exists('/proc/self/stat') else None
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """No test leaves a process behind: anything this session started that still runs (a child,
+    or an orphan it left) fails the session, after it is killed."""
+    t0 = getattr(session.config, '_rrps_t0', None)
+    if t0 is None:
+        return
+    import signal
+    import time
+    deadline = time.monotonic() + 10.0
+    left = _processes_started_since(t0)
+    while left and time.monotonic() < deadline:  # give stopping processes a moment
+        time.sleep(0.2)
+        left = _processes_started_since(t0)
+    left = [p for p in left if 'load_flood' not in p[2] and 'while True' not in p[2]]
+    if left:
+        print('\nprocesses left behind by the tests (killed now):')
+        for pid, ppid, cmd in left:
+            print(f'  {pid} (parent {ppid}): {cmd[:160]}')
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+        session.exitstatus = 1

@@ -1,6 +1,9 @@
 """The three installed executables as separate processes over DDS on localhost: the chain
 target_pose -> ik_node -> driver_node -> fk_node -> pose returns the target, and Ctrl-C (SIGINT)
-ends every process cleanly (exit code 0) within a few seconds."""
+ends every process cleanly (exit code 0, no traceback).
+
+Process start-up and shutdown take seconds on an idle machine and many more on a loaded one:
+every wait here is a generous deadline that returns as soon as the process is there or gone."""
 
 import os
 import signal
@@ -13,7 +16,7 @@ import pytest
 from geometry_msgs.msg import PoseStamped
 
 from node_helpers import pose_error, target
-from ros_harness import Probe, Spinner, wait_for
+from ros_harness import DEADLINE, Probe, Spinner, wait_for
 from rrps_kinematics import load_robot
 from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
 from conftest import require
@@ -34,8 +37,8 @@ def start(executable, domain_id, *params):
     return subprocess.Popen(args, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
-def stop(process, timeout=5.0):
-    """SIGINT, then kill after ``timeout``; (exit code, stderr)."""
+def stop(process, timeout=DEADLINE):
+    """SIGINT, then kill after ``timeout``; (exit code, None if it had to be killed; stderr)."""
     if process.poll() is None:
         process.send_signal(signal.SIGINT)
     try:
@@ -62,13 +65,13 @@ def test_installed_executables_close_the_chain_and_stop_on_ctrl_c(ros_context, r
         goals = [(POLE.home_position + [0.01, -0.005, 0.02], rotation_vector_to_quat_xyzw(np.array([0.05, 0.0, -0.08]))),
                  (POLE.home_position + [-0.02, 0.01, -0.01], rotation_vector_to_quat_xyzw(np.array([0.0, -0.06, 0.1])))]
         with Spinner(ros_context, [probe]):
-            assert wait_for(lambda: poses and pub.get_subscription_count() == 1, 20.0), \
+            assert wait_for(lambda: poses and pub.get_subscription_count() == 1), \
                 {name: p.poll() for name, p in processes.items()}
             for p, q in goals:
                 def arrived():
                     pub.publish(target(probe, p, q))
                     return max(pose_error(poses[-1], p, q)) < 1e-6
-                assert wait_for(arrived, 5.0, period=0.005), pose_error(poses[-1], p, q)
+                assert wait_for(arrived, period=0.01), pose_error(poses[-1], p, q)
         assert all(p.poll() is None for p in processes.values())
     finally:
         results = {name: stop(p) for name, p in processes.items()}
@@ -84,5 +87,5 @@ def test_installed_executables_close_the_chain_and_stop_on_ctrl_c(ros_context, r
 ])
 def test_invalid_parameters_exit_2_with_one_line(ros_domain_id, executable, param, message):
     process = start(executable, ros_domain_id, param)
-    code, err = stop(process, timeout=20.0) if process.wait(timeout=20.0) is not None else (None, '')
+    code, err = stop(process) if process.wait(timeout=DEADLINE) is not None else (None, '')
     assert code == 2 and message in err and 'Traceback' not in err, err

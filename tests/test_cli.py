@@ -150,3 +150,24 @@ def test_fk_command_equals_library_result(capsys):
     fk = forward_kinematics(g, L)
     np.testing.assert_allclose(data['position'], fk.position, atol=1e-15)
     assert data['iterations'] == fk.iterations
+
+
+def test_a_failed_computation_exits_1_and_a_bug_exits_3_with_its_traceback(capsys, monkeypatch):
+    from rrps_kinematics import cli
+    from rrps_kinematics.errors import SingularPoseError
+
+    def singular(*args, **kwargs):
+        raise SingularPoseError('the pose is singular: a leg has zero length')
+
+    monkeypatch.setattr(cli, '_info', singular)
+    assert cli.run(['info']) == 1
+    err = capsys.readouterr().err
+    assert err.strip() == 'rrps-kinematics: error: the pose is singular: a leg has zero length'
+
+    def bug(*args, **kwargs):
+        raise KeyError('leg_7')
+
+    monkeypatch.setattr(cli, '_info', bug)
+    assert cli.run(['info']) == 3
+    err = capsys.readouterr().err
+    assert 'Traceback' in err and "KeyError: 'leg_7'" in err and 'internal error' in err

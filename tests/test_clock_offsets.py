@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
+from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
 from node_helpers import command, said, target
@@ -54,7 +55,7 @@ def test_ik_node_follows_a_sender_with_an_offset_clock_and_refuses_its_late_targ
 
 @pytest.mark.parametrize('offset', [2.0, -2.0])
 def test_driver_follows_a_sender_with_an_offset_clock_and_refuses_its_late_commands(ros_context, offset):
-    node = DriverNode(context=ros_context)
+    node = DriverNode(context=ros_context, parameter_overrides=[Parameter('auto_activate', value=True)])
     probe = Probe(context=ros_context)
     diagnostics = probe.collect(DiagnosticArray, '/diagnostics')
     pub = probe.publisher(JointState, 'actuators/command', command=True)

@@ -4,16 +4,13 @@ import numpy as np
 import pytest
 
 from rrps_kinematics import inverse_kinematics, load_robot
+from rrps_kinematics.errors import ConvergenceError
 from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
-from rrps_sim.dynamics import (
-    METHODS,
-    MultibodyDynamics,
-    SimulationResult,
-    accelerations,
-    leg_blocks,
-    simulate,
-    solve_dependent,
-)
+from rrps_sim.dynamics import METHODS, MultibodyDynamics, SimulationResult, simulate
+from rrps_sim.dynamics.integrators import solve_dependent
+from rrps_sim.dynamics.bundles import new_workspace, workspace
+from rrps_sim.dynamics.constraints import leg_blocks
+from rrps_sim.dynamics.kernels import accelerations, multipliers
 
 GEOM = load_robot('pole_climber')
 POSITION = GEOM.home_position + np.array([0.01, -0.015, 0.02])
@@ -31,7 +28,7 @@ def moving_state(seed=0):
     v = np.zeros(78)
     v[0:6] = rng.normal(scale=[0.1, 0.1, 0.1, 0.5, 0.5, 0.5])
     q = dyn.q.copy()
-    assert solve_dependent(q, v, *dyn._kin, 1e-13, 20) >= 0
+    assert solve_dependent(q, v, dyn.parameters.joints, 1e-13, 20) >= 0
     return dyn, q, v
 
 
@@ -51,7 +48,7 @@ def dense_eq19(dyn, q, v, forces):
     B = np.empty((13, 18))
     g = np.empty(13)
     for k in range(6):
-        leg_blocks(q, v, k, *dyn._kin, B, g)
+        leg_blocks(q, v, k, dyn.parameters.joints, B, g)
         cols = np.r_[0:6, 6 * (1 + 2 * k):6 * (1 + 2 * k) + 12]
         Phi[12 * k:12 * k + 12, cols] = B[:12]
         gamma[12 * k:12 * k + 12] = g[:12]
@@ -67,7 +64,9 @@ def test_structured_solve_of_eq19_equals_the_dense_solve():
     dyn, q, v = moving_state()
     acc = np.empty(78)
     lam = np.empty(72)
-    assert accelerations(q, v, PUSH, 0.0, 0.0, *dyn._kin, *dyn._dyn, acc, lam)
+    ws = workspace(new_workspace())
+    assert accelerations(q, v, PUSH, 0.0, 0.0, dyn.parameters, ws, acc)
+    assert multipliers(dyn.parameters, ws, acc, lam)
     acc_ref, lam_ref = dense_eq19(dyn, q, v, PUSH)
     np.testing.assert_allclose(acc, acc_ref, atol=1e-9 * np.max(np.abs(acc_ref)))
     np.testing.assert_allclose(lam, lam_ref, atol=1e-9 * np.max(np.abs(lam_ref)))
@@ -77,12 +76,11 @@ def test_gamma_terms_keep_the_velocity_constraint_satisfied():
     # Φ_x v = 0 holds along the motion iff Φ_x acc = γ: check d/dt (Φ_x v) numerically.
     dyn, q, v = moving_state(1)
     acc = np.empty(78)
-    lam = np.empty(72)
-    accelerations(q, v, PUSH, 0.0, 0.0, *dyn._kin, *dyn._dyn, acc, lam)
+    assert accelerations(q, v, PUSH, 0.0, 0.0, dyn.parameters, workspace(new_workspace()), acc)
     B = np.empty((13, 18))
     g = np.empty(13)
     for k in range(6):
-        leg_blocks(q, v, k, *dyn._kin, B, g)
+        leg_blocks(q, v, k, dyn.parameters.joints, B, g)
         idx = np.r_[0:6, 6 * (1 + 2 * k):6 * (1 + 2 * k) + 12]
         np.testing.assert_allclose(B[:12] @ v[idx], 0.0, atol=1e-12)
         np.testing.assert_allclose(B[:12] @ acc[idx], g[:12], atol=1e-9)
@@ -158,8 +156,9 @@ def test_baumgarte_pulls_a_constraint_violation_back():
     for gains in ((0.0, 0.0), (30.0, 30.0)):
         dyn = MultibodyDynamics(GEOM, 'baumgarte', alpha=gains[0], beta=gains[1])
         dyn.reset(POSITION, QUAT)
-        dyn.q[7 * 3:7 * 3 + 3] += 1e-5                 # open leg 1's universal joint
-        dyn._obs = None
+        q = dyn.q.copy()
+        q[7 * 3:7 * 3 + 3] += 1e-5                     # open leg 1's universal joint
+        dyn.set_state(q, dyn.v)
         start = dyn.constraint_drift
         for _ in range(300):
             dyn.step(HOLD, 0.001)
@@ -171,8 +170,10 @@ def test_baumgarte_pulls_a_constraint_violation_back():
 def test_hybrid_corrects_by_partitioning_when_drift_exceeds_tolerance():
     dyn = MultibodyDynamics(GEOM, 'hybrid', correction_tolerance=1e-12)
     dyn.reset(POSITION, QUAT)
-    dyn.q[7 * 3:7 * 3 + 3] += 1e-5
-    dyn.q[3:7] *= 1.0 + 1e-6
+    q = dyn.q.copy()
+    q[7 * 3:7 * 3 + 3] += 1e-5
+    q[3:7] *= 1.0 + 1e-6
+    dyn.set_state(q, dyn.v)
     dyn.step(HOLD, 0.001)
     assert dyn.corrections == 1
     assert dyn.constraint_drift < 1e-13 and dyn.euler_norm_error < 1e-14
@@ -224,3 +225,46 @@ def test_bad_input():
         simulate(GEOM, POSITION, QUAT, HOLD, output_every=0)
     with pytest.raises(ValueError):
         simulate(GEOM, POSITION, [0, 0, 0, 0], HOLD)
+
+
+def test_workspace_views_tile_the_buffer_without_overlap():
+    buffer = new_workspace()
+    ws = workspace(buffer)
+    for i, field in enumerate(ws):
+        field[...] = i
+    sizes = [field.size for field in ws]
+    assert sum(sizes) == buffer.size
+    np.testing.assert_array_equal(buffer, np.repeat(np.arange(len(ws)), sizes))
+
+
+@pytest.mark.parametrize('method', METHODS)
+def test_a_compiled_run_equals_the_same_steps_taken_one_by_one(method):
+    fractions = []
+    batch = simulate(GEOM, POSITION, QUAT, PUSH, duration=0.05, dt=0.001, method=method,
+                     output_every=3, progress=fractions.append)
+    single = simulate(GEOM, POSITION, QUAT, lambda t, dyn: PUSH, duration=0.05, dt=0.001,
+                      method=method, output_every=3)
+    assert batch.t.shape == (18,) and fractions[-1] == 1.0 and np.all(np.diff(fractions) > 0)
+    np.testing.assert_allclose(batch.t, single.t, rtol=0.0, atol=1e-15)
+    for name in ('position', 'quaternion_xyzw', 'lengths', 'length_rates', 'forces',
+                 'constraint_drift', 'euler_norm_error', 'energy_balance', 'actuator_work',
+                 'step_flops'):
+        np.testing.assert_array_equal(getattr(batch, name), getattr(single, name), err_msg=name)
+    assert batch.corrections == single.corrections
+
+
+def test_a_failed_run_raises_and_keeps_the_state_before_the_failing_step():
+    throw = np.array([3000.0, 3000.0, 3000.0, -3000.0, -3000.0, -3000.0])
+    dyn = MultibodyDynamics(GEOM, 'partitioning')
+    with pytest.raises(ConvergenceError, match='no convergence'):
+        dyn.run(throw, 0.001, 100)
+    steps = int(round(dyn.time / 0.001))
+    assert 0 < steps < 100
+    ref = MultibodyDynamics(GEOM, 'partitioning')
+    for _ in range(steps):
+        ref.step(throw, 0.001)
+    np.testing.assert_array_equal(dyn.q, ref.q)
+    np.testing.assert_array_equal(dyn.v, ref.v)
+    with pytest.raises(ConvergenceError):
+        ref.step(throw, 0.001)
+    np.testing.assert_array_equal(dyn.q, ref.q)         # a failed step changes nothing

@@ -1,4 +1,5 @@
-"""The ``rrps-dynamics`` command: simulate, statics, inverse, report; errors exit with status 2."""
+"""The ``rrps-dynamics`` command: simulate, statics, inverse, report; usage errors exit with
+status 2, failed computations with 1, bugs with 3 and their traceback."""
 
 import csv
 import shutil
@@ -7,9 +8,12 @@ import sys
 
 import numpy as np
 import pytest
+import yaml
 
-from rrps_kinematics import inverse_kinematics, load_robot
-from rrps_sim.cli import SIMULATION_COLUMNS, climb_poses, run
+from rrps_kinematics import inverse_kinematics, load_robot, robot_path
+from rrps_sim import cli
+from rrps_sim.cli import SIMULATION_COLUMNS, run
+from rrps_sim.figures import climb_poses
 from rrps_sim.dynamics import MultibodyDynamics, simulate
 from rrps_sim.inverse_dynamics import inverse_dynamics
 from rrps_sim.statics import holding_forces
@@ -88,6 +92,34 @@ def test_inverse_reads_a_trajectory_and_writes_forces(tmp_path):
                                rtol=1e-12)
 
 
+def test_inverse_takes_optional_velocity_and_acceleration_columns(tmp_path):
+    t = np.linspace(0.0, 0.5, 26)
+    w = 2 * np.pi
+    s, ds, dds = np.sin(w * t), w * np.cos(w * t), -w**2 * np.sin(w * t)
+    axis = np.array([0.0, 0.0, 0.02])
+    positions = POSITION + np.outer(s, axis)
+    quats = np.tile(QUAT, (len(t), 1))
+    twist = np.column_stack([np.outer(ds, axis), np.zeros((len(t), 3))])
+    twist_dot = np.column_stack([np.outer(dds, axis), np.zeros((len(t), 3))])
+    traj = tmp_path / 'traj.csv'
+    with open(traj, 'w', newline='') as fh:
+        w = csv.writer(fh)
+        w.writerow(['t', 'x', 'y', 'z', 'qx', 'qy', 'qz', 'qw', 'vx', 'vy', 'vz', 'wx', 'wy', 'wz',
+                    'ax', 'ay', 'az', 'dwx', 'dwy', 'dwz'])
+        for k in range(len(t)):
+            w.writerow([t[k], *positions[k], *quats[k], *twist[k], *twist_dot[k]])
+    out = tmp_path / 'forces.csv'
+    assert run(['inverse', '--trajectory', str(traj), '--csv', str(out)]) == 0
+    _, data = read_csv(out)
+    exact = inverse_dynamics(GEOM, t, positions, quats, twist=twist, twist_dot=twist_dot)
+    np.testing.assert_allclose(data[:, 1:], exact, rtol=1e-12)
+    # differentiated from 26 samples, the forces differ by far more: the columns were used
+    assert np.abs(inverse_dynamics(GEOM, t, positions, quats) - exact).max() > 1e-6
+    partial = tmp_path / 'partial.csv'
+    partial.write_text(traj.read_text().replace('wz,', 'omega_z,', 1))
+    assert run(['inverse', '--trajectory', str(partial), '--csv', str(out)]) == 2
+
+
 def test_report_reproduces_figures_6_and_7(tmp_path, capsys):
     assert run(['report', '--out-dir', str(tmp_path), '--duration', '0.02', '--dt', '0.002']) == 0
     out = capsys.readouterr().out
@@ -138,7 +170,61 @@ def test_trajectory_with_missing_columns_is_rejected(tmp_path, capsys):
     assert 'missing columns' in capsys.readouterr().err
 
 
-def test_console_script():
+@pytest.mark.parametrize('rows, message', [
+    ('0,0,0,0.4,0,0,0,1\n0.1,0,0,0.4,0,0,x,1\n', 'line 3'),
+    ('0,0,0,0.4,0,0,0,1\n0,0,0,0.4,0,0,0,1\n0.1,0,0,0.4,0,0,0,1\n0.2,0,0,0.4,0,0,0,1\n',
+     'strictly increasing'),
+    ('0,0,0,0.4,0,0,0,1\n0.1,0,0,0.4,0,0,0,1\n', 'at least 4'),
+    ('0,0,0,0.4,0,0,0,1\n0.1,0,0,0.4,0,0,0,0\n0.2,0,0,0.4,0,0,0,1\n0.3,0,0,0.4,0,0,0,1\n',
+     'zero quaternion'),
+])
+def test_a_malformed_trajectory_is_a_usage_error(rows, message, tmp_path, capsys):
+    traj = tmp_path / 'bad.csv'
+    traj.write_text('t,x,y,z,qx,qy,qz,qw\n' + rows)
+    assert run(['inverse', '--trajectory', str(traj), '--csv', str(tmp_path / 'f.csv')]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith('rrps-dynamics: error:') and message in err
+    assert len(err.splitlines()) == 1
+
+
+def pointed_robot(tmp_path):
+    """The pole climber with every spherical joint at ring_b's origin: singular everywhere."""
+    data = yaml.safe_load(robot_path('pole_climber').read_text())
+    data['name'] = 'pointed'
+    data['ring_b']['anchors'] = [[0.0, 0.0, 0.0]] * 6
+    path = tmp_path / 'pointed.yaml'
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def test_a_singular_pose_is_a_failed_computation_with_status_1(tmp_path, capsys):
+    assert run(['statics', '--robot', str(pointed_robot(tmp_path))]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith('rrps-dynamics: error: singular pose')
+    assert len(err.splitlines()) == 1
+
+
+def test_no_convergence_is_a_failed_computation_with_status_1(tmp_path, capsys):
+    # 3 kN per leg throws ring_b far out of the stroke; the partitioned Newton solve gives up.
+    status = run(['simulate', '--forces', '3000,3000,3000,-3000,-3000,-3000', '--duration', '0.1',
+                  '--method', 'partitioning', '--csv', str(tmp_path / 'x.csv')])
+    assert status == 1
+    errors = [line for line in capsys.readouterr().err.splitlines() if 'error' in line]
+    assert len(errors) == 1 and errors[0].startswith('rrps-dynamics: error: no convergence at t =')
+
+
+def test_a_bug_shows_its_traceback_with_status_3(monkeypatch, capsys):
+    def broken(g, args):
+        return [str(1 / 0)]
+
+    monkeypatch.setitem(cli.COMMANDS, 'statics', broken)
+    assert run(['statics']) == 3
+    err = capsys.readouterr().err
+    assert 'Traceback (most recent call last)' in err and 'ZeroDivisionError' in err
+    assert err.strip().splitlines()[-1].startswith('rrps-dynamics: internal error')
+
+
+def test_console_script(tmp_path):
     exe = shutil.which('rrps-dynamics') or sys.executable
     prefix = [] if exe.endswith('rrps-dynamics') else ['-m', 'rrps_sim.cli']
     ok = subprocess.run([exe, *prefix, 'statics'], capture_output=True, text=True, timeout=120)
@@ -146,3 +232,7 @@ def test_console_script():
     bad = subprocess.run([exe, *prefix, 'statics', '--position', '1,2'], capture_output=True,
                          text=True, timeout=120)
     assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1
+    failed = subprocess.run([exe, *prefix, 'statics', '--robot', str(pointed_robot(tmp_path))],
+                            capture_output=True, text=True, timeout=120)
+    assert failed.returncode == 1 and len(failed.stderr.strip().splitlines()) == 1
+    assert 'singular pose' in failed.stderr

@@ -36,16 +36,16 @@ def test_pose_of_measured_lengths_and_every_failure_keeps_the_last_estimate(ros_
     tracker.reset(p, q)
     assert 'det(J)' in tracker.update(far_lengths).reason
     with Spinner(ros_context, [node, probe]):
-        assert wait_for(lambda: pub.get_subscription_count() == 1, 5.0)
+        assert wait_for(lambda: pub.get_subscription_count() == 1)
         pub.publish(joint_state_msg(stamp, lengths))
-        assert wait_for(lambda: poses, 3.0)
+        assert wait_for(lambda: poses)
         translation, rotation = pose_error(poses[0], p, q)
         assert translation < 1e-9 and rotation < 1e-9
         assert poses[0].header.frame_id == 'ring_a' and poses[0].header.stamp == stamp
         assert wait_for(lambda: any(s.message == 'tracking actuators/state' and
                                     {'converged', 'iterations', 'residual', 'inverse_condition'}
                                     <= {kv.key for kv in s.values}
-                                    for s in statuses(diagnostics, 'fk_node')), 3.0)
+                                    for s in statuses(diagnostics, 'fk_node')))
         bad = [
             (joint_state_msg(stamp, [0.4] * 5, names=['leg_1', 'leg_2', 'leg_3', 'leg_4', 'leg_5']), 'missing joints'),
             (joint_state_msg(stamp, [0.4] * 5 + [np.nan]), 'NaN'),
@@ -56,12 +56,12 @@ def test_pose_of_measured_lengths_and_every_failure_keeps_the_last_estimate(ros_
         for msg, text in bad:
             failed = node.failed
             pub.publish(msg)
-            assert wait_for(lambda: node.failed > failed and said(diagnostics, 'fk_node', text), 3.0), text
+            assert wait_for(lambda: node.failed > failed and said(diagnostics, 'fk_node', text)), text
             assert len(poses) == 1, text
             translation, _ = pose_error(poses[0], node.position, node.quaternion_xyzw)
             assert translation == 0.0
         pub.publish(joint_state_msg(stamp, inverse_kinematics(POLE, p + [0.0, 0.0, 0.001], q).lengths))
-        assert wait_for(lambda: len(poses) == 2, 3.0)
+        assert wait_for(lambda: len(poses) == 2)
         assert pose_error(poses[1], p + [0.0, 0.0, 0.001], q)[0] < 1e-9
 
 
@@ -72,14 +72,14 @@ def test_far_initial_lengths_and_run_time_max_jump(ros_context):
     pub = probe.publisher(JointState, 'actuators/state')
     far = [POLE.home_position + [0.0, 0.0, 0.06], POLE.home_position + [0.0, 0.0, -0.05]]
     with Spinner(ros_context, [node, probe]):
-        assert wait_for(lambda: pub.get_subscription_count() == 1, 5.0)
+        assert wait_for(lambda: pub.get_subscription_count() == 1)
         for k, p in enumerate(far):  # 0.06 m from home, then 0.11 m: solved by continuation
             if k == 1:
                 assert node.set_parameters([Parameter('max_jump', value=0.2)])[0].successful
                 assert node.tracker.max_jump == 0.2  # direct solve
             pub.publish(joint_state_msg(probe.get_clock().now().to_msg(),
                                         inverse_kinematics(POLE, p, [0, 0, 0, 1]).lengths))
-            assert wait_for(lambda: len(poses) == k + 1, 3.0)
+            assert wait_for(lambda: len(poses) == k + 1)
             assert pose_error(poses[k], p, [0, 0, 0, 1])[0] < 1e-9
 
 

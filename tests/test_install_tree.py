@@ -4,7 +4,8 @@ The build goes to a temporary build/install/log base (ros_ws/ is left alone). Ch
 executable ``install/<pkg>/lib/<pkg>/<exe>`` for every console entry point declared in each
 setup.py, the ament index marker and package.xml of each package, the robot descriptions in
 ``share/rrps_kinematics/robots``, and that installed command-line executables start with the
-environment of ``install/setup.bash`` and import the installed (not the source) package.
+environment of ``install/setup.bash`` and import the installed (not the source) package, and
+every node's parameter file in ``share/<pkg>/config``.
 """
 
 from __future__ import annotations
@@ -90,6 +91,17 @@ def test_robot_descriptions_are_installed(install_base):
     installed = sorted(p.name for p in (install_base / 'rrps_kinematics' / 'share' / 'rrps_kinematics'
                                         / 'robots').glob('*.yaml'))
     assert shipped and installed == shipped
+
+
+@pytest.mark.parametrize('package', PACKAGES)
+def test_parameter_files_are_installed(install_base, package):
+    """config/<node>.yaml of each package lands in share/<package>/config (--params-file)."""
+    shipped = sorted(p.name for p in (SRC / package / 'config').glob('*.yaml'))
+    installed = sorted(p.name for p in (install_base / package / 'share' / package
+                                        / 'config').glob('*.yaml'))
+    assert shipped and installed == shipped
+    nodes = {exe for exe in console_scripts(package) if exe.endswith('_node')}
+    assert {name.removesuffix('.yaml') for name in shipped} == nodes
 
 
 def _run_installed(install_base: Path, command: str) -> subprocess.CompletedProcess:

@@ -14,9 +14,14 @@ from scipy.interpolate import CubicSpline
 from rrps_kinematics import RobotGeometry, load_robot
 from rrps_kinematics.rotations import quat_multiply_xyzw, rotation_vector_to_quat_xyzw
 from rrps_sim.dynamics import simulate
-from rrps_sim.inverse_dynamics import inverse_dynamics, trajectory_twists
-from rrps_sim.reduced import PlatformPose, platform_accelerations, simulate_reduced
-from rrps_sim.statics import holding_forces
+from rrps_sim.inverse_dynamics import inverse_dynamics, sample_derivatives, trajectory_twists
+from rrps_sim.reduced import (
+    PlatformPose,
+    generalized_forces,
+    platform_accelerations,
+    simulate_reduced,
+)
+from rrps_sim.statics import holding_forces, solve_actuator_forces
 
 DURATION = 0.5
 
@@ -51,28 +56,82 @@ def test_at_rest_the_forces_are_the_holding_forces():
     np.testing.assert_allclose(F, np.tile(holding_forces(geom, p[0], q[0]), (11, 1)), atol=1e-9)
 
 
-def test_spline_twists_converge_to_the_analytic_twists():
-    """Position: a cubic (reproduced exactly). Rotation: angle theta(t) about a fixed axis n, so
-    omega = theta' n and omega_dot = theta'' n exactly; the spline errors shrink with the step."""
+def test_trajectory_twists_converge_at_orders_6_and_5_to_the_analytic_twists():
+    """Position: a degree-6 polynomial, which 7-point differences reproduce exactly. Rotation:
+    angle theta(t) about a fixed axis n, so omega = theta' n and omega_dot = theta'' n exactly;
+    halving the step divides the errors by 2^6 and 2^5, at every sample, the ends included."""
     n = np.array([1.0, -2.0, 2.0]) / 3.0
-    c = np.array([[0.1, -0.2, 0.3], [0.5, 0.1, -0.4], [-0.3, 0.2, 0.1]])
+    c = np.array([[0.1, -0.2, 0.3], [0.5, 0.1, -0.4], [-0.3, 0.2, 0.1], [0.2, 0.1, -0.1],
+                  [-0.1, 0.05, 0.2], [0.03, -0.02, 0.01], [0.01, 0.02, -0.03]])
 
     def errors(dt):
         t = np.arange(0.0, 1.0 + dt / 2, dt)
         theta, dtheta, ddtheta = 0.4 * np.sin(2 * t), 0.8 * np.cos(2 * t), -1.6 * np.sin(2 * t)
-        p = t[:, None] * c[0] + t[:, None] ** 2 * c[1] + t[:, None] ** 3 * c[2]
-        v = c[0] + 2 * t[:, None] * c[1] + 3 * t[:, None] ** 2 * c[2]
-        a = 2 * c[1] + 6 * t[:, None] * c[2]
+        p = sum(c[i] * t[:, None] ** i for i in range(7))
+        v = sum(i * c[i] * t[:, None] ** (i - 1) for i in range(1, 7))
+        a = sum(i * (i - 1) * c[i] * t[:, None] ** (i - 2) for i in range(2, 7))
         twist, twist_dot = trajectory_twists(t, p, rotation_vector_to_quat_xyzw(theta[:, None] * n))
-        np.testing.assert_allclose(twist[:, :3], v, atol=1e-11)
+        np.testing.assert_allclose(twist[:, :3], v, atol=1e-12)
         np.testing.assert_allclose(twist_dot[:, :3], a, atol=1e-9)
-        inner = slice(2, -2)   # not-a-knot ends are one order less accurate
-        return (np.abs(twist[inner, 3:] - dtheta[inner, None] * n).max(),
-                np.abs(twist_dot[inner, 3:] - ddtheta[inner, None] * n).max())
+        return (np.abs(twist[:, 3:] - dtheta[:, None] * n).max(),
+                np.abs(twist_dot[:, 3:] - ddtheta[:, None] * n).max())
 
     coarse, fine = errors(0.01), errors(0.005)
-    assert fine[0] < 1e-6 and fine[1] < 1e-3
-    assert fine[0] < coarse[0] / 6 and fine[1] < coarse[1] / 3   # orders ~3 and ~2
+    assert fine[0] < 1e-12 and fine[1] < 1e-9
+    assert fine[0] < coarse[0] / 40 and fine[1] < coarse[1] / 20   # 2^6 = 64, 2^5 = 32
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.floats(0.5, 1.5), min_size=12, max_size=40),
+       st.lists(st.floats(-1.0, 1.0), min_size=7, max_size=7))
+def test_sample_derivatives_are_exact_for_degree_6_on_any_spacing(gaps, coefficients):
+    t = 0.01 * np.cumsum(gaps)
+    y = np.polynomial.Polynomial(coefficients)
+    first, second = sample_derivatives(t, y(t)[:, None])
+    scale = 1.0 + np.abs(np.polynomial.Polynomial(np.abs(coefficients))(t.max())) / t.max() ** 2
+    np.testing.assert_allclose(first[:, 0], y.deriv(1)(t), atol=1e-11 * scale)
+    np.testing.assert_allclose(second[:, 0], y.deriv(2)(t), atol=1e-9 * scale)
+
+
+def _exact_trajectory(geom, t, period=0.5, shift=(0.02, -0.01, 0.03), turn=(0.05, -0.03, 0.08)):
+    """s(t) = (1 - cos(2 pi t / T)) / 2 along a shift and a turn about a fixed axis, with the
+    exact twist (v = s' shift, omega = s' turn) and its rate (s'' shift, s'' turn)."""
+    w = 2 * np.pi / period
+    s, ds, dds = 0.5 * (1 - np.cos(w * t)), 0.5 * w * np.sin(w * t), 0.5 * w**2 * np.cos(w * t)
+    shift, turn = np.asarray(shift), np.asarray(turn)
+    p = geom.home_position + s[:, None] * shift
+    q = quat_multiply_xyzw(rotation_vector_to_quat_xyzw(s[:, None] * turn),
+                           geom.home_quaternion_xyzw)
+    twist = np.concatenate([ds[:, None] * shift, ds[:, None] * turn], axis=1)
+    twist_dot = np.concatenate([dds[:, None] * shift, dds[:, None] * turn], axis=1)
+    pose = PlatformPose(geom, p, q)
+    exact = solve_actuator_forces(pose, generalized_forces(pose, twist, twist_dot))
+    return p, q, twist, twist_dot, exact
+
+
+@pytest.mark.parametrize('robot', ['pole_climber', 'frame_climber'])
+def test_forces_from_positions_at_1_khz_are_within_1e_4_n_of_the_exact_forces(robot):
+    geom = load_robot(robot)
+    t = np.arange(0.0, 0.5 + 5e-4, 1e-3)
+    p, q, twist, twist_dot, exact = _exact_trajectory(geom, t)
+    assert np.abs(exact).max() > 10.0 and np.ptp(exact, axis=0).max() > 1.0   # it moves
+    error = np.abs(inverse_dynamics(geom, t, p, q) - exact).max()
+    given = np.abs(inverse_dynamics(geom, t, p, q, twist=twist, twist_dot=twist_dot) - exact).max()
+    rates = np.abs(inverse_dynamics(geom, t, p, q, twist=twist) - exact).max()
+    accelerations = np.abs(inverse_dynamics(geom, t, p, q, twist_dot=twist_dot) - exact).max()
+    print(f'{robot}: max force error from positions {error:.2e} N, with velocities '
+          f'{rates:.2e} N, with accelerations {accelerations:.2e} N, with both {given:.2e} N')
+    assert error <= 1e-4
+    assert given <= 1e-12 * np.abs(exact).max()
+    assert rates <= 1e-6 and accelerations <= 1e-6
+
+
+def test_given_derivatives_are_checked():
+    geom, t, p, q, _ = _planned('frame_climber', 0.01)
+    for kwargs, match in ((dict(twist=np.zeros((len(t), 5))), 'twist must have shape'),
+                          (dict(twist_dot=np.full((len(t), 6), np.nan)), 'twist_dot contains NaN')):
+        with pytest.raises(ValueError, match=match):
+            inverse_dynamics(geom, t, p, q, **kwargs)
 
 
 @settings(max_examples=15, deadline=None)

@@ -200,3 +200,19 @@ def test_margin_signs_match_direct_checks(dp, rv):
         assert m.segment_distances[k] >= d - 0.01  # one sample step of the longest legs
     assert ok == bool(np.all(m.stroke >= 0) and np.all(m.universal >= 0) and np.all(m.spherical >= 0)
                       and np.all(m.interference >= 0) and m.conditioning >= 0)
+
+
+@pytest.mark.parametrize('robot', ['pole_climber', 'frame_climber', 'facade_climber'])
+def test_pose_margins_compiled_equals_the_reference(robot):
+    from rrps_kinematics.limits import pose_margins
+    from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
+    g = load_robot(robot)
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        p = g.home_position + rng.uniform(-0.08, 0.08, 3)
+        q = rotation_vector_to_quat_xyzw(rng.uniform(-0.4, 0.4, 3))
+        fast, ref = pose_margins(g, p, q), pose_margins(g, p, q, backend='numpy')
+        m = margins(g, inverse_kinematics(g, p, q))
+        for a, b in zip(fast, ref):
+            np.testing.assert_allclose(a, b, atol=1e-12)
+        assert fast.minimum == pytest.approx({k: float(v) for k, v in m.minimum.items()}, abs=1e-12)

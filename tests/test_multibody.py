@@ -104,7 +104,7 @@ def test_universal_constraint_eqs4_5():
     lower = lower_link_body(k)
     a = GEOM.ring_a_anchors[k]
     # Rotation about the U-joint's axis fixed in ring_a: allowed, rows 3-6 stay zero.
-    axis = MODEL.ha[k]
+    axis = MODEL.joints.ha[k]
     q1 = rotate_body(q, lower, rotation_vector_to_matrix(0.2 * axis), a)
     assert np.max(np.abs(rows(MODEL.constraints(q1, L), k)[3:7])) < 1e-14
     # Spin about the link's own axis through the U centre: the centre stays (eq. 4),

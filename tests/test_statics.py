@@ -35,8 +35,8 @@ def _gravity_potential(geom, p, q):
     u = (b - geom.ring_a_anchors) / np.linalg.norm(b - geom.ring_a_anchors, axis=1)[:, None]
     lower = geom.ring_a_anchors + geom.lower_link.com_from_joint * u
     upper = b - geom.upper_link.com_from_joint * u
-    coms = np.vstack([p + R @ geom.ring_b_inertia.com, lower, upper])
-    masses = np.r_[geom.ring_b_inertia.mass, [geom.lower_link.mass] * 6, [geom.upper_link.mass] * 6]
+    coms = np.vstack([p + R @ geom.ring_b_body.com, lower, upper])
+    masses = np.r_[geom.ring_b_body.mass, [geom.lower_link.mass] * 6, [geom.upper_link.mass] * 6]
     return -float(masses @ (coms @ geom.gravity))
 
 
@@ -62,7 +62,7 @@ def test_holding_forces_balance_gravity_by_virtual_work(sample):
              quat_multiply_xyzw(rotation_vector_to_quat_xyzw(s * h * d[3:]), q)) for s in (1, -1)]
     dV = (_gravity_potential(geom, *step[0]) - _gravity_potential(geom, *step[1])) / (2 * h)
     dl = (inverse_kinematics(geom, *step[0]).lengths - inverse_kinematics(geom, *step[1]).lengths) / (2 * h)
-    weight = 9.81 * (geom.ring_b_inertia.mass + 6 * (geom.lower_link.mass + geom.upper_link.mass))
+    weight = 9.81 * (geom.ring_b_body.mass + 6 * (geom.lower_link.mass + geom.upper_link.mass))
     assert f @ dl == pytest.approx(dV, abs=1e-7 * weight)
 
 
@@ -72,8 +72,8 @@ def test_with_massless_legs_the_forces_are_the_pose_level_statics():
     geom = geom.with_(lower_link=light, upper_link=light)
     p, q = _pose(geom, [0.05, -0.02, 0.04], [0.1, 0.05, -0.2])
     ik = inverse_kinematics(geom, p, q)
-    weight = geom.ring_b_inertia.mass * geom.gravity
-    moment = np.cross(quat_xyzw_to_matrix(q) @ geom.ring_b_inertia.com, weight)
+    weight = geom.ring_b_body.mass * geom.gravity
+    moment = np.cross(quat_xyzw_to_matrix(q) @ geom.ring_b_body.com, weight)
     expected = leg_forces(ik, np.concatenate([weight, moment]))
     np.testing.assert_allclose(holding_forces(geom, p, q), expected, atol=1e-9)
 

@@ -51,7 +51,7 @@ def test_a_killed_supervisor_takes_its_child_with_it():
         assert _alive(child)
         supervisor.send_signal(signal.SIGKILL)  # no chance to clean up
         supervisor.wait()
-        assert _wait_dead(child, 10.0), 'the child outlived its supervisor'
+        assert _wait_dead(child, 60.0), 'the child outlived its supervisor'
     finally:
         if supervisor.poll() is None:
             supervisor.kill()
@@ -65,4 +65,4 @@ def test_stop_child_terminates_then_kills():
     stubborn.stdout.readline()  # SIGTERM is ignored from here on
     assert stop_child(stubborn, timeout=0.5) == -signal.SIGKILL
     polite = start_child([sys.executable, '-c', 'import time\nwhile True: time.sleep(0.05)'])
-    assert stop_child(polite, timeout=10.0) == -signal.SIGTERM
+    assert stop_child(polite, timeout=60.0) == -signal.SIGTERM  # returns as soon as it is gone

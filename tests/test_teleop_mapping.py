@@ -147,7 +147,7 @@ def test_deadman_lapse_holds_after_the_enable_timeout_and_ten_hertz_keeps_it():
     assert all(c not in DISENGAGED_CODES for c in codes)
     # No more true: engaged until 0.2 s after the last one, then hold.
     s.enable = None
-    t_last = s.mapping._enable_time
+    t_last = s.mapping.enable_time
     outs = s.run(0.4, lissajous)
     times = s.t - 0.4 + DT * np.arange(1, 41)
     for t, o in zip(times, outs):
@@ -295,7 +295,7 @@ def test_joint_space_matches_cartesian_for_the_similar_master():
         np.testing.assert_allclose(oj.lengths, oc.lengths, atol=1e-9)
     np.testing.assert_allclose(joint.slave_position, cart.slave_position, atol=1e-9)
     assert rotation_angle_between(joint.slave_quaternion, cart.slave_quaternion) < 1e-8
-    np.testing.assert_allclose(joint.mapping._offsets, 0.0, atol=1e-9)
+    np.testing.assert_allclose(joint.mapping.joint_offsets, 0.0, atol=1e-9)
 
 
 def test_joint_space_offsets_are_calibrated_at_engage():

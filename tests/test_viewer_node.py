@@ -3,12 +3,10 @@
 from __future__ import annotations
 
 import socket
-import time
 
 import numpy as np
 import pytest
-
-from ros_harness import Probe, Spinner, wait_for
+from ros_harness import Probe, Spinner, header_time, stamped_between, wait_for
 
 pytestmark = pytest.mark.ros
 
@@ -42,28 +40,62 @@ def _operator(control, client_id: int = 7) -> int:
     return client_id
 
 
+#: A read-only viewer client whose requests count viewer_node's timer runs (see _ticks).
+MARKER = 9
+
+
+def _ticks(viewer, n: int) -> None:
+    """Wait for ``n`` more runs of viewer_node's timer (its 20 Hz tick, which publishes the
+    deadman and the gizmo and then executes the browsers' requests): each run answers the one
+    request of the read-only MARKER client queued before it. A window of n ticks is viewer_node's
+    own time, whatever the load of the machine."""
+    for _ in range(n):
+        k = len(viewer.told)
+        viewer.step(MARKER, 'up')
+        assert wait_for(lambda: any(cid == MARKER for cid, _, _ in viewer.told[k:]))
+
+
 def test_deadman_streams_while_held_and_stops_when_the_operator_disconnects(ros_context, viewer):
+    from geometry_msgs.msg import PoseStamped
     from std_msgs.msg import Bool
 
     from rrps_kinematics.nodes.common import COMMAND_QOS
+    from rrps_teleop.viewer import Pose
     probe = Probe(context=ros_context)
-    enables = probe.collect(Bool, 'teleop/enable', qos=COMMAND_QOS, stamped=True)
+    enables = probe.collect(Bool, 'teleop/enable', qos=COMMAND_QOS)
+    # While an operator has control and the gizmo is placed, every tick also publishes the gizmo's
+    # target stamped when the tick ran, right after the deadman: the ticks' own times.
+    ticks = probe.collect(PoseStamped, 'master/target_pose', qos=COMMAND_QOS)
     control = viewer.control
     with Spinner(ros_context, [viewer, probe]):
+        control.connect(MARKER)
         cid = _operator(control)
+        viewer.master_target(cid, Pose([0.5, -1.0, 0.3]))
         control.set_clutch(cid, True)
+        t_held = probe.now()
         control.set_dragging(cid, True)  # holding the gizmo holds the deadman
-        time.sleep(1.0)
+        assert wait_for(lambda: sum(m.data for m in enables) >= 20)  # 1 s at 20 Hz
+        t_lost = probe.now()
         control.disconnect(cid)
-        t_lost = time.monotonic()
-        time.sleep(0.8)
-    true_times = np.array([t for t, m in enables if m.data])
-    assert len(true_times) >= 15, len(true_times)       # 20 Hz for 1 s
-    assert np.max(np.diff(true_times)) < 0.1            # never slower than 10 Hz
-    assert true_times[-1] < t_lost + 0.06
-    after = [m.data for t, m in enables if t > t_lost + 0.06]
-    assert after and not any(after)                      # explicit falses ...
-    assert len(after) <= 6                               # ... then silence (stale = hold)
+        # The tick running now, the first one after the disconnect (it publishes false) and one
+        # more, so that the probe (same executor, later events) has received what they published.
+        _ticks(viewer, 3)
+        stopped = list(enables)
+        _ticks(viewer, 20)  # 1 s of viewer_node's own ticking
+        final = list(enables)
+        held_ticks = np.array([header_time(m) for m in stamped_between(ticks, t_held, t_lost)])
+    trues = [m.data for m in final].count(True)
+    # Held: one true per tick (give or take the ticks running at the two switches) ...
+    assert len(held_ticks) >= 15 and abs(trues - len(held_ticks)) <= 2, (trues, len(held_ticks))
+    # ... and the ticks, by their own stamps, never slower than 10 Hz.
+    assert np.max(np.diff(held_ticks)) < 0.1, np.max(np.diff(held_ticks))
+    # Disconnected: the ticks right after it sent false, never a true after a false, a few
+    # explicit falses and then silence (stale = hold) for the rest of the 20 ticks.
+    values = [m.data for m in final]
+    first_false = values.index(False)
+    assert first_false < len(stopped)
+    assert not any(values[first_false:])
+    assert 1 <= len(values) - first_false <= 6, values[first_false:]
 
 
 def test_gizmo_drives_the_master_in_its_own_frame_only_while_in_control(ros_context, viewer):
@@ -77,15 +109,16 @@ def test_gizmo_drives_the_master_in_its_own_frame_only_while_in_control(ros_cont
     control = viewer.control
     q = rotation_vector_to_quat_xyzw(np.array([0.0, 0.0, 0.2]))
     with Spinner(ros_context, [viewer, probe]):
+        control.connect(MARKER)
         viewer.master_target(3, Pose([0.51, -0.98, 0.31], q))   # nobody has control yet
-        time.sleep(0.3)
+        _ticks(viewer, 6)  # 0.3 s of viewer_node's ticks (the probe has what the first 5 sent)
         assert not targets
         cid = _operator(control)
-        assert wait_for(lambda: len(targets) >= 3, timeout=2.0)
+        assert wait_for(lambda: len(targets) >= 3)
         control.release(cid)
-        time.sleep(0.2)
+        _ticks(viewer, 3)  # the tick running at the release, one after it, one to deliver it
         n = len(targets)
-        time.sleep(0.3)
+        _ticks(viewer, 6)
         assert len(targets) == n
     msg = targets[-1]
     assert msg.header.frame_id == 'master_ring_a'
@@ -98,6 +131,7 @@ def test_requests_run_only_for_the_controller_and_answers_reach_the_operator(ros
     from std_srvs.srv import SetBool
 
     from rrps_teleop.nodes.teleop_node import TeleopNode
+    from rrps_teleop.nodes.viewer_requests import OperatorRequest
     probe = Probe(context=ros_context)
 
     def refuse(request, response):
@@ -111,21 +145,21 @@ def test_requests_run_only_for_the_controller_and_answers_reach_the_operator(ros
     with Spinner(ros_context, [viewer, probe, teleop]):
         control.connect(9)
         viewer.step(9, 'up')                                    # a read-only viewer
-        assert wait_for(lambda: viewer.told, timeout=2.0)
+        assert wait_for(lambda: viewer.told)
         assert viewer.told[-1] == (9, 'read-only: you do not have control', False)
         cid = _operator(control)
         viewer.set_gripper(cid, 'ring_a', False)
-        assert wait_for(lambda: len(viewer.told) >= 2, timeout=3.0)
+        assert wait_for(lambda: len(viewer.told) >= 2)
         assert viewer.told[-1] == (cid, 'open ring_a: refused: the other ring is open', False)
         viewer.step(cid, 'down')                                # no climb node here
-        assert wait_for(lambda: len(viewer.told) >= 3, timeout=3.0)
+        assert wait_for(lambda: len(viewer.told) >= 3)
         assert 'climb/step_down is not available' in viewer.told[-1][1]
-        assert wait_for(lambda: viewer._service_clients['teleop'].service_is_ready(), 5.0)
+        assert wait_for(lambda: viewer.requests.ready(OperatorRequest.MAPPING))
         viewer.set_mapping(cid, 'joint', 'absolute', 2.5)
-        assert wait_for(lambda: len(viewer.told) >= 4, timeout=3.0)
+        assert wait_for(lambda: len(viewer.told) >= 4)
         assert viewer.told[-1][2], viewer.told[-1]
         viewer.set_mapping(cid, 'cartesian', 'sideways', 2.5)  # the teleop node refuses it
-        assert wait_for(lambda: len(viewer.told) >= 5, timeout=3.0)
+        assert wait_for(lambda: len(viewer.told) >= 5)
         assert not viewer.told[-1][2] and 'rotation_mode' in viewer.told[-1][1]
     values = {p: teleop.get_parameter(p).value for p in ('mode', 'rotation_mode', 'translation_scale')}
     assert values == {'mode': 'joint', 'rotation_mode': 'absolute', 'translation_scale': 2.5}
@@ -161,17 +195,17 @@ def test_the_picture_places_the_robot_by_its_gripping_ring(ros_context, viewer):
     with Spinner(ros_context, [viewer, probe]):
         assert viewer.frame().slave is None                      # nothing to draw yet
         send(1.0, 0.0)
-        assert wait_for(lambda: viewer.frame().ghost_world_T_b is not None, timeout=3.0)
+        assert wait_for(lambda: viewer.frame().ghost_world_T_b is not None)
         frame = viewer.frame()
         assert np.allclose(frame.slave.world_T_a.position, world_a.position)
         assert np.allclose(frame.slave.world_T_b.position, world_a.position + a_T_b.position)
         assert np.allclose(frame.ghost_world_T_b.position, world_a.position + g.home_position)
         assert frame.grippers == {'ring_a': 1.0, 'ring_b': 0.0}
         send(0.0, 1.0)                                            # ring_b grips now
-        assert wait_for(lambda: viewer.frame().grippers['ring_b'] == 1.0, timeout=3.0)
+        assert wait_for(lambda: viewer.frame().grippers['ring_b'] == 1.0)
         frame = viewer.frame()
         assert np.allclose(frame.slave.world_T_b.position, world_b.position)
         assert np.allclose(frame.slave.world_T_a.position, world_b.position - a_T_b.position)
-        assert wait_for(lambda: 'Conditioning' in viewer.frame().panel, timeout=2.0)  # 4 Hz text
+        assert wait_for(lambda: 'Conditioning' in viewer.frame().panel)  # 4 Hz text
         assert 'Margins' in viewer.frame().panel
         assert len(frame.trails['ring_a']) == 1 and len(frame.trails['ring_b']) == 1

@@ -12,6 +12,7 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
+        ('share/' + package_name + '/config', glob('config/*.yaml')),
         ('share/' + package_name + '/robots', glob('rrps_kinematics/robots/*.yaml')),
     ],
     install_requires=['setuptools', 'numpy', 'scipy', 'PyYAML'],

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .forward import _check_lengths, forward_kinematics
+from .forward import check_lengths, forward_kinematics
 from .geometry import RobotGeometry
 from .inverse import inverse_kinematics
 from .rotations import quat_xyzw_to_matrix, rotation_angle_between
@@ -83,7 +83,7 @@ def assembly_modes(geometry: RobotGeometry, lengths, *, n_seeds: int = 20000,
     poses closer than 1e-6 (position / characteristic length + rotation angle) are one mode.
     Joint and stroke limits are not applied (see :func:`rrps_kinematics.margins`).
     """
-    L = _check_lengths(lengths)
+    L = check_lengths(lengths)
     if L.shape != (6,):
         raise ValueError(f'lengths must have shape (6,), got {L.shape}')
     if np.any(L <= 0.0):

@@ -37,17 +37,22 @@ import numpy as np
 
 from .assembly import assembly_modes
 from .cli_support import (
+    EXIT_FAILED,
+    EXIT_OK,
     OneLineParser,
     UsageError,
     join_negative_vectors,
     load_robot_or_usage_error,
     positive,
+    run_command,
     vector,
 )
-from .forward import forward_kinematics
+from .errors import ComputationError
+from .forward import check_lengths, forward_kinematics
 from .geometry import RobotGeometry, shipped_robots
 from .inverse import inverse_kinematics
 from .limits import Margins, margins
+from .pose import validate_pose
 from .workspace import (
     LIMIT_KINDS,
     NEAR_SINGULAR,
@@ -278,9 +283,10 @@ def _workspace(g: RobotGeometry, args: argparse.Namespace) -> tuple[dict, list[s
     q0 = g.home_quaternion_xyzw if args.quaternion is None else args.quaternion
     ranges = {name: getattr(args, name) for name in ('roll', 'pitch', 'yaw')
               if getattr(args, name) is not None}
-    orientations = orientation_range(q0, step=args.angle_step, **ranges) if ranges else q0
-    ws = reachable_workspace(g, orientations, resolution=resolution, bounds=args.bounds,
-                             singular_threshold=args.singular_threshold)
+    orientations = (_checked('orientation range', orientation_range, q0, step=args.angle_step,
+                             **ranges) if ranges else q0)
+    ws = _checked('workspace', reachable_workspace, g, orientations, resolution=resolution,
+                  bounds=args.bounds, singular_threshold=args.singular_threshold)
     counts = ws.counts
     kind = 'total-orientation' if ranges else 'constant-orientation'
     near_csv = args.near_singular_csv
@@ -331,28 +337,47 @@ def _workspace(g: RobotGeometry, args: argparse.Namespace) -> tuple[dict, list[s
     return data, lines
 
 
+def _checked(what: str, check, *args, **kwargs):
+    """Validate a command-line input with the core's own check: its ValueError is a usage error."""
+    try:
+        return check(*args, **kwargs)
+    except ComputationError:
+        raise
+    except ValueError as exc:
+        raise UsageError(f'{what}: {exc}') from None
+
+
 def run(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; returns the exit status."""
+    """Run the command line; returns the exit status (cli_support.run_command: 0 done, 2 a
+    usage error, 1 a computation that failed, 3 a bug). An FK that does not converge prints its
+    result (NOT converged) and exits 1."""
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
-    try:
+    failed = []
+
+    def body() -> list[str]:
         args = parser.parse_args(join_negative_vectors(argv, _VECTOR_OPTIONS))
         g = load_robot_or_usage_error(args.robot)
         if args.command == 'info':
             data, lines = _info(g)
         elif args.command == 'ik':
-            data, lines = _ik(g, args.position, args.quaternion)
+            p, q = _checked('--position/--quaternion', validate_pose, args.position,
+                            args.quaternion, tolerance=None)
+            data, lines = _ik(g, p, q)
         elif args.command == 'fk':
-            data, lines = _fk(g, args.lengths, args.seed)
+            lengths = _checked('--lengths', check_lengths, args.lengths)
+            data, lines = _fk(g, lengths, args.seed)
+            if not data['converged']:
+                failed.append('fk')
         elif args.command == 'workspace':
             data, lines = _workspace(g, args)
         else:
-            data, lines = _modes(g, args.lengths)
-    except (UsageError, ValueError) as exc:
-        print(f'{PROG}: error: {exc}', file=sys.stderr)
-        return 2
-    print(json.dumps(data, indent=2) if args.json else '\n'.join(lines))
-    return 1 if args.command == 'fk' and not data['converged'] else 0
+            data, lines = _checked('--lengths', _modes, g,
+                                   _checked('--lengths', check_lengths, args.lengths))
+        return [json.dumps(data, indent=2)] if args.json else lines
+
+    status = run_command(PROG, body)
+    return EXIT_FAILED if status == EXIT_OK and failed else status
 
 
 def main(argv: Sequence[str] | None = None) -> None:

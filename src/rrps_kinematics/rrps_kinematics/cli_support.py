@@ -1,18 +1,26 @@
 """Command-line plumbing shared by the rrps commands: one-line usage errors (exit status 2),
-comma-separated vectors, and negative vectors that argparse would take for flags."""
+comma-separated vectors, negative vectors that argparse would take for flags, and the exit
+status of a command's outcome (:func:`run_command`)."""
 
 from __future__ import annotations
 
 import argparse
 import re
-from typing import Sequence
+import sys
+import traceback
+from typing import Callable, Sequence
 
 import numpy as np
 
+from .errors import ComputationError
 from .geometry import RobotDescriptionError, RobotGeometry, load_robot
 
 __all__ = ['UsageError', 'OneLineParser', 'vector', 'positive', 'count', 'join_negative_vectors',
-           'load_robot_or_usage_error']
+           'load_robot_or_usage_error', 'run_command', 'EXIT_OK', 'EXIT_FAILED', 'EXIT_USAGE',
+           'EXIT_BUG']
+
+#: Exit statuses of :func:`run_command`.
+EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_BUG = 0, 1, 2, 3
 
 
 class UsageError(Exception):
@@ -84,3 +92,29 @@ def load_robot_or_usage_error(robot: str) -> RobotGeometry:
         return load_robot(robot)
     except RobotDescriptionError as exc:
         raise UsageError(str(exc)) from None
+
+
+def run_command(prog: str, body: Callable[[], Sequence[str]]) -> int:
+    """Run a command's ``body`` and turn its outcome into an exit status.
+
+    * ``EXIT_OK`` (0): the lines ``body`` returns are printed on stdout.
+    * ``EXIT_USAGE`` (2): a :class:`UsageError` (bad arguments, an unreadable or malformed input
+      file): one line on stderr.
+    * ``EXIT_FAILED`` (1): a :class:`~rrps_kinematics.errors.ComputationError` (a singular pose,
+      no convergence): one line on stderr naming it.
+    * ``EXIT_BUG`` (3): any other exception is a bug: its traceback on stderr, then one line.
+    """
+    try:
+        lines = body()
+    except UsageError as exc:
+        print(f'{prog}: error: {exc}', file=sys.stderr)
+        return EXIT_USAGE
+    except ComputationError as exc:
+        print(f'{prog}: error: {exc}', file=sys.stderr)
+        return EXIT_FAILED
+    except Exception:  # noqa: BLE001 - a bug: shown in full, never as a usage error
+        traceback.print_exc()
+        print(f'{prog}: internal error (a bug; the traceback above says where)', file=sys.stderr)
+        return EXIT_BUG
+    print('\n'.join(lines))
+    return EXIT_OK

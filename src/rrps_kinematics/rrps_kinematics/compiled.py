@@ -11,7 +11,7 @@ inverse Jacobian (rows [u_i, (A_c s'_i) x u_i]); the angular columns are divided
 characteristic length before the LU factorisation (unit-consistent pivots); the rotation is
 updated multiplicatively, q <- exp(dtheta) (x) q. Steps whose rotation exceeds pi/2 are
 scaled down, and a step is halved (up to ``MAX_HALVINGS`` times) until the residual's 2-norm
-decreases; if it never does, the solve stops unconverged (constants in :mod:`.forward`).
+decreases; if it never does, the solve stops unconverged (constants in :mod:`.newton_settings`).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import math
 import numba
 import numpy as np
 
-from .forward import MAX_HALVINGS, MAX_ROTATION_STEP, PIVOT_TOLERANCE
+from .newton_settings import MAX_HALVINGS, MAX_ROTATION_STEP, PIVOT_TOLERANCE
 
 __all__ = ['ik_lengths_batch', 'fk_single', 'fk_batch', 'quat_to_matrix']
 
@@ -30,6 +30,7 @@ _jit = numba.njit(cache=True, fastmath=False, nogil=True)
 
 @_jit
 def quat_to_matrix(q, R):
+    """R <- the rotation matrix of the unit quaternion q (x, y, z, w), in place."""
     x, y, z, w = q[0], q[1], q[2], q[3]
     R[0, 0] = 1.0 - 2.0 * (y * y + z * z)
     R[0, 1] = 2.0 * (x * y - z * w)

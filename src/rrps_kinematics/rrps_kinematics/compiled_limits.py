@@ -15,7 +15,7 @@ import numpy as np
 
 from .compiled import quat_to_matrix
 
-__all__ = ['pose_margins', 'jacobian_determinant', 'N_MARGINS', 'pose_in_ring_a', 'vector_angle',
+__all__ = ['pose_margins', 'pose_margin_arrays', 'jacobian_determinant', 'N_MARGINS', 'pose_in_ring_a', 'vector_angle',
            'segment_distance', 'scaled_inverse_jacobian']
 
 _jit = numba.njit(cache=True, nogil=True)
@@ -151,6 +151,40 @@ def pose_margins(g, p, q, out, lengths):
     out[3] = interference
     out[4] = inv_cond - limits[6]
     out[5] = inv_cond
+
+
+@_jit
+def pose_margin_arrays(g, p, q, lengths, stroke, universal, spherical, interference):
+    """Every margin of one pose, per leg (stroke, universal, spherical (6,)) and per leg pair
+    (interference (15,), in ``limits.PAIRS`` order), written in place; returns the inverse
+    condition number (NaN when the Jacobian is not finite). The numbers of ``limits.margins``."""
+    A, B, axes_a, axes_b, limits = (g.ring_a_anchors, g.ring_b_anchors, g.ring_a_joint_axes,
+                                    g.ring_b_joint_axes, g.limits)
+    R = np.empty((3, 3))
+    b_in_a = np.empty((6, 3))
+    u = np.empty((6, 3))
+    pose_in_ring_a(A, B, p, q, R, b_in_a, u, lengths)
+    for i in range(6):
+        stroke[i] = min(lengths[i] - limits[0], limits[1] - lengths[i])
+        universal[i] = limits[2] - vector_angle(u[i, 0], u[i, 1], u[i, 2],
+                                                axes_a[i, 0], axes_a[i, 1], axes_a[i, 2])
+        t0 = -(R[0, 0] * u[i, 0] + R[1, 0] * u[i, 1] + R[2, 0] * u[i, 2])
+        t1 = -(R[0, 1] * u[i, 0] + R[1, 1] * u[i, 1] + R[2, 1] * u[i, 2])
+        t2 = -(R[0, 2] * u[i, 0] + R[1, 2] * u[i, 1] + R[2, 2] * u[i, 2])
+        spherical[i] = limits[3] - vector_angle(t0, t1, t2, axes_b[i, 0], axes_b[i, 1], axes_b[i, 2])
+    k = 0
+    for i in range(6):
+        for j in range(i + 1, 6):
+            interference[k] = segment_distance(A[i], b_in_a[i], A[j], b_in_a[j]) - 2.0 * limits[4]
+            k += 1
+    J = np.empty((6, 6))
+    scaled_inverse_jacobian(u, b_in_a, p, 1.0 / limits[5], J)
+    for i in range(6):
+        for c in range(6):
+            if not math.isfinite(J[i, c]):
+                return np.nan
+    sv = np.linalg.svd(J)[1]
+    return sv[5] / sv[0] if sv[0] > 0.0 else 0.0
 
 
 @_jit

@@ -16,7 +16,7 @@ import numba
 import numpy as np
 
 from .compiled_limits import pose_in_ring_a, scaled_inverse_jacobian, segment_distance, vector_angle
-from .workspace import LIMIT_KINDS
+from .limits import LIMIT_KINDS
 
 __all__ = ['classify_grid', 'WITHIN_LIMITS']
 

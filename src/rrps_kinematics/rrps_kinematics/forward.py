@@ -20,17 +20,13 @@ import numpy as np
 
 from .backend import compiled_backend_available, kernels, use_numba
 from .geometry import RobotGeometry
-from .inverse import _pose_arrays
+from .inverse import pose_arrays
+from .newton_settings import MAX_HALVINGS, MAX_ROTATION_STEP, PIVOT_TOLERANCE
 from .rotations import cross, quat_multiply_xyzw, quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
 
-__all__ = ['ForwardKinematicsResult', 'forward_kinematics', 'compiled_backend_available']
+__all__ = ['ForwardKinematicsResult', 'check_lengths', 'forward_kinematics',
+           'compiled_backend_available']
 
-#: Line-search halvings per Newton iteration before the solve gives up (unconverged).
-MAX_HALVINGS = 12
-#: A pivot below this (unit-consistent J, entries of order 1) marks the Jacobian singular.
-PIVOT_TOLERANCE = 1e-12
-#: Largest rotation [rad] taken in one Newton step.
-MAX_ROTATION_STEP = 0.5 * math.pi
 
 @dataclass(frozen=True)
 class ForwardKinematicsResult:
@@ -53,13 +49,17 @@ class ForwardKinematicsResult:
         return quat_xyzw_to_matrix(self.quaternion_xyzw)
 
 
-def _check_lengths(lengths) -> np.ndarray:
+def check_lengths(lengths, *, batch: bool = True) -> np.ndarray:
+    """Actuator lengths L_i (eq. 1) as a contiguous float array: (6,), or with ``batch`` also
+    (..., 6). Raises ValueError for another shape or NaN/inf values."""
     L = np.asarray(lengths, dtype=float)
-    if L.shape[-1:] != (6,):
+    if batch and L.shape[-1:] != (6,):
         raise ValueError(f'lengths must have shape (6,) or (N, 6), got {L.shape}')
+    if not batch and L.shape != (6,):
+        raise ValueError(f'lengths must have shape (6,), got {L.shape}')
     if not np.isfinite(L).all():
         raise ValueError('lengths contain NaN or infinite values')
-    return L
+    return np.ascontiguousarray(L)
 
 
 def _check_limits(tolerance: float, max_iterations: int) -> None:
@@ -78,7 +78,7 @@ def forward_kinematics(geometry: RobotGeometry, lengths, seed_position=None,
     Never raises on non-convergence or singularity: the result says so. Raises ValueError for
     NaN/inf or wrongly shaped input. ``backend``: 'auto' (numba when available), 'numba', 'numpy'.
     """
-    L = _check_lengths(lengths)
+    L = check_lengths(lengths)
     _check_limits(tolerance, max_iterations)
     numba_path = use_numba(backend)
     batch = L.shape[:-1]
@@ -96,7 +96,7 @@ def forward_kinematics(geometry: RobotGeometry, lengths, seed_position=None,
     except ValueError:
         raise ValueError(f'seed shapes {seed_p.shape}, {seed_q.shape} do not match lengths '
                          f'{L.shape}') from None
-    p, q = _pose_arrays(seed_p, seed_q)
+    p, q = pose_arrays(seed_p, seed_q)
     P = np.array(p.reshape(-1, 3), dtype=float, order='C')
     Q = np.array(q.reshape(-1, 4), dtype=float, order='C')
     Lf = np.ascontiguousarray(L.reshape(-1, 6))
@@ -127,7 +127,7 @@ def _single_numba(geometry, L, seed_p, seed_q, tolerance, max_iterations):
     q = seed_q.copy()
     norm = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
     if not (math.isfinite(norm) and norm > 1e-12) or not np.isfinite(p).all():
-        _pose_arrays(p, q)  # raises the same ValueError as every other path
+        pose_arrays(p, q)  # raises the same ValueError as every other path
     q /= norm
     c, it, res, sing = kernels().fk_single(
         geometry.ring_a_anchors, geometry.ring_b_anchors, np.ascontiguousarray(L), p, q,

@@ -22,6 +22,8 @@ from .rotations import normalize_quat, quat_xyzw_to_matrix
 __all__ = [
     'RobotDescriptionError',
     'RigidBodyInertia',
+    'Tool',
+    'combine_bodies',
     'LinkInertia',
     'ExtraRingDof',
     'RobotGeometry',
@@ -79,6 +81,54 @@ class ExtraRingDof:
     max_angle: float = math.pi
 
 
+TOOL_SHAPES = ('cylinder', 'box', 'sphere')
+
+
+@dataclass(frozen=True, kw_only=True)
+class Tool:
+    """A tool carried by ring_b (the paper's handler arm for the tool, section 3.2, Figure 10).
+
+    ``position`` [m] and ``quaternion_xyzw``: the tool-centre-point frame in ring_b's frame
+    (``b_T_tool``). ``mass`` [kg], ``com`` [m] and ``inertia`` [kg m^2, about the com] in the tool
+    frame. ``shape`` (cylinder | box | sphere) and ``size`` [m] (cylinder: radius, length along
+    the tool's z ending at the tool centre point; box: x, y, z; sphere: radius) only draw it.
+    """
+
+    name: str = 'tool'
+    position: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    quaternion_xyzw: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 0.0, 1.0]))
+    mass: float = 1.0
+    com: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    inertia: np.ndarray = field(default_factory=lambda: np.diag([1e-3, 1e-3, 1e-3]))
+    shape: str = 'cylinder'
+    size: tuple = (0.02, 0.2)
+
+    @property
+    def b_T_tool(self) -> np.ndarray:
+        """4x4 pose of the tool-centre-point frame in ring_b's frame."""
+        T = np.eye(4)
+        T[:3, :3] = quat_xyzw_to_matrix(self.quaternion_xyzw)
+        T[:3, 3] = self.position
+        return T
+
+
+def combine_bodies(a: RigidBodyInertia, b: RigidBodyInertia, b_R: np.ndarray,
+                   b_p: np.ndarray) -> RigidBodyInertia:
+    """One rigid body from body ``a`` (in frame F) and body ``b`` whose frame sits at ``b_p``
+    with rotation ``b_R`` in F: total mass, mass-weighted com, and the inertia about the new
+    com by the parallel-axis theorem, all in F."""
+    com_b = b_p + b_R @ b.com
+    mass = a.mass + b.mass
+    com = (a.mass * a.com + b.mass * com_b) / mass
+
+    def shifted(inertia: np.ndarray, m: float, d: np.ndarray) -> np.ndarray:
+        return inertia + m * (float(d @ d) * np.eye(3) - np.outer(d, d))
+
+    inertia = shifted(a.inertia, a.mass, a.com - com) + shifted(b_R @ b.inertia @ b_R.T, b.mass,
+                                                              com_b - com)
+    return RigidBodyInertia(mass=mass, com=com, inertia=0.5 * (inertia + inertia.T))
+
+
 def _as_array(value: Any, shape: tuple[int, ...], key: str) -> np.ndarray:
     try:
         arr = np.asarray(value, dtype=float)
@@ -124,6 +174,8 @@ class RobotGeometry:
     """Geometry, limits and inertias of one RRPS robot (SI units).
 
     Only the anchors are required: ``RobotGeometry(ring_a_anchors=A, ring_b_anchors=B)``.
+    ``ring_b_inertia`` is the ring alone; the dynamics and the statics use ``ring_b_body``, the
+    moving platform: the ring and its ``tool`` (if any) as one rigid body.
     Unspecified joint neutral axes are the leg directions at the home pose; an unspecified home
     pose is ring_b parallel to ring_a, raised along ring_a's z so the legs sit mid-stroke (or at
     45 degrees when the stroke is unbounded).
@@ -151,6 +203,7 @@ class RobotGeometry:
     home_quaternion_xyzw: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 0.0, 1.0]))
     grippers: Mapping[str, str] = field(default_factory=lambda: {'ring_a': 'clamp', 'ring_b': 'clamp'})
     extra_dof: Mapping[str, ExtraRingDof] = field(default_factory=dict)
+    tool: Tool | None = None
     description: str = ''
 
     def __post_init__(self) -> None:
@@ -188,6 +241,8 @@ class RobotGeometry:
             if link.inertia_axial > 2.0 * link.inertia_transverse:
                 raise RobotDescriptionError(
                     f'{key}.inertia_axial: must be <= 2 * inertia_transverse (triangle inequality)')
+        if self.tool is not None:
+            self._check_tool()
         object.__setattr__(self, 'gravity', _as_array(self.gravity, (3,), 'gravity'))
         q = _as_array(self.home_quaternion_xyzw, (4,), 'home.quaternion')
         if abs(np.linalg.norm(q) - 1.0) > 1e-6:
@@ -234,6 +289,25 @@ class RobotGeometry:
             if lo_ >= hi_:
                 raise RobotDescriptionError(f'extra_dof.{ring}: min_angle must be < max_angle')
 
+    def _check_tool(self) -> None:
+        t = self.tool
+        object.__setattr__(t, 'position', _as_array(t.position, (3,), 'tool.position'))
+        q = _as_array(t.quaternion_xyzw, (4,), 'tool.quaternion')
+        if abs(np.linalg.norm(q) - 1.0) > 1e-6:
+            raise RobotDescriptionError('tool.quaternion: must be a unit quaternion (x, y, z, w)')
+        object.__setattr__(t, 'quaternion_xyzw', normalize_quat(q))
+        _as_scalar(t.mass, 'tool.mass', positive=True)
+        object.__setattr__(t, 'com', _as_array(t.com, (3,), 'tool.com'))
+        object.__setattr__(t, 'inertia', _as_array(t.inertia, (3, 3), 'tool.inertia'))
+        _check_inertia(t.inertia, 'tool.inertia')
+        if t.shape not in TOOL_SHAPES:
+            raise RobotDescriptionError(f'tool.shape: must be one of {TOOL_SHAPES}, got {t.shape!r}')
+        size = tuple(_as_scalar(v, 'tool.size', positive=True) for v in t.size)
+        wanted = {'cylinder': 2, 'box': 3, 'sphere': 1}[t.shape]
+        if len(size) != wanted:
+            raise RobotDescriptionError(f'tool.size: a {t.shape} takes {wanted} sizes, got {len(size)}')
+        object.__setattr__(t, 'size', size)
+
     # --- derived quantities -------------------------------------------------------------
 
     def _home_leg_vectors(self) -> np.ndarray:
@@ -250,6 +324,16 @@ class RobotGeometry:
         else:
             h = float(max(np.max(np.linalg.norm(self.ring_a_anchors, axis=1)), 1e-3))
         return np.array([0.0, 0.0, h])
+
+    @cached_property
+    def ring_b_body(self) -> RigidBodyInertia:
+        """The moving platform as one rigid body in ring_b's frame: the ring and its tool."""
+        if self.tool is None:
+            return self.ring_b_inertia
+        t = self.tool
+        return combine_bodies(self.ring_b_inertia,
+                              RigidBodyInertia(mass=t.mass, com=t.com, inertia=t.inertia),
+                              quat_xyzw_to_matrix(t.quaternion_xyzw), t.position)
 
     @property
     def home_lengths(self) -> np.ndarray:
@@ -282,7 +366,7 @@ class RobotGeometry:
         if not isinstance(data, Mapping):
             raise RobotDescriptionError('top level: expected a mapping')
         known = {'name', 'description', 'ring_a', 'ring_b', 'legs', 'gravity', 'home', 'limits',
-                 'extra_dof'}
+                 'extra_dof', 'tool'}
         unknown = set(data) - known
         if unknown:
             raise RobotDescriptionError(f'unknown top-level keys {sorted(unknown)}')
@@ -357,6 +441,21 @@ class RobotGeometry:
                 min_angle=_as_scalar(sec.get('min_angle', -math.pi), f'extra_dof.{ring}.min_angle'),
                 max_angle=_as_scalar(sec.get('max_angle', math.pi), f'extra_dof.{ring}.max_angle'))
         kwargs['extra_dof'] = dofs
+        if 'tool' in data:
+            sec = section('tool')
+            default = Tool()
+            size = sec.get('size', default.size)
+            if not isinstance(size, (list, tuple)):
+                raise RobotDescriptionError(f'tool.size: expected a list of numbers, got {size!r}')
+            kwargs['tool'] = Tool(
+                name=str(sec.get('name', default.name)),
+                position=_as_array(sec.get('position', default.position), (3,), 'tool.position'),
+                quaternion_xyzw=_as_array(sec.get('quaternion', default.quaternion_xyzw), (4,),
+                                          'tool.quaternion'),
+                mass=_as_scalar(sec.get('mass', default.mass), 'tool.mass', positive=True),
+                com=_as_array(sec.get('com', default.com), (3,), 'tool.com'),
+                inertia=_as_array(sec.get('inertia', default.inertia), (3, 3), 'tool.inertia'),
+                shape=str(sec.get('shape', default.shape)), size=tuple(size))
         return cls(**kwargs)
 
     @classmethod

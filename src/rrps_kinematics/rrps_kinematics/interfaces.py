@@ -4,6 +4,8 @@ Nodes talk through these names and types, never through another node's human-rea
 Topic names are relative (the deployments put them under a namespace such as ``/rrps``)::
 
     TARGET_POSE        geometry_msgs/PoseStamped  a_T_b, frame RING_A_FRAME   command stream
+    TARGET_RINGS       sensor_msgs/JointState     extra-DOF ring angles [rad] command stream
+                       (joints ring_a_rotation, ring_b_rotation: robots with the extra DOF)
     ACTUATORS_COMMAND  sensor_msgs/JointState     leg lengths [m], LEG_NAMES  command stream
     ACTUATORS_STATE    sensor_msgs/JointState     lengths, rates, forces      state stream
     POSE               geometry_msgs/PoseStamped  a_T_b from FK               state stream
@@ -28,13 +30,14 @@ import typing
 from typing import Any, ClassVar, Mapping
 
 __all__ = [
-    'TARGET_POSE', 'ACTUATORS_COMMAND', 'ACTUATORS_STATE', 'POSE', 'DIAGNOSTICS',
+    'TARGET_POSE', 'TARGET_RINGS', 'ring_joint', 'ACTUATORS_COMMAND', 'ACTUATORS_STATE', 'POSE', 'DIAGNOSTICS',
     'RING_A_FRAME', 'RING_B_FRAME', 'WORLD_FRAME', 'LEG_NAMES',
     'ContractError', 'encode_value', 'decode_value', 'StatusValues', 'source_node',
     'CommandAgeStatus', 'IkStatus', 'FkStatus',
 ]
 
 TARGET_POSE = 'target_pose'
+TARGET_RINGS = 'target_rings'
 ACTUATORS_COMMAND = 'actuators/command'
 ACTUATORS_STATE = 'actuators/state'
 POSE = 'pose'
@@ -46,6 +49,14 @@ WORLD_FRAME = 'world'
 
 #: Joint names of the six legs, in leg order.
 LEG_NAMES = tuple(f'leg_{i}' for i in range(1, 7))
+
+
+def ring_joint(ring: str) -> str:
+    """Joint name of a ring's extra DOF (its angle about the ring axis, rad) in the actuator
+    streams of robots that have one (paper section 3.1, Figure 9)."""
+    if ring not in ('ring_a', 'ring_b'):
+        raise ValueError(f"ring must be 'ring_a' or 'ring_b', got {ring!r}")
+    return f'{ring}_rotation'
 
 
 class ContractError(ValueError):

@@ -30,6 +30,7 @@ __all__ = [
     'universal_joint_frames',
     'lower_link_rotations',
     'leg_lengths',
+    'pose_arrays',
 ]
 
 
@@ -158,7 +159,13 @@ class InverseKinematicsResult:
         return lower_link_rotations(self.geometry, self.universal_angles)
 
 
-def _pose_arrays(position, quaternion_xyzw) -> tuple[np.ndarray, np.ndarray]:
+def pose_arrays(position, quaternion_xyzw) -> tuple[np.ndarray, np.ndarray]:
+    """A pose a_T_b (or a batch) as float arrays: position (..., 3) and unit quaternion (..., 4).
+
+    The one validation of pose input (eq. 1's r and A_c): shapes (3,)/(4,) or (N, 3)/(N, 4) with
+    equal batch shapes, finite values, a non-zero quaternion (normalised on return). Raises
+    ValueError otherwise.
+    """
     p = np.asarray(position, dtype=float)
     q = np.asarray(quaternion_xyzw, dtype=float)
     if p.shape[-1:] != (3,):
@@ -181,7 +188,7 @@ def inverse_kinematics(geometry: RobotGeometry, position, quaternion_xyzw) -> In
     The quaternion is normalised; NaN/inf, zero quaternions and shape mismatches raise ValueError.
     Poses outside the limits are still solved: see :mod:`rrps_kinematics.limits` for margins.
     """
-    p, q = _pose_arrays(position, quaternion_xyzw)
+    p, q = pose_arrays(position, quaternion_xyzw)
     return InverseKinematicsResult(geometry, p, quat_xyzw_to_matrix(q))
 
 
@@ -190,7 +197,7 @@ def leg_lengths(geometry: RobotGeometry, position, quaternion_xyzw, *, backend: 
 
     Equal to ``inverse_kinematics(...).lengths``; with numba it skips every other quantity.
     """
-    p, q = _pose_arrays(position, quaternion_xyzw)
+    p, q = pose_arrays(position, quaternion_xyzw)
     if not use_numba(backend):
         return InverseKinematicsResult(geometry, p, quat_xyzw_to_matrix(q)).lengths
     P = np.ascontiguousarray(p.reshape(-1, 3))

@@ -25,7 +25,8 @@ centre in ring_b's com frame and d = r_u + A_u s'_u - r_l - A_l s'_l the leg vec
 joint centres, so the driving constraint sets the actuator length exactly. Eq. 8's second
 vector is the upper link's y axis: orthogonal to f_l when assembled, as eq. 8 requires.
 
-Φ_q is analytic (exact derivatives of the polynomial A(p)), compiled with numba, and has 718
+Φ_q is analytic (exact derivatives of the polynomial A(p)), compiled with numba (plain Python
+with ``RRPS_NUMBA=0``, see :mod:`.backend`), and has 718
 structural nonzeros of 8281 (``jacobian(q, sparse=True)`` gives it as scipy CSC). Newton's
 linear solve (eq. 11) exploits that structure by default: each leg's 15 rows touch only its 14
 link coordinates and ring_b's 7, so eliminating the link unknowns per leg leaves a 7 x 7 system
@@ -36,14 +37,39 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from functools import cached_property
 
-import numba
 import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
 
+from .backend import jit
+from .errors import SingularPoseError
+from .forward import check_lengths
 from .geometry import RobotGeometry
-from .inverse import _pose_arrays, inverse_kinematics, universal_joint_frames
+from .inverse import inverse_kinematics, pose_arrays, universal_joint_frames
+from .multibody_constraints import (
+    FLOPS_LEG_JACOBIAN,
+    FLOPS_LEG_RESIDUAL,
+    FLOPS_NORMALISATION,
+    FLOPS_ROTATION,
+    N_BODIES,
+    N_CONSTRAINTS,
+    N_COORDINATES,
+    N_DRIVING,
+    N_JOINT_CONSTRAINTS,
+    JointGeometry,
+    all_constraints,
+    all_jacobian,
+    body_slice,
+    leg_jacobian,
+    leg_residual,
+    leg_residual_with_rotations,
+    lower_link_body,
+    rotation,
+    rotation_into,
+    upper_link_body,
+)
 from .rotations import (
     euler_parameters_to_quat_xyzw,
     matrix_to_euler_parameters,
@@ -53,261 +79,30 @@ from .rotations import (
 )
 
 __all__ = [
+    'FLOPS_LEG_JACOBIAN',
+    'FLOPS_LEG_RESIDUAL',
+    'FLOPS_ROTATION',
     'N_BODIES',
     'N_CONSTRAINTS',
     'N_COORDINATES',
     'N_DRIVING',
     'N_JOINT_CONSTRAINTS',
+    'JointGeometry',
     'MultibodyModel',
     'MultibodyDKResult',
     'body_slice',
     'gauss_eliminate',
+    'leg_jacobian',
+    'leg_residual',
+    'leg_residual_with_rotations',
     'lower_link_body',
+    'rotation',
+    'rotation_into',
     'structured_solve',
     'upper_link_body',
 ]
 
-N_BODIES = 13
-N_COORDINATES = 7 * N_BODIES          # 91
-N_JOINT_CONSTRAINTS = 72              # Φ^K: spherical, universal, translational
-N_DRIVING = 6                         # Φ^D
-N_CONSTRAINTS = N_JOINT_CONSTRAINTS + N_DRIVING + N_BODIES   # 91
-
-# Flop model (multiply and add each count one; sqrt/division one): work done per evaluation.
-FLOPS_ROTATION = 28                   # A(p) from Euler parameters
-FLOPS_ROTATE = 15                     # A s'
-FLOPS_DAS_DP = 40                     # ∂(A s')/∂p, 3 x 4
-FLOPS_LEG_RESIDUAL = 2 * FLOPS_ROTATION + 4 * FLOPS_ROTATE + 6 * 5 + 20
-FLOPS_LEG_JACOBIAN = 10 * FLOPS_DAS_DP + 14 * 7 + 10 * 8
-FLOPS_NORMALISATION = 8               # residual and gradient of p^T p - 1
-
-
-def lower_link_body(k: int) -> int:
-    """Body index of leg k's lower link (k = 0..5)."""
-    return 1 + 2 * k
-
-
-def upper_link_body(k: int) -> int:
-    """Body index of leg k's upper link (k = 0..5)."""
-    return 2 + 2 * k
-
-
-def body_slice(b: int) -> slice:
-    """Slice of body b's 7 coordinates [r, p] in q."""
-    return slice(7 * b, 7 * b + 7)
-
-
-# --- compiled kernels (shared with rrps_sim.dynamics) ------------------------------------------
-
-@numba.njit(cache=True)
-def rotation(q, o):
-    """A(p) = (2 e0^2 - 1) I + 2 (e e^T + e0 ẽ) of the Euler parameters q[o:o+4] (section 2.1)."""
-    e0, e1, e2, e3 = q[o], q[o + 1], q[o + 2], q[o + 3]
-    A = np.empty((3, 3))
-    c = 2.0 * e0 * e0 - 1.0
-    A[0, 0] = c + 2.0 * e1 * e1
-    A[1, 1] = c + 2.0 * e2 * e2
-    A[2, 2] = c + 2.0 * e3 * e3
-    A[0, 1] = 2.0 * (e1 * e2 - e0 * e3)
-    A[1, 0] = 2.0 * (e1 * e2 + e0 * e3)
-    A[0, 2] = 2.0 * (e1 * e3 + e0 * e2)
-    A[2, 0] = 2.0 * (e1 * e3 - e0 * e2)
-    A[1, 2] = 2.0 * (e2 * e3 - e0 * e1)
-    A[2, 1] = 2.0 * (e2 * e3 + e0 * e1)
-    return A
-
-
-@numba.njit(cache=True)
-def das_dp(q, o, s):
-    """∂(A(p) s')/∂p for p = q[o:o+4] (3 x 4): exact derivative of the polynomial A(p)."""
-    e0, e1, e2, e3 = q[o], q[o + 1], q[o + 2], q[o + 3]
-    out = np.empty((3, 4))
-    # ∂/∂e0 = 2 (2 e0 s' + e × s')
-    out[0, 0] = 2.0 * (2.0 * e0 * s[0] + e2 * s[2] - e3 * s[1])
-    out[1, 0] = 2.0 * (2.0 * e0 * s[1] + e3 * s[0] - e1 * s[2])
-    out[2, 0] = 2.0 * (2.0 * e0 * s[2] + e1 * s[1] - e2 * s[0])
-    # ∂/∂e = 2 ((e·s') I + e s'^T - e0 s̃')
-    es = e1 * s[0] + e2 * s[1] + e3 * s[2]
-    e = (e1, e2, e3)
-    for i in range(3):
-        for j in range(3):
-            v = e[i] * s[j]
-            if i == j:
-                v += es
-            out[i, 1 + j] = 2.0 * v
-    out[0, 2] -= 2.0 * e0 * (-s[2])
-    out[0, 3] -= 2.0 * e0 * s[1]
-    out[1, 1] -= 2.0 * e0 * s[2]
-    out[1, 3] -= 2.0 * e0 * (-s[0])
-    out[2, 1] -= 2.0 * e0 * (-s[1])
-    out[2, 2] -= 2.0 * e0 * s[0]
-    return out
-
-
-@numba.njit(cache=True)
-def leg_residual(q, k, length, a, ha, sb, cl, cu, out):
-    """Leg k's 12 joint constraints (eqs. 3-8) and its driving constraint (eq. 10) -> out[0:13]."""
-    ob = 0
-    ol = 7 * (1 + 2 * k)
-    ou = 7 * (2 + 2 * k)
-    Ab = rotation(q, ob + 3)
-    Al = rotation(q, ol + 3)
-    Au = rotation(q, ou + 3)
-    for i in range(3):
-        s_b = Ab[i, 0] * sb[k, 0] + Ab[i, 1] * sb[k, 1] + Ab[i, 2] * sb[k, 2]
-        out[i] = q[ou + i] + Au[i, 2] * cu - q[ob + i] - s_b
-        out[3 + i] = q[ol + i] - Al[i, 2] * cl - a[k, i]
-    out[6] = ha[k, 0] * Al[0, 1] + ha[k, 1] * Al[1, 1] + ha[k, 2] * Al[2, 1]
-    d = np.empty(3)
-    for i in range(3):
-        d[i] = q[ou + i] + Au[i, 2] * cu - q[ol + i] + Al[i, 2] * cl
-    f0 = 0.0
-    f1 = 0.0
-    g0 = 0.0
-    g1 = 0.0
-    fg = 0.0
-    hd = 0.0
-    for i in range(3):
-        f0 += Al[i, 0] * Au[i, 2]
-        f1 += Al[i, 1] * Au[i, 2]
-        g0 += Al[i, 0] * d[i]
-        g1 += Al[i, 1] * d[i]
-        fg += Al[i, 0] * Au[i, 1]
-        hd += Al[i, 2] * d[i]
-    out[7] = f0
-    out[8] = f1
-    out[9] = g0
-    out[10] = g1
-    out[11] = fg
-    out[12] = hd - length
-
-
-@numba.njit(cache=True)
-def leg_jacobian(q, k, a, ha, sb, cl, cu, out):
-    """∂/∂q of leg k's 13 rows (12 joint + driving); out (13, 21), columns [q_b, q_l, q_u]."""
-    ob = 0
-    ol = 7 * (1 + 2 * k)
-    ou = 7 * (2 + 2 * k)
-    out[:, :] = 0.0
-    Al = rotation(q, ol + 3)
-    Au = rotation(q, ou + 3)
-    sbk = np.empty(3)
-    for i in range(3):
-        sbk[i] = sb[k, i]
-    ex = np.array([1.0, 0.0, 0.0])
-    ey = np.array([0.0, 1.0, 0.0])
-    ez = np.array([0.0, 0.0, 1.0])
-    s_l = np.array([0.0, 0.0, -cl])
-    s_u = np.array([0.0, 0.0, cu])
-    Bb = das_dp(q, ob + 3, sbk)
-    Bl_s = das_dp(q, ol + 3, s_l)
-    Bu_s = das_dp(q, ou + 3, s_u)
-    Bl_x = das_dp(q, ol + 3, ex)
-    Bl_y = das_dp(q, ol + 3, ey)
-    Bl_z = das_dp(q, ol + 3, ez)
-    Bu_y = das_dp(q, ou + 3, ey)
-    Bu_z = das_dp(q, ou + 3, ez)
-    d = np.empty(3)
-    for i in range(3):
-        d[i] = q[ou + i] + Au[i, 2] * cu - q[ol + i] + Al[i, 2] * cl
-    for i in range(3):
-        # spherical (eq. 3)
-        out[i, 14 + i] = 1.0
-        out[i, i] = -1.0
-        for j in range(4):
-            out[i, 17 + j] = Bu_s[i, j]
-            out[i, 3 + j] = -Bb[i, j]
-        # universal, spherical part (eq. 4)
-        out[3 + i, 7 + i] = 1.0
-        for j in range(4):
-            out[3 + i, 10 + j] = Bl_s[i, j]
-    for j in range(4):
-        v6 = 0.0
-        v7l = 0.0
-        v7u = 0.0
-        v8l = 0.0
-        v8u = 0.0
-        v9 = 0.0
-        v10 = 0.0
-        v11l = 0.0
-        v11u = 0.0
-        v12 = 0.0
-        w9 = 0.0
-        w10 = 0.0
-        w12 = 0.0
-        for i in range(3):
-            v6 += ha[k, i] * Bl_y[i, j]
-            v7l += Au[i, 2] * Bl_x[i, j]
-            v7u += Al[i, 0] * Bu_z[i, j]
-            v8l += Au[i, 2] * Bl_y[i, j]
-            v8u += Al[i, 1] * Bu_z[i, j]
-            v9 += d[i] * Bl_x[i, j] - Al[i, 0] * Bl_s[i, j]
-            v10 += d[i] * Bl_y[i, j] - Al[i, 1] * Bl_s[i, j]
-            v12 += d[i] * Bl_z[i, j] - Al[i, 2] * Bl_s[i, j]
-            w9 += Al[i, 0] * Bu_s[i, j]
-            w10 += Al[i, 1] * Bu_s[i, j]
-            w12 += Al[i, 2] * Bu_s[i, j]
-            v11l += Au[i, 1] * Bl_x[i, j]
-            v11u += Al[i, 0] * Bu_y[i, j]
-        out[6, 10 + j] = v6
-        out[7, 10 + j] = v7l
-        out[7, 17 + j] = v7u
-        out[8, 10 + j] = v8l
-        out[8, 17 + j] = v8u
-        out[9, 10 + j] = v9
-        out[9, 17 + j] = w9
-        out[10, 10 + j] = v10
-        out[10, 17 + j] = w10
-        out[11, 10 + j] = v11l
-        out[11, 17 + j] = v11u
-        out[12, 10 + j] = v12
-        out[12, 17 + j] = w12
-    for i in range(3):
-        out[9, 14 + i] = Al[i, 0]
-        out[9, 7 + i] = -Al[i, 0]
-        out[10, 14 + i] = Al[i, 1]
-        out[10, 7 + i] = -Al[i, 1]
-        out[12, 14 + i] = Al[i, 2]
-        out[12, 7 + i] = -Al[i, 2]
-
-
-@numba.njit(cache=True)
-def all_constraints(q, lengths, a, ha, sb, cl, cu):
-    """Φ(q) of eq. 2 (91,): 72 joint, 6 driving, 13 normalisation constraints."""
-    phi = np.empty(91)
-    buf = np.empty(13)
-    for k in range(6):
-        leg_residual(q, k, lengths[k], a, ha, sb, cl, cu, buf)
-        phi[12 * k:12 * k + 12] = buf[:12]
-        phi[72 + k] = buf[12]
-    for b in range(13):
-        o = 7 * b + 3
-        phi[78 + b] = q[o] ** 2 + q[o + 1] ** 2 + q[o + 2] ** 2 + q[o + 3] ** 2 - 1.0
-    return phi
-
-
-@numba.njit(cache=True)
-def all_jacobian(q, a, ha, sb, cl, cu):
-    """Φ_q of eq. 2, dense (91, 91)."""
-    J = np.zeros((91, 91))
-    buf = np.empty((13, 21))
-    for k in range(6):
-        leg_jacobian(q, k, a, ha, sb, cl, cu, buf)
-        cols = (0, 7 * (1 + 2 * k), 7 * (2 + 2 * k))
-        for blk in range(3):
-            c0 = cols[blk]
-            for j in range(7):
-                for i in range(12):
-                    J[12 * k + i, c0 + j] = buf[i, 7 * blk + j]
-                J[72 + k, c0 + j] = buf[12, 7 * blk + j]
-    for b in range(13):
-        o = 7 * b + 3
-        for j in range(4):
-            J[78 + b, o + j] = 2.0 * q[o + j]
-    return J
-
-
-@numba.njit(cache=True)
+@jit
 def gauss_eliminate(A, nrow, ncol_pivot, ncol):
     """Gaussian elimination with partial pivoting of A[:nrow, :ncol] on its first ncol_pivot
     columns (in place); returns (ok, flops)."""
@@ -338,7 +133,7 @@ def gauss_eliminate(A, nrow, ncol_pivot, ncol):
     return True, flops
 
 
-@numba.njit(cache=True)
+@jit
 def structured_solve(J, rhs):
     """Solve Φ_q Δq = rhs (91) by the robot's structure; returns (ok, Δq, flops).
 
@@ -425,35 +220,42 @@ class MultibodyModel:
 
     def __init__(self, geometry: RobotGeometry):
         self.geometry = geometry
-        self.a = np.ascontiguousarray(geometry.ring_a_anchors, dtype=float)
-        self.ha = np.ascontiguousarray(universal_joint_frames(geometry)[:, :, 0])
-        self.ring_b_com = np.asarray(geometry.ring_b_inertia.com, dtype=float)
-        self.sb = np.ascontiguousarray(geometry.ring_b_anchors - self.ring_b_com)
-        self.cl = float(geometry.lower_link.com_from_joint)
-        self.cu = float(geometry.upper_link.com_from_joint)
-        self._kernel_args = (self.a, self.ha, self.sb, self.cl, self.cu)
-        pattern = all_jacobian(self.coordinates_from_pose(geometry.home_position,
-                                                          geometry.home_quaternion_xyzw),
-                               *self._kernel_args)
-        # Structural nonzeros: every entry a kernel writes, found at a generic pose.
-        rng = np.random.default_rng(0)
-        q_rand = rng.normal(size=91)
-        mask = (pattern != 0) | (all_jacobian(q_rand, *self._kernel_args) != 0)
-        self._sparsity = scipy.sparse.csc_matrix(mask.astype(float))
-        self._rows = self._sparsity.indices.copy()
-        self._cols = np.repeat(np.arange(91), np.diff(self._sparsity.indptr))
+        self.ring_b_com = np.asarray(geometry.ring_b_body.com, dtype=float)
+        self.joints = JointGeometry(
+            a=np.ascontiguousarray(geometry.ring_a_anchors, dtype=float),
+            ha=np.ascontiguousarray(universal_joint_frames(geometry)[:, :, 0]),
+            sb=np.ascontiguousarray(geometry.ring_b_anchors - self.ring_b_com),
+            cl=float(geometry.lower_link.com_from_joint),
+            cu=float(geometry.upper_link.com_from_joint))
+
+    @cached_property
+    def _sparsity(self) -> scipy.sparse.csc_matrix:
+        """Structural nonzeros of Φ_q: every entry a kernel writes, at home and a generic pose
+        (found on first use: only the sparse Jacobian and solver need them)."""
+        pattern = all_jacobian(self.coordinates_from_pose(self.geometry.home_position,
+                                                          self.geometry.home_quaternion_xyzw),
+                               self.joints)
+        q_rand = np.random.default_rng(0).normal(size=91)
+        mask = (pattern != 0) | (all_jacobian(q_rand, self.joints) != 0)
+        return scipy.sparse.csc_matrix(mask.astype(float))
+
+    @cached_property
+    def _entries(self) -> tuple[np.ndarray, np.ndarray]:
+        """Rows and columns of the structural nonzeros, in CSC order."""
+        return (self._sparsity.indices.copy(),
+                np.repeat(np.arange(91), np.diff(self._sparsity.indptr)))
 
     # --- coordinates <-> pose ---
 
     def coordinates_from_pose(self, position, quaternion_xyzw) -> np.ndarray:
         """Consistent q (91,) for ring_b at a_T_b: every joint constraint satisfied exactly."""
-        p, quat = _pose_arrays(position, quaternion_xyzw)
+        p, quat = pose_arrays(position, quaternion_xyzw)
         if p.ndim != 1:
             raise ValueError('coordinates_from_pose takes a single pose')
         quat = normalize_quat(quat)
         ik = inverse_kinematics(self.geometry, p, quat)
         if np.any(ik.lengths < 1e-9):
-            raise ValueError('a leg has zero length at this pose')
+            raise SingularPoseError('singular pose: a leg has zero length')
         q = np.empty(91)
         Rb = quat_xyzw_to_matrix(quat)
         q[0:3] = p + Rb @ self.ring_b_com
@@ -462,9 +264,9 @@ class MultibodyModel:
         u = ik.unit_vectors
         for k in range(6):
             ol, ou = 7 * lower_link_body(k), 7 * upper_link_body(k)
-            q[ol:ol + 3] = self.a[k] + self.cl * u[k]
+            q[ol:ol + 3] = self.joints.a[k] + self.joints.cl * u[k]
             q[ol + 3:ol + 7] = p_links[k]
-            q[ou:ou + 3] = ik.ring_b_anchors_in_a[k] - self.cu * u[k]
+            q[ou:ou + 3] = ik.ring_b_anchors_in_a[k] - self.joints.cu * u[k]
             q[ou + 3:ou + 7] = p_links[k]
         return q
 
@@ -483,16 +285,16 @@ class MultibodyModel:
     def constraints(self, q, lengths) -> np.ndarray:
         """Φ(q) of eq. 2, shape (91,); lengths (6,) enter the driving constraints."""
         q = self._check_q(q)
-        L = _check_lengths(lengths)
-        return all_constraints(q, L, *self._kernel_args)
+        L = check_lengths(lengths, batch=False)
+        return all_constraints(q, L, self.joints)
 
     def jacobian(self, q, *, sparse: bool = False):
         """Analytic Φ_q (91 x 91), dense ndarray or scipy.sparse CSC (structural nonzeros)."""
         q = self._check_q(q)
-        J = all_jacobian(q, *self._kernel_args)
+        J = all_jacobian(q, self.joints)
         if not sparse:
             return J
-        return scipy.sparse.csc_matrix((J[self._rows, self._cols], self._sparsity.indices,
+        return scipy.sparse.csc_matrix((J[self._entries], self._sparsity.indices,
                                         self._sparsity.indptr), shape=(91, 91))
 
     @property
@@ -518,7 +320,7 @@ class MultibodyModel:
         """
         if solver not in ('structured', 'sparse', 'dense'):
             raise ValueError(f"solver must be 'structured', 'sparse' or 'dense', got {solver!r}")
-        L = _check_lengths(lengths)
+        L = check_lengths(lengths, batch=False)
         if q_seed is None:
             q_seed = self.coordinates_from_pose(self.geometry.home_position,
                                                 self.geometry.home_quaternion_xyzw)
@@ -530,7 +332,7 @@ class MultibodyModel:
         flops = 0
         iterations = 0
         converged = False
-        phi = all_constraints(q, L, *self._kernel_args)
+        phi = all_constraints(q, L, self.joints)
         flops += residual_flops
         res = float(np.max(np.abs(phi)))
         while True:
@@ -539,7 +341,7 @@ class MultibodyModel:
                 break
             if iterations >= max_iterations or not np.isfinite(res):
                 break
-            J = all_jacobian(q, *self._kernel_args)
+            J = all_jacobian(q, self.joints)
             flops += jacobian_flops
             try:
                 if solver == 'structured':
@@ -551,7 +353,7 @@ class MultibodyModel:
                     dq = np.linalg.solve(J, -phi)
                     flops += (2 * n**3) // 3 + 2 * n**2
                 else:
-                    Js = scipy.sparse.csc_matrix((J[self._rows, self._cols],
+                    Js = scipy.sparse.csc_matrix((J[self._entries],
                                                   self._sparsity.indices, self._sparsity.indptr),
                                                  shape=(n, n))
                     lu = scipy.sparse.linalg.splu(Js, permc_spec='COLAMD')
@@ -562,7 +364,7 @@ class MultibodyModel:
             q += dq
             flops += n
             iterations += 1
-            phi = all_constraints(q, L, *self._kernel_args)
+            phi = all_constraints(q, L, self.joints)
             flops += residual_flops
             res = float(np.max(np.abs(phi)))
         seconds = time.perf_counter() - t0
@@ -578,15 +380,6 @@ class MultibodyModel:
         if not np.all(np.isfinite(q)):
             raise ValueError('q contains NaN or infinite values')
         return q
-
-
-def _check_lengths(lengths) -> np.ndarray:
-    L = np.ascontiguousarray(lengths, dtype=float)
-    if L.shape != (6,):
-        raise ValueError(f'lengths must have shape (6,), got {L.shape}')
-    if not np.all(np.isfinite(L)):
-        raise ValueError('lengths contain NaN or infinite values')
-    return L
 
 
 _LU_FLOPS_CACHE: dict[tuple, int] = {}

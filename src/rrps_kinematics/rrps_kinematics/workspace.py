@@ -47,10 +47,9 @@ import numpy as np
 from scipy import ndimage
 
 from .backend import use_numba
-from .limits import limit_arrays
 from .geometry import RobotGeometry
 from .inverse import inverse_kinematics
-from .limits import margins
+from .limits import LIMIT_KINDS, limit_arrays, margins
 from .rotations import quat_multiply_xyzw, quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
 
 __all__ = [
@@ -69,7 +68,6 @@ __all__ = [
 ]
 
 #: The limits in the order in which they exclude a point (the kinds of ``Margins.minimum``).
-LIMIT_KINDS = ('stroke', 'universal', 'spherical', 'interference', 'conditioning')
 #: Default near-singular threshold on the inverse condition number: the teleop guard's
 #: ``TeleopConfig.singularity_slowdown``, below which motion towards a singularity slows down.
 SINGULAR_THRESHOLD = 0.08
@@ -132,7 +130,7 @@ class Workspace:
         """(M, 3) reachable positions whose inverse condition number is below the threshold [m]."""
         return self._points(self.labels == NEAR_SINGULAR)
 
-    @property
+    @cached_property
     def counts(self) -> dict[str, int]:
         """Grid points: ``total``, ``reachable`` (near-singular included), ``near_singular``,
         ``unreachable``."""

@@ -36,6 +36,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from rrps_kinematics.errors import ConvergenceError, SingularPoseError
 from rrps_kinematics.geometry import RobotGeometry
 from rrps_kinematics.inverse import inverse_kinematics, universal_joint_frames
 from rrps_kinematics.jacobian import inverse_jacobian
@@ -68,8 +69,9 @@ def assembled_pose(geometry: RobotGeometry, position, quaternion_xyzw):
     """IK of N poses (position (N, 3) or (3,)) checked to be a valid assembly of the model.
 
     Returns (ik, x1, n): the IK result, each universal joint's fixed axis x1 (6, 3) and
-    n = u × x1 (N, 6, 3). Raises ValueError for a non-RobotGeometry, invalid poses (shapes, NaN,
-    zero quaternion), a zero-length leg, or a locked universal joint (leg along its fixed axis).
+    n = u × x1 (N, 6, 3). Raises ValueError for a non-RobotGeometry or invalid poses (shapes, NaN,
+    zero quaternion); SingularPoseError (a ValueError too) for a zero-length leg or a locked
+    universal joint (leg along its fixed axis).
     """
     if not isinstance(geometry, RobotGeometry):
         raise ValueError(f'geometry must be a RobotGeometry, got {type(geometry).__name__}')
@@ -79,12 +81,13 @@ def assembled_pose(geometry: RobotGeometry, position, quaternion_xyzw):
         p, q = p[None], q[None]
     ik = inverse_kinematics(geometry, p, q)  # validates shapes, NaN, zero quaternions
     if np.any(ik.lengths < 1e-9):
-        raise ValueError('a leg has zero length: the pose is not a valid assembly')
+        raise SingularPoseError('singular pose: a leg has zero length, the pose is not a valid '
+                                'assembly')
     x1 = universal_joint_frames(geometry)[:, :, 0]
     n = cross(ik.unit_vectors, x1)
     if np.any(_dot(n, n) < _UNIVERSAL_LOCK):
-        raise ValueError('a universal joint is locked (leg along its fixed axis): '
-                         'the link rotation is undefined at this pose')
+        raise SingularPoseError('singular pose: a universal joint is locked (leg along its fixed '
+                                'axis), the link rotation is undefined')
     return ik, x1, n
 
 
@@ -102,8 +105,8 @@ class PlatformPose:
         self.anchors_b = self.ik.leg_vectors + geometry.ring_a_anchors - p[:, None, :]  # A_c s'_i
         self.n_sq = _dot(self.n, self.n)
         self.m = cross(self.n, self.u)
-        self.com_b = np.einsum('nij,j->ni', self.rotation, geometry.ring_b_inertia.com)
-        self.inertia_b = self.rotation @ geometry.ring_b_inertia.inertia @ np.swapaxes(
+        self.com_b = np.einsum('nij,j->ni', self.rotation, geometry.ring_b_body.com)
+        self.inertia_b = self.rotation @ geometry.ring_b_body.inertia @ np.swapaxes(
             self.rotation, -1, -2)
         lo, up = geometry.lower_link, geometry.upper_link
         # Both links share one rotation: their angular inertias add up.
@@ -215,7 +218,7 @@ def mass_matrix(pose: PlatformPose) -> np.ndarray:
     """M (N, 6, 6) of the reduced model: kinetic energy = 1/2 t^T M t."""
     g = pose.geometry
     V = _unit_velocities(pose)
-    M = g.ring_b_inertia.mass * np.einsum('kni,jni->njk', V.ring, V.ring)
+    M = g.ring_b_body.mass * np.einsum('kni,jni->njk', V.ring, V.ring)
     M = M + np.einsum('kni,jni->njk', V.ring_angular, pose.ring_inertia_times(V.ring_angular))
     M = M + g.lower_link.mass * np.einsum('knli,jnli->njk', V.lower, V.lower)
     M = M + g.upper_link.mass * np.einsum('knli,jnli->njk', V.upper, V.upper)
@@ -236,7 +239,7 @@ def generalized_forces(pose: PlatformPose, twist, twist_dot) -> np.ndarray:
     A = body_accelerations(pose, twist, twist_dot)
     w = body_velocities(pose, twist)
     grav = g.gravity
-    ring_force = g.ring_b_inertia.mass * (A.ring - grav)
+    ring_force = g.ring_b_body.mass * (A.ring - grav)
     ring_moment = (pose.ring_inertia_times(A.ring_angular)
                    + cross(w.ring_angular, pose.ring_inertia_times(w.ring_angular)))
     lower_force = g.lower_link.mass * (A.lower - grav)
@@ -255,7 +258,7 @@ def kinetic_energy(pose: PlatformPose, twist) -> np.ndarray:
     """T (N,) [J] of ring_b and the twelve links for ring_b twists (N, 6)."""
     g = pose.geometry
     V = body_velocities(pose, twist)
-    return 0.5 * (g.ring_b_inertia.mass * _dot(V.ring, V.ring)
+    return 0.5 * (g.ring_b_body.mass * _dot(V.ring, V.ring)
                   + _dot(V.ring_angular, pose.ring_inertia_times(V.ring_angular))
                   + g.lower_link.mass * np.sum(_dot(V.lower, V.lower), axis=-1)
                   + g.upper_link.mass * np.sum(_dot(V.upper, V.upper), axis=-1)
@@ -268,7 +271,7 @@ def potential_energy(pose: PlatformPose) -> np.ndarray:
     ring_com = pose.position + pose.com_b
     lower_com = g.ring_a_anchors + g.lower_link.com_from_joint * pose.u
     upper_com = pose.ik.ring_b_anchors_in_a - g.upper_link.com_from_joint * pose.u
-    return -(g.ring_b_inertia.mass * _dot(ring_com, g.gravity)
+    return -(g.ring_b_body.mass * _dot(ring_com, g.gravity)
              + g.lower_link.mass * np.sum(_dot(lower_com, g.gravity), axis=-1)
              + g.upper_link.mass * np.sum(_dot(upper_com, g.gravity), axis=-1))
 
@@ -381,7 +384,7 @@ def simulate_reduced(geometry: RobotGeometry, position, quaternion_xyzw,
     sol = solve_ivp(rhs, (0.0, t_eval[-1]), y0, method='DOP853', t_eval=t_eval,
                     rtol=rtol, atol=atol)
     if not sol.success:
-        raise RuntimeError(f'reduced-model integration failed: {sol.message}')
+        raise ConvergenceError(f'reduced-model integration failed: {sol.message}')
     Y = sol.y.T
     quat = Y[:, 3:7] / np.linalg.norm(Y[:, 3:7], axis=1, keepdims=True)
     pose = PlatformPose(geometry, Y[:, :3], quat)

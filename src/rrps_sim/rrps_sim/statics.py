@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from rrps_kinematics.errors import SingularPoseError
 from rrps_kinematics.geometry import RobotGeometry
-
 from rrps_kinematics.inverse import InverseKinematicsResult
 from rrps_kinematics.jacobian import inverse_jacobian
 from rrps_kinematics.rotations import cross
@@ -26,7 +26,7 @@ SINGULAR_CONDITIONING = 1e-9
 
 
 def solve_actuator_forces(pose: PlatformPose, load: np.ndarray) -> np.ndarray:
-    """Actuator forces f (N, 6) with J^T f = load (N, 6); ValueError at a singular pose."""
+    """Actuator forces f (N, 6) with J^T f = load (N, 6); SingularPoseError at a singular pose."""
     return _solve_transposed(pose.inverse_jacobian, pose.geometry, load)
 
 
@@ -39,7 +39,7 @@ def _solve_transposed(J: np.ndarray, geometry: RobotGeometry, load: np.ndarray) 
     conditioning = s[:, -1] / s[:, 0]
     bad = np.flatnonzero(~(conditioning > SINGULAR_CONDITIONING))
     if bad.size:
-        raise ValueError(f'singular pose (sample {int(bad[0])}: inverse condition number '
+        raise SingularPoseError(f'singular pose (sample {int(bad[0])}: inverse condition number '
                          f'{conditioning[bad[0]]:.3g}): no finite actuator forces hold it')
     return np.linalg.solve(np.swapaxes(J, -1, -2), np.asarray(load, dtype=float)[..., None])[..., 0]
 
@@ -60,8 +60,8 @@ def gravity_load(geometry: RobotGeometry, ik: InverseKinematicsResult) -> np.nda
     w = ((lo.mass * lo.com_from_joint - up.mass * up.com_from_joint) / lengths)[..., None] * g_normal \
         + up.mass * g
     r = ik.ring_b_anchors_in_a - ik.position[..., None, :]                    # A_c s'_i
-    com = np.einsum('...ij,j->...i', ik.rotation, geometry.ring_b_inertia.com)
-    mass = geometry.ring_b_inertia.mass
+    com = np.einsum('...ij,j->...i', ik.rotation, geometry.ring_b_body.com)
+    mass = geometry.ring_b_body.mass
     force = mass * g + w.sum(axis=-2)
     moment = mass * cross(com, g) + cross(r, w).sum(axis=-2)
     return -np.concatenate([force, moment], axis=-1)
@@ -71,7 +71,8 @@ def holding_forces(geometry: RobotGeometry, position, quaternion_xyzw) -> np.nda
     """Actuator forces [N] (6,) holding ring_b at rest at a pose against gravity, legs included.
 
     ``position`` (3,) [m] and ``quaternion_xyzw`` (4,) give a_T_b; batches (N, 3), (N, 4) give
-    (N, 6). Raises ValueError for invalid input, a locked universal joint or a singular pose.
+    (N, 6). Raises ValueError for invalid input, SingularPoseError (a ValueError too) for a
+    locked universal joint or a singular pose.
     """
     single = np.ndim(position) == 1
     ik, _, _ = assembled_pose(geometry, position, quaternion_xyzw)

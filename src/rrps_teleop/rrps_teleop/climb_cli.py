@@ -8,7 +8,7 @@ positions ``s_a, s_b``, the world poses of both rings (``a_x..a_qw``, ``b_x..b_q
 odometry chain), the kinematic pose a_T_b (``px..qw``), the extra-DOF angles, the leg lengths
 ``L1..L6`` [m] and the smallest margin of each kind over the phase. A negative distance climbs
 down. Exit status: 0 planned, 1 refused (a limit would break: the message says which, on which
-legs, at which step and phase), 2 bad arguments (one line on stderr).
+legs, at which step and phase), 2 bad arguments (one line on stderr), 3 a bug (its traceback).
 """
 
 from __future__ import annotations
@@ -17,9 +17,18 @@ import argparse
 import csv
 import math
 import sys
+import traceback
 from typing import Sequence
 
-from rrps_kinematics.cli_support import OneLineParser, UsageError, count, load_robot_or_usage_error
+from rrps_kinematics.cli_support import (
+    EXIT_BUG,
+    EXIT_FAILED,
+    EXIT_USAGE,
+    OneLineParser,
+    UsageError,
+    count,
+    load_robot_or_usage_error,
+)
 
 from .gait import CSV_COLUMNS, GaitPlanner, PlanError
 from .structures import STRUCTURES, make_structure
@@ -69,11 +78,15 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise UsageError(str(exc)) from None
     except UsageError as exc:
         print(f'{PROG}: error: {exc}', file=sys.stderr)
-        return 2
+        return EXIT_USAGE
     except PlanError as exc:
         at = ', '.join(f'{k} {v:.4f}' for k, v in exc.margins.items() if not math.isnan(v))
         print(f'{PROG}: refused: {exc}' + (f' [margins there: {at}]' if at else ''), file=sys.stderr)
-        return 1
+        return EXIT_FAILED
+    except Exception:  # a bug: its traceback, never a usage error
+        traceback.print_exc()
+        print(f'{PROG}: internal error (a bug; the traceback above says where)', file=sys.stderr)
+        return EXIT_BUG
     if args.csv:
         try:
             with open(args.csv, 'w', newline='') as f:
@@ -83,7 +96,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                     writer.writerow({k: (f'{v:.6f}' if isinstance(v, float) else v) for k, v in row.items()})
         except OSError as exc:
             print(f'{PROG}: error: cannot write {args.csv}: {exc.strerror}', file=sys.stderr)
-            return 2
+            return EXIT_USAGE
     last = plan.phases[-1]
     m = plan.min_margins
     print(f'{plan.robot} on {plan.structure} ({structure.length:.2f} m route): {plan.steps} steps of '

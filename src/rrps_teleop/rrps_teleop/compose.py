@@ -27,6 +27,9 @@ NODES = {
     'teleop_node': 'rrps_teleop.nodes.teleop_node:TeleopNode',
     'climb_node': 'rrps_teleop.nodes.climb_node:ClimbNode',
     'viewer_node': 'rrps_teleop.nodes.viewer_node:ViewerNode',
+    'recorder_node': 'rrps_teleop.nodes.recorder_node:RecorderNode',
+    'replay_node': 'rrps_teleop.nodes.replay_node:ReplayNode',
+    'markers_node': 'rrps_teleop.nodes.markers_node:MarkersNode',
 }
 
 

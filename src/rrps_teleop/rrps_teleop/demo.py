@@ -1,18 +1,26 @@
 """rrps-demo: the whole stack with the web viewer (``./rrps demo``).
 
-The demo runs as the system would on a robot and an operator station, in three processes:
+The demo runs as the system would on a robot and an operator station, in four processes:
 
 * the simulated hardware (``driver_node``, 500 Hz), as a real robot's driver, active at the
   first start; it keeps the robot's physical state in a file of the run, and a driver that
   dies is restarted inactive where the robot is (the viewer's "Activate driver" resumes);
 * the robot computer's nodes, IK, FK and climbing, composed in one process (``rrps-compose``);
-* the operator station, master, teleop and the viewer, in this process.
+* the operator station, master, teleop and the viewer, in this process;
+* the observers, the flight recorder and markers_node (:func:`start_recorder`).
 
 The 500 Hz state fan-out and the viewer's web server therefore never share an executor (or a
 GIL) with the command path of the robot. A robot process that dies is restarted (at most 3
 times a minute); the children die with this process (a parent-death signal), and Ctrl-C or
-SIGTERM stops all three. The viewer's URL and operator token are
+SIGTERM stops them all. The viewer's URL and operator token are
 printed once the robot is up.
+
+Every node reads its parameter file (``config/<node>.yaml`` of its package, :mod:`rrps_teleop.params`)
+before the demo's own settings (robot, rate, host, port, token), which win. A fourth process
+runs the observers: the flight recorder (``recorder_node``: the last 60 s for the viewer's
+"Save last 60 s" and for fault dumps, in ``--recordings``, default ``rrps_recordings``;
+``--record`` also records the whole session there) and ``markers_node`` (the robot for RViz2
+and Foxglove).
 
 ``--headless`` runs no browser: a scripted teleop session (the operator's handle moves the
 master, a deadman stream engages the mapping, the slave follows; releasing the deadman holds the
@@ -34,8 +42,8 @@ import tempfile
 import threading
 import time
 
-__all__ = ['main', 'build_stack', 'start_driver', 'start_robot_nodes', 'ROBOT_NODES',
-           'OPERATOR_NODES']
+__all__ = ['main', 'build_stack', 'start_driver', 'start_robot_nodes', 'start_recorder',
+           'ROBOT_NODES', 'OPERATOR_NODES', 'OBSERVER_NODES']
 
 NAMESPACE = '/rrps'
 #: The robot computer's nodes (one process) and the operator station's (the demo's own process).
@@ -57,6 +65,10 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument('--headless', action='store_true',
                    help='no browser: run a scripted teleop session and a climb step, then exit '
                         '(0 = success)')
+    p.add_argument('--recordings', default='rrps_recordings',
+                   help='folder of the flight recorder\'s files (and of --record)')
+    p.add_argument('--record', action='store_true',
+                   help='also record the whole session to MCAP in --recordings')
     return p
 
 
@@ -71,6 +83,7 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
     driver / IK and FK nodes (the demo runs the driver and the robot's nodes in processes of
     their own: :func:`start_driver`, :func:`start_robot_nodes`); ``driver_rate`` is the
     simulated driver's actuators/state rate [Hz].
+    Each node reads its parameter file first (:func:`rrps_teleop.params.parameter_overrides`).
 
     Raises ValueError / RobotDescriptionError with a clear message for bad arguments.
     """
@@ -109,12 +122,20 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
     nodes: dict = {}
     try:
         for name, cls, overrides in plan:
-            nodes[name] = cls(context=context, namespace=namespace, parameter_overrides=overrides)
+            nodes[name] = cls(context=context, namespace=namespace,
+                              parameter_overrides=_with_file(name, overrides))
     except BaseException:
         for node in nodes.values():
             node.destroy_node()
         raise
     return nodes
+
+
+def _with_file(node: str, overrides: list) -> list:
+    """The node's parameter file, then ``overrides`` (which win)."""
+    from .params import parameter_overrides
+    explicit = {p.name for p in overrides}
+    return [p for p in parameter_overrides(node) if p.name not in explicit] + list(overrides)
 
 
 def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
@@ -127,7 +148,10 @@ def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
     it with :func:`rrps_kinematics.supervision.stop_children`.
     """
     from rrps_kinematics.supervision import start_child
+
+    from .params import params_file_arguments
     return start_child([sys.executable, '-m', 'rrps_sim.nodes.driver_node', '--ros-args',
+                        *params_file_arguments('driver_node'),
                         '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
                         '-p', f'rate:={float(rate)}', '-p', f'state_file:={state_file}',
                         '-p', f'auto_activate:={str(activate).lower()}'])
@@ -136,8 +160,30 @@ def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
 def start_robot_nodes(*, robot: str, namespace: str = NAMESPACE) -> subprocess.Popen:
     """The robot computer's nodes (:data:`ROBOT_NODES`) composed in one process of their own."""
     from rrps_kinematics.supervision import start_child
+
+    from .params import params_file_arguments
     return start_child([sys.executable, '-m', 'rrps_teleop.compose', *ROBOT_NODES, '--ros-args',
+                        *params_file_arguments(*ROBOT_NODES),
                         '-r', f'__ns:={namespace}', '-p', f'robot:={robot}'])
+
+
+#: The observers: the flight recorder and the robot's markers for RViz2 / Foxglove.
+OBSERVER_NODES = ('recorder_node', 'markers_node')
+
+
+def start_recorder(*, robot: str, output_dir: str, record: bool = False,
+                   namespace: str = NAMESPACE) -> subprocess.Popen:
+    """The observers (:data:`OBSERVER_NODES`) in a process of their own, off the command path:
+    the flight recorder (the last 60 s, written on a fault or on the viewer's "Save last 60 s";
+    with ``record`` the whole session too) and markers_node."""
+    from rrps_kinematics.supervision import start_child
+
+    from .params import params_file_arguments
+    return start_child([sys.executable, '-m', 'rrps_teleop.compose', *OBSERVER_NODES,
+                        '--ros-args', *params_file_arguments(*OBSERVER_NODES),
+                        '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
+                        '-p', f'output_dir:={output_dir}',
+                        '-p', f'record:={"true" if record else "false"}'])
 
 
 def wait_for_robot(executor, context, node, children: list[subprocess.Popen],
@@ -169,6 +215,7 @@ def _banner(viewer) -> str:
     return (f'\nrrps demo: the pole climber is live.\n'
             f'  viewer:         {viewer.url}\n'
             f'  operator token: {viewer.token}\n'
+            f'  robot for RViz2/Foxglove: {NAMESPACE}/robot/markers (MarkerArray, frame ring_a)\n'
             f'  (every browser is read-only until it enters the token; Ctrl-C stops everything)\n')
 
 
@@ -188,8 +235,7 @@ def main(argv=None) -> int:
     from rclpy.task import Future
 
     from rrps_kinematics.geometry import RobotDescriptionError
-    from rrps_kinematics.nodes.common import (freeze_startup_objects, make_executor,
-                                              spin_until_shutdown)
+    from rrps_kinematics.nodes.common import freeze_startup_objects, make_executor, spin_until_shutdown
     from rrps_kinematics.supervision import Respawner, exit_with_parent
 
     stop = threading.Event()
@@ -211,13 +257,16 @@ def main(argv=None) -> int:
             print(f'error: {exc}', file=sys.stderr)
             return 2
         # The simulated robot: its driver (active at the first start only; a restarted driver
-        # resumes the robot's physical state from the state file and waits for activation)
-        # and its computer's nodes. A child that dies is restarted (at most 3 times a minute).
+        # resumes the robot's physical state from the state file and waits for activation),
+        # its computer's nodes, and the observers (flight recorder, markers). A child that dies
+        # is restarted (at most 3 times a minute).
         state_file = os.path.join(run_dir, f'{args.robot}-hardware.json')
         robot = Respawner({
             'driver': lambda first: start_driver(robot=args.robot, state_file=state_file,
                                                  activate=first),
             'robot nodes': lambda first: start_robot_nodes(robot=args.robot),
+            'observer': lambda first: start_recorder(robot=args.robot, output_dir=args.recordings,
+                                                     record=args.record),
         })
         script = None
         if args.headless:

@@ -107,6 +107,12 @@ class Phase:
     min_margins: dict
     world_T_a: Pose = field(default_factory=Pose)
     world_T_b: Pose = field(default_factory=Pose)
+    #: the extra-DOF angles (theta_a, theta_b) [rad] at each sample of ``path`` (n, 2)
+    ring_angles: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.ring_angles is None:
+            self.ring_angles = np.tile([self.theta_a, self.theta_b], (len(self.path), 1))
 
     @property
     def a_T_b(self) -> Pose:
@@ -321,7 +327,8 @@ class GaitPlanner:
     # --- phases ---------------------------------------------------------------------------------
 
     def _phase(self, state: _State, step: int, action: PhaseAction, ring: str, grip_a: bool,
-               grip_b: bool, world_T_a=None, world_T_b=None, s_range=None) -> Phase:
+               grip_b: bool, world_T_a=None, world_T_b=None, s_range=None,
+               ring_angles=None) -> Phase:
         if world_T_a is None:
             wa, wb = self._ring_matrices(state.s_a, state.s_b, state.theta_a, state.theta_b)
             world_T_a, world_T_b = wa[None], wb[None]
@@ -330,7 +337,7 @@ class GaitPlanner:
                                           f's_a={state.s_a:.3f} m, s_b={state.s_b:.3f} m', step, name)
         return Phase(step=step, action=action, ring=ring, gripper_a=grip_a, gripper_b=grip_b, s_a=state.s_a,
                      s_b=state.s_b, theta_a=state.theta_a, theta_b=state.theta_b, path=path,
-                     lengths=lengths, min_margins=mins)
+                     lengths=lengths, min_margins=mins, ring_angles=ring_angles)
 
     def _twist(self, world_T_ring: np.ndarray, world_T_partner: np.ndarray) -> float:
         """Angle [rad] of the ring about its z axis relative to its partner ring."""
@@ -370,14 +377,16 @@ class GaitPlanner:
         if ring == 'a':
             world_T_a = frames @ invert(self._mount_matrices(thetas, state.theta_b)[0])
             world_T_b = np.broadcast_to(wb, world_T_a.shape)
+            angles = np.column_stack([thetas, np.full_like(thetas, state.theta_b)])
             state.s_a, state.theta_a = target, float(theta1)
         else:
             world_T_b = frames @ invert(self._mount_matrices(state.theta_a, thetas)[1])
             world_T_a = np.broadcast_to(wa, world_T_b.shape)
+            angles = np.column_stack([np.full_like(thetas, state.theta_a), thetas])
             state.s_b, state.theta_b = target, float(theta1)
         out.append(self._phase(state, step, PhaseAction.MOVE, f'ring_{ring}', *other_grips,
-                               world_T_a=world_T_a,
-                               world_T_b=world_T_b, s_range=(s0, target, state.s_a, state.s_b)))
+                               world_T_a=world_T_a, world_T_b=world_T_b,
+                               s_range=(s0, target, state.s_a, state.s_b), ring_angles=angles))
         out.append(self._phase(state, step, PhaseAction.GRIP, f'ring_{ring}', True, True))
         return out
 

@@ -20,9 +20,19 @@ from std_srvs.srv import Trigger
 from rrps_kinematics.interfaces import POSE
 from rrps_kinematics.nodes.common import COMMAND_QOS, STATE_QOS, pose_from_msg, pose_to_msg
 
-from .interfaces import (CLIMB_STATUS, CLIMB_STEP_UP, MASTER_FRAME, MASTER_POSE,
-                         MASTER_TARGET_POSE, TELEOP_ENABLE, TELEOP_STATUS, ClimbState,
-                         ClimbStatus, TeleopStatus, odometry_topic)
+from .interfaces import (
+    CLIMB_STATUS,
+    CLIMB_STEP_UP,
+    MASTER_FRAME,
+    MASTER_POSE,
+    MASTER_TARGET_POSE,
+    TELEOP_ENABLE,
+    TELEOP_STATUS,
+    ClimbState,
+    ClimbStatus,
+    TeleopStatus,
+    odometry_topic,
+)
 
 #: Master handle displacement of the scripted session [m] (the slave moves translation_scale x).
 HANDLE_STEP = 0.004

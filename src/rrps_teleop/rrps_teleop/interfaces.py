@@ -6,6 +6,8 @@ Topics and services (relative names), on top of :mod:`rrps_kinematics.interfaces
     MASTER_TARGET_POSE  geometry_msgs/PoseStamped  the operator's handle, frame MASTER_FRAME
     MASTER_STATE        sensor_msgs/JointState     the master's leg lengths (encoders)
     MASTER_POSE         geometry_msgs/PoseStamped  the master's FK, frame MASTER_FRAME
+    MASTER_FEEDBACK     geometry_msgs/WrenchStamped  the slave's limits felt on the master's
+                        ring_b (the virtual fixture), frame MASTER_FRAME, torque about ring_b
     TELEOP_ENABLE       std_msgs/Bool              the deadman, true at >= 10 Hz while held
     TELEOP_STATUS       diagnostic_msgs/DiagnosticStatus  values: TeleopStatus
     CLIMB_STATUS        diagnostic_msgs/DiagnosticStatus  values: ClimbStatus
@@ -25,7 +27,7 @@ import enum
 from rrps_kinematics.interfaces import StatusValues
 
 __all__ = [
-    'MASTER_TARGET_POSE', 'MASTER_STATE', 'MASTER_POSE', 'MASTER_FRAME', 'TELEOP_ENABLE',
+    'MASTER_TARGET_POSE', 'MASTER_STATE', 'MASTER_POSE', 'MASTER_FRAME', 'MASTER_FEEDBACK', 'TELEOP_ENABLE',
     'TELEOP_STATUS', 'CLIMB_STATUS', 'CLIMB_STEP_UP', 'CLIMB_STEP_DOWN', 'CLIMB_RESUME',
     'OPERATOR_ROUND_TRIP', 'odometry_topic', 'TeleopCode', 'DISENGAGED_CODES', 'ClimbState',
     'PauseReason', 'PhaseAction', 'TeleopStatus', 'ClimbStatus',
@@ -35,6 +37,7 @@ MASTER_TARGET_POSE = 'master/target_pose'
 MASTER_STATE = 'master/actuators/state'
 MASTER_POSE = 'master/pose'
 MASTER_FRAME = 'master_ring_a'
+MASTER_FEEDBACK = 'master/feedback'
 TELEOP_ENABLE = 'teleop/enable'
 TELEOP_STATUS = 'teleop/status'
 CLIMB_STATUS = 'climb/status'
@@ -125,6 +128,8 @@ class TeleopStatus(StatusValues):
     detail: str = ''
     round_trip_time: float | None = None
     speed_factor: float = 1.0
+    feedback_force: float = 0.0          # |force| of master/feedback [N]
+    feedback_limit: str = ''             # the limit that pushes hardest ('' when none)
     margin_stroke: float | None = None
     margin_universal: float | None = None
     margin_spherical: float | None = None
@@ -154,3 +159,75 @@ class ClimbStatus(StatusValues):
         if self.action is None:
             return ''
         return self.action.value if not self.ring else f'{self.action.value}_{self.ring[-1]}'
+
+
+# --- Recording, replay and the robot for RViz / Foxglove (issue 12) --------------------------
+#
+#     FLIGHT_RECORDER_SAVE  std_srvs/Trigger   write the last ``buffer_seconds`` now; the answer's
+#                                              ``message`` is the file's path (success true)
+#     RECORDER_STATUS       /diagnostics       values: RecorderStatus (recorder_node)
+#     REPLAY_STATUS         diagnostic_msgs/DiagnosticStatus  values: ReplayStatus (replay_node)
+#     ROBOT_MARKERS         visualization_msgs/MarkerArray    the robot in frame ring_a and world
+#     TF                    tf2_msgs/TFMessage  world -> ring_a -> ring_b and the legs' links
+#
+# COMMAND_TOPICS are the streams that move the robot: a replay never publishes them on their
+# live names unless asked to (they go under REPLAY_PREFIX).
+
+from rrps_kinematics.interfaces import ACTUATORS_COMMAND as _ACTUATORS_COMMAND  # noqa: E402
+from rrps_kinematics.interfaces import TARGET_POSE as _TARGET_POSE  # noqa: E402
+
+FLIGHT_RECORDER_SAVE = 'flight_recorder/save'
+REPLAY_STATUS = 'replay/status'
+ROBOT_MARKERS = 'robot/markers'
+TF = '/tf'
+REPLAY_PREFIX = 'replay'
+#: Relative names of the command streams (what a replay must not feed to a live robot).
+COMMAND_TOPICS = (_TARGET_POSE, _ACTUATORS_COMMAND, TELEOP_ENABLE, MASTER_TARGET_POSE)
+
+
+class RecorderTrigger(enum.Enum):
+    """Why the flight recorder wrote its buffer."""
+
+    OPERATOR = 'operator'              # the flight_recorder/save service (viewer button)
+    NODE_ERROR = 'node_error'          # a node's /diagnostics status at ERROR
+    GRIPPER_REFUSAL = 'gripper_refusal'  # DriverStatus.gripper_refusals increased
+    LINK_LOST = 'link_lost'            # teleop/status or climb/status at ERROR or STALE
+
+
+@dataclasses.dataclass(frozen=True)
+class RecorderStatus(StatusValues):
+    """recorder_node's /diagnostics values: what is recorded and what was written."""
+
+    recording: bool = False
+    flight_recorder: bool = False
+    topics: int = 0
+    messages: int = 0
+    bytes_written: int = 0
+    file: str = ''
+    buffered_messages: int = 0
+    buffer_seconds: float = 0.0
+    dumps: int = 0
+    last_dump: str = ''
+    last_trigger: RecorderTrigger | None = None
+    dropped_topics: tuple[str, ...] = ()
+
+
+@dataclasses.dataclass(frozen=True)
+class ReplayStatus(StatusValues):
+    """replay/status values: where the replay is (``time`` [s] from the recording's start, of
+    ``duration``), its ``rate`` (1.0 = as recorded), whether it is ``paused`` or ``finished``,
+    the command topics it ``remapped`` and the topics it could not publish (``skipped``)."""
+
+    time: float
+    duration: float
+    rate: float = 1.0
+    paused: bool = False
+    finished: bool = False
+    file: str = ''
+    published: int = 0
+    remapped: tuple[str, ...] = ()
+    skipped: tuple[str, ...] = ()
+
+
+__all__ += ['FLIGHT_RECORDER_SAVE', 'REPLAY_STATUS', 'ROBOT_MARKERS', 'TF', 'REPLAY_PREFIX',
+            'COMMAND_TOPICS', 'RecorderTrigger', 'RecorderStatus', 'ReplayStatus']

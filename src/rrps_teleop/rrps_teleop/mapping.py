@@ -43,9 +43,9 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from rrps_kinematics import RobotGeometry, forward_kinematics, inverse_kinematics, margins
-from rrps_kinematics.limits import Margins
-from rrps_kinematics.pose import validate_pose
+from rrps_kinematics import RobotGeometry, forward_kinematics
+from rrps_kinematics.limits import PoseMargins, pose_margins
+from rrps_kinematics.pose import Pose, validate_pose
 from rrps_kinematics.rotations import (
     normalize_quat,
     quat_conjugate_xyzw,
@@ -54,6 +54,7 @@ from rrps_kinematics.rotations import (
     rotation_angle_between,
     rotation_vector_to_quat_xyzw,
 )
+from rrps_kinematics.tool import TARGET_FRAMES, b_T_tool, ring_b_pose, tool_pose
 
 from .interfaces import TeleopCode
 
@@ -122,10 +123,15 @@ class TeleopConfig:
     slow_latency: float = 0.2
     #: the operator's round trip [s] above which the robot holds.
     hold_latency: float = 0.3
+    #: the frame the master moves in Cartesian mode: ring_b's origin or the tool-centre point
+    #: (``tool``: translations move the tool tip, rotations turn about it).
+    control_frame: str = 'ring_b'
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
             raise ValueError(f'mode must be one of {MODES}, got {self.mode!r}')
+        if self.control_frame not in TARGET_FRAMES:
+            raise ValueError(f'control_frame must be one of {TARGET_FRAMES}, got {self.control_frame!r}')
         if self.rotation_mode not in ROTATION_MODES:
             raise ValueError(f'rotation_mode must be one of {ROTATION_MODES}, got {self.rotation_mode!r}')
         object.__setattr__(self, 'translation_scale', validate_scale(self.translation_scale))
@@ -175,7 +181,7 @@ class GuardedCommand:
     position: np.ndarray
     quaternion: np.ndarray
     lengths: np.ndarray
-    margins: Margins
+    margins: PoseMargins
 
 
 class TeleopMapping:
@@ -183,7 +189,7 @@ class TeleopMapping:
 
     def __init__(self, slave: RobotGeometry, config: TeleopConfig | None = None):
         self.slave = slave
-        self.config = config or TeleopConfig()
+        self.config = self._checked(config or TeleopConfig())
         self._enable_value = False
         self._enable_time = -math.inf
         self._master_pose: tuple[np.ndarray, np.ndarray] | None = None
@@ -206,9 +212,14 @@ class TeleopMapping:
 
     # --- inputs -------------------------------------------------------------------------
 
+    def _checked(self, config: TeleopConfig) -> TeleopConfig:
+        if config.control_frame == 'tool':
+            b_T_tool(self.slave)  # ValueError: this robot has no tool
+        return config
+
     def configure(self, config: TeleopConfig) -> None:
         """New parameters; disengages, so the next engage is a clutch with the new mapping."""
-        self.config = config
+        self.config = self._checked(config)
         self.disengage()
 
     def on_enable(self, t: float, value: bool) -> None:
@@ -370,12 +381,19 @@ class TeleopMapping:
         pm, qm = self._master_pose
         pm0, qm0 = self._master_ref
         ps0, qs0 = self._slave_ref
+        if c.control_frame == 'tool':  # move the tool-centre point; ring_b follows rigidly
+            tcp0 = tool_pose(self.slave, Pose(ps0, qs0))
+            ps0, qs0 = tcp0.position, tcp0.quaternion_xyzw
         p = ps0 + c.translation_scale * (pm - pm0)
         if c.rotation_mode == 'absolute':
             q = qm
         else:
             q = quat_multiply_xyzw(quat_multiply_xyzw(qm, quat_conjugate_xyzw(qm0)), qs0)
-        return p, normalize_quat(q)
+        q = normalize_quat(q)
+        if c.control_frame == 'tool':
+            a_T_b = ring_b_pose(self.slave, Pose(p, q))
+            return a_T_b.position, a_T_b.quaternion_xyzw
+        return p, q
 
     def _engage(self) -> TeleopOutput | None:
         c = self.config
@@ -386,13 +404,13 @@ class TeleopMapping:
                 return TeleopOutput(TeleopCode.ORIENTATION_MISMATCH, False,
                                     f'master and slave orientations differ by {error:.3f} rad '
                                     f'> align_tolerance {c.align_tolerance:g} rad: align the master')
-        ik = inverse_kinematics(self.slave, ps, qs)
-        self._command = GuardedCommand(ps.copy(), qs.copy(), ik.lengths.copy(), margins(self.slave, ik))
+        m = pose_margins(self.slave, ps, qs)
+        self._command = GuardedCommand(ps.copy(), qs.copy(), m.lengths, m)
         self._slave_ref = (ps.copy(), qs.copy())
         if c.mode == 'cartesian':
             self._master_ref = (self._master_pose[0].copy(), self._master_pose[1].copy())
         else:
-            self._offsets = ik.lengths - np.asarray(c.joint_scale) * self._master_lengths
+            self._offsets = m.lengths - np.asarray(c.joint_scale) * self._master_lengths
         self.engaged = True
         self._last_step_time = self._last_step_stamp = None
         return None
@@ -400,8 +418,8 @@ class TeleopMapping:
     # --- guarded steps -------------------------------------------------------------------
 
     def _evaluate_pose(self, p, q) -> GuardedCommand:
-        ik = inverse_kinematics(self.slave, p, q)
-        return GuardedCommand(p, q, ik.lengths.copy(), margins(self.slave, ik))
+        m = pose_margins(self.slave, p, q)
+        return GuardedCommand(p, q, m.lengths, m)
 
     def _cartesian_step(self, dt: float) -> tuple[TeleopCode, str]:
         c = self.config
@@ -458,11 +476,10 @@ class TeleopMapping:
         fk = forward_kinematics(self.slave, lengths, prev.position, prev.quaternion)
         if not fk.converged:
             return None
-        ik = inverse_kinematics(self.slave, fk.position, fk.quaternion_xyzw)
         return GuardedCommand(fk.position, fk.quaternion_xyzw, np.asarray(lengths, dtype=float).copy(),
-                        margins(self.slave, ik))
+                              pose_margins(self.slave, fk.position, fk.quaternion_xyzw))
 
-    def _deceleration(self, before: Margins, after: Margins) -> tuple[float, TeleopCode]:
+    def _deceleration(self, before: PoseMargins, after: PoseMargins) -> tuple[float, TeleopCode]:
         """Step scale in [0, 1] near a singularity or interference, when the step approaches it."""
         c = self.config
         factor, code = 1.0, TeleopCode.NO_WARNING

@@ -27,8 +27,7 @@ import numpy as np
 
 from rrps_kinematics import RobotGeometry, check_pose, inverse_kinematics
 from rrps_kinematics.pose import validate_pose
-from rrps_kinematics.rotations import (quat_multiply_xyzw, rotation_angle_between,
-                                       rotation_vector_to_quat_xyzw)
+from rrps_kinematics.rotations import quat_multiply_xyzw, rotation_angle_between, rotation_vector_to_quat_xyzw
 
 from .mapping import pose_step, validate_scale
 

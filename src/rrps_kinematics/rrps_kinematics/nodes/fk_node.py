@@ -20,12 +20,23 @@ from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
+from ..interfaces import ACTUATORS_STATE, POSE, RING_A_FRAME, FkStatus
 from ..inverse import inverse_kinematics
 from ..limits import inverse_condition_number
 from ..tracking import PoseTracker
-from ..interfaces import ACTUATORS_STATE, POSE, RING_A_FRAME, FkStatus
-from .common import (ERROR, OK, STALE, STATE_QOS, WARN, Diagnostics, declare_parameter,
-                     declare_robot_parameter, lengths_from_joint_state, pose_to_msg, run_nodes)
+from .common import (
+    ERROR,
+    OK,
+    STALE,
+    STATE_QOS,
+    WARN,
+    Diagnostics,
+    declare_parameter,
+    declare_robot_parameter,
+    lengths_from_joint_state,
+    pose_to_msg,
+    run_nodes,
+)
 
 __all__ = ['FkNode', 'main']
 

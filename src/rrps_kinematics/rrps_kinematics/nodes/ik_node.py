@@ -20,13 +20,41 @@ from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
-from ..commands import (CommandAges, CommandFreshness, RejectedCommand, limit_velocity,
-                        pose_limits, validate_target)
-from ..interfaces import (ACTUATORS_COMMAND, ACTUATORS_STATE, RING_A_FRAME, TARGET_POSE,
-                          IkStatus)
-from .common import (COMMAND_QOS, OK, STALE, STATE_QOS, WARN, Diagnostics, declare_parameter,
-                     declare_robot_parameter, joint_state_msg, lengths_from_joint_state,
-                     pose_from_msg, run_nodes, stamp_to_seconds)
+from ..commands import (
+    CommandAges,
+    CommandFreshness,
+    RejectedCommand,
+    limit_velocity,
+    pose_limits,
+    validate_target,
+)
+from ..interfaces import (
+    ACTUATORS_COMMAND,
+    ACTUATORS_STATE,
+    LEG_NAMES,
+    RING_A_FRAME,
+    TARGET_POSE,
+    TARGET_RINGS,
+    IkStatus,
+    ring_joint,
+)
+from ..pose import InvalidPose, Pose
+from ..tool import TARGET_FRAMES, b_T_tool, ring_b_pose
+from .common import (
+    COMMAND_QOS,
+    OK,
+    STALE,
+    STATE_QOS,
+    WARN,
+    Diagnostics,
+    declare_parameter,
+    declare_robot_parameter,
+    joint_state_msg,
+    lengths_from_joint_state,
+    pose_from_msg,
+    run_nodes,
+    stamp_to_seconds,
+)
 
 __all__ = ['IkNode', 'main']
 
@@ -42,6 +70,14 @@ class IkNode(Node):
         self.timeout = declare_parameter(self, 'timeout', 0.1,
                                          'a target_pose whose stamp is older than this [s] is rejected',
                                          min_value=1e-3, max_value=60.0)
+        self.target_frame = declare_parameter(
+            self, 'target_frame', 'ring_b',
+            "what a target_pose places: ring_b's origin, or the tool-centre point ('tool', robots "
+            'with a tool)', read_only=True, additional_constraints=' | '.join(TARGET_FRAMES))
+        if self.target_frame not in TARGET_FRAMES:
+            raise ValueError(f'target_frame must be one of {TARGET_FRAMES}, got {self.target_frame!r}')
+        if self.target_frame == 'tool':
+            b_T_tool(self.geometry)  # ValueError (exit 2) for a robot without a tool
         self.quaternion_tolerance = declare_parameter(
             self, 'quaternion_tolerance', 1e-3, 'largest accepted | |q| - 1 | of a target quaternion',
             min_value=0.0, max_value=0.5)
@@ -68,6 +104,12 @@ class IkNode(Node):
         self._margins: dict = {}
         self._pub = self.create_publisher(JointState, ACTUATORS_COMMAND, COMMAND_QOS)
         self.create_subscription(PoseStamped, TARGET_POSE, self._on_target, COMMAND_QOS)
+        self.ring_joints = [ring_joint(ring) for ring in ('ring_a', 'ring_b')
+                            if ring in self.geometry.extra_dof]
+        self._rings: tuple[float, list[float]] | None = None  # (receipt, angles)
+        self._ring_freshness = CommandFreshness(self.timeout)
+        if self.ring_joints:
+            self.create_subscription(JointState, TARGET_RINGS, self._on_rings, COMMAND_QOS)
         if self.limit_velocity:
             self.create_subscription(JointState, ACTUATORS_STATE, self._on_state, STATE_QOS)
         self._diag = Diagnostics(self, 'inverse kinematics')
@@ -105,6 +147,26 @@ class IkNode(Node):
         self.get_logger().warning(self._status[1], throttle_duration_sec=1.0)
         self._report()
 
+    def _on_rings(self, msg: JointState) -> None:
+        """Extra-DOF ring angles to send with the next commands (robots that have the DOF)."""
+        now_s = self.get_clock().now().nanoseconds * 1e-9
+        try:
+            angles = dict(zip(msg.name, msg.position))
+            if len(angles) != len(msg.name) or len(msg.name) != len(msg.position) or \
+                    set(angles) != set(self.ring_joints):
+                raise RejectedCommand(f'{TARGET_RINGS}: joints {list(msg.name)}, expected '
+                                      f'{self.ring_joints} with one angle each')
+            for name, value in angles.items():
+                dof = self.geometry.extra_dof[name.removesuffix('_rotation')]
+                if not (math.isfinite(value) and dof.min_angle <= value <= dof.max_angle):
+                    raise RejectedCommand(f'{TARGET_RINGS}: {name} {value!r} rad outside '
+                                          f'[{dof.min_angle}, {dof.max_angle}]')
+            self._ring_freshness.check(stamp_to_seconds(msg.header.stamp), now_s)
+        except RejectedCommand as exc:
+            self._reject(str(exc))
+            return
+        self._rings = (now_s, [float(angles[name]) for name in self.ring_joints])
+
     def _on_state(self, msg: JointState) -> None:
         try:
             self._measured = lengths_from_joint_state(msg)
@@ -120,10 +182,14 @@ class IkNode(Node):
         try:
             self.freshness.check(stamp, now_s)
             position, quaternion = pose_from_msg(msg)
+            if self.target_frame == 'tool':  # a target for the tool tip: where ring_b must be
+                a_T_b = ring_b_pose(self.geometry, Pose(position, quaternion,
+                                                        tolerance=self.quaternion_tolerance))
+                position, quaternion = a_T_b.position, a_T_b.quaternion_xyzw
             target = validate_target(self.geometry, position, quaternion, frame_id=msg.header.frame_id,
                                      expected_frame=self.frame_id,
                                      quaternion_tolerance=self.quaternion_tolerance)
-        except RejectedCommand as exc:
+        except (RejectedCommand, InvalidPose) as exc:
             self._reject(str(exc))
             return
         lengths = target.lengths
@@ -138,7 +204,12 @@ class IkNode(Node):
         self.last_command = lengths
         self._last_command_time = now_s
         self.accepted += 1
-        self._pub.publish(joint_state_msg(msg.header.stamp, lengths))
+        rings = self._rings
+        if rings is not None and now_s - rings[0] <= self.timeout:  # fresh ring angles go along
+            self._pub.publish(joint_state_msg(msg.header.stamp, [*lengths, *rings[1]],
+                                              names=[*LEG_NAMES, *self.ring_joints]))
+        else:
+            self._pub.publish(joint_state_msg(msg.header.stamp, lengths))
         self._margins = {f'min_{k}_margin': v for k, v in target.minimum.items()}
         if self._status[0] != OK:
             self._status = (OK, 'tracking target_pose')

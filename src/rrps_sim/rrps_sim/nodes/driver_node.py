@@ -13,7 +13,8 @@ open. Deactivating holds the robot where it is.
 Modes (parameter ``mode``): ``kinematic`` (:class:`rrps_sim.actuators.KinematicActuators`: lag,
 speed and stroke limits; effort = the quasi-static holding forces of the pose, refreshed at 5 Hz) and ``dynamic`` (:class:`rrps_sim.actuators.DynamicActuators`: the
 multibody dynamics of eqs. 19-20 with a PD force loop per leg, effort = force [N]). The state
-is published at ``rate`` Hz (and at once on each accepted command with ``publish_on_command``).
+is published at ``rate`` Hz while the robot moves or is commanded, at ``idle_rate`` (50 Hz) once it has
+rested for 0.5 s (kinematic mode), and at once on each accepted command with ``publish_on_command``.
 
 A command is not acted on (the actuators keep tracking the last accepted one; /diagnostics and
 the log say why) when it is malformed (names, sizes, NaN), unstamped, outside the stroke, or stamped more
@@ -40,15 +41,27 @@ from std_srvs.srv import SetBool
 
 from rrps_kinematics.commands import CommandAges, CommandFreshness, RejectedCommand
 from rrps_kinematics.forward import forward_kinematics
-from rrps_kinematics.interfaces import ACTUATORS_COMMAND, ACTUATORS_STATE
-from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, LEG_NAMES, OK, STALE, STATE_QOS, WARN,
-                                          Diagnostics, declare_parameter, declare_robot_parameter,
-                                          joint_state_msg, lengths_from_joint_state, run_nodes,
-                                          stamp_to_seconds)
+from rrps_kinematics.interfaces import ACTUATORS_COMMAND, ACTUATORS_STATE, ring_joint
+from rrps_kinematics.nodes.common import (
+    COMMAND_QOS,
+    ERROR,
+    LEG_NAMES,
+    OK,
+    STALE,
+    STATE_QOS,
+    WARN,
+    Diagnostics,
+    declare_parameter,
+    declare_robot_parameter,
+    joint_state_msg,
+    lengths_from_joint_state,
+    run_nodes,
+    stamp_to_seconds,
+)
 
 from ..actuators import DynamicActuators, KinematicActuators, QuasiStaticEfforts, SensorFaults
 from ..grippers import Grippers
-from ..hardware_state import HardwareState, StateFileError, load_state, save_state
+from ..hardware_state import HardwareState, load_state, save_state
 from ..interfaces import GRIPPERS_STATE, RINGS, ActuatorMode, DriverStatus, gripper_service
 
 __all__ = ['DriverNode', 'main']
@@ -78,6 +91,10 @@ class DriverNode(LifecycleNode):
         self.mode = ActuatorMode(self.mode)
         self.rate = declare_parameter(self, 'rate', 500.0, 'actuators/state publication rate [Hz]',
                                       min_value=1.0, max_value=5000.0, read_only=True)
+        self.idle_rate = declare_parameter(
+            self, 'idle_rate', 50.0, 'actuators/state rate while the robot rests (no motion, no '
+            'command for 0.5 s; kinematic mode) [Hz]; equal to rate: always rate',
+            min_value=1.0, max_value=5000.0, read_only=True)
         self.timeout = declare_parameter(self, 'timeout', 0.1,
                                          'a command stamped longer ago than this [s] is not acted on',
                                          min_value=1e-3, max_value=60.0)
@@ -120,7 +137,7 @@ class DriverNode(LifecycleNode):
         auto_activate = declare_parameter(self, 'auto_activate', False,
                                           'activate at start (otherwise: change_state activate)',
                                           read_only=True)
-        ring_names = [f'{ring}_rotation' for ring in RINGS if ring in g.extra_dof]
+        ring_names = [ring_joint(ring) for ring in RINGS if ring in g.extra_dof]
         saved = load_state(self.state_file, g, len(ring_names)) if self.state_file else None
         if saved is not None:
             initial = list(saved.lengths)
@@ -178,7 +195,8 @@ class DriverNode(LifecycleNode):
                                 self._on_gripper(ring, request, response))
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._diag = Diagnostics(self, f'{self.mode.value} actuators')
-        self.create_timer(1.0 / self.rate, self._on_tick)
+        self._tick_timer = self.create_timer(1.0 / self.rate, self._on_tick)
+        self._resting = False
         self.create_timer(0.05, self._publish_grippers)
         self.create_timer(0.5, self._report)
         if self.state_file:
@@ -320,6 +338,7 @@ class DriverNode(LifecycleNode):
             self._set_status(WARN, f'command rejected, tracking the last accepted one: {exc}')
             return
         self.accepted += 1
+        self._wake()
         self.reference = lengths
         if rings is not None:
             self.ring_reference = rings
@@ -357,6 +376,29 @@ class DriverNode(LifecycleNode):
     def _on_tick(self) -> None:
         self._step()
         self._publish_state()
+        if not self._resting and self._at_rest():
+            self._set_tick_rate(self.idle_rate)
+
+    def _at_rest(self) -> bool:
+        """Nothing moves and nothing was commanded for 0.5 s (kinematic mode: the dynamics
+        always runs at ``rate``)."""
+        if self.mode is not ActuatorMode.KINEMATIC or self.idle_rate >= self.rate:
+            return False
+        if self._last_command_time is not None and time.monotonic() - self._last_command_time < 0.5:
+            return False
+        moving = np.any(np.abs(self.actuators.velocities) > 1e-9) or (
+            self.rings is not None and np.any(np.abs(self.rings.velocities) > 1e-9))
+        return not moving and np.array_equal(self.reference, self.actuators.positions)
+
+    def _set_tick_rate(self, rate: float) -> None:
+        self._resting = rate < self.rate
+        self._tick_timer.timer_period_ns = int(1e9 / rate)
+
+    def _wake(self) -> None:
+        """Back to the full rate at once (a command came, a gripper switched)."""
+        if self._resting:
+            self._set_tick_rate(self.rate)
+            self._last_step = time.monotonic()
 
     def _publish_state(self) -> None:
         if self.faults.drop():

@@ -47,13 +47,14 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 
-from rrps_kinematics.interfaces import (DIAGNOSTICS, POSE, RING_A_FRAME, TARGET_POSE, WORLD_FRAME,
+from rrps_kinematics.interfaces import (ACTUATORS_STATE, DIAGNOSTICS, POSE, RING_A_FRAME,
+                                        TARGET_POSE, TARGET_RINGS, WORLD_FRAME, ring_joint,
                                         source_node)
 from rrps_sim.interfaces import (GRIPPERS_STATE, RINGS, DriverStatus, gripper_service,
                                  gripper_states)
 from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, LATEST_QOS, OK, STATE_QOS, WARN, Diagnostics,
-                                          declare_parameter, declare_robot_parameter, pose_from_msg,
-                                          pose_to_msg, run_nodes)
+                                          declare_parameter, declare_robot_parameter,
+                                          joint_state_msg, pose_from_msg, pose_to_msg, run_nodes)
 from rrps_kinematics.pose import QUATERNION_TOLERANCE, InvalidPose, Pose, pose_error
 from rrps_kinematics.rotations import matrix_to_quat_xyzw, rotation_angle_between
 
@@ -135,7 +136,7 @@ class ClimbNode(Node):
         self._operator_receipt: float | None = None
         self.driver_active: bool | None = None
         self._last_tick = time.monotonic()
-        self._kept_up = True
+        self._judge_inputs_from = self._last_tick  # see _on_tick
         self.steps_done = 0
         self.pose: Pose | None = None
         self.grippers: dict[str, bool] | None = None
@@ -155,6 +156,13 @@ class ClimbNode(Node):
         self._last_status = None
 
         self._target_pub = self.create_publisher(PoseStamped, TARGET_POSE, COMMAND_QOS)
+        # robots with the extra ring DOF: the rings are commanded, and measured for the odometry
+        self._ring_joints = [ring_joint(r) for r in ('ring_a', 'ring_b')] if self.planner.dof else []
+        self._ring_pub = (self.create_publisher(JointState, TARGET_RINGS, COMMAND_QOS)
+                          if self._ring_joints else None)
+        self.measured_angles: np.ndarray | None = None
+        if self._ring_joints:
+            self.create_subscription(JointState, ACTUATORS_STATE, self._on_state, LATEST_QOS)
         self._status_pub = self.create_publisher(DiagnosticStatus, CLIMB_STATUS, STATE_QOS)
         self._odo_pubs = {ring: self.create_publisher(PoseStamped, odometry_topic(ring), STATE_QOS)
                           for ring in RINGS}
@@ -237,7 +245,18 @@ class ClimbNode(Node):
         except ValueError as exc:
             self.get_logger().warning(f'{TELEOP_STATUS} ignored: {exc}', throttle_duration_sec=5.0)
 
+    def _on_state(self, msg: JointState) -> None:
+        """The measured extra-DOF angles (robots that have them), for the odometry."""
+        state = dict(zip(msg.name, msg.position))
+        angles = [state.get(name, math.nan) for name in self._ring_joints]
+        if all(math.isfinite(a) for a in angles):
+            self.measured_angles = np.array(angles)
+
     def _thetas(self) -> tuple[float, float]:
+        """The rings' extra-DOF angles (theta_a, theta_b) [rad]: measured by the driver where the
+        robot has the DOF, else those of the plan."""
+        if self.measured_angles is not None:
+            return float(self.measured_angles[0]), float(self.measured_angles[1])
         if self.mode == EXECUTING and self._phases:
             ph = self._phases[min(self._index, len(self._phases) - 1)]
             return ph.theta_a, ph.theta_b
@@ -284,7 +303,7 @@ class ClimbNode(Node):
             return response
         self._take_pose()
         if self._stage == 'stream':
-            expected = self._target(self._t)
+            expected, _ = self._target(self._t)
             dp, da = pose_error(self.pose, expected)
             if dp > 10 * self.position_tolerance or da > 10 * self.orientation_tolerance:
                 response.success = False
@@ -367,22 +386,29 @@ class ClimbNode(Node):
         else:
             self._stage = 'arrive'
 
-    def _target(self, t: float) -> Pose:
-        """The planned a_T_b at time t of the current motion (positions lerped, rotations nlerped)."""
-        path = self._phases[self._index].path
+    def _target(self, t: float) -> tuple[Pose, np.ndarray]:
+        """The planned a_T_b and extra-DOF angles (theta_a, theta_b) at time t of the current
+        motion (positions and angles lerped, rotations nlerped)."""
+        ph = self._phases[self._index]
+        path, angles = ph.path, ph.ring_angles
         times = self._phase_times
         if t >= times[-1]:
-            return Pose.from_matrix(path[-1])
+            return Pose.from_matrix(path[-1]), angles[-1]
         k = int(np.searchsorted(times, t, side='right')) - 1
         w = (t - times[k]) / max(times[k + 1] - times[k], 1e-12)
         p = (1 - w) * path[k, :3, 3] + w * path[k + 1, :3, 3]
         q0, q1 = matrix_to_quat_xyzw(path[k, :3, :3]), matrix_to_quat_xyzw(path[k + 1, :3, :3])
         q1 = q1 if q0 @ q1 >= 0 else -q1
-        return Pose(p, (1 - w) * q0 + w * q1)
+        return Pose(p, (1 - w) * q0 + w * q1), (1 - w) * angles[k] + w * angles[k + 1]
 
-    def _publish_target(self, T: Pose) -> None:
+    def _publish_target(self, T: Pose, angles: np.ndarray) -> None:
+        """target_pose, and the extra-DOF angles on target_rings for robots that have them (the
+        IK node sends them to the driver with the leg lengths)."""
+        stamp = self.get_clock().now().to_msg()
         self._target_pub.publish(pose_to_msg(T.position, T.quaternion_xyzw, frame_id=RING_A_FRAME,
-                                             stamp=self.get_clock().now().to_msg()))
+                                             stamp=stamp))
+        if self._ring_pub is not None:
+            self._ring_pub.publish(joint_state_msg(stamp, angles, names=self._ring_joints))
 
     def _arrived(self, T: Pose) -> bool:
         if self.pose is None:
@@ -391,15 +417,20 @@ class ClimbNode(Node):
         return dp <= self.position_tolerance and da <= self.orientation_tolerance
 
     def _on_tick(self) -> None:
+        # Judge the inputs' age only when this executor has kept up for a state_timeout: after a
+        # stall (a late tick, or a tick that planned) the messages that arrived meanwhile may
+        # still be queued behind the overdue timer, so their receipt times say nothing yet.
+        stall = 0.5 * self.state_timeout
         tick = time.monotonic()
-        # Judge the inputs' age only when this executor kept up (this tick came soon after the
-        # last one ended): after a stall (a plan, a busy machine) the messages that arrived
-        # meanwhile may still be queued behind this tick.
-        self._kept_up = tick - self._last_tick <= 0.5 * self.state_timeout
+        if tick - self._last_tick > stall:
+            self._judge_inputs_from = tick + self.state_timeout
         try:
             self._tick()
         finally:
-            self._last_tick = time.monotonic()
+            end = time.monotonic()
+            if end - tick > stall:
+                self._judge_inputs_from = end + self.state_timeout
+            self._last_tick = end
 
     def _tick(self) -> None:
         self._take_pose()
@@ -412,7 +443,7 @@ class ClimbNode(Node):
             return  # planning took this tick: the inputs are judged at the next one
         if self.mode is not EXECUTING:
             return
-        reason = self._hold_reason() if self._kept_up else None
+        reason = self._hold_reason() if time.monotonic() >= self._judge_inputs_from else None
         if reason is not None:
             self._pause(reason)
             return
@@ -420,13 +451,13 @@ class ClimbNode(Node):
         now = self._now()
         if self._stage == 'stream':
             self._t += self.dt
-            self._publish_target(self._target(self._t))
+            self._publish_target(*self._target(self._t))
             if self._t >= self._phase_times[-1]:
                 self._stage = 'arrive'
                 self._deadline = now + self.settle_timeout
             return
         if self._stage == 'arrive':
-            self._publish_target(ph.a_T_b)  # keep the IK node's command stream fresh
+            self._publish_target(ph.a_T_b, ph.ring_angles[-1])  # keep the command stream fresh
             if not self._arrived(ph.a_T_b):
                 self._arrived_since = None
             elif self._arrived_since is None:
@@ -442,7 +473,7 @@ class ClimbNode(Node):
                            f'{self.settle_timeout:.1f} s (error {dp * 1000:.1f} mm, {math.degrees(da):.2f} deg)')
                 return
         if self._stage == 'gripper':
-            self._publish_target(ph.a_T_b)
+            self._publish_target(ph.a_T_b, ph.ring_angles[-1])
             ring = ph.ring
             close = ph.action is PhaseAction.GRIP
             if self._future is None:

@@ -2,31 +2,52 @@
 
 Subscribes ``master/target_pose`` (PoseStamped, frame master_ring_a: where the operator moves the
 handle); with the parameter ``trajectory`` = circle | lissajous it moves by itself instead. At
-``rate`` Hz the handle moves towards its target within its speed and its own limits, and the node
-publishes ``master/actuators/state`` (JointState: the leg lengths, what encoders would give) and
+``rate`` Hz the handle moves towards its target within its speed and its own limits (at ``idle_rate`` while
+it rests at its target), and the node publishes ``master/actuators/state`` (JointState: the leg lengths, what encoders would give) and
 ``master/pose`` (PoseStamped: its own FK of those lengths, seeded by the previous estimate).
 ``trajectory``, ``amplitude``, ``period`` and ``angular_amplitude`` may be set at run time.
+
+``master/feedback`` (WrenchStamped, the slave's limits as a virtual fixture, from the teleop
+node) pushes the simulated handle back: its target yields ``feedback_compliance`` [m/N] and
+``feedback_angular_compliance`` [rad/(N m)], as an operator's hand would against a master
+that renders the wrench.
 """
 
 from __future__ import annotations
 
 import time
 
-from geometry_msgs.msg import PoseStamped
+import numpy as np
+from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from rrps_kinematics import forward_kinematics
+from rrps_kinematics.nodes.common import (
+    COMMAND_QOS,
+    ERROR,
+    OK,
+    STATE_QOS,
+    WARN,
+    Diagnostics,
+    declare_parameter,
+    declare_robot_parameter,
+    joint_state_msg,
+    pose_from_msg,
+    pose_to_msg,
+    run_nodes,
+)
 from rrps_kinematics.pose import validate_pose
-from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, OK, STATE_QOS, WARN, Diagnostics,
-                                          declare_parameter, declare_robot_parameter,
-                                          joint_state_msg, pose_from_msg, pose_to_msg, run_nodes)
+from rrps_kinematics.rotations import quat_multiply_xyzw, rotation_vector_to_quat_xyzw
 
-from ..interfaces import MASTER_FRAME, MASTER_POSE, MASTER_STATE, MASTER_TARGET_POSE
+from ..interfaces import MASTER_FEEDBACK, MASTER_FRAME, MASTER_POSE, MASTER_STATE, MASTER_TARGET_POSE
 from ..master import TRAJECTORIES, HandleMotion, MasterModel, scripted_pose
 
 __all__ = ['MasterNode', 'main']
+
+#: master/feedback older than this [s] is ignored (the teleop node sends it at 20 Hz).
+FEEDBACK_TIMEOUT = 0.2
 
 
 class MasterNode(Node):
@@ -37,8 +58,11 @@ class MasterNode(Node):
         self.geometry = declare_robot_parameter(self, default='master_robot')
         self.frame_id = declare_parameter(self, 'frame_id', MASTER_FRAME,
                                           'frame of master/target_pose and master/pose', read_only=True)
-        rate = declare_parameter(self, 'rate', 200.0, 'encoder (publication) rate [Hz]',
-                                 min_value=1.0, max_value=2000.0, read_only=True)
+        self.rate = declare_parameter(self, 'rate', 200.0, 'encoder (publication) rate [Hz]',
+                                      min_value=1.0, max_value=2000.0, read_only=True)
+        self.idle_rate = declare_parameter(
+            self, 'idle_rate', 50.0, 'encoder rate while the handle rests at its target [Hz]',
+            min_value=1.0, max_value=2000.0, read_only=True)
         self.trajectory = declare_parameter(self, 'trajectory', 'none', 'scripted motion of the handle',
                                             additional_constraints=' | '.join(TRAJECTORIES))
         self.amplitude = declare_parameter(self, 'amplitude', 0.005, 'scripted translation amplitude [m]',
@@ -52,11 +76,20 @@ class MasterNode(Node):
                                    min_value=1e-4, max_value=10.0, read_only=True)
         angular = declare_parameter(self, 'max_angular_speed', 1.0, 'handle angular speed limit [rad/s]',
                                     min_value=1e-4, max_value=100.0, read_only=True)
+        self.feedback_compliance = declare_parameter(
+            self, 'feedback_compliance', 2e-4,
+            'how far master/feedback pushes the handle back [m/N] (the operator\'s hand yields)',
+            min_value=0.0, max_value=0.1)
+        self.feedback_angular_compliance = declare_parameter(
+            self, 'feedback_angular_compliance', 0.05,
+            'how far master/feedback turns the handle back [rad/(N m)]', min_value=0.0,
+            max_value=10.0)
         if self.trajectory not in TRAJECTORIES:
             raise ValueError(f'trajectory must be one of {TRAJECTORIES}, got {self.trajectory!r}')
         self.model = MasterModel(self.geometry, max_linear_speed=linear, max_angular_speed=angular)
         self._target = (self.model.position.copy(), self.model.quaternion_xyzw.copy())
         self._fk_pose = (self.model.position.copy(), self.model.quaternion_xyzw.copy())
+        self._fk_lengths = self.model.lengths.copy()
         self._start = time.monotonic()
         self._last_tick: float | None = None
         self._status = (OK, 'holding the home pose')
@@ -64,9 +97,12 @@ class MasterNode(Node):
         self._state_pub = self.create_publisher(JointState, MASTER_STATE, STATE_QOS)
         self._pose_pub = self.create_publisher(PoseStamped, MASTER_POSE, STATE_QOS)
         self.create_subscription(PoseStamped, MASTER_TARGET_POSE, self._on_target, COMMAND_QOS)
+        self._feedback: tuple[float, np.ndarray, np.ndarray] | None = None
+        self.create_subscription(WrenchStamped, MASTER_FEEDBACK, self._on_feedback, COMMAND_QOS)
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
-        self.create_timer(1.0 / rate, self._on_tick)
+        self._tick_timer = self.create_timer(1.0 / self.rate, self._on_tick)
+        self._resting = False
         self.create_timer(0.5, self._report)
 
     def _check_parameters(self, parameters) -> SetParametersResult:
@@ -105,9 +141,55 @@ class MasterNode(Node):
                                    f'is not {self.frame_id!r}')
             return
         try:
-            self._target = validate_pose(*pose_from_msg(msg), what='master/target_pose')
+            target = validate_pose(*pose_from_msg(msg), what='master/target_pose')
         except ValueError as exc:
             self._set_status(WARN, f'rejected {exc}')
+            return
+        if not (np.array_equal(target[0], self._target[0])
+                and np.array_equal(target[1], self._target[1])):
+            self._wake()
+        self._target = target
+
+    def _on_feedback(self, msg: WrenchStamped) -> None:
+        f, t = msg.wrench.force, msg.wrench.torque
+        force, torque = np.array([f.x, f.y, f.z]), np.array([t.x, t.y, t.z])
+        if msg.header.frame_id != self.frame_id or not (np.all(np.isfinite(force))
+                                                        and np.all(np.isfinite(torque))):
+            self._set_status(WARN, f'master/feedback rejected: frame {msg.header.frame_id!r} '
+                                   'or a value not finite')
+            return
+        self._feedback = (time.monotonic(), force, torque) if np.any(force) or np.any(torque) else None
+        if self._feedback is not None:
+            self._wake()
+
+    def _yielding_target(self, now: float):
+        """The handle's target moved back by the fixture's wrench (a fresh one: < 0.2 s old): the
+        simulated operator's hand yields ``feedback_compliance`` per newton."""
+        position, quaternion = self._target
+        if self._feedback is None or now - self._feedback[0] > FEEDBACK_TIMEOUT:
+            return position, quaternion
+        _, force, torque = self._feedback
+        q = quat_multiply_xyzw(rotation_vector_to_quat_xyzw(self.feedback_angular_compliance * torque),
+                               quaternion)
+        return position + self.feedback_compliance * force, q / np.linalg.norm(q)
+
+    def _wake(self) -> None:
+        """Back to the encoder ``rate`` (the handle has somewhere to go)."""
+        if self._resting:
+            self._resting = False
+            self._tick_timer.timer_period_ns = int(1e9 / self.rate)
+
+    def _rest_if_idle(self, note) -> None:
+        """At ``idle_rate`` while the handle rests at its target with nothing pushing it."""
+        pushed = self._feedback is not None and time.monotonic() - self._feedback[0] <= FEEDBACK_TIMEOUT
+        idle = (self.trajectory == 'none' and note.motion is HandleMotion.FULL
+                and self.idle_rate < self.rate and not pushed
+                and np.array_equal(self.model.position, self._target[0]))
+        if idle and not self._resting:
+            self._resting = True
+            self._tick_timer.timer_period_ns = int(1e9 / self.idle_rate)
+        elif not idle:
+            self._wake()
 
     def _on_tick(self) -> None:
         now = time.monotonic()
@@ -117,7 +199,7 @@ class MasterNode(Node):
             self._target = scripted_pose(self.trajectory, now - self._start, self.geometry.home_position,
                                          self.geometry.home_quaternion_xyzw, amplitude=self.amplitude,
                                          period=self.period, angular_amplitude=self.angular_amplitude)
-        note = self.model.move_toward(*self._target, dt)
+        note = self.model.move_toward(*self._yielding_target(now), dt)
         if note.motion is HandleMotion.STOPPED:
             self._set_status(WARN, f'handle {note}')
         else:
@@ -126,13 +208,15 @@ class MasterNode(Node):
         stamp = self.get_clock().now().to_msg()
         lengths = self.model.lengths
         self._state_pub.publish(joint_state_msg(stamp, lengths))
-        fk = forward_kinematics(self.geometry, lengths, *self._fk_pose)
-        if fk.converged:
-            self._fk_pose = (fk.position, fk.quaternion_xyzw)
-        else:
-            self._set_status(ERROR, f'master FK did not converge (residual {fk.residual:.3g} m): '
-                                    'holding the last estimate')
+        if not np.array_equal(lengths, self._fk_lengths):  # a resting handle: the same pose
+            fk = forward_kinematics(self.geometry, lengths, *self._fk_pose)
+            if fk.converged:
+                self._fk_pose, self._fk_lengths = (fk.position, fk.quaternion_xyzw), lengths.copy()
+            else:
+                self._set_status(ERROR, f'master FK did not converge (residual {fk.residual:.3g} m): '
+                                        'holding the last estimate')
         self._pose_pub.publish(pose_to_msg(*self._fk_pose, frame_id=self.frame_id, stamp=stamp))
+        self._rest_if_idle(note)
 
 
 def main(args=None) -> None:

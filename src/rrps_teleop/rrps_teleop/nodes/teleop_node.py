@@ -13,6 +13,13 @@ gone), the driver not active (its typed status on /diagnostics) or the operator'
 mapping: no command goes out and the robot holds. Above ``slow_latency`` every speed limit is
 scaled down.
 
+Limits felt on the master (paper section 3.1): at ``feedback_rate`` the node publishes
+``master/feedback`` (geometry_msgs/WrenchStamped, frame master_ring_a, torque about the master's
+ring_b): the virtual fixture of :mod:`rrps_teleop.fixture` at the guarded command, pushing back
+along the gradient of the limits the slave approaches, scaled to the master
+(``feedback_scale``); zero while disengaged. A master with actuators renders it; the simulated
+master yields to it.
+
 Control runs on every master sample (``control`` = message, the default: one callback from master
 state to command, see benchmarks/teleop_latency.py) or on a timer at ``control_rate`` Hz. A 50 Hz
 watchdog releases the clutch when the deadman or the master data lapse, so the slave holds within
@@ -26,24 +33,57 @@ from __future__ import annotations
 import math
 import time
 
+import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64
 
-from rrps_kinematics.interfaces import (ACTUATORS_COMMAND, DIAGNOSTICS, POSE, RING_A_FRAME,
-                                        TARGET_POSE, source_node)
+from rrps_kinematics.interfaces import (
+    ACTUATORS_COMMAND,
+    DIAGNOSTICS,
+    POSE,
+    RING_A_FRAME,
+    TARGET_POSE,
+    source_node,
+)
+from rrps_kinematics.nodes.common import (
+    COMMAND_QOS,
+    ERROR,
+    LATEST_QOS,
+    OK,
+    STALE,
+    STATE_QOS,
+    WARN,
+    Diagnostics,
+    declare_parameter,
+    declare_robot_parameter,
+    joint_state_msg,
+    lengths_from_joint_state,
+    pose_from_msg,
+    pose_to_msg,
+    run_nodes,
+    stamp_to_seconds,
+)
 from rrps_sim.interfaces import DriverStatus
-from rrps_kinematics.nodes.common import (COMMAND_QOS, ERROR, LATEST_QOS, OK, STALE, STATE_QOS, WARN, Diagnostics,
-                                          declare_parameter, declare_robot_parameter, joint_state_msg,
-                                          lengths_from_joint_state, pose_from_msg, pose_to_msg, run_nodes,
-                                          stamp_to_seconds)
 
-from ..interfaces import (CLIMB_STATUS, MASTER_FRAME, MASTER_POSE, MASTER_STATE,
-                          OPERATOR_ROUND_TRIP, TELEOP_ENABLE, TELEOP_STATUS, ClimbState,
-                          ClimbStatus, TeleopCode, TeleopStatus)
+from ..fixture import FixtureConfig, fixture_wrench, master_wrench
+from ..interfaces import (
+    CLIMB_STATUS,
+    MASTER_FEEDBACK,
+    MASTER_FRAME,
+    MASTER_POSE,
+    MASTER_STATE,
+    OPERATOR_ROUND_TRIP,
+    TELEOP_ENABLE,
+    TELEOP_STATUS,
+    ClimbState,
+    ClimbStatus,
+    TeleopCode,
+    TeleopStatus,
+)
 from ..mapping import MODES, ROTATION_MODES, TeleopConfig, TeleopMapping, TeleopOutput
 
 __all__ = ['TeleopNode', 'main']
@@ -54,7 +94,7 @@ WATCHDOG_PERIOD = 0.02
 CONFIG_PARAMETERS = ('mode', 'translation_scale', 'rotation_mode', 'joint_scale', 'enable_timeout',
                      'master_timeout', 'max_linear_speed', 'max_angular_speed', 'singularity_slowdown',
                      'singularity_halt', 'collision_slowdown', 'align_tolerance', 'state_timeout',
-                     'slow_latency', 'hold_latency')
+                     'slow_latency', 'hold_latency', 'control_frame')
 _LEVELS = {
     TeleopCode.NO_WARNING: OK, TeleopCode.SPEED_LIMITED: OK, TeleopCode.DEADMAN_RELEASED: OK,
     TeleopCode.CLIMB_EXECUTING: OK, TeleopCode.MASTER_STALE: STALE,
@@ -81,6 +121,15 @@ class TeleopNode(Node):
                                          min_value=1.0, max_value=2000.0, read_only=True)
         status_rate = declare_parameter(self, 'status_rate', 10.0, 'teleop/status rate when unchanged [Hz]',
                                         min_value=0.1, max_value=100.0, read_only=True)
+        feedback_rate = declare_parameter(
+            self, 'feedback_rate', 20.0, 'master/feedback (the virtual fixture) rate [Hz]',
+            min_value=1.0, max_value=200.0, read_only=True)
+        self.feedback_scale = declare_parameter(
+            self, 'feedback_scale', 1.0, 'master force per newton of the fixture on the slave',
+            min_value=0.0, max_value=100.0)
+        self.fixture = FixtureConfig(stiffness=declare_parameter(
+            self, 'fixture_stiffness', 10.0, 'the fixture push of one limit at the limit [N]',
+            min_value=1e-3, max_value=1e4, read_only=True))
         if self.control not in CONTROL_TRIGGERS:
             raise ValueError(f'control must be one of {CONTROL_TRIGGERS}, got {self.control!r}')
         d = TeleopConfig()
@@ -136,6 +185,10 @@ class TeleopNode(Node):
                 self, 'hold_latency', d.hold_latency,
                 "the operator's round trip above which the robot holds [s]",
                 min_value=0.001, max_value=5.0),
+            'control_frame': declare_parameter(
+                self, 'control_frame', d.control_frame,
+                "the frame the master moves: ring_b's origin or the tool-centre point (tool)",
+                additional_constraints='ring_b | tool'),
         }
         self.mapping = TeleopMapping(self.geometry, TeleopConfig(**values))
         self._pending: TeleopConfig | None = None
@@ -156,6 +209,9 @@ class TeleopNode(Node):
         self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, STATE_QOS)
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
+        self._feedback_pub = self.create_publisher(WrenchStamped, MASTER_FEEDBACK, COMMAND_QOS)
+        self._feedback = (0.0, '')
+        self.create_timer(1.0 / feedback_rate, self._publish_feedback)
         self.create_timer(WATCHDOG_PERIOD, self._watchdog)
         if self.control == 'timer':
             self.create_timer(1.0 / control_rate, self._control)
@@ -261,6 +317,25 @@ class TeleopNode(Node):
                 self._command_pub.publish(joint_state_msg(stamp, out.lengths))
         self._publish_status(out)
 
+    def _publish_feedback(self) -> None:
+        """The virtual fixture: the slave's limits near the guarded command, felt on the master
+        (zero while disengaged). Off the control path, at ``feedback_rate``."""
+        cmd = self.mapping.command if self.mapping.engaged else None
+        force = torque = np.zeros(3)
+        limit = ''
+        if cmd is not None and self.feedback_scale > 0.0:
+            wrench = fixture_wrench(self.geometry, cmd.position, cmd.quaternion, self.fixture)
+            force, torque = master_wrench(wrench, translation_scale=self.mapping.config.translation_scale,
+                                          force_scale=self.feedback_scale)
+            limit = wrench.dominant or ''
+        msg = WrenchStamped()
+        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.header.frame_id = self.master_frame_id
+        (msg.wrench.force.x, msg.wrench.force.y, msg.wrench.force.z) = (float(v) for v in force)
+        (msg.wrench.torque.x, msg.wrench.torque.y, msg.wrench.torque.z) = (float(v) for v in torque)
+        self._feedback_pub.publish(msg)
+        self._feedback = (float(np.linalg.norm(force)), limit)
+
     def _watchdog(self) -> None:
         blocked = self.mapping.check(time.monotonic())
         if blocked is not None:
@@ -285,6 +360,7 @@ class TeleopNode(Node):
                               joint_scale=tuple(c.joint_scale), detail=out.detail,
                               round_trip_time=self.mapping.round_trip(t),
                               speed_factor=self.mapping.speed_factor(t),
+                              feedback_force=self._feedback[0], feedback_limit=self._feedback[1],
                               **{f'margin_{k}': v for k, v in out.margins.items()})
         status = DiagnosticStatus(level=level, name=self.get_name(), message=out.code.name,
                                   hardware_id=self.geometry.name)

@@ -4,15 +4,15 @@ Subscribes (relative names): ``actuators/state``, ``pose`` (FK a_T_b, frame ring
 (the commanded a_T_b, drawn as a ghost), ``master/pose`` (frame master_ring_a),
 ``grippers/state``, ``odometry/ring_a|ring_b`` (frame world), ``teleop/status``, ``climb/status``
 and ``/diagnostics`` (FK iterations of fk_node). Publishes ``teleop/enable`` (the deadman, true at
-``enable_rate`` Hz while the operator holds it) and ``master/target_pose`` (the gizmo). Calls
-``climb/step_up|step_down``, ``grippers/ring_a|ring_b/set`` and the teleop node's standard
-parameter service (``teleop_node/set_parameters_atomically``: mode, rotation and scale change
-together or not at all, never half).
+``enable_rate`` Hz while the operator holds it), ``master/target_pose`` (the gizmo) and
+``operator/round_trip_time``. The operator's buttons call the climb, gripper, driver-lifecycle
+and teleop-parameter services (``viewer_requests``) and the recorder's (``viewer_recording``).
 
 Drawing runs in the viewer's own thread at ``render_rate`` Hz, whatever the control rate: ROS
 callbacks only store the latest messages (state streams are read with keep-last-1, so a 500 Hz
-stream costs the executor one cheap store per sample and never queues up). Requests from the browser are queued and executed on
-the executor's thread by the ``enable_rate`` timer, so every rclpy call stays on one thread.
+stream costs the executor one cheap store per sample and never queues up). Requests from the
+browser are queued and executed on the executor's thread by the ``enable_rate`` timer, so every
+rclpy call stays on one thread. The status panel's text comes from ``viewer/status_text``.
 
 Safety: the server binds ``host`` (default 127.0.0.1); every browser is read-only until it enters
 ``token`` (generated with ``secrets`` and printed when empty); one operator at a time; a
@@ -36,19 +36,13 @@ import time
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from geometry_msgs.msg import PoseStamped
-from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
-from lifecycle_msgs.msg import Transition
-from lifecycle_msgs.srv import ChangeState
-from rcl_interfaces.srv import SetParametersAtomically
+from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64
-from std_srvs.srv import SetBool, Trigger
 
 from rrps_kinematics.geometry import load_robot
-from rrps_kinematics.interfaces import (ACTUATORS_STATE, DIAGNOSTICS, POSE, TARGET_POSE, FkStatus,
-                                        source_node)
+from rrps_kinematics.interfaces import ACTUATORS_STATE, DIAGNOSTICS, POSE, TARGET_POSE, source_node
 from rrps_kinematics.nodes.common import (
     COMMAND_QOS,
     LATEST_QOS,
@@ -61,81 +55,42 @@ from rrps_kinematics.nodes.common import (
     run_nodes,
     stamp_to_seconds,
 )
+from rrps_sim.interfaces import GRIPPERS_STATE
 
-from rrps_sim.interfaces import GRIPPERS_STATE, DriverStatus, gripper_service
+from ..interfaces import (
+    CLIMB_STATUS,
+    MASTER_FEEDBACK,
+    MASTER_POSE,
+    MASTER_TARGET_POSE,
+    OPERATOR_ROUND_TRIP,
+    TELEOP_ENABLE,
+    TELEOP_STATUS,
+    odometry_topic,
+)
+from ..structures import make_structure
+from ..viewer import (
+    Frame,
+    Pose,
+    Trail,
+    ViewerServer,
+    WorkspaceView,
+    robot_figure,
+    send_file,
+    world_ring_poses,
+)
+from ..viewer import status_text as panel
+from .viewer_recording import ViewerRecording
+from .viewer_requests import OperatorRequest, ViewerRequests
 
-from ..interfaces import (CLIMB_RESUME, CLIMB_STATUS, CLIMB_STEP_DOWN, CLIMB_STEP_UP,
-                          MASTER_POSE, MASTER_TARGET_POSE, OPERATOR_ROUND_TRIP, TELEOP_ENABLE,
-                          TELEOP_STATUS, ClimbStatus, TeleopStatus, odometry_topic)
-from ..viewer import Frame, Pose, Trail, ViewerServer, robot_figure, world_ring_poses
-
-_LEVEL_NAMES = {DiagnosticStatus.OK: 'OK', DiagnosticStatus.WARN: 'WARN',
-                DiagnosticStatus.ERROR: 'ERROR', DiagnosticStatus.STALE: 'STALE'}
-
-
-def _structure_drawer(name: str, length: float):
-    """The climbed member for viser, from ``rrps_teleop.structures`` (a plain pole without it)."""
-    if not name:
-        return None
-    try:
-        from ..structures import make_structure
-    except ImportError:
-        make_structure = None
-    if make_structure is None:
-        if name != 'pole':
-            raise ValueError(f'structure {name!r} needs rrps_teleop.structures')
-
-        def plain_pole(scene) -> None:
-            scene.add_cylinder('/structure', radius=0.1, height=length, color=(150, 110, 70),
-                               position=(0.0, 0.0, 0.5 * length))
-        return plain_pole
-    vertices, faces = make_structure(name, length).mesh()
-
-    def draw(scene) -> None:
-        scene.add_mesh_simple('/structure', np.asarray(vertices, dtype=np.float32),
-                              np.asarray(faces, dtype=np.uint32), color=(150, 110, 70),
-                              side='double')
-    return draw
+#: Length of the drawn master/feedback arrow per newton [m/N].
+FEEDBACK_ARROW = 0.01
+#: Queued browser requests for the recording side (the others are OperatorRequests).
+_RECORDING = object()
 
 
-def _level(status: DiagnosticStatus) -> str:
-    return _LEVEL_NAMES.get(bytes(status.level), str(status.level))
-
-
-def _teleop_text(status: DiagnosticStatus | None) -> str:
-    """teleop/status for people, from its typed values."""
-    if status is None:
-        return '—'
-    try:
-        t = TeleopStatus.from_key_values(status.values)
-    except ValueError as exc:
-        return f'unreadable ({exc})'
-    return (f'{t.code.name} ({_level(status)}, mode {t.mode}, scale {t.scale:g}, '
-            f'engaged {"yes" if t.engaged else "no"})')
-
-
-def _climb_text(status: DiagnosticStatus | None) -> str:
-    """climb/status for people, from its typed values."""
-    if status is None:
-        return '—'
-    try:
-        c = ClimbStatus.from_key_values(status.values)
-    except ValueError as exc:
-        return f'unreadable ({exc})'
-    where = f', step {c.step}, phase {c.phase}' if c.action is not None else ''
-    paused = f': {c.pause_reason.value}, press Resume climb' if c.pause_reason is not None else ''
-    return f'{c.state.value}{paused} ({_level(status)}{where})'
-
-
-def _driver_text(status: DiagnosticStatus | None) -> str:
-    """The driver's lifecycle state for people, from its typed status."""
-    if status is None:
-        return 'not heard yet'
-    try:
-        d = DriverStatus.from_key_values(status.values)
-    except ValueError as exc:
-        return f'unreadable ({exc})'
-    return ('active' if d.active else 'INACTIVE: press Activate driver') + f' ({d.mode.value})'
+def _structure_mesh(name: str, length: float):
+    """(vertices, faces) of the climbed member to draw (``rrps_teleop.structures``), or None."""
+    return make_structure(name, length).mesh() if name else None
 
 
 class ViewerNode(Node):
@@ -172,11 +127,16 @@ class ViewerNode(Node):
         structure_length = declare_parameter(self, 'structure_length', 3.0,
                                              'length of the drawn structure [m]', min_value=0.5,
                                              max_value=100.0, read_only=True)
+        resolution = declare_parameter(
+            self, 'workspace_resolution', 0.02,
+            'grid of the reachable workspace drawn around the robot [m]; 0: not drawn',
+            min_value=0.0, max_value=0.2, read_only=True)
         self._plot_window = declare_parameter(self, 'plot_window', 20.0,
                                               'leg-length plot window [s]', min_value=1.0,
                                               max_value=600.0, read_only=True)
         if len(origin) != 3 or not all(math.isfinite(v) for v in origin):
             raise ValueError(f'master_origin must be 3 finite numbers, got {list(origin)}')
+        self.workspace = WorkspaceView(self.geometry, resolution=resolution) if resolution else None
         self.token = token or secrets.token_urlsafe(12)
         if len(self.token) < 8:
             raise ValueError('token must have at least 8 characters')
@@ -209,30 +169,26 @@ class ViewerNode(Node):
                            (odometry_topic('ring_b'), STATE_QOS)):
             self.create_subscription(PoseStamped, topic,
                                      lambda msg, topic=topic: self._store(topic, msg), qos)
+        self.create_subscription(WrenchStamped, MASTER_FEEDBACK,
+                                 lambda msg: self._store(MASTER_FEEDBACK, msg), COMMAND_QOS)
         self.create_subscription(JointState, GRIPPERS_STATE,
                                  lambda msg: self._store(GRIPPERS_STATE, msg), STATE_QOS)
         for topic in (TELEOP_STATUS, CLIMB_STATUS):
             self.create_subscription(DiagnosticStatus, topic,
                                      lambda msg, topic=topic: self._store(topic, msg), STATE_QOS)
         self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, STATE_QOS)
-        self._service_clients = {
-            'up': self.create_client(Trigger, CLIMB_STEP_UP),
-            'down': self.create_client(Trigger, CLIMB_STEP_DOWN),
-            'ring_a': self.create_client(SetBool, gripper_service('ring_a')),
-            'ring_b': self.create_client(SetBool, gripper_service('ring_b')),
-            'teleop': self.create_client(SetParametersAtomically,
-                                        'teleop_node/set_parameters_atomically'),
-            'driver': self.create_client(ChangeState, 'driver_node/change_state'),
-            'resume': self.create_client(Trigger, CLIMB_RESUME),
-        }
+        self.requests = ViewerRequests(self, tell=lambda c, m, ok: self.viewer.tell(c, m, ok=ok))
         self._round_trip_pub = self.create_publisher(Float64, OPERATOR_ROUND_TRIP, COMMAND_QOS)
+        self.recording = ViewerRecording(  # "Save last 60 s", the replay timeline (issue 12)
+            self, tell=lambda c, m, ok: self.viewer.tell(c, m, ok=ok),
+            send_file=lambda c, name, content: send_file(self.viewer.server, c, name, content))
         self.create_timer(1.0 / enable_rate, self._tick)
 
         self.viewer = ViewerServer(
             host=host, port=port, control=self.control, actions=self, frame_source=self.frame,
             geometry=self.geometry, master_geometry=self.master_geometry,
             master_origin=self._master_origin,
-            structure=_structure_drawer(structure, structure_length), rate=render_rate,
+            structure=_structure_mesh(structure, structure_length), rate=render_rate,
             title=f'rrps · {self.geometry.name}')
         shown = '127.0.0.1' if host in ('0.0.0.0', '::', '') else host
         self.url = f'http://{shown}:{self.viewer.port}'
@@ -318,7 +274,8 @@ class ViewerNode(Node):
             for name, value in zip(gmsg.name, gmsg.position):
                 if name in grippers and math.isfinite(value):
                     grippers[name] = float(value)
-        frame = Frame(grippers=grippers, trails=trails, plot=plot)
+        frame = Frame(grippers=grippers, trails=trails, plot=plot,
+                      replay=self.recording.replay_status())
         state = latest.get(ACTUATORS_STATE)
         efforts = state[1] if state is not None else None
         pose_msg = latest.get(POSE)
@@ -349,13 +306,36 @@ class ViewerNode(Node):
                 frame.master = self._figure('master', self.master_geometry, m_pose,
                                             self._master_origin, None)
                 frame.master_handle = frame.master.world_T_b
+                feedback = latest.get(MASTER_FEEDBACK)
+                if feedback is not None:
+                    f = feedback.wrench.force
+                    force = self._master_origin.rotation @ np.array([f.x, f.y, f.z])
+                    start = frame.master.world_T_b.position
+                    frame.master_feedback = np.stack([start, start + FEEDBACK_ARROW * force])
             except ValueError:
                 pass
+        self._add_workspace(frame, latest)
         now = time.monotonic()
         if now - self._panel_time >= 0.25:  # text for people: 4 Hz
             self._panel_text, self._panel_time = self._panel(latest, frame, fk_status), now
         frame.panel = self._panel_text
         return frame
+
+    def _add_workspace(self, frame: Frame, latest: dict) -> None:
+        """The reachable workspace at the slave's orientation (computed in the background), and
+        its copy on the master through the Cartesian mapping: a slave position p is reached
+        when the master is at pm + (p - ps) / scale (pm, ps the current poses)."""
+        if self.workspace is None or frame.slave is None:
+            return
+        a_T_b = frame.slave.world_T_a.inverse() @ frame.slave.world_T_b
+        self.workspace.request(a_T_b.quaternion_xyzw)
+        frame.workspace = self.workspace.latest()
+        master_msg = latest.get(MASTER_POSE)
+        if frame.workspace is None or master_msg is None or self.master_geometry is None:
+            return
+        scale = panel.translation_scale(latest.get(TELEOP_STATUS))
+        pm, _ = pose_from_msg(master_msg)
+        frame.master_workspace = (pm - a_T_b.position / scale, scale)
 
     def _figure(self, key: str, geometry, a_T_b: Pose, world_T_a: Pose, efforts):
         """robot_figure, recomputed only when its inputs changed (a still robot costs nothing)."""
@@ -370,39 +350,26 @@ class ViewerNode(Node):
         return cached[1]
 
     def _panel(self, latest: dict, frame: Frame, fk_status) -> str:
-        rtt = self.round_trip()
-        lines = [f'**Driver:** {_driver_text(latest.get("driver"))}',
-                 f'**Teleop:** {_teleop_text(latest.get(TELEOP_STATUS))}',
-                 f'**Climb:** {_climb_text(latest.get(CLIMB_STATUS))}',
-                 '**Round trip:** ' + ('—' if rtt is None else
-                                       f'{rtt * 1e3:.0f} ms' + (' (robot holds above 300 ms)'
-                                                                if rtt > 0.3 else
-                                                                ' (slowed above 200 ms)'
-                                                                if rtt > 0.2 else ''))]
-        g = frame.grippers
-        lines.append('**Grippers:** ' + ', '.join(
-            f'{ring} {"?" if v is None else "closed" if v >= 0.5 else "open"}'
-            for ring, v in g.items()))
+        """The status panel (markdown), from the typed statuses (viewer/status_text)."""
+        teleop = latest.get(TELEOP_STATUS)
+        lines = [f'**Driver:** {panel.driver_line(latest.get("driver"))}',
+                 f'**Teleop:** {panel.teleop_line(teleop)}',
+                 f'**Climb:** {panel.climb_line(latest.get(CLIMB_STATUS))}',
+                 f'**Round trip:** {panel.round_trip_line(self.round_trip())}',
+                 f'**Grippers:** {panel.grippers_line(frame.grippers)}']
         if frame.slave is not None:
-            m = frame.slave.margins
-            mins = m.minimum
-            f = frame.slave.fractions
-            lines.append(f'**Conditioning:** 1/cond {float(m.inverse_condition):.3f} '
-                         f'(min {self.geometry.min_conditioning:.3f})')
-            lines.append(f'**Margins:** stroke {float(mins["stroke"]) * 1e3:.1f} mm, '
-                         f'U-joint {math.degrees(float(mins["universal"])):.1f}°, '
-                         f'S-joint {math.degrees(float(mins["spherical"])):.1f}°, '
-                         f'interference {float(mins["interference"]) * 1e3:.1f} mm, '
-                         f'force {100.0 * float(np.min(f["force"])):.0f} %')
-            lines.append('**Legs:** ' + ' '.join(
-                f'{i + 1}:{length * 1e3:.0f}mm' for i, length in enumerate(frame.slave.lengths)))
+            lines += panel.slave_lines(frame.slave, min_conditioning=self.geometry.min_conditioning)
+        feedback = panel.feedback_line(teleop)
+        if feedback is not None:
+            lines.append(f'**Feedback on the master:** {feedback}')
+        ws = frame.workspace
+        if ws is not None and frame.slave is not None:
+            a_T_b = frame.slave.world_T_a.inverse() @ frame.slave.world_T_b
+            lines.append(f'**Workspace:** {ws.workspace.volume * 1e3:.1f} L at this orientation '
+                         f'({ws.workspace.spacing * 1e3:.0f} mm grid); ring_b '
+                         f'{ws.distance(a_T_b.position) * 1e3:.0f} mm inside its boundary')
         if fk_status is not None:
-            try:
-                fk = FkStatus.from_key_values(fk_status.values)
-                lines.append(f'**FK:** {fk_status.message or "—"}, iterations {fk.iterations}, '
-                             f'residual {fk.residual:.3g} m')
-            except ValueError as exc:
-                lines.append(f'**FK:** unreadable status ({exc})')
+            lines.append(f'**FK:** {panel.fk_line(fk_status)}')
         now = self.get_clock().now().nanoseconds * 1e-9
         ages = []
         state = latest.get(ACTUATORS_STATE)
@@ -420,19 +387,26 @@ class ViewerNode(Node):
     # --- operator actions (viser threads -> queue -> executor thread) ---------------------------
 
     def step(self, client_id: int, direction: str) -> None:
-        self._actions.put(('step', client_id, direction))
+        kind = OperatorRequest.STEP_UP if direction == 'up' else OperatorRequest.STEP_DOWN
+        self._actions.put((kind, client_id, None))
 
     def set_gripper(self, client_id: int, ring: str, close: bool) -> None:
-        self._actions.put(('gripper', client_id, (ring, close)))
+        self._actions.put((OperatorRequest.GRIPPER, client_id, (ring, close)))
 
     def set_mapping(self, client_id: int, mode: str, rotation_mode: str, scale: float) -> None:
-        self._actions.put(('mapping', client_id, (mode, rotation_mode, scale)))
+        self._actions.put((OperatorRequest.MAPPING, client_id, (mode, rotation_mode, scale)))
 
     def set_driver_active(self, client_id: int, active: bool) -> None:
-        self._actions.put(('driver', client_id, active))
+        self._actions.put((OperatorRequest.DRIVER, client_id, active))
 
     def resume_climb(self, client_id: int) -> None:
-        self._actions.put(('resume', client_id, None))
+        self._actions.put((OperatorRequest.RESUME, client_id, None))
+
+    def save_flight_recording(self, client_id: int) -> None:
+        self._actions.put((_RECORDING, client_id, ('save',)))
+
+    def replay_control(self, client_id: int, **changes) -> None:
+        self._actions.put((_RECORDING, client_id, ('replay', changes)))
 
     def round_trip(self) -> float | None:
         """The controlling browser's round trip [s] (None: no controller or not measured yet)."""
@@ -470,59 +444,11 @@ class ViewerNode(Node):
             if not self.control.may_control(client_id):
                 self.viewer.tell(client_id, 'read-only: you do not have control', ok=False)
                 continue
-            self._call(kind, client_id, arg)
-
-    def _call(self, kind: str, client_id: int, arg) -> None:
-        if kind == 'step':
-            client, request, what = self._service_clients[arg], Trigger.Request(), f'climb step {arg}'
-        elif kind == 'resume':
-            client, request, what = self._service_clients['resume'], Trigger.Request(), 'resume climb'
-        elif kind == 'driver':
-            client, what = self._service_clients['driver'], ('activate' if arg else 'deactivate') + ' driver'
-            request = ChangeState.Request(transition=Transition(
-                id=Transition.TRANSITION_ACTIVATE if arg else Transition.TRANSITION_DEACTIVATE))
-        elif kind == 'gripper':
-            ring, close = arg
-            client = self._service_clients[ring]
-            request, what = SetBool.Request(data=close), f'{"close" if close else "open"} {ring}'
-        else:
-            mode, rotation_mode, scale = arg
-            client, what = self._service_clients['teleop'], f'mapping {mode}/{rotation_mode} ×{scale:g}'
-            request = SetParametersAtomically.Request(parameters=[
-                Parameter(name='mode', value=ParameterValue(
-                    type=ParameterType.PARAMETER_STRING, string_value=mode)),
-                Parameter(name='rotation_mode', value=ParameterValue(
-                    type=ParameterType.PARAMETER_STRING, string_value=rotation_mode)),
-                Parameter(name='translation_scale', value=ParameterValue(
-                    type=ParameterType.PARAMETER_DOUBLE, double_value=float(scale)))])
-        if not client.service_is_ready():
-            self.viewer.tell(client_id, f'{what}: service {client.srv_name} is not available',
-                             ok=False)
-            return
-        future = client.call_async(request)
-
-        def done(fut) -> None:
-            response = fut.result()
-            if response is None:
-                self.viewer.tell(client_id, f'{what}: no response', ok=False)
-            elif kind == 'driver':
-                self.viewer.tell(client_id, f'{what}: ' + ('done' if response.success else
-                                                           'refused (not possible from its state)'),
-                                 ok=response.success)
-            elif kind == 'mapping':
-                result = response.result
-                self.viewer.tell(client_id, f'{what}: ' + ('applied' if result.successful
-                                                           else f'refused: {result.reason}'),
-                                 ok=result.successful)
+            if kind is _RECORDING:
+                self.recording.handle(client_id, arg)
             else:
-                self.viewer.tell(client_id, f'{what}: {response.message or "done"}',
-                                 ok=response.success)
-        future.add_done_callback(done)
-
-    def service_ready(self, kind: str) -> bool:
-        """Whether the service behind an operator request is up: 'up', 'down' (climbing),
-        'ring_a', 'ring_b' (grippers) or 'teleop' (the mapping parameters)."""
-        return self._service_clients[kind].service_is_ready()
+                self.requests.send(kind, client_id, arg)
+        self.recording.poll()
 
     def destroy_node(self) -> None:
         self.viewer.stop()

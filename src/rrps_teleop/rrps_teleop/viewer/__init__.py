@@ -27,6 +27,7 @@ from ._scene import (
     torus_mesh,
     world_ring_poses,
 )
+from ._workspace import WorkspaceSnapshot, WorkspaceView
 
 __all__ = [
     'ControlResult',
@@ -37,7 +38,11 @@ __all__ = [
     'RobotFigure',
     'Trail',
     'ViewerServer',
+    'RecordingControls',
+    'send_file',
     'WARN_FRACTION',
+    'WorkspaceSnapshot',
+    'WorkspaceView',
     'leg_margin_fractions',
     'margin_colours',
     'robot_figure',
@@ -47,7 +52,13 @@ __all__ = [
 
 
 def __getattr__(name: str):
-    if name in ('Frame', 'OperatorActions', 'ViewerServer'):
+    if name in ('Frame', 'ViewerServer'):
         from . import _render
         return getattr(_render, name)
+    if name == 'OperatorActions':
+        from . import _operator_panel
+        return _operator_panel.OperatorActions
+    if name in ('RecordingControls', 'send_file'):
+        from . import _recording
+        return getattr(_recording, name)
     raise AttributeError(f'module {__name__!r} has no attribute {name!r}')

@@ -1,4 +1,5 @@
-"""The viser rendering layer: scene nodes, the status panel and the per-browser operator controls.
+"""The viser rendering layer: scene nodes, the status panel and the plot (the per-browser operator
+controls are in ``_operator_panel``).
 
 Scene names (all in the ``world`` frame, REP-103, z up):
 ``/structure`` (the climbed member), ``/robot/ring_a`` and ``/robot/ring_b`` (ring frames),
@@ -17,45 +18,24 @@ from __future__ import annotations
 import threading
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Protocol
+from typing import Callable
 
 import numpy as np
 import viser
 import viser.uplot
 
 from rrps_kinematics.geometry import RobotGeometry
-
-from ._control import ControlResult, OperatorControl
-from ._latency import LinkMonitor
 from rrps_kinematics.pose import Pose
 
+from ._control import OperatorControl
+from ._latency import LinkMonitor
+from ._operator_panel import ClientControls, OperatorActions
 from ._scene import RobotFigure, torus_mesh
+from ._workspace import WorkspaceSnapshot
 
-__all__ = ['Frame', 'OperatorActions', 'ViewerServer', 'TELEOP_MODES', 'ROTATION_MODES']
-
-TELEOP_MODES = ('cartesian', 'joint')
-ROTATION_MODES = ('relative', 'absolute')
+__all__ = ['Frame', 'ViewerServer']
 
 _LEG_SERIES_COLOURS = ('#1f77b4', '#ff7f0e', '#2ca02c', '#d62728', '#9467bd', '#8c564b')
-
-
-class OperatorActions(Protocol):
-    """What the controls ask of the robot; called only for the client holding control.
-
-    Each returns nothing at once; results come back through :meth:`ViewerServer.tell`.
-    """
-
-    def step(self, client_id: int, direction: str) -> None: ...
-
-    def set_gripper(self, client_id: int, ring: str, close: bool) -> None: ...
-
-    def set_mapping(self, client_id: int, mode: str, rotation_mode: str, scale: float) -> None: ...
-
-    def master_target(self, client_id: int, world_T_handle: Pose | None) -> None: ...
-
-    def set_driver_active(self, client_id: int, active: bool) -> None: ...
-
-    def resume_climb(self, client_id: int) -> None: ...
 
 
 @dataclass
@@ -65,6 +45,9 @@ class Frame:
     ``grippers`` maps ring name to closedness (1 closed, 0 open, None unknown). ``plot`` is
     (t [s], lengths (N, 6) [m]). ``trails`` maps ring name to (N, 3) world points.
     ``master_handle`` is where the master's ring_b is in the world (the gizmo's start pose).
+    ``workspace``: the slave's reachable workspace at its orientation (drawn in ring_a's frame
+    around the robot); ``master_workspace``: (offset [m] in master_ring_a, scale) placing the
+    same set on the master: a slave position p maps to offset + p / scale.
     """
 
     slave: RobotFigure | None = None
@@ -75,166 +58,11 @@ class Frame:
     trails: dict[str, np.ndarray] = field(default_factory=dict)
     panel: str = ''
     plot: tuple[np.ndarray, np.ndarray] | None = None
-
-
-class _ClientControls:
-    """The operator folder of one browser: token entry, control, teleop, climb, grippers."""
-
-    def __init__(self, server: 'ViewerServer', client: viser.ClientHandle):
-        self.server = server
-        self.client = client
-        self.client_id = client.client_id
-        self.gizmo = None
-        self.version_seen = -1
-        gui = client.gui
-        control = server.control
-        cid = self.client_id
-        with gui.add_folder('Operator', order=0):
-            self.role = gui.add_markdown('**Read-only viewer.** Enter the operator token to drive.')
-            self.token = gui.add_text('Token', '', hint='the operator token printed at start-up')
-            self.enter = gui.add_button('Enter token', icon=viser.Icon.KEY)
-            self.take = gui.add_button('Take control', icon=viser.Icon.STEERING_WHEEL)
-            self.release = gui.add_button('Release control', color='gray')
-            self.hand_to = gui.add_dropdown('Hand over to', ('—',))
-            self.hand = gui.add_button('Hand over')
-        with gui.add_folder('Teleoperation', order=1):
-            self.clutch = gui.add_checkbox('Engage (clutch)', False,
-                                           hint='unchecked = clutch out: move the master freely')
-            self.deadman = gui.add_button('Hold to move (deadman)', color='green',
-                                          hint='press and hold: teleop/enable is sent while held')
-            self.mode = gui.add_dropdown('Mapping mode', TELEOP_MODES)
-            self.rotation = gui.add_dropdown('Rotation', ROTATION_MODES)
-            self.scale = gui.add_slider('Translation scale', min=0.5, max=8.0, step=0.5,
-                                        initial_value=4.0)
-            self.apply = gui.add_button('Apply mapping')
-        with gui.add_folder('Robot', order=2):
-            self.activate = gui.add_button('Activate driver', icon=viser.Icon.PLAYER_PLAY,
-                                           hint='the driver starts (and restarts) inactive: '
-                                                'nothing moves until it is activated')
-            self.deactivate = gui.add_button('Deactivate driver', color='gray',
-                                             icon=viser.Icon.PLAYER_PAUSE)
-            self.step_up = gui.add_button('Climb one step up', icon=viser.Icon.ARROW_UP)
-            self.step_down = gui.add_button('Climb one step down', icon=viser.Icon.ARROW_DOWN)
-            self.resume = gui.add_button('Resume climb', icon=viser.Icon.PLAYER_TRACK_NEXT,
-                                         hint='a paused climb (lost link or state) waits for this')
-            self.grip_buttons = {}
-            for ring in ('ring_a', 'ring_b'):
-                self.grip_buttons[(ring, True)] = gui.add_button(f'Close {ring}')
-                self.grip_buttons[(ring, False)] = gui.add_button(f'Open {ring}', color='orange')
-        self.last_message = gui.add_markdown('', order=3)
-
-        def guarded(fn: Callable[[], ControlResult | None]):
-            def callback(event) -> None:
-                if event.client_id != cid:
-                    return
-                result = fn()
-                if result is not None:
-                    server.tell(cid, result.message, ok=result.ok)
-                server.refresh_all()
-            return callback
-
-        def controller_only(fn: Callable[[], None]):
-            def callback(event) -> None:
-                if event.client_id != cid:
-                    return
-                if not control.may_control(cid):
-                    server.tell(cid, 'read-only: you do not have control', ok=False)
-                    return
-                fn()
-            return callback
-
-        self.enter.on_click(guarded(lambda: control.authenticate(cid, self.token.value)))
-        self.take.on_click(guarded(lambda: control.take_control(cid)))
-        self.release.on_click(guarded(lambda: control.release(cid)))
-        self.hand.on_click(guarded(lambda: self._hand_over()))
-        self.clutch.on_update(guarded(lambda: self._clutch()))
-        async def on_hold(event) -> None:  # on viser's event loop: no thread-pool delay
-            if event.client_id == cid:
-                control.hold(cid)
-
-        self.deadman.on_hold(on_hold, callback_hz=20.0)
-        actions = server.actions
-        self.apply.on_click(controller_only(lambda: actions.set_mapping(
-            cid, str(self.mode.value), str(self.rotation.value), float(self.scale.value))))
-        self.activate.on_click(controller_only(lambda: actions.set_driver_active(cid, True)))
-        self.deactivate.on_click(controller_only(lambda: actions.set_driver_active(cid, False)))
-        self.resume.on_click(controller_only(lambda: actions.resume_climb(cid)))
-        self.step_up.on_click(controller_only(lambda: actions.step(cid, 'up')))
-        self.step_down.on_click(controller_only(lambda: actions.step(cid, 'down')))
-        for (ring, close), button in self.grip_buttons.items():
-            button.on_click(controller_only(
-                lambda ring=ring, close=close: actions.set_gripper(cid, ring, close)))
-
-    def _hand_over(self) -> ControlResult:
-        text = str(self.hand_to.value)
-        if not text.startswith('operator '):
-            return ControlResult(False, 'choose an operator who entered the token')
-        return self.server.control.hand_over(self.client_id, int(text.split()[1]))
-
-    def _clutch(self) -> ControlResult | None:
-        control = self.server.control
-        if not control.may_control(self.client_id):
-            if self.clutch.value:
-                self.clutch.value = False
-                return ControlResult(False, 'read-only: you do not have control')
-            return None
-        return control.set_clutch(self.client_id, bool(self.clutch.value))
-
-    def sync(self, handle_pose: Pose | None) -> None:
-        """Match the controls to this client's role (called when control changes)."""
-        control = self.server.control
-        role = control.role(self.client_id)
-        controlling = role == 'controller'
-        holder = control.controller
-        if controlling:
-            text = f'**You have control** (operator {self.client_id}).'
-        elif role == 'operator':
-            text = (f'Token accepted (operator {self.client_id}). '
-                    + ('Control is free: take it.' if holder is None
-                       else f'Operator {holder} has control.'))
-        else:
-            text = '**Read-only viewer.** Enter the operator token to drive.'
-        self.role.content = text
-        self.take.disabled = role != 'operator' or holder is not None
-        self.release.disabled = not controlling
-        others = [f'operator {c}' for c in control.authenticated_clients() if c != self.client_id]
-        self.hand_to.options = tuple(others) if others else ('—',)
-        self.hand.disabled = not (controlling and others)
-        for handle in (self.clutch, self.deadman, self.mode, self.rotation, self.scale, self.apply,
-                       self.activate, self.deactivate, self.step_up, self.step_down, self.resume,
-                       *self.grip_buttons.values()):
-            handle.disabled = not controlling
-        if not controlling and self.clutch.value:
-            self.clutch.value = False
-        if controlling and self.gizmo is None:
-            self._add_gizmo(handle_pose)
-        elif not controlling and self.gizmo is not None:
-            self.gizmo.remove()
-            self.gizmo = None
-            self.server.actions.master_target(self.client_id, None)
-
-    def _add_gizmo(self, handle_pose: Pose | None) -> None:
-        pose = handle_pose or self.server.master_origin
-        gizmo = self.client.scene.add_transform_controls(
-            '/operator/master_handle', scale=0.12, depth_test=False,
-            position=pose.position, wxyz=pose.wxyz)
-        cid = self.client_id
-        control = self.server.control
-        actions = self.server.actions
-
-        @gizmo.on_update
-        def _(event) -> None:
-            if event.client_id != cid or not control.may_control(cid):
-                return
-            if event.phase == 'start':
-                control.set_dragging(cid, True)
-            elif event.phase == 'end':
-                control.set_dragging(cid, False)
-            wxyz = np.asarray(event.target.wxyz, dtype=float)
-            actions.master_target(cid, Pose(np.asarray(event.target.position, dtype=float),
-                                            np.array([wxyz[1], wxyz[2], wxyz[3], wxyz[0]])))
-
-        self.gizmo = gizmo
+    workspace: WorkspaceSnapshot | None = None
+    master_workspace: tuple[np.ndarray, float] | None = None
+    #: the limits felt on the master: an arrow (2, 3) [m, world] from its ring_b
+    master_feedback: np.ndarray | None = None
+    replay: object | None = None  # a ReplayStatus while a replay runs (the timeline)
 
 
 class ViewerServer:
@@ -243,14 +71,14 @@ class ViewerServer:
     Keyword-only: ``host``/``port`` to bind, ``control`` (an :class:`OperatorControl`),
     ``actions`` (an :class:`OperatorActions`), ``frame_source`` (returns the latest Frame),
     ``geometry`` and ``master_geometry`` (ring sizes), ``master_origin`` (world pose of the
-    master's ring_a on its console), ``structure`` (a callable adding the climbed member to a
-    viser scene, or None), ``rate`` [Hz] of the drawing thread.
+    master's ring_a on its console), ``structure`` ((vertices, faces) of the climbed member in
+    the world frame, or None), ``rate`` [Hz] of the drawing thread.
     """
 
     def __init__(self, *, host: str, port: int, control: OperatorControl, actions: OperatorActions,
                  frame_source: Callable[[], Frame], geometry: RobotGeometry,
                  master_geometry: RobotGeometry | None, master_origin: Pose,
-                 structure: Callable[[viser.SceneApi], None] | None = None, rate: float = 40.0,
+                 structure: tuple[np.ndarray, np.ndarray] | None = None, rate: float = 40.0,
                  title: str = 'rrps viewer'):
         if not rate > 0.0:
             raise ValueError(f'rate must be > 0 Hz, got {rate}')
@@ -260,10 +88,14 @@ class ViewerServer:
         self._frame_source = frame_source
         self._period = 1.0 / rate
         self._lock = threading.Lock()
-        self._clients: dict[int, _ClientControls] = {}
+        self._clients: dict[int, ClientControls] = {}
         self._handle_pose: Pose | None = None
         self._stop = threading.Event()
         self.frames_drawn = 0
+        self._workspace_version = -1
+        self._workspace_scale = 1.0
+        self._drawn_key: tuple | None = None
+        self._frame_figures: tuple = ()
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         self.server.gui.set_panel_label(title)
         self.server.scene.set_up_direction('+z')
@@ -293,7 +125,10 @@ class ViewerServer:
         scene = self.server.scene
         n = self.nodes
         if structure is not None:
-            structure(scene)
+            vertices, faces = structure
+            n['/structure'] = scene.add_mesh_simple(
+                '/structure', np.asarray(vertices, dtype=np.float32),
+                np.asarray(faces, dtype=np.uint32), color=(150, 110, 70), side='double')
         n['/grid'] = scene.add_grid('/grid', width=4.0, height=4.0, cell_size=0.25,
                                     plane='xy', position=(0.0, 0.0, 0.0))
         self._add_robot('/robot', geometry, (120, 130, 150), opacity=None)
@@ -306,6 +141,9 @@ class ViewerServer:
                 visible=False)
         if master_geometry is not None:
             self._add_robot('/master', master_geometry, (160, 160, 160), opacity=None)
+            n['/master/feedback'] = scene.add_line_segments(
+                '/master/feedback', points=np.zeros((1, 2, 3)), colors=(220, 40, 40),
+                thickness=4.0, visible=False)
             n['/master/label'] = scene.add_label('/master/label', 'master robot',
                                                  position=self.master_origin.position + [0, 0, 0.2])
         n['/robot/label'] = scene.add_label('/robot/ring_b/label', 'ring_b', position=(0, 0, 0.05))
@@ -326,9 +164,32 @@ class ViewerServer:
                     f'{prefix}/{ring}/gripper', *torus_mesh(radius=0.45 * radius,
                                                             tube=0.06 * radius),
                     color=(200, 200, 200))
+        if geometry.tool is not None:
+            self._add_tool(prefix, geometry.tool, colour=(200, 90, 40) if prefix == '/robot'
+                           else (150, 150, 150))
         thickness = 2.0 * max(geometry.leg_radius, 0.004 * geometry.characteristic_length)
         n[f'{prefix}/legs'] = scene.add_line_segments(
             f'{prefix}/legs', points=np.zeros((6, 2, 3)), colors=(40, 170, 70), thickness=thickness)
+
+    def _add_tool(self, prefix: str, tool, *, colour) -> None:
+        """The tool on ring_b (its frame ``b_T_tool``, the shape ending at the tool-centre point)."""
+        scene = self.server.scene
+        x, y, z, w = tool.quaternion_xyzw
+        frame = f'{prefix}/ring_b/tool'
+        self.nodes[frame] = scene.add_frame(frame, position=tool.position, wxyz=(w, x, y, z),
+                                            axes_length=0.05, axes_radius=0.002)
+        if tool.shape == 'cylinder':
+            radius, length = tool.size
+            self.nodes[f'{frame}/shape'] = scene.add_cylinder(
+                f'{frame}/shape', radius=radius, height=length, color=colour,
+                position=(0.0, 0.0, -0.5 * length))
+        elif tool.shape == 'box':
+            self.nodes[f'{frame}/shape'] = scene.add_box(
+                f'{frame}/shape', dimensions=tool.size, color=colour,
+                position=(0.0, 0.0, -0.5 * tool.size[2]))
+        else:
+            self.nodes[f'{frame}/shape'] = scene.add_icosphere(
+                f'{frame}/shape', radius=tool.size[0], color=colour)
 
     def _draw_robot(self, prefix: str, figure: RobotFigure) -> None:
         n = self.nodes
@@ -343,7 +204,33 @@ class ViewerServer:
         if not np.array_equal(colours, legs.colors):
             legs.colors = colours
 
+    def _scene_key(self, frame: Frame) -> tuple:
+        """What the 3-D scene of ``frame`` depends on: figures are cached by the node (the same
+        object while their inputs are unchanged), the rest compared by value."""
+        trails = tuple(len(p) for p in frame.trails.values())
+        ghost = None if frame.ghost_world_T_b is None else frame.ghost_world_T_b
+        feedback = None if frame.master_feedback is None else frame.master_feedback.tobytes()
+        workspace = None if frame.workspace is None else frame.workspace.version
+        master_ws = None if frame.master_workspace is None else (
+            frame.master_workspace[0].tobytes(), frame.master_workspace[1])
+        return (id(frame.slave), id(frame.master), ghost, tuple(frame.grippers.items()), trails,
+                feedback, workspace, master_ws)
+
     def _draw(self, frame: Frame) -> None:
+        now = time.monotonic()
+        if frame.panel and frame.panel != self._panel.content and now - self._last_panel >= 0.25:
+            self._panel.content = frame.panel  # text for people: 4 Hz is plenty
+            self._last_panel = now
+        with self._lock:
+            self._handle_pose = frame.master_handle
+            clients = list(self._clients.values())
+        for controls in clients:
+            controls.recording.show(frame.replay)
+        key = self._scene_key(frame)
+        if key == self._drawn_key:
+            return  # nothing moved: no scene message at all (an idle viewer costs little)
+        self._drawn_key = key
+        self._frame_figures = (frame.slave, frame.master)  # keeps the ids of the key alive
         n = self.nodes
         with self.server.atomic():
             if frame.slave is not None:
@@ -371,12 +258,48 @@ class ViewerServer:
                 ghost.visible = True
             else:
                 ghost.visible = False
-        now = time.monotonic()
-        if frame.panel and frame.panel != self._panel.content and now - self._last_panel >= 0.25:
-            self._panel.content = frame.panel  # text for people: 4 Hz is plenty
-            self._last_panel = now
-        with self._lock:
-            self._handle_pose = frame.master_handle
+        self._draw_workspace(frame)
+        arrow = self.nodes.get('/master/feedback')
+        if arrow is not None:
+            if frame.master_feedback is not None and np.linalg.norm(
+                    frame.master_feedback[1] - frame.master_feedback[0]) > 1e-4:
+                arrow.points = frame.master_feedback[None].astype(np.float32)
+                arrow.visible = True
+            elif arrow.visible:
+                arrow.visible = False
+
+    def _draw_workspace(self, frame: Frame) -> None:
+        """The reachable set's boundary around the robot (ring_a's frame: it moves with ring_a)
+        and, scaled, on the master; point clouds are sent only when a new workspace came."""
+        ws = frame.workspace
+        if ws is None:
+            return
+        scene = self.server.scene
+        n = self.nodes
+        master = frame.master_workspace if '/master/ring_a' in n else None
+        if master is not None and '/master/ring_a/workspace' not in n:
+            n['/master/ring_a/workspace'] = scene.add_frame('/master/ring_a/workspace',
+                                                            show_axes=False)
+        if ws.version != self._workspace_version or (
+                master is not None and master[1] != self._workspace_scale):
+            self._workspace_version = ws.version
+            shell = ws.boundary.astype(np.float32).reshape(-1, 3)
+            singular = ws.near_singular.astype(np.float32).reshape(-1, 3)
+            n['/robot/ring_a/workspace'] = scene.add_point_cloud(
+                '/robot/ring_a/workspace', points=shell, colors=(90, 160, 235),
+                point_size=0.005, point_shape='circle')
+            n['/robot/ring_a/workspace_singular'] = scene.add_point_cloud(
+                '/robot/ring_a/workspace_singular', points=singular, colors=(245, 150, 20),
+                point_size=0.007, point_shape='circle', visible=len(singular) > 0)
+            if master is not None:
+                self._workspace_scale = master[1]
+                n['/master/ring_a/workspace/shell'] = scene.add_point_cloud(
+                    '/master/ring_a/workspace/shell', points=shell / np.float32(master[1]),
+                    colors=(90, 160, 235), point_size=0.002, point_shape='circle')
+        if master is not None:
+            node = n['/master/ring_a/workspace']
+            if not np.allclose(node.position, master[0], atol=1e-5):
+                node.position = np.asarray(master[0], dtype=float)
 
     # --- panel -------------------------------------------------------------------------------
 
@@ -411,7 +334,7 @@ class ViewerServer:
 
     def _on_connect(self, client: viser.ClientHandle) -> None:
         self.control.connect(client.client_id)
-        controls = _ClientControls(self, client)
+        controls = ClientControls(self, client)
         with self._lock:
             self._clients[client.client_id] = controls
         self.refresh_all()

@@ -1,0 +1,231 @@
+"""Recorder cost: the demo's robot stack at 500 Hz with teleop motion, recorder off vs on.
+
+Starts the demo's processes (the driver at 500 Hz; IK, FK and climbing; master and teleop, the
+master running its circle trajectory while this script holds the deadman, so IK streams
+commands and the driver moves), then measures three phases of ``--seconds`` each in the same
+run: recorder off, recorder on (``rrps-record``: every topic at full rate to a zstd MCAP file,
+the 60 s flight-recorder ring and /tf at 10 Hz), recorder off again. ``--climb`` starts a climb
+step at the start of every phase as well (up, down, up), so climbing runs in each phase.
+
+* CPU: user + system time of every process of the stack (and the recorder's), from
+  /proc/<pid>/stat, over the phase, in % of one core.
+* The driver's period: differences of the ``actuators/state`` header stamps (its timer),
+  received by this separate process; p50, p99, max.
+
+Targets (issue 12): the recorder adds < 10 % to the stack's CPU; the driver's period p99 does
+not change (within the noise seen between the two recorder-off phases, at least 0.25 ms).
+The recording of the "on" phase is read back with the mcap reader: channels, counts, size.
+
+    python benchmarks/recorder.py [--seconds 20] [--climb]
+    python benchmarks/recorder.py --session 60     # one recorded session: teleop, then a climb
+
+``--session S`` records one session instead: teleop motion for the first third, then the
+deadman is released and a climb step up runs, S seconds in all; it prints the file's channels,
+message counts and size (no off/on comparison).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 80))
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import stop_processes, wait_until  # noqa: E402
+
+TICK = os.sysconf('SC_CLK_TCK')
+
+
+def cpu_seconds(pids) -> float:
+    """User + system CPU seconds of the processes (0 for one that is gone)."""
+    total = 0.0
+    for pid in pids:
+        try:
+            fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
+        except OSError:
+            continue
+        total += (int(fields[11]) + int(fields[12])) / TICK
+    return total
+
+
+def _report_files(files) -> None:
+    from mcap.reader import make_reader
+    total = sum(f.stat().st_size for f in files)
+    for f in files:
+        with open(f, 'rb') as stream:
+            summary = make_reader(stream).get_summary()
+        st = summary.statistics
+        seconds = (st.message_end_time - st.message_start_time) * 1e-9
+        print(f'{f.name}: {f.stat().st_size / 1e6:.2f} MB, {seconds:.1f} s, {st.message_count} '
+              f'messages, {st.chunk_count} zstd chunks')
+        print(f'{"channel":<32}{"schema":<40}{"messages":>10}{"rate [Hz]":>11}')
+        for cid, channel in sorted(summary.channels.items(), key=lambda c: c[1].topic):
+            n = st.channel_message_counts.get(cid, 0)
+            print(f'{channel.topic:<32}{summary.schemas[channel.schema_id].name:<40}{n:>10d}'
+                  f'{n / max(seconds, 1e-9):>11.1f}')
+    print(f'total {total / 1e6:.2f} MB')
+
+
+def _session(seconds: float, out_dir: Path, deadman, climb, Trigger) -> int:
+    """Record ``seconds`` of teleop motion, then a climb step; print the recording."""
+    recorder = subprocess.Popen(
+        [sys.executable, '-m', 'rrps_teleop.record_cli', '-o', str(out_dir), '--prefix',
+         'session', '--namespace', '/rrps'], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        time.sleep(3.0)  # discovery
+        t0 = time.monotonic()
+        time.sleep(seconds / 3.0)
+        deadman.clear()
+        time.sleep(0.5)
+        future = climb['up'].call_async(Trigger.Request())
+        wait_until(future.done, 10.0)
+        response = future.result()
+        print(f'climb step up: {response.message if response else "no answer"}')
+        time.sleep(max(0.0, seconds - (time.monotonic() - t0)))
+    finally:
+        recorder.send_signal(signal.SIGINT)
+        recorder.wait(timeout=30.0)
+    print(f'\nA {seconds:g} s session (teleop motion, then a climb step), recorded by rrps-record:')
+    _report_files(sorted(out_dir.glob('session_*.mcap')))
+    return 0
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--seconds', type=float, default=20.0, help='length of each phase [s]')
+    parser.add_argument('--climb', action='store_true', help='a climb step in every phase')
+    parser.add_argument('--session', type=float, default=0.0,
+                        help='record one teleop + climb session of this many seconds instead')
+    args = parser.parse_args()
+
+    import rclpy
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import SetParameters
+    from rclpy.node import Node
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Bool
+    from std_srvs.srv import Trigger
+
+    from rrps_kinematics.nodes.common import (COMMAND_QOS, STATE_QOS, make_executor,
+                                              spin_until_shutdown, stamp_to_seconds)
+    from rrps_kinematics.supervision import start_child
+    from rrps_teleop.demo import start_driver, start_robot_nodes
+    from rrps_teleop.params import params_file_arguments
+
+    stack = [start_driver(robot='pole_climber'), start_robot_nodes(robot='pole_climber'),
+             start_child([sys.executable, '-m', 'rrps_teleop.compose', 'master_node',
+                          'teleop_node', '--ros-args',
+                          *params_file_arguments('master_node', 'teleop_node'),
+                          '-r', '__ns:=/rrps'])]
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    stop = threading.Event()
+    node = Node('recorder_benchmark', context=context, namespace='/rrps')
+    stamps: list[tuple[float, float]] = []
+    lock = threading.Lock()
+
+    def on_state(msg) -> None:
+        with lock:
+            stamps.append((time.monotonic(), stamp_to_seconds(msg.header.stamp)))
+
+    node.create_subscription(JointState, 'actuators/state', on_state, STATE_QOS)
+    enable = node.create_publisher(Bool, 'teleop/enable', COMMAND_QOS)
+    deadman = threading.Event()
+    deadman.set()
+    node.create_timer(0.05, lambda: deadman.is_set() and enable.publish(Bool(data=True)))
+    climb = {'up': node.create_client(Trigger, 'climb/step_up'),
+             'down': node.create_client(Trigger, 'climb/step_down')}
+    executor = make_executor(context, 'events')
+    executor.add_node(node)
+    spinner = threading.Thread(target=spin_until_shutdown, args=(executor, context, stop),
+                               daemon=True)
+    spinner.start()
+    out_dir = Path(tempfile.mkdtemp(prefix='rrps-recorder-bench-'))
+    recorder = None
+    phases = []
+    try:
+        client = node.create_client(SetParameters, 'master_node/set_parameters')
+        if not (client.wait_for_service(timeout_sec=60.0)
+                and climb['up'].wait_for_service(timeout_sec=60.0)
+                and wait_until(lambda: len(stamps) > 100, 60.0)):
+            print('error: the stack did not come up', file=sys.stderr)
+            return 1
+        future = client.call_async(SetParameters.Request(parameters=[Parameter(
+            name='trajectory', value=ParameterValue(type=ParameterType.PARAMETER_STRING,
+                                                    string_value='circle'))]))
+        wait_until(future.done, 10.0)
+        time.sleep(3.0)
+        if args.session > 0.0:
+            return _session(args.session, out_dir, deadman, climb, Trigger)
+        pids = [p.pid for p in stack]
+        for i, (name, on) in enumerate((('recorder off', False), ('recorder on', True),
+                                        ('recorder off again', False))):
+            if on:
+                recorder = subprocess.Popen(
+                    [sys.executable, '-m', 'rrps_teleop.record_cli', '-o', str(out_dir),
+                     '--prefix', 'bench', '--namespace', '/rrps'],
+                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                time.sleep(4.0)  # start-up and discovery are not part of the phase
+            if args.climb:
+                climb['up' if i % 2 == 0 else 'down'].call_async(Trigger.Request())
+            measured = pids + ([recorder.pid] if on else [])
+            c0, t0 = cpu_seconds(measured), time.monotonic()
+            recorder_c0 = cpu_seconds([recorder.pid]) if on else 0.0
+            time.sleep(args.seconds)
+            c1, t1 = cpu_seconds(measured), time.monotonic()
+            recorder_cpu = (cpu_seconds([recorder.pid]) - recorder_c0) if on else 0.0
+            with lock:
+                s = np.array([stamp for recv, stamp in stamps if t0 <= recv < t1])
+            phases.append((name, 100.0 * (c1 - c0) / (t1 - t0),
+                           100.0 * recorder_cpu / (t1 - t0), np.diff(s)))
+            if on:
+                recorder.send_signal(signal.SIGINT)
+                recorder.wait(timeout=30.0)
+    finally:
+        stop.set()
+        spinner.join(timeout=5.0)
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+        if recorder is not None and recorder.poll() is None:
+            recorder.kill()
+        stop_processes(stack, timeout=10.0)
+
+    print(f'\nRecorder cost: demo robot stack (driver 500 Hz, IK, FK, climb, master, teleop) '
+          f'with teleop motion{" and climbing" if args.climb else ""}, {args.seconds:g} s per '
+          f'phase, {os.cpu_count()} CPUs (shared)')
+    print(f'{"phase":<20}{"stack CPU [% core]":>20}{"of it recorder":>16}'
+          f'{"period p50 [ms]":>17}{"p99 [ms]":>10}{"max [ms]":>10}{"states":>8}')
+    for name, cpu, rec_cpu, p in phases:
+        print(f'{name:<20}{cpu:>20.1f}{rec_cpu:>16.1f}{1e3 * np.median(p):>17.3f}'
+              f'{1e3 * np.percentile(p, 99):>10.3f}{1e3 * np.max(p):>10.3f}{len(p) + 1:>8d}')
+    off = [phases[0], phases[2]]
+    base_cpu = float(np.mean([c for _, c, _, _ in off]))
+    added = phases[1][1] - base_cpu
+    p99_off = [1e3 * np.percentile(p, 99) for *_, p in off]
+    p99_on = 1e3 * np.percentile(phases[1][3], 99)
+    noise = max(0.25, abs(p99_off[0] - p99_off[1]))
+    cpu_ok = added < 0.10 * base_cpu
+    p99_ok = abs(p99_on - float(np.mean(p99_off))) <= noise
+    print(f'\nCPU added by the recorder: {added:+.1f} % of a core = {100 * added / base_cpu:+.1f} % '
+          f'of the stack\'s {base_cpu:.1f} % (target < 10 %): {"MET" if cpu_ok else "MISSED"}')
+    print(f'driver period p99: {p99_on:.3f} ms on vs {p99_off[0]:.3f} / {p99_off[1]:.3f} ms off '
+          f'(noise {noise:.3f} ms): {"MET" if p99_ok else "MISSED"}')
+
+    print(f'\nrecording of the "on" phase ({out_dir}):')
+    _report_files(sorted(out_dir.glob('bench_*.mcap')))
+    return 0 if cpu_ok and p99_ok else 1
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,441 @@
+"""recorder_node: every rrps topic and /diagnostics to MCAP, and the flight recorder (issue 12).
+
+Recording (``record``, default on): every topic of the node's namespace, ``/diagnostics`` and
+``/tf`` (or the names/prefixes of ``topics``) is found in the ROS graph every
+``discovery_period`` s, so late publishers are recorded too, and subscribed to raw: the CDR
+bytes are written as received, never deserialised. Files are MCAP in the ``ros2`` profile
+(:mod:`rrps_teleop.recording.mcap_files`): ``ros2msg`` schemas, ``cdr`` messages, the QoS each
+publisher offered as ``offered_qos_profiles``; zstd chunks flushed every ``flush_period`` s; a
+new file ``<output_dir>/<prefix>_<n>.mcap`` past ``max_file_size_mb`` or ``max_file_duration``.
+A topic is subscribed reliable only if every publisher offers reliable (rosbag2's rule).
+
+The transforms ``world -> ring_a -> ring_b`` and each leg's links
+(:func:`rrps_teleop.recording.markers.robot_transforms`) are written to ``/tf`` as
+``tf2_msgs/msg/TFMessage`` at ``tf_rate`` Hz from the newest ``pose``, ``odometry/*`` and
+``grippers/state`` (encoded with mcap-ros2-support: tf2_msgs is not needed).
+
+Flight recorder (``flight_recorder``, default on): the last ``buffer_seconds`` of the same
+messages in memory (:class:`rrps_teleop.recording.ring.MessageRing`), written to
+``<output_dir>/flight_<time>_<trigger>.mcap`` ``post_trigger`` s after a fault
+(:class:`rrps_teleop.recording.triggers.FaultWatch`: a node's ERROR, a gripper refusal, a lost
+teleop or climb link; at most one every ``min_dump_interval`` s) and at once when the service
+``flight_recorder/save`` (std_srvs/Trigger) is called; the answer's ``message`` is the path.
+The file is written to ``<path>.part`` and renamed when complete, so it exists only whole.
+
+    recorder_node --ros-args -r __ns:=/rrps -p output_dir:=recordings
+    rrps-record -o recordings --namespace /rrps          (the same, as a command)
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import threading
+import time
+from pathlib import Path
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from geometry_msgs.msg import PoseStamped
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message
+from sensor_msgs.msg import JointState
+from std_srvs.srv import Trigger
+
+from rrps_kinematics.interfaces import DIAGNOSTICS, POSE
+from rrps_kinematics.nodes.common import (
+    OK,
+    STATE_QOS,
+    WARN,
+    Diagnostics,
+    declare_parameter,
+    declare_robot_parameter,
+    pose_from_msg,
+    run_nodes,
+)
+from rrps_kinematics.pose import Pose
+from rrps_sim.interfaces import GRIPPERS_STATE, gripper_states
+
+from ..interfaces import (
+    CLIMB_STATUS,
+    FLIGHT_RECORDER_SAVE,
+    TELEOP_STATUS,
+    TF,
+    RecorderStatus,
+    RecorderTrigger,
+    odometry_topic,
+)
+from ..recording.markers import robot_transforms
+from ..recording.mcap_files import COMPRESSIONS, RotatingRecording, TopicInfo, write_recording
+from ..recording.qos import QosSpec, request_for_offers
+from ..recording.ring import MessageRing
+from ..recording.schemas import message_schema
+from ..recording.triggers import FaultWatch, StatusEvent
+from ..viewer import world_ring_poses
+
+__all__ = ['RecorderNode', 'main', 'qos_spec', 'type_hash_text', 'TF_TYPE']
+
+TF_TYPE = 'tf2_msgs/msg/TFMessage'
+#: What tf2_ros' TransformBroadcaster offers on /tf.
+TF_QOS = QosSpec(depth=100)
+_IGNORED = ('/rosout', '/parameter_events')
+
+
+def qos_spec(profile) -> QosSpec:
+    """An rclpy QoSProfile as plain values."""
+    def ns(duration) -> int:
+        return int(duration.nanoseconds)
+    return QosSpec(history=int(profile.history), depth=int(profile.depth),
+                   reliability=int(profile.reliability), durability=int(profile.durability),
+                   deadline_ns=ns(profile.deadline), lifespan_ns=ns(profile.lifespan),
+                   liveliness=int(profile.liveliness),
+                   liveliness_lease_duration_ns=ns(profile.liveliness_lease_duration),
+                   avoid_ros_namespace_conventions=bool(profile.avoid_ros_namespace_conventions))
+
+
+def type_hash_text(type_hash) -> str:
+    """rclpy's TypeHash as rosbag2 writes it ('RIHS01_<hex>'; '' when unset)."""
+    if type_hash is None or getattr(type_hash, 'version', -1) != 1:
+        return ''
+    return f'RIHS{type_hash.version:02d}_{bytes(type_hash.value).hex()}'
+
+
+def _rclpy_qos(spec: QosSpec) -> QoSProfile:
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=spec.depth,
+                      reliability=ReliabilityPolicy(spec.reliability),
+                      durability=DurabilityPolicy(spec.durability))
+
+
+def _message_class(type_name: str):
+    package, kind, name = type_name.split('/')
+    return getattr(importlib.import_module(f'{package}.{kind}'), name)
+
+
+class _TfEncoder:
+    """TFMessage CDR bytes from (parent, child, Pose) triples, without the tf2_msgs package."""
+
+    def __init__(self):
+        from mcap_ros2._dynamic import serialize_dynamic
+        self._encode = serialize_dynamic(TF_TYPE, message_schema(TF_TYPE))[TF_TYPE]
+
+    def encode(self, stamp_ns: int, transforms) -> bytes:
+        sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
+        out = []
+        for parent, child, pose in transforms:
+            p = [float(v) for v in pose.position]
+            q = [float(v) for v in pose.quaternion_xyzw]
+            out.append({'header': {'stamp': {'sec': sec, 'nanosec': nanosec}, 'frame_id': parent},
+                        'child_frame_id': child,
+                        'transform': {'translation': {'x': p[0], 'y': p[1], 'z': p[2]},
+                                      'rotation': {'x': q[0], 'y': q[1], 'z': q[2], 'w': q[3]}}})
+        return self._encode({'transforms': out})
+
+
+class RecorderNode(Node):
+    """Records the rrps topics to MCAP and keeps the flight recorder; see the module docstring."""
+
+    def __init__(self, **kwargs):
+        super().__init__('recorder_node', **kwargs)
+        self.output_dir = Path(declare_parameter(
+            self, 'output_dir', 'rrps_recordings', 'folder of the recordings', read_only=True))
+        prefix = declare_parameter(self, 'prefix', '',
+                                   'file name prefix (empty: rrps_<date>_<time>)', read_only=True)
+        self.record = declare_parameter(self, 'record', True,
+                                        'write every message to MCAP files', read_only=True)
+        self.flight_recorder = declare_parameter(
+            self, 'flight_recorder', True, 'keep the last buffer_seconds for fault dumps',
+            read_only=True)
+        buffer_seconds = declare_parameter(self, 'buffer_seconds', 60.0,
+                                           'flight recorder window [s]', min_value=1.0,
+                                           max_value=3600.0, read_only=True)
+        buffer_mb = declare_parameter(self, 'buffer_max_mb', 512.0,
+                                      'flight recorder memory bound [MiB of messages]',
+                                      min_value=1.0, max_value=65536.0, read_only=True)
+        self.topics = list(declare_parameter(
+            self, 'topics', [''],
+            "topics or prefixes to record ('' = the node's namespace, /diagnostics and /tf)",
+            read_only=True))
+        self.discovery_period = declare_parameter(self, 'discovery_period', 1.0,
+                                                  'graph discovery period [s]', min_value=0.05,
+                                                  max_value=60.0, read_only=True)
+        max_mb = declare_parameter(self, 'max_file_size_mb', 0.0,
+                                   'start a new file past this size [MiB]; 0 = no limit',
+                                   min_value=0.0, max_value=1e6, read_only=True)
+        max_seconds = declare_parameter(self, 'max_file_duration', 0.0,
+                                        'start a new file past this duration [s]; 0 = no limit',
+                                        min_value=0.0, max_value=1e6, read_only=True)
+        compression = declare_parameter(self, 'compression', 'zstd', 'chunk compression',
+                                        read_only=True,
+                                        additional_constraints=' | '.join(COMPRESSIONS))
+        flush_period = declare_parameter(self, 'flush_period', 1.0,
+                                         'write the chunk in progress at least this often [s] '
+                                         '(what a crash can lose)', min_value=0.05,
+                                         max_value=600.0, read_only=True)
+        self.depth = declare_parameter(self, 'depth', 100, 'subscription queue depth',
+                                       min_value=1, max_value=100000, read_only=True)
+        self.geometry = declare_robot_parameter(self)
+        tf_rate = declare_parameter(self, 'tf_rate', 10.0, '/tf written at this rate [Hz]; 0 = none',
+                                    min_value=0.0, max_value=1000.0, read_only=True)
+        self.post_trigger = declare_parameter(self, 'post_trigger', 2.0,
+                                              'a fault dump waits this long [s] to include '
+                                              'the aftermath', min_value=0.0, max_value=600.0)
+        self.min_dump_interval = declare_parameter(
+            self, 'min_dump_interval', 10.0, 'at most one fault dump this often [s]',
+            min_value=0.0, max_value=3600.0)
+        if compression not in COMPRESSIONS:
+            raise ValueError(f'compression must be one of {sorted(COMPRESSIONS)}, '
+                             f'got {compression!r}')
+        self.prefix = prefix or time.strftime('rrps_%Y%m%d_%H%M%S')
+        self._lock = threading.Lock()
+        self._topics: dict[str, TopicInfo] = {}
+        self._raw_subscriptions: dict[str, object] = {}
+        self.dropped_topics: dict[str, str] = {}
+        self._latest: dict[str, bytes] = {}
+        self._tf_cache: tuple[tuple, list] | None = None  # (inputs, transforms)
+        ns = self.get_namespace().rstrip('/')
+        self._tf_inputs = {f'{ns}/{POSE}': POSE, f'{ns}/{GRIPPERS_STATE}': GRIPPERS_STATE,
+                           f'{ns}/{odometry_topic("ring_a")}': 'ring_a',
+                           f'{ns}/{odometry_topic("ring_b")}': 'ring_b'}
+        self.recording = (RotatingRecording(self.output_dir, self.prefix,
+                                            max_bytes=int(max_mb * 2**20), max_seconds=max_seconds,
+                                            compression=compression, flush_period=flush_period)
+                          if self.record else None)
+        self.ring = (MessageRing(buffer_seconds, max_bytes=int(buffer_mb * 2**20))
+                     if self.flight_recorder else None)
+        self.buffer_seconds = buffer_seconds
+        self.messages = 0
+        self.dumps: list[Path] = []
+        self.last_trigger: RecorderTrigger | None = None
+        self._pending_dump: tuple[float, RecorderTrigger] | None = None
+        self._last_dump_time = -1e18
+        self._writers: list[threading.Thread] = []
+        self._faults = FaultWatch()
+        self._tf = _TfEncoder() if tf_rate > 0.0 else None
+        if self._tf is not None:
+            self._add_topic(TopicInfo(TF, TF_TYPE, (TF_QOS,)))
+            self.create_timer(1.0 / tf_rate, self._write_tf)
+        self._diag = Diagnostics(self, 'recorder')
+        self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, STATE_QOS)
+        for topic in (TELEOP_STATUS, CLIMB_STATUS):
+            self.create_subscription(DiagnosticStatus, topic,
+                                     lambda msg, topic=topic: self._on_status(topic, msg),
+                                     STATE_QOS)
+        self.create_service(Trigger, FLIGHT_RECORDER_SAVE, self._on_save)
+        self.create_timer(self.discovery_period, self._discover)
+        self.create_timer(0.1, self._housekeeping)
+        self.create_timer(1.0, self._report)
+        self._discover()
+        where = f'recording to {self.recording.path}' if self.recording else 'not recording'
+        self.get_logger().info(
+            f'{where}; flight recorder '
+            + (f'on ({buffer_seconds:g} s)' if self.ring is not None else 'off'))
+
+    # --- topics ------------------------------------------------------------------------------
+
+    def _selected(self, name: str) -> bool:
+        if name in _IGNORED:
+            return False
+        ns = self.get_namespace().rstrip('/')
+        for entry in self.topics:
+            if entry == '':
+                if name in (DIAGNOSTICS, TF) or (ns and name.startswith(ns + '/')) or not ns:
+                    return True
+            elif name == entry or name.startswith(entry.rstrip('/') + '/'):
+                return True
+        return False
+
+    def _add_topic(self, topic: TopicInfo) -> None:
+        with self._lock:
+            self._topics[topic.name] = topic
+        if self.recording is not None:
+            self.recording.add_topic(topic)
+
+    def _discover(self) -> None:
+        """Subscribe (raw) to every selected topic that has a publisher and is not yet heard."""
+        for name, types in self.get_topic_names_and_types():
+            if name in self._raw_subscriptions or not self._selected(name):
+                continue
+            if name == TF and self._tf is not None:
+                continue  # written by this node from the robot's state
+            if len(types) != 1:
+                self.dropped_topics[name] = f'several types {types}'
+                continue
+            infos = self.get_publishers_info_by_topic(name)
+            if not infos:
+                continue  # subscribers only: nothing to record (yet)
+            type_name = types[0]
+            try:
+                cls = _message_class(type_name)
+                message_schema(type_name)
+            except (ImportError, AttributeError, ValueError, LookupError) as exc:
+                self.dropped_topics[name] = f'{type_name}: {exc}'
+                continue
+            offered = tuple(qos_spec(info.qos_profile) for info in infos)
+            topic = TopicInfo(name, type_name, offered, type_hash_text(infos[0].topic_type_hash))
+            self._add_topic(topic)
+            self._raw_subscriptions[name] = self.create_subscription(
+                cls, name, lambda data, name=name: self._on_raw(name, data),
+                _rclpy_qos(request_for_offers(offered, depth=self.depth)), raw=True)
+            self.dropped_topics.pop(name, None)
+
+    def _on_raw(self, topic: str, data: bytes) -> None:
+        t = time.time_ns()
+        self._store(topic, t, data)
+        if topic in self._tf_inputs:
+            self._latest[topic] = data
+
+    def _store(self, topic: str, t: int, data: bytes) -> None:
+        self.messages += 1
+        if self.recording is not None:
+            self.recording.write(topic, t, data)
+        if self.ring is not None:
+            self.ring.add(topic, t, data)
+
+    # --- /tf -----------------------------------------------------------------------------------
+
+    def _write_tf(self) -> None:
+        pose_data = self._latest.get(next(k for k, v in self._tf_inputs.items() if v == POSE))
+        if pose_data is None:
+            return
+        # The inputs without their stamps: each is a stamped message whose CDR starts with the
+        # 4-byte encapsulation and header.stamp (8 bytes); a resting robot keeps the rest.
+        inputs = tuple(None if d is None else d[12:]
+                       for d in (self._latest.get(k) for k in self._tf_inputs))
+        if self._tf_cache is not None and self._tf_cache[0] == inputs:
+            t = time.time_ns()  # a robot at rest: the same transforms, stamped now
+            self._store(TF, t, self._tf.encode(t, self._tf_cache[1]))
+            return
+        try:
+            a_T_b = Pose(*pose_from_msg(deserialize_message(pose_data, PoseStamped)))
+            world_T_a = None
+            odometry = {ring: self._latest.get(key) for key, ring in self._tf_inputs.items()
+                        if ring in ('ring_a', 'ring_b')}
+            gripper_data = self._latest.get(next(k for k, v in self._tf_inputs.items()
+                                                 if v == GRIPPERS_STATE))
+            closed = None
+            if gripper_data is not None:
+                g = deserialize_message(gripper_data, JointState)
+                closed = gripper_states(list(g.name), list(g.position))
+            gripping = 'ring_b' if closed is not None and not closed['ring_a'] else 'ring_a'
+            if odometry.get(gripping) is not None:
+                world_T_g = Pose(*pose_from_msg(deserialize_message(odometry[gripping],
+                                                                    PoseStamped)))
+                world_T_a, _ = world_ring_poses(a_T_b=a_T_b, gripping=gripping,
+                                                world_T_gripping=world_T_g)
+            transforms = robot_transforms(self.geometry, a_T_b, world_T_a)
+            self._tf_cache = (inputs, transforms)
+        except ValueError as exc:
+            self.get_logger().warning(f'no /tf for this pose: {exc}', throttle_duration_sec=5.0)
+            return
+        t = time.time_ns()
+        self._store(TF, t, self._tf.encode(t, transforms))
+
+    # --- flight recorder ----------------------------------------------------------------------
+
+    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        for status in msg.status:
+            self._event(StatusEvent(DIAGNOSTICS, int.from_bytes(status.level, 'little')
+                                    if isinstance(status.level, bytes) else int(status.level),
+                                    status.name, {kv.key: kv.value for kv in status.values}))
+
+    def _on_status(self, topic: str, status: DiagnosticStatus) -> None:
+        level = status.level
+        self._event(StatusEvent(topic, int.from_bytes(level, 'little')
+                                if isinstance(level, bytes) else int(level), status.name,
+                                {kv.key: kv.value for kv in status.values}))
+
+    def _event(self, event: StatusEvent) -> None:
+        trigger = self._faults.check(event)
+        if trigger is None or self.ring is None or self._pending_dump is not None:
+            return
+        now = time.monotonic()
+        if now - self._last_dump_time < self.min_dump_interval:
+            return
+        self.get_logger().warning(f'flight recorder: {trigger.value} ({event.name or event.source})'
+                                  f'; writing the last {self.buffer_seconds:g} s in '
+                                  f'{self.post_trigger:g} s')
+        self._pending_dump = (now + self.post_trigger, trigger)
+
+    def _housekeeping(self) -> None:
+        pending = self._pending_dump
+        if pending is not None and time.monotonic() >= pending[0]:
+            self._pending_dump = None
+            self.dump(pending[1])
+
+    def dump(self, trigger: RecorderTrigger) -> Path:
+        """Write the buffer (in a thread) to a new file; returns the path it will have."""
+        if self.ring is None:
+            raise RuntimeError('the flight recorder is off (flight_recorder:=false)')
+        self._last_dump_time = time.monotonic()
+        self.last_trigger = trigger
+        messages = self.ring.snapshot()
+        with self._lock:
+            topics = list(self._topics.values())
+        self.output_dir.mkdir(parents=True, exist_ok=True)
+        stamp = time.strftime('%Y%m%d_%H%M%S')
+        path = self.output_dir / f'flight_{stamp}_{trigger.value}.mcap'
+        n = 1
+        while path.exists() or path in self.dumps:
+            path = self.output_dir / f'flight_{stamp}_{trigger.value}_{n}.mcap'
+            n += 1
+        self.dumps.append(path)
+
+        def write() -> None:
+            part = path.with_name(path.name + '.part')
+            try:
+                write_recording(part, topics, messages)
+                os.replace(part, path)
+            except OSError as exc:
+                self.get_logger().error(f'flight recorder: cannot write {path}: {exc}')
+
+        thread = threading.Thread(target=write, name='flight-recorder-dump', daemon=True)
+        thread.start()
+        self._writers = [w for w in self._writers if w.is_alive()] + [thread]
+        return path
+
+    def _on_save(self, request, response):
+        try:
+            path = self.dump(RecorderTrigger.OPERATOR)
+        except (RuntimeError, OSError) as exc:
+            response.success, response.message = False, str(exc)
+            return response
+        response.success, response.message = True, str(path.resolve())
+        return response
+
+    def wait_for_dumps(self, timeout: float = 30.0) -> None:
+        """Wait until every dump started so far is written (tests, shutdown)."""
+        deadline = time.monotonic() + timeout
+        for thread in list(self._writers):
+            thread.join(max(0.0, deadline - time.monotonic()))
+
+    # --- status ------------------------------------------------------------------------------
+
+    def _report(self) -> None:
+        status = RecorderStatus(
+            recording=self.recording is not None, flight_recorder=self.ring is not None,
+            topics=len(self._topics), messages=self.messages,
+            bytes_written=self.recording.bytes_written if self.recording is not None else 0,
+            file=str(self.recording.path) if self.recording is not None else '',
+            buffered_messages=len(self.ring) if self.ring is not None else 0,
+            buffer_seconds=self.ring.span if self.ring is not None else 0.0,
+            dumps=len(self.dumps), last_dump=str(self.dumps[-1]) if self.dumps else '',
+            last_trigger=self.last_trigger, dropped_topics=tuple(sorted(self.dropped_topics)))
+        level = WARN if self.dropped_topics else OK
+        message = (f'{len(self._topics)} topics, {self.messages} messages'
+                   + (f'; not recorded: {", ".join(sorted(self.dropped_topics))}'
+                      if self.dropped_topics else ''))
+        self._diag.report(level, message, status)
+
+    def destroy_node(self) -> None:
+        self.wait_for_dumps(timeout=30.0)
+        if self.recording is not None:
+            self.recording.close()
+        super().destroy_node()
+
+
+def main(args=None) -> None:
+    run_nodes([RecorderNode], args)
+
+
+if __name__ == '__main__':
+    main()

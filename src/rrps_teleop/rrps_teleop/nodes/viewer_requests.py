@@ -1,0 +1,120 @@
+"""The viewer node's requests to the robot: what an operator's buttons ask of other nodes' services.
+
+:class:`ViewerRequests` holds one service client per :class:`OperatorRequest` and sends a request
+without blocking; the answer is told to the browser that asked (``tell(client_id, text, ok)``):
+
+* ``STEP_UP`` / ``STEP_DOWN`` / ``RESUME``: ``climb/step_up|step_down|resume`` (std_srvs/Trigger);
+* ``GRIPPER``: ``grippers/ring_a|ring_b/set`` (std_srvs/SetBool, true = close);
+* ``DRIVER``: ``driver_node/change_state`` (lifecycle activate / deactivate);
+* ``MAPPING``: ``teleop_node/set_parameters_atomically``: mode, rotation and scale change
+  together or not at all, never half.
+
+Every method runs on the node's executor thread (the viewer queues browser requests).
+"""
+
+from __future__ import annotations
+
+import enum
+from typing import Callable
+
+from lifecycle_msgs.msg import Transition
+from lifecycle_msgs.srv import ChangeState
+from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+from rcl_interfaces.srv import SetParametersAtomically
+from std_srvs.srv import SetBool, Trigger
+
+from rrps_sim.interfaces import RINGS, gripper_service
+
+from ..interfaces import CLIMB_RESUME, CLIMB_STEP_DOWN, CLIMB_STEP_UP
+
+__all__ = ['OperatorRequest', 'ViewerRequests', 'TELEOP_PARAMETERS', 'DRIVER_CHANGE_STATE']
+
+#: The teleop node's standard atomic parameter service, relative to the viewer's namespace.
+TELEOP_PARAMETERS = 'teleop_node/set_parameters_atomically'
+#: The driver's lifecycle service, relative to the viewer's namespace.
+DRIVER_CHANGE_STATE = 'driver_node/change_state'
+
+
+class OperatorRequest(enum.Enum):
+    """What an operator's button asks for."""
+
+    STEP_UP = 'climb step up'
+    STEP_DOWN = 'climb step down'
+    RESUME = 'resume climb'
+    GRIPPER = 'gripper'
+    DRIVER = 'driver'
+    MAPPING = 'mapping'
+
+
+def _string(name: str, value: str) -> Parameter:
+    return Parameter(name=name, value=ParameterValue(type=ParameterType.PARAMETER_STRING,
+                                                     string_value=value))
+
+
+def _double(name: str, value: float) -> Parameter:
+    return Parameter(name=name, value=ParameterValue(type=ParameterType.PARAMETER_DOUBLE,
+                                                     double_value=float(value)))
+
+
+class ViewerRequests:
+    """The service clients behind the operator's buttons (see the module docstring)."""
+
+    def __init__(self, node, *, tell: Callable[[int, str, bool], None]):
+        self._tell = tell
+        climb = {OperatorRequest.STEP_UP: CLIMB_STEP_UP, OperatorRequest.STEP_DOWN: CLIMB_STEP_DOWN,
+                 OperatorRequest.RESUME: CLIMB_RESUME}
+        self._climb = {kind: node.create_client(Trigger, name) for kind, name in climb.items()}
+        self._grippers = {ring: node.create_client(SetBool, gripper_service(ring)) for ring in RINGS}
+        self._driver = node.create_client(ChangeState, DRIVER_CHANGE_STATE)
+        self._teleop = node.create_client(SetParametersAtomically, TELEOP_PARAMETERS)
+
+    def _client(self, kind: OperatorRequest, arg):
+        if kind in self._climb:
+            return self._climb[kind]
+        if kind is OperatorRequest.GRIPPER:
+            return self._grippers[arg[0]]
+        return self._driver if kind is OperatorRequest.DRIVER else self._teleop
+
+    def ready(self, kind: OperatorRequest, ring: str = 'ring_a') -> bool:
+        """Whether the service behind ``kind`` is up (``ring``: which gripper)."""
+        return self._client(kind, (ring, True)).service_is_ready()
+
+    def send(self, kind: OperatorRequest, client_id: int, arg=None) -> None:
+        """Send one request: ``arg`` is (ring, close) for GRIPPER, active (bool) for DRIVER,
+        (mode, rotation_mode, scale) for MAPPING, nothing else for the climb requests."""
+        client = self._client(kind, arg)
+        if kind is OperatorRequest.DRIVER:
+            what = ('activate' if arg else 'deactivate') + ' driver'
+            request = ChangeState.Request(transition=Transition(
+                id=Transition.TRANSITION_ACTIVATE if arg else Transition.TRANSITION_DEACTIVATE))
+        elif kind is OperatorRequest.GRIPPER:
+            ring, close = arg
+            request, what = SetBool.Request(data=close), f'{"close" if close else "open"} {ring}'
+        elif kind is OperatorRequest.MAPPING:
+            mode, rotation_mode, scale = arg
+            what = f'mapping {mode}/{rotation_mode} ×{scale:g}'
+            request = SetParametersAtomically.Request(parameters=[
+                _string('mode', mode), _string('rotation_mode', rotation_mode),
+                _double('translation_scale', scale)])
+        else:
+            request, what = Trigger.Request(), kind.value
+        if not client.service_is_ready():
+            self._tell(client_id, f'{what}: service {client.srv_name} is not available', False)
+            return
+        client.call_async(request).add_done_callback(
+            lambda future: self._answer(kind, client_id, what, future.result()))
+
+    def _answer(self, kind: OperatorRequest, client_id: int, what: str, response) -> None:
+        if response is None:
+            self._tell(client_id, f'{what}: no response', False)
+        elif kind is OperatorRequest.DRIVER:
+            self._tell(client_id, f'{what}: ' + ('done' if response.success else
+                                                 'refused (not possible from its state)'),
+                       response.success)
+        elif kind is OperatorRequest.MAPPING:
+            result = response.result
+            self._tell(client_id, f'{what}: ' + ('applied' if result.successful
+                                                 else f'refused: {result.reason}'),
+                       result.successful)
+        else:
+            self._tell(client_id, f'{what}: {response.message or "done"}', response.success)

@@ -1,0 +1,93 @@
+"""Parameter files of the rrps nodes: ``config/<node>.yaml`` of each package (the ROS convention).
+
+Each file holds every parameter of one node with its default, in a section ``/**/<node>:`` (the
+node of that name in any namespace), so the files of several nodes can be given to one
+composed process. colcon installs them to ``share/<package>/config``; from a source checkout
+(``pip install -e``) they are read beside the package.
+
+    ros2 run rrps_kinematics ik_node --ros-args --params-file $(rrps-params ik_node)
+    config_file('ik_node')                  # the file's path
+    parameter_overrides('ik_node')          # rclpy Parameters, for a node created in-process
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from pathlib import Path
+
+__all__ = ['NODE_PACKAGES', 'config_file', 'params_file_arguments', 'parameter_overrides', 'main']
+
+#: The package that ships each node's parameter file.
+NODE_PACKAGES = {
+    'ik_node': 'rrps_kinematics', 'fk_node': 'rrps_kinematics', 'driver_node': 'rrps_sim',
+    'master_node': 'rrps_teleop', 'teleop_node': 'rrps_teleop', 'climb_node': 'rrps_teleop',
+    'viewer_node': 'rrps_teleop', 'recorder_node': 'rrps_teleop', 'replay_node': 'rrps_teleop',
+    'markers_node': 'rrps_teleop',
+}
+
+
+def config_file(node: str) -> Path:
+    """The parameter file of ``node``: installed (share/<package>/config) or in the sources."""
+    if node not in NODE_PACKAGES:
+        raise ValueError(f'unknown node {node!r}; known: {", ".join(NODE_PACKAGES)}')
+    package = NODE_PACKAGES[node]
+    candidates = []
+    try:
+        from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
+        try:
+            candidates.append(Path(get_package_share_directory(package)) / 'config')
+        except (PackageNotFoundError, OSError):  # not installed, or no AMENT_PREFIX_PATH
+            pass
+    except ImportError:
+        pass
+    module = importlib.import_module(package)
+    candidates.append(Path(module.__file__).resolve().parent.parent / 'config')
+    for folder in candidates:
+        path = folder / f'{node}.yaml'
+        if path.is_file():
+            return path
+    raise FileNotFoundError(f'no parameter file for {node} in {", ".join(map(str, candidates))}')
+
+
+def params_file_arguments(*nodes: str) -> list[str]:
+    """``--params-file <file>`` for each node (to put after ``--ros-args``)."""
+    out: list[str] = []
+    for node in nodes:
+        out += ['--params-file', str(config_file(node))]
+    return out
+
+
+def parameter_overrides(node: str, path: str | Path | None = None) -> list:
+    """The rclpy Parameters of ``node``'s section of its file (or of ``path``).
+
+    Read with PyYAML here (rclpy's ``parameter_dict_from_yaml_file`` turns a float such as
+    1e-12 into text and back, and gets a string)."""
+    import yaml
+    from rclpy.parameter import Parameter
+    path = Path(path or config_file(node))
+    data = yaml.safe_load(path.read_text(encoding='utf-8')) or {}
+    section = data.get(f'/**/{node}')
+    if not isinstance(section, dict) or not isinstance(section.get('ros__parameters'), dict):
+        raise ValueError(f'{path}: no /**/{node}: ros__parameters: section')
+    return [Parameter(name, value=list(value) if isinstance(value, (list, tuple)) else value)
+            for name, value in section['ros__parameters'].items()]
+
+
+def main(argv=None) -> int:
+    """rrps-params NODE: print the path of the node's parameter file."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if len(argv) != 1 or argv[0] in ('-h', '--help'):
+        print(f'usage: rrps-params NODE\nnodes: {", ".join(NODE_PACKAGES)}',
+              file=sys.stdout if argv else sys.stderr)
+        return 0 if argv else 2
+    try:
+        print(config_file(argv[0]))
+    except (ValueError, FileNotFoundError) as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

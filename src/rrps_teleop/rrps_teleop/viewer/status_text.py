@@ -1,0 +1,141 @@
+"""The viewer's status panel: the operator's text, rendered from typed statuses only.
+
+Every line is read from a contract of :mod:`rrps_teleop.interfaces` (``TeleopStatus``,
+``ClimbStatus``), :mod:`rrps_sim.interfaces` (``DriverStatus``) or
+:mod:`rrps_kinematics.interfaces` (``FkStatus``), never from another node's message text (the
+FK status message is shown as it is, for people). A status is anything with ``level`` and
+``values`` (a ``diagnostic_msgs/DiagnosticStatus``); pure Python, no rclpy, no viser.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rrps_kinematics.interfaces import FkStatus
+from rrps_sim.interfaces import DriverStatus
+
+from ..interfaces import ClimbStatus, TeleopStatus
+
+__all__ = ['SLOW_ROUND_TRIP', 'HOLD_ROUND_TRIP', 'teleop_line', 'climb_line', 'driver_line',
+           'round_trip_line', 'grippers_line', 'slave_lines', 'feedback_line', 'fk_line',
+           'translation_scale']
+
+#: Round trips [s] above which the teleop node (defaults of its slow_latency, hold_latency)
+#: scales speeds down and holds the robot; the panel names them.
+SLOW_ROUND_TRIP = 0.2
+HOLD_ROUND_TRIP = 0.3
+#: The teleop translation scale assumed until teleop/status says (its default).
+DEFAULT_SCALE = 4.0
+
+_LEVEL_NAMES = {0: 'OK', 1: 'WARN', 2: 'ERROR', 3: 'STALE'}
+
+
+def _level(status) -> str:
+    level = status.level
+    level = level[0] if isinstance(level, (bytes, bytearray)) else int(level)
+    return _LEVEL_NAMES.get(level, str(level))
+
+
+def teleop_line(status) -> str:
+    """teleop/status: code, level, mapping and whether the clutch is engaged."""
+    if status is None:
+        return '—'
+    try:
+        t = TeleopStatus.from_key_values(status.values)
+    except ValueError as exc:
+        return f'unreadable ({exc})'
+    return (f'{t.code.name} ({_level(status)}, mode {t.mode}, scale {t.scale:g}, '
+            f'engaged {"yes" if t.engaged else "no"})')
+
+
+def climb_line(status) -> str:
+    """climb/status: state, the pause reason and where the climb is."""
+    if status is None:
+        return '—'
+    try:
+        c = ClimbStatus.from_key_values(status.values)
+    except ValueError as exc:
+        return f'unreadable ({exc})'
+    where = f', step {c.step}, phase {c.phase}' if c.action is not None else ''
+    paused = f': {c.pause_reason.value}, press Resume climb' if c.pause_reason is not None else ''
+    return f'{c.state.value}{paused} ({_level(status)}{where})'
+
+
+def driver_line(status) -> str:
+    """The driver's lifecycle state (from its /diagnostics status)."""
+    if status is None:
+        return 'not heard yet'
+    try:
+        d = DriverStatus.from_key_values(status.values)
+    except ValueError as exc:
+        return f'unreadable ({exc})'
+    return ('active' if d.active else 'INACTIVE: press Activate driver') + f' ({d.mode.value})'
+
+
+def round_trip_line(round_trip: float | None) -> str:
+    """The operator's round trip [s] and what the teleop node does about it."""
+    if round_trip is None:
+        return '—'
+    text = f'{round_trip * 1e3:.0f} ms'
+    if round_trip > HOLD_ROUND_TRIP:
+        return text + f' (robot holds above {HOLD_ROUND_TRIP * 1e3:.0f} ms)'
+    if round_trip > SLOW_ROUND_TRIP:
+        return text + f' (slowed above {SLOW_ROUND_TRIP * 1e3:.0f} ms)'
+    return text
+
+
+def grippers_line(grippers: dict[str, float | None]) -> str:
+    """Closedness per ring (1 closed, 0 open, None unknown)."""
+    return ', '.join(f'{ring} {"?" if v is None else "closed" if v >= 0.5 else "open"}'
+                     for ring, v in grippers.items())
+
+
+def slave_lines(figure, *, min_conditioning: float) -> list[str]:
+    """Conditioning, the smallest margin of each kind and the leg lengths of the slave
+    (a :class:`~rrps_teleop.viewer.RobotFigure`)."""
+    m = figure.margins
+    mins = m.minimum
+    f = figure.fractions
+    return [f'**Conditioning:** 1/cond {float(m.inverse_condition):.3f} '
+            f'(min {min_conditioning:.3f})',
+            f'**Margins:** stroke {float(mins["stroke"]) * 1e3:.1f} mm, '
+            f'U-joint {math.degrees(float(mins["universal"])):.1f}°, '
+            f'S-joint {math.degrees(float(mins["spherical"])):.1f}°, '
+            f'interference {float(mins["interference"]) * 1e3:.1f} mm, '
+            f'force {100.0 * float(np.min(f["force"])):.0f} %',
+            '**Legs:** ' + ' '.join(f'{i + 1}:{length * 1e3:.0f}mm'
+                                    for i, length in enumerate(figure.lengths))]
+
+
+def feedback_line(teleop_status) -> str | None:
+    """The force the limits push back on the master with (None: no teleop status)."""
+    if teleop_status is None:
+        return None
+    try:
+        t = TeleopStatus.from_key_values(teleop_status.values)
+    except ValueError:
+        return None
+    if t.feedback_force > 0.0 and t.feedback_limit:
+        return f'{t.feedback_force:.1f} N, {t.feedback_limit} limit near'
+    return 'none'
+
+
+def fk_line(fk_status) -> str:
+    """fk_node's last solve: its message, iterations and residual."""
+    try:
+        fk = FkStatus.from_key_values(fk_status.values)
+    except ValueError as exc:
+        return f'unreadable status ({exc})'
+    return f'{fk_status.message or "—"}, iterations {fk.iterations}, residual {fk.residual:.3g} m'
+
+
+def translation_scale(teleop_status) -> float:
+    """The teleop mapping's translation scale (its default until teleop/status says)."""
+    if teleop_status is None:
+        return DEFAULT_SCALE
+    try:
+        return TeleopStatus.from_key_values(teleop_status.values).scale
+    except ValueError:
+        return DEFAULT_SCALE
