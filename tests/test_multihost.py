@@ -304,6 +304,9 @@ def test_link_loss_during_teleop_holds_the_robot_and_a_held_deadman_reengages_as
 # --- link loss during each phase of a climbing step -------------------------------------------
 
 LATE = 0.25  # s after a phase began: a drop later than this may come after a release was due
+#: why a climb may pause with the link up (a busy machine) or during an outage (the operator
+#: link lost, or first a stall of the robot's processes)
+BUSY_PAUSES = (PauseReason.ROBOT_STATE_LOST, PauseReason.OPERATOR_LINK_LOST)
 PHASES = ('release_b', 'move_b', 'grip_b', 'release_a', 'move_a', 'grip_a')
 
 
@@ -337,13 +340,29 @@ def _resume(operator: AgentHandle, robot: AgentHandle) -> float:
     """The operator resumes the paused climb (retried while its link is not confirmed yet)."""
     t = time.time()
 
+    replies = []
+
     def resumed() -> bool:
-        reply = operator.call('climb/resume', timeout=10.0)
-        return reply['success']
-    assert wait(resumed, DEADLINE, period=0.3), 'the operator could not resume the climb'
-    assert wait(lambda: (s := _climb_status(robot, t)) is not None and s.state is not ClimbState.PAUSED,
-                DEADLINE)
+        replies.append(operator.call('climb/resume', timeout=10.0))
+        return replies[-1]['success']
+    assert wait(resumed, DEADLINE, period=0.3), f'the operator could not resume the climb: {replies[-3:]}'
+    # it went on (a busy machine may pause it again at once: the caller sees that next)
+    assert wait(lambda: first(robot.records('climb/status'),
+                              lambda r: climb(r).state is not ClimbState.PAUSED, t), DEADLINE), \
+        f'resumed ({replies[-1]}) but: {_climb_history(robot, t - 2.0)}'
     return t
+
+
+def _longest_gap(records: list[dict], start: float, end: float) -> float:
+    """The longest time [s] between consecutive stamps in [start, end] (a publisher's stall)."""
+    stamps = sorted(r['stamp'] for r in in_window(records, start, end, by='stamp'))
+    return float(np.max(np.diff(stamps))) if len(stamps) > 1 else 0.0
+
+
+def _climb_history(robot: AgentHandle, since: float) -> list:
+    """The climb statuses received since ``since`` (for failure messages)."""
+    return [(round(r['t'] - since, 2), climb(r).state.name, climb(r).phase,
+             climb(r).pause_reason and climb(r).pause_reason.name) for r in robot.records('climb/status', since)]
 
 
 def test_link_loss_during_each_climb_phase_pauses_the_climb_until_the_operator_resumes_it(stack):
@@ -365,14 +384,17 @@ def test_link_loss_during_each_climb_phase_pauses_the_climb_until_the_operator_r
             if status.state is ClimbState.IDLE:
                 break
             assert status.state is not ClimbState.FAILED, status.detail
-            if status.state is ClimbState.PAUSED:  # a busy machine delayed the robot's state
-                assert status.pause_reason is PauseReason.ROBOT_STATE_LOST, status
+            if status.state is ClimbState.PAUSED:
+                # with the link up: a busy machine delayed the robot's state or the operator
+                # station's status; the operator resumes
+                assert status.pause_reason in BUSY_PAUSES, status
                 _resume(operator, robot)
                 continue
             seen = (status.step, status.phase)
             if status.phase not in remaining:
                 continue
-            entered = robot.records('climb/status')[-1]['t']
+            entered = first(robot.records('climb/status'), lambda r: (
+                climb(r).step, climb(r).phase) == seen, t_call)['t']
             fault = {'phase': status.phase, 'step': status.step, 't_down': rig.link(False)}
             fault['late'] = fault['t_down'] - entered > LATE
             if not fault['late'] or status.action is not PhaseAction.RELEASE:
@@ -409,12 +431,18 @@ def test_link_loss_during_each_climb_phase_pauses_the_climb_until_the_operator_r
             done = first(robot.records('climb/status'), lambda r: climb(r).state is ClimbState.IDLE, t_down)
             assert length_change(states, done['t'] + SETTLE, t_resume) < STILL
             continue
-        assert paused.pause_reason is PauseReason.OPERATOR_LINK_LOST, (f, paused)
+        # detected as the lost operator link (or, first, as a late robot state on a busy
+        # machine: a stall of the robot's processes during the outage)
+        assert paused.pause_reason in BUSY_PAUSES, (f, paused)
         # the climb held within the operator timeout: its last target was sent at most
-        # operator_timeout (+ one slow tick) after the link went down, none until the resume
+        # operator_timeout after the link went down, plus what a busy machine adds: after a
+        # late tick (> state_timeout / 2 apart) the climb node waits state_timeout before it
+        # judges its inputs' age again, and the longest stall of its ticks itself
         newest = last_stamp(targets, t_down, t_resume)
         f['hold_after'] = newest - t_down if newest is not None else 0.0
-        assert f['hold_after'] <= OPERATOR_TIMEOUT + 0.3, f
+        f['stall'] = _longest_gap(targets, t_down - 0.1, newest or t_down)
+        bound = OPERATOR_TIMEOUT + STATE_TIMEOUT + f['stall'] + 0.15
+        assert f['hold_after'] <= bound, (f, bound)
         held_from = max(t_down, newest or t_down)
         assert not in_window(targets, held_from + 1e-6, t_resume, by='stamp')
         # the robot stood still while paused and no gripper switched
@@ -428,9 +456,12 @@ def test_link_loss_during_each_climb_phase_pauses_the_climb_until_the_operator_r
             assert f['openings'] == 0, f
     assert not both_open(grippers)
     assert ClimbState.FAILED not in {climb(r).state for r in robot.records('climb/status', t_start)}
-    print('climb link faults (phase, hold after [s], openings, paused in, late):',
-          [(f['phase'], f.get('hold_after'), f.get('openings'), f['paused'] and f['paused'].phase,
-            f['late']) for f in faults])
+    reasons = [f['paused'].pause_reason for f in faults if f['paused'] is not None]
+    assert PauseReason.OPERATOR_LINK_LOST in reasons, reasons
+    print('climb link faults (phase, hold after [s], climb stall [s], openings, paused in, reason, late):',
+          [(f['phase'], round(f.get('hold_after', 0.0), 3), round(f.get('stall', 0.0), 3),
+            f.get('openings'), f['paused'] and f['paused'].phase,
+            f['paused'] and f['paused'].pause_reason.name, f['late']) for f in faults])
 
 
 # --- the viewer over a real network: a browser on the operator station, through a proxy -------
