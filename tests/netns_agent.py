@@ -24,13 +24,18 @@ DDS connects their namespaces, before any rrps node runs.
 Commands, one JSON object per line on stdin, each answered by ``{"reply": id, ...}``:
 
     {"id": 1, "deadman": true}            teleop/enable true at 20 Hz until {"deadman": false}
-                                          (then 5 false samples, as the viewer does)
+                                          (then 5 false samples, as the viewer does; with
+                                          "silent": true none: the stream just stops)
     {"id": 2, "call": "climb/step_up"}    a std_srvs/Trigger service: success, message
     {"id": 3, "activate": true}           driver_node/change_state activate (false: deactivate)
     {"id": 4, "sender": {"offset": 2.0, "amplitude": 0.004, "period": 2.0}}
                                           target_pose at 50 Hz around the robot's home pose,
                                           stamped ``offset`` s ahead of this host's clock (a
                                           sender whose clock is off); {"sender": null} stops
+    {"id": 6, "sender_late": 0.3}         from now on the sender's targets arrive 0.3 s late
+                                          (stamped 0.3 s earlier, the same stream); 0: on time
+    {"id": 7, "round_trip": 0.4}          operator/round_trip_time 0.4 s at 4 Hz (what the
+                                          viewer reports for its browser); null stops
     {"id": 5, "ping": true}               answered at once (the agent is alive and spinning)
 
 Prints ``{"ready": true}`` once its subscriptions and publishers exist.
@@ -61,9 +66,15 @@ from std_srvs.srv import Trigger
 
 from rrps_kinematics import load_robot
 from rrps_kinematics.interfaces import source_node
-from rrps_kinematics.nodes.common import (COMMAND_QOS, LATEST_QOS, STATE_QOS,
-                                          lengths_from_joint_state, pose_from_msg, pose_to_msg,
-                                          stamp_to_seconds)
+from rrps_kinematics.nodes.common import (
+    COMMAND_QOS,
+    LATEST_QOS,
+    STATE_QOS,
+    lengths_from_joint_state,
+    pose_from_msg,
+    pose_to_msg,
+    stamp_to_seconds,
+)
 from rrps_kinematics.supervision import exit_with_parent
 from rrps_sim.interfaces import gripper_states
 
@@ -109,6 +120,9 @@ class Agent(Node):
         self._heartbeat = self.create_publisher(String, HEARTBEAT, COMMAND_QOS)
         self._enable = self.create_publisher(Bool, 'teleop/enable', COMMAND_QOS)
         self._target = self.create_publisher(PoseStamped, 'target_pose', COMMAND_QOS)
+        self._round_trip_pub = self.create_publisher(Float64, 'operator/round_trip_time', COMMAND_QOS)
+        self.round_trip: float | None = None
+        self.sender_late = 0.0
         self._triggers: dict[str, object] = {}
         self._change_state = self.create_client(ChangeState, 'driver_node/change_state')
         self.deadman = False
@@ -120,6 +134,8 @@ class Agent(Node):
         self.create_timer(0.1, lambda: self._heartbeat.publish(String(data=self.name)))
         self.create_timer(0.05, self._on_enable_tick)
         self.create_timer(0.02, self._on_tick)
+        self.create_timer(0.25, lambda: self.round_trip is not None and self._round_trip_pub.publish(
+            Float64(data=self.round_trip)))
 
     # --- output ----------------------------------------------------------------------------
 
@@ -190,7 +206,7 @@ class Agent(Node):
             p = g.home_position + [0.0, 0.0, s['amplitude'] * math.sin(2 * math.pi * t / s['period'])]
             msg = pose_to_msg(p, g.home_quaternion_xyzw, frame_id='ring_a',
                               stamp=self.get_clock().now().to_msg())
-            ns = self.get_clock().now().nanoseconds + int(s['offset'] * 1e9)
+            ns = self.get_clock().now().nanoseconds + int((s['offset'] - self.sender_late) * 1e9)
             msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(ns, 10**9)
             self._target.publish(msg)
         while True:
@@ -207,7 +223,7 @@ class Agent(Node):
         if 'deadman' in command:
             self.deadman = bool(command['deadman'])
             if not self.deadman:
-                self._false_left = 5
+                self._false_left = 0 if command.get('silent') else 5
             self._reply(command, ok=True)
         elif 'call' in command:
             name = command['call']
@@ -225,6 +241,13 @@ class Agent(Node):
         elif 'sender' in command:
             self.sender = command['sender']
             self._sender_t0 = time.monotonic()
+            self._reply(command, ok=True)
+        elif 'sender_late' in command:
+            self.sender_late = float(command['sender_late'])
+            self._reply(command, ok=True)
+        elif 'round_trip' in command:
+            value = command['round_trip']
+            self.round_trip = None if value is None else float(value)
             self._reply(command, ok=True)
         elif 'ping' in command:
             self._reply(command, ok=True)
