@@ -92,6 +92,8 @@ class Row:
     recovery: str = ''
     recovered: bool | None = None
     note: str = ''
+    #: re-engaging: the first target's distance from the pose and what the speed limit allows [mm]
+    clutch_mm: tuple[float, float] | None = None
 
 
 class Session:
@@ -180,9 +182,10 @@ class Session:
         row.openings = gripper_openings(self.robot.records('grippers/state'), t_fault, t_end)
         return row
 
-    def clutch(self, since: float) -> str:
+    def clutch(self, since: float, row: Row) -> str:
         """How the first target after ``since`` relates to the measured pose: a clutch starts at
-        the robot's pose (within the slave's speed limit times the target's age)."""
+        the robot's pose (within the slave's speed limit times the target's age); also kept in
+        ``row.clutch_mm``."""
         if not wait(lambda: first(self.robot.records('target_pose'), lambda r: True, since), 10.0):
             return 'no target recorded'
         target = first(self.robot.records('target_pose'), lambda r: True, since)
@@ -192,6 +195,7 @@ class Session:
             return 'no pose or engaged status recorded'
         jump = 1e3 * float(np.linalg.norm(np.subtract(target['p'], here[-1]['p'])))
         allowed = 1e3 * MAX_LINEAR_SPEED * max(target['stamp'] - engaged['t'], 0.0) + 0.5
+        row.clutch_mm = (jump, allowed)
         return f'clutch: first target {jump:.2f} mm from the pose (allowed {allowed:.2f} mm)'
 
     def resumed_offset_mm(self, t_kill: float, t_restart: float) -> float:
@@ -378,7 +382,7 @@ def teleop_link(s: Session) -> Row:
     t_up = s.rig.link(True)
     row.detected = 'teleop ' + ', '.join(s.teleop_codes(t_down, t_up))
     ok = wait(lambda: s.engaged_and_moving(t_up), DEADLINE)
-    row.recovery = f'none: the held deadman re-engages ({s.clutch(t_up)})'
+    row.recovery = f'none: the held deadman re-engages ({s.clutch(t_up, row)})'
     row.recovered = ok
     return s.measure(row, t_down, t_up)
 
@@ -392,7 +396,7 @@ def teleop_deadman_silent(s: Session) -> Row:
     t_press = time.time()
     s.operator.send({'deadman': True})
     ok = wait(lambda: s.engaged_and_moving(t_press), DEADLINE)
-    row.recovery = f'operator presses the deadman again ({s.clutch(t_press)})'
+    row.recovery = f'operator presses the deadman again ({s.clutch(t_press, row)})'
     row.recovered = ok
     return s.measure(row, t_fault, t_press)
 
@@ -420,7 +424,7 @@ def teleop_round_trip(s: Session, rtt: float) -> Row:
         row.recovery = 'none: full speed again once the round trip is back'
     else:
         s.measure(row, t_fault, t_end)
-        row.recovery = f'none: the held deadman re-engages ({s.clutch(t_end + 1.0)})'
+        row.recovery = f'none: the held deadman re-engages ({s.clutch(t_end + 1.0, row)})'
     row.recovered = ok
     return row
 
@@ -455,7 +459,7 @@ def teleop_kill(s: Session, name: str) -> Row:
     ok = activated and wait(lambda: s.engaged_and_moving(t_action), DEADLINE)
     row.recovered = ok
     if ok:
-        row.recovery += f' ({s.clutch(t_action)})'
+        row.recovery += f' ({s.clutch(t_action, row)})'
     return s.measure(row, t_kill, t_action, commands_until=t_restart if name == 'driver' else None)
 
 
