@@ -89,6 +89,32 @@ def test_an_inactive_driver_blocks_engaging():
         TeleopConfig(slow_latency=0.4, hold_latency=0.3)
 
 
+def test_after_the_slave_state_was_lost_engaging_waits_for_the_drivers_next_status():
+    """A driver that died and restarted is inactive, and its state may come back before its
+    status does: the dead driver's 'active' must not let teleop engage meanwhile."""
+    m = _engaged_mapping(state_timeout=0.2)
+    m.set_driver_active(True)
+
+    def step(t: float):
+        m.on_enable(t, True)
+        m.on_master_pose(t, MASTER.home_position, MASTER.home_quaternion_xyzw)
+        return m.step(t)
+    assert step(0.05).engaged
+    assert step(0.3).code == TeleopCode.SLAVE_STATE_LOST       # the driver died
+    m.on_slave_pose(POLE.home_position, POLE.home_quaternion_xyzw, t=0.5)  # restarted
+    out = step(0.5)
+    assert out.code == TeleopCode.DRIVER_INACTIVE and not out.engaged and not out.has_command
+    m.set_driver_active(False)                                  # its first status
+    assert step(0.52).code == TeleopCode.DRIVER_INACTIVE
+    m.set_driver_active(True)                                   # the operator activated it
+    assert step(0.54).engaged
+    # a mapping that never heard of a driver (no driver status at all) is not held up
+    m = _engaged_mapping(state_timeout=0.2)
+    assert step(0.3).code == TeleopCode.SLAVE_STATE_LOST
+    m.on_slave_pose(POLE.home_position, POLE.home_quaternion_xyzw, t=0.5)
+    assert step(0.5).engaged
+
+
 def _status(msgs) -> ClimbStatus | None:
     return ClimbStatus.from_key_values(msgs[-1].values) if msgs else None
 

@@ -35,8 +35,10 @@ def pose_limits(geometry: RobotGeometry, position, quaternion_xyzw, *,
     The numbers of :func:`rrps_kinematics.limits.margins` (``Margins.minimum``, ``ok``), from a
     numba kernel when available (a few microseconds). ``quaternion_xyzw`` must be unit.
     """
-    p = np.ascontiguousarray(position, dtype=float)
-    q = np.ascontiguousarray(quaternion_xyzw, dtype=float)
+    # fresh writable copies: the kernel is compiled for one argument type only (a read-only array,
+    # e.g. a robot's home quaternion, would be another type and compile again on first use)
+    p = np.array(position, dtype=float)
+    q = np.array(quaternion_xyzw, dtype=float)
     if use_numba(backend):
         from .compiled_limits import N_MARGINS, pose_margins
         out = np.empty(N_MARGINS)

@@ -48,6 +48,16 @@ class InputWatch:
     def operator_seen(self) -> bool:
         return self._receipts[OPERATOR] is not None
 
+    def operator_heard_since(self, t: float) -> bool:
+        """Whether the operator station was heard at or after ``t`` (watch time, :meth:`now`), or
+        was never seen (a robot driven without an operator station)."""
+        receipt = self._receipts[OPERATOR]
+        return receipt is None or receipt >= t
+
+    def now(self) -> float:
+        """The watch's clock [s] (monotonic)."""
+        return self._clock()
+
     def tick_started(self) -> None:
         """Call at the start of each of the node's ticks: a late tick is a stall."""
         self._tick_start = self._clock()

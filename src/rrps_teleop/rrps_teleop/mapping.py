@@ -125,6 +125,9 @@ class TeleopMapping:
         self._slave_pose_time: float | None = None
         self._round_trip: tuple[float, float] | None = None
         self._driver_active: bool | None = None
+        #: the driver's status was heard since the slave's state was last lost (a driver that
+        #: died and restarted is inactive, but its old 'active' would otherwise still count)
+        self._driver_current = True
         self._climb_executing = False
         self._last_step_time: float | None = None
         self._sample_stamp: float | None = None
@@ -185,8 +188,11 @@ class TeleopMapping:
         self._round_trip = (float(t), float(round_trip))
 
     def set_driver_active(self, active: bool | None) -> None:
-        """Whether the robot's driver is active (None: not known, not checked)."""
+        """Whether the robot's driver is active (None: not known, not checked). Once a driver
+        has reported, losing the slave's state makes its status stale: engaging waits for the
+        next one."""
         self._driver_active = active
+        self._driver_current = True
 
     def round_trip(self, t: float) -> float | None:
         """The operator's round trip [s] if one was measured in the last second."""
@@ -237,6 +243,9 @@ class TeleopMapping:
                                                  f'(state_timeout {c.state_timeout:g} s)')
         if self._driver_active is False:
             return TeleopCode.DRIVER_INACTIVE, 'the driver is not active: activate it first'
+        if self._driver_active is not None and not self._driver_current:
+            return (TeleopCode.DRIVER_INACTIVE, "no driver status since the robot's state was lost "
+                                                '(a restarted driver is inactive): waiting for it')
         rtt = self.round_trip(t)
         if rtt is not None and not rtt <= c.hold_latency:
             return (TeleopCode.LINK_LATENCY, f"the operator's round trip {rtt * 1e3:.0f} ms is above "
@@ -248,6 +257,8 @@ class TeleopMapping:
         blocked = self.blocking_reason(t)
         if blocked is not None:
             self.disengage()
+            if blocked[0] is TeleopCode.SLAVE_STATE_LOST and self._driver_active is not None:
+                self._driver_current = False
         return blocked
 
     def step(self, t: float) -> TeleopOutput:

@@ -7,7 +7,10 @@ the planned path at ``speed``, and grippers switch through the driver's
 the measured lengths) must have arrived within ``position_tolerance`` / ``orientation_tolerance``
 of the planned pose and stayed there ``settle_time``, and a gripper is only opened when
 ``grippers/state`` shows the other one closed (the interlock, on top of the planner's and the
-driver's).
+driver's). Once an operator station has been seen, a gripper is also only opened after its
+``teleop/status`` was heard again since the robot settled at the release pose: a link lost
+before that holds the release (the step then pauses), so a gripper never opens on a link that
+may already be gone for up to ``operator_timeout``.
 
 Services ``climb/step_up``, ``climb/step_down`` (std_srvs/Trigger) plan and start one step;
 ``auto_steps`` > 0 climbs that many steps up once the robot's state is known (scripted runs).
@@ -171,6 +174,7 @@ class ClimbNode(Node):
         self._t = 0.0
         self._deadline = 0.0
         self._arrived_since: float | None = None
+        self._settled = 0.0  # watch time when the robot settled at a gripper phase's pose
         self._future = None
         self._path: PhasePath | None = None
         self._auto_started = False
@@ -454,6 +458,7 @@ class ClimbNode(Node):
             self._stage = ('gripper' if ph.action in (PhaseAction.RELEASE, PhaseAction.GRIP)
                            else 'done')
             self._deadline = now + self.settle_timeout
+            self._settled = self.watch.now()
             return True
         if now > self._deadline:
             dp, da = pose_error(self.pose, ph.a_T_b) if self.pose is not None else (math.inf, math.inf)
@@ -472,7 +477,9 @@ class ClimbNode(Node):
             if not close and not self.grippers[other]:
                 self._fail(f'step {ph.step}, phase {ph.phase}: interlock: {other} is not closed')
                 return False
-            self._future = self._gripper_clients[ring].call_async(SetBool.Request(data=close))
+            if close or self.watch.operator_heard_since(self._settled):
+                self._future = self._gripper_clients[ring].call_async(SetBool.Request(data=close))
+            # else: open only once the operator station is heard since the robot settled
         elif self._future.done():
             result = self._future.result()
             if result is None or not result.success:
