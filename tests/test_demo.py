@@ -57,7 +57,7 @@ def test_headless_demo_runs_a_teleop_session_and_a_climb(ros_domain_id):
                             env=_env(ros_domain_id), stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
     try:
-        out, _ = proc.communicate(timeout=240)
+        out, _ = proc.communicate(timeout=480)
     finally:
         _stop(proc)
     assert proc.returncode == 0, out[-3000:]

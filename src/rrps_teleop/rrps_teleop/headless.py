@@ -44,6 +44,9 @@ from .interfaces import (
 HANDLE_STEP = 0.004
 #: Most resumes of a paused climbing step the scripted operator makes.
 MAX_RESUMES = 5
+#: Deadline [s] of each thing the script waits for (it ends as soon as it happened): generous,
+#: so that a machine slowed by other jobs delays the session rather than failing it.
+WAIT = 30.0
 
 
 class DemoScript(Node):
@@ -102,7 +105,7 @@ class DemoScript(Node):
         """The scripted session; prints each step and returns overall success."""
         checks: list[tuple[str, bool]] = []
         ok = self._wait(lambda: self._get(POSE) is not None and self._get(MASTER_POSE) is not None,
-                        15.0, stop)
+                        WAIT, stop)
         checks.append(('robot and master publish their FK poses', ok))
         self._say(f'robot and master up: {ok}')
         if ok:
@@ -131,7 +134,7 @@ class DemoScript(Node):
         def handle(position) -> PoseStamped:
             return pose_to_msg(position, m_quat, frame_id=MASTER_FRAME, stamp=self.get_clock().now().to_msg())
 
-        engaged = self._wait(lambda: self._engaged() is True, 5.0, stop, every=enable)
+        engaged = self._wait(lambda: self._engaged() is True, WAIT, stop, every=enable)
         checks.append(('deadman held: teleop engaged', engaged))
         self._say(f'deadman held, teleop status {self._teleop().code.name}')
         scale = self._teleop().scale
@@ -154,22 +157,22 @@ class DemoScript(Node):
                 if self._engaged() is False:
                     clutches.append(self._teleop().code.name)
                 return self._position(POSE)[2] - start[2] > 0.8 * expected
-            ok = self._wait(followed, 6.0, stop, every=hold_and_move)
+            ok = self._wait(followed, WAIT, stop, every=hold_and_move)
             moved = self._position(POSE) - start
             if ok or attempt == 1 or not clutches:
                 break
             interrupted.append(clutches[0])
             self._say(f'the mapping clutched during the motion ({clutches[0]}); again')
-            self._wait(lambda: self._engaged() is False, 2.0, stop)
-            self._wait(lambda: abs(pose_from_msg(self._get(MASTER_POSE))[0][2] - m_pos[2]) < 2e-4, 5.0, stop,
+            self._wait(lambda: self._engaged() is False, WAIT, stop)
+            self._wait(lambda: abs(pose_from_msg(self._get(MASTER_POSE))[0][2] - m_pos[2]) < 2e-4, WAIT, stop,
                        every=lambda: self._handle.publish(handle(m_pos)))
-            self._wait(lambda: self._engaged() is True, 5.0, stop, every=enable)
+            self._wait(lambda: self._engaged() is True, WAIT, stop, every=enable)
         again = f' (again after a clutch: {interrupted[0]})' if interrupted else ''
         checks.append((f'slave followed the master: moved {moved[2] * 1e3:.1f} mm up '
                        f'(master {HANDLE_STEP * 1e3:.1f} mm x scale {scale:g}){again}', ok))
         self._say(f'master handle up {HANDLE_STEP * 1e3:.1f} mm -> slave up {moved[2] * 1e3:.1f} mm')
         # Release the deadman: the mapping disengages and the robot holds.
-        released = self._wait(lambda: self._engaged() is False, 2.0, stop)
+        released = self._wait(lambda: self._engaged() is False, WAIT, stop)
         held_at = self._position(POSE)
         time.sleep(0.5)
         drift = float(np.linalg.norm(self._position(POSE) - held_at))
@@ -180,11 +183,11 @@ class DemoScript(Node):
         return checks
 
     def _climb(self, stop: threading.Event) -> list[tuple[str, bool]]:
-        if not self._step_up.wait_for_service(timeout_sec=5.0):
+        if not self._step_up.wait_for_service(timeout_sec=WAIT):
             return [('climb/step_up service available', False)]
         before = {ring: self._position(odometry_topic(ring)) for ring in ('ring_a', 'ring_b')}
         future = self._step_up.call_async(Trigger.Request())
-        got = self._wait(future.done, 10.0, stop)
+        got = self._wait(future.done, WAIT, stop)
         response = future.result() if got else None
         accepted = response is not None and response.success
         self._say(f'climb/step_up -> {response.message if response is not None else "no answer"!r}')
@@ -195,7 +198,7 @@ class DemoScript(Node):
             status = self._climb_state()
             return None if status is None else status.state
 
-        seen_executing = self._wait(lambda: state() is ClimbState.EXECUTING, 5.0, stop)
+        seen_executing = self._wait(lambda: state() is ClimbState.EXECUTING, WAIT, stop)
         t0 = time.monotonic()
         pauses = []
         while True:
@@ -228,10 +231,10 @@ class DemoScript(Node):
         True once it executes again."""
         def accepted() -> bool:
             future = self._resume.call_async(Trigger.Request())
-            if not self._wait(future.done, 10.0, stop):
+            if not self._wait(future.done, WAIT, stop):
                 return False
             return bool(future.result() is not None and future.result().success)
-        if not (self._resume.wait_for_service(timeout_sec=5.0) and self._wait(accepted, 30.0, stop)):
+        if not (self._resume.wait_for_service(timeout_sec=WAIT) and self._wait(accepted, WAIT, stop)):
             return False
         status = self._climb_state  # the step says it executes again (its status after the resume)
-        return self._wait(lambda: status() is not None and status().state is not ClimbState.PAUSED, 5.0, stop)
+        return self._wait(lambda: status() is not None and status().state is not ClimbState.PAUSED, WAIT, stop)
