@@ -137,3 +137,23 @@ def pytest_sessionfinish(session, exitstatus):
             except ProcessLookupError:
                 pass
         session.exitstatus = 1
+
+
+#: The headless browser the viewer tests drive (Debian's chromium; ./rrps test installs it as root).
+CHROMIUM = os.environ.get('CHROMIUM', '/usr/bin/chromium')
+BROWSER_DIR = os.path.join(os.path.dirname(__file__), 'browser')
+
+
+@pytest.fixture(scope='session')
+def playwright_dir() -> str:
+    """tests/browser with playwright-core installed (npm ci from the lock file if missing)."""
+    import shutil
+    import subprocess
+    require(os.path.exists(CHROMIUM), f'no Chromium at {CHROMIUM} (./rrps test installs Debian\'s chromium as root)')
+    require(shutil.which('npm') is not None and shutil.which('node') is not None,
+            'node and npm are needed for playwright-core')
+    if not os.path.isdir(os.path.join(BROWSER_DIR, 'node_modules', 'playwright-core')):
+        subprocess.run(['npm', 'ci', '--no-audit', '--no-fund'], cwd=BROWSER_DIR, check=True,
+                       stdout=subprocess.DEVNULL, timeout=300)
+    return BROWSER_DIR
+

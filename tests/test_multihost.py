@@ -532,10 +532,7 @@ def _round_trip_ms(text: str) -> float:
 
 
 @pytest.mark.browser
-def test_a_browser_on_the_operator_station_drives_the_robot_through_latency_and_stalls(stack):
-    require(os.path.exists(CHROMIUM), f'no Chromium at {CHROMIUM}')
-    require(os.path.isdir(os.path.join(BROWSER_DIR, 'node_modules', 'playwright-core')),
-            'playwright-core is not installed in tests/browser (npm ci)')
+def test_a_browser_on_the_operator_station_drives_the_robot_through_latency_and_stalls(stack, playwright_dir):
     stack.reset()
     rig, robot, operator = stack.rig, stack.robot, stack.operator
     proxy = _Proxy(rig.python('operator', 'proxy', [

@@ -25,7 +25,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import require
 from ros_harness import DEADLINE, Probe, Spinner, wait_for
 
 pytestmark = [pytest.mark.browser, pytest.mark.ros, pytest.mark.slow]
@@ -39,18 +38,6 @@ def _free_port() -> int:
     with socket.socket() as s:
         s.bind(('127.0.0.1', 0))
         return s.getsockname()[1]
-
-
-@pytest.fixture(scope='module')
-def playwright_dir() -> Path:
-    """tests/browser with playwright-core installed (npm ci from the lock file if missing)."""
-    require(Path(CHROMIUM).exists(), f'no Chromium at {CHROMIUM} (./rrps test installs Debian\'s chromium as root)')
-    require(shutil.which('npm') is not None and shutil.which('node') is not None,
-            'node and npm are needed for playwright-core')
-    if not (BROWSER_DIR / 'node_modules' / 'playwright-core').exists():
-        subprocess.run(['npm', 'ci', '--no-audit', '--no-fund'], cwd=BROWSER_DIR, check=True,
-                       stdout=subprocess.DEVNULL, timeout=300)
-    return BROWSER_DIR
 
 
 class Browser:
