@@ -273,7 +273,9 @@ def _run_script(script, executor, context, robot, stop: threading.Event, viewer)
         ok = script.run(stop, viewer=viewer)
     finally:
         stop.set()
-        spinner.join(timeout=5.0)
+        # Wait until the executor stopped spinning (it checks ``stop`` every 20 ms, later on a
+        # loaded machine): destroying nodes under a spinning EventsExecutor crashes the process.
+        spinner.join()
     failed = [c for c in robot.children.values() if c.poll() is not None]
     return 0 if ok and not failed else 1
 
