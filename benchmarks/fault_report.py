@@ -27,7 +27,10 @@ round-trip report, a sender with an offset clock) and records what the robot doe
   its state file, as the demo restarts it);
 * ``clock_ahead``, ``clock_behind``: a sender whose clock is 2 s ahead / behind streams
   targets, then its stream is cut for 2 s (the link goes down; on loopback the sender stops);
-* ``clock_late``: the sender 2 s ahead, its targets then arrive 0.3 s late for 2 s.
+* ``clock_late``: the sender 2 s ahead, its targets then arrive 0.3 s late for 2 s;
+* ``demo_kill``: the demo (``rrps-demo``, the supervisor of the driver, the robot's nodes and
+  the observers, on loopback with a domain id of its own) is killed (SIGKILL): its children
+  must not outlive it (parent-death signal).
 
 Measured from the recorded messages (receipt times and header stamps on the host's one wall
 clock): the time from the fault to a safe hold (the last actuators/command published on the
@@ -59,6 +62,7 @@ import numpy as np  # noqa: E402
 
 from fault_metrics import climb, first, gripper_openings, length_change, teleop  # noqa: E402
 from netns_rig import Rig, netns_supported, wait  # noqa: E402
+from rrps_kinematics import load_robot  # noqa: E402
 from rrps_kinematics.interfaces import IkStatus  # noqa: E402
 
 DEADLINE = 90.0
@@ -76,7 +80,7 @@ CLIMB_FAULTS = tuple(f'climb_link_{p}' for p in PHASES) + (
 TELEOP_FAULTS = ('teleop_link', 'teleop_deadman_silent', 'teleop_rtt_250', 'teleop_rtt_400',
                  'teleop_kill_driver', 'teleop_kill_robot_nodes', 'teleop_kill_operator',
                  'clock_ahead', 'clock_behind', 'clock_late')
-FAULTS = CLIMB_FAULTS + TELEOP_FAULTS
+FAULTS = CLIMB_FAULTS + TELEOP_FAULTS + ('demo_kill',)
 LINK_FAULTS = tuple(f for f in FAULTS if 'link' in f)
 SENDER = {'offset': 2.0, 'amplitude': 0.004, 'period': 2.0}
 
@@ -183,20 +187,23 @@ class Session:
         return row
 
     def clutch(self, since: float, row: Row) -> str:
-        """How the first target after ``since`` relates to the measured pose: a clutch starts at
-        the robot's pose (within the slave's speed limit times the target's age); also kept in
-        ``row.clutch_mm``."""
-        if not wait(lambda: first(self.robot.records('target_pose'), lambda r: True, since), 10.0):
-            return 'no target recorded'
-        target = first(self.robot.records('target_pose'), lambda r: True, since)
+        """How the first command after ``since`` relates to the robot's legs: a clutch starts at
+        the robot's pose, so its leg lengths differ from the measured ones by at most what the
+        slave's speed limit allows since teleop engaged (+ 0.5 mm); also kept in
+        ``row.clutch_mm``. The IK's commands, not the teleop's targets: the robot host's agent
+        has long discovered the IK, while a restarted teleop's first targets may reach the IK
+        before the agent matches their new publisher."""
+        if not wait(lambda: first(self.robot.records('actuators/command'), lambda r: True, since), 10.0):
+            return 'no command recorded'
+        command = first(self.robot.records('actuators/command'), lambda r: True, since)
         engaged = first(self.operator.records('teleop/status'), lambda r: teleop(r).engaged, since)
-        here = [r for r in self.robot.records('pose') if r['t'] <= target['t']]
-        if not here or engaged is None:
-            return 'no pose or engaged status recorded'
-        jump = 1e3 * float(np.linalg.norm(np.subtract(target['p'], here[-1]['p'])))
-        allowed = 1e3 * MAX_LINEAR_SPEED * max(target['stamp'] - engaged['t'], 0.0) + 0.5
+        legs = [r for r in self.robot.records('actuators/state') if r['t'] <= command['t']]
+        if not legs or engaged is None:
+            return 'no leg state or engaged status recorded'
+        jump = 1e3 * float(np.max(np.abs(np.subtract(command['lengths'], legs[-1]['lengths']))))
+        allowed = 1e3 * MAX_LINEAR_SPEED * max(command['stamp'] - engaged['t'], 0.0) + 0.5
         row.clutch_mm = (jump, allowed)
-        return f'clutch: first target {jump:.2f} mm from the pose (allowed {allowed:.2f} mm)'
+        return f'clutch: first command {jump:.2f} mm from the legs (allowed {allowed:.2f} mm)'
 
     def resumed_offset_mm(self, t_kill: float, t_restart: float) -> float:
         """How far [mm] the restarted driver's first state is from the dead one's last."""
@@ -335,8 +342,9 @@ def climb_restarted_nodes(s: Session, row: Row, t_kill: float, t_restart: float)
     """IK, FK and the climb node died with the step's plan; the restarted climb node is idle."""
     wait(lambda: (c := s.climb_status(t_restart)) is not None and c.state.name == 'IDLE', DEADLINE)
     closed = s.robot.records('grippers/state')[-1]['closed']
+    opened = ', '.join(r for r, c in closed.items() if not c) or 'no ring'
     row.detected = ('commands stopped (robot nodes gone), driver holds; restarted climb node '
-                    f'IDLE with {", ".join(r for r, c in closed.items() if not c) or "no"} ring open')
+                    f'IDLE, {opened} open')
     row.recovery = 'restart the robot nodes; operator starts a new step (ring_b re-grips first)'
     t_action = time.time()
     s.measure(row, t_kill, t_action)
@@ -492,7 +500,12 @@ def clock_fault(s: Session, fault: str) -> Row:
     sender = {**SENDER, 'offset': offset}
     t0 = time.time()
     s.operator.send({'sender': sender})
-    followed = wait(lambda: len(s.robot.records('actuators/command', t0 + 1.0)) > 20, DEADLINE)
+    # followed: commands come, and the robot reached the sender's targets (around the home
+    # pose, 4 mm up and down; teleop may have left it a few centimetres away)
+    home = load_robot('pole_climber').home_position
+    followed = wait(lambda: len(s.robot.records('actuators/command', t0 + 1.0)) > 20
+                    and (p := s.robot.records('pose', time.time() - 0.5))
+                    and max(np.linalg.norm(np.subtract(r['p'], home)) for r in p) < 0.005, DEADLINE)
     if fault == 'clock_late':
         row = Row('sender clock +2 s, its targets 0.3 s late for 2 s')
         before = ik_counts(s)
@@ -541,6 +554,71 @@ def clock_fault(s: Session, fault: str) -> Row:
     return s.measure(row, t_cut, t_back)
 
 
+# --- supervision ------------------------------------------------------------------------------
+
+def _children(pid: int) -> list[int]:
+    out = []
+    for entry in os.listdir('/proc'):
+        if entry.isdigit():
+            try:
+                with open(f'/proc/{entry}/stat') as f:
+                    if int(f.read().rsplit(')', 1)[1].split()[1]) == pid:
+                        out.append(int(entry))
+            except (OSError, ValueError):
+                continue
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f'/proc/{pid}/stat') as f:
+            return f.read().rsplit(')', 1)[1].split()[0] != 'Z'
+    except FileNotFoundError:
+        return False
+
+
+def demo_kill(domain_id: int) -> Row:
+    """The demo killed: the time until every process it started is gone."""
+    import socket
+    import subprocess
+    row = Row('kill the demo (supervisor of driver, robot nodes, observers)')
+    with socket.socket() as sock:
+        sock.bind(('127.0.0.1', 0))
+        port = sock.getsockname()[1]
+    env = {**os.environ, 'ROS_DOMAIN_ID': str(domain_id), 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
+           'PYTHONUNBUFFERED': '1'}
+    env.pop('ROS_DISCOVERY_SERVER', None)
+    cwd = tempfile.mkdtemp(prefix='rrps-faults-demo-')  # its flight recordings
+    proc = subprocess.Popen([sys.executable, '-m', 'rrps_teleop.demo', '--port', str(port),
+                             '--token', 'fault-report-token'], env=env, cwd=cwd, text=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline:
+            line = proc.stdout.readline()
+            if not line or 'is live' in line:  # the banner: the robot processes are up
+                break
+        children = _children(proc.pid)
+        t_kill = time.time()
+        proc.kill()
+        proc.wait()
+        gone = wait(lambda: not any(_alive(c) for c in children), 15.0, period=0.01)
+        row.hold_s = time.time() - t_kill
+        row.detected = f'its {len(children)} children see the parent die (parent-death signal)'
+        row.recovery = 'restart the demo'
+        row.recovered = gone and len(children) == 3
+        row.note = 'time to hold: until every child process is gone'
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        shutil.rmtree(cwd, ignore_errors=True)
+    return row
+
+
 # --- the report -----------------------------------------------------------------------------
 
 def run_report(*, only: list[str] | None = None, loopback: bool = False, domain_id: int | None = None,
@@ -557,18 +635,21 @@ def run_report(*, only: list[str] | None = None, loopback: bool = False, domain_
             rows.append(Row(fault, note='not run: cutting a link needs root (network namespaces)'))
         wanted = [f for f in wanted if f not in LINK_FAULTS]
     domain = domain_id if domain_id is not None else 150 + os.getpid() % 50
+    climbing = [f for f in wanted if f in CLIMB_FAULTS]
+    teleoperating = [f for f in TELEOP_FAULTS if f in wanted]
     state_dir = Path(tempfile.mkdtemp(prefix='rrps-faults-'))
     try:
-        with Rig(domain, discovery='subnet' if isolated else 'loopback', log_dir=log_dir) as rig:
-            s = Session(rig, state_dir)
-            climbing = [f for f in wanted if f in CLIMB_FAULTS]
-            if climbing:
-                rows += climb_faults(s, climbing)
-            teleoperating = [f for f in TELEOP_FAULTS if f in wanted]
-            if teleoperating:
-                rows += teleop_faults(s, teleoperating)
+        if climbing or teleoperating:
+            with Rig(domain, discovery='subnet' if isolated else 'loopback', log_dir=log_dir) as rig:
+                s = Session(rig, state_dir)
+                if climbing:
+                    rows += climb_faults(s, climbing)
+                if teleoperating:
+                    rows += teleop_faults(s, teleoperating)
     finally:
         shutil.rmtree(state_dir, ignore_errors=True)
+    if 'demo_kill' in wanted:
+        rows.append(demo_kill(domain + 1))
     return rows
 
 

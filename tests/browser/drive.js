@@ -15,6 +15,7 @@
 //   {"sync": "name"}                           print {"sync": name}, wait for a line on stdin
 //   {"disabled": "Button label"}               record whether the button is disabled
 //   {"text": true}                             record the page's visible text
+//   {"css": "canvas { display: none; }"}       add a style sheet to the page
 //   {"close": true}                            close the page (its client disconnects)
 // Any step may carry "page": N to act on the N-th page (each page is a separate viewer client,
 // opened by its first step).
@@ -165,6 +166,9 @@ async function main() {
       } else if (step.disabled !== undefined) {
         await button(page, step.disabled).waitFor({ state: 'visible', timeout: TIMEOUT });
         results.push({ disabled: step.disabled, value: await button(page, step.disabled).isDisabled() });
+      } else if (step.css !== undefined) {
+        await page.addStyleTag({ content: step.css });
+        results.push({ css: true });
       } else if (step.text !== undefined) {
         results.push({ text: await page.innerText('body') });
       } else if (step.close !== undefined) {
