@@ -178,6 +178,19 @@ def test_segment_distance_special_cases():
     assert segment_distances(-x, x, -y + z, y + z) == pytest.approx(1.0)    # crossing, skew
 
 
+@pytest.mark.parametrize('tilt', [6e-8, 1e-7, 1e-6])
+def test_nearly_antiparallel_segments_that_share_an_endpoint_touch(tilt):
+    """Found by hypothesis: a nearly parallel pair is within the parallel tolerance, and the
+    closest points must still come from the shared endpoint, not from s = 0."""
+    p0, p1 = np.zeros(3), np.array([0.0, 0.0, 1.0])
+    q0, q1 = p1.copy(), np.array([0.0, tilt, 0.0])
+    assert segment_distances(p0, p1, q0, q1) == 0.0
+    compiled = pytest.importorskip('rrps_kinematics.compiled_limits')
+    assert compiled.segment_distance(p0, p1, q0, q1) == 0.0
+    assert compiled.segment_distance(p0, p1, q0 + [1e-3, 0, 0], q1) == pytest.approx(
+        segment_distances(p0, p1, q0 + [1e-3, 0, 0], q1), abs=1e-15)
+
+
 @settings(max_examples=50, deadline=None)
 @given(st.tuples(*[st.floats(-0.6, 0.6, allow_nan=False)] * 3),
        st.tuples(*[st.floats(-0.8, 0.8, allow_nan=False)] * 3))

@@ -87,6 +87,19 @@ def segment_distance(p0, p1, q0, q1):
         s = 0.0
         t = 0.0 if e_pt else _clip01(f / e_safe)
     g = (p0 + s * d1) - (q0 + t * d2)
+    distance = math.sqrt(g @ g)
+    if parallel:  # the minimum is attained at an endpoint (s = 0 above is only near it)
+        distance = min(distance, _point_segment_distance(p0, q0, d2, e_safe),
+                       _point_segment_distance(p1, q0, d2, e_safe),
+                       _point_segment_distance(q0, p0, d1, a_safe),
+                       _point_segment_distance(q1, p0, d1, a_safe))
+    return distance
+
+
+@_jit
+def _point_segment_distance(x, q0, d, dd):
+    """Distance from point x to segment q0 -> q0 + d (dd = d.d, 1 for a point segment)."""
+    g = x - (q0 + _clip01(((x - q0) @ d) / dd) * d)
     return math.sqrt(g @ g)
 
 

@@ -172,6 +172,22 @@ def segment_distances(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.nda
     s = np.where(a_pt, 0.0, s)
     t = np.where(a_pt, np.where(e_pt, 0.0, np.clip(f / e_safe, 0.0, 1.0)), t)
     gap = (p0 + s[..., None] * d1) - (q0 + t[..., None] * d2)
+    distance = np.sqrt(np.einsum('...k,...k->...', gap, gap))
+    if not np.any(parallel):
+        return distance
+    # (Nearly) parallel segments: s = 0 above is off by up to |d1| * 1e-6 when they are not
+    # exactly parallel; the minimum is attained at an endpoint of one of them.
+    ends = np.minimum(np.minimum(_point_segment_distance(p0, q0, d2, e_safe),
+                                 _point_segment_distance(p1, q0, d2, e_safe)),
+                      np.minimum(_point_segment_distance(q0, p0, d1, a_safe),
+                                 _point_segment_distance(q1, p0, d1, a_safe)))
+    return np.where(parallel, np.minimum(distance, ends), distance)
+
+
+def _point_segment_distance(x: np.ndarray, q0: np.ndarray, d: np.ndarray, dd: np.ndarray) -> np.ndarray:
+    """Distance from points x to segments q0 -> q0 + d (dd = d.d, 1 for a point segment)."""
+    t = np.clip(np.einsum('...k,...k->...', x - q0, d) / dd, 0.0, 1.0)
+    gap = x - (q0 + t[..., None] * d)
     return np.sqrt(np.einsum('...k,...k->...', gap, gap))
 
 
