@@ -56,6 +56,7 @@ class DemoScript(Node):
         super().__init__('demo_script', **kwargs)
         self._lock = threading.Lock()
         self._latest: dict[str, object] = {}
+        self._disengaged: tuple[int, str] = (0, '')
         for topic in (POSE, MASTER_POSE, odometry_topic('ring_a'), odometry_topic('ring_b')):
             self.create_subscription(PoseStamped, topic,
                                      lambda m, topic=topic: self._store(topic, m), STATE_QOS)
@@ -70,6 +71,16 @@ class DemoScript(Node):
     def _store(self, topic: str, msg) -> None:
         with self._lock:
             self._latest[topic] = msg
+            if topic == TELEOP_STATUS:
+                # Every disengagement counts, also one shorter than the script's polling period.
+                status = TeleopStatus.from_key_values(msg.values)
+                if not status.engaged:
+                    self._disengaged = (self._disengaged[0] + 1, status.code.name)
+
+    def _disengagements(self) -> tuple[int, str]:
+        """(teleop/status messages received with the mapping disengaged, the last one's code)."""
+        with self._lock:
+            return self._disengaged
 
     def _get(self, topic: str):
         with self._lock:
@@ -151,18 +162,23 @@ class DemoScript(Node):
                 enable()
                 self._handle.publish(handle(m_pos + [0.0, 0.0, HANDLE_STEP]))
 
-            clutches = []
+            disengaged_before = self._disengagements()[0]
 
             def followed() -> bool:
-                if self._engaged() is False:
-                    clutches.append(self._teleop().code.name)
                 return self._position(POSE)[2] - start[2] > 0.8 * expected
-            ok = self._wait(followed, WAIT, stop, every=hold_and_move)
+
+            def clutched() -> bool:
+                return self._disengagements()[0] > disengaged_before
+            ok = self._wait(lambda: followed() or (clutched() and self._engaged() is True), WAIT,
+                            stop, every=hold_and_move)
+            if not ok and clutched():  # re-engaged after the clutch: whatever follows, follows
+                time.sleep(1.0)
+            ok = followed()
             moved = self._position(POSE) - start
-            if ok or attempt == 1 or not clutches:
+            if ok or attempt == 1 or not clutched():
                 break
-            interrupted.append(clutches[0])
-            self._say(f'the mapping clutched during the motion ({clutches[0]}); again')
+            interrupted.append(self._disengagements()[1])
+            self._say(f'the mapping clutched during the motion ({interrupted[-1]}); again')
             self._wait(lambda: self._engaged() is False, WAIT, stop)
             self._wait(lambda: abs(pose_from_msg(self._get(MASTER_POSE))[0][2] - m_pos[2]) < 2e-4, WAIT, stop,
                        every=lambda: self._handle.publish(handle(m_pos)))
