@@ -128,7 +128,7 @@ def main() -> int:
     from rrps_teleop.demo import start_driver, start_robot_nodes
     from rrps_teleop.params import params_file_arguments
 
-    stack = [start_driver(robot='pole_climber'), start_robot_nodes(robot='pole_climber'),
+    stack = [start_driver(robot='pole_climber', activate=True), start_robot_nodes(robot='pole_climber'),
              start_child([sys.executable, '-m', 'rrps_teleop.compose', 'master_node',
                           'teleop_node', '--ros-args',
                           *params_file_arguments('master_node', 'teleop_node'),

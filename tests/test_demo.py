@@ -172,3 +172,19 @@ def test_a_killed_demo_takes_its_robot_processes_with_it_and_ctrl_c_stops_it_fas
             assert not any(_alive(c) for c in children), f'{how}: a child outlived the demo'
         finally:
             _stop(proc)
+
+
+@pytest.mark.parametrize('state_file', ['', '/tmp/rrps-driver-state.json'])
+def test_the_driver_command_line_parses_with_and_without_a_state_file(ros_domain_id, state_file):
+    """rcl refuses an empty '-p name:=' (the recorder benchmark's driver did not start)."""
+    import rclpy
+
+    from rrps_teleop.demo import driver_command
+    argv = driver_command(robot='pole_climber', state_file=state_file, activate=True)
+    context = rclpy.Context()
+    rclpy.init(args=argv[2:], context=context)  # what the driver process's rclpy.init parses
+    try:
+        assert context.ok()
+    finally:
+        rclpy.shutdown(context=context)
+    assert ('-p' in argv and f'state_file:={state_file}' in argv) == bool(state_file)

@@ -148,13 +148,19 @@ def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
     it with :func:`rrps_kinematics.supervision.stop_children`.
     """
     from rrps_kinematics.supervision import CONTROL_NICE, start_child
+    return start_child(driver_command(robot=robot, rate=rate, namespace=namespace,
+                                      state_file=state_file, activate=activate), nice=CONTROL_NICE)
 
+
+def driver_command(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
+                   state_file: str = '', activate: bool = False) -> list[str]:
+    """The command line of :func:`start_driver` (no state file: the parameter's default)."""
     from .params import params_file_arguments
-    return start_child([sys.executable, '-m', 'rrps_sim.nodes.driver_node', '--ros-args',
-                        *params_file_arguments('driver_node'),
-                        '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
-                        '-p', f'rate:={float(rate)}', '-p', f'state_file:={state_file}',
-                        '-p', f'auto_activate:={str(activate).lower()}'], nice=CONTROL_NICE)
+    return [sys.executable, '-m', 'rrps_sim.nodes.driver_node', '--ros-args',
+            *params_file_arguments('driver_node'), '-r', f'__ns:={namespace}',
+            '-p', f'robot:={robot}', '-p', f'rate:={float(rate)}',
+            *(['-p', f'state_file:={state_file}'] if state_file else []),
+            '-p', f'auto_activate:={str(activate).lower()}']
 
 
 def start_robot_nodes(*, robot: str, namespace: str = NAMESPACE) -> subprocess.Popen:
