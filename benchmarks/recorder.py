@@ -2,10 +2,12 @@
 
 Starts the demo's processes (the driver at 500 Hz; IK, FK and climbing; master and teleop, the
 master running its circle trajectory while this script holds the deadman, so IK streams
-commands and the driver moves), then measures three phases of ``--seconds`` each in the same
-run: recorder off, recorder on (``rrps-record``: every topic at full rate to a zstd MCAP file,
-the 60 s flight-recorder ring and /tf at 10 Hz), recorder off again. ``--climb`` starts a climb
-step at the start of every phase as well (up, down, up), so climbing runs in each phase.
+commands and the driver moves), then measures four phases of ``--seconds`` each in the same
+run: recorder off; a bare raw listener of the same topics (``_raw_listener.py``: receipt only,
+what any Python subscriber pays); recorder on (``rrps-record``: every topic at full rate to a
+zstd MCAP file, the 60 s flight-recorder ring and /tf at 10 Hz); recorder off again.
+``--climb`` starts a climb step at the start of every phase as well (up, down, ...), so
+climbing runs in each phase.
 
 * CPU: user + system time of every process of the stack (and the recorder's), from
   /proc/<pid>/stat, over the phase, in % of one core.
@@ -174,27 +176,29 @@ def main() -> int:
         if args.session > 0.0:
             return _session(args.session, out_dir, deadman, climb, Trigger)
         pids = [p.pid for p in stack]
-        for i, (name, on) in enumerate((('recorder off', False), ('recorder on', True),
-                                        ('recorder off again', False))):
-            if on:
-                recorder = subprocess.Popen(
-                    [sys.executable, '-m', 'rrps_teleop.record_cli', '-o', str(out_dir),
-                     '--prefix', 'bench', '--namespace', '/rrps'],
-                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        extra = {'recorder': [sys.executable, '-m', 'rrps_teleop.record_cli', '-o', str(out_dir),
+                              '--prefix', 'bench', '--namespace', '/rrps'],
+                 'listener': [sys.executable, str(Path(__file__).resolve().parent / '_raw_listener.py'),
+                              '--namespace', '/rrps']}
+        for i, (name, kind) in enumerate((('recorder off', None), ('bare raw listener', 'listener'),
+                                          ('recorder on', 'recorder'), ('recorder off again', None))):
+            if kind is not None:
+                recorder = subprocess.Popen(extra[kind], stdout=subprocess.DEVNULL,
+                                            stderr=subprocess.DEVNULL)
                 time.sleep(4.0)  # start-up and discovery are not part of the phase
             if args.climb:
                 climb['up' if i % 2 == 0 else 'down'].call_async(Trigger.Request())
-            measured = pids + ([recorder.pid] if on else [])
+            measured = pids + ([recorder.pid] if kind else [])
             c0, t0 = cpu_seconds(measured), time.monotonic()
-            recorder_c0 = cpu_seconds([recorder.pid]) if on else 0.0
+            recorder_c0 = cpu_seconds([recorder.pid]) if kind else 0.0
             time.sleep(args.seconds)
             c1, t1 = cpu_seconds(measured), time.monotonic()
-            recorder_cpu = (cpu_seconds([recorder.pid]) - recorder_c0) if on else 0.0
+            recorder_cpu = (cpu_seconds([recorder.pid]) - recorder_c0) if kind else 0.0
             with lock:
                 s = np.array([stamp for recv, stamp in stamps if t0 <= recv < t1])
             phases.append((name, 100.0 * (c1 - c0) / (t1 - t0),
                            100.0 * recorder_cpu / (t1 - t0), np.diff(s)))
-            if on:
+            if kind:
                 recorder.send_signal(signal.SIGINT)
                 recorder.wait(timeout=30.0)
     finally:
@@ -209,21 +213,25 @@ def main() -> int:
     print(f'\nRecorder cost: demo robot stack (driver 500 Hz, IK, FK, climb, master, teleop) '
           f'with teleop motion{" and climbing" if args.climb else ""}, {args.seconds:g} s per '
           f'phase, {os.cpu_count()} CPUs (shared)')
-    print(f'{"phase":<20}{"stack CPU [% core]":>20}{"of it recorder":>16}'
+    print(f'{"phase":<20}{"stack CPU [% core]":>20}{"of it rec./lis.":>16}'
           f'{"period p50 [ms]":>17}{"p99 [ms]":>10}{"max [ms]":>10}{"states":>8}')
     for name, cpu, rec_cpu, p in phases:
         print(f'{name:<20}{cpu:>20.1f}{rec_cpu:>16.1f}{1e3 * np.median(p):>17.3f}'
               f'{1e3 * np.percentile(p, 99):>10.3f}{1e3 * np.max(p):>10.3f}{len(p) + 1:>8d}')
-    off = [phases[0], phases[2]]
+    off = [phases[0], phases[3]]
     base_cpu = float(np.mean([c for _, c, _, _ in off]))
-    added = phases[1][1] - base_cpu
+    added = phases[2][1] - base_cpu
+    bare = phases[1][1] - base_cpu
     p99_off = [1e3 * np.percentile(p, 99) for *_, p in off]
-    p99_on = 1e3 * np.percentile(phases[1][3], 99)
+    p99_on = 1e3 * np.percentile(phases[2][3], 99)
     noise = max(0.25, abs(p99_off[0] - p99_off[1]))
     cpu_ok = added < 0.10 * base_cpu
     p99_ok = abs(p99_on - float(np.mean(p99_off))) <= noise
     print(f'\nCPU added by the recorder: {added:+.1f} % of a core = {100 * added / base_cpu:+.1f} % '
           f'of the stack\'s {base_cpu:.1f} % (target < 10 %): {"MET" if cpu_ok else "MISSED"}')
+    print(f'CPU added by a bare raw listener of the same topics (receipt only, same run): {bare:+.1f} % '
+          f'of a core = {100 * bare / base_cpu:+.1f} % of the stack; the recorder\'s own work on top of '
+          f'receipt: {added - bare:+.1f} % of a core')
     print(f'driver period p99: {p99_on:.3f} ms on vs {p99_off[0]:.3f} / {p99_off[1]:.3f} ms off '
           f'(noise {noise:.3f} ms): {"MET" if p99_ok else "MISSED"}')
 

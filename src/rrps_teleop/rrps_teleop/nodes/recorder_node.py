@@ -28,7 +28,6 @@ The file is written to ``<path>.part`` and renamed when complete, so it exists o
 
 from __future__ import annotations
 
-import importlib
 import os
 import threading
 import time
@@ -69,11 +68,11 @@ from ..recording.markers import robot_transforms
 from ..recording.mcap_files import COMPRESSIONS, RotatingRecording, TopicInfo, write_recording
 from ..recording.qos import QosSpec, request_for_offers
 from ..recording.ring import MessageRing
-from ..recording.schemas import message_schema
+from ..recording.schemas import message_class, message_schema
 from ..recording.triggers import FaultWatch, StatusEvent
 from ..viewer import world_ring_poses
 
-__all__ = ['RecorderNode', 'main', 'qos_spec', 'type_hash_text', 'TF_TYPE']
+__all__ = ['RecorderNode', 'main', 'qos_spec', 'subscription_qos', 'type_hash_text', 'TF_TYPE']
 
 TF_TYPE = 'tf2_msgs/msg/TFMessage'
 #: What tf2_ros' TransformBroadcaster offers on /tf.
@@ -100,15 +99,11 @@ def type_hash_text(type_hash) -> str:
     return f'RIHS{type_hash.version:02d}_{bytes(type_hash.value).hex()}'
 
 
-def _rclpy_qos(spec: QosSpec) -> QoSProfile:
+def subscription_qos(spec: QosSpec) -> QoSProfile:
+    """The rclpy QoSProfile of a subscription that requests ``spec`` (history keep-last)."""
     return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=spec.depth,
                       reliability=ReliabilityPolicy(spec.reliability),
                       durability=DurabilityPolicy(spec.durability))
-
-
-def _message_class(type_name: str):
-    package, kind, name = type_name.split('/')
-    return getattr(importlib.import_module(f'{package}.{kind}'), name)
 
 
 class _TfEncoder:
@@ -265,7 +260,7 @@ class RecorderNode(Node):
                 continue  # subscribers only: nothing to record (yet)
             type_name = types[0]
             try:
-                cls = _message_class(type_name)
+                cls = message_class(type_name)
                 message_schema(type_name)
             except (ImportError, AttributeError, ValueError, LookupError) as exc:
                 self.dropped_topics[name] = f'{type_name}: {exc}'
@@ -275,7 +270,7 @@ class RecorderNode(Node):
             self._add_topic(topic)
             self._raw_subscriptions[name] = self.create_subscription(
                 cls, name, lambda data, name=name: self._on_raw(name, data),
-                _rclpy_qos(request_for_offers(offered, depth=self.depth)), raw=True)
+                subscription_qos(request_for_offers(offered, depth=self.depth)), raw=True)
             self.dropped_topics.pop(name, None)
 
     def _on_raw(self, topic: str, data: bytes) -> None:

@@ -21,7 +21,6 @@ the replay is, at ``status_rate`` Hz: the viewer draws its timeline from it.
 
 from __future__ import annotations
 
-import importlib
 import threading
 import time
 
@@ -36,13 +35,9 @@ from rrps_kinematics.nodes.common import OK, STALE, STATE_QOS, WARN, Diagnostics
 from ..interfaces import REPLAY_PREFIX, REPLAY_STATUS, ReplayStatus
 from ..recording.qos import offer_for_replay
 from ..recording.replay import RecordingSet, ReplayClock, is_command_topic, replay_topic
+from ..recording.schemas import message_class
 
 __all__ = ['ReplayNode', 'main']
-
-
-def _message_class(type_name: str):
-    package, kind, name = type_name.split('/')
-    return getattr(importlib.import_module(f'{package}.{kind}'), name)
 
 
 class ReplayNode(Node):
@@ -98,7 +93,7 @@ class ReplayNode(Node):
             if name.endswith('/' + REPLAY_STATUS):
                 continue  # a recorded replay's status is not this replay's
             try:
-                cls = _message_class(topic.type)
+                cls = message_class(topic.type)
             except (ImportError, AttributeError, ValueError) as exc:
                 self.skipped[name] = f'{topic.type} is not installed ({exc})'
                 continue

@@ -31,7 +31,7 @@ from pathlib import Path
 
 __all__ = ['BUILTIN_DEFINITIONS', 'SEPARATOR', 'SchemaError', 'split_type_name',
            'message_text', 'message_schema', 'type_hash', 'dependencies',
-           'generated_definition']
+           'generated_definition', 'message_class']
 
 #: rosbag2's separator line between the definitions of a schema (80 '=').
 SEPARATOR = '=' * 80
@@ -206,3 +206,9 @@ def type_hash(type_name: str) -> str:
         if entry.get('type_name') == full:
             return str(entry.get('hash_string', ''))
     return ''
+
+
+def message_class(type_name: str):
+    """The Python class of ``pkg/msg/Type`` (ImportError / AttributeError when not installed)."""
+    package, kind, name = type_name.split('/')
+    return getattr(importlib.import_module(f'{package}.{kind}'), name)

@@ -1,0 +1,66 @@
+"""The recorder benchmark's bare baseline: receive every topic the recorder would, do nothing.
+
+Subscribes raw (CDR bytes, never deserialised), in an EventsExecutor like the recorder, to every
+topic under the namespace and /diagnostics that has a publisher, with the QoS the recorder would
+request; re-checks the graph every second. Its CPU is what any Python process pays to receive
+the stream, before a byte is written.
+
+    python benchmarks/_raw_listener.py [--namespace /rrps]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--namespace', default='/rrps')
+    args = parser.parse_args()
+
+    import rclpy
+    from rclpy.node import Node
+
+    from rrps_kinematics.interfaces import DIAGNOSTICS
+    from rrps_kinematics.nodes.common import make_executor, spin_until_shutdown
+    from rrps_teleop.nodes.recorder_node import qos_spec, subscription_qos
+    from rrps_teleop.recording.qos import request_for_offers
+    from rrps_teleop.recording.schemas import message_class
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = Node('raw_listener', context=context)
+    subscriptions = {}
+    counter = [0]
+
+    def discover() -> None:
+        for name, types in node.get_topic_names_and_types():
+            if name in subscriptions or len(types) != 1 or not (
+                    name == DIAGNOSTICS or name.startswith(args.namespace.rstrip('/') + '/')):
+                continue
+            infos = node.get_publishers_info_by_topic(name)
+            if not infos:
+                continue
+            qos = subscription_qos(request_for_offers(tuple(qos_spec(i.qos_profile) for i in infos), depth=100))
+            subscriptions[name] = node.create_subscription(
+                message_class(types[0]), name, lambda data: counter.__setitem__(0, counter[0] + 1), qos,
+                raw=True)
+
+    node.create_timer(1.0, discover)
+    discover()
+    executor = make_executor(context, 'events')
+    executor.add_node(node)
+    try:
+        spin_until_shutdown(executor, context)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+
+
+if __name__ == '__main__':
+    main()
