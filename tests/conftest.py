@@ -14,6 +14,10 @@ import pytest
 
 # Every process that starts rclpy here keeps DDS on this machine (README: deployment).
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+# Inherited by every process this session starts: how an orphan it left is told from another
+# job's process that happens to be reparented to init (never kill those).
+SESSION_MARK = f'RRPS_TEST_SESSION={os.getpid()}'
+os.environ['RRPS_TEST_SESSION'] = str(os.getpid())
 
 _domain_ids = itertools.count()
 
@@ -76,9 +80,18 @@ def machine_load(request):
         yield load
 
 
+def _marked(pid: int) -> bool:
+    """Whether the process inherited this session's :data:`SESSION_MARK`."""
+    try:
+        with open(f'/proc/{pid}/environ', 'rb') as f:
+            return SESSION_MARK.encode() in f.read().split(b'\0')
+    except OSError:
+        return False
+
+
 def _processes_started_since(t0_ticks: int) -> list[tuple[int, int, str]]:
     """(pid, parent pid, command line) of the processes started after ``t0_ticks`` (clock ticks
-    since boot) that are this session's descendants or orphans (parent 1)."""
+    since boot) that are this session's descendants, or orphans (parent 1) that carry its mark."""
     me = os.getpid()
     table = {}
     for entry in os.listdir('/proc'):
@@ -102,7 +115,8 @@ def _processes_started_since(t0_ticks: int) -> list[tuple[int, int, str]]:
                 return True
         return False
     return [(pid, ppid, cmd) for pid, (ppid, start, cmd) in table.items()
-            if start > t0_ticks and pid != me and (descends(pid) or ppid == 1) and cmd]
+            if start > t0_ticks and pid != me and cmd
+            and (descends(pid) or (ppid == 1 and _marked(pid)))]
 
 
 def _ticks_now() -> int:
