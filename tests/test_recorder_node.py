@@ -4,6 +4,7 @@ the QoS metadata, /tf, a file cut by a crash, and the flight recorder's dumps.""
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import secrets
 import signal
@@ -17,6 +18,7 @@ import yaml
 from mcap.reader import NonSeekingReader, make_reader
 from mcap_ros2.decoder import DecoderFactory
 
+from conftest import require
 from ros_harness import Probe, Spinner, wait_for
 
 pytestmark = pytest.mark.ros
@@ -134,6 +136,61 @@ def test_recording_topics_schemas_counts_values_qos_and_tf(ros_context, tmp_path
     # the recorder reports on /diagnostics (recorded too)
     diag = [d for t, _, d, _ in messages if t == '/diagnostics']
     assert any(s.name.startswith('recorder_node:') for a in diag for s in a.status)
+
+
+def test_with_a_live_tf_the_recorder_writes_its_own_tf_only(ros_context, tmp_path):
+    """markers_node publishes live /tf: a recorder that writes /tf (tf_rate > 0) does not
+    subscribe to it (no duplicate /tf); one at tf_rate 0 records the live /tf, and both agree."""
+    require(importlib.util.find_spec('tf2_msgs') is not None,
+            'tf2_msgs is not installed (./rrps builds it when cmake and a C compiler are there)')
+    from geometry_msgs.msg import PoseStamped
+    from rclpy.parameter import Parameter
+
+    from rrps_teleop.nodes.markers_node import MarkersNode
+    from rrps_teleop.nodes.recorder_node import RecorderNode
+    probe = Probe(context=ros_context, namespace=NS)
+    markers = MarkersNode(context=ros_context, namespace=NS,
+                          parameter_overrides=[Parameter('tf_rate', value=100.0)])
+    own = _recorder(ros_context, tmp_path / 'own')
+    live = RecorderNode(context=ros_context, namespace=NS, cli_args=[
+        '--ros-args', '-r', '__node:=recorder_live'], parameter_overrides=[
+        Parameter(k, value=v) for k, v in {'output_dir': str(tmp_path / 'live'), 'prefix': 'test',
+                                           'discovery_period': 0.1, 'flush_period': 0.2,
+                                           'tf_rate': 0.0, 'flight_recorder': False}.items()])
+    pose_pub = probe.publisher(PoseStamped, 'pose')
+    odom_pub = probe.publisher(PoseStamped, 'odometry/ring_a')
+    with Spinner(ros_context, [markers, own, live, probe]):
+        assert wait_for(lambda: probe.count_subscribers(f'{NS}/pose') >= 3
+                        and probe.count_subscribers(f'{NS}/odometry/ring_a') >= 3, timeout=10.0)
+        odom_pub.publish(_pose(probe, 1.5, frame='world'))
+        pose_pub.publish(_pose(probe, 0.42))
+        assert wait_for(lambda: '/tf' in live._raw_subscriptions, timeout=10.0)
+        seen = own.messages
+        assert wait_for(lambda: own.messages > seen + 20 and markers.tf_published > 100,
+                        timeout=20.0)
+        subscribers = {i.node_name for i in probe.get_subscriptions_info_by_topic('/tf')}
+        assert '/tf' not in own._raw_subscriptions and '/tf' not in own.dropped_topics
+    assert subscribers == {'recorder_live'}
+    tf = {}
+    for name in ('own', 'live'):
+        summary, messages = _read(tmp_path / name / 'test_0.mcap')
+        [channel] = [c for c in summary.channels.values() if c.topic == '/tf']
+        [offered] = yaml.safe_load(channel.metadata['offered_qos_profiles'])
+        assert (offered['reliability'], offered['durability']) == ('reliable', 'volatile')
+        tf[name] = [(t, d) for topic, _, d, t in messages if topic == '/tf']
+    # own: the recorder's 10 Hz only, not the live 100 Hz as well
+    span = (tf['own'][-1][0] - tf['own'][0][0]) * 1e-9
+    assert len(tf['own']) <= 10.0 * span + 3
+    assert len(tf['live']) > len(tf['own'])
+    frames = [{(x.header.frame_id, x.child_frame_id): x.transform for x in d.transforms}
+              for d in (tf['own'][-1][1], tf['live'][-1][1])]
+    assert frames[0].keys() == frames[1].keys() and ('world', 'ring_a') in frames[0]
+    for key, a in frames[0].items():
+        b = frames[1][key]
+        assert [a.translation.x, a.translation.y, a.translation.z, a.rotation.x, a.rotation.y,
+                a.rotation.z, a.rotation.w] == pytest.approx(
+            [b.translation.x, b.translation.y, b.translation.z, b.rotation.x, b.rotation.y,
+             b.rotation.z, b.rotation.w], abs=1e-12), key
 
 
 def test_a_recording_cut_by_a_crash_is_readable_up_to_the_crash(ros_context, ros_domain_id,

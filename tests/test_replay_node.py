@@ -1,9 +1,12 @@
 """replay_node over ROS: a recorded session replayed into a fresh FK and viewer reproduces the
 recorded poses; command streams never reach their live names unless allowed; pause, seek and
-rate through the node's parameters, reported on replay/status."""
+rate through the node's parameters, reported on replay/status; the recorder's /tf replayed as
+tf2_msgs/TFMessage where tf2_msgs is installed, skipped where it is not."""
 
 from __future__ import annotations
 
+import importlib.util
+import math
 import os
 import secrets
 import time
@@ -12,6 +15,7 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
+from conftest import require
 from ros_harness import Probe, Spinner, wait_for
 
 pytestmark = pytest.mark.ros
@@ -190,7 +194,8 @@ def test_command_topics_go_under_replay_unless_allowed(ros_context, tmp_path, al
                         and _status_of(statuses).finished, timeout=20.0)
         time.sleep(0.3)
     status = _status_of(statuses)
-    assert status.skipped == ('/tf',)  # tf2_msgs is not installed here
+    # /tf needs tf2_msgs (built by ./rrps when cmake and a C compiler are there)
+    assert status.skipped == (() if importlib.util.find_spec('tf2_msgs') else ('/tf',))
     assert len(states) == 50  # the state stream is replayed as recorded (reliable)
     if allow:
         assert all(len(v) >= 25 for v in live.values())
@@ -233,3 +238,41 @@ def test_pause_seek_and_rate_through_parameters_and_the_status(ros_context, tmp_
                         timeout=20.0)
     with pytest.raises(Exception):
         _replay(ros_context, [tmp_path / 'missing.mcap'])
+
+
+def test_the_recorders_tf_is_replayed_as_tf2_msgs(ros_context, tmp_path):
+    require(importlib.util.find_spec('tf2_msgs') is not None,
+            'tf2_msgs is not installed (./rrps builds it when cmake and a C compiler are there)')
+    from diagnostic_msgs.msg import DiagnosticStatus
+    from tf2_msgs.msg import TFMessage
+
+    from rrps_kinematics.geometry import load_robot
+    from rrps_kinematics.pose import Pose
+    from rrps_teleop.nodes.recorder_node import TF_TYPE, _TfEncoder
+    from rrps_teleop.recording.markers import robot_transforms
+    from rrps_teleop.recording.mcap_files import TopicInfo, write_recording
+    from rrps_teleop.recording.qos import TF_QOS
+    a_T_b = Pose([0.0, 0.002, 0.43], [0.0, 0.0, math.sin(0.02), math.cos(0.02)])
+    transforms = robot_transforms(load_robot('pole_climber'), a_T_b, Pose([0.0, 0.0, 1.2]))
+    encoder = _TfEncoder()  # the recorder's own encoding (mcap-ros2, without tf2_msgs)
+    t0 = time.time_ns()
+    write_recording(tmp_path / 'tf.mcap', [TopicInfo('/tf', TF_TYPE, (TF_QOS,))],
+                    [('/tf', t0 + i * 50_000_000, encoder.encode(t0 + i * 50_000_000, transforms))
+                     for i in range(10)])
+    probe = Probe(context=ros_context, namespace=NS)
+    tf = probe.collect(TFMessage, '/tf')
+    statuses = probe.collect(DiagnosticStatus, 'replay/status')
+    replay = _replay(ros_context, [tmp_path / 'tf.mcap'], paused=True)
+    with Spinner(ros_context, [replay, probe]):
+        assert wait_for(lambda: probe.get_subscriptions_info_by_topic('/tf')
+                        and probe.get_publishers_info_by_topic('/tf'), timeout=10.0)
+        time.sleep(0.5)  # let the subscription match before anything is sent
+        replay.set_parameters([__import__('rclpy').parameter.Parameter('paused', value=False)])
+        assert wait_for(lambda: len(tf) == 10, timeout=20.0)
+        assert wait_for(lambda: statuses and _status_of(statuses).finished, timeout=20.0)
+    assert _status_of(statuses).skipped == ()
+    last = {(t.header.frame_id, t.child_frame_id): t for t in tf[-1].transforms}
+    assert set(last) == {(parent, child) for parent, child, _ in transforms}
+    ring_b = last[('ring_a', 'ring_b')].transform
+    assert (ring_b.translation.y, ring_b.rotation.z) == (0.002, pytest.approx(math.sin(0.02)))
+    assert last[('world', 'ring_a')].transform.translation.z == 1.2

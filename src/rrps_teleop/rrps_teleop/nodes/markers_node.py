@@ -8,12 +8,19 @@ ghost ring_b; in frame ``world``, once odometry places the robot, the same robot
 ``structure_period`` s). In RViz2: add a MarkerArray display on ``/rrps/robot/markers`` with
 fixed frame ``ring_a`` (or ``world``). The recordings also carry ``/tf`` (recorder_node).
 
+Live ``/tf`` (``tf2_msgs/msg/TFMessage``, the absolute topic, with the QoS of tf2_ros'
+TransformBroadcaster) at ``tf_rate`` Hz once a pose is known: ``world -> ring_a`` (once odometry
+places the robot), ``ring_a -> ring_b`` and the legs' links, computed as the recorder computes
+its ``/tf`` (:func:`rrps_teleop.recording.markers.robot_transforms`). tf2_msgs is not on PyPI:
+``./rrps`` builds it (tools/build_tf2_msgs.sh) when cmake and a C compiler are there; without
+it the node logs that live /tf is off and publishes the markers only.
+
 Subscribes (relative names): ``pose``, ``target_pose``, ``actuators/state`` (efforts),
 ``grippers/state``, ``odometry/ring_a|ring_b``; every subscription keeps only the newest
 message, the markers are built at ``rate`` Hz while anything they show changes; a robot at rest
 is re-sent every ``structure_period`` s only (for displays that join later).
 
-    markers_node --ros-args -r __ns:=/rrps -p robot:=pole_climber
+    markers_node --ros-args -r __ns:=/rrps -p robot:=pole_climber -p tf_rate:=30.0
 """
 
 from __future__ import annotations
@@ -22,8 +29,9 @@ import threading
 
 import numpy as np
 from builtin_interfaces.msg import Duration
-from geometry_msgs.msg import Point, PoseStamped
+from geometry_msgs.msg import Point, PoseStamped, TransformStamped
 from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
@@ -41,11 +49,16 @@ from rrps_kinematics.nodes.common import (
 from rrps_kinematics.pose import Pose
 from rrps_sim.interfaces import GRIPPERS_STATE, gripper_states
 
-from ..interfaces import ROBOT_MARKERS, odometry_topic
-from ..recording.markers import MarkerSpec, robot_markers, structure_marker
-from ..viewer import world_ring_poses
+from ..interfaces import ROBOT_MARKERS, TF, odometry_topic
+from ..recording.markers import MarkerSpec, robot_markers, robot_transforms, structure_marker, world_pose_of_ring_a
+from ..recording.qos import TF_QOS
 
-__all__ = ['MarkersNode', 'main', 'marker_msg']
+__all__ = ['MarkersNode', 'main', 'marker_msg', 'transform_msgs']
+
+#: The live /tf publisher's QoS: tf2_ros' TransformBroadcaster's (TF_QOS).
+_TF_PUBLISHER_QOS = QoSProfile(history=HistoryPolicy(TF_QOS.history), depth=TF_QOS.depth,
+                               reliability=ReliabilityPolicy(TF_QOS.reliability),
+                               durability=DurabilityPolicy(TF_QOS.durability))
 
 _KINDS = {'line_strip': Marker.LINE_STRIP, 'line_list': Marker.LINE_LIST,
           'cylinder': Marker.CYLINDER, 'triangle_list': Marker.TRIANGLE_LIST}
@@ -74,6 +87,19 @@ def marker_msg(spec: MarkerSpec, stamp) -> Marker:
     return m
 
 
+def transform_msgs(transforms, stamp) -> list[TransformStamped]:
+    """geometry_msgs/TransformStamped messages from (parent, child, parent_T_child) triples."""
+    out = []
+    for parent, child, pose in transforms:
+        t = TransformStamped()
+        t.header.stamp, t.header.frame_id, t.child_frame_id = stamp, parent, child
+        tr, rot = t.transform.translation, t.transform.rotation
+        tr.x, tr.y, tr.z = (float(v) for v in pose.position)
+        rot.x, rot.y, rot.z, rot.w = (float(v) for v in pose.quaternion_xyzw)
+        out.append(t)
+    return out
+
+
 class MarkersNode(Node):
     """Publishes the robot's MarkerArray; see the module docstring."""
 
@@ -90,6 +116,9 @@ class MarkersNode(Node):
         self.structure_period = declare_parameter(
             self, 'structure_period', 1.0, 'the structure is re-sent this often [s]',
             min_value=0.1, max_value=60.0, read_only=True)
+        tf_rate = declare_parameter(self, 'tf_rate', 30.0,
+                                    'live /tf rate [Hz] (needs tf2_msgs); 0 = off',
+                                    min_value=0.0, max_value=1000.0, read_only=True)
         self._structure = None
         if structure:  # static: its message is built once (thousands of points)
             from ..structures import make_structure
@@ -112,23 +141,42 @@ class MarkersNode(Node):
             self.create_subscription(JointState, topic,
                                      lambda msg, topic=topic: self._store(topic, msg), LATEST_QOS)
         self.create_timer(1.0 / rate, self._publish)
+        self.tf_published = 0
+        self._tf_pub = None
+        self._tf_cache: tuple[tuple, list] | None = None  # (inputs, transforms)
+        if tf_rate > 0.0:
+            try:
+                from tf2_msgs.msg import TFMessage  # optional: built by ./rrps, not on PyPI
+            except ImportError as exc:
+                self.get_logger().info(f'live /tf is off: tf2_msgs is not installed ({exc}); '
+                                       './rrps builds it when cmake and a C compiler are there')
+            else:
+                self._tf_type = TFMessage
+                self._tf_pub = self.create_publisher(TFMessage, TF, _TF_PUBLISHER_QOS)
+                self.create_timer(1.0 / tf_rate, self._publish_tf)
 
     def _store(self, topic: str, msg) -> None:
         with self._lock:
             self._latest[topic] = msg
 
-    def markers(self) -> list[MarkerSpec]:
-        """The markers of the newest messages (none before the first pose)."""
-        with self._lock:
-            latest = dict(self._latest)
-        pose_msg = latest.get(POSE)
-        if pose_msg is None:
-            return []
-        a_T_b = Pose(*pose_from_msg(pose_msg))
+    def _robot(self, latest: dict) -> tuple[Pose, dict | None, Pose | None]:
+        """(a_T_b, grippers {ring: closed} or None, world_T_a or None) of the newest messages."""
+        a_T_b = Pose(*pose_from_msg(latest[POSE]))
         grippers = None
         g = latest.get(GRIPPERS_STATE)
         if g is not None:
             grippers = gripper_states(list(g.name), list(g.position))
+        odometry = {ring: Pose(*pose_from_msg(msg)) for ring in ('ring_a', 'ring_b')
+                    if (msg := latest.get(odometry_topic(ring))) is not None}
+        return a_T_b, grippers, world_pose_of_ring_a(a_T_b, grippers, odometry)
+
+    def markers(self) -> list[MarkerSpec]:
+        """The markers of the newest messages (none before the first pose)."""
+        with self._lock:
+            latest = dict(self._latest)
+        if latest.get(POSE) is None:
+            return []
+        a_T_b, grippers, world_T_a = self._robot(latest)
         efforts = None
         state = latest.get(ACTUATORS_STATE)
         if state is not None and len(state.effort) == len(state.name) and state.name:
@@ -143,14 +191,17 @@ class MarkersNode(Node):
                 target = Pose(*pose_from_msg(latest[TARGET_POSE]))
             except ValueError:
                 target = None
-        gripping = 'ring_b' if grippers is not None and not grippers['ring_a'] else 'ring_a'
-        world_T_a = None
-        odom = latest.get(odometry_topic(gripping))
-        if odom is not None:
-            world_T_a, _ = world_ring_poses(a_T_b=a_T_b, gripping=gripping,
-                                            world_T_gripping=Pose(*pose_from_msg(odom)))
         return robot_markers(self.geometry, a_T_b, efforts=efforts,
                              grippers=grippers or {}, target=target, world_T_a=world_T_a)
+
+    def transforms(self) -> list:
+        """The /tf transforms (parent, child, Pose) of the newest messages (none before a pose)."""
+        with self._lock:
+            latest = dict(self._latest)
+        if latest.get(POSE) is None:
+            return []
+        a_T_b, _, world_T_a = self._robot(latest)
+        return robot_transforms(self.geometry, a_T_b, world_T_a)
 
     def _inputs(self) -> tuple:
         """What the markers are drawn from (the newest messages' values, not their stamps)."""
@@ -192,6 +243,22 @@ class MarkersNode(Node):
             self._structure_due = t + self.structure_period
         self._pub.publish(MarkerArray(markers=markers))
         self.published += 1
+
+    def _publish_tf(self) -> None:
+        inputs = self._inputs()
+        if self._tf_cache is not None and self._tf_cache[0] == inputs:
+            transforms = self._tf_cache[1]  # a robot at rest: the same transforms, stamped now
+        else:
+            try:
+                transforms = self.transforms()
+            except ValueError as exc:
+                self.get_logger().warning(f'no /tf for this pose: {exc}', throttle_duration_sec=5.0)
+                return
+            self._tf_cache = (inputs, transforms)
+        if transforms:
+            stamp = self.get_clock().now().to_msg()
+            self._tf_pub.publish(self._tf_type(transforms=transform_msgs(transforms, stamp)))
+            self.tf_published += 1
 
 
 def main(args=None) -> None:

@@ -12,7 +12,9 @@ A topic is subscribed reliable only if every publisher offers reliable (rosbag2'
 The transforms ``world -> ring_a -> ring_b`` and each leg's links
 (:func:`rrps_teleop.recording.markers.robot_transforms`) are written to ``/tf`` as
 ``tf2_msgs/msg/TFMessage`` at ``tf_rate`` Hz from the newest ``pose``, ``odometry/*`` and
-``grippers/state`` (encoded with mcap-ros2-support: tf2_msgs is not needed).
+``grippers/state`` (encoded with mcap-ros2-support: tf2_msgs is not needed); a live ``/tf``
+(markers_node's) is then not subscribed to, so the recording has no duplicate transforms. With
+``tf_rate`` 0 the live ``/tf`` is recorded like any topic (where tf2_msgs is installed).
 
 Flight recorder (``flight_recorder``, default on): the last ``buffer_seconds`` of the same
 messages in memory (:class:`rrps_teleop.recording.ring.MessageRing`), written to
@@ -64,19 +66,16 @@ from ..interfaces import (
     RecorderTrigger,
     odometry_topic,
 )
-from ..recording.markers import robot_transforms
+from ..recording.markers import robot_transforms, world_pose_of_ring_a
 from ..recording.mcap_files import COMPRESSIONS, RotatingRecording, TopicInfo, write_recording
-from ..recording.qos import QosSpec, request_for_offers
+from ..recording.qos import TF_QOS, QosSpec, request_for_offers
 from ..recording.ring import MessageRing
 from ..recording.schemas import message_class, message_schema
 from ..recording.triggers import FaultWatch, StatusEvent
-from ..viewer import world_ring_poses
 
 __all__ = ['RecorderNode', 'main', 'qos_spec', 'subscription_qos', 'type_hash_text', 'TF_TYPE']
 
 TF_TYPE = 'tf2_msgs/msg/TFMessage'
-#: What tf2_ros' TransformBroadcaster offers on /tf.
-TF_QOS = QosSpec(depth=100)
 _IGNORED = ('/rosout', '/parameter_events')
 
 
@@ -302,21 +301,16 @@ class RecorderNode(Node):
             return
         try:
             a_T_b = Pose(*pose_from_msg(deserialize_message(pose_data, PoseStamped)))
-            world_T_a = None
-            odometry = {ring: self._latest.get(key) for key, ring in self._tf_inputs.items()
-                        if ring in ('ring_a', 'ring_b')}
+            odometry = {ring: Pose(*pose_from_msg(deserialize_message(data, PoseStamped)))
+                        for key, ring in self._tf_inputs.items()
+                        if ring in ('ring_a', 'ring_b') and (data := self._latest.get(key)) is not None}
             gripper_data = self._latest.get(next(k for k, v in self._tf_inputs.items()
                                                  if v == GRIPPERS_STATE))
             closed = None
             if gripper_data is not None:
                 g = deserialize_message(gripper_data, JointState)
                 closed = gripper_states(list(g.name), list(g.position))
-            gripping = 'ring_b' if closed is not None and not closed['ring_a'] else 'ring_a'
-            if odometry.get(gripping) is not None:
-                world_T_g = Pose(*pose_from_msg(deserialize_message(odometry[gripping],
-                                                                    PoseStamped)))
-                world_T_a, _ = world_ring_poses(a_T_b=a_T_b, gripping=gripping,
-                                                world_T_gripping=world_T_g)
+            world_T_a = world_pose_of_ring_a(a_T_b, closed, odometry)
             transforms = robot_transforms(self.geometry, a_T_b, world_T_a)
             self._tf_cache = (inputs, transforms)
         except ValueError as exc:

@@ -4,7 +4,8 @@ Every recorded topic is published on its recorded name (the CDR bytes as recorde
 re-encoded) with the reliability and durability its publishers offered
 (:func:`rrps_teleop.recording.qos.offer_for_replay`), at the recorded pace times ``rate``, so
 the viewer and any node see the session again. A topic whose message type is not installed
-here (``tf2_msgs/msg/TFMessage`` without tf2_msgs) is skipped and named in the status.
+here (``tf2_msgs/msg/TFMessage`` where ./rrps could not build tf2_msgs) is skipped and named in
+the status.
 
 Safety: a replay never feeds a live robot. The command streams (``target_pose``,
 ``actuators/command``, ``teleop/enable``, ``master/target_pose``) are published under

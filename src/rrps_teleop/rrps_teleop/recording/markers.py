@@ -4,7 +4,9 @@ Frames (README: the robot model): ``world`` -> ``ring_a`` (where odometry places
 ``ring_b`` (``a_T_b``), and for each leg i two links: ``leg_i_base`` at the universal-joint
 centre on ring_a, z along the leg (the leg frame A_i of section 2.1), and ``leg_i_tip`` at the
 spherical-joint centre, ``length_i`` further along that z axis. :func:`robot_transforms` gives
-them as (parent, child, Pose).
+them as (parent, child, Pose); :func:`world_pose_of_ring_a` places ring_a in ``world`` from the
+odometry of the gripping ring. The recorder's ``/tf`` and markers_node's live ``/tf`` both come
+from these two.
 
 :func:`robot_markers` describes what ``visualization_msgs/MarkerArray`` draws, as
 :class:`MarkerSpec` values the node converts to messages: in frame ``ring_a`` both rings
@@ -27,10 +29,10 @@ from rrps_kinematics.inverse import inverse_kinematics
 from rrps_kinematics.pose import Pose
 from rrps_kinematics.rotations import matrix_to_quat_xyzw
 
-from ..viewer import robot_figure
+from ..viewer import robot_figure, world_ring_poses
 
 __all__ = ['MarkerSpec', 'robot_markers', 'robot_transforms', 'structure_marker',
-           'leg_link_names', 'ring_radius']
+           'leg_link_names', 'ring_radius', 'world_pose_of_ring_a']
 
 _CIRCLE_POINTS = 48
 _RING_COLOUR = (0.47, 0.51, 0.59, 1.0)
@@ -88,6 +90,19 @@ def robot_transforms(geometry: RobotGeometry, a_T_b: Pose,
         out.append((RING_A_FRAME, base, Pose(geometry.ring_a_anchors[i], quaternions[i])))
         out.append((base, tip, Pose((0.0, 0.0, float(lengths[i])))))
     return out
+
+
+def world_pose_of_ring_a(a_T_b: Pose, grippers: dict | None,
+                         odometry: dict[str, Pose | None]) -> Pose | None:
+    """world_T_ring_a from the odometry ({ring: world_T_ring}) of the ring that grips: ring_b when
+    ``grippers`` ({ring: closed}) says ring_a is open, else ring_a; None until it is known."""
+    gripping = 'ring_b' if grippers is not None and not grippers['ring_a'] else 'ring_a'
+    world_T_gripping = odometry.get(gripping)
+    if world_T_gripping is None:
+        return None
+    world_T_a, _ = world_ring_poses(a_T_b=a_T_b, gripping=gripping,
+                                    world_T_gripping=world_T_gripping)
+    return world_T_a
 
 
 def structure_marker(vertices: np.ndarray, faces: np.ndarray) -> MarkerSpec:

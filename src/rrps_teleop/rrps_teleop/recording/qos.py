@@ -27,7 +27,7 @@ from typing import Iterable, Sequence
 
 import yaml
 
-__all__ = ['QosSpec', 'INFINITE_NS', 'offered_qos_yaml', 'parse_offered_qos',
+__all__ = ['QosSpec', 'INFINITE_NS', 'TF_QOS', 'offered_qos_yaml', 'parse_offered_qos',
            'request_for_offers', 'offer_for_replay']
 
 #: rmw's RMW_DURATION_INFINITE [ns] (written as sec 9223372036, nsec 854775807).
@@ -67,6 +67,11 @@ class QosSpec:
         for name, table in _POLICIES.items():
             if getattr(self, name) not in table:
                 raise ValueError(f'unknown {name} policy {getattr(self, name)!r}')
+
+
+#: What tf2_ros' TransformBroadcaster offers on /tf (reliable, volatile, keep last 100): the
+#: QoS of markers_node's live /tf and of the /tf the recorder writes.
+TF_QOS = QosSpec(depth=100)
 
 
 def _duration(ns: int) -> str:
