@@ -1,13 +1,16 @@
 """Executor lag of the demo stack under load: how late commands reach the robot's nodes.
 
-Runs the demo's nodes in two compositions, one after the other in the same run and under the
+Runs the demo's nodes in three compositions, one after the other in the same run and under the
 same load, and climbs step after step (``climb/step_up``, ``climb/step_down``) for
 ``--seconds`` each:
 
 * ``one operator+robot process`` (the first release): the driver in its own process, IK, FK,
   master, teleop, climb and viewer in one process and one executor;
-* ``robot / operator split`` (now, ``rrps-demo``): the driver; IK, FK and climb in one process;
-  master, teleop and viewer in another.
+* ``robot / operator split``: the driver; IK, FK and climb in one process; master, teleop and
+  viewer in another; every process at the default priority;
+* ``split + priorities (demo)`` (now, ``rrps-demo``): the same split, with the driver and the
+  robot's nodes at nice ``CONTROL_NICE`` and the operator station at ``OPERATOR_NICE``
+  (:mod:`rrps_kinematics.supervision`; raising priority needs root, as on a robot's computer).
 
 The climb node streams ``target_pose`` at 50 Hz to the IK node of its own process; the IK node
 and the driver report the ages of the commands they receive (receipt time minus stamp: the
@@ -37,13 +40,18 @@ os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 50))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'tests'))
 
 from load import Load  # noqa: E402
+from rrps_kinematics.supervision import CONTROL_NICE, OPERATOR_NICE  # noqa: E402
 
 NAMESPACE = '/rrps'
+#: name: (driver's nice value, [(nodes of a process, its nice value), ...]).
 COMPOSITIONS = {
-    'one operator+robot process': [('ik_node', 'fk_node', 'master_node', 'teleop_node',
-                                    'climb_node', 'viewer_node')],
-    'robot / operator split': [('ik_node', 'fk_node', 'climb_node'),
-                               ('master_node', 'teleop_node', 'viewer_node')],
+    'one operator+robot process': (0, [(('ik_node', 'fk_node', 'master_node', 'teleop_node',
+                                         'climb_node', 'viewer_node'), 0)]),
+    'robot / operator split': (0, [(('ik_node', 'fk_node', 'climb_node'), 0),
+                                   (('master_node', 'teleop_node', 'viewer_node'), 0)]),
+    'split + priorities (demo)': (CONTROL_NICE, [(('ik_node', 'fk_node', 'climb_node'), CONTROL_NICE),
+                                                 (('master_node', 'teleop_node', 'viewer_node'),
+                                                  OPERATOR_NICE)]),
 }
 
 
@@ -120,7 +128,7 @@ def _climb_for(observer: Observer, seconds: float) -> int:
     return done
 
 
-def run_composition(name: str, groups, *, seconds: float, load: bool) -> dict:
+def run_composition(name: str, composition, *, seconds: float, load: bool) -> dict:
     import rclpy
 
     from rrps_kinematics.nodes.common import make_executor, spin_until_shutdown
@@ -128,13 +136,14 @@ def run_composition(name: str, groups, *, seconds: float, load: bool) -> dict:
 
     port, token = _free_port(), secrets.token_urlsafe(12)
     common = ['--ros-args', '-r', f'__ns:={NAMESPACE}', '-p', 'robot:=pole_climber']
+    driver_nice, groups = composition
     children = [start_child([sys.executable, '-m', 'rrps_sim.nodes.driver_node', *common,
-                             '-p', 'auto_activate:=true'])]
-    labels = ['driver_node'] + ['+'.join(n.removesuffix('_node') for n in nodes) for nodes in groups]
-    for nodes in groups:
+                             '-p', 'auto_activate:=true'], nice=driver_nice)]
+    labels = ['driver_node'] + ['+'.join(n.removesuffix('_node') for n in nodes) for nodes, _ in groups]
+    for nodes, nice in groups:
         extra = ['-p', f'port:={port}', '-p', f'token:={token}'] if 'viewer_node' in nodes else []
         children.append(start_child([sys.executable, '-m', 'rrps_teleop.compose', *nodes,
-                                     *common, *extra]))
+                                     *common, *extra], nice=nice))
     context = rclpy.Context()
     rclpy.init(context=context)
     observer = Observer(context)
@@ -179,8 +188,8 @@ def main() -> int:
     parser.add_argument('--no-load', dest='load', action='store_false',
                         help='no busy core, DDS flood or browser')
     args = parser.parse_args()
-    results = {name: run_composition(name, groups, seconds=args.seconds, load=args.load)
-               for name, groups in COMPOSITIONS.items()}
+    results = {name: run_composition(name, composition, seconds=args.seconds, load=args.load)
+               for name, composition in COMPOSITIONS.items()}
 
     def v(values, key, fmt='{:.1f}'):
         """A reported value, '-' when the node did not report it (no command in the window)."""
@@ -200,10 +209,10 @@ def main() -> int:
     print('\nCPU per process while climbing [% of one core]:')
     for name, r in results.items():
         print(f'  {name}: ' + ', '.join(f'{k} {c:.0f} %' for k, c in r['cpu'].items()))
-    now = results['robot / operator split']
+    now = results['split + priorities (demo)']
     stale = int(float(now['ik'].get('command_stale_total', 'nan') or 0))
     ok = now['alive'] and now['steps'] > 0 and stale == 0
-    print(f'\nrobot / operator split: {stale} stale targets in the robot process: '
+    print(f'\nsplit + priorities (demo): {stale} stale targets in the robot process: '
           f'{"MET" if ok else "MISSED"} (target: none)')
     return 0 if ok else 1
 
