@@ -115,9 +115,11 @@ class Load:
             print(f'load: {text}', file=sys.stderr, flush=True)
 
     def _spawn(self, args: list[str], env: dict | None = None) -> subprocess.Popen:
-        process = subprocess.Popen(args, env=env, stdin=subprocess.DEVNULL,
-                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                   start_new_session=True)
+        # start_child: a load process dies with the process that started it, also when that one
+        # is killed (a benchmark stopped by a timeout left its busy loop, flood and browser).
+        from rrps_kinematics.supervision import start_child
+        process = start_child(args, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL, start_new_session=True)
         self.processes.append(process)
         return process
 

@@ -53,8 +53,10 @@ OPERATOR_NODES = ('master_node', 'teleop_node', 'viewer_node')
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog='rrps-demo', description='Run the rrps stack (driver, IK, FK, master, teleop, climb, '
-                                      'viewer) in one process, with the web viewer.')
+        prog='rrps-demo', description='Run the whole rrps stack with the web viewer, in four supervised '
+                                      'processes: the driver; IK, FK and climb (the robot computer); '
+                                      'master, teleop and viewer (the operator station); recorder and '
+                                      'markers (observers).')
     p.add_argument('--host', default='127.0.0.1',
                    help='address the viewer binds (default 127.0.0.1; 0.0.0.0 for remote operators)')
     p.add_argument('--port', type=int, default=8080, help='viewer port (default 8080)')

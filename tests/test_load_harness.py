@@ -1,0 +1,46 @@
+"""The load harness (tests/load.py) cleans up after itself, also when its owner is killed."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+TESTS = Path(__file__).resolve().parent
+
+_OWNER = f"""
+import sys, time
+sys.path.insert(0, {str(TESTS)!r})
+from load import Load
+load = Load(busy=1, flood_rate=0.0, quiet=True).start()
+print(' '.join(str(p.pid) for p in load.processes), flush=True)
+time.sleep(120)
+"""
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f'/proc/{pid}/stat') as f:
+            return f.read().rsplit(')', 1)[1].split()[0] != 'Z'
+    except OSError:
+        return False
+
+
+def test_the_load_processes_die_with_a_killed_owner():
+    owner = subprocess.Popen([sys.executable, '-c', _OWNER], stdout=subprocess.PIPE, text=True)
+    try:
+        pids = [int(p) for p in owner.stdout.readline().split()]
+        assert pids and all(_alive(p) for p in pids)
+        os.kill(owner.pid, signal.SIGKILL)  # no clean-up code of the owner runs
+        owner.wait(timeout=10)
+        deadline = time.monotonic() + 10.0
+        while any(_alive(p) for p in pids) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not any(_alive(p) for p in pids), 'a load process outlived its owner'
+    finally:
+        if owner.poll() is None:
+            owner.kill()
+            owner.wait()
