@@ -193,7 +193,7 @@ def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa
                     for handle in robot_nodes:
                         handle.visible = False
                 elif sync == 'hidden shot':
-                    changed = _changed_pixels(shots['robot'], shots['hidden'])[0] > 2000
+                    changed = _changed_pixels(shots['robot'], shots['hidden'], VIEW_WIDTH)[0] > 2000
                     deadline.setdefault(sync, time.monotonic() + DEADLINE)
                     reply = 'go' if changed or time.monotonic() > deadline[sync] else 'again'
                 elif sync == 'show robot':
@@ -236,9 +236,9 @@ def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa
             pytest.fail(f"browser: {result['error']} after {result['results'][-3:]}")
 
     # The robot is drawn: hiding its scene nodes changes the picture in the 3-D view.
-    count, box = _changed_pixels(shots['robot'], shots['hidden'])
-    assert count > 2000, f'only {count} pixels changed when the robot was hidden'
-    assert box[2] < VIEW_WIDTH, f'changes outside the 3-D view: {box}'  # the panel is on the right
+    # Counted in the 3-D view only: the panel on the right updates live (latency, plots) meanwhile.
+    count, _ = _changed_pixels(shots['robot'], shots['hidden'], VIEW_WIDTH)
+    assert count > 2000, f'only {count} pixels of the 3-D view changed when the robot was hidden'
     # The reachable workspace is drawn around the robot (hidden with it) and on the master.
     ws_shown, ws_hidden = _workspace_pixels(shots['robot']), _workspace_pixels(shots['hidden'])
     print(f'workspace-coloured pixels: {ws_shown} with the robot, {ws_hidden} without')
