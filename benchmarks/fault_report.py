@@ -64,6 +64,7 @@ from fault_metrics import climb, first, gripper_openings, length_change, teleop 
 from netns_rig import Rig, netns_supported, wait  # noqa: E402
 from rrps_kinematics import load_robot  # noqa: E402
 from rrps_kinematics.interfaces import IkStatus  # noqa: E402
+from rrps_kinematics.supervision import child_pids, process_alive  # noqa: E402
 
 DEADLINE = 90.0
 LINK_DOWN = 2.0
@@ -556,25 +557,6 @@ def clock_fault(s: Session, fault: str) -> Row:
 
 # --- supervision ------------------------------------------------------------------------------
 
-def _children(pid: int) -> list[int]:
-    out = []
-    for entry in os.listdir('/proc'):
-        if entry.isdigit():
-            try:
-                with open(f'/proc/{entry}/stat') as f:
-                    if int(f.read().rsplit(')', 1)[1].split()[1]) == pid:
-                        out.append(int(entry))
-            except (OSError, ValueError):
-                continue
-    return out
-
-
-def _alive(pid: int) -> bool:
-    try:
-        with open(f'/proc/{pid}/stat') as f:
-            return f.read().rsplit(')', 1)[1].split()[0] != 'Z'
-    except FileNotFoundError:
-        return False
 
 
 def demo_kill(domain_id: int) -> Row:
@@ -598,11 +580,11 @@ def demo_kill(domain_id: int) -> Row:
             line = proc.stdout.readline()
             if not line or 'is live' in line:  # the banner: the robot processes are up
                 break
-        children = _children(proc.pid)
+        children = child_pids(proc.pid)
         t_kill = time.time()
         proc.kill()
         proc.wait()
-        gone = wait(lambda: not any(_alive(c) for c in children), 15.0, period=0.01)
+        gone = wait(lambda: not any(process_alive(c) for c in children), 15.0, period=0.01)
         row.hold_s = time.time() - t_kill
         row.detected = f'its {len(children)} children see the parent die (parent-death signal)'
         row.recovery = 'restart the demo'

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from rrps_kinematics.supervision import CONTROL_NICE, OBSERVER_NICE, priority_of
+from rrps_kinematics.supervision import CONTROL_NICE, OBSERVER_NICE, child_pids, priority_of, process_alive
 
 pytestmark = [pytest.mark.ros]
 
@@ -119,25 +119,6 @@ def test_compose_names_its_nodes_and_refuses_unknown_ones():
         assert node_class(name).__name__.endswith('Node')
 
 
-def _alive(pid: int) -> bool:
-    try:
-        with open(f'/proc/{pid}/stat') as f:
-            return f.read().rsplit(')', 1)[1].split()[0] != 'Z'
-    except FileNotFoundError:
-        return False
-
-
-def _children(pid: int) -> list[int]:
-    out = []
-    for entry in os.listdir('/proc'):
-        if entry.isdigit():
-            try:
-                with open(f'/proc/{entry}/stat') as f:
-                    if int(f.read().rsplit(')', 1)[1].split()[1]) == pid:
-                        out.append(int(entry))
-            except (OSError, ValueError):
-                pass
-    return out
 
 
 @pytest.mark.slow
@@ -151,7 +132,7 @@ def test_a_killed_demo_takes_its_robot_processes_with_it_and_ctrl_c_stops_it_fas
                 line = proc.stdout.readline()
                 if not line or 'is live' in line:  # the banner: the robot processes are up
                     break
-            children = _children(proc.pid)
+            children = child_pids(proc.pid)
             assert len(children) == 3, children  # the driver, the robot's nodes, the observers
             if os.geteuid() == 0:  # the robot's command path first in line for a core (CI is root)
                 assert sorted(priority_of(c) for c in children) == [CONTROL_NICE, CONTROL_NICE,
@@ -167,9 +148,9 @@ def test_a_killed_demo_takes_its_robot_processes_with_it_and_ctrl_c_stops_it_fas
                 # the demo itself is done within 2 s here (the CI machine is loaded: generous)
                 assert time.monotonic() - t0 < 10.0
             deadline = time.monotonic() + 15
-            while time.monotonic() < deadline and any(_alive(c) for c in children):
+            while time.monotonic() < deadline and any(process_alive(c) for c in children):
                 time.sleep(0.05)
-            assert not any(_alive(c) for c in children), f'{how}: a child outlived the demo'
+            assert not any(process_alive(c) for c in children), f'{how}: a child outlived the demo'
         finally:
             _stop(proc)
 

@@ -9,6 +9,8 @@ import sys
 import time
 from pathlib import Path
 
+from rrps_kinematics.supervision import process_alive
+
 TESTS = Path(__file__).resolve().parent
 
 _OWNER = f"""
@@ -21,25 +23,18 @@ time.sleep(120)
 """
 
 
-def _alive(pid: int) -> bool:
-    try:
-        with open(f'/proc/{pid}/stat') as f:
-            return f.read().rsplit(')', 1)[1].split()[0] != 'Z'
-    except OSError:
-        return False
-
 
 def test_the_load_processes_die_with_a_killed_owner():
     owner = subprocess.Popen([sys.executable, '-c', _OWNER], stdout=subprocess.PIPE, text=True)
     try:
         pids = [int(p) for p in owner.stdout.readline().split()]
-        assert pids and all(_alive(p) for p in pids)
+        assert pids and all(process_alive(p) for p in pids)
         os.kill(owner.pid, signal.SIGKILL)  # no clean-up code of the owner runs
         owner.wait(timeout=10)
         deadline = time.monotonic() + 10.0
-        while any(_alive(p) for p in pids) and time.monotonic() < deadline:
+        while any(process_alive(p) for p in pids) and time.monotonic() < deadline:
             time.sleep(0.05)
-        assert not any(_alive(p) for p in pids), 'a load process outlived its owner'
+        assert not any(process_alive(p) for p in pids), 'a load process outlived its owner'
     finally:
         if owner.poll() is None:
             owner.kill()

@@ -30,7 +30,7 @@ from typing import Sequence
 
 __all__ = ['PARENT_PID_ENV', 'CONTROL_NICE', 'OPERATOR_NICE', 'OBSERVER_NICE', 'start_child',
            'priority_of', 'raise_priority', 'stop_child', 'stop_children', 'exit_with_parent',
-           'Respawner']
+           'Respawner', 'process_alive', 'child_pids']
 
 #: Environment variable through which a child learns its supervisor's pid.
 PARENT_PID_ENV = 'RRPS_PARENT_PID'
@@ -58,6 +58,29 @@ def raise_priority(nice: int) -> bool:
 def priority_of(pid: int) -> int:
     """The nice value of a process."""
     return os.getpriority(os.PRIO_PROCESS, pid)
+
+
+def process_alive(pid: int) -> bool:
+    """Whether process ``pid`` exists and is not a zombie (Linux /proc)."""
+    try:
+        with open(f'/proc/{pid}/stat') as f:
+            return f.read().rsplit(')', 1)[1].split()[0] != 'Z'
+    except OSError:
+        return False
+
+
+def child_pids(pid: int) -> list[int]:
+    """The pids of the processes whose parent is ``pid`` (Linux /proc)."""
+    out = []
+    for entry in os.listdir('/proc'):
+        if entry.isdigit():
+            try:
+                with open(f'/proc/{entry}/stat') as f:
+                    if int(f.read().rsplit(')', 1)[1].split()[1]) == pid:
+                        out.append(int(entry))
+            except (OSError, ValueError):
+                continue
+    return out
 
 
 def _die_with_parent(parent: int) -> None:
