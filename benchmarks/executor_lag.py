@@ -8,8 +8,11 @@ same load, and climbs step after step (``climb/step_up``, ``climb/step_down``) f
   master, teleop, climb and viewer in one process and one executor;
 * ``robot / operator split``: the driver; IK, FK and climb in one process; master, teleop and
   viewer in another; every process at the default priority;
-* ``split + priorities (demo)`` (now, ``rrps-demo``): the same split, with the driver and the
-  robot's nodes at nice ``CONTROL_NICE`` and the operator station at ``OPERATOR_NICE``
+* ``split + nice values``: the same split, with the driver and the robot's nodes at nice
+  ``CONTROL_NICE`` and the operator station at ``OPERATOR_NICE`` (each in a scheduling group
+  of its own);
+* ``split + real-time control (demo)`` (now, ``rrps-demo``): the driver and the robot's nodes
+  at SCHED_RR ``CONTROL_RT_PRIORITY``, the operator station at ``OPERATOR_NICE``
   (:mod:`rrps_kinematics.supervision`; raising priority needs root, as on a robot's computer).
 
 The climb node streams ``target_pose`` at 50 Hz to the IK node of its own process; the IK node
@@ -40,18 +43,23 @@ os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 50))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'tests'))
 
 from load import Load  # noqa: E402
-from rrps_kinematics.supervision import CONTROL_NICE, OPERATOR_NICE  # noqa: E402
+from rrps_kinematics.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, OPERATOR_NICE  # noqa: E402
 
 NAMESPACE = '/rrps'
-#: name: (driver's nice value, [(nodes of a process, its nice value), ...]).
+ROBOT = ('ik_node', 'fk_node', 'climb_node')
+OPERATOR = ('master_node', 'teleop_node', 'viewer_node')
+NORMAL = {}
+CONTROL_NICE_ONLY = {'nice': CONTROL_NICE}
+CONTROL_RT = {'nice': CONTROL_NICE, 'realtime': CONTROL_RT_PRIORITY}
+OPERATOR_SCHEDULING = {'nice': OPERATOR_NICE}
+DEMO = 'split + real-time control (demo)'
+#: name: (the driver's scheduling, [(nodes of a process, its scheduling), ...]); a scheduling
+#: is start_child's keyword arguments.
 COMPOSITIONS = {
-    'one operator+robot process': (0, [(('ik_node', 'fk_node', 'master_node', 'teleop_node',
-                                         'climb_node', 'viewer_node'), 0)]),
-    'robot / operator split': (0, [(('ik_node', 'fk_node', 'climb_node'), 0),
-                                   (('master_node', 'teleop_node', 'viewer_node'), 0)]),
-    'split + priorities (demo)': (CONTROL_NICE, [(('ik_node', 'fk_node', 'climb_node'), CONTROL_NICE),
-                                                 (('master_node', 'teleop_node', 'viewer_node'),
-                                                  OPERATOR_NICE)]),
+    'one operator+robot process': (NORMAL, [(ROBOT + OPERATOR, NORMAL)]),
+    'robot / operator split': (NORMAL, [(ROBOT, NORMAL), (OPERATOR, NORMAL)]),
+    'split + nice values': (CONTROL_NICE_ONLY, [(ROBOT, CONTROL_NICE_ONLY), (OPERATOR, OPERATOR_SCHEDULING)]),
+    DEMO: (CONTROL_RT, [(ROBOT, CONTROL_RT), (OPERATOR, OPERATOR_SCHEDULING)]),
 }
 
 
@@ -136,14 +144,14 @@ def run_composition(name: str, composition, *, seconds: float, load: bool) -> di
 
     port, token = _free_port(), secrets.token_urlsafe(12)
     common = ['--ros-args', '-r', f'__ns:={NAMESPACE}', '-p', 'robot:=pole_climber']
-    driver_nice, groups = composition
+    driver_scheduling, groups = composition
     children = [start_child([sys.executable, '-m', 'rrps_sim.nodes.driver_node', *common,
-                             '-p', 'auto_activate:=true'], nice=driver_nice)]
+                             '-p', 'auto_activate:=true'], **driver_scheduling)]
     labels = ['driver_node'] + ['+'.join(n.removesuffix('_node') for n in nodes) for nodes, _ in groups]
-    for nodes, nice in groups:
+    for nodes, scheduling in groups:
         extra = ['-p', f'port:={port}', '-p', f'token:={token}'] if 'viewer_node' in nodes else []
         children.append(start_child([sys.executable, '-m', 'rrps_teleop.compose', *nodes,
-                                     *common, *extra], nice=nice))
+                                     *common, *extra], **scheduling))
     context = rclpy.Context()
     rclpy.init(context=context)
     observer = Observer(context)
@@ -187,9 +195,12 @@ def main() -> int:
     parser.add_argument('--seconds', type=float, default=60.0, help='climbing time per composition')
     parser.add_argument('--no-load', dest='load', action='store_false',
                         help='no busy core, DDS flood or browser')
+    parser.add_argument('--composition', action='append', choices=list(COMPOSITIONS),
+                        help='run only this composition (repeatable; default: all, the demo last)')
     args = parser.parse_args()
-    results = {name: run_composition(name, composition, seconds=args.seconds, load=args.load)
-               for name, composition in COMPOSITIONS.items()}
+    names = [n for n in COMPOSITIONS if n in (args.composition or COMPOSITIONS) or n == DEMO]
+    results = {name: run_composition(name, COMPOSITIONS[name], seconds=args.seconds, load=args.load)
+               for name in names}
 
     def v(values, key, fmt='{:.1f}'):
         """A reported value, '-' when the node did not report it (no command in the window)."""
@@ -198,21 +209,21 @@ def main() -> int:
     print(f'\nExecutor lag while climbing ({args.seconds:g} s per composition, '
           f'{"loaded: busy core + DDS flood + software-rendered browser" if args.load else "no load"}'
           f', {os.cpu_count()} CPUs). Ages of the commands received, over the last 10 s [ms]:')
-    print(f'{"composition":<28}{"steps":>6}{"IK target age p50":>19}{"p99":>8}{"max":>8}'
+    print(f'{"composition":<34}{"steps":>6}{"IK target age p50":>19}{"p99":>8}{"max":>8}'
           f'{"stale":>7}{"driver cmd p99":>16}{"max":>8}{"stale":>7}')
     for name, r in results.items():
         ik, dr = r['ik'], r['driver']
-        print(f'{name:<28}{r["steps"]:>6}{v(ik, "command_age_p50_ms"):>19}'
+        print(f'{name:<34}{r["steps"]:>6}{v(ik, "command_age_p50_ms"):>19}'
               f'{v(ik, "command_age_p99_ms"):>8}{v(ik, "command_age_max_ms"):>8}'
               f'{v(ik, "command_stale_total", "{:.0f}"):>7}{v(dr, "command_age_p99_ms"):>16}'
               f'{v(dr, "command_age_max_ms"):>8}{v(dr, "command_stale_total", "{:.0f}"):>7}')
     print('\nCPU per process while climbing [% of one core]:')
     for name, r in results.items():
         print(f'  {name}: ' + ', '.join(f'{k} {c:.0f} %' for k, c in r['cpu'].items()))
-    now = results['split + priorities (demo)']
+    now = results[DEMO]
     stale = int(float(now['ik'].get('command_stale_total', 'nan') or 0))
     ok = now['alive'] and now['steps'] > 0 and stale == 0
-    print(f'\nsplit + priorities (demo): {stale} stale targets in the robot process: '
+    print(f'\n{DEMO}: {stale} stale targets in the robot process: '
           f'{"MET" if ok else "MISSED"} (target: none)')
     return 0 if ok else 1
 

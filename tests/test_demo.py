@@ -13,7 +13,15 @@ from pathlib import Path
 
 import pytest
 
-from rrps_kinematics.supervision import CONTROL_NICE, OBSERVER_NICE, child_pids, priority_of, process_alive
+from rrps_kinematics.supervision import (
+    CONTROL_NICE,
+    CONTROL_RT_PRIORITY,
+    OBSERVER_NICE,
+    child_pids,
+    priority_of,
+    process_alive,
+    scheduling_of,
+)
 
 pytestmark = [pytest.mark.ros]
 
@@ -137,6 +145,8 @@ def test_a_killed_demo_takes_its_robot_processes_with_it_and_ctrl_c_stops_it_fas
             if os.geteuid() == 0:  # the robot's command path first in line for a core (CI is root)
                 assert sorted(priority_of(c) for c in children) == [CONTROL_NICE, CONTROL_NICE,
                                                                      OBSERVER_NICE]
+                rt = f'SCHED_RR {CONTROL_RT_PRIORITY}'
+                assert sorted(scheduling_of(c) for c in children) == [rt, rt, f'nice {OBSERVER_NICE}']
             if how == 'kill':
                 proc.kill()  # no chance to clean up: the parent-death signal stops them
                 proc.wait()

@@ -9,7 +9,17 @@ import sys
 import textwrap
 import time
 
-from rrps_kinematics.supervision import CONTROL_NICE, OBSERVER_NICE, priority_of, start_child, stop_child
+from rrps_kinematics.supervision import (
+    CONTROL_NICE,
+    CONTROL_RT_PRIORITY,
+    OBSERVER_NICE,
+    group_priority_of,
+    priority_of,
+    scheduling_of,
+    start_child,
+    stop_child,
+    stop_children,
+)
 
 # A supervisor that starts a long-running child, prints the child's pid and waits.
 SUPERVISOR = textwrap.dedent('''
@@ -80,3 +90,21 @@ def test_a_child_starts_at_the_priority_asked_for_when_permitted():
     finally:
         stop_child(observer)
         stop_child(control)
+
+
+def test_a_control_child_runs_real_time_in_a_scheduling_group_of_its_own():
+    sleeper = [sys.executable, '-c', 'import time; time.sleep(30)']
+    control = start_child(sleeper, nice=CONTROL_NICE, realtime=CONTROL_RT_PRIORITY)
+    plain = start_child(sleeper)
+    try:
+        assert os.getsid(control.pid) == control.pid  # leads its own session: its own autogroup
+        assert os.getsid(plain.pid) == os.getsid(0)  # a child without priorities stays in ours
+        assert scheduling_of(plain.pid) == scheduling_of(os.getpid())
+        if os.geteuid() == 0:  # CI runs as root; without CAP_SYS_NICE nothing is raised
+            assert scheduling_of(control.pid) == f'SCHED_RR {CONTROL_RT_PRIORITY}'
+            assert priority_of(control.pid) == CONTROL_NICE
+            if group_priority_of(control.pid) is not None:  # a kernel with autogroup
+                assert group_priority_of(control.pid) == CONTROL_NICE
+                assert group_priority_of(plain.pid) == group_priority_of(os.getpid())
+    finally:
+        stop_children([control, plain])

@@ -8,10 +8,29 @@ within a second). :func:`stop_child` asks politely (SIGTERM: the nodes' clean sh
 kills what is still running after a timeout.
 
 Scheduling: on a small computer the robot's command path (the driver, IK, FK, climbing) must
-not wait behind a browser, a recorder or another job. :func:`start_child` can start a child at
-a higher priority (a lower nice value, :data:`CONTROL_NICE`), as a robot's control processes
-are run in production (systemd ``Nice=``). Raising priority needs root or ``CAP_SYS_NICE``;
-without it the child runs at the normal priority and :func:`priority_of` tells.
+not wait behind a browser, a recorder or another job. :func:`start_child` starts such a child
+with the real-time round-robin policy (``SCHED_RR`` at :data:`CONTROL_RT_PRIORITY`, as
+ros2_control runs its control loop and systemd's ``CPUSchedulingPolicy=rr`` does): it runs as
+soon as it is ready, ahead of every normal process, and the kernel's real-time throttling (95 %
+of each core by default) still keeps a runaway loop from locking the machine. Other children
+get a nice value (:data:`OPERATOR_NICE`, :data:`OBSERVER_NICE`). Both need root or
+``CAP_SYS_NICE`` (for SCHED_RR, or an ``RLIMIT_RTPRIO`` allowance); without them the child runs
+at the best priority it may have and :func:`scheduling_of` tells.
+
+Why real time: a nice value only weighs a process's share of the CPU. With the other core busy
+and a browser rendering, a nice -10 process still waited up to 0.13 s for a core now and then,
+which is enough for a 0.1 s command timeout to reject a message between two nodes of the same
+process; with SCHED_RR the same process's commands were at most 2 ms old
+(``benchmarks/executor_lag.py``).
+
+A nice value also only ranks a process within its CPU scheduling group. With Linux autogroup
+(``/proc/sys/kernel/sched_autogroup_enabled``, on by default on desktop and many server
+kernels) every session is such a group and each group weighs the same: a nice -10 process in
+the shell's session gets no more CPU than another session's busy loop. A child started with a
+nice value therefore leads its own session and gives that session's group the same nice value
+(``/proc/self/autogroup``). It still dies with its supervisor; terminal Ctrl-C reaches the
+supervisor only, which stops it (SIGTERM). Under systemd, whose services are cgroups, set
+``CPUWeight=`` next to ``Nice=`` for the same effect.
 
 Pure Python, no ROS import.
 """
@@ -28,31 +47,69 @@ import threading
 import time
 from typing import Sequence
 
-__all__ = ['PARENT_PID_ENV', 'CONTROL_NICE', 'OPERATOR_NICE', 'OBSERVER_NICE', 'start_child',
-           'priority_of', 'raise_priority', 'stop_child', 'stop_children', 'exit_with_parent',
-           'Respawner', 'process_alive', 'child_pids']
+__all__ = ['PARENT_PID_ENV', 'CONTROL_NICE', 'CONTROL_RT_PRIORITY', 'OPERATOR_NICE', 'OBSERVER_NICE',
+           'start_child', 'priority_of', 'group_priority_of', 'scheduling_of', 'raise_priority',
+           'stop_child', 'stop_children', 'exit_with_parent', 'Respawner', 'process_alive', 'child_pids']
 
 #: Environment variable through which a child learns its supervisor's pid.
 PARENT_PID_ENV = 'RRPS_PARENT_PID'
 
 _PR_SET_PDEATHSIG = 1
+_AUTOGROUP = '/proc/self/autogroup'
 
-#: Nice value of the robot's command path (driver; IK, FK, climbing): first in line for a core.
+#: Nice value of the robot's command path (driver; IK, FK, climbing) where real-time
+#: scheduling is not permitted, and under it (the value a normal policy returns to).
 CONTROL_NICE = -10
+#: SCHED_RR priority of the robot's command path: above every normal process, below the
+#: kernel's interrupt threads (priority 50).
+CONTROL_RT_PRIORITY = 10
 #: Nice value of the operator station (master, teleop, viewer): before other jobs, after the robot.
 OPERATOR_NICE = -5
 #: Nice value of observers (recorder, markers): best effort, they yield to everything above.
 OBSERVER_NICE = 5
 
 
-def raise_priority(nice: int) -> bool:
-    """Set this process's nice value (lower = more CPU under contention); False when not
-    permitted (a lower value needs root or CAP_SYS_NICE): it then keeps its priority."""
+def raise_priority(nice: int, *, realtime: int | None = None) -> bool:
+    """Set this process's nice value (lower = more CPU under contention) and, with
+    ``realtime``, the SCHED_RR policy at that priority (threads started later inherit it).
+    False when not permitted (a lower nice value or a real-time policy needs root or
+    CAP_SYS_NICE): the process then keeps what it was allowed.
+
+    A process that leads its own session also sets its session's autogroup nice value, so the
+    nice value counts against other sessions too (module docstring)."""
+    niced = realtime_set = True
     try:
         os.setpriority(os.PRIO_PROCESS, 0, nice)
-    except (PermissionError, OSError):
-        return False
-    return True
+    except (PermissionError, OSError):  # without CAP_SYS_NICE: an RLIMIT_NICE allowance
+        niced = False
+    if realtime is not None:
+        try:  # without CAP_SYS_NICE: an RLIMIT_RTPRIO allowance (ulimit -r)
+            os.sched_setscheduler(0, os.SCHED_RR, os.sched_param(realtime))
+        except (PermissionError, OSError):
+            realtime_set = False
+    if niced and os.getsid(0) == os.getpid():
+        try:
+            with open(_AUTOGROUP, 'w') as f:
+                f.write(str(nice))
+        except OSError:  # no autogroup in this kernel, or not permitted: the nice value stands
+            pass
+    return niced and realtime_set
+
+
+def scheduling_of(pid: int) -> str:
+    """How process ``pid`` is scheduled, for people: ``'SCHED_RR 10'`` or ``'nice -10'``."""
+    if os.sched_getscheduler(pid) == os.SCHED_RR:
+        return f'SCHED_RR {os.sched_getparam(pid).sched_priority}'
+    return f'nice {priority_of(pid)}'
+
+
+def group_priority_of(pid: int) -> int | None:
+    """The autogroup nice value of process ``pid``'s session; None without autogroup."""
+    try:
+        with open(f'/proc/{pid}/autogroup') as f:
+            return int(f.read().split()[-1])
+    except (OSError, ValueError, IndexError):
+        return None
 
 
 def priority_of(pid: int) -> int:
@@ -93,9 +150,11 @@ def _die_with_parent(parent: int) -> None:
 
 
 def start_child(args: Sequence[str], *, env: dict | None = None, nice: int | None = None,
-                **popen_kwargs) -> subprocess.Popen:
+                realtime: int | None = None, **popen_kwargs) -> subprocess.Popen:
     """``subprocess.Popen(args)`` of a child that receives SIGTERM when this process dies,
-    with the nice value ``nice`` if given (and permitted, see :func:`raise_priority`).
+    with the nice value ``nice`` if given and the SCHED_RR priority ``realtime`` if given (as
+    permitted, see :func:`raise_priority`), in a session of its own then (its own scheduling
+    group, see the module docstring).
 
     Must be called from the main thread (the kernel ties the signal to the forking thread).
     The child's environment carries :data:`PARENT_PID_ENV` for :func:`exit_with_parent`.
@@ -108,8 +167,10 @@ def start_child(args: Sequence[str], *, env: dict | None = None, nice: int | Non
 
     def prepare() -> None:
         _die_with_parent(parent)
-        if nice is not None:
-            raise_priority(nice)
+        if nice is not None or realtime is not None:
+            if os.getsid(0) != os.getpid():
+                os.setsid()
+            raise_priority(priority_of(0) if nice is None else nice, realtime=realtime)
     return subprocess.Popen(list(args), env=child_env, preexec_fn=prepare, **popen_kwargs)
 
 

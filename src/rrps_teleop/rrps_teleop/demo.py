@@ -149,9 +149,10 @@ def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
     It inherits the environment (domain id, discovery range) and dies with this process; stop
     it with :func:`rrps_kinematics.supervision.stop_children`.
     """
-    from rrps_kinematics.supervision import CONTROL_NICE, start_child
+    from rrps_kinematics.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child
     return start_child(driver_command(robot=robot, rate=rate, namespace=namespace,
-                                      state_file=state_file, activate=activate), nice=CONTROL_NICE)
+                                      state_file=state_file, activate=activate), nice=CONTROL_NICE,
+                       realtime=CONTROL_RT_PRIORITY)
 
 
 def driver_command(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
@@ -167,12 +168,13 @@ def driver_command(*, robot: str, rate: float = 500.0, namespace: str = NAMESPAC
 
 def start_robot_nodes(*, robot: str, namespace: str = NAMESPACE) -> subprocess.Popen:
     """The robot computer's nodes (:data:`ROBOT_NODES`) composed in one process of their own."""
-    from rrps_kinematics.supervision import CONTROL_NICE, start_child
+    from rrps_kinematics.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child
 
     from .params import params_file_arguments
     return start_child([sys.executable, '-m', 'rrps_teleop.compose', *ROBOT_NODES, '--ros-args',
                         *params_file_arguments(*ROBOT_NODES),
-                        '-r', f'__ns:={namespace}', '-p', f'robot:={robot}'], nice=CONTROL_NICE)
+                        '-r', f'__ns:={namespace}', '-p', f'robot:={robot}'], nice=CONTROL_NICE,
+                       realtime=CONTROL_RT_PRIORITY)
 
 
 #: The observers: the flight recorder and the robot's markers for RViz2 / Foxglove.
@@ -219,11 +221,12 @@ def wait_for_robot(executor, context, node, children: list[subprocess.Popen],
     return False
 
 
-def _banner(viewer, driver_nice: int) -> str:
-    from rrps_kinematics.supervision import CONTROL_NICE
-    scheduling = (f'driver and robot nodes at nice {driver_nice}' if driver_nice == CONTROL_NICE else
-                  'normal priority (run as root or grant CAP_SYS_NICE to give the robot\'s '
-                  f'processes nice {CONTROL_NICE})')
+def _banner(viewer, driver_scheduling: str) -> str:
+    from rrps_kinematics.supervision import CONTROL_RT_PRIORITY
+    wanted = f'SCHED_RR {CONTROL_RT_PRIORITY}'
+    scheduling = (f'driver and robot nodes at {driver_scheduling}' if driver_scheduling == wanted else
+                  f'driver and robot nodes at {driver_scheduling}, not {wanted} (run as root or '
+                  'grant CAP_SYS_NICE to give the robot\'s command path real-time priority)')
     return (f'\nrrps demo: the pole climber is live.\n'
             f'  viewer:         {viewer.url}\n'
             f'  operator token: {viewer.token}\n'
@@ -302,7 +305,7 @@ def main(argv=None) -> int:
 
     from rrps_kinematics.geometry import RobotDescriptionError
     from rrps_kinematics.nodes.common import freeze_startup_objects, make_executor
-    from rrps_kinematics.supervision import OPERATOR_NICE, Respawner, exit_with_parent, priority_of, raise_priority
+    from rrps_kinematics.supervision import OPERATOR_NICE, Respawner, exit_with_parent, raise_priority, scheduling_of
 
     stop = threading.Event()
     exit_with_parent(stop.set)
@@ -340,7 +343,7 @@ def main(argv=None) -> int:
                 status = 1
             return status
         if script is None:
-            print(_banner(nodes['viewer_node'], priority_of(robot.children['driver'].pid)), flush=True)
+            print(_banner(nodes['viewer_node'], scheduling_of(robot.children['driver'].pid)), flush=True)
             _serve(executor, context, robot, stop)
         else:
             status = _run_script(script, executor, context, robot, stop, nodes['viewer_node'])
