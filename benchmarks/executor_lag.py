@@ -12,7 +12,7 @@ same load, and climbs step after step (``climb/step_up``, ``climb/step_down``) f
   ``CONTROL_NICE`` and the operator station at ``OPERATOR_NICE`` (each in a scheduling group
   of its own);
 * ``split + real-time control (demo)`` (now, ``rrps-demo``): the driver and the robot's nodes
-  at SCHED_RR ``CONTROL_RT_PRIORITY``, the operator station at ``OPERATOR_NICE``
+  at SCHED_RR ``CONTROL_RT_PRIORITY``, the operator station at SCHED_RR ``OPERATOR_RT_PRIORITY``
   (:mod:`rrps_kinematics.supervision`; raising priority needs root, as on a robot's computer).
 
 The climb node streams ``target_pose`` at 50 Hz to the IK node of its own process; the IK node
@@ -43,7 +43,7 @@ os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 50))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'tests'))
 
 from load import Load  # noqa: E402
-from rrps_kinematics.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, OPERATOR_NICE  # noqa: E402
+from rrps_kinematics.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, OPERATOR_NICE, OPERATOR_RT_PRIORITY  # noqa: E402
 
 NAMESPACE = '/rrps'
 ROBOT = ('ik_node', 'fk_node', 'climb_node')
@@ -51,15 +51,16 @@ OPERATOR = ('master_node', 'teleop_node', 'viewer_node')
 NORMAL = {}
 CONTROL_NICE_ONLY = {'nice': CONTROL_NICE}
 CONTROL_RT = {'nice': CONTROL_NICE, 'realtime': CONTROL_RT_PRIORITY}
-OPERATOR_SCHEDULING = {'nice': OPERATOR_NICE}
+OPERATOR_NICE_ONLY = {'nice': OPERATOR_NICE}
+OPERATOR_RT = {'nice': OPERATOR_NICE, 'realtime': OPERATOR_RT_PRIORITY}
 DEMO = 'split + real-time control (demo)'
 #: name: (the driver's scheduling, [(nodes of a process, its scheduling), ...]); a scheduling
 #: is start_child's keyword arguments.
 COMPOSITIONS = {
     'one operator+robot process': (NORMAL, [(ROBOT + OPERATOR, NORMAL)]),
     'robot / operator split': (NORMAL, [(ROBOT, NORMAL), (OPERATOR, NORMAL)]),
-    'split + nice values': (CONTROL_NICE_ONLY, [(ROBOT, CONTROL_NICE_ONLY), (OPERATOR, OPERATOR_SCHEDULING)]),
-    DEMO: (CONTROL_RT, [(ROBOT, CONTROL_RT), (OPERATOR, OPERATOR_SCHEDULING)]),
+    'split + nice values': (CONTROL_NICE_ONLY, [(ROBOT, CONTROL_NICE_ONLY), (OPERATOR, OPERATOR_NICE_ONLY)]),
+    DEMO: (CONTROL_RT, [(ROBOT, CONTROL_RT), (OPERATOR, OPERATOR_RT)]),
 }
 
 

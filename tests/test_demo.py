@@ -17,6 +17,7 @@ from rrps_kinematics.supervision import (
     CONTROL_NICE,
     CONTROL_RT_PRIORITY,
     OBSERVER_NICE,
+    OPERATOR_RT_PRIORITY,
     child_pids,
     priority_of,
     process_alive,
@@ -147,6 +148,7 @@ def test_a_killed_demo_takes_its_robot_processes_with_it_and_ctrl_c_stops_it_fas
                                                                      OBSERVER_NICE]
                 rt = f'SCHED_RR {CONTROL_RT_PRIORITY}'
                 assert sorted(scheduling_of(c) for c in children) == [rt, rt, f'nice {OBSERVER_NICE}']
+                assert scheduling_of(proc.pid) == f'SCHED_RR {OPERATOR_RT_PRIORITY}'  # the operator station
             if how == 'kill':
                 proc.kill()  # no chance to clean up: the parent-death signal stops them
                 proc.wait()

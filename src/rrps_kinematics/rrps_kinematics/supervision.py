@@ -12,8 +12,9 @@ not wait behind a browser, a recorder or another job. :func:`start_child` starts
 with the real-time round-robin policy (``SCHED_RR`` at :data:`CONTROL_RT_PRIORITY`, as
 ros2_control runs its control loop and systemd's ``CPUSchedulingPolicy=rr`` does): it runs as
 soon as it is ready, ahead of every normal process, and the kernel's real-time throttling (95 %
-of each core by default) still keeps a runaway loop from locking the machine. Other children
-get a nice value (:data:`OPERATOR_NICE`, :data:`OBSERVER_NICE`). Both need root or
+of each core by default) still keeps a runaway loop from locking the machine. The operator
+station runs real-time too, at a lower priority (:data:`OPERATOR_RT_PRIORITY`); observers get a
+nice value (:data:`OBSERVER_NICE`). Both need root or
 ``CAP_SYS_NICE`` (for SCHED_RR, or an ``RLIMIT_RTPRIO`` allowance); without them the child runs
 at the best priority it may have and :func:`scheduling_of` tells.
 
@@ -47,8 +48,8 @@ import threading
 import time
 from typing import Sequence
 
-__all__ = ['PARENT_PID_ENV', 'CONTROL_NICE', 'CONTROL_RT_PRIORITY', 'OPERATOR_NICE', 'OBSERVER_NICE',
-           'start_child', 'priority_of', 'group_priority_of', 'scheduling_of', 'raise_priority',
+__all__ = ['PARENT_PID_ENV', 'CONTROL_NICE', 'CONTROL_RT_PRIORITY', 'OPERATOR_NICE', 'OPERATOR_RT_PRIORITY',
+           'OBSERVER_NICE', 'start_child', 'priority_of', 'group_priority_of', 'scheduling_of', 'raise_priority',
            'stop_child', 'stop_children', 'exit_with_parent', 'Respawner', 'process_alive', 'child_pids']
 
 #: Environment variable through which a child learns its supervisor's pid.
@@ -65,13 +66,17 @@ CONTROL_NICE = -10
 CONTROL_RT_PRIORITY = 10
 #: Nice value of the operator station (master, teleop, viewer): before other jobs, after the robot.
 OPERATOR_NICE = -5
+#: SCHED_RR priority of the operator station: ahead of normal processes (the browser, other
+#: jobs), behind the robot's command path.
+OPERATOR_RT_PRIORITY = 5
 #: Nice value of observers (recorder, markers): best effort, they yield to everything above.
 OBSERVER_NICE = 5
 
 
 def raise_priority(nice: int, *, realtime: int | None = None) -> bool:
     """Set this process's nice value (lower = more CPU under contention) and, with
-    ``realtime``, the SCHED_RR policy at that priority (threads started later inherit it).
+    ``realtime``, the SCHED_RR policy at that priority (threads started later inherit it);
+    without, the normal policy (a child of a real-time process inherits its policy).
     False when not permitted (a lower nice value or a real-time policy needs root or
     CAP_SYS_NICE): the process then keeps what it was allowed.
 
@@ -87,6 +92,8 @@ def raise_priority(nice: int, *, realtime: int | None = None) -> bool:
             os.sched_setscheduler(0, os.SCHED_RR, os.sched_param(realtime))
         except (PermissionError, OSError):
             realtime_set = False
+    elif os.sched_getscheduler(0) != os.SCHED_OTHER:  # e.g. a child of a real-time supervisor
+        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
     if niced and os.getsid(0) == os.getpid():
         try:
             with open(_AUTOGROUP, 'w') as f:

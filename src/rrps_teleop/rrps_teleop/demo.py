@@ -305,11 +305,19 @@ def main(argv=None) -> int:
 
     from rrps_kinematics.geometry import RobotDescriptionError
     from rrps_kinematics.nodes.common import freeze_startup_objects, make_executor
-    from rrps_kinematics.supervision import OPERATOR_NICE, Respawner, exit_with_parent, raise_priority, scheduling_of
+    from rrps_kinematics.supervision import (
+        OPERATOR_NICE,
+        OPERATOR_RT_PRIORITY,
+        Respawner,
+        exit_with_parent,
+        raise_priority,
+        scheduling_of,
+    )
 
     stop = threading.Event()
     exit_with_parent(stop.set)
-    raise_priority(OPERATOR_NICE)  # the operator station: before other jobs, after the robot's processes
+    # the operator station: before other jobs (the browser), after the robot's processes
+    raise_priority(OPERATOR_NICE, realtime=OPERATOR_RT_PRIORITY)
     context = rclpy.Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     previous = {sig: signal.signal(sig, lambda *_: stop.set())
