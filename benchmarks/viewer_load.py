@@ -51,8 +51,20 @@ def _decode(data: bytes) -> list[dict]:
     return msgspec.msgpack.decode(inner)['messages']
 
 
+def _camera_message() -> bytes:
+    """The first message a browser sends: its camera. viser counts a client as connected (and
+    calls the viewer's on_client_connect) only once it arrived."""
+    import msgspec
+    from viser._messages import ViewerCameraMessage
+    camera = ViewerCameraMessage(wxyz=(1.0, 0.0, 0.0, 0.0), position=(1.0, 1.0, 1.0), fov=1.0,
+                                 near=0.01, far=100.0, image_height=720, image_width=1280,
+                                 look_at=(0.0, 0.0, 0.0), up_direction=(0.0, 0.0, 1.0))
+    return msgspec.msgpack.encode(camera.as_serializable_dict())
+
+
 class Client:
-    """One websocket viewer: counts every batch and those that move the robot."""
+    """One websocket viewer: announces its camera as a browser does, then counts every batch and
+    those that move the robot."""
 
     def __init__(self, url: str):
         self.url = url
@@ -67,6 +79,7 @@ class Client:
         try:
             async with websockets.connect(self.url, subprotocols=[f'viser-v{viser.__version__}'],
                                           max_size=None) as ws:
+                await ws.send(_camera_message())
                 while not stop.is_set():
                     try:
                         data = await asyncio.wait_for(ws.recv(), timeout=0.5)
