@@ -197,28 +197,3 @@ def test_without_tf2_msgs_or_at_tf_rate_0_only_the_markers(ros_context, monkeypa
         assert wait_for(lambda: arrays, timeout=10.0)
         assert probe.get_publishers_info_by_topic('/tf') == []
     assert off.tf_published == 0 and missing.tf_published == 0
-
-
-def test_latest_messages_keeps_the_newest_sample_serialised_and_decodes_it_once(ros_context):
-    from rclpy.node import Node
-    from sensor_msgs.msg import JointState
-
-    from rrps_kinematics.nodes.common import LATEST_QOS, STATE_QOS, LatestMessages, joint_state_msg
-
-    reader = Node('latest_reader', context=ros_context, namespace=NS)
-    latest = LatestMessages(reader, [(JointState, 'latest_test', LATEST_QOS)])  # keyed by the topic as given
-    writer = Node('latest_writer', context=ros_context, namespace=NS)
-    pub = writer.create_publisher(JointState, 'latest_test', STATE_QOS)
-    with Spinner(ros_context, [reader, writer]):
-        assert latest.snapshot() == {}  # nothing received yet
-        assert wait_for(lambda: reader.count_publishers(f'{NS}/latest_test') == 1)
-        for position in (1.0, 2.0, 3.0):
-            pub.publish(joint_state_msg(writer.get_clock().now().to_msg(), [position] * 6))
-        assert wait_for(lambda: list(latest.snapshot().get('latest_test', JointState()).position)
-                        == [3.0] * 6)
-        first, second = latest.snapshot(), latest.snapshot()
-        assert first['latest_test'] is second['latest_test']  # decoded once, cached
-        pub.publish(joint_state_msg(writer.get_clock().now().to_msg(), [4.0] * 6))
-        assert wait_for(lambda: list(latest.snapshot()['latest_test'].position) == [4.0] * 6)
-    reader.destroy_node()
-    writer.destroy_node()

@@ -47,7 +47,6 @@ __all__ = [
     'lengths_from_joint_state',
     'stamp_to_seconds',
     'Diagnostics',
-    'LatestMessages',
     'make_executor',
     'spin_until_shutdown',
     'run_nodes',
@@ -211,44 +210,6 @@ class Diagnostics:
         msg.header.stamp = now.to_msg()
         msg.status = [status]
         self._pub.publish(msg)
-
-
-class LatestMessages:
-    """The newest message of each of several topics, kept serialised and decoded when read.
-
-    For a node that reads only the newest sample at a rate of its own (markers at 30 Hz of a
-    500 Hz state): a typed subscription converts every message into Python objects, a raw one
-    (``raw=True``) only hands over its bytes. The decoded message is cached until a newer one
-    arrives. Callbacks and readers may run in different threads.
-    """
-
-    def __init__(self, node: Node, subscriptions: Iterable[tuple[type, str, QoSProfile]]):
-        from functools import partial
-        self._lock = threading.Lock()
-        self._types: dict[str, type] = {}
-        self._raw: dict[str, bytes] = {}
-        self._decoded: dict[str, object] = {}
-        for msg_type, topic, qos in subscriptions:
-            self._types[topic] = msg_type
-            node.create_subscription(msg_type, topic, partial(self._store, topic), qos, raw=True)
-
-    def _store(self, topic: str, raw: bytes) -> None:
-        with self._lock:
-            self._raw[topic] = raw
-            self._decoded.pop(topic, None)
-
-    def snapshot(self) -> dict[str, object]:
-        """topic -> its newest message, for every topic that has received one."""
-        from rclpy.serialization import deserialize_message
-        with self._lock:
-            raw, decoded = dict(self._raw), dict(self._decoded)
-        for topic, data in raw.items():
-            if topic not in decoded:
-                decoded[topic] = deserialize_message(data, self._types[topic])
-                with self._lock:
-                    if self._raw.get(topic) is data:
-                        self._decoded[topic] = decoded[topic]
-        return decoded
 
 
 def _format_value(value) -> str:

@@ -25,6 +25,8 @@ is re-sent every ``structure_period`` s only (for displays that join later).
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 from builtin_interfaces.msg import Duration
 from geometry_msgs.msg import Point, PoseStamped, TransformStamped
@@ -39,7 +41,6 @@ from rrps_kinematics.nodes.common import (
     COMMAND_QOS,
     LATEST_QOS,
     STATE_QOS,
-    LatestMessages,
     declare_parameter,
     declare_robot_parameter,
     pose_from_msg,
@@ -124,17 +125,21 @@ class MarkersNode(Node):
             vertices, faces = make_structure(structure, length).mesh()
             self._structure = marker_msg(structure_marker(vertices, faces),
                                          self.get_clock().now().to_msg())
+        self._lock = threading.Lock()
+        self._latest: dict[str, object] = {}
         self._structure_due = 0.0
         self._last_inputs: tuple | None = None
         self._resend_due = 0.0
         self.published = 0
         self._pub = self.create_publisher(MarkerArray, ROBOT_MARKERS, STATE_QOS)
-        # drawn at ``rate`` / ``tf_rate`` from the newest samples: decoded only then
-        self._latest = LatestMessages(self, [
-            (PoseStamped, POSE, LATEST_QOS), (PoseStamped, TARGET_POSE, COMMAND_QOS),
-            (PoseStamped, odometry_topic('ring_a'), LATEST_QOS),
-            (PoseStamped, odometry_topic('ring_b'), LATEST_QOS),
-            (JointState, ACTUATORS_STATE, LATEST_QOS), (JointState, GRIPPERS_STATE, LATEST_QOS)])
+        for topic, qos in ((POSE, LATEST_QOS), (TARGET_POSE, COMMAND_QOS),
+                           (odometry_topic('ring_a'), LATEST_QOS),
+                           (odometry_topic('ring_b'), LATEST_QOS)):
+            self.create_subscription(PoseStamped, topic,
+                                     lambda msg, topic=topic: self._store(topic, msg), qos)
+        for topic in (ACTUATORS_STATE, GRIPPERS_STATE):
+            self.create_subscription(JointState, topic,
+                                     lambda msg, topic=topic: self._store(topic, msg), LATEST_QOS)
         self.create_timer(1.0 / rate, self._publish)
         self.tf_published = 0
         self._tf_pub = None
@@ -150,6 +155,10 @@ class MarkersNode(Node):
                 self._tf_pub = self.create_publisher(TFMessage, TF, _TF_PUBLISHER_QOS)
                 self.create_timer(1.0 / tf_rate, self._publish_tf)
 
+    def _store(self, topic: str, msg) -> None:
+        with self._lock:
+            self._latest[topic] = msg
+
     def _robot(self, latest: dict) -> tuple[Pose, dict | None, Pose | None]:
         """(a_T_b, grippers {ring: closed} or None, world_T_a or None) of the newest messages."""
         a_T_b = Pose(*pose_from_msg(latest[POSE]))
@@ -163,7 +172,8 @@ class MarkersNode(Node):
 
     def markers(self) -> list[MarkerSpec]:
         """The markers of the newest messages (none before the first pose)."""
-        latest = self._latest.snapshot()
+        with self._lock:
+            latest = dict(self._latest)
         if latest.get(POSE) is None:
             return []
         a_T_b, grippers, world_T_a = self._robot(latest)
@@ -186,7 +196,8 @@ class MarkersNode(Node):
 
     def transforms(self) -> list:
         """The /tf transforms (parent, child, Pose) of the newest messages (none before a pose)."""
-        latest = self._latest.snapshot()
+        with self._lock:
+            latest = dict(self._latest)
         if latest.get(POSE) is None:
             return []
         a_T_b, _, world_T_a = self._robot(latest)
@@ -194,7 +205,8 @@ class MarkersNode(Node):
 
     def _inputs(self) -> tuple:
         """What the markers are drawn from (the newest messages' values, not their stamps)."""
-        latest = self._latest.snapshot()
+        with self._lock:
+            latest = dict(self._latest)
 
         def pose(msg):
             if msg is None:
