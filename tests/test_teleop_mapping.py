@@ -16,6 +16,8 @@ from rrps_teleop.master import MasterModel, scripted_pose
 SLAVE = load_robot('pole_climber')
 MASTER = load_robot('master_robot')
 DT = 0.01
+#: The guards' two paths: the compiled kernels (rrps_teleop.compiled_guards) and the NumPy reference.
+GUARDS = pytest.mark.parametrize('backend', ['numba', 'numpy'])
 
 
 def rotated(q, rotation_vector):
@@ -25,8 +27,8 @@ def rotated(q, rotation_vector):
 class Session:
     """A mapping fed at 100 Hz by a MasterModel; the slave's FK pose is its last command (ideal slave)."""
 
-    def __init__(self, config=None, slave_position=None, slave_quaternion=None, slave=SLAVE):
-        self.mapping = TeleopMapping(slave, config or TeleopConfig())
+    def __init__(self, config=None, slave_position=None, slave_quaternion=None, slave=SLAVE, backend='auto'):
+        self.mapping = TeleopMapping(slave, config or TeleopConfig(), backend=backend)
         self.master = MasterModel(MASTER, max_linear_speed=1.0, max_angular_speed=10.0)
         self.t = 0.0
         self.slave_position = SLAVE.home_position if slave_position is None else np.asarray(slave_position)
@@ -182,8 +184,9 @@ def test_no_engage_without_a_slave_pose_or_during_a_climb_step():
     assert m.check(0.04)[0] == TeleopCode.CLIMB_EXECUTING and not m.engaged
 
 
-def test_guards_stop_an_unreachable_request_and_allow_moving_back():
-    s = Session(TeleopConfig(translation_scale=8.0, max_linear_speed=0.2))
+@GUARDS
+def test_guards_stop_an_unreachable_request_and_allow_moving_back(backend):
+    s = Session(TeleopConfig(translation_scale=8.0, max_linear_speed=0.2), backend=backend)
     s.tick()
     def up(t):
         return (MASTER.home_position + [0.0, 0.0, 0.025], MASTER.home_quaternion_xyzw)
@@ -199,10 +202,11 @@ def test_guards_stop_an_unreachable_request_and_allow_moving_back():
     assert s.slave_position[2] < stuck[2]
 
 
-def test_a_slave_engaged_outside_its_limits_may_only_move_back_in():
+@GUARDS
+def test_a_slave_engaged_outside_its_limits_may_only_move_back_in(backend):
     outside = SLAVE.home_position + [0.0, 0.0, 0.16]
     assert not check_pose(SLAVE, outside, SLAVE.home_quaternion_xyzw)[0]
-    s = Session(slave_position=outside)
+    s = Session(slave_position=outside, backend=backend)
     s.tick()
     out = s.tick((MASTER.home_position + [0.0, 0.0, 0.001], MASTER.home_quaternion_xyzw))
     assert out.code == TeleopCode.JOINT_BOUND
@@ -219,12 +223,13 @@ def inverse_condition(position, quaternion):
 UP = np.array([0.0, 0.0, 1.0])  # raising ring_b lowers the conditioning of the pole climber here
 
 
-def test_singularity_band_slows_down_approaching_and_not_leaving():
+@GUARDS
+def test_singularity_band_slows_down_approaching_and_not_leaving(backend):
     home_c = inverse_condition(SLAVE.home_position, SLAVE.home_quaternion_xyzw)
     assert inverse_condition(SLAVE.home_position + 0.01 * UP, SLAVE.home_quaternion_xyzw) < home_c
     assert inverse_condition(SLAVE.home_position - 0.01 * UP, SLAVE.home_quaternion_xyzw) > home_c
     config = TeleopConfig(singularity_slowdown=2 * home_c, singularity_halt=0.0, max_linear_speed=0.05)
-    s = Session(config)
+    s = Session(config, backend=backend)
     s.tick()
     out = s.tick((MASTER.home_position + 0.002 * UP, MASTER.home_quaternion_xyzw))
     assert out.code == TeleopCode.DECELERATE_FOR_APPROACHING_SINGULARITY
@@ -236,12 +241,13 @@ def test_singularity_band_slows_down_approaching_and_not_leaving():
     np.testing.assert_allclose(np.linalg.norm(s.slave_position - before), 0.05 * DT)
 
 
-def test_singularity_halt_threshold_stops_and_allows_moving_back():
+@GUARDS
+def test_singularity_halt_threshold_stops_and_allows_moving_back(backend):
     home_c = inverse_condition(SLAVE.home_position, SLAVE.home_quaternion_xyzw)
     # A narrow band crossed in one 5 mm step: the step past the hard threshold is refused.
     halt = home_c - 2e-3
     config = TeleopConfig(singularity_slowdown=home_c - 1e-3, singularity_halt=halt, max_linear_speed=0.5)
-    s = Session(config, slave=SLAVE.with_(max_speed=1.0))  # legs as fast as the Cartesian limit
+    s = Session(config, slave=SLAVE.with_(max_speed=1.0), backend=backend)  # legs as fast as the Cartesian limit
     s.tick()
     outs = s.run(0.5, lambda t: (MASTER.home_position + 0.01 * UP, MASTER.home_quaternion_xyzw))
     assert TeleopCode.HALT_FOR_SINGULARITY in {o.code for o in outs}
@@ -254,10 +260,11 @@ def test_singularity_halt_threshold_stops_and_allows_moving_back():
     assert s.slave_position[2] < before[2] - 1e-3
 
 
-def test_collision_band_slows_down_approaching_interference():
+@GUARDS
+def test_collision_band_slows_down_approaching_interference(backend):
     # Twisted by 0.5 rad about z, legs 5 and 6 approach each other when twisting further.
     q_start = rotated(SLAVE.home_quaternion_xyzw, [0.0, 0.0, 0.5])
-    s = Session(TeleopConfig(collision_slowdown=0.1, max_angular_speed=0.25), slave_quaternion=q_start)
+    s = Session(TeleopConfig(collision_slowdown=0.1, max_angular_speed=0.25), slave_quaternion=q_start, backend=backend)
     s.tick()
     out = s.tick((MASTER.home_position, rotated(MASTER.home_quaternion_xyzw, [0.0, 0.0, 0.01])))
     assert out.code == TeleopCode.DECELERATE_FOR_COLLISION
@@ -268,8 +275,9 @@ def test_collision_band_slows_down_approaching_interference():
     np.testing.assert_allclose(rotation_angle_between(before, s.slave_quaternion), 0.25 * DT)
 
 
-def test_speed_limits_bound_every_step():
-    s = Session(TeleopConfig(max_linear_speed=0.03, max_angular_speed=0.2))
+@GUARDS
+def test_speed_limits_bound_every_step(backend):
+    s = Session(TeleopConfig(max_linear_speed=0.03, max_angular_speed=0.2), backend=backend)
     s.tick()
     far = (MASTER.home_position + [0.01, -0.01, 0.01], rotated(MASTER.home_quaternion_xyzw, [0.0, 0.3, 0.0]))
     prev_p, prev_q, prev_L = s.slave_position, s.slave_quaternion, SLAVE.home_lengths
@@ -413,3 +421,27 @@ def test_samples_bunched_by_the_transport_keep_the_masters_time_budget():
                          stamp=0.01 if stamped else None)
         out = m.step(0.0005)  # 0.4 mm for the slave: 0.04 m/s over the 10 ms between the samples
         assert out.code == (TeleopCode.NO_WARNING if stamped else TeleopCode.SPEED_LIMITED)
+
+
+@settings(max_examples=25, deadline=None)
+@given(mode=st.sampled_from(['cartesian', 'joint']), scale=st.floats(0.5, 12.0),
+       rotation=st.sampled_from(['relative', 'absolute']),
+       moves=st.lists(st.tuples(st.floats(-0.05, 0.05), st.floats(-0.05, 0.05), st.floats(-0.05, 0.05),
+                                st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), st.floats(-1.0, 1.0)),
+                      min_size=1, max_size=4))
+def test_property_compiled_guards_give_the_reference_commands_and_codes(mode, scale, rotation, moves):
+    """The compiled guarded step and the NumPy reference: the same code, detail and command at
+    every step, on master paths that run into the speed limits, the strokes and the joint cones."""
+    config = TeleopConfig(mode=mode, translation_scale=scale, joint_scale=scale, rotation_mode=rotation,
+                          max_linear_speed=2.0, max_angular_speed=10.0, collision_slowdown=0.02,
+                          singularity_slowdown=0.05)
+    fast = SLAVE.with_(max_speed=2.0)
+    compiled, reference = Session(config, slave=fast, backend='numba'), Session(config, slave=fast, backend='numpy')
+    for x, y, z, rx, ry, rz in moves:
+        target = (MASTER.home_position + [x, y, z], rotated(MASTER.home_quaternion_xyzw, [rx, ry, rz]))
+        for _ in range(10):
+            a, b = compiled.tick(target), reference.tick(target)
+            assert (a.code, a.engaged, a.has_command) == (b.code, b.engaged, b.has_command)
+            assert a.detail.split(' margin ')[0] == b.detail.split(' margin ')[0]
+            if a.has_command:
+                np.testing.assert_allclose(a.command.buffer, b.command.buffer, rtol=1e-9, atol=1e-9)

@@ -39,12 +39,13 @@ Guards, applied to the step from the last command towards the mapped target:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from rrps_kinematics import RobotGeometry, forward_kinematics
-from rrps_kinematics.limits import PoseMargins, pose_margins
+from rrps_kinematics.backend import use_numba
+from rrps_kinematics.limits import PoseMargins, limit_arrays, pose_margins
 from rrps_kinematics.pose import Pose, validate_pose
 from rrps_kinematics.rotations import (
     normalize_quat,
@@ -56,6 +57,27 @@ from rrps_kinematics.rotations import (
 )
 from rrps_kinematics.tool import b_T_tool, ring_b_pose, tool_pose
 
+from .command_layout import (
+    CHECK_CONDITIONING,
+    COMMAND_SIZE,
+    INTERFERENCE,
+    INVERSE_CONDITION,
+    LENGTHS,
+    LIMIT_COLLISION_DECELERATE,
+    LIMIT_COLLISION_HALT,
+    LIMIT_NONE,
+    LIMIT_SINGULARITY_DECELERATE,
+    LIMIT_SINGULARITY_HALT,
+    LIMIT_SPEED,
+    QUATERNION,
+    SPHERICAL,
+    STEP_ACCEPTED,
+    STEP_FK_FAILED,
+    STEP_REFUSED,
+    STEP_UNCHANGED,
+    STROKE,
+    UNIVERSAL,
+)
 from .interfaces import TeleopCode
 from .teleop_config import MODES, ROTATION_MODES, TeleopConfig, validate_scale
 
@@ -82,6 +104,46 @@ def pose_step(p0: np.ndarray, q0: np.ndarray, p1: np.ndarray, q1: np.ndarray,
     return p0 + fraction * (p1 - p0), normalize_quat(q)
 
 
+class GuardedCommand:
+    """A guarded slave command: ring_b's pose in ring_a, the leg lengths and every margin there,
+    held in one read-only float64 buffer (layout :mod:`rrps_teleop.command_layout`)."""
+
+    __slots__ = ('buffer', 'min_conditioning')
+
+    def __init__(self, buffer: np.ndarray, min_conditioning: float):
+        buffer.flags.writeable = False
+        self.buffer = buffer
+        self.min_conditioning = float(min_conditioning)
+
+    @classmethod
+    def at(cls, position, quaternion, lengths, margins: PoseMargins,
+           min_conditioning: float) -> GuardedCommand:
+        """The command of a pose (p, q), its commanded lengths and its margins."""
+        return cls(np.concatenate([position, quaternion, lengths, margins.stroke, margins.universal,
+                                   margins.spherical, margins.interference,
+                                   [margins.inverse_condition]]), min_conditioning)
+
+    @property
+    def position(self) -> np.ndarray:
+        return self.buffer[0:QUATERNION]
+
+    @property
+    def quaternion(self) -> np.ndarray:
+        return self.buffer[QUATERNION:LENGTHS]
+
+    @property
+    def lengths(self) -> np.ndarray:
+        return self.buffer[LENGTHS:STROKE]
+
+    @property
+    def margins(self) -> PoseMargins:
+        b = self.buffer
+        inv_cond = float(b[INVERSE_CONDITION])
+        return PoseMargins(b[LENGTHS:STROKE], b[STROKE:UNIVERSAL], b[UNIVERSAL:SPHERICAL],
+                           b[SPHERICAL:INTERFERENCE], b[INTERFERENCE:INVERSE_CONDITION], inv_cond,
+                           inv_cond - self.min_conditioning)
+
+
 @dataclass
 class TeleopOutput:
     """One control step: the status, and the command to publish (None: publish nothing, hold)."""
@@ -89,31 +151,39 @@ class TeleopOutput:
     code: TeleopCode
     engaged: bool
     detail: str = ''
-    position: np.ndarray | None = None
-    quaternion_xyzw: np.ndarray | None = None
-    lengths: np.ndarray | None = None
-    margins: dict = field(default_factory=dict)
+    command: GuardedCommand | None = None
 
     @property
     def has_command(self) -> bool:
-        return self.position is not None or self.lengths is not None
+        return self.command is not None
 
+    @property
+    def position(self) -> np.ndarray | None:
+        return None if self.command is None else self.command.position
 
-@dataclass
-class GuardedCommand:
-    """A guarded slave command: its pose, lengths and margins."""
+    @property
+    def quaternion_xyzw(self) -> np.ndarray | None:
+        return None if self.command is None else self.command.quaternion
 
-    position: np.ndarray
-    quaternion: np.ndarray
-    lengths: np.ndarray
-    margins: PoseMargins
+    @property
+    def lengths(self) -> np.ndarray | None:
+        return None if self.command is None else self.command.lengths
+
+    @property
+    def margins(self) -> dict[str, float]:
+        """Smallest margin of each kind at the command ({} without one)."""
+        return {} if self.command is None else self.command.margins.minimum
 
 
 class TeleopMapping:
     """The teleop state machine: feed it samples (with their receive time, s) and call :meth:`step`."""
 
-    def __init__(self, slave: RobotGeometry, config: TeleopConfig | None = None):
+    def __init__(self, slave: RobotGeometry, config: TeleopConfig | None = None, *,
+                 backend: str = 'auto'):
         self.slave = slave
+        #: the compiled guards (:mod:`.compiled_guards`) with numba, else the NumPy reference
+        self._kernels = _compiled_guards() if use_numba(backend) else None
+        self._limit_arrays = limit_arrays(slave)
         self.config = self._checked(config or TeleopConfig())
         self._enable_value = False
         self._enable_time = -math.inf
@@ -167,8 +237,8 @@ class TeleopMapping:
 
     def on_master_lengths(self, t: float, lengths, stamp: float | None = None) -> None:
         """The master's leg lengths (encoders) received at ``t``; ValueError if malformed."""
-        L = np.asarray(lengths, dtype=float)
-        if L.shape != (6,) or not np.all(np.isfinite(L)) or np.any(L <= 0.0):
+        L = np.array(lengths, dtype=float)
+        if L.shape != (6,) or not (L.min() > 0.0 and L.max() < math.inf):  # NaN fails both
             raise ValueError(f'master lengths must be 6 finite positive values, got {lengths!r}')
         self._master_lengths = L
         self._master_lengths_time = float(t)
@@ -278,10 +348,7 @@ class TeleopMapping:
             code, detail = self._joint_step(dt)
         if factor < 1.0 and code in (TeleopCode.NO_WARNING, TeleopCode.SPEED_LIMITED):
             code, detail = TeleopCode.LATENCY_SLOWED, f'speeds x {factor:.2f} for the link latency'
-        cmd = self._command
-        return TeleopOutput(code, True, detail, position=cmd.position.copy(),
-                            quaternion_xyzw=cmd.quaternion.copy(), lengths=cmd.lengths.copy(),
-                            margins={k: float(v) for k, v in cmd.margins.minimum.items()})
+        return TeleopOutput(code, True, detail, self._command)
 
     def _time_budget(self, t: float) -> float:
         """dt [s] of this step for the speed limits: the time since the last step, or the time
@@ -317,6 +384,11 @@ class TeleopMapping:
         pm, qm = self._master_pose
         pm0, qm0 = self._master_ref
         ps0, qs0 = self._slave_ref
+        if self._kernels is not None and c.control_frame == 'ring_b':
+            p, q = np.empty(3), np.empty(4)
+            self._kernels.mapped_pose(pm, qm, pm0, qm0, ps0, qs0, c.translation_scale,
+                                      c.rotation_mode == 'absolute', p, q)
+            return p, q
         if c.control_frame == 'tool':  # move the tool-centre point; ring_b follows rigidly
             tcp0 = tool_pose(self.slave, Pose(ps0, qs0))
             ps0, qs0 = tcp0.position, tcp0.quaternion_xyzw
@@ -341,7 +413,7 @@ class TeleopMapping:
                                     f'master and slave orientations differ by {error:.3f} rad '
                                     f'> align_tolerance {c.align_tolerance:g} rad: align the master')
         m = pose_margins(self.slave, ps, qs)
-        self._command = GuardedCommand(ps.copy(), qs.copy(), m.lengths, m)
+        self._command = GuardedCommand.at(ps, qs, m.lengths, m, self.slave.min_conditioning)
         self._slave_ref = (ps.copy(), qs.copy())
         if c.mode == 'cartesian':
             self._master_ref = (self._master_pose[0].copy(), self._master_pose[1].copy())
@@ -353,23 +425,75 @@ class TeleopMapping:
 
     # --- guarded steps -------------------------------------------------------------------
 
-    def _evaluate_pose(self, p, q) -> GuardedCommand:
-        m = pose_margins(self.slave, p, q)
-        return GuardedCommand(p, q, m.lengths, m)
+    @property
+    def _halt(self) -> float:
+        """Inverse condition number where motion towards a singularity halts."""
+        c = self.config
+        return self.slave.min_conditioning if c.singularity_halt is None else c.singularity_halt
 
     def _cartesian_step(self, dt: float) -> tuple[TeleopCode, str]:
         c = self.config
-        prev = self._command
         p1, q1 = self.desired()
+        if self._kernels is None:
+            outcome, limit, check, index, cand = self._reference_cartesian_step(p1, q1, dt)
+        else:
+            buffer = np.empty(COMMAND_SIZE)
+            outcome, limit, check, index = self._kernels.guarded_cartesian_step(
+                self._limit_arrays, self._command.buffer, p1, q1, c.max_linear_speed * dt,
+                c.max_angular_speed * dt, self.slave.max_speed * dt, LEG_SPEED_ITERATIONS,
+                c.singularity_slowdown, self._halt, c.collision_slowdown, buffer)
+            cand = GuardedCommand(buffer, self.slave.min_conditioning)
+        return self._conclude(outcome, limit, check, index, cand)
+
+    def _joint_step(self, dt: float) -> tuple[TeleopCode, str]:
+        c = self.config
+        L1 = self.desired()
+        if self._kernels is None:
+            outcome, limit, check, index, cand = self._reference_joint_step(L1, dt)
+        else:
+            buffer = np.empty(COMMAND_SIZE)
+            outcome, limit, check, index = self._kernels.guarded_joint_step(
+                self._limit_arrays, 1.0 / self.slave.characteristic_length, self._command.buffer, L1,
+                self.slave.max_speed * dt, c.singularity_slowdown, self._halt, c.collision_slowdown,
+                buffer)
+            cand = GuardedCommand(buffer, self.slave.min_conditioning)
+        return self._conclude(outcome, limit, check, index, cand)
+
+    def _conclude(self, outcome: int, limit: int, check: int, index: int,
+                  cand: GuardedCommand) -> tuple[TeleopCode, str]:
+        """Take the candidate of an accepted step; the status code and detail of any step."""
+        if outcome == STEP_UNCHANGED:
+            return TeleopCode.NO_WARNING, ''
+        if outcome == STEP_FK_FAILED:
+            return TeleopCode.INVALID, 'FK of the mapped leg lengths did not converge: holding'
+        if outcome == STEP_REFUSED:
+            name, halt_code = _CHECKS[check]
+            if check == CHECK_CONDITIONING:
+                value = cand.margins.inverse_condition - self._halt
+            else:
+                value = cand.buffer[_CHECK_STARTS[check] + index]
+            return halt_code, f'{name} margin {float(value):.4g} would be negative: holding'
+        self._command = cand
+        return _LIMIT_CODES[limit], ''
+
+    # --- the reference guards (NumPy; the compiled kernels compute the same) ------------
+
+    def _evaluate_pose(self, p, q) -> GuardedCommand:
+        m = pose_margins(self.slave, p, q, backend='numpy')
+        return GuardedCommand.at(p, q, m.lengths, m, self.slave.min_conditioning)
+
+    def _reference_cartesian_step(self, p1, q1, dt: float):
+        c = self.config
+        prev = self._command
         dp = float(np.linalg.norm(p1 - prev.position))
         dth = rotation_angle_between(prev.quaternion, q1)
         if dp < 1e-12 and dth < 1e-12:
-            return TeleopCode.NO_WARNING, ''
-        fraction, code = 1.0, TeleopCode.NO_WARNING
-        limit = min(c.max_linear_speed * dt / dp if dp > 0 else math.inf,
+            return STEP_UNCHANGED, LIMIT_NONE, -1, -1, prev
+        fraction, limit = 1.0, LIMIT_NONE
+        bound = min(c.max_linear_speed * dt / dp if dp > 0 else math.inf,
                     c.max_angular_speed * dt / dth if dth > 0 else math.inf)
-        if limit < 1.0:
-            fraction, code = limit, TeleopCode.SPEED_LIMITED
+        if bound < 1.0:
+            fraction, limit = bound, LIMIT_SPEED
         cand = self._evaluate_pose(*pose_step(prev.position, prev.quaternion, p1, q1, fraction))
         leg_limit = self.slave.max_speed * dt
         for _ in range(LEG_SPEED_ITERATIONS):  # lengths are nearly linear in the fraction: 1-2 passes
@@ -377,81 +501,90 @@ class TeleopMapping:
             if leg_step <= leg_limit:
                 break
             fraction *= leg_limit / leg_step * (1.0 - 1e-9)
-            code = TeleopCode.SPEED_LIMITED
+            limit = LIMIT_SPEED
             cand = self._evaluate_pose(*pose_step(prev.position, prev.quaternion, p1, q1, fraction))
-        factor, slow_code = self._deceleration(prev.margins, cand.margins)
+        factor, slow = self._deceleration(prev.margins, cand.margins)
         if factor < 1.0:
             fraction *= factor
-            code = slow_code
+            limit = slow
             cand = self._evaluate_pose(*pose_step(prev.position, prev.quaternion, p1, q1, fraction))
-        return self._accept(cand, code)
+        return self._refusal(cand, limit)
 
-    def _joint_step(self, dt: float) -> tuple[TeleopCode, str]:
+    def _reference_joint_step(self, L1, dt: float):
         prev = self._command
-        L1 = self.desired()
         dL = L1 - prev.lengths
         largest = float(np.max(np.abs(dL)))
         if largest < 1e-12:
-            return TeleopCode.NO_WARNING, ''
-        fraction, code = 1.0, TeleopCode.NO_WARNING
+            return STEP_UNCHANGED, LIMIT_NONE, -1, -1, prev
+        fraction, limit = 1.0, LIMIT_NONE
         if largest > self.slave.max_speed * dt:
-            fraction, code = self.slave.max_speed * dt / largest, TeleopCode.SPEED_LIMITED
+            fraction, limit = self.slave.max_speed * dt / largest, LIMIT_SPEED
         cand = self._evaluate_lengths(prev, prev.lengths + fraction * dL)
         if cand is None:
-            return TeleopCode.INVALID, 'FK of the mapped leg lengths did not converge: holding'
-        factor, slow_code = self._deceleration(prev.margins, cand.margins)
+            return STEP_FK_FAILED, limit, -1, -1, prev
+        factor, slow = self._deceleration(prev.margins, cand.margins)
         if factor < 1.0:
             fraction *= factor
-            code = slow_code
+            limit = slow
             cand = self._evaluate_lengths(prev, prev.lengths + fraction * dL)
             if cand is None:
-                return TeleopCode.INVALID, 'FK of the mapped leg lengths did not converge: holding'
-        return self._accept(cand, code)
+                return STEP_FK_FAILED, limit, -1, -1, prev
+        return self._refusal(cand, limit)
 
     def _evaluate_lengths(self, prev: GuardedCommand, lengths: np.ndarray) -> GuardedCommand | None:
-        fk = forward_kinematics(self.slave, lengths, prev.position, prev.quaternion)
+        fk = forward_kinematics(self.slave, lengths, prev.position, prev.quaternion, backend='numpy')
         if not fk.converged:
             return None
-        return GuardedCommand(fk.position, fk.quaternion_xyzw, np.asarray(lengths, dtype=float).copy(),
-                              pose_margins(self.slave, fk.position, fk.quaternion_xyzw))
+        m = pose_margins(self.slave, fk.position, fk.quaternion_xyzw, backend='numpy')
+        return GuardedCommand.at(fk.position, fk.quaternion_xyzw, lengths, m, self.slave.min_conditioning)
 
-    def _deceleration(self, before: PoseMargins, after: PoseMargins) -> tuple[float, TeleopCode]:
+    def _deceleration(self, before: PoseMargins, after: PoseMargins) -> tuple[float, int]:
         """Step scale in [0, 1] near a singularity or interference, when the step approaches it."""
         c = self.config
-        factor, code = 1.0, TeleopCode.NO_WARNING
-        halt = self.slave.min_conditioning if c.singularity_halt is None else c.singularity_halt
+        factor, limit = 1.0, LIMIT_NONE
+        halt = self._halt
         c0, c1 = float(before.inverse_condition), float(after.inverse_condition)
         if c1 < c0 and c0 < c.singularity_slowdown:
             f = min(max((c0 - halt) / (c.singularity_slowdown - halt), 0.0), 1.0)
             if f < factor:
                 factor = f
-                code = (TeleopCode.DECELERATE_FOR_APPROACHING_SINGULARITY if f > 0.0
-                        else TeleopCode.HALT_FOR_SINGULARITY)
+                limit = LIMIT_SINGULARITY_DECELERATE if f > 0.0 else LIMIT_SINGULARITY_HALT
         d0, d1 = float(np.min(before.interference)), float(np.min(after.interference))
         if d1 < d0 and d0 < c.collision_slowdown:
             f = min(max(d0 / c.collision_slowdown, 0.0), 1.0)
             if f < factor:
                 factor = f
-                code = TeleopCode.DECELERATE_FOR_COLLISION if f > 0.0 else TeleopCode.HALT_FOR_COLLISION
-        return factor, code
+                limit = LIMIT_COLLISION_DECELERATE if f > 0.0 else LIMIT_COLLISION_HALT
+        return factor, limit
 
-    def _accept(self, cand: GuardedCommand, code: TeleopCode) -> tuple[TeleopCode, str]:
-        """Take ``cand`` unless it breaks a limit, or worsens one already broken (then hold)."""
-        prev = self._command.margins
-        m = cand.margins
-        halt = self.slave.min_conditioning if self.config.singularity_halt is None else self.config.singularity_halt
-        checks = (
-            ('stroke', m.stroke, prev.stroke, TeleopCode.JOINT_BOUND),
-            ('universal joint', m.universal, prev.universal, TeleopCode.JOINT_BOUND),
-            ('spherical joint', m.spherical, prev.spherical, TeleopCode.JOINT_BOUND),
-            ('interference', m.interference, prev.interference, TeleopCode.HALT_FOR_COLLISION),
-            ('conditioning', np.atleast_1d(m.inverse_condition - halt),
-             np.atleast_1d(prev.inverse_condition - halt), TeleopCode.HALT_FOR_SINGULARITY),
-        )
-        for name, new, old, halt_code in checks:
-            worse = ~(new >= 0.0) & ~(new >= old)
+    def _refusal(self, cand: GuardedCommand, limit: int):
+        """The step's outcome: refused at the first margin it makes negative (or, where already
+        negative, smaller), else accepted."""
+        prev, new = self._command.buffer, cand.buffer
+        halt = self._halt
+        for check, start in enumerate(_CHECK_STARTS):
+            if check == CHECK_CONDITIONING:
+                n, o = new[start:start + 1] - halt, prev[start:start + 1] - halt
+            else:
+                n, o = new[start:_CHECK_STARTS[check + 1]], prev[start:_CHECK_STARTS[check + 1]]
+            worse = ~(n >= 0.0) & ~(n >= o)
             if np.any(worse):
-                k = int(np.flatnonzero(worse)[0])
-                return halt_code, f'{name} margin {float(new[k]):.4g} would be negative: holding'
-        self._command = cand
-        return code, ''
+                return STEP_REFUSED, limit, check, int(np.flatnonzero(worse)[0]), cand
+        return STEP_ACCEPTED, limit, -1, -1, cand
+
+
+#: Where each checked margin starts in a command buffer (CHECK_* order; conditioning last).
+_CHECK_STARTS = (STROKE, UNIVERSAL, SPHERICAL, INTERFERENCE, INVERSE_CONDITION)
+#: Name and halt code of each check (CHECK_* order).
+_CHECKS = (('stroke', TeleopCode.JOINT_BOUND), ('universal joint', TeleopCode.JOINT_BOUND),
+           ('spherical joint', TeleopCode.JOINT_BOUND), ('interference', TeleopCode.HALT_FOR_COLLISION),
+           ('conditioning', TeleopCode.HALT_FOR_SINGULARITY))
+#: The status code of an accepted step, by what limited it (LIMIT_* order).
+_LIMIT_CODES = (TeleopCode.NO_WARNING, TeleopCode.SPEED_LIMITED,
+                TeleopCode.DECELERATE_FOR_APPROACHING_SINGULARITY, TeleopCode.HALT_FOR_SINGULARITY,
+                TeleopCode.DECELERATE_FOR_COLLISION, TeleopCode.HALT_FOR_COLLISION)
+
+
+def _compiled_guards():
+    from . import compiled_guards
+    return compiled_guards

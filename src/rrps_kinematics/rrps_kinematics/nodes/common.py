@@ -151,6 +151,11 @@ def lengths_from_joint_state(msg: JointState, names: Sequence[str] = LEG_NAMES) 
     Raises ValueError naming what is wrong: missing or duplicated names, sizes that differ,
     NaN or infinite values. An unnamed message with exactly six positions is taken in order.
     """
+    if len(msg.position) == len(names) and tuple(msg.name) == tuple(names):  # the usual message
+        values = np.array(msg.position, dtype=float)
+        if not np.isfinite(values).all():
+            raise ValueError('positions contain NaN or infinite values')
+        return values
     positions = list(msg.position)
     if not msg.name:
         if len(positions) != len(names):
