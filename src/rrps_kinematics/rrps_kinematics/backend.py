@@ -26,7 +26,7 @@ __all__ = ['BACKENDS', 'compiled_backend_available', 'jit', 'kernel_sources_stam
 
 BACKENDS = ('auto', 'numba', 'numpy')
 #: Packages whose modules may hold :func:`jit` kernels.
-KERNEL_PACKAGES = ('rrps_kinematics', 'rrps_sim')
+KERNEL_PACKAGES = ('rrps_kinematics', 'rrps_sim', 'rrps_teleop')
 _compiled = None
 _numba = None
 _stamp = None
@@ -47,7 +47,8 @@ def numba_enabled() -> bool:
 
 
 def kernel_sources_stamp() -> str:
-    """sha256 of every module of KERNEL_PACKAGES that uses :func:`jit` (computed once)."""
+    """sha256 of every module of KERNEL_PACKAGES that holds numba kernels (:func:`jit`, or a
+    module's own ``_jit`` decorator), computed once."""
     global _stamp
     if _stamp is None:
         digest = hashlib.sha256()
@@ -58,7 +59,7 @@ def kernel_sources_stamp() -> str:
             for root in spec.submodule_search_locations:
                 for path in sorted(Path(root).rglob('*.py')):
                     text = path.read_bytes()
-                    if b'@jit' in text:
+                    if b'@jit' in text or b'@_jit' in text:
                         digest.update(str(path.relative_to(root)).encode() + b'\0' + text)
         _stamp = digest.hexdigest()
     return _stamp
