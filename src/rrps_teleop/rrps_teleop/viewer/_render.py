@@ -27,6 +27,7 @@ import viser.uplot
 from rrps_kinematics.geometry import RobotGeometry
 from rrps_kinematics.pose import Pose
 
+from ._broadcast import install as install_shared_encoding
 from ._control import OperatorControl
 from ._latency import LinkMonitor
 from ._operator_panel import ClientControls, OperatorActions
@@ -98,6 +99,7 @@ class ViewerServer:
         self._workspace_scale = 1.0
         self._drawn_key: tuple | None = None
         self._frame_figures: tuple = ()
+        install_shared_encoding()  # a window is encoded once for all browsers
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         self.server.gui.set_panel_label(title)
         self.server.scene.set_up_direction('+z')
