@@ -5,8 +5,14 @@ climb, viewer) as its own process, makes the robot move (the master runs its cir
 and this script holds the deadman), then measures twice in the same run:
 
 * baseline: no browser connected;
-* loaded: ``--clients`` websocket clients speaking viser's protocol (what a browser receives:
-  zstd-compressed msgpack batches), each counting the batches that update the robot's pose.
+* one viewer: one websocket client speaking viser's protocol (what a browser receives:
+  zstd-compressed msgpack batches), counting the batches that update the robot's pose;
+* loaded: ``--clients`` such clients; with ``--slow-client`` the last one reads only one batch
+  every 0.5 s (a browser on a starved link): the others must not slow down for it.
+
+The viewer's CPU per client is printed for the first client and for each further one: viser's
+windows are encoded once for all clients (rrps_teleop.viewer._broadcast), so what a further
+client adds is its websocket send.
 
 The control loop's period is taken from the driver's ``actuators/state`` header stamps (its
 timer), received by a separate process so that measuring does not load the stack.
@@ -33,6 +39,7 @@ os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 80))
 
 POSE_NODE = '/robot/ring_b'
+SLOW_CLIENT_DELAY = 0.5  # [s] between the slow client's reads
 
 
 def _free_port() -> int:
@@ -66,8 +73,9 @@ class Client:
     """One websocket viewer: announces its camera as a browser does, then counts every batch and
     those that move the robot."""
 
-    def __init__(self, url: str):
+    def __init__(self, url: str, delay: float = 0.0):
         self.url = url
+        self.delay = delay  # [s] between two reads: a slow client
         self.batches: list[float] = []
         self.pose_updates: list[float] = []
         self.bytes = 0
@@ -85,6 +93,8 @@ class Client:
                         data = await asyncio.wait_for(ws.recv(), timeout=0.5)
                     except asyncio.TimeoutError:
                         continue
+                    if self.delay:
+                        await asyncio.sleep(self.delay)
                     now = time.monotonic()
                     self.batches.append(now)
                     self.bytes += len(data)
@@ -98,8 +108,9 @@ class Client:
         return float(np.count_nonzero((times >= t0) & (times < t1)) / (t1 - t0))
 
 
-def _clients_thread(url: str, n: int, stop_flag: threading.Event) -> tuple[list[Client], threading.Thread]:
-    clients = [Client(url) for _ in range(n)]
+def _clients_thread(url: str, n: int, stop_flag: threading.Event,
+                    slow: bool = False) -> tuple[list[Client], threading.Thread]:
+    clients = [Client(url, SLOW_CLIENT_DELAY if slow and i == n - 1 else 0.0) for i in range(n)]
 
     def main() -> None:
         async def go() -> None:
@@ -132,7 +143,9 @@ def main() -> int:
     parser.add_argument('--clients', type=int, default=10)
     parser.add_argument('--seconds', type=float, default=10.0)
     parser.add_argument('--busy-core', action='store_true',
-                        help='keep one core busy (a spinning process) through both phases')
+                        help='keep one core busy (a spinning process) through every phase')
+    parser.add_argument('--slow-client', action='store_true',
+                        help=f'the last client reads one batch every {SLOW_CLIENT_DELAY} s')
     args = parser.parse_args()
     from rrps_kinematics.supervision import start_child  # dies with this process, whatever happens
     busy = start_child([sys.executable, '-c', 'while True: pass']) if args.busy_core else None
@@ -206,8 +219,17 @@ def main() -> int:
         t0, cpu0 = time.monotonic(), _cpu_seconds(demo.pid)
         time.sleep(args.seconds)
         t1, cpu1 = time.monotonic(), _cpu_seconds(demo.pid)
+        stop_one = threading.Event()
+        one, one_thread = _clients_thread(f'ws://127.0.0.1:{port}', 1, stop_one)
+        time.sleep(3.0)  # connect, receive the scene
+        ta, cpua = time.monotonic(), _cpu_seconds(demo.pid)
+        time.sleep(args.seconds)
+        tb, cpub = time.monotonic(), _cpu_seconds(demo.pid)
+        stop_one.set()
+        one_thread.join(timeout=10.0)
         stop_clients = threading.Event()
-        clients, thread = _clients_thread(f'ws://127.0.0.1:{port}', args.clients, stop_clients)
+        clients, thread = _clients_thread(f'ws://127.0.0.1:{port}', args.clients, stop_clients,
+                                          slow=args.slow_client)
         time.sleep(3.0)  # connect, receive the scene
         t2, cpu2 = time.monotonic(), _cpu_seconds(demo.pid)
         time.sleep(args.seconds)
@@ -234,7 +256,8 @@ def main() -> int:
     base, loaded = _periods(recorded, t0, t1), _periods(recorded, t2, t3)
     print(f'\nViewer load: demo stack (driver 500 Hz) with {args.clients} websocket viewers, '
           f'{args.seconds:g} s per phase, {os.cpu_count()} CPUs'
-          f'{", the other core kept busy" if args.busy_core else ""}, load average {os.getloadavg()[0]:.1f}')
+          f'{", the other core kept busy" if args.busy_core else ""}'
+          f'{", the last client slow" if args.slow_client else ""}, load average {os.getloadavg()[0]:.1f}')
     print(f'{"phase":<22}{"driver period p50 [ms]":>24}{"p99 [ms]":>10}{"max [ms]":>10}'
           f'{"state rate [Hz]":>17}')
     for name, p in (('baseline: 0 viewers', base), (f'loaded: {args.clients} viewers', loaded)):
@@ -244,16 +267,22 @@ def main() -> int:
     rates = []
     for i, c in enumerate(clients):
         rate = c.rate(t2, t3)
-        rates.append(rate)
+        if not c.delay:
+            rates.append(rate)
         print(f'{i:<8}{rate:>19.1f}{c.rate(t2, t3, "batches"):>14.1f}'
-              f'{c.bytes / 1e3 / (t3 - t2 + 3.0):>8.1f}  {c.error or ""}')
+              f'{c.bytes / 1e3 / (t3 - t2 + 3.0):>8.1f}  {"(slow) " if c.delay else ""}{c.error or ""}')
+    print(f'alone   {one[0].rate(ta, tb):>19.1f}{one[0].rate(ta, tb, "batches"):>14.1f}'
+          f'{one[0].bytes / 1e3 / (tb - ta + 3.0):>8.1f}  (the one-viewer phase) {one[0].error or ""}')
     base_cpu = 100.0 * (cpu1 - cpu0) / (t1 - t0)
+    one_cpu = 100.0 * (cpub - cpua) / (tb - ta)
     loaded_cpu = 100.0 * (cpu3 - cpu2) / (t3 - t2)
     print(f'\noperator process (master, teleop, viewer) CPU: {base_cpu:.1f} % without viewers, '
-          f'{loaded_cpu:.1f} % with {args.clients}: {(loaded_cpu - base_cpu) / args.clients:.2f} % '
-          'of a core per viewer')
+          f'{one_cpu:.1f} % with 1, {loaded_cpu:.1f} % with {args.clients}: the first viewer adds '
+          f'{one_cpu - base_cpu:.2f} % of a core, each further one '
+          f'{(loaded_cpu - one_cpu) / max(args.clients - 1, 1):.2f} %')
     ok = bool(rates) and min(rates) >= 30.0
-    print(f'slowest viewer {min(rates):.1f} Hz (target >= 30 Hz): {"MET" if ok else "MISSED"}; '
+    which = 'regular viewer' if args.slow_client else 'viewer'
+    print(f'slowest {which} {min(rates):.1f} Hz (target >= 30 Hz): {"MET" if ok else "MISSED"}; '
           f'driver period p99 {1e3 * np.percentile(loaded, 99):.2f} ms loaded vs '
           f'{1e3 * np.percentile(base, 99):.2f} ms baseline (nominal 2.000 ms)')
     return 0 if ok else 1
