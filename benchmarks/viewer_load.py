@@ -127,6 +127,20 @@ def _clients_thread(url: str, n: int, stop_flag: threading.Event,
     return clients, thread
 
 
+def _phase_with_clients(url: str, n: int, slow: bool, seconds: float, pid: int):
+    """Connect ``n`` clients, let them receive the scene, then measure for ``seconds``:
+    (clients, t_start, t_end, CPU seconds of ``pid`` at start, at end)."""
+    stop_flag = threading.Event()
+    clients, thread = _clients_thread(url, n, stop_flag, slow=slow)
+    time.sleep(3.0)  # connect, receive the scene
+    t_start, cpu_start = time.monotonic(), _cpu_seconds(pid)
+    time.sleep(seconds)
+    t_end, cpu_end = time.monotonic(), _cpu_seconds(pid)
+    stop_flag.set()
+    thread.join(timeout=10.0)
+    return clients, t_start, t_end, cpu_start, cpu_end
+
+
 def _cpu_seconds(pid: int) -> float:
     """User + system CPU time [s] of a process (all its threads), from /proc."""
     fields = open(f'/proc/{pid}/stat').read().rsplit(')', 1)[1].split()
@@ -219,23 +233,10 @@ def main() -> int:
         t0, cpu0 = time.monotonic(), _cpu_seconds(demo.pid)
         time.sleep(args.seconds)
         t1, cpu1 = time.monotonic(), _cpu_seconds(demo.pid)
-        stop_one = threading.Event()
-        one, one_thread = _clients_thread(f'ws://127.0.0.1:{port}', 1, stop_one)
-        time.sleep(3.0)  # connect, receive the scene
-        ta, cpua = time.monotonic(), _cpu_seconds(demo.pid)
-        time.sleep(args.seconds)
-        tb, cpub = time.monotonic(), _cpu_seconds(demo.pid)
-        stop_one.set()
-        one_thread.join(timeout=10.0)
-        stop_clients = threading.Event()
-        clients, thread = _clients_thread(f'ws://127.0.0.1:{port}', args.clients, stop_clients,
-                                          slow=args.slow_client)
-        time.sleep(3.0)  # connect, receive the scene
-        t2, cpu2 = time.monotonic(), _cpu_seconds(demo.pid)
-        time.sleep(args.seconds)
-        t3, cpu3 = time.monotonic(), _cpu_seconds(demo.pid)
-        stop_clients.set()
-        thread.join(timeout=10.0)
+        url = f'ws://127.0.0.1:{port}'
+        one, ta, tb, cpua, cpub = _phase_with_clients(url, 1, False, args.seconds, demo.pid)
+        clients, t2, t3, cpu2, cpu3 = _phase_with_clients(url, args.clients, args.slow_client,
+                                                          args.seconds, demo.pid)
         with lock:
             recorded = list(stamps)
     finally:
