@@ -623,8 +623,10 @@ def test_master_node_follows_the_handle_within_its_limits_and_rejects_bad_target
         assert master.set_parameters([Parameter('trajectory', value='circle')])[0].successful
 
 
-def test_teleop_node_rejects_malformed_master_data_and_says_why(ros_context):
-    teleop = TeleopNode(context=ros_context, namespace=NS)
+@pytest.mark.parametrize('mode', ['cartesian', 'joint'])
+def test_teleop_node_rejects_malformed_master_data_and_says_why(ros_context, mode):
+    """The master input of the mode is checked; the other one is not even subscribed."""
+    teleop = TeleopNode(context=ros_context, namespace=NS, parameter_overrides=params(mode=mode))
     probe = Probe(context=ros_context, namespace=NS)
     status = probe.collect(DiagnosticStatus, 'teleop/status')
     pose_pub = probe.publisher(PoseStamped, 'master/pose')
@@ -636,12 +638,48 @@ def test_teleop_node_rejects_malformed_master_data_and_says_why(ros_context):
 
     def stamp():
         return probe.get_clock().now().to_msg()
+    used, unused = (pose_pub, state_pub) if mode == 'cartesian' else (state_pub, pose_pub)
     with Spinner(ros_context, [teleop, probe]):
-        assert wait_for(lambda: pose_pub.get_subscription_count() and state_pub.get_subscription_count())
+        assert wait_for(lambda: used.get_subscription_count())
+        assert unused.get_subscription_count() == 0
+        # the unused input first: if it were taken, its rejection would come before the others'
         pose_pub.publish(pose_to_msg(MASTER.home_position, [0, 0, 0, 1], frame_id='world', stamp=stamp()))
-        assert wait_for(lambda: said("frame_id 'world'"))
-        pose_pub.publish(pose_to_msg([0.0, 0.0, np.inf], [0, 0, 0, 1], frame_id='master_ring_a', stamp=stamp()))
-        assert wait_for(lambda: said('NaN or infinite'))
         state_pub.publish(joint_state_msg(stamp(), [0.1] * 5, names=['leg_1', 'leg_2', 'leg_3', 'leg_4', 'leg_5']))
-        assert wait_for(lambda: said("missing joints ['leg_6']"))
+        if mode == 'cartesian':
+            assert wait_for(lambda: said("frame_id 'world'"))
+            pose_pub.publish(pose_to_msg([0.0, 0.0, np.inf], [0, 0, 0, 1], frame_id='master_ring_a',
+                                         stamp=stamp()))
+            assert wait_for(lambda: said('NaN or infinite'))
+            assert not said('missing joints')
+        else:
+            assert wait_for(lambda: said("missing joints ['leg_6']"))
+            state_pub.publish(joint_state_msg(stamp(), [0.4, 0.4, np.nan, 0.4, 0.4, 0.4]))
+            assert wait_for(lambda: said('NaN or infinite'))
+            assert not said('frame_id')
     assert not teleop.mapping.engaged
+
+
+def test_a_mode_change_swaps_the_master_input_and_teleop_goes_on(ros_context):
+    """Switching modes while the master streams both inputs at 500 Hz: each switch is a clutch,
+    the node takes the new mode's input only, and engages and follows again in each mode."""
+    rig = Rig(ros_context, master=dict(trajectory='circle', rate=500.0))
+    client = rig.probe.create_client(SetParameters, f'{NS}/teleop_node/set_parameters')
+
+    def set_mode(mode):
+        future = client.call_async(SetParameters.Request(parameters=[ParameterMsg(
+            name='mode', value=ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=mode))]))
+        assert wait_for(future.done)
+        assert future.result().results[0].successful
+
+    with rig.spin(ros_context):
+        assert client.wait_for_service(timeout_sec=DEADLINE)
+        assert wait_for(lambda: rig.poses and rig.master_poses)
+        rig.engage()
+        for mode in ('joint', 'cartesian') * 4:
+            outputs = rig.commands if mode == 'joint' else rig.targets
+            set_mode(mode)
+            n = len(outputs)
+            assert wait_for(lambda: rig.values()['mode'] == mode and rig.values()['engaged'] == 'true'
+                            and len(outputs) > n + 10), (mode, rig.code())
+            topic = rig.teleop._master_subscription.topic_name
+            assert topic == f'{NS}/master/' + ('actuators/state' if mode == 'joint' else 'pose')

@@ -1,6 +1,7 @@
 """teleop_node: the slave follows the master (pure core: :mod:`rrps_teleop.mapping`).
 
-Subscribes ``master/pose`` (frame master_ring_a), ``master/actuators/state``, ``teleop/enable``
+Subscribes ``master/pose`` (frame master_ring_a) in Cartesian mode or ``master/actuators/state``
+in joint mode (only the input the mode maps; a mode change swaps them), ``teleop/enable``
 (std_msgs/Bool, the deadman: true at >= 10 Hz; engaging is a clutch), ``pose`` (the slave's FK,
 frame ring_a: the engage reference) and ``climb/status`` (no engage while a step executes).
 Publishes ``target_pose`` (Cartesian mode, through ik_node's guards) or ``actuators/command``
@@ -200,8 +201,8 @@ class TeleopNode(Node):
         self._target_pub = self.create_publisher(PoseStamped, TARGET_POSE, COMMAND_QOS)
         self._command_pub = self.create_publisher(JointState, ACTUATORS_COMMAND, COMMAND_QOS)
         self._status_pub = self.create_publisher(DiagnosticStatus, TELEOP_STATUS, STATE_QOS)
-        self.create_subscription(PoseStamped, MASTER_POSE, self._on_master_pose, STATE_QOS)
-        self.create_subscription(JointState, MASTER_STATE, self._on_master_state, STATE_QOS)
+        self._master_subscription = None
+        self._subscribe_master_input()
         self.create_subscription(Bool, TELEOP_ENABLE, self._on_enable, COMMAND_QOS)
         self.create_subscription(PoseStamped, POSE, self._on_slave_pose, LATEST_QOS)
         self.create_subscription(DiagnosticStatus, CLIMB_STATUS, self._on_climb_status, STATE_QOS)
@@ -234,12 +235,28 @@ class TeleopNode(Node):
         if self._pending is not None and any(p.name in CONFIG_PARAMETERS for p in parameters):
             self.mapping.configure(self._pending)  # a clutch: the next engage re-indexes
             self._pending = None
+            self._subscribe_master_input()
             self.get_logger().info(f'teleop parameters changed: mode {self.mapping.config.mode}, '
                                    f'translation_scale {self.mapping.config.translation_scale:g}, '
                                    f'rotation_mode {self.mapping.config.rotation_mode} (clutch released)')
             self._publish_status(TeleopOutput(self._output.code, False, 'parameters changed: clutch released'))
 
     # --- inputs --------------------------------------------------------------------------
+
+    def _subscribe_master_input(self) -> None:
+        """Subscribe the one master input the mode maps: master/pose (Cartesian mode) or
+        master/actuators/state (joint mode); both stream at the master's rate, and taking the
+        unused one would cost every control step its delivery. Runs in the executor's thread
+        (start-up, the parameter callback), never concurrently with a callback."""
+        cartesian = self.mapping.config.mode == 'cartesian'
+        topic = MASTER_POSE if cartesian else MASTER_STATE
+        if self._master_subscription is not None:
+            if self._master_subscription.topic_name == self.resolve_topic_name(topic):
+                return
+            self.destroy_subscription(self._master_subscription)
+        self._master_subscription = (
+            self.create_subscription(PoseStamped, topic, self._on_master_pose, STATE_QOS) if cartesian
+            else self.create_subscription(JointState, topic, self._on_master_state, STATE_QOS))
 
     def _on_master_pose(self, msg: PoseStamped) -> None:
         if msg.header.frame_id != self.master_frame_id:
