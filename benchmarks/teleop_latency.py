@@ -288,10 +288,10 @@ def across_processes(samples: int, domain_id: int) -> list[Run]:
     context = rclpy.Context()
     rclpy.init(context=context, domain_id=domain_id)
     bench = Node('bench', context=context)
-    runs = [Run('bare echo round trip, 2 hops (baseline)', bare_sender(bench, '/relay/bench/ping'), Waiter()),
-            Run('joint mode: bench -> teleop -> bench, 2 hops', teleop_sender(bench, '/joint', 'state'),
+    runs = [Run('bare echo round trip, 2 deliveries (baseline)', bare_sender(bench, '/relay/bench/ping'), Waiter()),
+            Run('joint mode: bench -> teleop -> bench, 2 deliveries', teleop_sender(bench, '/joint', 'state'),
                 Waiter()),
-            Run('Cartesian mode: bench -> teleop -> ik -> bench, 3 hops', teleop_sender(bench, '/cart', 'pose'),
+            Run('Cartesian mode: bench -> teleop -> ik -> bench, 3 deliveries', teleop_sender(bench, '/cart', 'pose'),
                 Waiter())]
     for run, topic in zip(runs, ('/relay/bench/pong', '/joint/actuators/command', '/cart/actuators/command')):
         bench.create_subscription(JointState, topic, run.waiter, COMMAND_QOS)
