@@ -34,6 +34,10 @@ Guards, applied to the step from the last command towards the mapped target:
 3. halt: a step is refused if it makes any stroke, joint-angle, interference or conditioning
    margin negative or, where already negative, smaller (so a motion that increases the margin
    is always allowed).
+
+With numba, a whole guarded step (FK, margins, bands, refusal) runs as one compiled kernel of
+:mod:`rrps_teleop.compiled_guards`; the NumPy implementation below is the reference and the
+fallback (``backend='numpy'`` or ``RRPS_NUMBA=0``), and the tests check both agree.
 """
 
 from __future__ import annotations
@@ -176,7 +180,10 @@ class TeleopOutput:
 
 
 class TeleopMapping:
-    """The teleop state machine: feed it samples (with their receive time, s) and call :meth:`step`."""
+    """The teleop state machine: feed it samples (with their receive time, s) and call :meth:`step`.
+
+    ``backend``: 'auto' (the compiled guards when numba is available), 'numba' or 'numpy'.
+    """
 
     def __init__(self, slave: RobotGeometry, config: TeleopConfig | None = None, *,
                  backend: str = 'auto'):
