@@ -8,6 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rrps_kinematics import check_pose, inverse_kinematics, load_robot, margins
+from rrps_kinematics.backend import use_numba
 from rrps_kinematics.rotations import quat_multiply_xyzw, rotation_angle_between, rotation_vector_to_quat_xyzw
 from rrps_teleop.interfaces import DISENGAGED_CODES, TeleopCode
 from rrps_teleop.mapping import TeleopConfig, TeleopMapping, validate_scale
@@ -445,3 +446,24 @@ def test_property_compiled_guards_give_the_reference_commands_and_codes(mode, sc
             assert a.detail.split(' margin ')[0] == b.detail.split(' margin ')[0]
             if a.has_command:
                 np.testing.assert_allclose(a.command.buffer, b.command.buffer, rtol=1e-9, atol=1e-9)
+
+
+@pytest.mark.parametrize('mode, rotation', [('cartesian', 'relative'), ('cartesian', 'absolute'),
+                                            ('joint', 'relative')])
+def test_the_warm_up_loads_every_guard_kernel_a_session_calls(mode, rotation):
+    """A mapping loads its compiled guards when it is built, for the argument types of its
+    steps: the first engaged step must not stall teleop_node's executor while numba loads or
+    compiles (0.1-0.2 s, more than master_timeout: the slave would see its master go stale)."""
+    if not use_numba('auto'):
+        pytest.skip('numba is not in use')
+    from rrps_teleop import compiled_guards
+    kernels = (compiled_guards.guarded_joint_step, compiled_guards.guarded_cartesian_step,
+               compiled_guards.mapped_pose)
+    s = Session(TeleopConfig(mode=mode, rotation_mode=rotation, translation_scale=4.0, joint_scale=4.0))
+    loaded = [len(k.signatures) for k in kernels]
+    assert all(loaded)
+    s.tick()
+    for k in range(30):
+        s.tick((MASTER.home_position + [0.0, 0.0, 2e-4 * k], MASTER.home_quaternion_xyzw))
+    assert s.slave_position[2] > SLAVE.home_position[2] + 1e-3  # the session moved the slave
+    assert [len(k.signatures) for k in kernels] == loaded, 'a kernel was compiled at a step'

@@ -214,6 +214,26 @@ class TeleopMapping:
         self._master_ref = None
         self._slave_ref: tuple[np.ndarray, np.ndarray] | None = None
         self._offsets: np.ndarray | None = None
+        if self._kernels is not None:
+            self._warm_up()
+
+    def _warm_up(self) -> None:
+        """Load (or compile) the guard kernels now, for the argument types of a real step: the
+        first engaged step must not stall its executor while numba loads them (0.1-0.2 s from
+        the cache here, longer than ``master_timeout``; seconds when it compiles)."""
+        g = self.slave
+        p, q = np.array(g.home_position, dtype=float), np.array(g.home_quaternion_xyzw, dtype=float)
+        m = pose_margins(g, p, q)
+        home = GuardedCommand.at(p, q, m.lengths, m, g.min_conditioning)
+        c = self.config
+        self._kernels.mapped_pose(p, q, p.copy(), q.copy(), p.copy(), q.copy(), c.translation_scale,
+                                  False, np.empty(3), np.empty(4))
+        self._kernels.guarded_cartesian_step(
+            self._limit_arrays, home.buffer, p, q, 0.0, 0.0, 0.0, LEG_SPEED_ITERATIONS,
+            c.singularity_slowdown, self._halt, c.collision_slowdown, np.empty(COMMAND_SIZE))
+        self._kernels.guarded_joint_step(
+            self._limit_arrays, 1.0 / g.characteristic_length, home.buffer, m.lengths * 1.0, 0.0,
+            c.singularity_slowdown, self._halt, c.collision_slowdown, np.empty(COMMAND_SIZE))
 
     # --- inputs -------------------------------------------------------------------------
 
