@@ -13,13 +13,16 @@ The wire format is viser's, byte for byte (see ``viser.infra._infra._message_pro
 ``timestampSec`` is the time the window was encoded, the same for every client, which is what
 the browser paces its drawing with.
 
-A slow client still only slows itself: its producer awaits its own send, and viser's buffer
-keeps one (the latest) state message per scene node, so a client that falls behind skips the
-intermediate poses instead of queueing them.
+A slow client only slows itself: its producer awaits its own send, and viser's buffer keeps one
+(the latest) state message per scene node, so a client that falls behind skips the intermediate
+poses instead of queueing them. That skipping starts only once the send blocks, so the producer
+also bounds the kernel's send buffer of each connection (``SEND_BUFFER_BYTES``; Linux would
+otherwise grow it to megabytes, seconds of stale frames queued for a starved browser).
 """
 
 from __future__ import annotations
 
+import socket
 import time
 from collections import OrderedDict
 from collections.abc import Sequence
@@ -32,6 +35,10 @@ __all__ = ['EncodedWindows', 'install', 'windows_of']
 
 #: Windows kept encoded: enough for clients a few windows apart.
 CACHE_WINDOWS = 32
+#: SO_SNDBUF of each browser connection (the kernel doubles it): with websockets' own 32 KiB,
+#: at most about 0.1 MB (1 s of the viewer's stream) waits for a slow client; on a 300 ms link
+#: (where teleop holds) it still carries about 200 kB/s, twice the stream.
+SEND_BUFFER_BYTES = 32 * 1024
 
 
 class EncodedWindows:
@@ -87,6 +94,9 @@ async def _shared_message_producer(websocket, buffer, client_id: int, backlog_do
     """viser's producer loop, with each window's bytes from the server's :class:`EncodedWindows`."""
     window_generator = buffer.window_generator(client_id, backlog_done_message=backlog_done_message)
     cache = windows_of(buffer)
+    sock = websocket.transport.get_extra_info('socket') if websocket.transport is not None else None
+    if sock is not None:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SEND_BUFFER_BYTES)
     try:
         while not buffer.done:
             try:
