@@ -10,6 +10,8 @@ Topic names are relative (the deployments put them under a namespace such as ``/
     ACTUATORS_STATE    sensor_msgs/JointState     lengths, rates, forces      state stream
     POSE               geometry_msgs/PoseStamped  a_T_b from FK               state stream
     DIAGNOSTICS        diagnostic_msgs/DiagnosticArray                        state stream
+    ~/RECORDING_TAP    std_msgs/UInt8MultiArray   a node's published messages, batched for a
+                       recorder (:mod:`rrps_kinematics.recording_bundle`); only while one listens
 
 A node's status values travel as ``diagnostic_msgs/KeyValue`` strings; :class:`StatusValues`
 gives them types: a dataclass whose fields are the keys, encoded by :func:`encode_value` and
@@ -31,6 +33,7 @@ from typing import Any, ClassVar, Mapping
 
 __all__ = [
     'TARGET_POSE', 'TARGET_RINGS', 'ring_joint', 'ACTUATORS_COMMAND', 'ACTUATORS_STATE', 'POSE', 'DIAGNOSTICS',
+    'RECORDING_TAP',
     'RING_A_FRAME', 'RING_B_FRAME', 'WORLD_FRAME', 'LEG_NAMES',
     'ContractError', 'encode_value', 'decode_value', 'StatusValues', 'source_node',
     'CommandAgeStatus', 'IkStatus', 'FkStatus',
@@ -42,6 +45,8 @@ ACTUATORS_COMMAND = 'actuators/command'
 ACTUATORS_STATE = 'actuators/state'
 POSE = 'pose'
 DIAGNOSTICS = '/diagnostics'
+#: A node's private topic of recording bundles: ``<namespace>/<node>/recording_tap``.
+RECORDING_TAP = 'recording_tap'
 
 RING_A_FRAME = 'ring_a'
 RING_B_FRAME = 'ring_b'

@@ -201,6 +201,7 @@ class RecorderStatus(StatusValues):
     recording: bool = False
     flight_recorder: bool = False
     topics: int = 0
+    tapped_topics: int = 0
     messages: int = 0
     bytes_written: int = 0
     file: str = ''

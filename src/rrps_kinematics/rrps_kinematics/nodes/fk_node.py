@@ -37,6 +37,7 @@ from .common import (
     pose_to_msg,
     run_nodes,
 )
+from .recording_tap import RecordingTap
 
 __all__ = ['FkNode', 'main']
 
@@ -68,7 +69,8 @@ class FkNode(Node):
         self._solved_lengths: np.ndarray | None = None
         self._pose_msg: PoseStamped | None = None
         self._status = (STALE, 'waiting for actuators/state')
-        self._pub = self.create_publisher(PoseStamped, POSE, STATE_QOS)
+        self._tap = RecordingTap(self)
+        self._pub = self._tap.create_publisher(PoseStamped, POSE, STATE_QOS)
         self.create_subscription(JointState, ACTUATORS_STATE, self._on_state, STATE_QOS)
         self._diag = Diagnostics(self, 'forward kinematics')
         self.create_timer(0.5, self._report)

@@ -55,6 +55,7 @@ from .common import (
     run_nodes,
     stamp_to_seconds,
 )
+from .recording_tap import RecordingTap
 
 __all__ = ['IkNode', 'main']
 
@@ -102,7 +103,8 @@ class IkNode(Node):
         self.freshness = CommandFreshness(self.timeout)
         self._status = (STALE, 'waiting for target_pose')
         self._margins: dict = {}
-        self._pub = self.create_publisher(JointState, ACTUATORS_COMMAND, COMMAND_QOS)
+        self._tap = RecordingTap(self)
+        self._pub = self._tap.create_publisher(JointState, ACTUATORS_COMMAND, COMMAND_QOS)
         self.create_subscription(PoseStamped, TARGET_POSE, self._on_target, COMMAND_QOS)
         self.ring_joints = [ring_joint(ring) for ring in ('ring_a', 'ring_b')
                             if ring in self.geometry.extra_dof]

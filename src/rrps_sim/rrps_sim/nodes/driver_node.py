@@ -59,6 +59,7 @@ from rrps_kinematics.nodes.common import (
     run_nodes,
     stamp_to_seconds,
 )
+from rrps_kinematics.nodes.recording_tap import RecordingTap
 
 from ..actuators import DynamicActuators, KinematicActuators, QuasiStaticEfforts, SensorFaults
 from ..grippers import Grippers
@@ -187,8 +188,9 @@ class DriverNode(LifecycleNode):
         self._max_dt = 5.0 / self.rate
         resumed = f'resumed from {self.state_file}' if saved is not None else 'initial lengths'
         self._status = (WARN, f'inactive ({resumed}): activate through {self.get_name()}/change_state')
-        self._state_pub = self.create_publisher(JointState, ACTUATORS_STATE, STATE_QOS)
-        self._grippers_pub = self.create_publisher(JointState, GRIPPERS_STATE, STATE_QOS)
+        self._tap = RecordingTap(self)
+        self._state_pub = self._tap.create_publisher(JointState, ACTUATORS_STATE, STATE_QOS)
+        self._grippers_pub = self._tap.create_publisher(JointState, GRIPPERS_STATE, STATE_QOS)
         self.create_subscription(JointState, ACTUATORS_COMMAND, self._on_command, COMMAND_QOS)
         for ring in RINGS:
             self.create_service(SetBool, gripper_service(ring),

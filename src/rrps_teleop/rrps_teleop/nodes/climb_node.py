@@ -72,6 +72,7 @@ from rrps_kinematics.nodes.common import (
     pose_to_msg,
     run_nodes,
 )
+from rrps_kinematics.nodes.recording_tap import RecordingTap
 from rrps_kinematics.pose import QUATERNION_TOLERANCE, InvalidPose, Pose, pose_error
 from rrps_sim.interfaces import GRIPPERS_STATE, RINGS, DriverStatus, gripper_service, gripper_states
 
@@ -180,16 +181,18 @@ class ClimbNode(Node):
         self._auto_started = False
         self._last_status = None
 
-        self._target_pub = self.create_publisher(PoseStamped, TARGET_POSE, COMMAND_QOS)
+        self._tap = RecordingTap(self)
+        self._target_pub = self._tap.create_publisher(PoseStamped, TARGET_POSE, COMMAND_QOS)
         # robots with the extra ring DOF: the rings are commanded, and measured for the odometry
         self._ring_joints = [ring_joint(r) for r in ('ring_a', 'ring_b')] if self.planner.dof else []
-        self._ring_pub = (self.create_publisher(JointState, TARGET_RINGS, COMMAND_QOS)
+        self._ring_pub = (self._tap.create_publisher(JointState, TARGET_RINGS, COMMAND_QOS)
                           if self._ring_joints else None)
         self.measured_angles: np.ndarray | None = None
         if self._ring_joints:
             self.create_subscription(JointState, ACTUATORS_STATE, self._on_state, LATEST_QOS)
         self._status_pub = self.create_publisher(DiagnosticStatus, CLIMB_STATUS, STATE_QOS)
-        self._odo_pubs = {ring: self.create_publisher(PoseStamped, odometry_topic(ring), STATE_QOS)
+        self._odo_pubs = {ring: self._tap.create_publisher(PoseStamped, odometry_topic(ring),
+                                                           STATE_QOS)
                           for ring in RINGS}
         self._pose_msg: PoseStamped | None = None
         self.create_subscription(PoseStamped, POSE, self._on_pose, LATEST_QOS)

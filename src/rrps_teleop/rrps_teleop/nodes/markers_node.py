@@ -46,6 +46,7 @@ from rrps_kinematics.nodes.common import (
     pose_from_msg,
     run_nodes,
 )
+from rrps_kinematics.nodes.recording_tap import RecordingTap
 from rrps_kinematics.pose import Pose
 from rrps_sim.interfaces import GRIPPERS_STATE, gripper_states
 
@@ -131,7 +132,8 @@ class MarkersNode(Node):
         self._last_inputs: tuple | None = None
         self._resend_due = 0.0
         self.published = 0
-        self._pub = self.create_publisher(MarkerArray, ROBOT_MARKERS, STATE_QOS)
+        self._tap = RecordingTap(self)
+        self._pub = self._tap.create_publisher(MarkerArray, ROBOT_MARKERS, STATE_QOS)
         for topic, qos in ((POSE, LATEST_QOS), (TARGET_POSE, COMMAND_QOS),
                            (odometry_topic('ring_a'), LATEST_QOS),
                            (odometry_topic('ring_b'), LATEST_QOS)):

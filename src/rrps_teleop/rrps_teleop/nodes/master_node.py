@@ -39,6 +39,7 @@ from rrps_kinematics.nodes.common import (
     pose_to_msg,
     run_nodes,
 )
+from rrps_kinematics.nodes.recording_tap import RecordingTap
 from rrps_kinematics.pose import validate_pose
 from rrps_kinematics.rotations import quat_multiply_xyzw, rotation_vector_to_quat_xyzw
 
@@ -95,8 +96,9 @@ class MasterNode(Node):
         self._last_tick: float | None = None
         self._status = (OK, 'holding the home pose')
         self._diag = Diagnostics(self, 'master robot', hardware_id=self.geometry.name)
-        self._state_pub = self.create_publisher(JointState, MASTER_STATE, STATE_QOS)
-        self._pose_pub = self.create_publisher(PoseStamped, MASTER_POSE, STATE_QOS)
+        self._tap = RecordingTap(self)
+        self._state_pub = self._tap.create_publisher(JointState, MASTER_STATE, STATE_QOS)
+        self._pose_pub = self._tap.create_publisher(PoseStamped, MASTER_POSE, STATE_QOS)
         self.create_subscription(PoseStamped, MASTER_TARGET_POSE, self._on_target, COMMAND_QOS)
         self._feedback: tuple[float, np.ndarray, np.ndarray] | None = None
         self.create_subscription(WrenchStamped, MASTER_FEEDBACK, self._on_feedback, COMMAND_QOS)

@@ -9,6 +9,15 @@ publisher offered as ``offered_qos_profiles``; zstd chunks flushed every ``flush
 new file ``<output_dir>/<prefix>_<n>.mcap`` past ``max_file_size_mb`` or ``max_file_duration``.
 A topic is subscribed reliable only if every publisher offers reliable (rosbag2's rule).
 
+Recording taps (``use_taps``, default on): the stack's nodes send their high-rate publications
+in bundles on ``<node>/recording_tap`` while a recorder listens
+(:mod:`rrps_kinematics.nodes.recording_tap`). A topic whose every publisher taps it is
+recorded from the bundles and not subscribed to: one DDS delivery per node every 0.1 s instead
+of one per message, which is what keeps the recorder's cost within its budget (README,
+*Recording*). A topic with any other publisher is subscribed to as above; the switch between
+the two loses and doubles nothing (:class:`rrps_teleop.recording.taps.TapRouter`). A tapped
+message is logged at its publish time plus the node's smallest bundle delay.
+
 The transforms ``world -> ring_a -> ring_b`` and each leg's links
 (:func:`rrps_teleop.recording.markers.robot_transforms`) are written to ``/tf`` as
 ``tf2_msgs/msg/TFMessage`` at ``tf_rate`` Hz from the newest ``pose``, ``odometry/*`` and
@@ -43,7 +52,7 @@ from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
-from rrps_kinematics.interfaces import DIAGNOSTICS, POSE
+from rrps_kinematics.interfaces import DIAGNOSTICS, POSE, RECORDING_TAP
 from rrps_kinematics.nodes.common import (
     OK,
     STATE_QOS,
@@ -54,7 +63,9 @@ from rrps_kinematics.nodes.common import (
     pose_from_msg,
     run_nodes,
 )
+from rrps_kinematics.nodes.recording_tap import TAP_QOS
 from rrps_kinematics.pose import Pose
+from rrps_kinematics.recording_bundle import BUNDLE_TYPE, decode_bundle
 from rrps_sim.interfaces import GRIPPERS_STATE, gripper_states
 
 from ..interfaces import (
@@ -71,6 +82,7 @@ from ..recording.mcap_files import COMPRESSIONS, RotatingRecording, TopicInfo, w
 from ..recording.qos import TF_QOS, QosSpec, request_for_offers
 from ..recording.ring import MessageRing
 from ..recording.schemas import message_class, message_schema
+from ..recording.taps import TapRouter, fully_qualified_node
 from ..recording.triggers import FaultWatch, StatusEvent
 
 __all__ = ['RecorderNode', 'main', 'qos_spec', 'subscription_qos', 'type_hash_text', 'TF_TYPE']
@@ -167,6 +179,9 @@ class RecorderNode(Node):
                                          max_value=600.0, read_only=True)
         self.depth = declare_parameter(self, 'depth', 100, 'subscription queue depth',
                                        min_value=1, max_value=100000, read_only=True)
+        self.use_taps = declare_parameter(
+            self, 'use_taps', True, "record the nodes' recording taps instead of subscribing "
+            'to the topics they cover', read_only=True)
         self.geometry = declare_robot_parameter(self)
         tf_rate = declare_parameter(self, 'tf_rate', 10.0, '/tf written at this rate [Hz]; 0 = none',
                                     min_value=0.0, max_value=1000.0, read_only=True)
@@ -183,6 +198,10 @@ class RecorderNode(Node):
         self._lock = threading.Lock()
         self._topics: dict[str, TopicInfo] = {}
         self._raw_subscriptions: dict[str, object] = {}
+        self._bundle_subscriptions: dict[str, object] = {}
+        self._taps = TapRouter()
+        self._graph_signature: tuple = ()
+        self.bad_bundles = 0
         self.dropped_topics: dict[str, str] = {}
         self._latest: dict[str, bytes] = {}
         self._tf_cache: tuple[tuple, list] | None = None  # (inputs, transforms)
@@ -244,10 +263,24 @@ class RecorderNode(Node):
         if self.recording is not None:
             self.recording.add_topic(topic)
 
-    def _discover(self) -> None:
-        """Subscribe (raw) to every selected topic that has a publisher and is not yet heard."""
-        for name, types in self.get_topic_names_and_types():
-            if name in self._raw_subscriptions or not self._selected(name):
+    def _discover(self, *, force: bool = False) -> None:
+        """Find the selected topics and the recording taps; subscribe (raw) to every selected
+        topic that has a publisher and that the taps do not cover."""
+        now = time.time_ns()
+        graph = self.get_topic_names_and_types()
+        # The graph's shape (topics, types, publisher counts, nodes): while it is unchanged and
+        # no tap's topics changed, nothing is looked at again (the per-topic endpoint queries,
+        # about 0.2 ms each, are most of discovery's cost).
+        signature = (tuple((name, tuple(types)) for name, types in graph),
+                     tuple(self.get_node_names_and_namespaces()),
+                     tuple(self.count_publishers(name) for name, _ in graph))
+        if signature == self._graph_signature and not force:
+            return
+        self._graph_signature = signature
+        if self.use_taps:
+            self._discover_taps(graph)
+        for name, types in graph:
+            if not self._selected(name) or self._is_tap(name, types):
                 continue
             if name == TF and self._tf is not None:
                 continue  # written by this node from the robot's state
@@ -258,32 +291,87 @@ class RecorderNode(Node):
             if not infos:
                 continue  # subscribers only: nothing to record (yet)
             type_name = types[0]
-            try:
-                cls = message_class(type_name)
-                message_schema(type_name)
-            except (ImportError, AttributeError, ValueError, LookupError) as exc:
-                self.dropped_topics[name] = f'{type_name}: {exc}'
+            if name not in self._topics:
+                try:
+                    message_class(type_name)
+                    message_schema(type_name)
+                except (ImportError, AttributeError, ValueError, LookupError) as exc:
+                    self.dropped_topics[name] = f'{type_name}: {exc}'
+                    continue
+                offered = tuple(qos_spec(info.qos_profile) for info in infos)
+                self._add_topic(TopicInfo(name, type_name, offered,
+                                          type_hash_text(infos[0].topic_type_hash)))
+                self.dropped_topics.pop(name, None)
+            tapped = self.use_taps and self._taps.covers(
+                name, (fully_qualified_node(i.node_namespace, i.node_name) for i in infos))
+            self._taps.set_tapped(name, tapped, now)
+            subscription = self._raw_subscriptions.get(name)
+            if tapped and subscription is not None:
+                self.destroy_subscription(self._raw_subscriptions.pop(name))
+            elif not tapped and subscription is None:
+                topic = self._topics[name]
+                self._raw_subscriptions[name] = self.create_subscription(
+                    message_class(type_name), name,
+                    lambda data, name=name: self._on_raw(name, data),
+                    subscription_qos(request_for_offers(topic.offered_qos, depth=self.depth)),
+                    raw=True)
+
+    @staticmethod
+    def _is_tap(name: str, types) -> bool:
+        return name.endswith('/' + RECORDING_TAP) and list(types) == [BUNDLE_TYPE]
+
+    def _discover_taps(self, graph) -> None:
+        """Subscribe to every recording tap; forget the nodes whose tap is gone."""
+        alive = set()
+        for name, types in graph:
+            if not self._is_tap(name, types):
                 continue
-            offered = tuple(qos_spec(info.qos_profile) for info in infos)
-            topic = TopicInfo(name, type_name, offered, type_hash_text(infos[0].topic_type_hash))
-            self._add_topic(topic)
-            self._raw_subscriptions[name] = self.create_subscription(
-                cls, name, lambda data, name=name: self._on_raw(name, data),
-                subscription_qos(request_for_offers(offered, depth=self.depth)), raw=True)
-            self.dropped_topics.pop(name, None)
+            infos = self.get_publishers_info_by_topic(name)
+            alive.update(fully_qualified_node(i.node_namespace, i.node_name) for i in infos)
+            if name not in self._bundle_subscriptions and infos:
+                self._bundle_subscriptions[name] = self.create_subscription(
+                    message_class(BUNDLE_TYPE), name, self._on_bundle, TAP_QOS, raw=True)
+        self._taps.forget(alive)
+
+    def _on_bundle(self, data: bytes) -> None:
+        try:
+            bundle = decode_bundle(data)
+        except ValueError as exc:
+            self.bad_bundles += 1
+            self.get_logger().warning(f'malformed recording bundle ignored: {exc}',
+                                      throttle_duration_sec=5.0)
+            return
+        changed, messages = self._taps.receive(bundle, time.time_ns())
+        topics = self._topics
+        if any(topic not in topics for topic, _, _ in messages):
+            messages = [m for m in messages if m[0] in topics]
+        self._store_many(messages)
+        for topic, _, cdr in messages:
+            if topic in self._tf_inputs:
+                self._latest[topic] = cdr
+        if changed:
+            self._discover(force=True)  # a node's tapped topics are known: stop subscribing
 
     def _on_raw(self, topic: str, data: bytes) -> None:
         t = time.time_ns()
+        if self._taps.subscribed(topic, data, t):
+            self._record(topic, t, data)
+
+    def _record(self, topic: str, t: int, data: bytes) -> None:
         self._store(topic, t, data)
         if topic in self._tf_inputs:
             self._latest[topic] = data
 
     def _store(self, topic: str, t: int, data: bytes) -> None:
-        self.messages += 1
+        self._store_many(((topic, t, data),))
+
+    def _store_many(self, messages) -> None:
+        """Record messages (topic, log time [ns], CDR bytes) to the file and the ring."""
+        self.messages += len(messages)
         if self.recording is not None:
-            self.recording.write(topic, t, data)
+            self.recording.write_many(messages)
         if self.ring is not None:
-            self.ring.add(topic, t, data)
+            self.ring.add_many(messages)
 
     # --- /tf -----------------------------------------------------------------------------------
 
@@ -402,7 +490,8 @@ class RecorderNode(Node):
     def _report(self) -> None:
         status = RecorderStatus(
             recording=self.recording is not None, flight_recorder=self.ring is not None,
-            topics=len(self._topics), messages=self.messages,
+            topics=len(self._topics), tapped_topics=len(self._taps.tapped_topics),
+            messages=self.messages,
             bytes_written=self.recording.bytes_written if self.recording is not None else 0,
             file=str(self.recording.path) if self.recording is not None else '',
             buffered_messages=len(self.ring) if self.ring is not None else 0,
@@ -410,7 +499,8 @@ class RecorderNode(Node):
             dumps=len(self.dumps), last_dump=str(self.dumps[-1]) if self.dumps else '',
             last_trigger=self.last_trigger, dropped_topics=tuple(sorted(self.dropped_topics)))
         level = WARN if self.dropped_topics else OK
-        message = (f'{len(self._topics)} topics, {self.messages} messages'
+        message = (f'{len(self._topics)} topics ({len(self._taps.tapped_topics)} from taps), '
+                   f'{self.messages} messages'
                    + (f'; not recorded: {", ".join(sorted(self.dropped_topics))}'
                       if self.dropped_topics else ''))
         self._diag.report(level, message, status)

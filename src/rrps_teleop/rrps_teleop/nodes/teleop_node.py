@@ -68,6 +68,7 @@ from rrps_kinematics.nodes.common import (
     run_nodes,
     stamp_to_seconds,
 )
+from rrps_kinematics.nodes.recording_tap import RecordingTap
 from rrps_sim.interfaces import DriverStatus
 
 from ..fixture import FixtureConfig, fixture_wrench, master_wrench
@@ -198,8 +199,9 @@ class TeleopNode(Node):
         self._status_period = 1.0 / status_rate
         self._output = TeleopOutput(TeleopCode.DEADMAN_RELEASED, False, 'waiting for teleop/enable')
         self._diag = Diagnostics(self, 'teleop', hardware_id=self.geometry.name)
-        self._target_pub = self.create_publisher(PoseStamped, TARGET_POSE, COMMAND_QOS)
-        self._command_pub = self.create_publisher(JointState, ACTUATORS_COMMAND, COMMAND_QOS)
+        self._tap = RecordingTap(self)
+        self._target_pub = self._tap.create_publisher(PoseStamped, TARGET_POSE, COMMAND_QOS)
+        self._command_pub = self._tap.create_publisher(JointState, ACTUATORS_COMMAND, COMMAND_QOS)
         self._status_pub = self.create_publisher(DiagnosticStatus, TELEOP_STATUS, STATE_QOS)
         self._master_subscription = None
         self._subscribe_master_input()
@@ -210,7 +212,7 @@ class TeleopNode(Node):
         self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, STATE_QOS)
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
-        self._feedback_pub = self.create_publisher(WrenchStamped, MASTER_FEEDBACK, COMMAND_QOS)
+        self._feedback_pub = self._tap.create_publisher(WrenchStamped, MASTER_FEEDBACK, COMMAND_QOS)
         self._feedback = (0.0, '')
         self.create_timer(1.0 / feedback_rate, self._publish_feedback)
         self.create_timer(WATCHDOG_PERIOD, self._watchdog)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import collections
 import threading
+from typing import Sequence
 
 __all__ = ['MessageRing']
 
@@ -31,13 +32,21 @@ class MessageRing:
 
     def add(self, topic: str, log_time_ns: int, data: bytes) -> None:
         """Append a message and forget what fell out of the window."""
+        self.add_many(((topic, log_time_ns, data),))
+
+    def add_many(self, messages: Sequence[tuple[str, int, bytes]]) -> None:
+        """Append messages (topic, log time [ns], CDR bytes) and forget what fell out of the
+        window (measured from the last one)."""
+        if not messages:
+            return
         with self._lock:
             items = self._items
-            items.append((topic, log_time_ns, data))
-            self._bytes += len(data)
+            items.extend(messages)
+            self._bytes += sum(len(m[2]) for m in messages)
+            log_time_ns = messages[-1][1]
             if items[0][1] < log_time_ns - self.window_ns:
                 horizon = log_time_ns - self.window_ns
-                while items[0][1] < horizon:
+                while items and items[0][1] < horizon:
                     self._bytes -= len(items.popleft()[2])
             if self._bytes > self.max_bytes:
                 while self._bytes > self.max_bytes and len(items) > 1:
