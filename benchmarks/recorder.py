@@ -1,9 +1,11 @@
 """Recorder cost: the demo's robot stack at 500 Hz with teleop motion, recorder off vs on.
 
-Starts the demo's processes (the driver at 500 Hz; IK, FK and climbing; master and teleop, the
-master running its circle trajectory while this script holds the deadman, so IK streams
-commands and the driver moves), then measures phases of ``--seconds`` each in the same run,
-with a "recorder off" phase between any two others:
+Starts the demo's processes with the demo's priorities (the driver at 500 Hz and the robot's
+IK, FK and climbing real-time, the operator station's master and teleop real-time behind them,
+the master running its circle trajectory while this script holds the deadman, so IK streams
+commands and the driver moves; the recorder, like the demo's observers, at nice +5), then
+measures phases of ``--seconds`` each in the same run, with a "recorder off" phase between any
+two others:
 
 * a bare raw listener of the same topics (``_raw_listener.py``: receipt only, what a separate
   Python subscriber pays before it writes a byte);
@@ -11,7 +13,8 @@ with a "recorder off" phase between any two others:
   recording taps);
 * ``--cycles`` times, the recorder as shipped (``rrps-record``: every topic at full rate to a
   zstd MCAP file, the high-rate ones from the nodes' recording taps, the 60 s flight-recorder
-  ring and /tf at 10 Hz).
+  ring and /tf at 10 Hz), each followed by a control: ``_cpu_load.py``, a process that only
+  burns as much CPU as the recorder did (what any process of that CPU costs the stack here).
 
 ``--climb`` starts a climb step at the start of every phase as well (up, down, ...).
 
@@ -27,7 +30,7 @@ Targets (issue 12): the recorder adds < 10 % to the stack's CPU; the driver's pe
 not change (within the spread of the recorder-off phases, at least 0.25 ms). The recording of
 the first "recorder on" phase is read back with the mcap reader: channels, counts, size.
 
-    python benchmarks/recorder.py [--seconds 12] [--cycles 5] [--climb]
+    python benchmarks/recorder.py [--seconds 12] [--cycles 4] [--climb]
     python benchmarks/recorder.py --session 60     # one recorded session: teleop, then a climb
 
 ``--session S`` records one session instead: teleop motion for the first third, then the
@@ -115,7 +118,7 @@ def _session(seconds: float, out_dir: Path, deadman, climb, Trigger) -> int:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--seconds', type=float, default=12.0, help='length of each phase [s]')
-    parser.add_argument('--cycles', type=int, default=5, help='recorder off/on cycles')
+    parser.add_argument('--cycles', type=int, default=4, help='recorder off/on cycles')
     parser.add_argument('--climb', action='store_true', help='a climb step in every phase')
     parser.add_argument('--session', type=float, default=0.0,
                         help='record one teleop + climb session of this many seconds instead')
@@ -136,7 +139,12 @@ def main() -> int:
         spin_until_shutdown,
         stamp_to_seconds,
     )
-    from rrps_kinematics.supervision import start_child
+    from rrps_kinematics.supervision import (
+        OBSERVER_NICE,
+        OPERATOR_NICE,
+        OPERATOR_RT_PRIORITY,
+        start_child,
+    )
     from rrps_teleop.demo import start_driver, start_robot_nodes
     from rrps_teleop.params import params_file_arguments
 
@@ -144,7 +152,7 @@ def main() -> int:
              start_child([sys.executable, '-m', 'rrps_teleop.compose', 'master_node',
                           'teleop_node', '--ros-args',
                           *params_file_arguments('master_node', 'teleop_node'),
-                          '-r', '__ns:=/rrps'])]
+                          '-r', '__ns:=/rrps'], nice=OPERATOR_NICE, realtime=OPERATOR_RT_PRIORITY)]
     context = rclpy.Context()
     rclpy.init(context=context)
     stop = threading.Event()
@@ -192,20 +200,25 @@ def main() -> int:
                     '--namespace', '/rrps']
         # The stack's own CPU drifts by several % of a core from one phase to the next on a
         # shared machine, so "off" phases alternate with the others and each is compared with
-        # the mean of the "off" phases on either side of it; the recorder runs --cycles times.
+        # the mean of the "off" phases on either side of it; the recorder runs --cycles times,
+        # each followed by the control: a bare CPU load of the recorder's own CPU so far.
         plan = [('recorder off', None), ('bare raw listener', 'listener'),
                 ('recorder off', None), ('recorder, no taps', 'recorder_dds')]
         for _ in range(args.cycles):
-            plan += [('recorder off', None), ('recorder on', 'recorder')]
+            plan += [('recorder off', None), ('recorder on', 'recorder'),
+                     ('recorder off', None), ('same CPU, no ROS', 'load')]
         plan.append(('recorder off', None))
         for i, (name, kind) in enumerate(plan):
             if kind is not None:
+                duty = np.mean([p[2] for p in phases if p[0] == 'recorder on'] or [5.0]) / 100
                 command = {'listener': listener,
+                           'load': [sys.executable, str(Path(__file__).resolve().parent
+                                                        / '_cpu_load.py'), f'{duty:.4f}'],
                            'recorder': record + ['--prefix', f'phase{i}'],
                            'recorder_dds': record + ['--prefix', f'phase{i}', '--ros-args',
                                                      '-p', 'use_taps:=false']}[kind]
-                recorder = subprocess.Popen(command, stdout=subprocess.DEVNULL,
-                                            stderr=subprocess.DEVNULL)
+                recorder = start_child(command, nice=OBSERVER_NICE, stdout=subprocess.DEVNULL,
+                                       stderr=subprocess.DEVNULL)
                 time.sleep(4.0)  # start-up and discovery are not part of the phase
             if args.climb:
                 climb['up' if i % 2 == 0 else 'down'].call_async(Trigger.Request())
@@ -255,6 +268,7 @@ def main() -> int:
     subscribed = added_by(of('recorder, no taps')[0])
     bare = added_by(of('bare raw listener')[0])
     recorder_itself = float(np.mean([phases[i][2] for i in of('recorder on')]))
+    control = np.array([added_by(i) for i in of('same CPU, no ROS')])
     p99_off = [1e3 * np.percentile(phases[i][3], 99) for i in of('recorder off')]
     p99_on = float(np.mean([1e3 * np.percentile(phases[i][3], 99) for i in of('recorder on')]))
     noise = max(0.25, max(p99_off) - min(p99_off))
@@ -265,6 +279,11 @@ def main() -> int:
           f'{", ".join(f"{x:+.1f}" for x in on)}) = {100 * added / base_cpu:+.1f} % of the '
           f'stack\'s {base_cpu:.1f} % (target < 10 %): {"MET" if cpu_ok else "MISSED"}; the '
           f'recorder process itself {recorder_itself:.1f} %, the rest is the stack\'s taps')
+    print(f'CPU added by a process that only burns the recorder\'s CPU (the control, same run): '
+          f'{control.mean():+.1f} +/- '
+          f'{control.std(ddof=1) / np.sqrt(len(control)) if len(control) > 1 else float("nan"):.1f}'
+          f' % of a core (per phase: {", ".join(f"{x:+.1f}" for x in control)}): what any '
+          f'process of that CPU costs the stack on this machine')
     print(f'CPU added by a bare raw listener of the same topics (what a separate subscriber pays '
           f'to receive every message, same run): {bare:+.1f} % of a core = '
           f'{100 * bare / base_cpu:+.1f} % of the stack')

@@ -12,6 +12,8 @@ import math
 import numpy as np
 import pytest
 import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
@@ -152,6 +154,30 @@ def test_tf_schema_without_tf2_msgs_encodes_and_decodes(tmp_path):
     assert (topic, schema) == ('/tf', name)
     t = value.transforms[0]
     assert (t.header.frame_id, t.child_frame_id, t.transform.translation.z) == ('world', 'ring_a', 3.0)
+
+
+@settings(max_examples=100, deadline=None)
+@given(stamp=st.integers(0, (2**31 - 1) * 1_000_000_000), transforms=st.lists(st.tuples(
+    st.text(max_size=12), st.text(max_size=12),
+    st.lists(st.floats(-10.0, 10.0), min_size=3, max_size=3),
+    st.lists(st.floats(-1.0, 1.0), min_size=4, max_size=4).filter(
+        lambda q: sum(v * v for v in q) > 0.1)), max_size=14))
+def test_the_recorder_tf_encoding_is_mcap_ros2s_byte_for_byte(stamp, transforms):
+    from mcap_ros2._dynamic import serialize_dynamic
+
+    from rrps_kinematics.pose import Pose
+    from rrps_teleop.recording.markers import tf_message_cdr
+    name = 'tf2_msgs/msg/TFMessage'
+    encode = serialize_dynamic(name, message_schema(name))[name]
+    poses = [(parent, child, Pose(p, q)) for parent, child, p, q in transforms]
+    sec, nanosec = divmod(stamp, 1_000_000_000)
+    reference = encode({'transforms': [
+        {'header': {'stamp': {'sec': sec, 'nanosec': nanosec}, 'frame_id': parent},
+         'child_frame_id': child,
+         'transform': {'translation': dict(zip('xyz', map(float, pose.position))),
+                       'rotation': dict(zip('xyzw', map(float, pose.quaternion_xyzw)))}}
+        for parent, child, pose in poses]})
+    assert tf_message_cdr(stamp, poses) == reference
 
 
 def test_offered_qos_yaml_is_rosbag2_jazzy_text_and_reads_back():

@@ -296,3 +296,27 @@ def test_without_taps_the_recorder_subscribes_to_every_topic(ros_context, tmp_pa
     recorder.destroy_node()
     assert not talker.tap.active  # nobody took the bundles
     assert _recorded_positions(tmp_path / 'dds_0.mcap', topic) == talker.sent
+
+
+@pytest.mark.ros
+def test_an_operator_save_holds_every_tapped_message_published_before_it(ros_context, tmp_path):
+    from rclpy.parameter import Parameter
+    from std_srvs.srv import Trigger
+
+    from rrps_teleop.nodes.recorder_node import RecorderNode
+    topic = f'{NS}/actuators/state'
+    talker = _TappedTalker(ros_context)
+    recorder = RecorderNode(context=ros_context, namespace=NS, parameter_overrides=[
+        Parameter('output_dir', value=str(tmp_path)), Parameter('record', value=False),
+        Parameter('discovery_period', value=0.1), Parameter('tf_rate', value=0.0)])
+    with Spinner(ros_context, [talker.node, recorder]):
+        assert wait_for(lambda: recorder._taps.is_tapped(topic) and talker.tap.active, 15.0)
+        for i in range(60):
+            talker.publish(float(i))
+            time.sleep(0.002)
+        # at once after the last one: it is still in the talker's tap, not yet sent
+        response = recorder._on_save(Trigger.Request(), Trigger.Response())
+        assert response.success
+        recorder.wait_for_dumps(timeout=10.0)
+    recorder.destroy_node()
+    assert _recorded_positions(response.message, topic) == talker.sent

@@ -258,17 +258,16 @@ def test_the_recorders_tf_is_replayed_as_tf2_msgs(ros_context, tmp_path):
 
     from rrps_kinematics.geometry import load_robot
     from rrps_kinematics.pose import Pose
-    from rrps_teleop.nodes.recorder_node import TF_TYPE, _TfEncoder
-    from rrps_teleop.recording.markers import robot_transforms
+    from rrps_teleop.nodes.recorder_node import TF_TYPE
+    from rrps_teleop.recording.markers import robot_transforms, tf_message_cdr
     from rrps_teleop.recording.mcap_files import TopicInfo, write_recording
     from rrps_teleop.recording.qos import TF_QOS
     a_T_b = Pose([0.0, 0.002, 0.43], [0.0, 0.0, math.sin(0.02), math.cos(0.02)])
     transforms = robot_transforms(load_robot('pole_climber'), a_T_b, Pose([0.0, 0.0, 1.2]))
-    encoder = _TfEncoder()  # the recorder's own encoding (mcap-ros2, without tf2_msgs)
     t0 = time.time_ns()
     write_recording(tmp_path / 'tf.mcap', [TopicInfo('/tf', TF_TYPE, (TF_QOS,))],
-                    [('/tf', t0 + i * 50_000_000, encoder.encode(t0 + i * 50_000_000, transforms))
-                     for i in range(10)])
+                    [('/tf', t0 + i * 50_000_000, tf_message_cdr(t0 + i * 50_000_000, transforms))
+                     for i in range(10)])  # the recorder's own /tf encoding
     probe = Probe(context=ros_context, namespace=NS)
     tf = probe.collect(TFMessage, '/tf')
     statuses = probe.collect(DiagnosticStatus, 'replay/status')

@@ -21,7 +21,7 @@ message is logged at its publish time plus the node's smallest bundle delay.
 The transforms ``world -> ring_a -> ring_b`` and each leg's links
 (:func:`rrps_teleop.recording.markers.robot_transforms`) are written to ``/tf`` as
 ``tf2_msgs/msg/TFMessage`` at ``tf_rate`` Hz from the newest ``pose``, ``odometry/*`` and
-``grippers/state`` (encoded with mcap-ros2-support: tf2_msgs is not needed); a live ``/tf``
+``grippers/state`` (:func:`rrps_teleop.recording.markers.tf_message_cdr`: tf2_msgs is not needed); a live ``/tf``
 (markers_node's) is then not subscribed to, so the recording has no duplicate transforms. With
 ``tf_rate`` 0 the live ``/tf`` is recorded like any topic (where tf2_msgs is installed).
 
@@ -29,8 +29,9 @@ Flight recorder (``flight_recorder``, default on): the last ``buffer_seconds`` o
 messages in memory (:class:`rrps_teleop.recording.ring.MessageRing`), written to
 ``<output_dir>/flight_<time>_<trigger>.mcap`` ``post_trigger`` s after a fault
 (:class:`rrps_teleop.recording.triggers.FaultWatch`: a node's ERROR, a gripper refusal, a lost
-teleop or climb link; at most one every ``min_dump_interval`` s) and at once when the service
-``flight_recorder/save`` (std_srvs/Trigger) is called; the answer's ``message`` is the path.
+teleop or climb link; at most one every ``min_dump_interval`` s) and when the service
+``flight_recorder/save`` (std_srvs/Trigger) is called (0.2 s later, so that the recording taps'
+last bundles are in); the answer's ``message`` is the path.
 The file is written to ``<path>.part`` and renamed when complete, so it exists only whole.
 
     recorder_node --ros-args -r __ns:=/rrps -p output_dir:=recordings
@@ -63,6 +64,7 @@ from rrps_kinematics.nodes.common import (
     pose_from_msg,
     run_nodes,
 )
+from rrps_kinematics.nodes.recording_tap import FLUSH_PERIOD as TAP_FLUSH_PERIOD
 from rrps_kinematics.nodes.recording_tap import TAP_QOS
 from rrps_kinematics.pose import Pose
 from rrps_kinematics.recording_bundle import BUNDLE_TYPE, decode_bundle
@@ -77,7 +79,7 @@ from ..interfaces import (
     RecorderTrigger,
     odometry_topic,
 )
-from ..recording.markers import robot_transforms, world_pose_of_ring_a
+from ..recording.markers import robot_transforms, tf_message_cdr, world_pose_of_ring_a
 from ..recording.mcap_files import COMPRESSIONS, RotatingRecording, TopicInfo, write_recording
 from ..recording.qos import TF_QOS, QosSpec, request_for_offers
 from ..recording.ring import MessageRing
@@ -115,26 +117,6 @@ def subscription_qos(spec: QosSpec) -> QoSProfile:
     return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=spec.depth,
                       reliability=ReliabilityPolicy(spec.reliability),
                       durability=DurabilityPolicy(spec.durability))
-
-
-class _TfEncoder:
-    """TFMessage CDR bytes from (parent, child, Pose) triples, without the tf2_msgs package."""
-
-    def __init__(self):
-        from mcap_ros2._dynamic import serialize_dynamic
-        self._encode = serialize_dynamic(TF_TYPE, message_schema(TF_TYPE))[TF_TYPE]
-
-    def encode(self, stamp_ns: int, transforms) -> bytes:
-        sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
-        out = []
-        for parent, child, pose in transforms:
-            p = [float(v) for v in pose.position]
-            q = [float(v) for v in pose.quaternion_xyzw]
-            out.append({'header': {'stamp': {'sec': sec, 'nanosec': nanosec}, 'frame_id': parent},
-                        'child_frame_id': child,
-                        'transform': {'translation': {'x': p[0], 'y': p[1], 'z': p[2]},
-                                      'rotation': {'x': q[0], 'y': q[1], 'z': q[2], 'w': q[3]}}})
-        return self._encode({'transforms': out})
 
 
 class RecorderNode(Node):
@@ -223,8 +205,8 @@ class RecorderNode(Node):
         self._last_dump_time = -1e18
         self._writers: list[threading.Thread] = []
         self._faults = FaultWatch()
-        self._tf = _TfEncoder() if tf_rate > 0.0 else None
-        if self._tf is not None:
+        self._tf = tf_rate > 0.0  # this node writes /tf
+        if self._tf:
             self._add_topic(TopicInfo(TF, TF_TYPE, (TF_QOS,)))
             self.create_timer(1.0 / tf_rate, self._write_tf)
         self._diag = Diagnostics(self, 'recorder')
@@ -282,7 +264,7 @@ class RecorderNode(Node):
         for name, types in graph:
             if not self._selected(name) or self._is_tap(name, types):
                 continue
-            if name == TF and self._tf is not None:
+            if name == TF and self._tf:
                 continue  # written by this node from the robot's state
             if len(types) != 1:
                 self.dropped_topics[name] = f'several types {types}'
@@ -385,7 +367,7 @@ class RecorderNode(Node):
                        for d in (self._latest.get(k) for k in self._tf_inputs))
         if self._tf_cache is not None and self._tf_cache[0] == inputs:
             t = time.time_ns()  # a robot at rest: the same transforms, stamped now
-            self._store(TF, t, self._tf.encode(t, self._tf_cache[1]))
+            self._store(TF, t, tf_message_cdr(t, self._tf_cache[1]))
             return
         try:
             a_T_b = Pose(*pose_from_msg(deserialize_message(pose_data, PoseStamped)))
@@ -405,7 +387,7 @@ class RecorderNode(Node):
             self.get_logger().warning(f'no /tf for this pose: {exc}', throttle_duration_sec=5.0)
             return
         t = time.time_ns()
-        self._store(TF, t, self._tf.encode(t, transforms))
+        self._store(TF, t, tf_message_cdr(t, transforms))
 
     # --- flight recorder ----------------------------------------------------------------------
 
@@ -439,15 +421,13 @@ class RecorderNode(Node):
             self._pending_dump = None
             self.dump(pending[1])
 
-    def dump(self, trigger: RecorderTrigger) -> Path:
-        """Write the buffer (in a thread) to a new file; returns the path it will have."""
+    def dump(self, trigger: RecorderTrigger, *, settle: float = 0.0) -> Path:
+        """Write the buffer (in a thread, ``settle`` s from now) to a new file; returns the path
+        it will have."""
         if self.ring is None:
             raise RuntimeError('the flight recorder is off (flight_recorder:=false)')
         self._last_dump_time = time.monotonic()
         self.last_trigger = trigger
-        messages = self.ring.snapshot()
-        with self._lock:
-            topics = list(self._topics.values())
         self.output_dir.mkdir(parents=True, exist_ok=True)
         stamp = time.strftime('%Y%m%d_%H%M%S')
         path = self.output_dir / f'flight_{stamp}_{trigger.value}.mcap'
@@ -458,6 +438,10 @@ class RecorderNode(Node):
         self.dumps.append(path)
 
         def write() -> None:
+            time.sleep(settle)
+            messages = self.ring.snapshot()
+            with self._lock:
+                topics = list(self._topics.values())
             part = path.with_name(path.name + '.part')
             try:
                 write_recording(part, topics, messages)
@@ -472,7 +456,9 @@ class RecorderNode(Node):
 
     def _on_save(self, request, response):
         try:
-            path = self.dump(RecorderTrigger.OPERATOR)
+            # the nodes' taps send what they published up to now within a flush period
+            path = self.dump(RecorderTrigger.OPERATOR,
+                             settle=2.0 * TAP_FLUSH_PERIOD if self.use_taps else 0.0)
         except (RuntimeError, OSError) as exc:
             response.success, response.message = False, str(exc)
             return response

@@ -20,6 +20,7 @@ the climbed structure (``structure``, :func:`structure_marker`).
 from __future__ import annotations
 
 import dataclasses
+import struct
 
 import numpy as np
 
@@ -31,7 +32,7 @@ from rrps_kinematics.rotations import matrix_to_quat_xyzw
 
 from ..viewer import robot_figure, world_ring_poses
 
-__all__ = ['MarkerSpec', 'robot_markers', 'robot_transforms', 'structure_marker',
+__all__ = ['MarkerSpec', 'robot_markers', 'robot_transforms', 'tf_message_cdr', 'structure_marker',
            'leg_link_names', 'ring_radius', 'world_pose_of_ring_a']
 
 _CIRCLE_POINTS = 48
@@ -90,6 +91,33 @@ def robot_transforms(geometry: RobotGeometry, a_T_b: Pose,
         out.append((RING_A_FRAME, base, Pose(geometry.ring_a_anchors[i], quaternions[i])))
         out.append((base, tip, Pose((0.0, 0.0, float(lengths[i])))))
     return out
+
+
+_U32 = struct.Struct('<I')
+_STAMP = struct.Struct('<iI')
+_TRANSFORM = struct.Struct('<7d')
+
+
+def tf_message_cdr(stamp_ns: int, transforms: list[tuple[str, str, Pose]]) -> bytes:
+    """CDR bytes (little-endian XCDR1, as rclpy serialises) of a ``tf2_msgs/msg/TFMessage`` of
+    ``transforms`` (parent, child, parent_T_child), all stamped ``stamp_ns``, without the
+    tf2_msgs package: a sequence of TransformStamped (header: stamp, frame_id; child_frame_id;
+    translation and rotation as float64, 8-aligned from the encapsulation's end). Ten times
+    quicker than mcap-ros2's dynamic encoder, which gives the same bytes (tested)."""
+    sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
+    out = bytearray(b'\x00\x01\x00\x00')
+    out += _U32.pack(len(transforms))
+    stamp = _STAMP.pack(sec, nanosec)
+    for parent, child, pose in transforms:
+        out += b'\x00' * (-(len(out) - 4) % 4)
+        out += stamp
+        for name in (parent, child):
+            text = name.encode('utf-8') + b'\x00'
+            out += b'\x00' * (-(len(out) - 4) % 4)
+            out += _U32.pack(len(text)) + text
+        out += b'\x00' * (-(len(out) - 4) % 8)
+        out += _TRANSFORM.pack(*pose.position, *pose.quaternion_xyzw)
+    return bytes(out)
 
 
 def world_pose_of_ring_a(a_T_b: Pose, grippers: dict | None,
