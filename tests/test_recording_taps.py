@@ -320,3 +320,47 @@ def test_an_operator_save_holds_every_tapped_message_published_before_it(ros_con
         recorder.wait_for_dumps(timeout=10.0)
     recorder.destroy_node()
     assert _recorded_positions(response.message, topic) == talker.sent
+
+
+@pytest.mark.ros
+def test_a_malformed_bundle_is_counted_and_reported_and_recording_goes_on(ros_context, tmp_path):
+    from diagnostic_msgs.msg import DiagnosticArray
+    from rclpy.parameter import Parameter
+    from std_msgs.msg import UInt8MultiArray
+
+    from rrps_kinematics.nodes.recording_tap import TAP_QOS
+    from rrps_teleop.interfaces import RecorderStatus
+    from rrps_teleop.nodes.recorder_node import RecorderNode
+    topic = f'{NS}/actuators/state'
+    talker = _TappedTalker(ros_context)
+    forger = Probe(context=ros_context, name='forger', namespace=NS)
+    garbage = forger.create_publisher(UInt8MultiArray, 'forger/recording_tap', TAP_QOS)
+    diagnostics = forger.collect(DiagnosticArray, '/diagnostics')
+    recorder = RecorderNode(context=ros_context, namespace=NS, parameter_overrides=[
+        Parameter('output_dir', value=str(tmp_path)), Parameter('prefix', value='bad'),
+        Parameter('discovery_period', value=0.1), Parameter('flight_recorder', value=False),
+        Parameter('tf_rate', value=0.0)])
+    with Spinner(ros_context, [talker.node, recorder, forger]):
+        assert wait_for(lambda: recorder._taps.is_tapped(topic) and talker.tap.active
+                        and garbage.get_subscription_count() > 0, 15.0)
+        for i in range(40):
+            talker.publish(float(i))
+            if i % 10 == 0:
+                garbage.publish(UInt8MultiArray(data=list(b'RRPSTAP1 not a bundle')))
+            time.sleep(0.003)
+        assert wait_for(lambda: recorder.bad_bundles == 4, 10.0)
+
+        def reported():
+            for array in list(diagnostics):
+                for status in array.status:
+                    if status.name.startswith('recorder_node'):
+                        values = RecorderStatus.from_values(
+                            {kv.key: kv.value for kv in status.values})
+                        if values.bad_bundles == 4:
+                            return status
+            return None
+        assert wait_for(reported, 10.0)
+        assert reported().level == b'\x01'  # WARN
+        time.sleep(0.3)
+    recorder.destroy_node()
+    assert _recorded_positions(tmp_path / 'bad_0.mcap', topic) == talker.sent

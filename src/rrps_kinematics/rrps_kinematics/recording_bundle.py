@@ -1,8 +1,8 @@
 """Recording bundles: a node's published messages, batched for a recorder (pure, no ROS import).
 
 A recorder that subscribes to every topic gets a second DDS delivery of every message, and at
-the stack's rates that delivery alone costs more than the recording budget (issue 12: a bare
-Python listener of the stack's topics adds about 9-16 % of its CPU). A node with a recording
+the stack's rates that delivery alone costs more than the recording budget (a bare Python
+listener of the demo's topics adds more than 10 % of its CPU; README, *Recording*). A node with a recording
 tap (:mod:`rrps_kinematics.nodes.recording_tap`) therefore keeps, while a recorder listens, the
 CDR bytes it publishes on its high-rate topics, and sends them every 0.1 s as one bundle on its
 private topic ``~/recording_tap``: one DDS delivery per tenth of a second instead of one per
@@ -24,7 +24,7 @@ from __future__ import annotations
 import dataclasses
 import struct
 
-__all__ = ['MAGIC', 'Bundle', 'BundleWriter', 'decode_bundle', 'bundle_payload', 'BUNDLE_TYPE']
+__all__ = ['MAGIC', 'Bundle', 'BundleWriter', 'decode_bundle', 'BUNDLE_TYPE']
 
 MAGIC = b'RRPSTAP1'
 #: The ROS type a bundle travels as.
@@ -66,10 +66,6 @@ class BundleWriter:
         self.pending_messages = 0
         self.pending_bytes = 0
 
-    @property
-    def topics(self) -> tuple[tuple[str, str], ...]:
-        return tuple(self._topics)
-
     def declare(self, topic: str, type_name: str) -> int:
         """Add a topic to the table; returns its index for :meth:`add`."""
         if len(self._topics) >= 0xFFFF:
@@ -92,17 +88,13 @@ class BundleWriter:
         self.pending_messages = self.pending_bytes = 0
 
     def take(self, sent_ns: int) -> bytes:
-        """The CDR bytes of a bundle of every queued message (see :func:`bundle_cdr`); clears."""
-        payload = bundle_payload(self.node, sent_ns, self._table, self._parts)
+        """The CDR bytes of a UInt8MultiArray holding a bundle of every queued message; clears."""
+        node = self.node.encode('utf-8')
+        head = _HEAD.pack(MAGIC, sent_ns, len(node)) + node + self._table
+        length = len(head) + sum(len(p) for p in self._parts)
+        payload = b''.join([_CDR_PREFIX.pack(_CDR_HEADER, 0, 0, length), head, *self._parts])
         self.clear()
         return payload
-
-
-def bundle_payload(node: str, sent_ns: int, table: bytes, parts: list[bytes]) -> bytes:
-    """CDR bytes of a UInt8MultiArray holding a bundle (``table``: the encoded topic table)."""
-    head = _HEAD.pack(MAGIC, sent_ns, len(node.encode('utf-8'))) + node.encode('utf-8') + table
-    body_length = len(head) + sum(len(p) for p in parts)
-    return b''.join([_CDR_PREFIX.pack(_CDR_HEADER, 0, 0, body_length), head, *parts])
 
 
 def decode_bundle(cdr: bytes) -> Bundle:

@@ -202,6 +202,7 @@ class RecorderStatus(StatusValues):
     flight_recorder: bool = False
     topics: int = 0
     tapped_topics: int = 0
+    bad_bundles: int = 0
     messages: int = 0
     bytes_written: int = 0
     file: str = ''

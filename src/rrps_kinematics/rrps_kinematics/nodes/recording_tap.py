@@ -57,10 +57,6 @@ class TappedPublisher:
         self._tap = tap
         self._index = index
 
-    @property
-    def topic_name(self) -> str:
-        return self.publisher.topic_name
-
     def publish(self, msg) -> None:
         """Publish ``msg``; while tapped, as its CDR bytes, kept for the next bundle."""
         if not self._tap.active:
@@ -85,13 +81,7 @@ class RecordingTap:
         #: True while a recorder subscribes to the bundles (checked every flush period).
         self.active = False
         self.bundles_sent = 0
-        self.messages_sent = 0
         node.create_timer(flush_period, self.flush)
-
-    @property
-    def topic_name(self) -> str:
-        """The resolved bundle topic, ``<namespace>/<node>/recording_tap``."""
-        return self._bundle_pub.topic_name
 
     def create_publisher(self, msg_type, topic: str, qos) -> TappedPublisher:
         """A tapped publisher of ``topic`` (the node's ``create_publisher`` arguments)."""
@@ -117,11 +107,9 @@ class RecordingTap:
             if not active:
                 self._writer.clear()
                 return
-            count = self._writer.pending_messages
-            if count == 0 and now - self._last_sent < IDLE_PERIOD:
+            if self._writer.pending_messages == 0 and now - self._last_sent < IDLE_PERIOD:
                 return
             data = self._writer.take(time.time_ns())
         self._last_sent = now
         self._bundle_pub.publish(data)
         self.bundles_sent += 1
-        self.messages_sent += count

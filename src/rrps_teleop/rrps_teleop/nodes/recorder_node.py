@@ -21,8 +21,9 @@ message is logged at its publish time plus the node's smallest bundle delay.
 The transforms ``world -> ring_a -> ring_b`` and each leg's links
 (:func:`rrps_teleop.recording.markers.robot_transforms`) are written to ``/tf`` as
 ``tf2_msgs/msg/TFMessage`` at ``tf_rate`` Hz from the newest ``pose``, ``odometry/*`` and
-``grippers/state`` (:func:`rrps_teleop.recording.markers.tf_message_cdr`: tf2_msgs is not needed); a live ``/tf``
-(markers_node's) is then not subscribed to, so the recording has no duplicate transforms. With
+``grippers/state`` (:func:`rrps_teleop.recording.markers.tf_message_cdr`: tf2_msgs is not
+needed); a live ``/tf`` (markers_node's) is then not subscribed to, so the recording has no
+duplicate transforms. With
 ``tf_rate`` 0 the live ``/tf`` is recorded like any topic (where tf2_msgs is installed).
 
 Flight recorder (``flight_recorder``, default on): the last ``buffer_seconds`` of the same
@@ -205,8 +206,8 @@ class RecorderNode(Node):
         self._last_dump_time = -1e18
         self._writers: list[threading.Thread] = []
         self._faults = FaultWatch()
-        self._tf = tf_rate > 0.0  # this node writes /tf
-        if self._tf:
+        self._writes_tf = tf_rate > 0.0
+        if self._writes_tf:
             self._add_topic(TopicInfo(TF, TF_TYPE, (TF_QOS,)))
             self.create_timer(1.0 / tf_rate, self._write_tf)
         self._diag = Diagnostics(self, 'recorder')
@@ -264,7 +265,7 @@ class RecorderNode(Node):
         for name, types in graph:
             if not self._selected(name) or self._is_tap(name, types):
                 continue
-            if name == TF and self._tf:
+            if name == TF and self._writes_tf:
                 continue  # written by this node from the robot's state
             if len(types) != 1:
                 self.dropped_topics[name] = f'several types {types}'
@@ -328,28 +329,25 @@ class RecorderNode(Node):
         if any(topic not in topics for topic, _, _ in messages):
             messages = [m for m in messages if m[0] in topics]
         self._store_many(messages)
-        for topic, _, cdr in messages:
-            if topic in self._tf_inputs:
-                self._latest[topic] = cdr
         if changed:
             self._discover(force=True)  # a node's tapped topics are known: stop subscribing
 
     def _on_raw(self, topic: str, data: bytes) -> None:
         t = time.time_ns()
         if self._taps.subscribed(topic, data, t):
-            self._record(topic, t, data)
-
-    def _record(self, topic: str, t: int, data: bytes) -> None:
-        self._store(topic, t, data)
-        if topic in self._tf_inputs:
-            self._latest[topic] = data
+            self._store(topic, t, data)
 
     def _store(self, topic: str, t: int, data: bytes) -> None:
         self._store_many(((topic, t, data),))
 
     def _store_many(self, messages) -> None:
-        """Record messages (topic, log time [ns], CDR bytes) to the file and the ring."""
+        """Record messages (topic, log time [ns], CDR bytes) to the file and the ring; keep
+        the newest of /tf's inputs."""
         self.messages += len(messages)
+        tf_inputs = self._tf_inputs
+        for topic, _, data in messages:
+            if topic in tf_inputs:
+                self._latest[topic] = data
         if self.recording is not None:
             self.recording.write_many(messages)
         if self.ring is not None:
@@ -477,18 +475,20 @@ class RecorderNode(Node):
         status = RecorderStatus(
             recording=self.recording is not None, flight_recorder=self.ring is not None,
             topics=len(self._topics), tapped_topics=len(self._taps.tapped_topics),
-            messages=self.messages,
+            bad_bundles=self.bad_bundles, messages=self.messages,
             bytes_written=self.recording.bytes_written if self.recording is not None else 0,
             file=str(self.recording.path) if self.recording is not None else '',
             buffered_messages=len(self.ring) if self.ring is not None else 0,
             buffer_seconds=self.ring.span if self.ring is not None else 0.0,
             dumps=len(self.dumps), last_dump=str(self.dumps[-1]) if self.dumps else '',
             last_trigger=self.last_trigger, dropped_topics=tuple(sorted(self.dropped_topics)))
-        level = WARN if self.dropped_topics else OK
+        level = WARN if self.dropped_topics or self.bad_bundles else OK
         message = (f'{len(self._topics)} topics ({len(self._taps.tapped_topics)} from taps), '
                    f'{self.messages} messages'
                    + (f'; not recorded: {", ".join(sorted(self.dropped_topics))}'
-                      if self.dropped_topics else ''))
+                      if self.dropped_topics else '')
+                   + (f'; {self.bad_bundles} malformed recording bundles ignored'
+                      if self.bad_bundles else ''))
         self._diag.report(level, message, status)
 
     def destroy_node(self) -> None:

@@ -17,8 +17,8 @@ least every ``flush_period`` s of log time, so a process that dies loses at most
 ``max_seconds``, as rosbag2 splits a bag. No rclpy.
 
 The writer is Foxglove's SDK (``foxglove-sdk``, its MCAP writer compiled from Rust): about
-2 us a message here against about 9 us with the pure-Python ``mcap`` writer, which at the
-stack's 2,000+ messages/s was the largest part of the recorder's cost. Files are read back
+3 us a message here against about 9 us with the pure-Python ``mcap`` writer, which at the
+demo's 1,900 messages/s was the largest part of the recorder's cost. Files are read back
 with the ``mcap`` reader (replay, tests).
 """
 
