@@ -1,16 +1,21 @@
 """driver_node in-process: kinematic and dynamic actuators, rejections, staleness, grippers, faults."""
 
+import threading
+
 import numpy as np
 import pytest
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool
 
-from node_helpers import command, said
+import rrps_sim.hardware_state as hardware_state
+from node_helpers import command, said, statuses
 from ros_harness import DEADLINE, Probe, Spinner, header_time, wait_for
 from rrps_kinematics import inverse_kinematics, load_robot
 from rrps_kinematics.nodes.common import LEG_NAMES
+from rrps_sim.hardware_state import load_state
+from rrps_sim.interfaces import DriverStatus
 from rrps_sim.nodes.driver_node import DriverNode
 from rrps_sim.statics import holding_forces
 
@@ -206,3 +211,50 @@ def test_an_unstamped_command_is_not_acted_on(ros_context):
                         and said(diagnostics, 'driver_node', 'unstamped'))
         np.testing.assert_allclose(node.reference, POLE.home_lengths, atol=1e-12)
         assert node.accepted == 0
+
+
+def test_a_blocked_state_file_never_holds_the_loop(ros_context, tmp_path, monkeypatch):
+    """The state file is written by a thread of its own: while the file system blocks (a
+    journal commit under load stopped a 100-byte write for 1 s on the CI machine), the driver
+    still streams its state and follows commands; the file then holds where the robot is."""
+    disk_back, writing = threading.Event(), threading.Event()
+    save_state = hardware_state.save_state
+
+    def blocked_save(path, state):
+        writing.set()
+        assert disk_back.wait(60.0)
+        save_state(path, state)
+
+    monkeypatch.setattr(hardware_state, 'save_state', blocked_save)
+    path = tmp_path / 'robot.json'
+    node = driver(ros_context, state_file=str(path))
+    probe, states, diagnostics, pub = setup(ros_context, node)
+    goal = inverse_kinematics(POLE, POLE.home_position + [0.0, 0.0, 0.005], [0, 0, 0, 1]).lengths
+    try:
+        with Spinner(ros_context, [node, probe]):
+            assert writing.wait(DEADLINE)  # the first write is stuck on the "disk"
+            n0 = len(states)
+            assert wait_for(lambda: (pub.publish(command(probe, goal)),
+                                     len(states) > n0 + 50 and np.allclose(states[-1].position, goal,
+                                                                           rtol=0, atol=1e-9))[1], period=0.05)
+            assert not disk_back.is_set()  # all of that while the write was blocked
+            disk_back.set()
+            assert wait_for(lambda: load_state(path, POLE) is not None
+                            and np.allclose(load_state(path, POLE).lengths, goal, rtol=0, atol=1e-6))
+    finally:
+        disk_back.set()
+        node.destroy_node()
+
+
+def test_a_state_file_that_cannot_be_written_is_reported(ros_context, tmp_path):
+    not_a_dir = tmp_path / 'not_a_dir'
+    not_a_dir.write_text('a file where the directory should be')
+    node = driver(ros_context, state_file=str(not_a_dir / 'robot.json'))
+    probe, states, diagnostics, pub = setup(ros_context, node)
+    with Spinner(ros_context, [node, probe]):
+        assert wait_for(lambda: said(diagnostics, 'driver_node', 'not written'))
+        assert len(states) > 0 or wait_for(lambda: states)  # the loop runs on
+    status = [s for s in statuses(diagnostics, 'driver_node') if 'not written' in s.message][-1]
+    assert status.level == DiagnosticStatus.WARN
+    assert str(not_a_dir) in DriverStatus.from_key_values(status.values).state_file_error
+    node.destroy_node()

@@ -18,6 +18,7 @@ import json
 import math
 import os
 import tempfile
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -27,7 +28,7 @@ from rrps_kinematics.geometry import RobotGeometry
 
 from .interfaces import RINGS
 
-__all__ = ['HardwareState', 'StateFileError', 'save_state', 'load_state']
+__all__ = ['HardwareState', 'StateFileError', 'StateFileWriter', 'save_state', 'load_state']
 
 FORMAT = 1
 
@@ -93,3 +94,63 @@ def load_state(path: str | Path, geometry: RobotGeometry, n_rings: int = 0) -> H
     if not any(grippers.values()):
         raise StateFileError(f'{path}: both grippers open')
     return HardwareState(robot=robot, lengths=lengths, rings=rings, grippers=grippers)
+
+
+class StateFileWriter:
+    """Writes the newest submitted :class:`HardwareState` to ``path`` from a thread of its own.
+
+    :meth:`submit` never blocks on the file system: it replaces a state not yet written (the
+    file only ever needs the newest). ``error`` holds the last write's failure (None after a
+    successful write), ``written`` counts the states on disk.
+    """
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path)
+        self.error: OSError | None = None
+        self.written = 0
+        self._pending: HardwareState | None = None
+        self._busy = False
+        self._closed = False
+        self._cond = threading.Condition()
+        self._thread = threading.Thread(target=self._run, name='state-file-writer', daemon=True)
+        self._thread.start()
+
+    def submit(self, state: HardwareState) -> None:
+        """Queue ``state`` for writing (replacing one not yet written)."""
+        with self._cond:
+            if self._closed:
+                raise RuntimeError('the state file writer is closed')
+            self._pending = state
+            self._cond.notify_all()
+
+    def flush(self, timeout: float | None = None) -> bool:
+        """Wait until every submitted state is written (or failed); False on timeout."""
+        with self._cond:
+            return self._cond.wait_for(lambda: self._pending is None and not self._busy, timeout)
+
+    def close(self, timeout: float | None = None) -> bool:
+        """Write what is pending, then stop the thread; False when it did not finish in time."""
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+        self._thread.join(timeout)
+        return not self._thread.is_alive()
+
+    def _run(self) -> None:
+        while True:
+            with self._cond:
+                self._cond.wait_for(lambda: self._pending is not None or self._closed)
+                state, self._pending = self._pending, None
+                if state is None:  # closed, nothing left
+                    return
+                self._busy = True
+            try:
+                save_state(self.path, state)
+                error = None
+            except OSError as exc:
+                error = exc
+            with self._cond:
+                self._busy = False
+                self.error = error
+                self.written += error is None
+                self._cond.notify_all()

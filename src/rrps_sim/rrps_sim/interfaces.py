@@ -64,6 +64,8 @@ class DriverStatus(CommandAgeStatus):
     ring_b_closed: bool = True
     #: gripper requests refused since the start (the interlock, a ring without a gripper)
     gripper_refusals: int = 0
+    #: why the last write of ``state_file`` failed ('' when it succeeded or there is none)
+    state_file_error: str = ''
 
     @classmethod
     def grippers(cls, closed: Mapping[str, bool]) -> dict:

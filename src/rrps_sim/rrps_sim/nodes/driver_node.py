@@ -8,7 +8,9 @@ parameter ``auto_activate`` activates at start (the demo's first start only). A 
 driver is inactive again. With ``state_file`` the robot's physical state (leg lengths, ring
 angles, grippers) is kept on disk and a restarted driver resumes it
 (:mod:`rrps_sim.hardware_state`): it never teleports home nor reports closed a gripper that was
-open. Deactivating holds the robot where it is.
+open. The file is written by a thread of its own, never by the loop (a file system under load
+blocked a write for a second); a failed write is reported (WARN, ``state_file_error``).
+Deactivating holds the robot where it is.
 
 Modes (parameter ``mode``): ``kinematic`` (:class:`rrps_sim.actuators.KinematicActuators`: lag,
 speed and stroke limits; effort = the quasi-static holding forces of the pose, refreshed at
@@ -63,12 +65,14 @@ from rrps_kinematics.nodes.recording_tap import RecordingTap
 
 from ..actuators import DynamicActuators, KinematicActuators, QuasiStaticEfforts, SensorFaults
 from ..grippers import Grippers
-from ..hardware_state import HardwareState, load_state, save_state
+from ..hardware_state import HardwareState, StateFileWriter, load_state
 from ..interfaces import GRIPPERS_STATE, RINGS, ActuatorMode, DriverStatus, gripper_service
 
 __all__ = ['DriverNode', 'main']
 
 MODES = tuple(m.value for m in ActuatorMode)
+#: How long a lifecycle transition or the shutdown waits for the state file to be written [s].
+STATE_FILE_TIMEOUT = 2.0
 
 
 def _declare_array(node: Node, name: str, kind, description: str) -> list:
@@ -202,7 +206,9 @@ class DriverNode(LifecycleNode):
         self._resting = False
         self.create_timer(0.05, self._publish_grippers)
         self.create_timer(0.5, self._report)
-        if self.state_file:
+        # the file is written by a thread of its own: a file system that blocks never holds the loop
+        self._state_writer = StateFileWriter(self.state_file) if self.state_file else None
+        if self._state_writer is not None:
             self.create_timer(0.1, self._save_state)
             self._save_state()
         self.trigger_configure()
@@ -227,13 +233,20 @@ class DriverNode(LifecycleNode):
         return super().on_deactivate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
-        self._save_state()
+        self._save_state(wait=True)
         return TransitionCallbackReturn.SUCCESS
 
     def on_shutdown(self, state: State) -> TransitionCallbackReturn:
         self.active = False
-        self._save_state()
+        self._save_state(wait=True)
         return TransitionCallbackReturn.SUCCESS
+
+    def destroy_node(self) -> None:
+        if self._state_writer is not None:  # the last state reaches the file before the process ends
+            self._save_state()
+            self._state_writer.close(timeout=STATE_FILE_TIMEOUT)
+            self._state_writer = None
+        super().destroy_node()
 
     def _hold(self) -> None:
         """Track where the actuators are now (no jump towards an older reference)."""
@@ -242,19 +255,21 @@ class DriverNode(LifecycleNode):
             self.ring_reference = self.rings.positions.copy()
         self._last_command_time = None
 
-    def _save_state(self) -> None:
+    def _save_state(self, *, wait: bool = False) -> None:
         """Keep the physical state on disk (only when it changed by more than 1 um or a gripper
-        switched)."""
-        if not self.state_file:
+        switched), through the writer's thread; ``wait`` (a lifecycle transition, not the loop)
+        waits up to STATE_FILE_TIMEOUT for it to be written."""
+        if self._state_writer is None:
             return
         lengths = tuple(round(float(v), 6) for v in self.actuators.positions)
         rings = () if self.rings is None else tuple(round(float(v), 6) for v in self.rings.positions)
         key = (lengths, rings, tuple(self.grippers.closed[r] for r in RINGS))
-        if key == self._saved:
-            return
-        save_state(self.state_file, HardwareState(robot=self.geometry.name, lengths=lengths,
-                                                  rings=rings, grippers=dict(self.grippers.closed)))
-        self._saved = key
+        if key != self._saved:
+            self._state_writer.submit(HardwareState(robot=self.geometry.name, lengths=lengths,
+                                                    rings=rings, grippers=dict(self.grippers.closed)))
+            self._saved = key
+        if wait:
+            self._state_writer.flush(timeout=STATE_FILE_TIMEOUT)
 
     # --- faults ---
 
@@ -285,11 +300,15 @@ class DriverNode(LifecycleNode):
 
     def _report(self) -> None:
         level, message = self._status
+        error = self._state_writer.error if self._state_writer is not None else None
+        if error is not None:
+            level, message = max(level, WARN), f'{message}; {self.state_file} not written: {error}'
         self._diag.report(level, message, DriverStatus(
             mode=self.mode, active=self.active, accepted=self.accepted, rejected=self.rejected, dropped=self.dropped,
             lengths=tuple(float(v) for v in self.actuators.positions),
             stuck_legs=tuple(int(i) + 1 for i in np.flatnonzero(self.actuators.stuck)),
             **DriverStatus.grippers(self.grippers.closed), gripper_refusals=self.gripper_refusals,
+            state_file_error='' if error is None else str(error),
             **self.ages.summary(self.get_clock().now().nanoseconds * 1e-9)))
 
     def _set_status(self, level, message: str) -> None:

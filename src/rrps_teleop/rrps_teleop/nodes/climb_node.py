@@ -307,7 +307,7 @@ class ClimbNode(Node):
             return response
         reason = self.watch.hold_reason(driver_active=self.driver_active)
         if reason is not None:
-            response.success, response.message = False, f'refused: {reason.value}'
+            response.success, response.message = False, f'refused: {reason.value} ({self.watch.ages()})'
             return response
         self._take_pose()
         if self._stage == 'stream':
@@ -345,7 +345,7 @@ class ClimbNode(Node):
             return False, 'refused: no pose or grippers/state received yet'
         reason = self.watch.hold_reason(driver_active=self.driver_active)
         if reason is not None:
-            return False, f'refused: {reason.value}'
+            return False, f'refused: {reason.value} ({self.watch.ages()})'
         try:
             plan = self.planner.plan(distance, steps, start=self.s_a,
                                      initial_separation=self.s_b - self.s_a, initial_theta=self.theta)
