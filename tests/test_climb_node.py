@@ -36,8 +36,12 @@ TOL = 0.001  # position_tolerance of the node [m]
 
 
 def _stack(ctx, robot='pole_climber', driver=None, **climb):
+    """Driver, IK, FK and climb_node in this test's process. These tests check where a climb
+    goes; its pauses on stale inputs are tested in test_liveness.py and test_multihost.py. All
+    nodes share one executor here, which a loaded CI machine held up to 0.22 s once (the
+    driver's 20 Hz grippers/state against the default 0.2 s), so ``state_timeout`` is 0.5 s."""
     params = {'robot': robot, 'structure': 'pole', 'speed': 0.05, 'step_length': 0.06,
-              'position_tolerance': TOL, 'start': 0.2, **climb}
+              'position_tolerance': TOL, 'start': 0.2, 'state_timeout': 0.5, **climb}
     robot_param = Parameter('robot', value=robot)
     driver = [Parameter(k, value=v) for k, v in {'rate': 200.0, 'auto_activate': True,
                                                   **(driver or {})}.items()]
