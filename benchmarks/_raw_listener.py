@@ -21,44 +21,39 @@ def main() -> None:
     parser.add_argument('--namespace', default='/rrps')
     args = parser.parse_args()
 
-    import rclpy
     from rclpy.node import Node
 
     from rrps_kinematics.interfaces import DIAGNOSTICS
-    from rrps_kinematics.nodes.common import make_executor, spin_until_shutdown
+    from rrps_kinematics.nodes.common import run_nodes
     from rrps_teleop.nodes.recorder_node import qos_spec, subscription_qos
     from rrps_teleop.recording.qos import request_for_offers
     from rrps_teleop.recording.schemas import message_class
 
-    context = rclpy.Context()
-    rclpy.init(context=context)
-    node = Node('raw_listener', context=context)
-    subscriptions = {}
+    class RawListener(Node):
+        """Raw subscriptions to the recorder's topics; callbacks that do nothing."""
 
-    def discover() -> None:
-        for name, types in node.get_topic_names_and_types():
-            if name in subscriptions or len(types) != 1 or not (
-                    name == DIAGNOSTICS or name.startswith(args.namespace.rstrip('/') + '/')):
-                continue
-            infos = node.get_publishers_info_by_topic(name)
-            if not infos:
-                continue
-            qos = subscription_qos(request_for_offers(tuple(qos_spec(i.qos_profile) for i in infos), depth=100))
-            subscriptions[name] = node.create_subscription(
-                message_class(types[0]), name, lambda data: None, qos,
-                raw=True)
+        def __init__(self, *, context):
+            super().__init__('raw_listener', context=context)
+            self._subscriptions_by_topic = {}
+            self.create_timer(1.0, self.discover)
+            self.discover()
 
-    node.create_timer(1.0, discover)
-    discover()
-    executor = make_executor(context, 'events')
-    executor.add_node(node)
-    try:
-        spin_until_shutdown(executor, context)
-    except KeyboardInterrupt:
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown(context=context)
+        def discover(self) -> None:
+            for name, types in self.get_topic_names_and_types():
+                if name in self._subscriptions_by_topic or len(types) != 1 or not (
+                        name == DIAGNOSTICS or name.startswith(args.namespace.rstrip('/') + '/')):
+                    continue
+                infos = self.get_publishers_info_by_topic(name)
+                if not infos:
+                    continue
+                qos = subscription_qos(request_for_offers(tuple(qos_spec(i.qos_profile) for i in infos),
+                                                          depth=100))
+                self._subscriptions_by_topic[name] = self.create_subscription(
+                    message_class(types[0]), name, lambda data: None, qos, raw=True)
+
+    # run_nodes: SIGINT/SIGTERM end the spin between slices (rclpy's own handler would shut the
+    # context down under the spinning EventsExecutor, which can hang it)
+    run_nodes([RawListener], ['raw_listener'])
 
 
 if __name__ == '__main__':
