@@ -18,9 +18,11 @@ def wait_until(predicate, timeout: float) -> bool:
 
 
 def stop_processes(processes, timeout: float = 5.0) -> None:
-    """SIGINT every process (the nodes' clean Ctrl-C path), then kill those still running."""
+    """SIGTERM every process (the nodes' clean shutdown, as Ctrl-C; a SIGINT would be ignored
+    by a benchmark started in the background of a non-interactive shell, which passes SIGINT
+    ignored to its children), then kill those still running."""
     for p in processes:
-        p.send_signal(signal.SIGINT)
+        p.send_signal(signal.SIGTERM)
     for p in processes:
         try:
             p.wait(timeout)

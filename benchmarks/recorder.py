@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import signal
 import subprocess
 import sys
 import tempfile
@@ -93,6 +92,7 @@ def _report_files(files) -> None:
 
 def _session(seconds: float, out_dir: Path, deadman, climb, Trigger) -> int:
     """Record ``seconds`` of teleop motion, then a climb step; print the recording."""
+    from rrps_kinematics.supervision import stop_child
     recorder = subprocess.Popen(
         [sys.executable, '-m', 'rrps_teleop.record_cli', '-o', str(out_dir), '--prefix',
          'session', '--namespace', '/rrps'], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -108,8 +108,7 @@ def _session(seconds: float, out_dir: Path, deadman, climb, Trigger) -> int:
         print(f'climb step up: {response.message if response else "no answer"}')
         time.sleep(max(0.0, seconds - (time.monotonic() - t0)))
     finally:
-        recorder.send_signal(signal.SIGINT)
-        recorder.wait(timeout=30.0)
+        stop_child(recorder, timeout=30.0)
     print(f'\nA {seconds:g} s session (teleop motion, then a climb step), recorded by rrps-record:')
     _report_files(sorted(out_dir.glob('session_*.mcap')))
     return 0
@@ -144,6 +143,7 @@ def main() -> int:
         OPERATOR_NICE,
         OPERATOR_RT_PRIORITY,
         start_child,
+        stop_child,
     )
     from rrps_teleop.demo import start_driver, start_robot_nodes
     from rrps_teleop.params import params_file_arguments
@@ -233,8 +233,7 @@ def main() -> int:
             phases.append((name, 100.0 * (c1 - c0) / (t1 - t0),
                            100.0 * recorder_cpu / (t1 - t0), np.diff(s)))
             if kind:
-                recorder.send_signal(signal.SIGINT)
-                recorder.wait(timeout=30.0)
+                stop_child(recorder, timeout=30.0)
     finally:
         stop.set()
         spinner.join(timeout=5.0)

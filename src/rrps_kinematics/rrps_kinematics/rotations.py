@@ -120,32 +120,26 @@ def euler_parameters_to_quat_xyzw(p: np.ndarray) -> np.ndarray:
 
 def matrix_to_euler_parameters(A: np.ndarray) -> np.ndarray:
     """Euler parameters (canonical sign, e0 >= 0) of a rotation matrix; robust for every angle
-    (Shepperd's method)."""
+    (Shepperd's method: of the four expressions of 4 e e^T's rows, the one with the largest
+    diagonal term 4 e_k^2, normalised)."""
     A = np.asarray(A, dtype=float)
     batch = A.shape[:-2]
     A = A.reshape((-1, 3, 3))
-    tr = np.trace(A, axis1=1, axis2=2)
-    diag = np.stack([A[:, 0, 0], A[:, 1, 1], A[:, 2, 2]], axis=1)
-    # 4 e_k^2 for k = 0..3, pick the largest to divide by.
-    sq = np.stack([1.0 + tr, 1.0 + 2 * diag[:, 0] - tr, 1.0 + 2 * diag[:, 1] - tr,
-                   1.0 + 2 * diag[:, 2] - tr], axis=1)
-    k = np.argmax(sq, axis=1)
-    p = np.empty((A.shape[0], 4))
-    s = np.sqrt(np.maximum(sq[np.arange(A.shape[0]), k], 1e-300))  # = 2 |e_k|
-    d32 = A[:, 2, 1] - A[:, 1, 2]
-    d13 = A[:, 0, 2] - A[:, 2, 0]
-    d21 = A[:, 1, 0] - A[:, 0, 1]
-    s01 = A[:, 0, 1] + A[:, 1, 0]
-    s02 = A[:, 0, 2] + A[:, 2, 0]
-    s12 = A[:, 1, 2] + A[:, 2, 1]
-    m = k == 0
-    p[m] = np.stack([0.5 * s[m], d32[m] / (2 * s[m]), d13[m] / (2 * s[m]), d21[m] / (2 * s[m])], 1)
-    m = k == 1
-    p[m] = np.stack([d32[m] / (2 * s[m]), 0.5 * s[m], s01[m] / (2 * s[m]), s02[m] / (2 * s[m])], 1)
-    m = k == 2
-    p[m] = np.stack([d13[m] / (2 * s[m]), s01[m] / (2 * s[m]), 0.5 * s[m], s12[m] / (2 * s[m])], 1)
-    m = k == 3
-    p[m] = np.stack([d21[m] / (2 * s[m]), s02[m] / (2 * s[m]), s12[m] / (2 * s[m]), 0.5 * s[m]], 1)
+    a00, a11, a22 = A[:, 0, 0], A[:, 1, 1], A[:, 2, 2]
+    tr = a00 + a11 + a22
+    d32 = A[:, 2, 1] - A[:, 1, 2]  # 4 e0 e1
+    d13 = A[:, 0, 2] - A[:, 2, 0]  # 4 e0 e2
+    d21 = A[:, 1, 0] - A[:, 0, 1]  # 4 e0 e3
+    s01 = A[:, 0, 1] + A[:, 1, 0]  # 4 e1 e2
+    s02 = A[:, 0, 2] + A[:, 2, 0]  # 4 e1 e3
+    s12 = A[:, 1, 2] + A[:, 2, 1]  # 4 e2 e3
+    # 4 e e^T, row by row: row k is 4 e_k e, so any row with e_k != 0 is e up to scale.
+    rows = np.stack([np.stack([1.0 + tr, d32, d13, d21], axis=1),
+                     np.stack([d32, 1.0 + 2 * a00 - tr, s01, s02], axis=1),
+                     np.stack([d13, s01, 1.0 + 2 * a11 - tr, s12], axis=1),
+                     np.stack([d21, s02, s12, 1.0 + 2 * a22 - tr], axis=1)], axis=1)
+    diagonal = rows[:, [0, 1, 2, 3], [0, 1, 2, 3]]
+    p = rows[np.arange(A.shape[0]), np.argmax(diagonal, axis=1)]
     p = p / np.linalg.norm(p, axis=1, keepdims=True)
     p = p * _canonical_sign(p)
     return p.reshape(batch + (4,))
