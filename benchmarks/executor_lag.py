@@ -42,6 +42,9 @@ os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 50))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'tests'))
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _common import cpu_seconds  # noqa: E402
 from load import Load  # noqa: E402
 from rrps_kinematics.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, OPERATOR_NICE, OPERATOR_RT_PRIORITY  # noqa: E402
 
@@ -68,11 +71,6 @@ def _free_port() -> int:
     with socket.socket() as s:
         s.bind(('127.0.0.1', 0))
         return s.getsockname()[1]
-
-
-def _cpu_seconds(pid: int) -> float:
-    fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
 
 
 class Observer:
@@ -171,11 +169,11 @@ def run_composition(name: str, composition, *, seconds: float, load: bool) -> di
         if loader is not None:
             loader.start()
             time.sleep(5.0)  # the browser loads the viewer
-        cpu0 = {c.pid: _cpu_seconds(c.pid) for c in children}
+        cpu0 = {c.pid: cpu_seconds([c.pid]) for c in children}
         t0 = time.monotonic()
         steps = _climb_for(observer, seconds)
         elapsed = time.monotonic() - t0
-        cpu = {label: 100.0 * (_cpu_seconds(c.pid) - cpu0[c.pid]) / elapsed
+        cpu = {label: 100.0 * (cpu_seconds([c.pid]) - cpu0[c.pid]) / elapsed
                for label, c in zip(labels, children)}
         time.sleep(1.0)  # the last diagnostics
         return {'steps': steps, 'ik': observer.values('ik_node'),

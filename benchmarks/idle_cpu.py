@@ -25,6 +25,9 @@ from pathlib import Path
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 os.environ.setdefault('ROS_DOMAIN_ID', str(100 + os.getpid() % 50))
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import cpu_seconds  # noqa: E402
+
 NAMESPACE = '/rrps'
 NODES = ('driver_node', 'ik_node', 'fk_node', 'climb_node', 'master_node', 'teleop_node',
          'viewer_node', 'recorder_node', 'markers_node')
@@ -40,11 +43,6 @@ def _free_port() -> int:
     with socket.socket() as s:
         s.bind(('127.0.0.1', 0))
         return s.getsockname()[1]
-
-
-def _cpu_seconds(pid: int) -> float:
-    fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
 
 
 def _descendants(pid: int) -> list[int]:
@@ -66,11 +64,11 @@ def _descendants(pid: int) -> list[int]:
 
 def _measure(pids: dict[str, int], settle: float, seconds: float) -> dict[str, float]:
     time.sleep(settle)
-    before = {name: _cpu_seconds(pid) for name, pid in pids.items()}
+    before = {name: cpu_seconds([pid]) for name, pid in pids.items()}
     t0 = time.monotonic()
     time.sleep(seconds)
     elapsed = time.monotonic() - t0
-    return {name: 100.0 * (_cpu_seconds(pid) - before[name]) / elapsed
+    return {name: 100.0 * (cpu_seconds([pid]) - before[name]) / elapsed
             for name, pid in pids.items()}
 
 

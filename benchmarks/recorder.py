@@ -55,21 +55,7 @@ os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 80))
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import stop_processes, wait_until  # noqa: E402
-
-TICK = os.sysconf('SC_CLK_TCK')
-
-
-def cpu_seconds(pids) -> float:
-    """User + system CPU seconds of the processes (0 for one that is gone)."""
-    total = 0.0
-    for pid in pids:
-        try:
-            fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
-        except OSError:
-            continue
-        total += (int(fields[11]) + int(fields[12])) / TICK
-    return total
+from _common import cpu_seconds, stop_processes, wait_until  # noqa: E402
 
 
 def _report_files(files) -> None:

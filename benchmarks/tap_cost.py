@@ -25,14 +25,11 @@ import numpy as np
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 80))
 
-TICK = os.sysconf('SC_CLK_TCK')
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import cpu_seconds  # noqa: E402
+
 RATE = 500.0
 TOPIC = 'tap_cost/state'
-
-
-def cpu_seconds(pid: int) -> float:
-    fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / TICK
 
 
 def publisher(flush_period: float) -> None:
@@ -88,18 +85,11 @@ def _child(*args: str) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, __file__, *args])
 
 
-def _stop(process: subprocess.Popen) -> None:
-    process.terminate()  # run_nodes: SIGTERM is a clean stop
-    try:
-        process.wait(timeout=10.0)
-    except subprocess.TimeoutExpired:
-        process.kill()
-        process.wait()
-
-
 def measure(flush_period: float, seconds: float, cycles: int) -> tuple[list[float], list[float]]:
     """The publisher's CPU [% of a core] in the idle phases and the sink phases (alternating,
     starting and ending idle)."""
+    from rrps_kinematics.supervision import stop_child  # SIGTERM (run_nodes: a clean stop), then kill
+
     pub, reader = _child('publisher', str(flush_period)), _child('subscriber', 'reader')
     idle, sink = [], []
     try:
@@ -107,15 +97,15 @@ def measure(flush_period: float, seconds: float, cycles: int) -> tuple[list[floa
         for phase in ['idle', 'sink'] * cycles + ['idle']:
             extra = _child('subscriber', 'sink') if phase == 'sink' else None
             time.sleep(3.0)  # the sink matched: the tap is active
-            c0, t0 = cpu_seconds(pub.pid), time.monotonic()
+            c0, t0 = cpu_seconds([pub.pid]), time.monotonic()
             time.sleep(seconds)
-            cpu = 100.0 * (cpu_seconds(pub.pid) - c0) / (time.monotonic() - t0)
+            cpu = 100.0 * (cpu_seconds([pub.pid]) - c0) / (time.monotonic() - t0)
             (sink if phase == 'sink' else idle).append(cpu)
             if extra is not None:
-                _stop(extra)
+                stop_child(extra)
     finally:
-        _stop(pub)
-        _stop(reader)
+        stop_child(pub)
+        stop_child(reader)
     return idle, sink
 
 

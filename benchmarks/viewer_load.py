@@ -32,8 +32,12 @@ import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import cpu_seconds  # noqa: E402
 
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 80))
@@ -133,18 +137,12 @@ def _phase_with_clients(url: str, n: int, slow: bool, seconds: float, pid: int):
     stop_flag = threading.Event()
     clients, thread = _clients_thread(url, n, stop_flag, slow=slow)
     time.sleep(3.0)  # connect, receive the scene
-    t_start, cpu_start = time.monotonic(), _cpu_seconds(pid)
+    t_start, cpu_start = time.monotonic(), cpu_seconds([pid])
     time.sleep(seconds)
-    t_end, cpu_end = time.monotonic(), _cpu_seconds(pid)
+    t_end, cpu_end = time.monotonic(), cpu_seconds([pid])
     stop_flag.set()
     thread.join(timeout=10.0)
     return clients, t_start, t_end, cpu_start, cpu_end
-
-
-def _cpu_seconds(pid: int) -> float:
-    """User + system CPU time [s] of a process (all its threads), from /proc."""
-    fields = open(f'/proc/{pid}/stat').read().rsplit(')', 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
 
 
 def _periods(stamps: list[tuple[float, float]], t0: float, t1: float) -> np.ndarray:
@@ -230,9 +228,9 @@ def main() -> int:
                 return 1
             time.sleep(0.2)
 
-        t0, cpu0 = time.monotonic(), _cpu_seconds(demo.pid)
+        t0, cpu0 = time.monotonic(), cpu_seconds([demo.pid])
         time.sleep(args.seconds)
-        t1, cpu1 = time.monotonic(), _cpu_seconds(demo.pid)
+        t1, cpu1 = time.monotonic(), cpu_seconds([demo.pid])
         url = f'ws://127.0.0.1:{port}'
         one, ta, tb, cpua, cpub = _phase_with_clients(url, 1, False, args.seconds, demo.pid)
         clients, t2, t3, cpu2, cpu3 = _phase_with_clients(url, args.clients, args.slow_client,
