@@ -308,3 +308,29 @@ def test_flight_recorder_saves_on_request_and_on_faults(ros_context, tmp_path):
             _, messages = _read(path)
             assert any(t == f'{NS}/pose' for t, _, _, _ in messages)
     assert not list(tmp_path.glob('*.part'))
+
+
+def test_faults_trigger_a_dump_also_when_their_topics_are_not_recorded(ros_context, tmp_path):
+    """The fault triggers' topics are heard through the recording's own subscription when they
+    are recorded, through one of their own when they are not (here only pose is recorded)."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    from geometry_msgs.msg import PoseStamped
+    probe = Probe(context=ros_context, namespace=NS)
+    pose_pub = probe.publisher(PoseStamped, 'pose')
+    diag_pub = probe.publisher(DiagnosticArray, '/diagnostics')
+    recorder = _recorder(ros_context, tmp_path, record=False, topics=[f'{NS}/pose'],
+                         post_trigger=0.1, min_dump_interval=0.0, tf_rate=0.0)
+    with Spinner(ros_context, [recorder, probe]):
+        assert wait_for(lambda: f'{NS}/pose' in recorder._raw_subscriptions, timeout=10.0)
+        assert '/diagnostics' not in recorder._raw_subscriptions
+        assert wait_for(lambda: diag_pub.get_subscription_count() >= 1, timeout=10.0)
+        for i in range(20):
+            pose_pub.publish(_pose(probe, 0.4 + 1e-5 * i))
+            time.sleep(0.01)
+        diag_pub.publish(DiagnosticArray(status=[DiagnosticStatus(
+            level=DiagnosticStatus.ERROR, name='fk_node: forward kinematics')]))
+        assert wait_for(lambda: list(tmp_path.glob('flight_*_node_error*.mcap')), timeout=20.0)
+        recorder.wait_for_dumps()
+    path, = tmp_path.glob('flight_*_node_error*.mcap')
+    _, messages = _read(path)
+    assert {t for t, _, _, _ in messages} == {f'{NS}/pose'}

@@ -63,8 +63,6 @@ class BundleWriter:
         self._topics: list[tuple[str, str]] = []
         self._table = b''
         self._parts: list[bytes] = []
-        self.pending_messages = 0
-        self.pending_bytes = 0
 
     def declare(self, topic: str, type_name: str) -> int:
         """Add a topic to the table; returns its index for :meth:`add`."""
@@ -79,13 +77,6 @@ class BundleWriter:
         """Queue one published message (its CDR bytes) of topic ``index``."""
         self._parts.append(_FRAME.pack(index, publish_ns, len(data)))
         self._parts.append(data)
-        self.pending_messages += 1
-        self.pending_bytes += len(data) + _FRAME.size
-
-    def clear(self) -> None:
-        """Forget the queued messages."""
-        self._parts = []
-        self.pending_messages = self.pending_bytes = 0
 
     def take(self, sent_ns: int) -> bytes:
         """The CDR bytes of a UInt8MultiArray holding a bundle of every queued message; clears."""
@@ -93,7 +84,7 @@ class BundleWriter:
         head = _HEAD.pack(MAGIC, sent_ns, len(node)) + node + self._table
         length = len(head) + sum(len(p) for p in self._parts)
         payload = b''.join([_CDR_PREFIX.pack(_CDR_HEADER, 0, 0, length), head, *self._parts])
-        self.clear()
+        self._parts = []
         return payload
 
 

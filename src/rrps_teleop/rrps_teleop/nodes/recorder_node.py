@@ -211,11 +211,16 @@ class RecorderNode(Node):
             self._add_topic(TopicInfo(TF, TF_TYPE, (TF_QOS,)))
             self.create_timer(1.0 / tf_rate, self._write_tf)
         self._diag = Diagnostics(self, 'recorder')
-        self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, STATE_QOS)
-        for topic in (TELEOP_STATUS, CLIMB_STATUS):
-            self.create_subscription(DiagnosticStatus, topic,
-                                     lambda msg, topic=topic: self._on_status(topic, msg),
-                                     STATE_QOS)
+        # The fault triggers' topics (full name: event source, type): heard through their
+        # recording subscription (_on_raw), or through one of their own when not recorded.
+        self._triggers = {DIAGNOSTICS: (DIAGNOSTICS, DiagnosticArray),
+                          f'{ns}/{TELEOP_STATUS}': (TELEOP_STATUS, DiagnosticStatus),
+                          f'{ns}/{CLIMB_STATUS}': (CLIMB_STATUS, DiagnosticStatus)}
+        for name, (_, msg_type) in self._triggers.items():
+            if not self._selected(name):
+                self.create_subscription(msg_type, name,
+                                         lambda data, name=name: self._on_trigger(name, data),
+                                         STATE_QOS, raw=True)
         self.create_service(Trigger, FLIGHT_RECORDER_SAVE, self._on_save)
         self.create_timer(self.discovery_period, self._discover)
         self.create_timer(0.1, self._housekeeping)
@@ -336,6 +341,8 @@ class RecorderNode(Node):
         t = time.time_ns()
         if self._taps.subscribed(topic, data, t):
             self._store(topic, t, data)
+        if topic in self._triggers:
+            self._on_trigger(topic, data)
 
     def _store(self, topic: str, t: int, data: bytes) -> None:
         self._store_many(((topic, t, data),))
@@ -389,17 +396,20 @@ class RecorderNode(Node):
 
     # --- flight recorder ----------------------------------------------------------------------
 
-    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
-        for status in msg.status:
-            self._event(StatusEvent(DIAGNOSTICS, int.from_bytes(status.level, 'little')
-                                    if isinstance(status.level, bytes) else int(status.level),
-                                    status.name, {kv.key: kv.value for kv in status.values}))
-
-    def _on_status(self, topic: str, status: DiagnosticStatus) -> None:
-        level = status.level
-        self._event(StatusEvent(topic, int.from_bytes(level, 'little')
-                                if isinstance(level, bytes) else int(level), status.name,
-                                {kv.key: kv.value for kv in status.values}))
+    def _on_trigger(self, topic: str, data: bytes) -> None:
+        """A /diagnostics array or a status topic's DiagnosticStatus: each status an event."""
+        source, msg_type = self._triggers[topic]
+        try:
+            msg = deserialize_message(data, msg_type)
+        except Exception as exc:  # rclpy raises a bare Exception for bytes it cannot read
+            self.get_logger().warning(f'{topic}: unreadable message ignored: {exc}',
+                                      throttle_duration_sec=5.0)
+            return
+        for status in (msg.status if msg_type is DiagnosticArray else [msg]):
+            level = status.level
+            self._event(StatusEvent(source, int.from_bytes(level, 'little')
+                                    if isinstance(level, bytes) else int(level), status.name,
+                                    {kv.key: kv.value for kv in status.values}))
 
     def _event(self, event: StatusEvent) -> None:
         trigger = self._faults.check(event)

@@ -24,6 +24,7 @@ import struct
 
 import numpy as np
 
+from rrps_kinematics.cdr import ENCAPSULATION, append_string, pad
 from rrps_kinematics.geometry import RobotGeometry
 from rrps_kinematics.interfaces import RING_A_FRAME, RING_B_FRAME, WORLD_FRAME
 from rrps_kinematics.inverse import inverse_kinematics
@@ -93,29 +94,27 @@ def robot_transforms(geometry: RobotGeometry, a_T_b: Pose,
     return out
 
 
-_U32 = struct.Struct('<I')
 _STAMP = struct.Struct('<iI')
 _TRANSFORM = struct.Struct('<7d')
+_COUNT = struct.Struct('<I')
 
 
 def tf_message_cdr(stamp_ns: int, transforms: list[tuple[str, str, Pose]]) -> bytes:
     """CDR bytes (little-endian XCDR1, as rclpy serialises) of a ``tf2_msgs/msg/TFMessage`` of
     ``transforms`` (parent, child, parent_T_child), all stamped ``stamp_ns``, without the
     tf2_msgs package: a sequence of TransformStamped (header: stamp, frame_id; child_frame_id;
-    translation and rotation as float64, 8-aligned from the encapsulation's end). Five times
-    quicker than mcap-ros2's dynamic encoder, which gives the same bytes (tested)."""
+    translation and rotation as float64). Five times quicker than mcap-ros2's dynamic encoder,
+    which gives the same bytes (tested)."""
     sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
-    out = bytearray(b'\x00\x01\x00\x00')
-    out += _U32.pack(len(transforms))
+    out = bytearray(ENCAPSULATION)
+    out += _COUNT.pack(len(transforms))
     stamp = _STAMP.pack(sec, nanosec)
     for parent, child, pose in transforms:
-        out += b'\x00' * (-(len(out) - 4) % 4)
+        pad(out, 4)
         out += stamp
-        for name in (parent, child):
-            text = name.encode('utf-8') + b'\x00'
-            out += b'\x00' * (-(len(out) - 4) % 4)
-            out += _U32.pack(len(text)) + text
-        out += b'\x00' * (-(len(out) - 4) % 8)
+        append_string(out, parent)
+        append_string(out, child)
+        pad(out, 8)
         out += _TRANSFORM.pack(*pose.position, *pose.quaternion_xyzw)
     return bytes(out)
 
