@@ -1,7 +1,10 @@
 """fk_node in-process: actuators/state -> pose, warm-started; bad input, non-convergence and jumps."""
 
+import time
+
 import numpy as np
 import pytest
+from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
 from rclpy.parameter import Parameter
@@ -89,3 +92,35 @@ def test_parameter_ranges_are_enforced(ros_context):
     assert not node.set_parameters([Parameter('robot', value='frame_climber')])[0].successful  # read-only
     assert node.tracker.max_jump == 0.05
     node.destroy_node()
+
+
+def test_a_robot_at_rest_is_recorded_with_every_stamp_while_tapped(ros_context):
+    """At rest fk_node re-publishes its last pose with the new stamp. While a recorder listens,
+    its tap keeps each published pose until the next bundle, so each must be a new message:
+    the bundles hold every stamp, in order (a re-stamped message would show the last one)."""
+    from rclpy.serialization import deserialize_message
+    from std_msgs.msg import UInt8MultiArray
+
+    from rrps_kinematics.interfaces import RECORDING_TAP
+    from rrps_kinematics.nodes.recording_tap import TAP_QOS
+    from rrps_kinematics.recording_bundle import decode_bundle
+    node = FkNode(context=ros_context, namespace='/t')
+    probe = Probe(context=ros_context, namespace='/t')
+    bundles = []
+    probe.create_subscription(UInt8MultiArray, f'fk_node/{RECORDING_TAP}', bundles.append,
+                              TAP_QOS, raw=True)
+    poses = probe.collect(PoseStamped, 'pose')
+    pub = probe.publisher(JointState, 'actuators/state')
+    lengths = inverse_kinematics(POLE, POLE.home_position, [0, 0, 0, 1]).lengths
+    with Spinner(ros_context, [node, probe]):
+        assert wait_for(lambda: pub.get_subscription_count() == 1)
+        assert wait_for(lambda: node._pub.tapped, timeout=10.0)
+        for i in range(40):
+            pub.publish(joint_state_msg(Time(sec=100, nanosec=i), lengths))
+            time.sleep(0.002)
+        assert wait_for(lambda: len(poses) == 40, timeout=10.0)
+        time.sleep(0.3)  # the last bundle
+    frames = [frame for data in bundles for frame in decode_bundle(data).frames]
+    recorded = [deserialize_message(cdr, PoseStamped) for _, _, cdr in frames]
+    assert [m.header.stamp.nanosec for m in recorded] == list(range(40))
+    assert all(pose_error(m, POLE.home_position, [0, 0, 0, 1])[0] < 1e-9 for m in recorded)

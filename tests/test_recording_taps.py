@@ -364,3 +364,48 @@ def test_a_malformed_bundle_is_counted_and_reported_and_recording_goes_on(ros_co
         time.sleep(0.3)
     recorder.destroy_node()
     assert _recorded_positions(tmp_path / 'bad_0.mcap', topic) == talker.sent
+
+
+@pytest.mark.ros
+def test_a_tap_bundles_encoded_and_serialised_types_in_publish_order(ros_context):
+    """JointState (kept and encoded per bundle by rrps_kinematics.cdr) and Bool (no encoder:
+    serialised by rclpy at publish time) from one node: the bundles hold every message once,
+    in publish order, and each decodes to what was published."""
+    from rclpy.node import Node
+    from rclpy.serialization import deserialize_message
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Bool, UInt8MultiArray
+
+    from rrps_kinematics.interfaces import RECORDING_TAP
+    from rrps_kinematics.nodes.common import STATE_QOS, joint_state_msg
+    from rrps_kinematics.nodes.recording_tap import TAP_QOS, RecordingTap
+    node = Node('two_types', context=ros_context, namespace=NS)
+    tap = RecordingTap(node)
+    state_pub = tap.create_publisher(JointState, 'actuators/state', STATE_QOS)
+    flag_pub = tap.create_publisher(Bool, 'teleop/enable', STATE_QOS)
+    sink = Probe(context=ros_context, name='sink', namespace=NS)
+    bundles = []
+    sink.create_subscription(UInt8MultiArray, f'two_types/{RECORDING_TAP}', bundles.append,
+                             TAP_QOS, raw=True)
+    sent = []
+    with Spinner(ros_context, [node, sink]):
+        assert wait_for(lambda: tap.active, timeout=10.0)
+        for i in range(120):
+            if i % 3 == 0:
+                msg, publisher = Bool(data=i % 2 == 0), flag_pub
+            else:
+                msg = joint_state_msg(node.get_clock().now().to_msg(), [float(i)] * 6)
+                publisher = state_pub
+            publisher.publish(msg)
+            sent.append(msg)
+            time.sleep(0.002)
+        time.sleep(0.3)  # the last bundle
+    decoded = [decode_bundle(data) for data in bundles]
+    table = decoded[0].topics
+    frames = [frame for bundle in decoded for frame in bundle.frames]
+    types = {f'{NS}/actuators/state': JointState, f'{NS}/teleop/enable': Bool}
+    recorded = [deserialize_message(cdr, types[table[index][0]]) for index, _, cdr in frames]
+    assert recorded == sent
+    times = [t for _, t, _ in frames]
+    assert times == sorted(times)
+    node.destroy_node()
