@@ -409,3 +409,30 @@ def test_a_tap_bundles_encoded_and_serialised_types_in_publish_order(ros_context
     times = [t for _, t, _ in frames]
     assert times == sorted(times)
     node.destroy_node()
+
+
+@pytest.mark.ros
+def test_a_message_the_tap_cannot_encode_is_left_out_and_counted_never_raised(ros_context):
+    from rclpy.node import Node
+    from std_msgs.msg import UInt8MultiArray
+
+    from rrps_kinematics.interfaces import RECORDING_TAP
+    from rrps_kinematics.nodes.recording_tap import TAP_QOS
+
+    def unencodable(msg):
+        raise ValueError('not encodable')
+
+    talker = _TappedTalker(ros_context)
+    talker.publisher._encode = unencodable
+    sink = Node('sink', context=ros_context, namespace=NS)
+    bundles = []
+    sink.create_subscription(UInt8MultiArray, f'tapped_talker/{RECORDING_TAP}', bundles.append,
+                             TAP_QOS, raw=True)
+    with Spinner(ros_context, [talker.node, sink]):
+        assert wait_for(lambda: talker.tap.active, timeout=10.0)
+        for i in range(20):
+            talker.publish(float(i))
+        assert wait_for(lambda: talker.tap.unencodable == 20, timeout=5.0)
+        assert wait_for(lambda: bundles, timeout=5.0)  # the tap goes on
+    assert all(not decode_bundle(data).frames for data in bundles)
+    sink.destroy_node()
