@@ -387,6 +387,8 @@ def test_a_tap_bundles_encoded_and_serialised_types_in_publish_order(ros_context
     bundles = []
     sink.create_subscription(UInt8MultiArray, f'two_types/{RECORDING_TAP}', bundles.append,
                              TAP_QOS, raw=True)
+    flags = sink.collect(Bool, 'teleop/enable')
+    states = sink.collect(JointState, 'actuators/state')
     sent = []
     with Spinner(ros_context, [node, sink]):
         assert wait_for(lambda: tap.active, timeout=10.0)
@@ -406,6 +408,9 @@ def test_a_tap_bundles_encoded_and_serialised_types_in_publish_order(ros_context
     types = {f'{NS}/actuators/state': JointState, f'{NS}/teleop/enable': Bool}
     recorded = [deserialize_message(cdr, types[table[index][0]]) for index, _, cdr in frames]
     assert recorded == sent
+    for got, kind in ((flags, Bool), (states, JointState)):  # the topics' subscribers too
+        expected = iter(m for m in sent if isinstance(m, kind))
+        assert got and all(m in expected for m in got)  # in order (none lost on an idle machine)
     times = [t for _, t, _ in frames]
     assert times == sorted(times)
     node.destroy_node()

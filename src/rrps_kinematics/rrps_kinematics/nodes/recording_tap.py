@@ -77,14 +77,17 @@ class TappedPublisher:
 
         A message of a type with a CDR encoder is kept as it is and encoded when the bundle is
         made, so it must not be changed after it is published (publish a new one instead).
-        Others are serialised now.
+        Others are serialised now, once: those bytes are published and kept.
         """
-        self.publisher.publish(msg)
-        if self._tap.active:
-            if self._encode is None:
-                self._tap.keep(self._index, serialize_message(msg), None)
-            else:
-                self._tap.keep(self._index, msg, self._encode)
+        if not self._tap.active:
+            self.publisher.publish(msg)
+        elif self._encode is None:
+            data = serialize_message(msg)
+            self.publisher.publish(data)
+            self._tap.keep(self._index, data, None)
+        else:
+            self.publisher.publish(msg)
+            self._tap.keep(self._index, msg, self._encode)
 
 
 class RecordingTap:
