@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from rrps_kinematics import check_pose, inverse_kinematics, load_robot, margins
@@ -430,6 +430,9 @@ def test_samples_bunched_by_the_transport_keep_the_masters_time_budget():
        moves=st.lists(st.tuples(st.floats(-0.05, 0.05), st.floats(-0.05, 0.05), st.floats(-0.05, 0.05),
                                 st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), st.floats(-1.0, 1.0)),
                       min_size=1, max_size=4))
+@example(mode='cartesian', scale=1.0, rotation='relative',  # a master at exactly the angular limit
+         moves=[(0.0, 0.0, 0.0, 0.0, 0.0, 0.0625), (0.0, 0.0, 0.03125, 0.0, 0.0, 0.0),
+                (0.0, 0.0, -0.01171875, 0.0, -0.5, 0.5), (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)])
 def test_property_compiled_guards_give_the_reference_commands_and_codes(mode, scale, rotation, moves):
     """The compiled guarded step and the NumPy reference: the same code, detail and command at
     every step, on master paths that run into the speed limits, the strokes and the joint cones."""

@@ -23,6 +23,11 @@ STEP_ACCEPTED = 1       # the buffer holds the new command
 STEP_REFUSED = 2        # the step would break (or worsen a broken) margin: hold
 STEP_FK_FAILED = 3      # joint mode: the FK of the candidate lengths did not converge: hold
 
+#: A step within this relative margin of a speed limit is within the limit. The compiled and the
+#: NumPy guards compute a step to about 1e-15; a master that moves at exactly the slave's limit
+#: (as the tests' master model can) must not be speed-limited by one and not by the other.
+SPEED_TOLERANCE = 1e-9
+
 #: What limited the step (mapped onto TeleopCode by the mapping).
 LIMIT_NONE = 0
 LIMIT_SPEED = 1

@@ -37,6 +37,7 @@ from .command_layout import (
     LIMIT_SINGULARITY_HALT,
     LIMIT_SPEED,
     QUATERNION,
+    SPEED_TOLERANCE,
     SPHERICAL,
     STEP_ACCEPTED,
     STEP_FK_FAILED,
@@ -177,7 +178,7 @@ def guarded_joint_step(g, inv_scale, prev, target, max_leg_step, slowdown, halt,
     if largest < 1e-12:
         return STEP_UNCHANGED, LIMIT_NONE, -1, -1
     fraction, limit = 1.0, LIMIT_NONE
-    if largest > max_leg_step:
+    if largest > max_leg_step * (1.0 + SPEED_TOLERANCE):
         fraction, limit = max_leg_step / largest, LIMIT_SPEED
     lengths = np.empty(6)
     for i in range(6):
@@ -229,7 +230,7 @@ def guarded_cartesian_step(g, prev, p1, q1, max_linear_step, max_angular_step, m
     fraction, limit = 1.0, LIMIT_NONE
     bound = min(max_linear_step / dp if dp > 0.0 else math.inf,
                 max_angular_step / dth if dth > 0.0 else math.inf)
-    if bound < 1.0:
+    if bound < 1.0 - SPEED_TOLERANCE:
         fraction, limit = bound, LIMIT_SPEED
     # the rotation from prev to q1 as a rotation vector (angle in [0, pi])
     x, y, z, w = _multiply(q1[0], q1[1], q1[2], q1[3], -prev[QUATERNION], -prev[QUATERNION + 1],
@@ -245,7 +246,7 @@ def guarded_cartesian_step(g, prev, p1, q1, max_linear_step, max_angular_step, m
         leg_step = 0.0
         for i in range(6):
             leg_step = max(leg_step, abs(out[LENGTHS + i] - prev[LENGTHS + i]))
-        if leg_step <= max_leg_step:
+        if leg_step <= max_leg_step * (1.0 + SPEED_TOLERANCE):
             break
         fraction *= max_leg_step / leg_step * (1.0 - 1e-9)
         limit = LIMIT_SPEED

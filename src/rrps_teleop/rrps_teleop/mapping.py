@@ -74,6 +74,7 @@ from .command_layout import (
     LIMIT_SINGULARITY_HALT,
     LIMIT_SPEED,
     QUATERNION,
+    SPEED_TOLERANCE,
     SPHERICAL,
     STEP_ACCEPTED,
     STEP_FK_FAILED,
@@ -519,13 +520,13 @@ class TeleopMapping:
         fraction, limit = 1.0, LIMIT_NONE
         bound = min(c.max_linear_speed * dt / dp if dp > 0 else math.inf,
                     c.max_angular_speed * dt / dth if dth > 0 else math.inf)
-        if bound < 1.0:
+        if bound < 1.0 - SPEED_TOLERANCE:
             fraction, limit = bound, LIMIT_SPEED
         cand = self._evaluate_pose(*pose_step(prev.position, prev.quaternion, p1, q1, fraction))
         leg_limit = self.slave.max_speed * dt
         for _ in range(LEG_SPEED_ITERATIONS):  # lengths are nearly linear in the fraction: 1-2 passes
             leg_step = float(np.max(np.abs(cand.lengths - prev.lengths)))
-            if leg_step <= leg_limit:
+            if leg_step <= leg_limit * (1.0 + SPEED_TOLERANCE):
                 break
             fraction *= leg_limit / leg_step * (1.0 - 1e-9)
             limit = LIMIT_SPEED
@@ -544,7 +545,7 @@ class TeleopMapping:
         if largest < 1e-12:
             return STEP_UNCHANGED, LIMIT_NONE, -1, -1, prev
         fraction, limit = 1.0, LIMIT_NONE
-        if largest > self.slave.max_speed * dt:
+        if largest > self.slave.max_speed * dt * (1.0 + SPEED_TOLERANCE):
             fraction, limit = self.slave.max_speed * dt / largest, LIMIT_SPEED
         cand = self._evaluate_lengths(prev, prev.lengths + fraction * dL)
         if cand is None:
