@@ -45,41 +45,41 @@ def test_joint_state(stamp, frame_id, names, position, velocity, effort):
     assert deserialize_message(data, JointState) == msg
 
 
-@settings(max_examples=100, deadline=None)
-@given(stamp=stamps, frame_id=texts, values=st.lists(floats, min_size=7, max_size=7))
-def test_pose_stamped(stamp, frame_id, values):
-    from builtin_interfaces.msg import Time
-    from geometry_msgs.msg import PoseStamped
-    from rclpy.serialization import deserialize_message
-    msg = PoseStamped()
-    msg.header.stamp = Time(sec=stamp[0], nanosec=stamp[1])
-    msg.header.frame_id = frame_id
+def _pose_fields(msg, values):
     p, q = msg.pose.position, msg.pose.orientation
     p.x, p.y, p.z, q.x, q.y, q.z, q.w = values
-    data = pose_stamped_cdr(msg)
-    assert data == _reference('geometry_msgs/msg/PoseStamped')(
-        {'header': _header(stamp, frame_id),
-         'pose': {'position': dict(zip('xyz', values[:3])),
-                  'orientation': dict(zip('xyzw', values[3:]))}})
-    assert deserialize_message(data, PoseStamped) == msg
+    return {'pose': {'position': dict(zip('xyz', values[:3])),
+                     'orientation': dict(zip('xyzw', values[3:]))}}
 
 
-@settings(max_examples=100, deadline=None)
-@given(stamp=stamps, frame_id=texts, values=st.lists(floats, min_size=6, max_size=6))
-def test_wrench_stamped(stamp, frame_id, values):
-    from builtin_interfaces.msg import Time
-    from geometry_msgs.msg import WrenchStamped
-    from rclpy.serialization import deserialize_message
-    msg = WrenchStamped()
-    msg.header.stamp = Time(sec=stamp[0], nanosec=stamp[1])
-    msg.header.frame_id = frame_id
+def _wrench_fields(msg, values):
     f, t = msg.wrench.force, msg.wrench.torque
     f.x, f.y, f.z, t.x, t.y, t.z = values
-    data = wrench_stamped_cdr(msg)
-    assert data == _reference('geometry_msgs/msg/WrenchStamped')(
-        {'header': _header(stamp, frame_id),
-         'wrench': {'force': dict(zip('xyz', values[:3])), 'torque': dict(zip('xyz', values[3:]))}})
-    assert deserialize_message(data, WrenchStamped) == msg
+    return {'wrench': {'force': dict(zip('xyz', values[:3])), 'torque': dict(zip('xyz', values[3:]))}}
+
+
+# (type name, encoder, float64 field count, set the fields and give them as a dict)
+STAMPED = [('geometry_msgs/msg/PoseStamped', pose_stamped_cdr, 7, _pose_fields),
+           ('geometry_msgs/msg/WrenchStamped', wrench_stamped_cdr, 6, _wrench_fields)]
+
+
+@pytest.mark.parametrize(('type_name', 'encode', 'size', 'fill'), STAMPED,
+                         ids=[kind[0].rsplit('/', 1)[1] for kind in STAMPED])
+@settings(max_examples=100, deadline=None)
+@given(stamp=stamps, frame_id=texts, values=st.lists(floats, min_size=7, max_size=7))
+def test_stamped_float_fields(type_name, encode, size, fill, stamp, frame_id, values):
+    from builtin_interfaces.msg import Time
+    from rclpy.serialization import deserialize_message
+
+    from rrps_teleop.recording.schemas import message_class
+    msg_type = message_class(type_name)
+    msg = msg_type()
+    msg.header.stamp = Time(sec=stamp[0], nanosec=stamp[1])
+    msg.header.frame_id = frame_id
+    fields = fill(msg, values[:size])
+    data = encode(msg)
+    assert data == _reference(type_name)({'header': _header(stamp, frame_id), **fields})
+    assert deserialize_message(data, msg_type) == msg
 
 
 def test_a_message_that_changes_names_and_frames_every_time_is_encoded_right():
