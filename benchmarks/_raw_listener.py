@@ -23,11 +23,11 @@ def main() -> None:
 
     from rclpy.node import Node
 
-    from rrps_kinematics.interfaces import DIAGNOSTICS
-    from rrps_kinematics.nodes.common import run_nodes
-    from rrps_teleop.nodes.recorder_node import qos_spec, subscription_qos
-    from rrps_teleop.recording.qos import request_for_offers
-    from rrps_teleop.recording.schemas import message_class
+    from rrps_interfaces.status import DIAGNOSTICS
+    from rrps_recording.nodes.recorder_node import qos_spec, subscription_qos
+    from rrps_recording.storage.qos import request_for_offers
+    from rrps_recording.storage.schemas import message_class
+    from rrps_runtime.process import run_nodes
 
     class RawListener(Node):
         """Raw subscriptions to the recorder's topics; callbacks that do nothing."""

@@ -33,16 +33,17 @@ import time
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from rrps_kinematics import forward_kinematics, inverse_kinematics, load_robot
-from rrps_kinematics.backend import jit
-from rrps_kinematics.inverse import universal_joint_frames
-from rrps_kinematics.multibody import MultibodyModel
-from rrps_kinematics.rotations import (
+from rrps_description.geometry import load_robot
+from rrps_description.rotations import (
     matrix_to_quat_xyzw,
     quat_conjugate_xyzw,
     quat_multiply_xyzw,
     rotation_vector_to_quat_xyzw,
 )
+from rrps_kinematics import forward_kinematics, inverse_kinematics
+from rrps_kinematics.backend import jit
+from rrps_kinematics.inverse import universal_joint_frames
+from rrps_kinematics.multibody import MultibodyModel
 from rrps_sim.dynamics import METHODS, MultibodyDynamics, simulate
 from rrps_sim.dynamics.bundles import new_workspace, workspace
 from rrps_sim.dynamics.constraints import leg_blocks

@@ -13,7 +13,7 @@ same load, and climbs step after step (``climb/step_up``, ``climb/step_down``) f
   of its own);
 * ``split + real-time control (demo)`` (now, ``rrps-demo``): the driver and the robot's nodes
   at SCHED_RR ``CONTROL_RT_PRIORITY``, the operator station at SCHED_RR ``OPERATOR_RT_PRIORITY``
-  (:mod:`rrps_kinematics.supervision`; raising priority needs root, as on a robot's computer).
+  (:mod:`rrps_runtime.supervision`; raising priority needs root, as on a robot's computer).
 
 The climb node streams ``target_pose`` at 50 Hz to the IK node of its own process; the IK node
 and the driver report the ages of the commands they receive (receipt time minus stamp: the
@@ -22,7 +22,7 @@ rejected as stale. CPU per process comes from /proc.
 
 Load (``--load``, default on): one core kept busy, a second ROS process flooding the machine
 with DDS messages, and a software-rendered headless Chromium showing the viewer
-(``tests/load.py``).
+(``rrps_testing.load``).
 
     python benchmarks/executor_lag.py [--seconds 60] [--no-load]
 """
@@ -36,17 +36,14 @@ import socket
 import sys
 import threading
 import time
-from pathlib import Path
 
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 50))
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'tests'))
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _common import cpu_seconds  # noqa: E402
-from load import Load  # noqa: E402
-from rrps_kinematics.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, OPERATOR_NICE, OPERATOR_RT_PRIORITY  # noqa: E402
+from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, OPERATOR_NICE, OPERATOR_RT_PRIORITY
+from rrps_testing.load import Load  # noqa: E402
+from rrps_testing.processes import cpu_seconds  # noqa: E402
 
 NAMESPACE = '/rrps'
 ROBOT = ('ik_node', 'fk_node', 'climb_node')
@@ -81,7 +78,7 @@ class Observer:
         from rclpy.node import Node
         from std_srvs.srv import Trigger
 
-        from rrps_kinematics.nodes.common import STATE_QOS
+        from rrps_runtime.qos import STATE_QOS
 
         self.node = Node('executor_lag', context=context, namespace=NAMESPACE)
         self.lock = threading.Lock()
@@ -138,8 +135,8 @@ def _climb_for(observer: Observer, seconds: float) -> int:
 def run_composition(name: str, composition, *, seconds: float, load: bool) -> dict:
     import rclpy
 
-    from rrps_kinematics.nodes.common import make_executor, spin_until_shutdown
-    from rrps_kinematics.supervision import start_child, stop_children
+    from rrps_runtime.process import make_executor, spin_until_shutdown
+    from rrps_runtime.supervision import start_child, stop_children
 
     port, token = _free_port(), secrets.token_urlsafe(12)
     common = ['--ros-args', '-r', f'__ns:={NAMESPACE}', '-p', 'robot:=pole_climber']
@@ -149,7 +146,7 @@ def run_composition(name: str, composition, *, seconds: float, load: bool) -> di
     labels = ['driver_node'] + ['+'.join(n.removesuffix('_node') for n in nodes) for nodes, _ in groups]
     for nodes, scheduling in groups:
         extra = ['-p', f'port:={port}', '-p', f'token:={token}'] if 'viewer_node' in nodes else []
-        children.append(start_child([sys.executable, '-m', 'rrps_teleop.compose', *nodes,
+        children.append(start_child([sys.executable, '-m', 'rrps_bringup.compose', *nodes,
                                      *common, *extra], **scheduling))
     context = rclpy.Context()
     rclpy.init(context=context)

@@ -25,8 +25,7 @@ from pathlib import Path
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 os.environ.setdefault('ROS_DOMAIN_ID', str(100 + os.getpid() % 50))
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import cpu_seconds  # noqa: E402
+from rrps_testing.processes import cpu_seconds  # noqa: E402
 
 NAMESPACE = '/rrps'
 NODES = ('driver_node', 'ik_node', 'fk_node', 'climb_node', 'master_node', 'teleop_node',
@@ -35,7 +34,7 @@ NODES = ('driver_node', 'ik_node', 'fk_node', 'climb_node', 'master_node', 'tele
 PROCESSES = {'driver_node': 'driver process',
              'climb_node': 'robot process (ik, fk, climb)',
              'recorder_node': 'observer process (flight recorder, markers)',
-             'rrps_teleop.demo': 'operator process (master, teleop, viewer)'}
+             'rrps_bringup.demo': 'operator process (master, teleop, viewer)'}
 TARGET = 25.0  # % of one core, the whole demo at rest
 
 
@@ -77,7 +76,7 @@ def main() -> int:
     parser.add_argument('--seconds', type=float, default=20.0)
     parser.add_argument('--settle', type=float, default=15.0, help='start-up time before measuring')
     args = parser.parse_args()
-    from rrps_kinematics.supervision import start_child, stop_children
+    from rrps_runtime.supervision import start_child, stop_children
 
     common = ['--ros-args', '-r', f'__ns:={NAMESPACE}', '-p', 'robot:=pole_climber']
     per_node = {}
@@ -89,17 +88,17 @@ def main() -> int:
             extra = ['-p', f'output_dir:={tempfile.mkdtemp(prefix="rrps-idle-")}']
         if name == 'master_node':
             common_master = ['--ros-args', '-r', f'__ns:={NAMESPACE}']
-            per_node[name] = start_child([sys.executable, '-m', 'rrps_teleop.compose', name,
+            per_node[name] = start_child([sys.executable, '-m', 'rrps_bringup.compose', name,
                                           *common_master])
             continue
-        per_node[name] = start_child([sys.executable, '-m', 'rrps_teleop.compose', name, *common,
+        per_node[name] = start_child([sys.executable, '-m', 'rrps_bringup.compose', name, *common,
                                       *extra])
     try:
         nodes = _measure({n: p.pid for n, p in per_node.items()}, args.settle, args.seconds)
     finally:
         stop_children(list(per_node.values()))
 
-    demo = start_child([sys.executable, '-m', 'rrps_teleop.demo', '--port', str(_free_port())],
+    demo = start_child([sys.executable, '-m', 'rrps_bringup.demo', '--port', str(_free_port())],
                        stdout=open(os.devnull, 'w'), stderr=open(os.devnull, 'w'))
     try:
         pids: dict[str, int] = {}

@@ -24,6 +24,14 @@ import time
 import numpy as np
 from scipy.optimize import fsolve
 
+from rrps_description.geometry import load_robot
+from rrps_description.rotations import (
+    quat_multiply_xyzw,
+    quat_xyzw_to_matrix,
+    rotation_angle_between,
+    rotation_vector_to_matrix,
+    rotation_vector_to_quat_xyzw,
+)
 from rrps_kinematics import (
     InverseKinematicsResult,
     compiled_backend_available,
@@ -31,14 +39,6 @@ from rrps_kinematics import (
     inverse_jacobian,
     inverse_kinematics,
     leg_lengths,
-    load_robot,
-)
-from rrps_kinematics.rotations import (
-    quat_multiply_xyzw,
-    quat_xyzw_to_matrix,
-    rotation_angle_between,
-    rotation_vector_to_matrix,
-    rotation_vector_to_quat_xyzw,
 )
 
 

@@ -54,8 +54,7 @@ import numpy as np
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 80))
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import cpu_seconds, stop_processes, wait_until  # noqa: E402
+from rrps_testing.processes import cpu_seconds, stop_processes, wait_until  # noqa: E402
 
 
 def _report_files(files) -> None:
@@ -78,9 +77,9 @@ def _report_files(files) -> None:
 
 def _session(seconds: float, out_dir: Path, deadman, climb, Trigger) -> int:
     """Record ``seconds`` of teleop motion, then a climb step; print the recording."""
-    from rrps_kinematics.supervision import stop_child
+    from rrps_runtime.supervision import stop_child
     recorder = subprocess.Popen(
-        [sys.executable, '-m', 'rrps_teleop.record_cli', '-o', str(out_dir), '--prefix',
+        [sys.executable, '-m', 'rrps_recording.record_cli', '-o', str(out_dir), '--prefix',
          'session', '--namespace', '/rrps'], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         time.sleep(3.0)  # discovery
@@ -117,25 +116,15 @@ def main() -> int:
     from std_msgs.msg import Bool
     from std_srvs.srv import Trigger
 
-    from rrps_kinematics.nodes.common import (
-        COMMAND_QOS,
-        STATE_QOS,
-        make_executor,
-        spin_until_shutdown,
-        stamp_to_seconds,
-    )
-    from rrps_kinematics.supervision import (
-        OBSERVER_NICE,
-        OPERATOR_NICE,
-        OPERATOR_RT_PRIORITY,
-        start_child,
-        stop_child,
-    )
-    from rrps_teleop.demo import start_driver, start_robot_nodes
-    from rrps_teleop.params import params_file_arguments
+    from rrps_bringup.demo import start_driver, start_robot_nodes
+    from rrps_bringup.params import params_file_arguments
+    from rrps_runtime.messages import stamp_to_seconds
+    from rrps_runtime.process import make_executor, spin_until_shutdown
+    from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
+    from rrps_runtime.supervision import OBSERVER_NICE, OPERATOR_NICE, OPERATOR_RT_PRIORITY, start_child, stop_child
 
     stack = [start_driver(robot='pole_climber', activate=True), start_robot_nodes(robot='pole_climber'),
-             start_child([sys.executable, '-m', 'rrps_teleop.compose', 'master_node',
+             start_child([sys.executable, '-m', 'rrps_bringup.compose', 'master_node',
                           'teleop_node', '--ros-args',
                           *params_file_arguments('master_node', 'teleop_node'),
                           '-r', '__ns:=/rrps'], nice=OPERATOR_NICE, realtime=OPERATOR_RT_PRIORITY)]
@@ -180,7 +169,7 @@ def main() -> int:
         if args.session > 0.0:
             return _session(args.session, out_dir, deadman, climb, Trigger)
         pids = [p.pid for p in stack]
-        record = [sys.executable, '-m', 'rrps_teleop.record_cli', '-o', str(out_dir),
+        record = [sys.executable, '-m', 'rrps_recording.record_cli', '-o', str(out_dir),
                   '--namespace', '/rrps']
         listener = [sys.executable, str(Path(__file__).resolve().parent / '_raw_listener.py'),
                     '--namespace', '/rrps']

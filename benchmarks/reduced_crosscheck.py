@@ -19,12 +19,8 @@ import time
 
 import numpy as np
 
-from rrps_kinematics import load_robot, shipped_robots
-from rrps_kinematics.rotations import (
-    quat_conjugate_xyzw,
-    quat_multiply_xyzw,
-    rotation_vector_to_quat_xyzw,
-)
+from rrps_description.geometry import load_robot, shipped_robots
+from rrps_description.rotations import quat_conjugate_xyzw, quat_multiply_xyzw, rotation_vector_to_quat_xyzw
 from rrps_sim.dynamics import METHODS, MultibodyDynamics, simulate
 from rrps_sim.reduced import PlatformPose, platform_accelerations, simulate_reduced
 from rrps_sim.statics import holding_forces

@@ -18,15 +18,13 @@ import os
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 80))
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import cpu_seconds  # noqa: E402
+from rrps_testing.processes import cpu_seconds  # noqa: E402
 
 RATE = 500.0
 TOPIC = 'tap_cost/state'
@@ -37,8 +35,10 @@ def publisher(flush_period: float) -> None:
     from rclpy.node import Node
     from sensor_msgs.msg import JointState
 
-    from rrps_kinematics.nodes.common import STATE_QOS, joint_state_msg, run_nodes
-    from rrps_kinematics.nodes.recording_tap import RecordingTap
+    from rrps_runtime.messages import joint_state_msg
+    from rrps_runtime.process import run_nodes
+    from rrps_runtime.qos import STATE_QOS
+    from rrps_runtime.recording_tap import RecordingTap
 
     class Publisher(Node):
         def __init__(self, *, context):
@@ -65,9 +65,10 @@ def subscriber(kind: str) -> None:
     from sensor_msgs.msg import JointState
     from std_msgs.msg import UInt8MultiArray
 
-    from rrps_kinematics.interfaces import RECORDING_TAP
-    from rrps_kinematics.nodes.common import STATE_QOS, run_nodes
-    from rrps_kinematics.nodes.recording_tap import TAP_QOS
+    from rrps_interfaces.recording import RECORDING_TAP
+    from rrps_runtime.process import run_nodes
+    from rrps_runtime.qos import STATE_QOS
+    from rrps_runtime.recording_tap import TAP_QOS
 
     class Subscriber(Node):
         def __init__(self, *, context):
@@ -88,7 +89,7 @@ def _child(*args: str) -> subprocess.Popen:
 def measure(flush_period: float, seconds: float, cycles: int) -> tuple[list[float], list[float]]:
     """The publisher's CPU [% of a core] in the idle phases and the sink phases (alternating,
     starting and ending idle)."""
-    from rrps_kinematics.supervision import stop_child  # SIGTERM (run_nodes: a clean stop), then kill
+    from rrps_runtime.supervision import stop_child
 
     pub, reader = _child('publisher', str(flush_period)), _child('subscriber', 'reader')
     idle, sink = [], []

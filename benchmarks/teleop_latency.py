@@ -51,19 +51,14 @@ from rclpy.parameter import Parameter  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import Bool  # noqa: E402
 
-from _common import stop_processes, wait_until  # noqa: E402
-from rrps_kinematics import inverse_kinematics, load_robot  # noqa: E402
-from rrps_kinematics.nodes.common import (  # noqa: E402
-    COMMAND_QOS,
-    STATE_QOS,
-    joint_state_msg,
-    make_executor,
-    pose_to_msg,
-    run_nodes,
-    spin_until_shutdown,
-)
+from rrps_description.geometry import load_robot
+from rrps_kinematics import inverse_kinematics
 from rrps_kinematics.nodes.ik_node import IkNode  # noqa: E402
+from rrps_runtime.messages import joint_state_msg, pose_to_msg
+from rrps_runtime.process import make_executor, run_nodes, spin_until_shutdown
+from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
 from rrps_teleop.nodes.teleop_node import TeleopNode  # noqa: E402
+from rrps_testing.processes import stop_processes, wait_until  # noqa: E402
 
 MASTER = load_robot('master_robot')
 SLAVE = load_robot('pole_climber')

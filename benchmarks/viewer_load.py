@@ -1,6 +1,6 @@
 """Viewer load: the 500 Hz control loop and the viewers' update rate with N web clients.
 
-Starts the demo stack (``python -m rrps_teleop.demo``: driver at 500 Hz, IK, FK, master, teleop,
+Starts the demo stack (``python -m rrps_bringup.demo``: driver at 500 Hz, IK, FK, master, teleop,
 climb, viewer) as its own process, makes the robot move (the master runs its circle trajectory
 and this script holds the deadman), then measures twice in the same run:
 
@@ -32,12 +32,10 @@ import subprocess
 import sys
 import threading
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import cpu_seconds  # noqa: E402
+from rrps_testing.processes import cpu_seconds  # noqa: E402
 
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 80))
@@ -159,7 +157,7 @@ def main() -> int:
     parser.add_argument('--slow-client', action='store_true',
                         help=f'the last client reads one batch every {SLOW_CLIENT_DELAY} s')
     args = parser.parse_args()
-    from rrps_kinematics.supervision import start_child  # dies with this process, whatever happens
+    from rrps_runtime.supervision import start_child
     busy = start_child([sys.executable, '-c', 'while True: pass']) if args.busy_core else None
 
     import rclpy
@@ -169,16 +167,12 @@ def main() -> int:
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Bool
 
-    from rrps_kinematics.nodes.common import (
-        COMMAND_QOS,
-        STATE_QOS,
-        make_executor,
-        spin_until_shutdown,
-        stamp_to_seconds,
-    )
+    from rrps_runtime.messages import stamp_to_seconds
+    from rrps_runtime.process import make_executor, spin_until_shutdown
+    from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
 
     port, token = _free_port(), secrets.token_urlsafe(12)
-    demo = subprocess.Popen([sys.executable, '-m', 'rrps_teleop.demo', '--port', str(port),
+    demo = subprocess.Popen([sys.executable, '-m', 'rrps_bringup.demo', '--port', str(port),
                              '--token', token], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                             text=True)
     context = rclpy.Context()

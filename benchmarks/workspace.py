@@ -28,13 +28,8 @@ import time
 
 import numpy as np
 
-from rrps_kinematics import (
-    compiled_backend_available,
-    inverse_kinematics,
-    load_robot,
-    margins,
-    shipped_robots,
-)
+from rrps_description.geometry import load_robot, shipped_robots
+from rrps_kinematics import compiled_backend_available, inverse_kinematics, margins
 from rrps_kinematics.workspace import (
     NEAR_SINGULAR,
     REACHABLE,
@@ -156,9 +151,9 @@ VIEWER_RECOMPUTE_TARGET = 0.5
 def viewer_recompute_table() -> bool:
     """The viewer's recomputation (WorkspaceView at its default 20 mm) after a turn of ring_b, per
     shipped robot, against the 0.5 s target; baseline: the same computation at 10 mm."""
-    from rrps_kinematics.geometry import shipped_robots
-    from rrps_kinematics.rotations import rotation_vector_to_quat_xyzw
-    from rrps_teleop.viewer import WorkspaceView
+    from rrps_description.geometry import shipped_robots
+    from rrps_description.rotations import rotation_vector_to_quat_xyzw
+    from rrps_teleop.viewer._workspace import WorkspaceView
 
     print()
     print(f'Viewer: workspace recomputed after ring_b turns 0.1 rad (WorkspaceView, default resolution; '

@@ -1,29 +1,40 @@
-from glob import glob
-
 from setuptools import find_packages, setup
 
 package_name = 'rrps_sim'
+#: The nodes of this package: executable -> (module, node class). Registered once, in the
+#: 'rrps.nodes' entry-point group that rrps-compose and rrps-params read, and as the
+#: console scripts that `ros2 run` starts (lib/<package>/<node>).
+NODES = {
+    'driver_node': ('rrps_sim.nodes.driver_node', 'DriverNode'),
+}
 
 setup(
     name=package_name,
-    version='0.1.0',
+    version='0.2.0',
     packages=find_packages(exclude=['test']),
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
-        ('share/' + package_name + '/config', glob('config/*.yaml')),
     ],
-    install_requires=['setuptools', 'numpy', 'scipy', 'rrps_kinematics'],
+    install_requires=[
+        'setuptools',
+        'numpy',
+        'scipy',
+        'rrps_description',
+        'rrps_interfaces',
+        'rrps_runtime',
+        'rrps_kinematics',
+    ],
     extras_require={'test': ['pytest', 'hypothesis']},
     zip_safe=True,
     maintainer='rrps maintainers',
     maintainer_email='maintainers@users.noreply.h-seed-0d31557d.example',
-    description='Simulated hardware driver and multibody dynamics of RRPS climbing robots.',
+    description='Multibody dynamics of RRPS climbing robots and the hardware driver node.',
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'driver_node = rrps_sim.nodes.driver_node:main',
             'rrps-dynamics = rrps_sim.cli:main',
-        ],
+        ] + [f'{node} = {module}:main' for node, (module, _) in NODES.items()],
+        'rrps.nodes': [f'{node} = {module}:{cls}' for node, (module, cls) in NODES.items()],
     },
 )

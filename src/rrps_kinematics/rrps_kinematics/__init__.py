@@ -15,9 +15,7 @@ Pure Python/NumPy (no ROS import outside ``rrps_kinematics.nodes``). The public 
 The multibody model is imported on first use (it compiles with numba).
 """
 
-from .assembly import AssemblyModes, assembly_modes
-from .forward import ForwardKinematicsResult, compiled_backend_available, forward_kinematics
-from .geometry import (
+from rrps_description.geometry import (
     ExtraRingDof,
     LinkInertia,
     RigidBodyInertia,
@@ -27,9 +25,11 @@ from .geometry import (
     robot_path,
     shipped_robots,
 )
-from .inverse import InverseKinematicsResult, inverse_kinematics, leg_lengths
-from .jacobian import inverse_jacobian, leg_forces, leg_rates, platform_wrench
-from .limits import PAIRS, Margins, check_pose, margins
+from rrps_kinematics.assembly import AssemblyModes, assembly_modes
+from rrps_kinematics.forward import ForwardKinematicsResult, compiled_backend_available, forward_kinematics
+from rrps_kinematics.inverse import InverseKinematicsResult, inverse_kinematics, leg_lengths
+from rrps_kinematics.jacobian import inverse_jacobian, leg_forces, leg_rates, platform_wrench
+from rrps_kinematics.limits import PAIRS, Margins, check_pose, margins
 
 _LAZY = {'MultibodyModel': 'multibody', 'MultibodyDKResult': 'multibody'}
 

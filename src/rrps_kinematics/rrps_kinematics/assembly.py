@@ -19,10 +19,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .forward import check_lengths, forward_kinematics
-from .geometry import RobotGeometry
-from .inverse import inverse_kinematics
-from .rotations import quat_xyzw_to_matrix, rotation_angle_between
+from rrps_description.geometry import RobotGeometry
+from rrps_description.rotations import quat_xyzw_to_matrix, rotation_angle_between
+from rrps_kinematics.forward import check_lengths, forward_kinematics
+from rrps_kinematics.inverse import inverse_kinematics
 
 __all__ = ['AssemblyModes', 'assembly_modes', 'halton', 'seed_poses']
 

@@ -90,7 +90,7 @@ def kernels():
     if _compiled is None:
         _compiled = False
         if numba_enabled():
-            from . import compiled
+            from rrps_kinematics import compiled
             _compiled = compiled
     return _compiled or None
 

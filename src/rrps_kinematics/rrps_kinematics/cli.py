@@ -35,8 +35,24 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from .assembly import assembly_modes
-from .cli_support import (
+from rrps_description.geometry import RobotGeometry, shipped_robots
+from rrps_description.pose import validate_pose
+from rrps_kinematics.assembly import assembly_modes
+from rrps_kinematics.errors import ComputationError
+from rrps_kinematics.forward import check_lengths, forward_kinematics
+from rrps_kinematics.inverse import inverse_kinematics
+from rrps_kinematics.limits import Margins, margins
+from rrps_kinematics.workspace import (
+    LIMIT_KINDS,
+    NEAR_SINGULAR,
+    REACHABLE,
+    SINGULAR_THRESHOLD,
+    Workspace,
+    distance_to_boundary,
+    orientation_range,
+    reachable_workspace,
+)
+from rrps_runtime.cli_support import (
     EXIT_FAILED,
     EXIT_OK,
     OneLineParser,
@@ -46,22 +62,6 @@ from .cli_support import (
     positive,
     run_command,
     vector,
-)
-from .errors import ComputationError
-from .forward import check_lengths, forward_kinematics
-from .geometry import RobotGeometry, shipped_robots
-from .inverse import inverse_kinematics
-from .limits import Margins, margins
-from .pose import validate_pose
-from .workspace import (
-    LIMIT_KINDS,
-    NEAR_SINGULAR,
-    REACHABLE,
-    SINGULAR_THRESHOLD,
-    Workspace,
-    distance_to_boundary,
-    orientation_range,
-    reachable_workspace,
 )
 
 PROG = 'rrps-kinematics'

@@ -21,7 +21,7 @@ import math
 import numba
 import numpy as np
 
-from .newton_settings import MAX_HALVINGS, MAX_ROTATION_STEP, PIVOT_TOLERANCE
+from rrps_kinematics.newton_settings import MAX_HALVINGS, MAX_ROTATION_STEP, PIVOT_TOLERANCE
 
 __all__ = ['ik_lengths_batch', 'fk_single', 'fk_batch', 'quat_to_matrix']
 

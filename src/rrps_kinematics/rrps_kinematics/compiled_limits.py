@@ -13,7 +13,7 @@ import math
 import numba
 import numpy as np
 
-from .compiled import quat_to_matrix
+from rrps_kinematics.compiled import quat_to_matrix
 
 __all__ = ['pose_margins', 'pose_margin_arrays', 'jacobian_determinant', 'N_MARGINS', 'pose_in_ring_a', 'vector_angle',
            'segment_distance', 'scaled_inverse_jacobian']

@@ -15,8 +15,8 @@ import math
 import numba
 import numpy as np
 
-from .compiled_limits import pose_in_ring_a, scaled_inverse_jacobian, segment_distance, vector_angle
-from .limits import LIMIT_KINDS
+from rrps_kinematics.compiled_limits import pose_in_ring_a, scaled_inverse_jacobian, segment_distance, vector_angle
+from rrps_kinematics.limits import LIMIT_KINDS
 
 __all__ = ['classify_grid', 'WITHIN_LIMITS']
 

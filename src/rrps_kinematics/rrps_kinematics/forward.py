@@ -18,11 +18,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .backend import compiled_backend_available, kernels, use_numba
-from .geometry import RobotGeometry
-from .inverse import pose_arrays
-from .newton_settings import MAX_HALVINGS, MAX_ROTATION_STEP, PIVOT_TOLERANCE
-from .rotations import cross, quat_multiply_xyzw, quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
+from rrps_description.geometry import RobotGeometry
+from rrps_description.rotations import cross, quat_multiply_xyzw, quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
+from rrps_kinematics.backend import compiled_backend_available, kernels, use_numba
+from rrps_kinematics.inverse import pose_arrays
+from rrps_kinematics.newton_settings import MAX_HALVINGS, MAX_ROTATION_STEP, PIVOT_TOLERANCE
 
 __all__ = ['ForwardKinematicsResult', 'check_lengths', 'forward_kinematics',
            'compiled_backend_available']

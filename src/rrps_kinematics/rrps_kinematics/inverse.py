@@ -14,14 +14,9 @@ from functools import cached_property
 
 import numpy as np
 
-from .backend import kernels, use_numba
-from .geometry import RobotGeometry
-from .rotations import (
-    cross,
-    matrix_to_euler313,
-    matrix_to_euler_parameters,
-    quat_xyzw_to_matrix,
-)
+from rrps_description.geometry import RobotGeometry
+from rrps_description.rotations import cross, matrix_to_euler313, matrix_to_euler_parameters, quat_xyzw_to_matrix
+from rrps_kinematics.backend import kernels, use_numba
 
 __all__ = [
     'InverseKinematicsResult',

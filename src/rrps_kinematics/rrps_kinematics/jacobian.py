@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .inverse import InverseKinematicsResult
-from .rotations import cross
+from rrps_description.rotations import cross
+from rrps_kinematics.inverse import InverseKinematicsResult
 
 __all__ = ['inverse_jacobian', 'leg_rates', 'platform_wrench', 'leg_forces']
 

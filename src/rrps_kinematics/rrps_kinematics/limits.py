@@ -40,10 +40,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .backend import use_numba
-from .geometry import RobotGeometry
-from .inverse import InverseKinematicsResult, inverse_kinematics
-from .jacobian import inverse_jacobian
+from rrps_description.geometry import RobotGeometry
+from rrps_kinematics.backend import use_numba
+from rrps_kinematics.inverse import InverseKinematicsResult, inverse_kinematics
+from rrps_kinematics.jacobian import inverse_jacobian
 
 __all__ = [
     'PAIRS',
@@ -359,7 +359,7 @@ def pose_margins(geometry: RobotGeometry, position, quaternion_xyzw, *,
     p = np.ascontiguousarray(position, dtype=float)
     q = np.ascontiguousarray(quaternion_xyzw, dtype=float)
     if use_numba(backend):
-        from .compiled_limits import pose_margin_arrays
+        from rrps_kinematics.compiled_limits import pose_margin_arrays
         buffer = np.empty(39)  # one allocation; the record's arrays are views of it
         lengths, stroke, universal, spherical = (buffer[6 * k:6 * k + 6] for k in range(4))
         interference = buffer[24:]

@@ -43,12 +43,19 @@ import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
 
-from .backend import jit
-from .errors import SingularPoseError
-from .forward import check_lengths
-from .geometry import RobotGeometry
-from .inverse import inverse_kinematics, pose_arrays, universal_joint_frames
-from .multibody_constraints import (
+from rrps_description.geometry import RobotGeometry
+from rrps_description.rotations import (
+    euler_parameters_to_quat_xyzw,
+    matrix_to_euler_parameters,
+    normalize_quat,
+    quat_xyzw_to_euler_parameters,
+    quat_xyzw_to_matrix,
+)
+from rrps_kinematics.backend import jit
+from rrps_kinematics.errors import SingularPoseError
+from rrps_kinematics.forward import check_lengths
+from rrps_kinematics.inverse import inverse_kinematics, pose_arrays, universal_joint_frames
+from rrps_kinematics.multibody_constraints import (
     FLOPS_LEG_JACOBIAN,
     FLOPS_LEG_RESIDUAL,
     FLOPS_NORMALISATION,
@@ -69,13 +76,6 @@ from .multibody_constraints import (
     rotation,
     rotation_into,
     upper_link_body,
-)
-from .rotations import (
-    euler_parameters_to_quat_xyzw,
-    matrix_to_euler_parameters,
-    normalize_quat,
-    quat_xyzw_to_euler_parameters,
-    quat_xyzw_to_matrix,
 )
 
 __all__ = [

@@ -12,7 +12,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .backend import jit
+from rrps_kinematics.backend import jit
 
 __all__ = [
     'N_BODIES', 'N_COORDINATES', 'N_JOINT_CONSTRAINTS', 'N_DRIVING', 'N_CONSTRAINTS',

@@ -22,12 +22,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .backend import use_numba
-from .forward import ForwardKinematicsResult, forward_kinematics
-from .geometry import RobotGeometry
-from .inverse import inverse_kinematics
-from .jacobian import inverse_jacobian
-from .limits import limit_arrays
+from rrps_description.geometry import RobotGeometry
+from rrps_kinematics.backend import use_numba
+from rrps_kinematics.forward import ForwardKinematicsResult, forward_kinematics
+from rrps_kinematics.inverse import inverse_kinematics
+from rrps_kinematics.jacobian import inverse_jacobian
+from rrps_kinematics.limits import limit_arrays
 
 __all__ = ['PoseTracker', 'TrackingUpdate']
 
@@ -69,7 +69,7 @@ class PoseTracker:
     def jacobian_sign(self, position, quaternion_xyzw) -> float:
         """Sign of det J at a pose: +1 or -1 in an assembly mode's region, 0 when singular."""
         if use_numba('auto'):
-            from .compiled_limits import jacobian_determinant
+            from rrps_kinematics.compiled_limits import jacobian_determinant
             return float(np.sign(jacobian_determinant(
                 limit_arrays(self.geometry), np.ascontiguousarray(position, dtype=float),
                 np.ascontiguousarray(quaternion_xyzw, dtype=float))))

@@ -46,11 +46,11 @@ from functools import cached_property
 import numpy as np
 from scipy import ndimage
 
-from .backend import use_numba
-from .geometry import RobotGeometry
-from .inverse import inverse_kinematics
-from .limits import LIMIT_KINDS, limit_arrays, margins
-from .rotations import quat_multiply_xyzw, quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
+from rrps_description.geometry import RobotGeometry
+from rrps_description.rotations import quat_multiply_xyzw, quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
+from rrps_kinematics.backend import use_numba
+from rrps_kinematics.inverse import inverse_kinematics
+from rrps_kinematics.limits import LIMIT_KINDS, limit_arrays, margins
 
 __all__ = [
     'LIMIT_KINDS',
@@ -282,7 +282,7 @@ def _classify_numpy(geometry: RobotGeometry, axes, Q: np.ndarray) -> tuple[np.nd
 
 
 def _classify_numba(geometry: RobotGeometry, axes, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    from .compiled_workspace import classify_grid
+    from rrps_kinematics.compiled_workspace import classify_grid
     shape = tuple(len(a) for a in axes)
     status = np.empty(shape, dtype=np.int8)
     inv_cond = np.empty(shape)

@@ -21,11 +21,10 @@ import math
 
 import numpy as np
 
+from rrps_description.geometry import RobotGeometry
 from rrps_kinematics.forward import forward_kinematics
-from rrps_kinematics.geometry import RobotGeometry
-
-from .dynamics import MultibodyDynamics
-from .statics import holding_forces
+from rrps_sim.dynamics import MultibodyDynamics
+from rrps_sim.statics import holding_forces
 
 __all__ = ['KinematicActuators', 'DynamicActuators', 'QuasiStaticEfforts', 'SensorFaults']
 

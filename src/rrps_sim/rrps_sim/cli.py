@@ -34,7 +34,8 @@ from typing import Sequence
 
 import numpy as np
 
-from rrps_kinematics.cli_support import (
+from rrps_description.geometry import RobotGeometry, shipped_robots
+from rrps_runtime.cli_support import (
     OneLineParser,
     UsageError,
     count,
@@ -44,10 +45,8 @@ from rrps_kinematics.cli_support import (
     run_command,
     vector,
 )
-from rrps_kinematics.geometry import RobotGeometry, shipped_robots
-
-from .dynamics import METHODS, MultibodyDynamics, SimulationResult, simulate
-from .figures import figure6, figure7, format_vector, plot_simulation
+from rrps_sim.dynamics import METHODS, MultibodyDynamics, SimulationResult, simulate
+from rrps_sim.figures import figure6, figure7, format_vector, plot_simulation
 
 PROG = 'rrps-dynamics'
 _VECTOR_OPTIONS = ('--position', '--quaternion', '--forces')
@@ -249,14 +248,14 @@ def _simulate(g: RobotGeometry, args) -> list[str]:
 
 
 def _statics(g: RobotGeometry, args) -> list[str]:
-    from .statics import holding_forces
+    from rrps_sim.statics import holding_forces
     position, quat = _pose(g, args)
     forces = holding_forces(g, position, quat)
     return [f'leg_{k + 1}: {f:.6f} N' for k, f in enumerate(forces)]
 
 
 def _inverse(g: RobotGeometry, args) -> list[str]:
-    from .inverse_dynamics import check_trajectory, inverse_dynamics
+    from rrps_sim.inverse_dynamics import check_trajectory, inverse_dynamics
     data, twist, twist_dot = _read_trajectory(args.trajectory)
     try:
         check_trajectory(data[:, 0], data[:, 1:4], data[:, 4:8])

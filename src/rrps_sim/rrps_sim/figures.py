@@ -14,17 +14,16 @@ from typing import Callable
 
 import numpy as np
 
-from rrps_kinematics.geometry import RobotGeometry
-from rrps_kinematics.inverse import inverse_kinematics
-from rrps_kinematics.multibody import MultibodyModel
-from rrps_kinematics.rotations import (
+from rrps_description.geometry import RobotGeometry
+from rrps_description.rotations import (
     matrix_to_quat_xyzw,
     quat_xyzw_to_matrix,
     rotation_angle_between,
     rotation_vector_to_matrix,
 )
-
-from .dynamics import MultibodyDynamics, SimulationResult, simulate
+from rrps_kinematics.inverse import inverse_kinematics
+from rrps_kinematics.multibody import MultibodyModel
+from rrps_sim.dynamics import MultibodyDynamics, SimulationResult, simulate
 
 __all__ = ['CLIMB_CURVATURE', 'CLIMB_DISTANCE', 'CLIMB_PHASES', 'CLIMB_SHORT_GAP',
            'REPORT_EXTRA_FORCES', 'climb_poses', 'figure6', 'figure7', 'format_vector',

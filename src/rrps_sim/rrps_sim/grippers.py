@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from typing import Mapping
 
-from .interfaces import RINGS
+from rrps_description.names import RINGS
 
 __all__ = ['Grippers']
 

@@ -24,9 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from rrps_kinematics.geometry import RobotGeometry
-
-from .interfaces import RINGS
+from rrps_description.geometry import RobotGeometry
+from rrps_description.names import RINGS
 
 __all__ = ['HardwareState', 'StateFileError', 'StateFileWriter', 'save_state', 'load_state']
 

@@ -18,11 +18,10 @@ from math import factorial
 
 import numpy as np
 
-from rrps_kinematics.geometry import RobotGeometry
-from rrps_kinematics.rotations import quat_conjugate_xyzw, quat_multiply_xyzw
-
-from .reduced import PlatformPose, generalized_forces
-from .statics import solve_actuator_forces
+from rrps_description.geometry import RobotGeometry
+from rrps_description.rotations import quat_conjugate_xyzw, quat_multiply_xyzw
+from rrps_sim.reduced import PlatformPose, generalized_forces
+from rrps_sim.statics import solve_actuator_forces
 
 __all__ = ['STENCIL', 'check_trajectory', 'inverse_dynamics', 'sample_derivatives',
            'trajectory_twists']

@@ -36,11 +36,11 @@ from typing import Callable, NamedTuple
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from rrps_description.geometry import RobotGeometry
+from rrps_description.rotations import cross
 from rrps_kinematics.errors import ConvergenceError, SingularPoseError
-from rrps_kinematics.geometry import RobotGeometry
 from rrps_kinematics.inverse import inverse_kinematics, universal_joint_frames
 from rrps_kinematics.jacobian import inverse_jacobian
-from rrps_kinematics.rotations import cross
 
 __all__ = [
     'ReducedState',

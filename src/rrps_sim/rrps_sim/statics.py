@@ -11,13 +11,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from rrps_description.geometry import RobotGeometry
+from rrps_description.rotations import cross
 from rrps_kinematics.errors import SingularPoseError
-from rrps_kinematics.geometry import RobotGeometry
 from rrps_kinematics.inverse import InverseKinematicsResult
 from rrps_kinematics.jacobian import inverse_jacobian
-from rrps_kinematics.rotations import cross
-
-from .reduced import PlatformPose, assembled_pose
+from rrps_sim.reduced import PlatformPose, assembled_pose
 
 __all__ = ['gravity_load', 'holding_forces', 'solve_actuator_forces', 'SINGULAR_CONDITIONING']
 

@@ -20,8 +20,7 @@ import numpy as np
 from rrps_kinematics.backend import jit
 from rrps_kinematics.compiled import fk_single
 from rrps_kinematics.compiled_limits import pose_margin_arrays
-
-from .command_layout import (
+from rrps_teleop.command_layout import (
     CHECK_CONDITIONING,
     CHECK_INTERFERENCE,
     CHECK_SPHERICAL,
@@ -56,7 +55,7 @@ FK_MAX_ITERATIONS = 30
 
 @jit
 def _canonical_quaternion(q):
-    """q / |q| in place, in the sign of :func:`rrps_kinematics.rotations.normalize_quat`."""
+    """q / |q| in place, in the sign of :func:`rrps_description.rotations.normalize_quat`."""
     n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
     for k in range(4):
         q[k] /= n

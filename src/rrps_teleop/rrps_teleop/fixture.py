@@ -41,12 +41,12 @@ from typing import Mapping
 
 import numpy as np
 
-from rrps_kinematics import RobotGeometry, inverse_kinematics, margins
-from rrps_kinematics.pose import validate_pose
-from rrps_kinematics.rotations import quat_multiply_xyzw, rotation_vector_to_quat_xyzw
+from rrps_description.geometry import RobotGeometry
+from rrps_description.pose import validate_pose
+from rrps_description.rotations import quat_multiply_xyzw, rotation_vector_to_quat_xyzw
+from rrps_kinematics import inverse_kinematics, margins
 from rrps_kinematics.workspace import LIMIT_KINDS
-
-from .mapping import validate_scale
+from rrps_teleop.mapping import validate_scale
 
 __all__ = ['DEFAULT_ACTIVATION', 'FixtureConfig', 'FixtureWrench', 'fixture_wrench', 'master_wrench']
 

@@ -47,11 +47,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rrps_kinematics import RobotGeometry, forward_kinematics
-from rrps_kinematics.backend import use_numba
-from rrps_kinematics.limits import PoseMargins, limit_arrays, pose_margins
-from rrps_kinematics.pose import Pose, validate_pose
-from rrps_kinematics.rotations import (
+from rrps_description.geometry import RobotGeometry
+from rrps_description.pose import Pose, validate_pose
+from rrps_description.rotations import (
     normalize_quat,
     quat_conjugate_xyzw,
     quat_multiply_xyzw,
@@ -59,9 +57,12 @@ from rrps_kinematics.rotations import (
     rotation_angle_between,
     rotation_vector_to_quat_xyzw,
 )
-from rrps_kinematics.tool import b_T_tool, ring_b_pose, tool_pose
-
-from .command_layout import (
+from rrps_description.tool import b_T_tool, ring_b_pose, tool_pose
+from rrps_interfaces.teleop import TeleopCode
+from rrps_kinematics import forward_kinematics
+from rrps_kinematics.backend import use_numba
+from rrps_kinematics.limits import PoseMargins, limit_arrays, pose_margins
+from rrps_teleop.command_layout import (
     CHECK_CONDITIONING,
     COMMAND_SIZE,
     INTERFERENCE,
@@ -83,8 +84,7 @@ from .command_layout import (
     STROKE,
     UNIVERSAL,
 )
-from .interfaces import TeleopCode
-from .teleop_config import MODES, ROTATION_MODES, TeleopConfig, validate_scale
+from rrps_teleop.teleop_config import MODES, ROTATION_MODES, TeleopConfig, validate_scale
 
 __all__ = [
     'MODES',
@@ -614,5 +614,5 @@ _LIMIT_CODES = (TeleopCode.NO_WARNING, TeleopCode.SPEED_LIMITED,
 
 
 def _compiled_guards():
-    from . import compiled_guards
+    from rrps_teleop import compiled_guards
     return compiled_guards

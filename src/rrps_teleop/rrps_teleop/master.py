@@ -25,12 +25,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rrps_kinematics import RobotGeometry, check_pose, inverse_kinematics
+from rrps_description.geometry import RobotGeometry
+from rrps_description.pose import validate_pose
+from rrps_description.rotations import quat_multiply_xyzw, rotation_angle_between, rotation_vector_to_quat_xyzw
+from rrps_kinematics import check_pose, inverse_kinematics
 from rrps_kinematics.limits import pose_margins
-from rrps_kinematics.pose import validate_pose
-from rrps_kinematics.rotations import quat_multiply_xyzw, rotation_angle_between, rotation_vector_to_quat_xyzw
-
-from .mapping import pose_step, validate_scale
+from rrps_teleop.mapping import pose_step, validate_scale
 
 __all__ = ['TRAJECTORIES', 'scripted_pose', 'HandleMotion', 'HandleStep', 'MasterModel']
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from rrps_kinematics.tool import TARGET_FRAMES
+from rrps_description.tool import TARGET_FRAMES
 
 __all__ = ['MODES', 'ROTATION_MODES', 'TeleopConfig', 'validate_scale']
 

@@ -21,24 +21,17 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
 
-from ..interfaces import ACTUATORS_STATE, POSE, RING_A_FRAME, FkStatus
-from ..inverse import inverse_kinematics
-from ..limits import inverse_condition_number
-from ..tracking import PoseTracker
-from .common import (
-    ERROR,
-    OK,
-    STALE,
-    STATE_QOS,
-    WARN,
-    Diagnostics,
-    declare_parameter,
-    declare_robot_parameter,
-    lengths_from_joint_state,
-    pose_to_msg,
-    run_nodes,
-)
-from .recording_tap import RecordingTap
+from rrps_description.names import RING_A_FRAME
+from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE, FkStatus
+from rrps_kinematics.inverse import inverse_kinematics
+from rrps_kinematics.limits import inverse_condition_number
+from rrps_kinematics.tracking import PoseTracker
+from rrps_runtime.diagnostics import ERROR, OK, STALE, WARN, Diagnostics
+from rrps_runtime.messages import lengths_from_joint_state, pose_to_msg
+from rrps_runtime.parameters import declare_parameter, declare_robot_parameter
+from rrps_runtime.process import run_nodes
+from rrps_runtime.qos import STATE_QOS
+from rrps_runtime.recording_tap import RecordingTap
 
 __all__ = ['FkNode', 'main']
 

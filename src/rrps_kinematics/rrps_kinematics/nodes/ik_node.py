@@ -2,7 +2,7 @@
 
 Every target is checked (:func:`rrps_kinematics.commands.validate_target`: frame, NaN/inf,
 quaternion norm, stroke, joint angles, interference, conditioning) and its age against
-``timeout`` (:class:`rrps_kinematics.commands.CommandFreshness`: also when the sender's clock
+``timeout`` (:class:`rrps_runtime.freshness.CommandFreshness`: also when the sender's clock
 is not this host's); a rejected target is not acted on: the last valid command stands, the reason is
 logged (throttled) and reported on /diagnostics, with the ages of the received targets (p50,
 p99, max over 10 s: how late they arrive). With ``limit_velocity`` the published command
@@ -20,42 +20,18 @@ from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
-from ..commands import (
-    CommandAges,
-    CommandFreshness,
-    RejectedCommand,
-    limit_velocity,
-    pose_limits,
-    validate_target,
-)
-from ..interfaces import (
-    ACTUATORS_COMMAND,
-    ACTUATORS_STATE,
-    LEG_NAMES,
-    RING_A_FRAME,
-    TARGET_POSE,
-    TARGET_RINGS,
-    IkStatus,
-    ring_joint,
-)
-from ..pose import InvalidPose, Pose
-from ..tool import TARGET_FRAMES, b_T_tool, ring_b_pose
-from .common import (
-    COMMAND_QOS,
-    OK,
-    STALE,
-    STATE_QOS,
-    WARN,
-    Diagnostics,
-    declare_parameter,
-    declare_robot_parameter,
-    joint_state_msg,
-    lengths_from_joint_state,
-    pose_from_msg,
-    run_nodes,
-    stamp_to_seconds,
-)
-from .recording_tap import RecordingTap
+from rrps_description.names import LEG_NAMES, RING_A_FRAME, ring_joint
+from rrps_description.pose import InvalidPose, Pose
+from rrps_description.tool import TARGET_FRAMES, b_T_tool, ring_b_pose
+from rrps_interfaces.kinematics import ACTUATORS_COMMAND, ACTUATORS_STATE, TARGET_POSE, TARGET_RINGS, IkStatus
+from rrps_kinematics.commands import RejectedCommand, limit_velocity, pose_limits, validate_target
+from rrps_runtime.diagnostics import OK, STALE, WARN, Diagnostics
+from rrps_runtime.freshness import CommandAges, CommandFreshness
+from rrps_runtime.messages import joint_state_msg, lengths_from_joint_state, pose_from_msg, stamp_to_seconds
+from rrps_runtime.parameters import declare_parameter, declare_robot_parameter
+from rrps_runtime.process import run_nodes
+from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
+from rrps_runtime.recording_tap import RecordingTap
 
 __all__ = ['IkNode', 'main']
 

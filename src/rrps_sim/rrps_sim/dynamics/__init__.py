@@ -15,11 +15,11 @@ frame. With actuator *forces* applied (not lengths), the 72 joint constraints Φ
 * :mod:`.flops`: the flop model of a step (the paper's Figure 7).
 """
 
-from .bundles import DynamicsParameters, Observation, Observations
-from .flops import EVALUATION_FLOPS, NEWTON_LEG_FLOPS, VELOCITY_LEG_FLOPS, step_flops
-from .integrators import METHODS
-from .model import MultibodyDynamics, RunRecord
-from .simulation import SimulationResult, simulate
+from rrps_sim.dynamics.bundles import DynamicsParameters, Observation, Observations
+from rrps_sim.dynamics.flops import EVALUATION_FLOPS, NEWTON_LEG_FLOPS, VELOCITY_LEG_FLOPS, step_flops
+from rrps_sim.dynamics.integrators import METHODS
+from rrps_sim.dynamics.model import MultibodyDynamics, RunRecord
+from rrps_sim.dynamics.simulation import SimulationResult, simulate
 
 __all__ = [
     'EVALUATION_FLOPS',

@@ -24,10 +24,9 @@ import numpy as np
 
 from rrps_kinematics.backend import jit
 from rrps_kinematics.multibody import leg_jacobian, leg_residual
-
-from .bundles import workspace
-from .constraints import leg_blocks
-from .kernels import accelerations, actuator_power, drift_and_norm, lu_solve, observe_into
+from rrps_sim.dynamics.bundles import workspace
+from rrps_sim.dynamics.constraints import leg_blocks
+from rrps_sim.dynamics.kernels import accelerations, actuator_power, drift_and_norm, lu_solve, observe_into
 
 __all__ = ['METHODS', 'NOT_CONVERGED', 'SINGULAR', 'rk4_full', 'rk4_partitioned', 'run',
            'solve_dependent', 'step']

@@ -33,9 +33,8 @@ import numpy as np
 
 from rrps_kinematics.backend import jit
 from rrps_kinematics.multibody import gauss_eliminate, leg_residual_with_rotations, rotation_into
-
-from .bundles import Observation, Observations, workspace
-from .constraints import angular_velocity, cross3, dot3, leg_blocks_with_rotations, matvec3
+from rrps_sim.dynamics.bundles import Observation, Observations, workspace
+from rrps_sim.dynamics.constraints import angular_velocity, cross3, dot3, leg_blocks_with_rotations, matvec3
 
 __all__ = ['accelerations', 'actuator_power', 'drift_and_norm', 'lu_solve', 'multipliers',
            'observe', 'observe_into']

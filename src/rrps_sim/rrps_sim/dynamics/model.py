@@ -12,16 +12,15 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
+from rrps_description.geometry import RobotGeometry
+from rrps_description.rotations import euler_parameters_to_quat_xyzw, normalize_quat
 from rrps_kinematics.errors import ConvergenceError, SingularPoseError
-from rrps_kinematics.geometry import RobotGeometry
 from rrps_kinematics.multibody import MultibodyModel
-from rrps_kinematics.rotations import euler_parameters_to_quat_xyzw, normalize_quat
-
-from .bundles import DynamicsParameters, Observation, Observations, new_workspace
-from .constraints import leg_blocks
-from .flops import step_flops
-from .integrators import METHODS, NOT_CONVERGED, run, step
-from .kernels import observe
+from rrps_sim.dynamics.bundles import DynamicsParameters, Observation, Observations, new_workspace
+from rrps_sim.dynamics.constraints import leg_blocks
+from rrps_sim.dynamics.flops import step_flops
+from rrps_sim.dynamics.integrators import METHODS, NOT_CONVERGED, run, step
+from rrps_sim.dynamics.kernels import observe
 
 __all__ = ['MultibodyDynamics', 'RunRecord']
 

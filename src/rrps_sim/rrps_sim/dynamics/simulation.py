@@ -9,12 +9,11 @@ from typing import Callable
 
 import numpy as np
 
-from rrps_kinematics.geometry import RobotGeometry
+from rrps_description.geometry import RobotGeometry
+from rrps_description.rotations import euler_parameters_to_quat_xyzw, normalize_quat
 from rrps_kinematics.inverse import pose_arrays
-from rrps_kinematics.rotations import euler_parameters_to_quat_xyzw, normalize_quat
-
-from .bundles import Observations
-from .model import MultibodyDynamics, RunRecord
+from rrps_sim.dynamics.bundles import Observations
+from rrps_sim.dynamics.model import MultibodyDynamics, RunRecord
 
 __all__ = ['SimulationResult', 'simulate']
 

@@ -42,31 +42,21 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool
 
-from rrps_kinematics.commands import CommandAges, CommandFreshness, RejectedCommand
+from rrps_description.names import LEG_NAMES, RINGS, ring_joint
+from rrps_interfaces.driver import GRIPPERS_STATE, ActuatorMode, DriverStatus, gripper_service
+from rrps_interfaces.kinematics import ACTUATORS_COMMAND, ACTUATORS_STATE
+from rrps_kinematics.commands import RejectedCommand
 from rrps_kinematics.forward import forward_kinematics
-from rrps_kinematics.interfaces import ACTUATORS_COMMAND, ACTUATORS_STATE, ring_joint
-from rrps_kinematics.nodes.common import (
-    COMMAND_QOS,
-    ERROR,
-    LEG_NAMES,
-    OK,
-    STALE,
-    STATE_QOS,
-    WARN,
-    Diagnostics,
-    declare_parameter,
-    declare_robot_parameter,
-    joint_state_msg,
-    lengths_from_joint_state,
-    run_nodes,
-    stamp_to_seconds,
-)
-from rrps_kinematics.nodes.recording_tap import RecordingTap
-
-from ..actuators import DynamicActuators, KinematicActuators, QuasiStaticEfforts, SensorFaults
-from ..grippers import Grippers
-from ..hardware_state import HardwareState, StateFileWriter, load_state
-from ..interfaces import GRIPPERS_STATE, RINGS, ActuatorMode, DriverStatus, gripper_service
+from rrps_runtime.diagnostics import ERROR, OK, STALE, WARN, Diagnostics
+from rrps_runtime.freshness import CommandAges, CommandFreshness
+from rrps_runtime.messages import joint_state_msg, lengths_from_joint_state, stamp_to_seconds
+from rrps_runtime.parameters import declare_parameter, declare_robot_parameter
+from rrps_runtime.process import run_nodes
+from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
+from rrps_runtime.recording_tap import RecordingTap
+from rrps_sim.actuators import DynamicActuators, KinematicActuators, QuasiStaticEfforts, SensorFaults
+from rrps_sim.grippers import Grippers
+from rrps_sim.hardware_state import HardwareState, StateFileWriter, load_state
 
 __all__ = ['DriverNode', 'main']
 

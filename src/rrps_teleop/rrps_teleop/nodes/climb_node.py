@@ -1,4 +1,4 @@
-"""climb_node: executes inchworm gait steps (``rrps_teleop.gait``) on the robot over ROS.
+"""climb_node: executes inchworm gait steps (``rrps_teleop.climbing.gait``) on the robot over ROS.
 
 Every phase of a checked plan is executed through the same paths as any other command: motions
 stream ``target_pose`` (PoseStamped a_T_b, frame ring_a; so the IK node's guards apply) along
@@ -29,7 +29,7 @@ brought back and re-gripped (``GaitPlanner.approach``, checked like any motion) 
 Publishes ``climb/status`` (DiagnosticStatus: message idle | executing | error; values step,
 phase, structure, s_a, s_b, steps_done, detail) and the world odometry of both rings
 ``odometry/ring_a``, ``odometry/ring_b`` (PoseStamped, frame ``world``) chained from ``pose``
-and ``grippers/state`` (``rrps_teleop.odometry``), published at ``rate`` when a new pose came in.
+and ``grippers/state`` (``rrps_kinematics.odometry``), published at ``rate`` when a new pose came in.
 
 ``pose`` arrives at the driver's rate (500 Hz); the node keeps only the newest sample and uses
 it at its own ``rate``, so a fast state stream costs it almost nothing and never queues up.
@@ -46,54 +46,34 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 
-from rrps_kinematics.interfaces import (
-    ACTUATORS_STATE,
-    DIAGNOSTICS,
-    POSE,
-    RING_A_FRAME,
-    TARGET_POSE,
-    TARGET_RINGS,
-    WORLD_FRAME,
-    ring_joint,
-    source_node,
-)
-from rrps_kinematics.nodes.common import (
-    COMMAND_QOS,
-    ERROR,
-    LATEST_QOS,
-    OK,
-    STATE_QOS,
-    WARN,
-    Diagnostics,
-    declare_parameter,
-    declare_robot_parameter,
-    joint_state_msg,
-    pose_from_msg,
-    pose_to_msg,
-    run_nodes,
-)
-from rrps_kinematics.nodes.recording_tap import RecordingTap
-from rrps_kinematics.pose import QUATERNION_TOLERANCE, InvalidPose, Pose, pose_error
-from rrps_sim.interfaces import GRIPPERS_STATE, RINGS, DriverStatus, gripper_service, gripper_states
-
-from ..climb_watch import InputWatch
-from ..gait import GaitPlanner, PlanError
-from ..interfaces import (
+from rrps_description.names import RING_A_FRAME, RINGS, WORLD_FRAME, ring_joint
+from rrps_description.pose import QUATERNION_TOLERANCE, InvalidPose, Pose, pose_error
+from rrps_description.structures import STRUCTURES, make_structure
+from rrps_interfaces.climb import (
     CLIMB_RESUME,
     CLIMB_STATUS,
     CLIMB_STEP_DOWN,
     CLIMB_STEP_UP,
-    TELEOP_STATUS,
     ClimbState,
     ClimbStatus,
     PauseReason,
     PhaseAction,
-    TeleopStatus,
     odometry_topic,
 )
-from ..odometry import RingOdometry
-from ..phase_path import PhasePath
-from ..structures import STRUCTURES, make_structure
+from rrps_interfaces.driver import GRIPPERS_STATE, DriverStatus, gripper_service, gripper_states
+from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE, TARGET_POSE, TARGET_RINGS
+from rrps_interfaces.status import DIAGNOSTICS, source_node
+from rrps_interfaces.teleop import TELEOP_STATUS, TeleopStatus
+from rrps_kinematics.odometry import RingOdometry
+from rrps_runtime.diagnostics import ERROR, OK, WARN, Diagnostics
+from rrps_runtime.messages import joint_state_msg, pose_from_msg, pose_to_msg
+from rrps_runtime.parameters import declare_parameter, declare_robot_parameter
+from rrps_runtime.process import run_nodes
+from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, STATE_QOS
+from rrps_runtime.recording_tap import RecordingTap
+from rrps_teleop.climbing.climb_watch import InputWatch
+from rrps_teleop.climbing.gait import GaitPlanner, PlanError
+from rrps_teleop.climbing.phase_path import PhasePath
 
 IDLE, EXECUTING, PAUSED, FAILED = (ClimbState.IDLE, ClimbState.EXECUTING, ClimbState.PAUSED,
                                    ClimbState.FAILED)

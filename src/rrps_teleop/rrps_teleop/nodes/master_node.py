@@ -24,27 +24,17 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
+from rrps_description.pose import validate_pose
+from rrps_description.rotations import quat_multiply_xyzw, rotation_vector_to_quat_xyzw
+from rrps_interfaces.teleop import MASTER_FEEDBACK, MASTER_FRAME, MASTER_POSE, MASTER_STATE, MASTER_TARGET_POSE
 from rrps_kinematics import forward_kinematics
-from rrps_kinematics.nodes.common import (
-    COMMAND_QOS,
-    ERROR,
-    OK,
-    STATE_QOS,
-    WARN,
-    Diagnostics,
-    declare_parameter,
-    declare_robot_parameter,
-    joint_state_msg,
-    pose_from_msg,
-    pose_to_msg,
-    run_nodes,
-)
-from rrps_kinematics.nodes.recording_tap import RecordingTap
-from rrps_kinematics.pose import validate_pose
-from rrps_kinematics.rotations import quat_multiply_xyzw, rotation_vector_to_quat_xyzw
-
-from ..interfaces import MASTER_FEEDBACK, MASTER_FRAME, MASTER_POSE, MASTER_STATE, MASTER_TARGET_POSE
-from ..master import TRAJECTORIES, HandleMotion, MasterModel, scripted_pose
+from rrps_runtime.diagnostics import ERROR, OK, WARN, Diagnostics
+from rrps_runtime.messages import joint_state_msg, pose_from_msg, pose_to_msg
+from rrps_runtime.parameters import declare_parameter, declare_robot_parameter
+from rrps_runtime.process import run_nodes
+from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
+from rrps_runtime.recording_tap import RecordingTap
+from rrps_teleop.master import TRAJECTORIES, HandleMotion, MasterModel, scripted_pose
 
 __all__ = ['MasterNode', 'main']
 

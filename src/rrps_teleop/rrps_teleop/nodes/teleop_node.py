@@ -6,7 +6,7 @@ in joint mode (only the input the mode maps; a mode change swaps them), ``teleop
 frame ring_a: the engage reference) and ``climb/status`` (no engage while a step executes).
 Publishes ``target_pose`` (Cartesian mode, through ik_node's guards) or ``actuators/command``
 (joint mode), and ``teleop/status`` (diagnostic_msgs/DiagnosticStatus: message = the status code
-name; values: :class:`rrps_teleop.interfaces.TeleopStatus`).
+name; values: :class:`rrps_interfaces.teleop.TeleopStatus`).
 
 Liveness: the slave's ``pose`` older than ``state_timeout`` (0.2 s: the driver or the FK is
 gone), the driver not active (its typed status on /diagnostics) or the operator's round trip
@@ -42,38 +42,12 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64
 
-from rrps_kinematics.interfaces import (
-    ACTUATORS_COMMAND,
-    DIAGNOSTICS,
-    POSE,
-    RING_A_FRAME,
-    TARGET_POSE,
-    source_node,
-)
-from rrps_kinematics.nodes.common import (
-    COMMAND_QOS,
-    ERROR,
-    LATEST_QOS,
-    OK,
-    STALE,
-    STATE_QOS,
-    WARN,
-    Diagnostics,
-    declare_parameter,
-    declare_robot_parameter,
-    joint_state_msg,
-    lengths_from_joint_state,
-    pose_from_msg,
-    pose_to_msg,
-    run_nodes,
-    stamp_to_seconds,
-)
-from rrps_kinematics.nodes.recording_tap import RecordingTap
-from rrps_sim.interfaces import DriverStatus
-
-from ..fixture import FixtureConfig, fixture_wrench, master_wrench
-from ..interfaces import (
-    CLIMB_STATUS,
+from rrps_description.names import RING_A_FRAME
+from rrps_interfaces.climb import CLIMB_STATUS, ClimbState, ClimbStatus
+from rrps_interfaces.driver import DriverStatus
+from rrps_interfaces.kinematics import ACTUATORS_COMMAND, POSE, TARGET_POSE
+from rrps_interfaces.status import DIAGNOSTICS, source_node
+from rrps_interfaces.teleop import (
     MASTER_FEEDBACK,
     MASTER_FRAME,
     MASTER_POSE,
@@ -81,12 +55,23 @@ from ..interfaces import (
     OPERATOR_ROUND_TRIP,
     TELEOP_ENABLE,
     TELEOP_STATUS,
-    ClimbState,
-    ClimbStatus,
     TeleopCode,
     TeleopStatus,
 )
-from ..mapping import MODES, ROTATION_MODES, TeleopConfig, TeleopMapping, TeleopOutput
+from rrps_runtime.diagnostics import ERROR, OK, STALE, WARN, Diagnostics
+from rrps_runtime.messages import (
+    joint_state_msg,
+    lengths_from_joint_state,
+    pose_from_msg,
+    pose_to_msg,
+    stamp_to_seconds,
+)
+from rrps_runtime.parameters import declare_parameter, declare_robot_parameter
+from rrps_runtime.process import run_nodes
+from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, STATE_QOS
+from rrps_runtime.recording_tap import RecordingTap
+from rrps_teleop.fixture import FixtureConfig, fixture_wrench, master_wrench
+from rrps_teleop.mapping import MODES, ROTATION_MODES, TeleopConfig, TeleopMapping, TeleopOutput
 
 __all__ = ['TeleopNode', 'main']
 

@@ -41,46 +41,31 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64
 
-from rrps_kinematics.geometry import load_robot
-from rrps_kinematics.interfaces import ACTUATORS_STATE, DIAGNOSTICS, POSE, TARGET_POSE, source_node
-from rrps_kinematics.nodes.common import (
-    COMMAND_QOS,
-    LATEST_QOS,
-    STATE_QOS,
-    declare_parameter,
-    declare_robot_parameter,
-    lengths_from_joint_state,
-    pose_from_msg,
-    pose_to_msg,
-    run_nodes,
-    stamp_to_seconds,
-)
-from rrps_sim.interfaces import GRIPPERS_STATE
-
-from ..interfaces import (
-    CLIMB_STATUS,
+from rrps_description.geometry import load_robot
+from rrps_description.pose import Pose
+from rrps_description.structures import make_structure
+from rrps_interfaces.climb import CLIMB_STATUS, odometry_topic
+from rrps_interfaces.driver import GRIPPERS_STATE
+from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE, TARGET_POSE
+from rrps_interfaces.status import DIAGNOSTICS, source_node
+from rrps_interfaces.teleop import (
     MASTER_FEEDBACK,
     MASTER_POSE,
     MASTER_TARGET_POSE,
     OPERATOR_ROUND_TRIP,
     TELEOP_ENABLE,
     TELEOP_STATUS,
-    odometry_topic,
 )
-from ..structures import make_structure
-from ..viewer import (
-    Frame,
-    Pose,
-    Trail,
-    ViewerServer,
-    WorkspaceView,
-    robot_figure,
-    send_file,
-    world_ring_poses,
-)
-from ..viewer import status_text as panel
-from .viewer_recording import ViewerRecording
-from .viewer_requests import OperatorRequest, ViewerRequests
+from rrps_kinematics.scene import Trail, robot_figure, world_ring_poses
+from rrps_runtime.messages import lengths_from_joint_state, pose_from_msg, pose_to_msg, stamp_to_seconds
+from rrps_runtime.parameters import declare_parameter, declare_robot_parameter
+from rrps_runtime.process import run_nodes
+from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, STATE_QOS
+from rrps_teleop.nodes.viewer_recording import ViewerRecording
+from rrps_teleop.nodes.viewer_requests import OperatorRequest, ViewerRequests
+from rrps_teleop.viewer import Frame, ViewerServer, send_file
+from rrps_teleop.viewer import status_text as panel
+from rrps_teleop.viewer._workspace import WorkspaceView
 
 #: Length of the drawn master/feedback arrow per newton [m/N].
 FEEDBACK_ARROW = 0.01
@@ -91,7 +76,7 @@ _RECORDING = object()
 
 
 def _structure_mesh(name: str, length: float):
-    """(vertices, faces) of the climbed member to draw (``rrps_teleop.structures``), or None."""
+    """(vertices, faces) of the climbed member to draw (``rrps_description.structures``), or None."""
     return make_structure(name, length).mesh() if name else None
 
 
@@ -143,7 +128,7 @@ class ViewerNode(Node):
         if len(self.token) < 8:
             raise ValueError('token must have at least 8 characters')
 
-        from ..viewer import OperatorControl
+        from rrps_teleop.viewer._control import OperatorControl
         self.control = OperatorControl(token=self.token, deadman_timeout=deadman_timeout)
         self._lock = threading.Lock()
         self._latest: dict[str, object] = {}

@@ -5,7 +5,7 @@ timeline (the widgets are in :mod:`rrps_teleop.viewer`'s recording controls).
   ``message`` is the path of the file being written; once the file exists (it appears whole,
   renamed from ``.part``) it is sent to the browser that asked, as a download. The recorder
   and the viewer share a file system (the demo runs both on the operator's machine).
-* ``replay/status`` (values :class:`rrps_teleop.interfaces.ReplayStatus`) is kept while fresh
+* ``replay/status`` (values :class:`rrps_interfaces.recording.ReplayStatus`) is kept while fresh
   (heard in the last 3 s): :meth:`ViewerRecording.replay_status` feeds the timeline.
 * :meth:`ViewerRecording.control` sets the replay node's ``seek``, ``paused``, ``rate`` through
   its standard parameter service (``replay_node/set_parameters``).
@@ -24,10 +24,9 @@ from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
 from std_srvs.srv import Trigger
 
-from rrps_kinematics.interfaces import ContractError
-from rrps_kinematics.nodes.common import STATE_QOS
-
-from ..interfaces import FLIGHT_RECORDER_SAVE, REPLAY_STATUS, ReplayStatus
+from rrps_interfaces.recording import FLIGHT_RECORDER_SAVE, REPLAY_STATUS, ReplayStatus
+from rrps_interfaces.status import ContractError
+from rrps_runtime.qos import STATE_QOS
 
 __all__ = ['ViewerRecording', 'REPLAY_PARAMETERS']
 

@@ -23,9 +23,9 @@ from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParametersAtomically
 from std_srvs.srv import SetBool, Trigger
 
-from rrps_sim.interfaces import RINGS, gripper_service
-
-from ..interfaces import CLIMB_RESUME, CLIMB_STEP_DOWN, CLIMB_STEP_UP
+from rrps_description.names import RINGS
+from rrps_interfaces.climb import CLIMB_RESUME, CLIMB_STEP_DOWN, CLIMB_STEP_UP
+from rrps_interfaces.driver import gripper_service
 
 __all__ = ['OperatorRequest', 'ViewerRequests', 'TELEOP_PARAMETERS', 'DRIVER_CHANGE_STATE']
 

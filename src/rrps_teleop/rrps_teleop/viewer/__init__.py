@@ -1,7 +1,7 @@
 """The rrps web viewer for remote operators (viser), as a small public facade.
 
 Pure scene and control logic (no rclpy, no viser) is importable and testable on its own; poses
-are :class:`rrps_kinematics.pose.Pose` (re-exported here)::
+are :class:`rrps_description.pose.Pose` (re-exported here)::
 
     from rrps_teleop.viewer import Pose, robot_figure, world_ring_poses, OperatorControl
     world_T_a, world_T_b = world_ring_poses(a_T_b=pose, gripping='ring_a', world_T_gripping=odom)
@@ -14,10 +14,8 @@ The viser layer (``ViewerServer``, ``Frame``) is imported on first use so that t
 do not need viser.
 """
 
-from rrps_kinematics.pose import Pose
-
-from ._control import ControlResult, OperatorControl
-from ._scene import (
+from rrps_description.pose import Pose
+from rrps_kinematics.scene import (
     WARN_FRACTION,
     RobotFigure,
     Trail,
@@ -27,7 +25,8 @@ from ._scene import (
     torus_mesh,
     world_ring_poses,
 )
-from ._workspace import WorkspaceSnapshot, WorkspaceView, boundary_points
+from rrps_teleop.viewer._control import ControlResult, OperatorControl
+from rrps_teleop.viewer._workspace import WorkspaceSnapshot, WorkspaceView, boundary_points
 
 __all__ = [
     'ControlResult',

@@ -8,7 +8,7 @@ once instead of keeping its last good value.
 
 viser 1.1.1 has no public round-trip API: the connections are read from its websocket server
 (``ViserServer._websock_server._live_connections``, ``websockets`` ServerConnection objects
-whose ``ping()`` resolves to the latency). The version is pinned; tests/test_viewer_node.py
+whose ``ping()`` resolves to the latency). The version is pinned; tests/node/teleop/test_viewer_node.py
 checks the measurement works.
 """
 

@@ -15,11 +15,10 @@ from typing import Callable, Protocol
 import numpy as np
 import viser
 
-from rrps_kinematics.pose import Pose
-
-from ..mapping import MODES, ROTATION_MODES
-from ._control import ControlResult
-from ._recording import RecordingControls
+from rrps_description.pose import Pose
+from rrps_teleop.mapping import MODES, ROTATION_MODES
+from rrps_teleop.viewer._control import ControlResult
+from rrps_teleop.viewer._recording import RecordingControls
 
 __all__ = ['ClientControls', 'OperatorActions']
 

@@ -17,7 +17,7 @@ from typing import Protocol
 
 import viser
 
-from ..interfaces import ReplayStatus
+from rrps_interfaces.recording import ReplayStatus
 
 __all__ = ['RecordingActions', 'RecordingControls', 'send_file', 'REPLAY_RATES']
 

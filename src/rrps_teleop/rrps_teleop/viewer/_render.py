@@ -24,15 +24,14 @@ import numpy as np
 import viser
 import viser.uplot
 
-from rrps_kinematics.geometry import RobotGeometry
-from rrps_kinematics.pose import Pose
-
-from ._broadcast import install as install_shared_encoding
-from ._control import OperatorControl
-from ._latency import LinkMonitor
-from ._operator_panel import ClientControls, OperatorActions
-from ._scene import RobotFigure, torus_mesh
-from ._workspace import WorkspaceSnapshot
+from rrps_description.geometry import RobotGeometry
+from rrps_description.pose import Pose
+from rrps_kinematics.scene import RobotFigure, torus_mesh
+from rrps_teleop.viewer._broadcast import install as install_shared_encoding
+from rrps_teleop.viewer._control import OperatorControl
+from rrps_teleop.viewer._latency import LinkMonitor
+from rrps_teleop.viewer._operator_panel import ClientControls, OperatorActions
+from rrps_teleop.viewer._workspace import WorkspaceSnapshot
 
 __all__ = ['Frame', 'ViewerServer']
 

@@ -18,8 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from rrps_kinematics.geometry import RobotGeometry
-from rrps_kinematics.rotations import rotation_angle_between
+from rrps_description.geometry import RobotGeometry
+from rrps_description.rotations import rotation_angle_between
 from rrps_kinematics.workspace import (
     NEAR_SINGULAR,
     UNREACHABLE,

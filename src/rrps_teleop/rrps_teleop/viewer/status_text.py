@@ -1,8 +1,8 @@
 """The viewer's status panel: the operator's text, rendered from typed statuses only.
 
-Every line is read from a contract of :mod:`rrps_teleop.interfaces` (``TeleopStatus``,
-``ClimbStatus``), :mod:`rrps_sim.interfaces` (``DriverStatus``) or
-:mod:`rrps_kinematics.interfaces` (``FkStatus``), never from another node's message text (the
+Every line is read from a contract of :mod:`rrps_interfaces.teleop` (``TeleopStatus``,
+``ClimbStatus``), :mod:`rrps_interfaces.driver` (``DriverStatus``) or
+:mod:`rrps_interfaces.kinematics` (``FkStatus``), never from another node's message text (the
 FK status message is shown as it is, for people). A status is anything with ``level`` and
 ``values`` (a ``diagnostic_msgs/DiagnosticStatus``); pure Python, no rclpy, no viser.
 """
@@ -13,10 +13,10 @@ import math
 
 import numpy as np
 
-from rrps_kinematics.interfaces import FkStatus
-from rrps_sim.interfaces import DriverStatus
-
-from ..interfaces import ClimbStatus, TeleopStatus
+from rrps_interfaces.climb import ClimbStatus
+from rrps_interfaces.driver import DriverStatus
+from rrps_interfaces.kinematics import FkStatus
+from rrps_interfaces.teleop import TeleopStatus
 
 __all__ = ['SLOW_ROUND_TRIP', 'HOLD_ROUND_TRIP', 'teleop_line', 'climb_line', 'driver_line',
            'round_trip_line', 'grippers_line', 'slave_lines', 'feedback_line', 'fk_line',
@@ -94,7 +94,7 @@ def grippers_line(grippers: dict[str, float | None]) -> str:
 
 def slave_lines(figure, *, min_conditioning: float) -> list[str]:
     """Conditioning, the smallest margin of each kind and the leg lengths of the slave
-    (a :class:`~rrps_teleop.viewer.RobotFigure`)."""
+    (a :class:`~rrps_kinematics.scene.RobotFigure`)."""
     m = figure.margins
     mins = m.minimum
     f = figure.fractions

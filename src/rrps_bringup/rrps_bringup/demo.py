@@ -1,0 +1,374 @@
+"""rrps-demo: the whole stack with the web viewer (``./rrps demo``).
+
+The demo runs as the system would on a robot and an operator station, in four processes:
+
+* the simulated hardware (``driver_node``, 500 Hz), as a real robot's driver, active at the
+  first start; it keeps the robot's physical state in a file of the run, and a driver that
+  dies is restarted inactive where the robot is (the viewer's "Activate driver" resumes);
+* the robot computer's nodes, IK, FK and climbing, composed in one process (``rrps-compose``);
+* the operator station, master, teleop and the viewer, in this process;
+* the observers, the flight recorder and markers_node (:func:`start_recorder`).
+
+The 500 Hz state fan-out and the viewer's web server therefore never share an executor (or a
+GIL) with the command path of the robot. A robot process that dies is restarted (at most 3
+times a minute); the children die with this process (a parent-death signal), and Ctrl-C or
+SIGTERM stops them all. The viewer's URL and operator token are
+printed once the robot is up.
+
+Every node reads its parameter file (``config/<node>.yaml`` of its package, :mod:`rrps_bringup.params`)
+before the demo's own settings (robot, rate, host, port, token), which win. A fourth process
+runs the observers: the flight recorder (``recorder_node``: the last 60 s for the viewer's
+"Save last 60 s" and for fault dumps, in ``--recordings``, default ``rrps_recordings``;
+``--record`` also records the whole session there) and ``markers_node`` (the robot for RViz2
+and Foxglove).
+
+``--headless`` runs no browser: a scripted teleop session (the operator's handle moves the
+master, a deadman stream engages the mapping, the slave follows; releasing the deadman holds the
+robot) and a scripted climb (one step up through ``climb/step_up``), prints what happened and
+exits 0 on success, 1 on failure: a smoke test for CI and users.
+
+DDS stays on this machine: ``ROS_AUTOMATIC_DISCOVERY_RANGE`` defaults to LOCALHOST.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+
+__all__ = ['main', 'build_stack', 'start_driver', 'start_robot_nodes', 'start_recorder',
+           'ROBOT_NODES', 'OPERATOR_NODES', 'OBSERVER_NODES']
+
+NAMESPACE = '/rrps'
+#: The robot computer's nodes (one process) and the operator station's (the demo's own process).
+ROBOT_NODES = ('ik_node', 'fk_node', 'climb_node')
+OPERATOR_NODES = ('master_node', 'teleop_node', 'viewer_node')
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog='rrps-demo', description='Run the whole rrps stack with the web viewer, in four supervised '
+                                      'processes: the driver; IK, FK and climb (the robot computer); '
+                                      'master, teleop and viewer (the operator station); recorder and '
+                                      'markers (observers).')
+    p.add_argument('--host', default='127.0.0.1',
+                   help='address the viewer binds (default 127.0.0.1; 0.0.0.0 for remote operators)')
+    p.add_argument('--port', type=int, default=8080, help='viewer port (default 8080)')
+    p.add_argument('--token', default='',
+                   help='operator token (default: a random one, printed at start-up)')
+    p.add_argument('--robot', default='pole_climber',
+                   help='shipped robot name or robot YAML path (default pole_climber)')
+    p.add_argument('--headless', action='store_true',
+                   help='no browser: run a scripted teleop session and a climb step, then exit '
+                        '(0 = success)')
+    p.add_argument('--recordings', default='rrps_recordings',
+                   help='folder of the flight recorder\'s files (and of --record)')
+    p.add_argument('--record', action='store_true',
+                   help='also record the whole session to MCAP in --recordings')
+    return p
+
+
+def build_stack(context, *, robot: str, host: str, port: int, token: str,
+                viewer: bool = True, climb: bool = True, driver: bool = True,
+                kinematics: bool = True, driver_rate: float = 500.0,
+                namespace: str = NAMESPACE) -> dict:
+    """Create nodes of the demo on ``context`` under ``namespace``; returns name -> node.
+
+    Every node by default (one process, as the tests use it). ``viewer=False`` / ``climb=False``
+    / ``driver=False`` / ``kinematics=False`` leave out the viewer / climbing node / simulated
+    driver / IK and FK nodes (the demo runs the driver and the robot's nodes in processes of
+    their own: :func:`start_driver`, :func:`start_robot_nodes`); ``driver_rate`` is the
+    simulated driver's actuators/state rate [Hz].
+    Each node reads its parameter file first (:func:`rrps_bringup.params.parameter_overrides`).
+
+    Raises ValueError / RobotDescriptionError with a clear message for bad arguments.
+    """
+    from rclpy.parameter import Parameter
+
+    from rrps_kinematics.nodes.fk_node import FkNode
+    from rrps_kinematics.nodes.ik_node import IkNode
+    from rrps_sim.nodes.driver_node import DriverNode
+    from rrps_teleop.nodes.master_node import MasterNode
+    from rrps_teleop.nodes.teleop_node import TeleopNode
+
+    robot_param = [Parameter('robot', value=robot)]
+    plan = [('driver_node', DriverNode, robot_param + [Parameter('rate', value=float(driver_rate)),
+                                                       Parameter('auto_activate', value=True)])
+            ] if driver else []
+    if kinematics:
+        plan += [('ik_node', IkNode, robot_param), ('fk_node', FkNode, robot_param)]
+    plan += [
+        ('master_node', MasterNode, []),
+        ('teleop_node', TeleopNode, robot_param),
+    ]
+    if climb:
+        try:
+            from rrps_teleop.nodes.climb_node import ClimbNode
+        except ImportError as exc:  # the climbing node is optional for the teleop part
+            print(f'rrps demo: warning: no climb node ({exc}); climbing is unavailable',
+                  file=sys.stderr)
+        else:
+            plan.append(('climb_node', ClimbNode, robot_param))
+    if viewer:
+        from rrps_teleop.nodes.viewer_node import ViewerNode
+        plan.append(('viewer_node', ViewerNode, robot_param + [
+            Parameter('host', value=host), Parameter('port', value=port),
+            Parameter('token', value=token)]))
+    nodes: dict = {}
+    try:
+        for name, cls, overrides in plan:
+            nodes[name] = cls(context=context, namespace=namespace,
+                              parameter_overrides=_with_file(name, overrides))
+    except BaseException:
+        for node in nodes.values():
+            node.destroy_node()
+        raise
+    return nodes
+
+
+def _with_file(node: str, overrides: list) -> list:
+    """The node's parameter file, then ``overrides`` (which win)."""
+    from rrps_bringup.params import parameter_overrides
+    explicit = {p.name for p in overrides}
+    return [p for p in parameter_overrides(node) if p.name not in explicit] + list(overrides)
+
+
+def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
+                 state_file: str = '', activate: bool = False) -> subprocess.Popen:
+    """The simulated hardware (driver_node) in a process of its own, as a real robot's driver.
+
+    Its 500 Hz loop has an interpreter and a core to itself. It keeps the robot's physical
+    state in ``state_file`` (a restart resumes it) and starts inactive unless ``activate``.
+    It inherits the environment (domain id, discovery range) and dies with this process; stop
+    it with :func:`rrps_runtime.supervision.stop_children`.
+    """
+    from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child
+    return start_child(driver_command(robot=robot, rate=rate, namespace=namespace,
+                                      state_file=state_file, activate=activate), nice=CONTROL_NICE,
+                       realtime=CONTROL_RT_PRIORITY)
+
+
+def driver_command(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
+                   state_file: str = '', activate: bool = False) -> list[str]:
+    """The command line of :func:`start_driver` (no state file: the parameter's default)."""
+    from rrps_bringup.params import params_file_arguments
+    return [sys.executable, '-m', 'rrps_sim.nodes.driver_node', '--ros-args',
+            *params_file_arguments('driver_node'), '-r', f'__ns:={namespace}',
+            '-p', f'robot:={robot}', '-p', f'rate:={float(rate)}',
+            *(['-p', f'state_file:={state_file}'] if state_file else []),
+            '-p', f'auto_activate:={str(activate).lower()}']
+
+
+def start_robot_nodes(*, robot: str, namespace: str = NAMESPACE) -> subprocess.Popen:
+    """The robot computer's nodes (:data:`ROBOT_NODES`) composed in one process of their own."""
+    from rrps_bringup.params import params_file_arguments
+    from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child
+    return start_child([sys.executable, '-m', 'rrps_bringup.compose', *ROBOT_NODES, '--ros-args',
+                        *params_file_arguments(*ROBOT_NODES),
+                        '-r', f'__ns:={namespace}', '-p', f'robot:={robot}'], nice=CONTROL_NICE,
+                       realtime=CONTROL_RT_PRIORITY)
+
+
+#: The observers: the flight recorder and the robot's markers for RViz2 / Foxglove.
+OBSERVER_NODES = ('recorder_node', 'markers_node')
+
+
+def start_recorder(*, robot: str, output_dir: str, record: bool = False,
+                   namespace: str = NAMESPACE) -> subprocess.Popen:
+    """The observers (:data:`OBSERVER_NODES`) in a process of their own, off the command path:
+    the flight recorder (the last 60 s, written on a fault or on the viewer's "Save last 60 s";
+    with ``record`` the whole session too) and markers_node."""
+    from rrps_bringup.params import params_file_arguments
+    from rrps_runtime.supervision import OBSERVER_NICE, start_child
+    return start_child([sys.executable, '-m', 'rrps_bringup.compose', *OBSERVER_NODES,
+                        '--ros-args', *params_file_arguments(*OBSERVER_NODES),
+                        '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
+                        '-p', f'output_dir:={output_dir}',
+                        '-p', f'record:={"true" if record else "false"}'], nice=OBSERVER_NICE)
+
+
+def wait_for_robot(executor, context, node, children: list[subprocess.Popen],
+                   stop: threading.Event, *, timeout: float = 60.0) -> bool:
+    """Spin until the robot is up, seen from ``node``: the driver's ``actuators/state``, the FK's
+    ``pose`` and the climbing services. False if a child exits, ``stop`` is set or ``timeout``
+    s pass first."""
+    from rclpy.task import Future
+
+    ns = node.get_namespace().rstrip('/')
+    never = Future()
+    deadline = time.monotonic() + timeout
+
+    def up() -> bool:
+        names = {name for name, _ in node.get_service_names_and_types()}
+        return (node.count_publishers(f'{ns}/actuators/state') > 0
+                and node.count_publishers(f'{ns}/pose') > 0 and f'{ns}/climb/step_up' in names)
+
+    while context.ok() and not stop.is_set() and time.monotonic() < deadline:
+        if any(child.poll() is not None for child in children):
+            return False
+        if up():
+            return True
+        executor.spin_until_future_complete(never, timeout_sec=0.05)
+    return False
+
+
+def _banner(viewer, driver_scheduling: str) -> str:
+    from rrps_runtime.supervision import CONTROL_RT_PRIORITY
+    wanted = f'SCHED_RR {CONTROL_RT_PRIORITY}'
+    scheduling = (f'driver and robot nodes at {driver_scheduling}' if driver_scheduling == wanted else
+                  f'driver and robot nodes at {driver_scheduling}, not {wanted} (run as root or '
+                  'grant CAP_SYS_NICE to give the robot\'s command path real-time priority)')
+    return (f'\nrrps demo: the pole climber is live.\n'
+            f'  viewer:         {viewer.url}\n'
+            f'  operator token: {viewer.token}\n'
+            f'  robot for RViz2/Foxglove: {NAMESPACE}/robot/markers (MarkerArray, frame ring_a)\n'
+            f'  scheduling:     {scheduling}\n'
+            f'  (every browser is read-only until it enters the token; Ctrl-C stops everything)\n')
+
+
+def _argument_error(args) -> str | None:
+    if not 1 <= args.port <= 65535:
+        return f'--port must be 1..65535, got {args.port}'
+    if args.token and len(args.token) < 8:
+        return '--token must have at least 8 characters'
+    return None
+
+
+def _start_robot(args, run_dir: str):
+    """The simulated robot: its driver (active at the first start only; a restarted driver
+    resumes the robot's physical state from the state file and waits for activation), its
+    computer's nodes, and the observers (flight recorder, markers). A child that dies is
+    restarted (at most 3 times a minute)."""
+    from rrps_runtime.supervision import Respawner
+
+    state_file = os.path.join(run_dir, f'{args.robot}-hardware.json')
+    return Respawner({
+        'driver': lambda first: start_driver(robot=args.robot, state_file=state_file, activate=first),
+        'robot nodes': lambda first: start_robot_nodes(robot=args.robot),
+        'observer': lambda first: start_recorder(robot=args.robot, output_dir=args.recordings,
+                                                 record=args.record),
+    })
+
+
+def _serve(executor, context, robot, stop: threading.Event) -> None:
+    """Spin the operator station's nodes until Ctrl-C, reporting (and restarting) dead children."""
+    from rclpy.task import Future
+
+    never = Future()
+    while context.ok() and not stop.is_set():
+        executor.spin_until_future_complete(never, timeout_sec=0.05)
+        for name, code, restarted in robot.poll():
+            print(f'rrps demo: the {name} process exited (status {code}); '
+                  + ('restarted it' + (': activate the driver in the viewer' if name == 'driver' else '')
+                     if restarted else 'not restarting it again'), flush=True)
+    print('rrps demo: stopping', flush=True)
+
+
+def _run_script(script, executor, context, robot, stop: threading.Event, viewer) -> int:
+    """The headless demo: run the scripted session while another thread spins; 0 if it passed."""
+    from rrps_runtime.process import spin_until_shutdown
+
+    spinner = threading.Thread(target=spin_until_shutdown, args=(executor, context, stop),
+                               kwargs={'period': 0.02}, daemon=True)
+    spinner.start()
+    try:
+        ok = script.run(stop, viewer=viewer)
+    finally:
+        stop.set()
+        # Wait until the executor stopped spinning (it checks ``stop`` every 20 ms, later on a
+        # loaded machine): destroying nodes under a spinning EventsExecutor crashes the process.
+        spinner.join()
+    failed = [c for c in robot.children.values() if c.poll() is not None]
+    return 0 if ok and not failed else 1
+
+
+def main(argv=None) -> int:
+    args = _parser().parse_args(argv)
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    error = _argument_error(args)
+    if error is not None:
+        print(f'error: {error}', file=sys.stderr)
+        return 2
+
+    import rclpy
+    from rclpy.executors import ExternalShutdownException
+    from rclpy.signals import SignalHandlerOptions
+
+    from rrps_description.geometry import RobotDescriptionError
+    from rrps_runtime.process import freeze_startup_objects, make_executor
+    from rrps_runtime.supervision import (
+        OPERATOR_NICE,
+        OPERATOR_RT_PRIORITY,
+        Respawner,
+        exit_with_parent,
+        raise_priority,
+        scheduling_of,
+    )
+
+    stop = threading.Event()
+    exit_with_parent(stop.set)
+    # the operator station: before other jobs (the browser), after the robot's processes
+    raise_priority(OPERATOR_NICE, realtime=OPERATOR_RT_PRIORITY)
+    context = rclpy.Context()
+    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    previous = {sig: signal.signal(sig, lambda *_: stop.set())
+                for sig in (signal.SIGINT, signal.SIGTERM)}
+    nodes: dict = {}
+    robot: Respawner | None = None
+    run_dir = tempfile.mkdtemp(prefix='rrps-demo-')
+    status = 0
+    try:
+        try:
+            nodes = build_stack(context, robot=args.robot, host=args.host, port=args.port,
+                                token=args.token, viewer=True, driver=False, kinematics=False,
+                                climb=False)
+        except (RobotDescriptionError, ValueError) as exc:
+            print(f'error: {exc}', file=sys.stderr)
+            return 2
+        robot = _start_robot(args, run_dir)
+        script = None
+        if args.headless:
+            from rrps_bringup.headless import DemoScript
+            script = DemoScript(context=context, namespace=NAMESPACE)
+            nodes['demo_script'] = script
+        executor = make_executor(context, 'events')
+        for node in nodes.values():
+            executor.add_node(node)
+        freeze_startup_objects()
+        if not wait_for_robot(executor, context, nodes['teleop_node'],
+                              list(robot.children.values()), stop):
+            if not stop.is_set() or robot.poll():
+                print('error: the simulated robot did not start', file=sys.stderr)
+                status = 1
+            return status
+        if script is None:
+            print(_banner(nodes['viewer_node'], scheduling_of(robot.children['driver'].pid)), flush=True)
+            _serve(executor, context, robot, stop)
+        else:
+            status = _run_script(script, executor, context, robot, stop, nodes['viewer_node'])
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if robot is not None:  # both stop while this process tears its own nodes down
+            for child in robot.children.values():
+                if child.poll() is None:
+                    child.send_signal(signal.SIGTERM)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        for node in nodes.values():
+            node.destroy_node()
+        rclpy.try_shutdown(context=context)
+        if robot is not None:
+            robot.stop(timeout=5.0)
+        shutil.rmtree(run_dir, ignore_errors=True)
+    return status
+
+
+if __name__ == '__main__':
+    sys.exit(main())

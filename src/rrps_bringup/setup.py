@@ -1,0 +1,40 @@
+from glob import glob
+
+from setuptools import find_packages, setup
+
+package_name = 'rrps_bringup'
+
+setup(
+    name=package_name,
+    version='0.2.0',
+    packages=find_packages(exclude=['test']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+        ('share/' + package_name + '/config', glob('config/*.yaml')),
+    ],
+    install_requires=[
+        'setuptools',
+        'PyYAML',
+        'rrps_description',
+        'rrps_interfaces',
+        'rrps_runtime',
+        'rrps_kinematics',
+        'rrps_sim',
+        'rrps_teleop',
+        'rrps_recording',
+    ],
+    extras_require={'test': ['pytest', 'hypothesis']},
+    zip_safe=True,
+    maintainer='rrps maintainers',
+    maintainer_email='maintainers@users.noreply.h-seed-0d31557d.example',
+    description='Bring-up of the rrps stack.',
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+            'rrps-demo = rrps_bringup.demo:main',
+            'rrps-compose = rrps_bringup.compose:main',
+            'rrps-params = rrps_bringup.params:main',
+        ],
+    },
+)

@@ -1,0 +1,83 @@
+"""The contract of the climbing node with the system.
+
+Topics and services (relative names)::
+
+    CLIMB_STATUS         diagnostic_msgs/DiagnosticStatus  values: ClimbStatus
+    CLIMB_STEP_UP, CLIMB_STEP_DOWN, CLIMB_RESUME  std_srvs/Trigger
+    odometry_topic(ring) geometry_msgs/PoseStamped  the ring's pose in frame world
+
+Pure Python, no ROS import.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+
+from rrps_description.names import RINGS
+from rrps_interfaces.status import StatusValues
+
+__all__ = ['CLIMB_STATUS', 'CLIMB_STEP_UP', 'CLIMB_STEP_DOWN', 'CLIMB_RESUME', 'odometry_topic', 'ClimbState',
+           'PauseReason', 'PhaseAction', 'ClimbStatus']
+
+CLIMB_STATUS = 'climb/status'
+CLIMB_STEP_UP = 'climb/step_up'
+CLIMB_STEP_DOWN = 'climb/step_down'
+CLIMB_RESUME = 'climb/resume'
+
+
+def odometry_topic(ring: str) -> str:
+    """World pose of ``ring`` ('ring_a' or 'ring_b') chained by the climbing node."""
+    if ring not in RINGS:
+        raise ValueError(f"ring must be 'ring_a' or 'ring_b', got {ring!r}")
+    return f'odometry/{ring}'
+
+
+class ClimbState(enum.Enum):
+    """The climbing node's state machine."""
+
+    IDLE = 'idle'            # no step executing; a step may start
+    EXECUTING = 'executing'  # a step owns the robot (teleoperation refuses to engage)
+    PAUSED = 'paused'        # a step holds (see PauseReason) until the operator resumes it
+    FAILED = 'error'         # a step failed: the robot holds; see the detail
+
+
+class PauseReason(enum.Enum):
+    """Why a climbing step holds. It resumes only on the operator's ``climb/resume``."""
+
+    ROBOT_STATE_LOST = 'robot state lost'        # pose or grippers/state older than state_timeout
+    OPERATOR_LINK_LOST = 'operator link lost'    # the operator station's teleop/status went silent
+    DRIVER_INACTIVE = 'driver inactive'          # the driver left its active state
+
+
+class PhaseAction(enum.Enum):
+    """What one phase of a climbing step does (paper section 3: the inchworm gait)."""
+
+    START = 'start'      # the configuration the plan starts from
+    RELEASE = 'release'  # open the ring's gripper
+    MOVE = 'move'        # move the open ring along the structure
+    GRIP = 'grip'        # close the ring's gripper
+
+
+@dataclasses.dataclass(frozen=True)
+class ClimbStatus(StatusValues):
+    """climb/status values: the state, where the step is (``step``, the phase's ``action`` and
+    ``ring``), the rings' route positions [m] and the reason in words (``detail``)."""
+
+    state: ClimbState
+    pause_reason: PauseReason | None = None
+    step: int = 0
+    action: PhaseAction | None = None
+    ring: str = ''
+    structure: str = ''
+    s_a: float = 0.0
+    s_b: float = 0.0
+    steps_done: int = 0
+    detail: str = ''
+
+    @property
+    def phase(self) -> str:
+        """The phase's name as the plans write it ('move_b', 'grip_a', ...; '' when idle)."""
+        if self.action is None:
+            return ''
+        return self.action.value if not self.ring else f'{self.action.value}_{self.ring[-1]}'

@@ -1,0 +1,70 @@
+"""The contract of the hardware driver (simulated or real) with the rest of the system.
+
+Topics and services (relative names), beside :mod:`rrps_interfaces.kinematics`' actuator streams::
+
+    GRIPPERS_STATE            sensor_msgs/JointState  name RINGS, position 1.0 closed / 0.0 open
+    gripper_service(ring)     std_srvs/SetBool        data true = close; refused: success false
+
+and the driver's /diagnostics values, :class:`DriverStatus`. Pure Python, no ROS import.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+from typing import Mapping, Sequence
+
+from rrps_description.names import RINGS
+from rrps_interfaces.status import CommandAgeStatus
+
+__all__ = ['GRIPPERS_STATE', 'gripper_service', 'gripper_states', 'ActuatorMode', 'DriverStatus']
+
+GRIPPERS_STATE = 'grippers/state'
+
+
+def gripper_service(ring: str) -> str:
+    """The SetBool service that closes (true) or opens (false) ``ring``'s gripper."""
+    if ring not in RINGS:
+        raise ValueError(f'unknown ring {ring!r}, expected one of {RINGS}')
+    return f'grippers/{ring}/set'
+
+
+def gripper_states(names: Sequence[str], positions: Sequence[float]) -> dict[str, bool] | None:
+    """{ring: closed} from a GRIPPERS_STATE message's names and positions; None unless both
+    rings are there with finite values (a closedness of at least 0.5 counts as closed)."""
+    state = dict(zip(names, positions))
+    if not all(ring in state and state[ring] == state[ring] for ring in RINGS):
+        return None
+    return {ring: float(state[ring]) >= 0.5 for ring in RINGS}
+
+
+class ActuatorMode(enum.Enum):
+    """Fidelity of the simulated actuators."""
+
+    KINEMATIC = 'kinematic'  # lag, speed and stroke limits; quasi-static forces
+    DYNAMIC = 'dynamic'      # the multibody dynamics (eqs. 19-20) with a PD force loop
+
+
+@dataclasses.dataclass(frozen=True)
+class DriverStatus(CommandAgeStatus):
+    """driver_node's /diagnostics values."""
+
+    mode: ActuatorMode = ActuatorMode.KINEMATIC
+    #: the lifecycle state is active: commands move the robot, the grippers switch
+    active: bool = False
+    accepted: int = 0
+    rejected: int = 0
+    dropped: int = 0
+    lengths: tuple[float, ...] = ()
+    stuck_legs: tuple[int, ...] = ()
+    ring_a_closed: bool = True
+    ring_b_closed: bool = True
+    #: gripper requests refused since the start (the interlock, a ring without a gripper)
+    gripper_refusals: int = 0
+    #: why the last write of ``state_file`` failed ('' when it succeeded or there is none)
+    state_file_error: str = ''
+
+    @classmethod
+    def grippers(cls, closed: Mapping[str, bool]) -> dict:
+        """The gripper fields from {ring: closed}."""
+        return {f'{ring}_closed': bool(closed[ring]) for ring in RINGS}

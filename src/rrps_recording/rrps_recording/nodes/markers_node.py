@@ -1,0 +1,266 @@
+"""markers_node: the robot as visualization_msgs/MarkerArray, for RViz2 and Foxglove (issue 12).
+
+Publishes ``robot/markers`` at ``rate`` Hz (:func:`rrps_recording.markers.robot_markers`):
+in frame ``ring_a`` both rings, the six legs coloured by their worst margin (the viewer's
+colours), the grippers (dark closed, yellow open, grey unknown) and the commanded target as a
+ghost ring_b; in frame ``world``, once odometry places the robot, the same robot again
+(namespaces ``world/...``) and the climbed structure (``structure``, every
+``structure_period`` s). In RViz2: add a MarkerArray display on ``/rrps/robot/markers`` with
+fixed frame ``ring_a`` (or ``world``). The recordings also carry ``/tf`` (recorder_node).
+
+Live ``/tf`` (``tf2_msgs/msg/TFMessage``, the absolute topic, with the QoS of tf2_ros'
+TransformBroadcaster) at ``tf_rate`` Hz once a pose is known: ``world -> ring_a`` (once odometry
+places the robot), ``ring_a -> ring_b`` and the legs' links, computed as the recorder computes
+its ``/tf`` (:func:`rrps_recording.markers.robot_transforms`). tf2_msgs is not on PyPI:
+``./rrps`` builds it (tools/build_tf2_msgs.sh) when cmake and a C compiler are there; without
+it the node logs that live /tf is off and publishes the markers only.
+
+Subscribes (relative names): ``pose``, ``target_pose``, ``actuators/state`` (efforts),
+``grippers/state``, ``odometry/ring_a|ring_b``; every subscription keeps only the newest
+message, the markers are built at ``rate`` Hz while anything they show changes; a robot at rest
+is re-sent every ``structure_period`` s only (for displays that join later).
+
+    markers_node --ros-args -r __ns:=/rrps -p robot:=pole_climber -p tf_rate:=30.0
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+from builtin_interfaces.msg import Duration
+from geometry_msgs.msg import Point, PoseStamped, TransformStamped
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+from std_msgs.msg import ColorRGBA
+from visualization_msgs.msg import Marker, MarkerArray
+
+from rrps_description.pose import Pose
+from rrps_interfaces.climb import odometry_topic
+from rrps_interfaces.driver import GRIPPERS_STATE, gripper_states
+from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE, TARGET_POSE
+from rrps_interfaces.recording import ROBOT_MARKERS, TF
+from rrps_recording.markers import MarkerSpec, robot_markers, robot_transforms, structure_marker, world_pose_of_ring_a
+from rrps_recording.storage.qos import TF_QOS
+from rrps_runtime.messages import pose_from_msg
+from rrps_runtime.parameters import declare_parameter, declare_robot_parameter
+from rrps_runtime.process import run_nodes
+from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, STATE_QOS
+from rrps_runtime.recording_tap import RecordingTap
+
+__all__ = ['MarkersNode', 'main', 'marker_msg', 'transform_msgs']
+
+#: The live /tf publisher's QoS: tf2_ros' TransformBroadcaster's (TF_QOS).
+_TF_PUBLISHER_QOS = QoSProfile(history=HistoryPolicy(TF_QOS.history), depth=TF_QOS.depth,
+                               reliability=ReliabilityPolicy(TF_QOS.reliability),
+                               durability=DurabilityPolicy(TF_QOS.durability))
+
+_KINDS = {'line_strip': Marker.LINE_STRIP, 'line_list': Marker.LINE_LIST,
+          'cylinder': Marker.CYLINDER, 'triangle_list': Marker.TRIANGLE_LIST}
+
+
+def marker_msg(spec: MarkerSpec, stamp) -> Marker:
+    """A visualization_msgs/Marker from a MarkerSpec (plain floats: no numpy in the message)."""
+    m = Marker()
+    m.header.frame_id = spec.frame
+    m.header.stamp = stamp
+    m.ns, m.id, m.type, m.action = spec.ns, int(spec.id), _KINDS[spec.kind], Marker.ADD
+    p, q = spec.pose.position, spec.pose.quaternion_xyzw
+    m.pose.position.x, m.pose.position.y, m.pose.position.z = (float(v) for v in p)
+    (m.pose.orientation.x, m.pose.orientation.y, m.pose.orientation.z,
+     m.pose.orientation.w) = (float(v) for v in q)
+    m.scale.x, m.scale.y, m.scale.z = (float(v) for v in spec.scale)
+    m.color = ColorRGBA(r=float(spec.colour[0]), g=float(spec.colour[1]),
+                        b=float(spec.colour[2]), a=float(spec.colour[3]))
+    if spec.points is not None:
+        m.points = [Point(x=float(x), y=float(y), z=float(z)) for x, y, z in spec.points]
+    if spec.colours is not None:
+        m.colors = [ColorRGBA(r=float(c[0]), g=float(c[1]), b=float(c[2]), a=float(c[3]))
+                    for c in spec.colours]
+    m.lifetime = Duration(sec=0, nanosec=0)
+    m.frame_locked = True
+    return m
+
+
+def transform_msgs(transforms, stamp) -> list[TransformStamped]:
+    """geometry_msgs/TransformStamped messages from (parent, child, parent_T_child) triples."""
+    out = []
+    for parent, child, pose in transforms:
+        t = TransformStamped()
+        t.header.stamp, t.header.frame_id, t.child_frame_id = stamp, parent, child
+        tr, rot = t.transform.translation, t.transform.rotation
+        tr.x, tr.y, tr.z = (float(v) for v in pose.position)
+        rot.x, rot.y, rot.z, rot.w = (float(v) for v in pose.quaternion_xyzw)
+        out.append(t)
+    return out
+
+
+class MarkersNode(Node):
+    """Publishes the robot's MarkerArray; see the module docstring."""
+
+    def __init__(self, **kwargs):
+        super().__init__('markers_node', **kwargs)
+        self.geometry = declare_robot_parameter(self)
+        rate = declare_parameter(self, 'rate', 10.0, 'robot/markers rate [Hz]', min_value=0.1,
+                                 max_value=100.0, read_only=True)
+        structure = declare_parameter(self, 'structure', 'pole',
+                                      'structure to draw in world (pole, palm_trunk, frame, '
+                                      'facade; empty: none)', read_only=True)
+        length = declare_parameter(self, 'structure_length', 3.0, 'drawn structure length [m]',
+                                   min_value=0.5, max_value=100.0, read_only=True)
+        self.structure_period = declare_parameter(
+            self, 'structure_period', 1.0, 'the structure is re-sent this often [s]',
+            min_value=0.1, max_value=60.0, read_only=True)
+        tf_rate = declare_parameter(self, 'tf_rate', 30.0,
+                                    'live /tf rate [Hz] (needs tf2_msgs); 0 = off',
+                                    min_value=0.0, max_value=1000.0, read_only=True)
+        self._structure = None
+        if structure:  # static: its message is built once (thousands of points)
+            from rrps_description.structures import make_structure
+            vertices, faces = make_structure(structure, length).mesh()
+            self._structure = marker_msg(structure_marker(vertices, faces),
+                                         self.get_clock().now().to_msg())
+        self._lock = threading.Lock()
+        self._latest: dict[str, object] = {}
+        self._structure_due = 0.0
+        self._last_inputs: tuple | None = None
+        self._resend_due = 0.0
+        self.published = 0
+        self._tap = RecordingTap(self)
+        self._pub = self._tap.create_publisher(MarkerArray, ROBOT_MARKERS, STATE_QOS)
+        for topic, qos in ((POSE, LATEST_QOS), (TARGET_POSE, COMMAND_QOS),
+                           (odometry_topic('ring_a'), LATEST_QOS),
+                           (odometry_topic('ring_b'), LATEST_QOS)):
+            self.create_subscription(PoseStamped, topic,
+                                     lambda msg, topic=topic: self._store(topic, msg), qos)
+        for topic in (ACTUATORS_STATE, GRIPPERS_STATE):
+            self.create_subscription(JointState, topic,
+                                     lambda msg, topic=topic: self._store(topic, msg), LATEST_QOS)
+        self.create_timer(1.0 / rate, self._publish)
+        self.tf_published = 0
+        self._tf_pub = None
+        self._tf_cache: tuple[tuple, list] | None = None  # (inputs, transforms)
+        if tf_rate > 0.0:
+            try:
+                from tf2_msgs.msg import TFMessage  # optional: built by ./rrps, not on PyPI
+            except ImportError as exc:
+                self.get_logger().info(f'live /tf is off: tf2_msgs is not installed ({exc}); '
+                                       './rrps builds it when cmake and a C compiler are there')
+            else:
+                self._tf_type = TFMessage
+                self._tf_pub = self.create_publisher(TFMessage, TF, _TF_PUBLISHER_QOS)
+                self.create_timer(1.0 / tf_rate, self._publish_tf)
+
+    def _store(self, topic: str, msg) -> None:
+        with self._lock:
+            self._latest[topic] = msg
+
+    def _robot(self, latest: dict) -> tuple[Pose, dict | None, Pose | None]:
+        """(a_T_b, grippers {ring: closed} or None, world_T_a or None) of the newest messages."""
+        a_T_b = Pose(*pose_from_msg(latest[POSE]))
+        grippers = None
+        g = latest.get(GRIPPERS_STATE)
+        if g is not None:
+            grippers = gripper_states(list(g.name), list(g.position))
+        odometry = {ring: Pose(*pose_from_msg(msg)) for ring in ('ring_a', 'ring_b')
+                    if (msg := latest.get(odometry_topic(ring))) is not None}
+        return a_T_b, grippers, world_pose_of_ring_a(a_T_b, grippers, odometry)
+
+    def markers(self) -> list[MarkerSpec]:
+        """The markers of the newest messages (none before the first pose)."""
+        with self._lock:
+            latest = dict(self._latest)
+        if latest.get(POSE) is None:
+            return []
+        a_T_b, grippers, world_T_a = self._robot(latest)
+        efforts = None
+        state = latest.get(ACTUATORS_STATE)
+        if state is not None and len(state.effort) == len(state.name) and state.name:
+            index = {n: i for i, n in enumerate(state.name)}
+            if all(f'leg_{i}' in index for i in range(1, 7)):
+                efforts = np.array([state.effort[index[f'leg_{i}']] for i in range(1, 7)])
+                if not np.all(np.isfinite(efforts)):
+                    efforts = None
+        target = None
+        if latest.get(TARGET_POSE) is not None:
+            try:
+                target = Pose(*pose_from_msg(latest[TARGET_POSE]))
+            except ValueError:
+                target = None
+        return robot_markers(self.geometry, a_T_b, efforts=efforts,
+                             grippers=grippers or {}, target=target, world_T_a=world_T_a)
+
+    def transforms(self) -> list:
+        """The /tf transforms (parent, child, Pose) of the newest messages (none before a pose)."""
+        with self._lock:
+            latest = dict(self._latest)
+        if latest.get(POSE) is None:
+            return []
+        a_T_b, _, world_T_a = self._robot(latest)
+        return robot_transforms(self.geometry, a_T_b, world_T_a)
+
+    def _inputs(self) -> tuple:
+        """What the markers are drawn from (the newest messages' values, not their stamps)."""
+        with self._lock:
+            latest = dict(self._latest)
+
+        def pose(msg):
+            if msg is None:
+                return None
+            p, o = msg.pose.position, msg.pose.orientation
+            return (p.x, p.y, p.z, o.x, o.y, o.z, o.w)
+        state, grippers = latest.get(ACTUATORS_STATE), latest.get(GRIPPERS_STATE)
+        return (pose(latest.get(POSE)), pose(latest.get(TARGET_POSE)),
+                pose(latest.get(odometry_topic('ring_a'))), pose(latest.get(odometry_topic('ring_b'))),
+                None if state is None else tuple(state.effort),
+                None if grippers is None else tuple(grippers.position))
+
+    def _publish(self) -> None:
+        t = self.get_clock().now().nanoseconds * 1e-9
+        inputs = self._inputs()
+        if inputs == self._last_inputs and t < self._resend_due:
+            return  # a robot at rest: nothing new to draw (re-sent each structure_period)
+        self._last_inputs, self._resend_due = inputs, t + self.structure_period
+        try:
+            specs = self.markers()
+        except ValueError as exc:
+            self.get_logger().warning(f'no markers for this pose: {exc}',
+                                      throttle_duration_sec=5.0)
+            return
+        now = self.get_clock().now()
+        t = now.nanoseconds * 1e-9
+        if not specs:
+            return
+        stamp = now.to_msg()
+        markers = [marker_msg(s, stamp) for s in specs]
+        if self._structure is not None and t >= self._structure_due:
+            self._structure.header.stamp = stamp
+            markers.append(self._structure)
+            self._structure_due = t + self.structure_period
+        self._pub.publish(MarkerArray(markers=markers))
+        self.published += 1
+
+    def _publish_tf(self) -> None:
+        inputs = self._inputs()
+        if self._tf_cache is not None and self._tf_cache[0] == inputs:
+            transforms = self._tf_cache[1]  # a robot at rest: the same transforms, stamped now
+        else:
+            try:
+                transforms = self.transforms()
+            except ValueError as exc:
+                self.get_logger().warning(f'no /tf for this pose: {exc}', throttle_duration_sec=5.0)
+                return
+            self._tf_cache = (inputs, transforms)
+        if transforms:
+            stamp = self.get_clock().now().to_msg()
+            self._tf_pub.publish(self._tf_type(transforms=transform_msgs(transforms, stamp)))
+            self.tf_published += 1
+
+
+def main(args=None) -> None:
+    run_nodes([MarkersNode], args)
+
+
+if __name__ == '__main__':
+    main()

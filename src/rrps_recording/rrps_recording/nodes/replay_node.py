@@ -1,0 +1,228 @@
+"""replay_node: publishes an MCAP recording again, with its QoS, at any rate, with pause and seek.
+
+Every recorded topic is published on its recorded name (the CDR bytes as recorded, never
+re-encoded) with the reliability and durability its publishers offered
+(:func:`rrps_recording.storage.qos.offer_for_replay`), at the recorded pace times ``rate``, so
+the viewer and any node see the session again. A topic whose message type is not installed
+here (``tf2_msgs/msg/TFMessage`` where ./rrps could not build tf2_msgs) is skipped and named in
+the status.
+
+Safety: a replay never feeds a live robot. The command streams (``target_pose``,
+``actuators/command``, ``teleop/enable``, ``master/target_pose``) are published under
+``<namespace>/replay/...`` instead (``remap_prefix``) unless ``allow_commands`` is set.
+
+Run-time parameters: ``rate`` (1.0 = as recorded), ``paused``, ``seek`` (set to a time [s]
+from the recording's start to jump there; the value stays as a record of the last jump).
+``replay/status`` (diagnostic_msgs/DiagnosticStatus, values :class:`ReplayStatus`) says where
+the replay is, at ``status_rate`` Hz: the viewer draws its timeline from it.
+
+    replay_node --ros-args -p files:=[session_0.mcap] -p rate:=2.0
+    rrps-replay session_0.mcap --rate 2.0               (the same, as a command)
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+from rrps_interfaces.recording import REPLAY_PREFIX, REPLAY_STATUS, ReplayStatus
+from rrps_recording.storage.qos import offer_for_replay
+from rrps_recording.storage.schemas import message_class
+from rrps_recording.transport.replay import RecordingSet, ReplayClock, is_command_topic, replay_topic
+from rrps_runtime.diagnostics import OK, STALE, WARN, Diagnostics
+from rrps_runtime.parameters import declare_parameter
+from rrps_runtime.process import run_nodes
+from rrps_runtime.qos import STATE_QOS
+
+__all__ = ['ReplayNode', 'main']
+
+
+class ReplayNode(Node):
+    """Replays a recording; see the module docstring."""
+
+    def __init__(self, **kwargs):
+        super().__init__('replay_node', **kwargs)
+        files = list(declare_parameter(self, 'files', [''], 'MCAP file(s) of one recording',
+                                       read_only=True))
+        rate = declare_parameter(self, 'rate', 1.0, 'replay speed (1.0 = as recorded)',
+                                 min_value=0.01, max_value=100.0)
+        paused = declare_parameter(self, 'paused', False, 'hold the replay where it is')
+        declare_parameter(self, 'seek', -1.0,
+                          'set to a time [s] from the start to jump there', min_value=-1.0,
+                          max_value=1e9)
+        start = declare_parameter(self, 'start', 0.0, 'start this far into the recording [s]',
+                                  min_value=0.0, max_value=1e9, read_only=True)
+        self.loop = declare_parameter(self, 'loop', False, 'start again at the end')
+        self.allow_commands = declare_parameter(
+            self, 'allow_commands', False,
+            'publish the command streams on their live names (default: under remap_prefix)',
+            read_only=True)
+        prefix = declare_parameter(self, 'remap_prefix', REPLAY_PREFIX,
+                                   'where the command streams go unless allow_commands',
+                                   read_only=True)
+        topics = [t for t in declare_parameter(self, 'topics', [''],
+                                               "recorded topics to replay ('' = all)",
+                                               read_only=True) if t]
+        status_rate = declare_parameter(self, 'status_rate', 10.0, 'replay/status rate [Hz]',
+                                        min_value=0.5, max_value=100.0, read_only=True)
+        self.exit_at_end = declare_parameter(self, 'exit_at_end', False,
+                                             'shut down when the recording ends (no loop)',
+                                             read_only=True)
+        files = [f for f in files if f]
+        if not files:
+            raise ValueError('files: give the recording to replay (-p files:=[a.mcap])')
+        self.recording = RecordingSet(files)
+        self.files = files
+        self.clock = ReplayClock(self.recording.start_ns, self.recording.end_ns, rate=rate,
+                                 paused=paused, now=time.monotonic())
+        if start > 0.0:
+            self.clock.seek(self.recording.start_ns + int(start * 1e9), time.monotonic())
+        self._cond = threading.Condition()
+        self.published = 0
+        self.finished = False
+        self.skipped: dict[str, str] = {}
+        self.remapped: dict[str, str] = {}
+        self._replay_publishers: dict[str, object] = {}
+        for name, topic in self.recording.topics.items():
+            if topics and not any(name == t or name.startswith(t.rstrip('/') + '/')
+                                  for t in topics):
+                continue
+            if name.endswith('/' + REPLAY_STATUS):
+                continue  # a recorded replay's status is not this replay's
+            try:
+                cls = message_class(topic.type)
+            except (ImportError, AttributeError, ValueError) as exc:
+                self.skipped[name] = f'{topic.type} is not installed ({exc})'
+                continue
+            out = replay_topic(name, allow_commands=self.allow_commands, prefix=prefix)
+            if out != name:
+                self.remapped[name] = out
+            spec = offer_for_replay(list(topic.offered_qos))
+            qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=spec.depth,
+                             reliability=ReliabilityPolicy(spec.reliability),
+                             durability=DurabilityPolicy(spec.durability))
+            self._replay_publishers[name] = self.create_publisher(cls, out, qos)
+        if self.allow_commands and any(is_command_topic(n) for n in self._replay_publishers):
+            self.get_logger().warning('allow_commands: the recorded command streams go to '
+                                      'their live names; a driver listening will act on them')
+        self._status_pub = self.create_publisher(DiagnosticStatus, REPLAY_STATUS, STATE_QOS)
+        self._diag = Diagnostics(self, 'replay', rate_hz=1.0)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.create_timer(1.0 / status_rate, self._report)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name='replay', daemon=True)
+        self._thread.start()
+        self.get_logger().info(
+            f'replaying {", ".join(files)} ({self.recording.duration:.1f} s, '
+            f'{len(self._replay_publishers)} topics) at {rate:g}x'
+            + (f'; commands under {prefix}/: {", ".join(self.remapped.values())}'
+               if self.remapped else '')
+            + (f'; skipped: {", ".join(sorted(self.skipped))}' if self.skipped else ''))
+
+    # --- control -------------------------------------------------------------------------------
+
+    def _on_set_parameters(self, parameters) -> SetParametersResult:
+        now = time.monotonic()
+        with self._cond:
+            for p in parameters:
+                if p.name == 'rate':
+                    self.clock.set_rate(float(p.value), now)
+                elif p.name == 'paused':
+                    self.clock.set_paused(bool(p.value), now)
+                elif p.name == 'seek' and float(p.value) >= 0.0:
+                    self.clock.seek(self.recording.start_ns + int(float(p.value) * 1e9), now)
+                    self.finished = False
+                elif p.name == 'loop':
+                    self.loop = bool(p.value)
+            self._cond.notify_all()
+        return SetParametersResult(successful=True)
+
+    def status(self) -> ReplayStatus:
+        """Where the replay is now."""
+        with self._cond:
+            now = time.monotonic()
+            return ReplayStatus(
+                time=self.clock.elapsed(now), duration=self.recording.duration,
+                rate=self.clock.rate, paused=self.clock.paused, finished=self.finished,
+                file=self.files[0], published=self.published,
+                remapped=tuple(sorted(self.remapped.values())), skipped=tuple(sorted(self.skipped)))
+
+    def _report(self) -> None:
+        status = self.status()
+        level = STALE if status.finished else WARN if self.skipped else OK
+        message = ('finished' if status.finished else 'paused' if status.paused
+                   else f'replaying at {status.rate:g}x')
+        msg = DiagnosticStatus(level=level, name=f'{self.get_name()}: replay', message=message)
+        msg.values = [KeyValue(key=k, value=v) for k, v in status.to_values().items()]
+        self._status_pub.publish(msg)
+        self._diag.report(level, message, status)
+
+    # --- the publishing thread ----------------------------------------------------------------
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            with self._cond:
+                epoch = self.clock.epoch
+                start = self.clock.read_from
+            restarted = False
+            for topic, t, data in self.recording.messages(start, list(self._replay_publishers)):
+                with self._cond:
+                    while not self._stop.is_set() and self.clock.epoch == epoch:
+                        wait = self.clock.wait(t, time.monotonic())
+                        if wait <= 0.0:
+                            break
+                        self._cond.wait(min(wait, 0.1))
+                    if self._stop.is_set():
+                        return
+                    if self.clock.epoch != epoch:
+                        restarted = True
+                        break
+                publisher = self._replay_publishers.get(topic)
+                if publisher is not None:
+                    try:
+                        publisher.publish(data)
+                    except Exception as exc:  # the context went away during shutdown
+                        if self._stop.is_set() or not self.context.ok():
+                            return
+                        raise exc
+                    self.published += 1
+            if restarted:
+                continue
+            with self._cond:
+                if self.clock.epoch != epoch:
+                    continue
+                if self.loop:
+                    self.clock.seek(self.recording.start_ns, time.monotonic())
+                    continue
+                self.finished = True
+                self.clock.seek(self.recording.end_ns, time.monotonic())
+                epoch = self.clock.epoch
+            if self.exit_at_end:
+                self.get_logger().info(f'finished: {self.published} messages published')
+                self._report()
+                rclpy.try_shutdown(context=self.context)
+                return
+            with self._cond:
+                while not self._stop.is_set() and self.clock.epoch == epoch:
+                    self._cond.wait(0.2)
+
+    def destroy_node(self) -> None:
+        self._stop.set()
+        with self._cond:
+            self._cond.notify_all()
+        self._thread.join(timeout=5.0)
+        super().destroy_node()
+
+
+def main(args=None) -> None:
+    run_nodes([ReplayNode], args)
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,47 @@
+from setuptools import find_packages, setup
+
+package_name = 'rrps_recording'
+#: The nodes of this package: executable -> (module, node class). Registered once, in the
+#: 'rrps.nodes' entry-point group that rrps-compose and rrps-params read, and as the
+#: console scripts that `ros2 run` starts (lib/<package>/<node>).
+NODES = {
+    'recorder_node': ('rrps_recording.nodes.recorder_node', 'RecorderNode'),
+    'replay_node': ('rrps_recording.nodes.replay_node', 'ReplayNode'),
+    'markers_node': ('rrps_recording.nodes.markers_node', 'MarkersNode'),
+}
+
+setup(
+    name=package_name,
+    version='0.2.0',
+    packages=find_packages(exclude=['test']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+    ],
+    install_requires=[
+        'setuptools',
+        'numpy',
+        'PyYAML',
+        'mcap',
+        'mcap-ros2-support',
+        'foxglove-sdk',
+        'zstandard',
+        'rrps_description',
+        'rrps_interfaces',
+        'rrps_runtime',
+        'rrps_kinematics',
+    ],
+    extras_require={'test': ['pytest', 'hypothesis']},
+    zip_safe=True,
+    maintainer='rrps maintainers',
+    maintainer_email='maintainers@users.noreply.h-seed-0d31557d.example',
+    description='Recording and replay of the rrps topics, and the robot for RViz2 and Foxglove.',
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+            'rrps-record = rrps_recording.record_cli:main',
+            'rrps-replay = rrps_recording.replay_cli:main',
+        ] + [f'{node} = {module}:main' for node, (module, _) in NODES.items()],
+        'rrps.nodes': [f'{node} = {module}:{cls}' for node, (module, cls) in NODES.items()],
+    },
+)

@@ -1,0 +1,24 @@
+"""The QoS profiles of the rrps topics.
+
+Command streams are best effort, depth 1, with a staleness check in the receiver
+(:mod:`rrps_runtime.freshness`); state and status streams are reliable.
+"""
+
+from __future__ import annotations
+
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+__all__ = ['COMMAND_QOS', 'STATE_QOS', 'LATEST_QOS']
+
+COMMAND_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
+                         reliability=ReliabilityPolicy.BEST_EFFORT,
+                         durability=DurabilityPolicy.VOLATILE)
+STATE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                       reliability=ReliabilityPolicy.RELIABLE,
+                       durability=DurabilityPolicy.VOLATILE)
+#: Subscriber side of a state stream whose reader only needs the newest sample (a pose, a
+#: state it draws or checks): reliable, keep last 1. After a stall the reader sees the newest
+#: sample once instead of working through a backlog of old ones (compatible with STATE_QOS).
+LATEST_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
+                        reliability=ReliabilityPolicy.RELIABLE,
+                        durability=DurabilityPolicy.VOLATILE)

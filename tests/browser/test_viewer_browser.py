@@ -1,0 +1,280 @@
+"""The viewer in headless Chromium, used like a person would (playwright-core, tests/browser/).
+
+The whole demo stack runs in-process on a private ROS domain. A first browser page, a read-only
+viewer, shows the robot; a second enters the token, takes control, engages and holds the deadman
+button while the master robot moves: the slave follows over ROS. A read-only page opened while
+the operator has control cannot move anything, and the gripper interlock's refusal is shown to
+the operator. (Pages are open only while they are used: each software-rendered 3-D page costs
+a loaded 2-core machine much of a core.)
+
+Nothing waits for a fixed time: drive.js waits for what the page shows (generous deadlines) and
+hands over to the test at sync points, where the test waits for what happened over ROS (the
+slave moved, the mapping disengaged, the robot stands still) before the browser goes on.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import socket
+import subprocess
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rrps_testing.ros_harness import DEADLINE, Probe, Spinner, wait_for
+
+pytestmark = [pytest.mark.browser, pytest.mark.ros, pytest.mark.slow]
+
+BROWSER_DIR = Path(__file__).parent
+CHROMIUM = os.environ.get('CHROMIUM', '/usr/bin/chromium')
+TOKEN = 'browser-test-token'
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(('127.0.0.1', 0))
+        return s.getsockname()[1]
+
+
+class Browser:
+    """drive.js as a subprocess: yields its sync points, returns its final result."""
+
+    def __init__(self, url: str, steps: list[dict]):
+        self.proc = subprocess.Popen(['node', 'drive.js', url, json.dumps(steps)], cwd=BROWSER_DIR,
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+                                     env={**os.environ, 'CHROMIUM': CHROMIUM})
+
+    def events(self):
+        for line in self.proc.stdout:
+            msg = json.loads(line)
+            if 'sync' in msg:
+                yield msg['sync']
+            else:
+                self.result = msg
+                return
+
+    def resume(self, reply: str = 'go') -> None:
+        """Let drive.js go on (or, after a screenshot step with a sync, take another: 'again')."""
+        self.proc.stdin.write(f'{reply}\n')
+        self.proc.stdin.flush()
+
+    def close(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+        self.proc.wait(timeout=10)
+
+
+#: Width [px] of the 3-D view left of the panel (the viewport is 860 px wide).
+VIEW_WIDTH = 860 - 330
+#: The reachable workspace's point clouds: around the robot (in ring_a) and scaled on the master.
+WORKSPACE_NODES = {'/robot/ring_a/workspace', '/master/ring_a/workspace/shell'}
+#: Their colour (RGB) in the viewer.
+WORKSPACE_RGB = (90, 160, 235)
+
+
+def _workspace_pixels(path: Path) -> int:
+    """Pixels of the 3-D view in the workspace's colour (within the anti-aliasing's spread)."""
+    from PIL import Image
+    x = np.asarray(Image.open(path).convert('RGB'), dtype=int)[:, :VIEW_WIDTH]
+    return int((np.abs(x - np.array(WORKSPACE_RGB)).max(axis=2) < 30).sum())
+
+
+def _changed_pixels(a: Path, b: Path, width: int | None = None) -> tuple[int, tuple[int, int, int, int] | None]:
+    """(number of changed pixels, their bounding box) between two screenshots, in the first
+    ``width`` columns if given."""
+    from PIL import Image
+    x = np.asarray(Image.open(a).convert('RGB'), dtype=int)[:, :width]
+    y = np.asarray(Image.open(b).convert('RGB'), dtype=int)[:, :width]
+    changed = np.abs(x - y).max(axis=2) > 40
+    if not changed.any():
+        return 0, None
+    rows, cols = np.nonzero(changed)
+    return int(changed.sum()), (int(cols.min()), int(rows.min()), int(cols.max()), int(rows.max()))
+
+
+def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa: C901 - one scenario, its sync points
+        ros_context, playwright_dir, tmp_path):
+    from diagnostic_msgs.msg import DiagnosticStatus
+    from geometry_msgs.msg import PoseStamped
+    from rclpy.parameter import Parameter
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Bool
+
+    from rrps_bringup.demo import build_stack
+    from rrps_runtime.messages import pose_from_msg
+    from rrps_runtime.qos import COMMAND_QOS
+
+    port = _free_port()
+    nodes = build_stack(ros_context, robot='pole_climber', host='127.0.0.1', port=port,
+                        token=TOKEN, driver_rate=100.0)
+    viewer = nodes['viewer_node']
+    probe = Probe(context=ros_context, namespace='/rrps')
+    poses = probe.collect(PoseStamped, 'pose', stamped=True)
+    enables = probe.collect(Bool, 'teleop/enable', qos=COMMAND_QOS, stamped=True)
+    grippers = probe.collect(JointState, 'grippers/state')
+    climb_status = probe.collect(DiagnosticStatus, 'climb/status')
+    teleop_status = probe.collect(DiagnosticStatus, 'teleop/status', stamped=True)
+    keep = os.environ.get('RRPS_SCREENSHOT_DIR')  # e.g. to look at the pictures
+    shots = {name: tmp_path / f'{name}.png' for name in ('robot', 'previous', 'hidden', 'operator')}
+    steps = [
+        {'page': 1, 'wait_text': 'Read-only viewer'},
+        {'page': 1, 'wait_text': 'Latency: state'},
+        # Taken until two in a row show the same 3-D view: the scene is drawn and still.
+        {'page': 1, 'screenshot': str(shots['robot']), 'sync': 'robot shot'},
+        {'page': 1, 'sync': 'hide robot'},
+        # Taken until the hidden robot shows in the picture (or the test's deadline passed).
+        {'page': 1, 'screenshot': str(shots['hidden']), 'sync': 'hidden shot'},
+        {'page': 1, 'sync': 'show robot'},
+        {'page': 1, 'close': True},
+        {'page': 2, 'wait_text': 'Read-only viewer'},
+        {'page': 2, 'fill': 'Token', 'value': TOKEN},
+        {'page': 2, 'click': 'Enter token', 'expect': 'Token accepted'},
+        {'page': 2, 'click': 'Take control', 'expect': 'You have control'},
+        {'page': 2, 'check': 'Engage (clutch)'},
+        {'page': 2, 'sync': 'before hold'},
+        {'page': 2, 'press': 'Hold to move (deadman)'},
+        {'page': 2, 'sync': 'holding'},  # held until the slave moved
+        {'page': 2, 'release': True},
+        {'page': 2, 'sync': 'after hold'},
+        # A read-only viewer while the operator has control: it can move nothing.
+        {'page': 3, 'wait_text': 'Read-only viewer'},
+        {'page': 3, 'fill': 'Token', 'value': 'not-the-token'},
+        {'page': 3, 'click': 'Enter token', 'expect': 'wrong token'},
+        {'page': 3, 'disabled': 'Hold to move (deadman)'},
+        {'page': 3, 'disabled': 'Climb one step up'},
+        {'page': 3, 'disabled': 'Open ring_b'},
+        {'page': 3, 'hold': 'Hold to move (deadman)', 'ms': 1000},
+        {'page': 3, 'click': 'Open ring_b', 'force': True},
+        {'page': 3, 'sync': 'intruder done'},
+        {'page': 3, 'close': True},
+        {'page': 2, 'click': 'Open ring_b', 'expect': 'open ring_b:'},
+        {'page': 2, 'click': 'Open ring_a', 'expect': 'open ring_a:'},
+        *([{'page': 2, 'screenshot': str(shots['operator'])}] if keep else []),
+        {'page': 2, 'text': True},
+        {'page': 2, 'click': 'Close ring_b', 'expect': 'close ring_b:'},
+        {'page': 2, 'sync': 'before climb'},
+        {'page': 2, 'click': 'Climb one step up', 'expect': 'climb step up: started'},
+        {'page': 2, 'sync': 'climbing'},
+    ]
+    robot_nodes = [h for name, h in viewer.viewer.nodes.items() if name.startswith('/robot/')]
+    marks: dict[str, float] = {}
+
+    def position():
+        return pose_from_msg(poses[-1][1])[0]
+
+    def at_rest():
+        """Wait until the last 20 measured poses are one (the slave stands still); return it."""
+        def still():
+            last = [pose_from_msg(m)[0] for _, m in poses[-20:]]
+            return len(last) == 20 and np.ptp(last, axis=0).max() < 1e-9
+        assert wait_for(still)
+        return position()
+
+    with Spinner(ros_context, [*nodes.values(), probe]):
+        assert wait_for(lambda: poses), 'no FK pose from the stack'
+        browser = Browser(f'http://127.0.0.1:{viewer.viewer.port}', steps)
+        deadline = {}
+        try:
+            for sync in browser.events():
+                marks[sync] = time.monotonic()
+                reply = 'go'
+                if sync == 'robot shot':
+                    # still, with the reachable workspace drawn around the robot and the master
+                    drawn = WORKSPACE_NODES <= set(viewer.viewer.nodes)
+                    still = drawn and shots['previous'].exists() and _changed_pixels(
+                        shots['previous'], shots['robot'], VIEW_WIDTH)[0] < 50
+                    shutil.copy(shots['robot'], shots['previous'])
+                    deadline.setdefault(sync, time.monotonic() + DEADLINE)
+                    reply = 'go' if still or time.monotonic() > deadline[sync] else 'again'
+                elif sync == 'hide robot':
+                    for handle in robot_nodes:
+                        handle.visible = False
+                elif sync == 'hidden shot':
+                    changed = _changed_pixels(shots['robot'], shots['hidden'], VIEW_WIDTH)[0] > 2000
+                    deadline.setdefault(sync, time.monotonic() + DEADLINE)
+                    reply = 'go' if changed or time.monotonic() > deadline[sync] else 'again'
+                elif sync == 'show robot':
+                    for handle in robot_nodes:
+                        handle.visible = True
+                elif sync == 'before hold':
+                    assert viewer.control.controller is not None
+                    nodes['master_node'].set_parameters([Parameter('trajectory', value='circle')])
+                    start = at_rest()
+                elif sync == 'holding':
+                    # The deadman is held: the slave follows the master until it moved 2 mm.
+                    def followed():
+                        held = [t for t, m in enables if m.data and t >= marks['before hold']]
+                        return len(held) >= 5 and np.linalg.norm(position() - start) > 0.002
+                    wait_for(followed)
+                    moved = np.linalg.norm(position() - start)
+                elif sync == 'after hold':
+                    # Released: the deadman expires, the mapping disengages, the slave stands.
+                    assert wait_for(lambda: not viewer.control.enable())
+                    assert wait_for(lambda: any(t >= marks['after hold'] and {
+                        kv.key: kv.value for kv in m.values}.get('engaged') == 'false' for t, m in teleop_status))
+                    held_at = at_rest()
+                    marks['held'] = time.monotonic()
+                elif sync == 'before climb':
+                    assert wait_for(lambda: list(grippers[-1].position) == [1.0, 1.0])
+                elif sync == 'climbing':
+                    # The click started a climb step: over ROS it executes and the robot moves.
+                    climbing = wait_for(lambda: climb_status and
+                                        climb_status[-1].message == 'executing')
+                    before = position()
+                    climb_moved = wait_for(lambda: np.linalg.norm(position() - before) > 0.005)
+                browser.resume(reply)
+        finally:
+            browser.close()
+        result = browser.result
+        print('browser steps [ms since start]:',
+              [(next(iter(r.items()))[1], r.get('ms'), r.get('attempts', r.get('shots')))
+               for r in result['results'] if 'text' not in r])
+        if not result['ok']:
+            pytest.fail(f"browser: {result['error']} after {result['results'][-3:]}")
+
+    # The robot is drawn: hiding its scene nodes changes the picture in the 3-D view.
+    # Counted in the 3-D view only: the panel on the right updates live (latency, plots) meanwhile.
+    count, _ = _changed_pixels(shots['robot'], shots['hidden'], VIEW_WIDTH)
+    assert count > 2000, f'only {count} pixels of the 3-D view changed when the robot was hidden'
+    # The reachable workspace is drawn around the robot (hidden with it) and on the master.
+    ws_shown, ws_hidden = _workspace_pixels(shots['robot']), _workspace_pixels(shots['hidden'])
+    print(f'workspace-coloured pixels: {ws_shown} with the robot, {ws_hidden} without')
+    assert ws_shown - ws_hidden > 300, (ws_shown, ws_hidden)
+    assert ws_hidden > 20, ws_hidden  # the master's copy
+    names = set(viewer.viewer.nodes)
+    assert WORKSPACE_NODES <= names
+    assert {'/robot/ring_a', '/robot/ring_b', '/robot/legs', '/ghost/ring_b',
+            '/master/legs', '/trail/ring_a'} <= names
+    legs = np.asarray(viewer.viewer.nodes['/robot/legs'].points)
+    lengths = np.linalg.norm(legs[:, 1] - legs[:, 0], axis=1)
+    assert np.all((lengths > 0.3) & (lengths < 0.55)), lengths
+
+    # The operator's real press-and-hold streamed the deadman and moved the robot. (On this
+    # 2-core machine two software-rendered pages can delay the browser's hold events; a gap
+    # longer than deadman_timeout drops the deadman, which is the safe side, so only a lower
+    # bound on the samples is asserted, and the button is held until the slave moved.)
+    held = [t for t, m in enables if m.data and marks['before hold'] <= t <= marks['after hold']]
+    assert len(held) >= 5, f'{len(held)} enable samples during the hold'
+    assert moved > 0.002, f'the slave moved only {moved * 1e3:.2f} mm while the deadman was held'
+    # The read-only viewer could not move anything: no enable, no motion, grippers unchanged.
+    # (From the moment the operator's hold had run out and the slave stood still.)
+    intruder = [m for t, m in enables if marks['held'] <= t <= marks['intruder done'] and m.data]
+    assert not intruder
+    drift = max(np.linalg.norm(pose_from_msg(m)[0] - held_at)
+                for t, m in poses if marks['held'] <= t <= marks['intruder done'])
+    assert drift < 1e-3, f'robot moved {drift * 1e3:.2f} mm while only the viewer acted'
+    disabled = {r['disabled']: r['value'] for r in result['results'] if 'disabled' in r}
+    assert all(disabled.values()), disabled
+    text = next(r['text'] for r in result['results'] if 'text' in r)
+    assert '⛔ open ring_a:' in text  # the interlock's refusal is shown to the operator
+    assert not any(list(m.position) == [0.0, 0.0] for m in grippers), 'both grippers opened'
+    assert any(list(m.position) == [1.0, 0.0] for m in grippers), 'ring_b never opened'
+    assert climbing, 'Climb one step up did not start a climb step'
+    assert climb_moved, 'the robot did not move during the climb step'
+    for name, path in shots.items():
+        if keep and path.exists():
+            shutil.copy(path, Path(keep) / f'rrps_viewer_{name}.png')

@@ -1,0 +1,112 @@
+"""Parameter files (config/<node>.yaml): each loads into its node with ``--params-file`` (rcl's
+own parsing, the ``/**/<node>`` section in a namespace), holds every parameter the node
+declares, and its values take effect (a copy with changed values is loaded too)."""
+
+from __future__ import annotations
+
+import socket
+
+import pytest
+import yaml
+
+from rrps_bringup.params import NODE_PACKAGES, config_file, parameter_overrides
+
+pytestmark = pytest.mark.ros
+
+#: One value per node that differs from the shipped default: proves the file is read.
+CHANGED = {
+    'ik_node': {'timeout': 0.2}, 'fk_node': {'max_iterations': 25},
+    'driver_node': {'rate': 400.0, 'sensor_noise': 1e-6}, 'master_node': {'rate': 150.0},
+    'teleop_node': {'translation_scale': 3.0}, 'climb_node': {'speed': 0.03},
+    'viewer_node': {'render_rate': 30.0}, 'recorder_node': {'buffer_seconds': 30.0},
+    'replay_node': {'rate': 2.0}, 'markers_node': {'rate': 5.0},
+}
+#: Declared but deliberately not in the files (rclpy's own, or robot-dependent defaults).
+NOT_IN_FILES = {'use_sim_time', 'start_type_description_service', 'singularity_halt'}
+
+
+def _section(path) -> dict:
+    data = yaml.safe_load(path.read_text())
+    [key] = data
+    return key, data[key]['ros__parameters']
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(('127.0.0.1', 0))
+        return s.getsockname()[1]
+
+
+def _start(node_name, params_file, domain_id, tmp_path):
+    import rclpy
+
+    from rrps_bringup.compose import node_class
+    from rrps_recording.storage.mcap_files import TopicInfo, write_recording
+    extra = []
+    if node_name == 'viewer_node':
+        extra = ['-p', f'port:={_free_port()}']
+    elif node_name == 'replay_node':
+        path = write_recording(tmp_path / 'one.mcap', [TopicInfo('/x', 'std_msgs/msg/Bool')],
+                               [('/x', 1, b'\x00\x01\x00\x00\x01')])
+        extra = ['-p', f'files:=[{path}]']
+    elif node_name == 'recorder_node':
+        extra = ['-p', f'output_dir:={tmp_path}']
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=domain_id,
+               args=['test', '--ros-args', '--params-file', str(params_file), *extra])
+    try:
+        node = node_class(node_name)(context=context, namespace='/rrps')
+    except BaseException:
+        rclpy.shutdown(context=context)
+        raise
+    return context, node
+
+
+def _check(node, values: dict, skip=()) -> None:
+    for name, value in values.items():
+        if name in skip:
+            continue
+        assert node.has_parameter(name), f'{node.get_name()} declares no {name!r}'
+        got = node.get_parameter(name).value
+        if isinstance(value, list):
+            got = list(got)
+        if isinstance(value, float) and isinstance(got, float):
+            assert got == pytest.approx(value, rel=1e-12), name
+            continue
+        assert got == value, (name, got, value)
+
+
+@pytest.mark.parametrize('node_name', sorted(NODE_PACKAGES))
+def test_each_parameter_file_loads_into_its_node(node_name, ros_domain_id, tmp_path):
+    import rclpy
+
+    path = config_file(node_name)
+    assert path.parent.name == 'config' and path.parent.parent.name == NODE_PACKAGES[node_name]
+    key, values = _section(path)
+    assert key == f'/**/{node_name}'
+    skip = {'port', 'files', 'output_dir'}  # given on the command line above
+    context, node = _start(node_name, path, ros_domain_id, tmp_path)
+    try:
+        _check(node, values, skip)
+        declared = {n for n, p in node.get_parameters_by_prefix('').items()
+                    if p.type_ != p.Type.NOT_SET}
+        missing = declared - set(values) - NOT_IN_FILES
+        assert not missing, f'{path.name} lacks {sorted(missing)}'
+    finally:
+        node.destroy_node()
+        rclpy.shutdown(context=context)
+    # the in-process form the demo uses gives the same values
+    overrides = {p.name: p.value for p in parameter_overrides(node_name)}
+    assert {k: (list(v) if not isinstance(v, (str, bool, int, float)) else v)
+            for k, v in overrides.items()} == values
+
+    changed = dict(values, **CHANGED[node_name])
+    assert changed != values
+    copy = tmp_path / f'{node_name}.yaml'
+    copy.write_text(yaml.safe_dump({key: {'ros__parameters': changed}}))
+    context, node = _start(node_name, copy, ros_domain_id, tmp_path)
+    try:
+        _check(node, changed, skip)
+    finally:
+        node.destroy_node()
+        rclpy.shutdown(context=context)

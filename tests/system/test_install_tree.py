@@ -1,0 +1,145 @@
+"""colcon builds the three ament_python packages into an install tree that ``ros2 run`` can use.
+
+The build goes to a temporary build/install/log base (ros_ws/ is left alone). Checked: an
+executable ``install/<pkg>/lib/<pkg>/<exe>`` for every console entry point declared in each
+setup.py, the ament index marker and package.xml of each package, the robot descriptions in
+``share/rrps_kinematics/robots``, and that installed command-line executables start with the
+environment of ``install/setup.bash`` and import the installed (not the source) package, and
+every node's parameter file in ``share/<pkg>/config``.
+"""
+
+from __future__ import annotations
+
+import ast
+import os
+import shlex
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from rrps_testing.ci import require
+
+ROOT = Path(__file__).resolve().parents[2]
+SRC = ROOT / 'src'
+PACKAGES = ('rrps_kinematics', 'rrps_sim', 'rrps_teleop')
+
+pytestmark = pytest.mark.slow
+
+
+def console_scripts(package: str) -> dict[str, str]:
+    """{executable: 'module:function'} parsed from the package's setup.py (no import, no exec)."""
+    tree = ast.parse((SRC / package / 'setup.py').read_text())
+    for node in ast.walk(tree):
+        if isinstance(node, ast.keyword) and node.arg == 'entry_points':
+            entry_points = ast.literal_eval(node.value)
+            out = {}
+            for line in entry_points.get('console_scripts', []):
+                name, target = (part.strip() for part in line.split('=', 1))
+                out[name] = target
+            return out
+    return {}
+
+
+def module_exists(target: str) -> bool:
+    module = target.split(':')[0]
+    package = module.split('.')[0]
+    path = SRC / package / Path(*module.split('.'))
+    return path.with_suffix('.py').exists() or (path / '__init__.py').exists()
+
+
+@pytest.fixture(scope='module')
+def install_base(tmp_path_factory) -> Path:
+    colcon = shutil.which('colcon') or str(Path(sys.executable).parent / 'colcon')
+    require(Path(colcon).exists(), 'colcon is not installed')
+    base = tmp_path_factory.mktemp('colcon')
+    cmd = [colcon, '--log-base', str(base / 'log'), 'build', '--base-paths', str(SRC),
+           '--build-base', str(base / 'build'), '--install-base', str(base / 'install'),
+           '--event-handlers', 'console_direct-']
+    result = subprocess.run(cmd, cwd=base, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    return base / 'install'
+
+
+def test_entry_points_are_declared():
+    scripts = console_scripts('rrps_kinematics')
+    assert scripts['rrps-kinematics'] == 'rrps_kinematics.cli:main'
+    assert {'ik_node', 'fk_node'} <= set(scripts)
+    assert all(console_scripts(p) for p in PACKAGES)
+
+
+@pytest.mark.parametrize('package', PACKAGES)
+def test_every_console_entry_point_is_installed_for_ros2_run(install_base, package):
+    lib = install_base / package / 'lib' / package
+    for exe in console_scripts(package):
+        path = lib / exe
+        assert path.is_file(), f'{path} missing'
+        assert os.access(path, os.X_OK), f'{path} is not executable'
+
+
+@pytest.mark.parametrize('package', PACKAGES)
+def test_ament_index_marker_and_package_xml(install_base, package):
+    share = install_base / package / 'share'
+    assert (share / 'ament_index' / 'resource_index' / 'packages' / package).is_file()
+    xml = share / package / 'package.xml'
+    assert xml.is_file() and f'<name>{package}</name>' in xml.read_text()
+
+
+def test_robot_descriptions_are_installed(install_base):
+    shipped = sorted(p.name for p in (SRC / 'rrps_kinematics' / 'rrps_kinematics' / 'robots').glob('*.yaml'))
+    installed = sorted(p.name for p in (install_base / 'rrps_kinematics' / 'share' / 'rrps_kinematics'
+                                        / 'robots').glob('*.yaml'))
+    assert shipped and installed == shipped
+
+
+@pytest.mark.parametrize('package', PACKAGES)
+def test_parameter_files_are_installed(install_base, package):
+    """config/<node>.yaml of each package lands in share/<package>/config (--params-file)."""
+    shipped = sorted(p.name for p in (SRC / package / 'config').glob('*.yaml'))
+    installed = sorted(p.name for p in (install_base / package / 'share' / package
+                                        / 'config').glob('*.yaml'))
+    assert shipped and installed == shipped
+    nodes = {exe for exe in console_scripts(package) if exe.endswith('_node')}
+    assert {name.removesuffix('.yaml') for name in shipped} == nodes
+
+
+def _run_installed(install_base: Path, command: str) -> subprocess.CompletedProcess:
+    """Run ``command`` in bash after sourcing install/setup.bash, as a user of ros2 run would."""
+    venv = Path(sys.executable).parent.parent
+    script = (f'source {shlex.quote(str(install_base / "setup.bash"))} && '
+              f'export AMENT_PREFIX_PATH="$AMENT_PREFIX_PATH:{venv}" && {command}')
+    env = {'HOME': os.environ.get('HOME', '/tmp'), 'PATH': f'{venv / "bin"}:/usr/bin:/bin',
+           'VIRTUAL_ENV': str(venv), 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
+           'LANG': 'C.UTF-8'}
+    return subprocess.run(['bash', '-c', script], env=env, capture_output=True, text=True,
+                          timeout=120, cwd=install_base)
+
+
+def test_installed_kinematics_command_starts_from_the_install_tree(install_base):
+    exe = install_base / 'rrps_kinematics' / 'lib' / 'rrps_kinematics' / 'rrps-kinematics'
+    out = _run_installed(install_base, f'{shlex.quote(str(exe))} --help')
+    assert out.returncode == 0, out.stderr
+    assert 'usage: rrps-kinematics' in out.stdout
+    out = _run_installed(install_base, f'{shlex.quote(str(exe))} info --robot master_robot')
+    assert out.returncode == 0, out.stderr
+    assert 'robot: master_robot' in out.stdout and 'within limits: yes' in out.stdout
+    where = _run_installed(install_base, 'python -c "import rrps_kinematics; print(rrps_kinematics.__file__)"')
+    assert where.stdout.strip().startswith(str(install_base / 'rrps_kinematics')), where.stdout
+
+
+def test_installed_command_line_tools_start(install_base):
+    """Every installed ``rrps-*`` tool whose module exists answers --help (nodes are only checked
+    for presence above: they start ROS)."""
+    started = 0
+    for package in PACKAGES:
+        for exe, target in console_scripts(package).items():
+            if not exe.startswith('rrps-') or not module_exists(target):
+                continue
+            path = install_base / package / 'lib' / package / exe
+            out = _run_installed(install_base, f'{shlex.quote(str(path))} --help')
+            assert out.returncode == 0, f'{exe} --help failed: {out.stderr[-2000:]}'
+            assert 'usage' in out.stdout.lower(), exe
+            started += 1
+    assert started >= 1
