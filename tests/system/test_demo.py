@@ -120,12 +120,17 @@ def test_demo_rejects_bad_arguments_with_one_line(ros_domain_id, args, message):
 
 
 def test_compose_names_its_nodes_and_refuses_unknown_ones():
-    from rrps_bringup.compose import NODES, main, node_class
+    from rrps_bringup.compose import main
+    from rrps_bringup.registry import node_class, registered_nodes
     assert main(['no_such_node', '--ros-args']) == 2
     assert main(['ik_node', 'ik_node']) == 2
     assert main([]) == 2
-    for name in NODES:
+    nodes = registered_nodes()
+    assert set(nodes) == {'ik_node', 'fk_node', 'driver_node', 'master_node', 'teleop_node', 'climb_node',
+                          'viewer_node', 'recorder_node', 'replay_node', 'markers_node'}
+    for name, node in nodes.items():
         assert node_class(name).__name__.endswith('Node')
+        assert node.module.startswith(node.package + '.nodes.'), node  # each node in its package
 
 
 

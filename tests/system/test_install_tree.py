@@ -1,16 +1,15 @@
-"""colcon builds the three ament_python packages into an install tree that ``ros2 run`` can use.
+"""colcon builds the ament_python packages into an install tree that ``ros2 run`` can use.
 
 The build goes to a temporary build/install/log base (ros_ws/ is left alone). Checked: an
 executable ``install/<pkg>/lib/<pkg>/<exe>`` for every console entry point declared in each
 setup.py, the ament index marker and package.xml of each package, the robot descriptions in
-``share/rrps_kinematics/robots``, and that installed command-line executables start with the
+``share/rrps_description/robots``, and that installed command-line executables start with the
 environment of ``install/setup.bash`` and import the installed (not the source) package, and
 every node's parameter file in ``share/<pkg>/config``.
 """
 
 from __future__ import annotations
 
-import ast
 import os
 import shlex
 import shutil
@@ -24,23 +23,21 @@ from rrps_testing.ci import require
 
 ROOT = Path(__file__).resolve().parents[2]
 SRC = ROOT / 'src'
-PACKAGES = ('rrps_kinematics', 'rrps_sim', 'rrps_teleop')
+PACKAGES = ('rrps_description', 'rrps_interfaces', 'rrps_runtime', 'rrps_kinematics', 'rrps_sim', 'rrps_teleop',
+            'rrps_recording', 'rrps_bringup', 'rrps_testing')
 
 pytestmark = pytest.mark.slow
 
 
+def entry_points(package: str, group: str) -> dict[str, str]:
+    """{name: 'module:attribute'} of one entry-point group of the installed (editable) package."""
+    from importlib.metadata import distribution
+    return {ep.name: ep.value for ep in distribution(package).entry_points if ep.group == group}
+
+
 def console_scripts(package: str) -> dict[str, str]:
-    """{executable: 'module:function'} parsed from the package's setup.py (no import, no exec)."""
-    tree = ast.parse((SRC / package / 'setup.py').read_text())
-    for node in ast.walk(tree):
-        if isinstance(node, ast.keyword) and node.arg == 'entry_points':
-            entry_points = ast.literal_eval(node.value)
-            out = {}
-            for line in entry_points.get('console_scripts', []):
-                name, target = (part.strip() for part in line.split('=', 1))
-                out[name] = target
-            return out
-    return {}
+    """{executable: 'module:function'} the package declares."""
+    return entry_points(package, 'console_scripts')
 
 
 def module_exists(target: str) -> bool:
@@ -67,7 +64,11 @@ def test_entry_points_are_declared():
     scripts = console_scripts('rrps_kinematics')
     assert scripts['rrps-kinematics'] == 'rrps_kinematics.cli:main'
     assert {'ik_node', 'fk_node'} <= set(scripts)
-    assert all(console_scripts(p) for p in PACKAGES)
+    nodes = {name: target for p in PACKAGES for name, target in entry_points(p, 'rrps.nodes').items()}
+    assert len(nodes) == 10
+    for name, target in nodes.items():  # each node: one registry entry and its ros2 run script
+        package = target.split('.')[0]
+        assert console_scripts(package)[name] == target.split(':')[0] + ':main'
 
 
 @pytest.mark.parametrize('package', PACKAGES)
@@ -88,21 +89,30 @@ def test_ament_index_marker_and_package_xml(install_base, package):
 
 
 def test_robot_descriptions_are_installed(install_base):
-    shipped = sorted(p.name for p in (SRC / 'rrps_kinematics' / 'rrps_kinematics' / 'robots').glob('*.yaml'))
-    installed = sorted(p.name for p in (install_base / 'rrps_kinematics' / 'share' / 'rrps_kinematics'
+    shipped = sorted(p.name for p in (SRC / 'rrps_description' / 'rrps_description' / 'robots').glob('*.yaml'))
+    installed = sorted(p.name for p in (install_base / 'rrps_description' / 'share' / 'rrps_description'
                                         / 'robots').glob('*.yaml'))
     assert shipped and installed == shipped
 
 
-@pytest.mark.parametrize('package', PACKAGES)
-def test_parameter_files_are_installed(install_base, package):
-    """config/<node>.yaml of each package lands in share/<package>/config (--params-file)."""
-    shipped = sorted(p.name for p in (SRC / package / 'config').glob('*.yaml'))
-    installed = sorted(p.name for p in (install_base / package / 'share' / package
+def test_parameter_files_are_installed(install_base):
+    """config/<node>.yaml of every node lands in share/rrps_bringup/config (--params-file)."""
+    shipped = sorted(p.name for p in (SRC / 'rrps_bringup' / 'config').glob('*.yaml'))
+    installed = sorted(p.name for p in (install_base / 'rrps_bringup' / 'share' / 'rrps_bringup'
                                         / 'config').glob('*.yaml'))
     assert shipped and installed == shipped
-    nodes = {exe for exe in console_scripts(package) if exe.endswith('_node')}
+    nodes = {name for p in PACKAGES for name in entry_points(p, 'rrps.nodes')}
     assert {name.removesuffix('.yaml') for name in shipped} == nodes
+
+
+def test_the_installed_registry_knows_every_node(install_base):
+    """rrps-compose of the install tree reads the node registry from the installed packages."""
+    exe = install_base / 'rrps_bringup' / 'lib' / 'rrps_bringup' / 'rrps-compose'
+    out = _run_installed(install_base, f'{shlex.quote(str(exe))} --help')
+    assert out.returncode == 0, out.stderr
+    nodes = {name for p in PACKAGES for name in entry_points(p, 'rrps.nodes')}
+    listed = out.stdout.split('nodes:', 1)[1]
+    assert {n.strip() for n in listed.split(',')} == nodes
 
 
 def _run_installed(install_base: Path, command: str) -> subprocess.CompletedProcess:

@@ -1,4 +1,4 @@
-"""Parameter files of the rrps nodes: ``config/<node>.yaml`` of each package (the ROS convention).
+"""Parameter files of the rrps nodes: ``config/<node>.yaml`` of rrps_bringup.
 
 Each file holds every parameter of one node with its default, in a section ``/**/<node>:`` (the
 node of that name in any namespace), so the files of several nodes can be given to one
@@ -12,37 +12,30 @@ composed process. colcon installs them to ``share/<package>/config``; from a sou
 
 from __future__ import annotations
 
-import importlib
 import sys
 from pathlib import Path
 
-__all__ = ['NODE_PACKAGES', 'config_file', 'params_file_arguments', 'parameter_overrides', 'main']
+from rrps_bringup.registry import registered_nodes
 
-#: The package that ships each node's parameter file.
-NODE_PACKAGES = {
-    'ik_node': 'rrps_kinematics', 'fk_node': 'rrps_kinematics', 'driver_node': 'rrps_sim',
-    'master_node': 'rrps_teleop', 'teleop_node': 'rrps_teleop', 'climb_node': 'rrps_teleop',
-    'viewer_node': 'rrps_teleop', 'recorder_node': 'rrps_teleop', 'replay_node': 'rrps_teleop',
-    'markers_node': 'rrps_teleop',
-}
+__all__ = ['config_file', 'params_file_arguments', 'parameter_overrides', 'main']
+
 
 
 def config_file(node: str) -> Path:
-    """The parameter file of ``node``: installed (share/<package>/config) or in the sources."""
-    if node not in NODE_PACKAGES:
-        raise ValueError(f'unknown node {node!r}; known: {", ".join(NODE_PACKAGES)}')
-    package = NODE_PACKAGES[node]
+    """The parameter file of ``node``: installed (share/rrps_bringup/config) or in the sources."""
+    nodes = registered_nodes()
+    if node not in nodes:
+        raise ValueError(f'unknown node {node!r}; known: {", ".join(nodes)}')
     candidates = []
     try:
         from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
         try:
-            candidates.append(Path(get_package_share_directory(package)) / 'config')
+            candidates.append(Path(get_package_share_directory('rrps_bringup')) / 'config')
         except (PackageNotFoundError, OSError):  # not installed, or no AMENT_PREFIX_PATH
             pass
     except ImportError:
         pass
-    module = importlib.import_module(package)
-    candidates.append(Path(module.__file__).resolve().parent.parent / 'config')
+    candidates.append(Path(__file__).resolve().parent.parent / 'config')
     for folder in candidates:
         path = folder / f'{node}.yaml'
         if path.is_file():
@@ -78,7 +71,7 @@ def main(argv=None) -> int:
     """rrps-params NODE: print the path of the node's parameter file."""
     argv = list(sys.argv[1:] if argv is None else argv)
     if len(argv) != 1 or argv[0] in ('-h', '--help'):
-        print(f'usage: rrps-params NODE\nnodes: {", ".join(NODE_PACKAGES)}',
+        print(f'usage: rrps-params NODE\nnodes: {", ".join(registered_nodes())}',
               file=sys.stdout if argv else sys.stderr)
         return 0 if argv else 2
     try:

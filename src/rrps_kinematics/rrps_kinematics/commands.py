@@ -1,6 +1,6 @@
 """Validation of target poses and joint-space velocity limits of command streams.
 
-Pure NumPy, no ROS import. Every check raises :class:`RejectedCommand` (a ValueError) with a
+Pure NumPy, no ROS import. Every check raises :class:`InvalidTarget` (a ValueError) with a
 message that says why, so a node can keep its last safe command and report the reason::
 
     target = validate_target(geom, position, quaternion_xyzw, frame_id='ring_a')
@@ -21,7 +21,7 @@ from rrps_kinematics.backend import use_numba
 from rrps_kinematics.inverse import inverse_kinematics
 from rrps_kinematics.limits import limit_arrays, margins
 
-__all__ = ['RejectedCommand', 'ValidTarget', 'validate_target', 'pose_limits', 'limit_velocity']
+__all__ = ['InvalidTarget', 'ValidTarget', 'validate_target', 'pose_limits', 'limit_velocity']
 
 MARGIN_KINDS = ('stroke', 'universal', 'spherical', 'interference', 'conditioning')
 def pose_limits(geometry: RobotGeometry, position, quaternion_xyzw, *,
@@ -47,8 +47,8 @@ def pose_limits(geometry: RobotGeometry, position, quaternion_xyzw, *,
     return bool(m.ok), np.array(m.lengths), {k: float(v) for k, v in m.minimum.items()}
 
 
-class RejectedCommand(ValueError):
-    """A command that must not be acted on; the message says why."""
+class InvalidTarget(ValueError):
+    """A target pose that must not be acted on; the message says why."""
 
 
 @dataclass(frozen=True)
@@ -72,22 +72,22 @@ def validate_target(geometry: RobotGeometry, position, quaternion_xyzw, *, frame
     outside the stroke, joint-angle, interference or conditioning limits (:func:`margins`).
     """
     if frame_id != expected_frame:
-        raise RejectedCommand(f"frame_id is {frame_id!r}, expected {expected_frame!r}")
+        raise InvalidTarget(f"frame_id is {frame_id!r}, expected {expected_frame!r}")
     p = np.asarray(position, dtype=float)
     q = np.asarray(quaternion_xyzw, dtype=float)
     if p.shape != (3,) or q.shape != (4,):
-        raise RejectedCommand(f'pose must be a position (3,) and a quaternion (4,), got '
+        raise InvalidTarget(f'pose must be a position (3,) and a quaternion (4,), got '
                               f'{p.shape} and {q.shape}')
     if not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
-        raise RejectedCommand('pose contains NaN or infinite values')
+        raise InvalidTarget('pose contains NaN or infinite values')
     norm = float(np.linalg.norm(q))
     if abs(norm - 1.0) > quaternion_tolerance:
-        raise RejectedCommand(f'quaternion norm {norm:.6g} is not 1 (tolerance {quaternion_tolerance:g})')
+        raise InvalidTarget(f'quaternion norm {norm:.6g} is not 1 (tolerance {quaternion_tolerance:g})')
     q = q / norm
     ok, lengths, minimum = pose_limits(geometry, p, q)
     if not ok:  # word the reason with the reference implementation
         reason = margins(geometry, inverse_kinematics(geometry, p, q)).reason
-        raise RejectedCommand(f'pose outside the limits: {reason}')
+        raise InvalidTarget(f'pose outside the limits: {reason}')
     return ValidTarget(position=p, quaternion_xyzw=q, lengths=lengths, minimum=minimum)
 
 

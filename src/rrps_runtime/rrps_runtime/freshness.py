@@ -14,11 +14,15 @@ import math
 
 import numpy as np
 
-__all__ = ['StaleCommand', 'CommandFreshness', 'CommandAges']
+__all__ = ['RejectedCommand', 'StaleCommand', 'CommandFreshness', 'CommandAges']
 
 
-class StaleCommand(ValueError):
-    """A command too old (or stamped ahead, or unstamped) to be acted on; the message says why."""
+class RejectedCommand(ValueError):
+    """A command that must not be acted on; the message says why."""
+
+
+class StaleCommand(RejectedCommand):
+    """A command too old (or stamped ahead, or unstamped) to be acted on."""
 
 
 class _SenderClock:

@@ -9,7 +9,8 @@ import socket
 import pytest
 import yaml
 
-from rrps_bringup.params import NODE_PACKAGES, config_file, parameter_overrides
+from rrps_bringup.params import config_file, parameter_overrides
+from rrps_bringup.registry import registered_nodes
 
 pytestmark = pytest.mark.ros
 
@@ -40,7 +41,7 @@ def _free_port() -> int:
 def _start(node_name, params_file, domain_id, tmp_path):
     import rclpy
 
-    from rrps_bringup.compose import node_class
+    from rrps_bringup.registry import node_class
     from rrps_recording.storage.mcap_files import TopicInfo, write_recording
     extra = []
     if node_name == 'viewer_node':
@@ -76,12 +77,12 @@ def _check(node, values: dict, skip=()) -> None:
         assert got == value, (name, got, value)
 
 
-@pytest.mark.parametrize('node_name', sorted(NODE_PACKAGES))
+@pytest.mark.parametrize('node_name', sorted(registered_nodes()))
 def test_each_parameter_file_loads_into_its_node(node_name, ros_domain_id, tmp_path):
     import rclpy
 
     path = config_file(node_name)
-    assert path.parent.name == 'config' and path.parent.parent.name == NODE_PACKAGES[node_name]
+    assert path.parent.name == 'config' and path.parent.parent.name == 'rrps_bringup'
     key, values = _section(path)
     assert key == f'/**/{node_name}'
     skip = {'port', 'files', 'output_dir'}  # given on the command line above

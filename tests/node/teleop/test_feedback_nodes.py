@@ -10,13 +10,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from geometry_msgs.msg import WrenchStamped
-from test_teleop_nodes import SLAVE, Rig
 
 from rrps_interfaces.teleop import TeleopStatus
 from rrps_kinematics import check_pose
 from rrps_runtime.messages import pose_from_msg
 from rrps_runtime.qos import COMMAND_QOS
 from rrps_testing.ros_harness import wait_for
+from rrps_testing.teleop_rig import SLAVE, Rig
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 DEADLINE = 60.0

@@ -21,7 +21,7 @@ from rrps_description.geometry import load_robot
 from rrps_description.rotations import rotation_vector_to_quat_xyzw
 from rrps_kinematics import inverse_kinematics, margins
 from rrps_kinematics.backend import use_numba
-from rrps_kinematics.commands import RejectedCommand, limit_velocity, pose_limits, validate_target
+from rrps_kinematics.commands import InvalidTarget, limit_velocity, pose_limits, validate_target
 
 
 @pytest.fixture(scope='module')
@@ -48,7 +48,7 @@ def test_valid_target_gives_the_ik_lengths_and_normalises_a_nearly_unit_quaterni
     ([0.0, 0.0, 0.9], [0, 0, 0, 1], 'ring_a', 'stroke'),
 ])
 def test_rejections_say_why(robot, position, quaternion, frame, message):
-    with pytest.raises(RejectedCommand, match=message):
+    with pytest.raises(InvalidTarget, match=message):
         validate_target(robot, position, quaternion, frame_id=frame)
 
 

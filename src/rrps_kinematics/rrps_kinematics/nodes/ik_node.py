@@ -24,9 +24,9 @@ from rrps_description.names import LEG_NAMES, RING_A_FRAME, ring_joint
 from rrps_description.pose import InvalidPose, Pose
 from rrps_description.tool import TARGET_FRAMES, b_T_tool, ring_b_pose
 from rrps_interfaces.kinematics import ACTUATORS_COMMAND, ACTUATORS_STATE, TARGET_POSE, TARGET_RINGS, IkStatus
-from rrps_kinematics.commands import RejectedCommand, limit_velocity, pose_limits, validate_target
+from rrps_kinematics.commands import InvalidTarget, limit_velocity, pose_limits, validate_target
 from rrps_runtime.diagnostics import OK, STALE, WARN, Diagnostics
-from rrps_runtime.freshness import CommandAges, CommandFreshness
+from rrps_runtime.freshness import CommandAges, CommandFreshness, RejectedCommand
 from rrps_runtime.messages import joint_state_msg, lengths_from_joint_state, pose_from_msg, stamp_to_seconds
 from rrps_runtime.parameters import declare_parameter, declare_robot_parameter
 from rrps_runtime.process import run_nodes
@@ -167,7 +167,7 @@ class IkNode(Node):
             target = validate_target(self.geometry, position, quaternion, frame_id=msg.header.frame_id,
                                      expected_frame=self.frame_id,
                                      quaternion_tolerance=self.quaternion_tolerance)
-        except (RejectedCommand, InvalidPose) as exc:
+        except (RejectedCommand, InvalidTarget, InvalidPose) as exc:
             self._reject(str(exc))
             return
         lengths = target.lengths

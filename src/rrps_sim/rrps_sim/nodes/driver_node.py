@@ -45,10 +45,9 @@ from std_srvs.srv import SetBool
 from rrps_description.names import LEG_NAMES, RINGS, ring_joint
 from rrps_interfaces.driver import GRIPPERS_STATE, ActuatorMode, DriverStatus, gripper_service
 from rrps_interfaces.kinematics import ACTUATORS_COMMAND, ACTUATORS_STATE
-from rrps_kinematics.commands import RejectedCommand
 from rrps_kinematics.forward import forward_kinematics
 from rrps_runtime.diagnostics import ERROR, OK, STALE, WARN, Diagnostics
-from rrps_runtime.freshness import CommandAges, CommandFreshness
+from rrps_runtime.freshness import CommandAges, CommandFreshness, RejectedCommand
 from rrps_runtime.messages import joint_state_msg, lengths_from_joint_state, stamp_to_seconds
 from rrps_runtime.parameters import declare_parameter, declare_robot_parameter
 from rrps_runtime.process import run_nodes
