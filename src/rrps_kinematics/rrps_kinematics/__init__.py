@@ -1,9 +1,11 @@
 """rrps_kinematics: kinematics and multibody core of RRPS parallel climbing robots.
 
-Pure Python/NumPy (no ROS import outside ``rrps_kinematics.nodes``). The public API::
+Pure Python/NumPy (no ROS import outside ``rrps_kinematics.nodes``); robots come from
+:mod:`rrps_description`. The public API::
 
-    from rrps_kinematics import RobotGeometry, inverse_kinematics, forward_kinematics
-    geom = RobotGeometry.from_yaml('.../pole_climber.yaml')    # or load_robot('pole_climber')
+    from rrps_description import load_robot
+    from rrps_kinematics import inverse_kinematics, forward_kinematics
+    geom = load_robot('pole_climber')                          # or a robot YAML path
     ik = inverse_kinematics(geom, position, quaternion_xyzw)   # single pose or (N,3), (N,4)
     fk = forward_kinematics(geom, lengths, seed_position, seed_quaternion_xyzw)
     m = margins(geom, ik); m.ok, m.violations()                 # limits as signed margins
@@ -15,16 +17,6 @@ Pure Python/NumPy (no ROS import outside ``rrps_kinematics.nodes``). The public 
 The multibody model is imported on first use (it compiles with numba).
 """
 
-from rrps_description.geometry import (
-    ExtraRingDof,
-    LinkInertia,
-    RigidBodyInertia,
-    RobotDescriptionError,
-    RobotGeometry,
-    load_robot,
-    robot_path,
-    shipped_robots,
-)
 from rrps_kinematics.assembly import AssemblyModes, assembly_modes
 from rrps_kinematics.forward import ForwardKinematicsResult, compiled_backend_available, forward_kinematics
 from rrps_kinematics.inverse import InverseKinematicsResult, inverse_kinematics, leg_lengths
@@ -43,17 +35,12 @@ def __getattr__(name: str):
 
 __all__ = [
     'AssemblyModes',
-    'ExtraRingDof',
     'ForwardKinematicsResult',
     'InverseKinematicsResult',
-    'LinkInertia',
     'Margins',
     'MultibodyDKResult',
     'MultibodyModel',
     'PAIRS',
-    'RigidBodyInertia',
-    'RobotDescriptionError',
-    'RobotGeometry',
     'assembly_modes',
     'check_pose',
     'compiled_backend_available',
@@ -63,9 +50,6 @@ __all__ = [
     'leg_forces',
     'leg_lengths',
     'leg_rates',
-    'load_robot',
     'margins',
     'platform_wrench',
-    'robot_path',
-    'shipped_robots',
 ]

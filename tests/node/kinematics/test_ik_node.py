@@ -8,10 +8,10 @@ from geometry_msgs.msg import PoseStamped
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
-from rrps_description.geometry import RobotGeometry, load_robot, robot_path
+from rrps_description.geometry import RobotDescriptionError, RobotGeometry, load_robot, robot_path
 from rrps_description.names import LEG_NAMES
 from rrps_description.rotations import rotation_vector_to_quat_xyzw
-from rrps_kinematics import RobotDescriptionError, inverse_kinematics, margins
+from rrps_kinematics import inverse_kinematics, margins
 from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_runtime.messages import joint_state_msg
 from rrps_runtime.qos import COMMAND_QOS

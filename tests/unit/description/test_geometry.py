@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import yaml
 
-from rrps_description.geometry import RobotGeometry, load_robot, robot_path, shipped_robots
-from rrps_kinematics import RobotDescriptionError, check_pose
+from rrps_description.geometry import RobotDescriptionError, RobotGeometry, load_robot, robot_path, shipped_robots
+from rrps_kinematics import check_pose
 
 EXPECTED_ROBOTS = {'pole_climber', 'frame_climber', 'facade_climber', 'master_robot'}
 

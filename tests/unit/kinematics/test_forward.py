@@ -176,7 +176,7 @@ def test_bad_input_raises_value_error(kwargs, message, backend):
 
 
 def test_numpy_only_when_numba_is_disabled():
-    code = ('import numpy as np; from rrps_kinematics import *; '
+    code = ('import numpy as np; from rrps_kinematics import *; from rrps_description import load_robot; '
             'g = load_robot("master_robot"); '
             'print(compiled_backend_available(), forward_kinematics(g, g.home_lengths * 1.01).converged)')
     env = dict(os.environ, RRPS_NUMBA='0')

@@ -97,7 +97,7 @@ def test_compiled_kernel_equals_the_numpy_path(name):
 
 
 def test_without_numba_the_numpy_path_gives_the_same_workspace():
-    code = ('from rrps_kinematics import load_robot\n'
+    code = ('from rrps_description import load_robot\n'
             'from rrps_kinematics.workspace import reachable_workspace\n'
             'g = load_robot("pole_climber")\n'
             'ws = reachable_workspace(g, resolution=0.03)\n'

@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rrps_description.geometry import load_robot
+from rrps_description.robot_parts import LinkInertia
 from rrps_description.rotations import (
     quat_conjugate_xyzw,
     quat_multiply_xyzw,
@@ -18,7 +19,6 @@ from rrps_description.rotations import (
     quat_xyzw_to_rotation_vector,
     rotation_vector_to_quat_xyzw,
 )
-from rrps_kinematics import LinkInertia
 from rrps_kinematics.inverse import lower_link_rotations
 from rrps_sim.dynamics import simulate
 from rrps_sim.reduced import (
