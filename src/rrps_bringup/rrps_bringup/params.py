@@ -67,13 +67,45 @@ def parameter_overrides(node: str, path: str | Path | None = None) -> list:
             for name, value in section['ros__parameters'].items()]
 
 
+SOURCE_CONFIG = Path(__file__).resolve().parent.parent / 'config'
+#: The parameter reference of every node, generated from the schemas (rrps-params --write).
+PARAMETERS_DOC = Path(__file__).resolve().parents[3] / 'docs' / 'parameters.md'
+
+
+def generated_files() -> dict[Path, str]:
+    """{path: text} of every node's parameter file and of docs/parameters.md, from the schemas."""
+    nodes = registered_nodes()
+    files = {SOURCE_CONFIG / f'{name}.yaml': node.parameters().config_yaml() for name, node in nodes.items()}
+    doc = ['# Node parameters', '',
+           'Every parameter of every rrps node, generated from the nodes\' parameter schemas',
+           '(`rrps-params --write`; a test keeps this file and `rrps_bringup/config/*.yaml` equal to',
+           'them). Parameters not settable at run time are read-only.', '']
+    for node in nodes.values():
+        doc.append(node.parameters().markdown())
+    files[PARAMETERS_DOC] = '\n'.join(doc)
+    return files
+
+
 def main(argv=None) -> int:
-    """rrps-params NODE: print the path of the node's parameter file."""
+    """rrps-params NODE | --write | --check: a node's parameter file, or the generated files."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    usage = ('usage: rrps-params NODE       print the path of the node\'s parameter file\n'
+             '       rrps-params --write    write config/*.yaml and docs/parameters.md from the schemas\n'
+             '       rrps-params --check    exit 1 if a generated file differs from its schema\n'
+             f'nodes: {", ".join(registered_nodes())}')
     if len(argv) != 1 or argv[0] in ('-h', '--help'):
-        print(f'usage: rrps-params NODE\nnodes: {", ".join(registered_nodes())}',
-              file=sys.stdout if argv else sys.stderr)
+        print(usage, file=sys.stdout if argv else sys.stderr)
         return 0 if argv else 2
+    if argv[0] in ('--write', '--check'):
+        stale = []
+        for path, text in generated_files().items():
+            if not path.exists() or path.read_text(encoding='utf-8') != text:
+                stale.append(path)
+                if argv[0] == '--write':
+                    path.write_text(text, encoding='utf-8')
+        for path in stale:
+            print(f'{"written" if argv[0] == "--write" else "differs from its schema"}: {path}')
+        return 1 if stale and argv[0] == '--check' else 0
     try:
         print(config_file(argv[0]))
     except (ValueError, FileNotFoundError) as exc:

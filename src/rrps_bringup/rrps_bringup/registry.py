@@ -8,6 +8,7 @@ its package is installed.
 
 from __future__ import annotations
 
+import importlib
 from dataclasses import dataclass
 from importlib.metadata import entry_points
 
@@ -30,9 +31,12 @@ class RegisteredNode:
 
     def load(self):
         """The node class."""
-        import importlib
         module, cls = self.target.split(':')
         return getattr(importlib.import_module(module), cls)
+
+    def parameters(self):
+        """The node's parameter schema (its module's ``PARAMETERS``, a NodeParameters)."""
+        return importlib.import_module(self.module).PARAMETERS
 
 
 def registered_nodes() -> dict[str, RegisteredNode]:

@@ -1,41 +1,91 @@
-"""Node parameters: declared with a descriptor (description, range, read-only)."""
+"""Node parameters declared from the node's schema (:mod:`rrps_runtime.parameter_schema`):
+descriptor, type, range, choices and read-only, all from the one declaration."""
 
 from __future__ import annotations
 
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType, SetParametersResult
 from rclpy.node import Node
 
-from rrps_description.geometry import RobotGeometry, load_robot, shipped_robots
+from rrps_runtime.parameter_schema import NodeParameters, Parameter
 
-__all__ = ['declare_parameter', 'declare_robot_parameter']
+__all__ = ['descriptor', 'declare_parameters']
+
+_TYPES = {bool: ParameterType.PARAMETER_BOOL, int: ParameterType.PARAMETER_INTEGER,
+          float: ParameterType.PARAMETER_DOUBLE, str: ParameterType.PARAMETER_STRING,
+          tuple: ParameterType.PARAMETER_DOUBLE_ARRAY}
+
+
+def descriptor(parameter: Parameter) -> ParameterDescriptor:
+    """The ROS ParameterDescriptor of ``parameter``."""
+    d = ParameterDescriptor(description=parameter.summary(), read_only=parameter.read_only,
+                            type=_TYPES[parameter.type],
+                            additional_constraints=parameter.constraints())
+    if parameter.range is not None:
+        lo, hi = parameter.range
+        if parameter.type is int:
+            d.integer_range = [IntegerRange(from_value=int(lo), to_value=int(hi), step=0)]
+        elif parameter.type is float:
+            d.floating_point_range = [FloatingPointRange(from_value=float(lo), to_value=float(hi), step=0.0)]
+    return d
+
+
+def declare_parameters(node: Node, schema: NodeParameters) -> dict:
+    """Declare every parameter of ``schema`` on ``node``; {name: value} (None when left unset).
+
+    A value outside its range or choices raises ValueError naming it (the node does not
+    start); while the node runs, a set request outside them is refused with the same reason.
+    """
+    values = {}
+    for p in schema:
+        if p.default is None:
+            value = node.declare_parameter(p.name, _TYPES[p.type], descriptor(p)).value
+        else:
+            default = list(p.default) if p.type is tuple else p.default
+            value = node.declare_parameter(p.name, default, descriptor(p)).value
+        if p.type is tuple and value is not None:
+            value = tuple(float(v) for v in value)
+        if value is not None:
+            p.check(value)
+        values[p.name] = value
+
+    def refuse_outside(changes) -> SetParametersResult:
+        for change in changes:
+            try:
+                p = schema[change.name]
+            except KeyError:
+                continue
+            try:
+                p.check(tuple(change.value) if p.type is tuple else change.value)
+            except (ValueError, TypeError) as exc:
+                return SetParametersResult(successful=False, reason=str(exc))
+        return SetParametersResult(successful=True)
+
+    node.add_on_set_parameters_callback(refuse_outside)
+    return values
 
 
 def declare_parameter(node: Node, name: str, default, description: str, *,
                       min_value: float | None = None, max_value: float | None = None,
                       read_only: bool = False, additional_constraints: str = ''):
     """Declare a parameter with a descriptor (and a range for numbers); return its value."""
-    descriptor = ParameterDescriptor(description=description, read_only=read_only,
-                                     additional_constraints=additional_constraints)
+    d = ParameterDescriptor(description=description, read_only=read_only,
+                            additional_constraints=additional_constraints)
     if isinstance(default, bool):
-        descriptor.type = ParameterType.PARAMETER_BOOL
+        d.type = ParameterType.PARAMETER_BOOL
     elif isinstance(default, int) and min_value is not None and max_value is not None:
-        descriptor.type = ParameterType.PARAMETER_INTEGER
-        descriptor.integer_range = [IntegerRange(from_value=int(min_value), to_value=int(max_value),
-                                                 step=0)]
+        d.type = ParameterType.PARAMETER_INTEGER
+        d.integer_range = [IntegerRange(from_value=int(min_value), to_value=int(max_value), step=0)]
     elif isinstance(default, float) and min_value is not None and max_value is not None:
-        descriptor.type = ParameterType.PARAMETER_DOUBLE
-        descriptor.floating_point_range = [FloatingPointRange(from_value=float(min_value),
-                                                              to_value=float(max_value), step=0.0)]
-    return node.declare_parameter(name, default, descriptor).value
+        d.type = ParameterType.PARAMETER_DOUBLE
+        d.floating_point_range = [FloatingPointRange(from_value=float(min_value),
+                                                     to_value=float(max_value), step=0.0)]
+    return node.declare_parameter(name, default, d).value
 
 
 def declare_robot_parameter(node: Node, name: str = 'robot', default: str = 'pole_climber',
-                            description: str | None = None) -> RobotGeometry:
-    """Declare the ``robot`` parameter (a shipped robot name or a YAML path) and load it.
-
-    Raises RobotDescriptionError with the file and key when the description is invalid, so a
-    node with a bad robot refuses to start with a clear message.
-    """
+                            description: str | None = None):
+    """Declare the ``robot`` parameter (a shipped robot name or a YAML path) and load it."""
+    from rrps_description.geometry import load_robot, shipped_robots
     value = declare_parameter(
         node, name, default,
         description or f'shipped robot name ({", ".join(shipped_robots())}) or a robot YAML path',

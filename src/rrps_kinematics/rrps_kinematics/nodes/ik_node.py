@@ -20,6 +20,7 @@ from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
+from rrps_description.geometry import load_robot
 from rrps_description.names import LEG_NAMES, RING_A_FRAME, ring_joint
 from rrps_description.pose import InvalidPose, Pose
 from rrps_description.tool import TARGET_FRAMES, b_T_tool, ring_b_pose
@@ -28,7 +29,8 @@ from rrps_kinematics.commands import InvalidTarget, limit_velocity, pose_limits,
 from rrps_runtime.diagnostics import OK, STALE, WARN, Diagnostics
 from rrps_runtime.freshness import CommandAges, CommandFreshness, RejectedCommand
 from rrps_runtime.messages import joint_state_msg, lengths_from_joint_state, pose_from_msg, stamp_to_seconds
-from rrps_runtime.parameters import declare_parameter, declare_robot_parameter
+from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
+from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
@@ -36,35 +38,38 @@ from rrps_runtime.recording_tap import RecordingTap
 __all__ = ['IkNode', 'main']
 
 
+#: ik_node's parameters (descriptors, the shipped file and the docs' table come from here).
+PARAMETERS = NodeParameters('ik_node', 'rrps_kinematics', [
+    ROBOT,
+    Parameter('frame_id', RING_A_FRAME, 'frame_id a target_pose must have'),
+    Parameter('timeout', 0.1, 'a target_pose whose stamp is older than this is rejected', unit='s',
+              range=(1e-3, 60.0), dynamic=True),
+    Parameter('target_frame', 'ring_b', "what a target_pose places: ring_b's origin, or the tool-centre point "
+              '(robots with a tool)', choices=TARGET_FRAMES),
+    Parameter('quaternion_tolerance', 1e-3, 'largest accepted | |q| - 1 | of a target quaternion',
+              range=(0.0, 0.5), dynamic=True),
+    Parameter('limit_velocity', False,
+              'scale each command so no leg moves faster than max_speed since the previous one'),
+    Parameter('max_speed', 0.0, "leg speed limit of limit_velocity; 0 = the robot's max_speed", unit='m/s',
+              range=(0.0, 100.0)),
+])
+
+
 class IkNode(Node):
     """Inverse kinematics of the slave robot as a guarded command filter."""
 
     def __init__(self, **kwargs):
         super().__init__('ik_node', **kwargs)
-        self.geometry = declare_robot_parameter(self)
-        self.frame_id = declare_parameter(self, 'frame_id', RING_A_FRAME,
-                                          'frame_id a target_pose must have (ring_a)', read_only=True)
-        self.timeout = declare_parameter(self, 'timeout', 0.1,
-                                         'a target_pose whose stamp is older than this [s] is rejected',
-                                         min_value=1e-3, max_value=60.0)
-        self.target_frame = declare_parameter(
-            self, 'target_frame', 'ring_b',
-            "what a target_pose places: ring_b's origin, or the tool-centre point ('tool', robots "
-            'with a tool)', read_only=True, additional_constraints=' | '.join(TARGET_FRAMES))
-        if self.target_frame not in TARGET_FRAMES:
-            raise ValueError(f'target_frame must be one of {TARGET_FRAMES}, got {self.target_frame!r}')
+        values = declare_parameters(self, PARAMETERS)
+        self.geometry = load_robot(values['robot'])
+        self.frame_id = values['frame_id']
+        self.timeout = values['timeout']
+        self.target_frame = values['target_frame']
         if self.target_frame == 'tool':
             b_T_tool(self.geometry)  # ValueError (exit 2) for a robot without a tool
-        self.quaternion_tolerance = declare_parameter(
-            self, 'quaternion_tolerance', 1e-3, 'largest accepted | |q| - 1 | of a target quaternion',
-            min_value=0.0, max_value=0.5)
-        self.limit_velocity = declare_parameter(
-            self, 'limit_velocity', False,
-            'scale each command so no leg moves faster than max_speed since the previous one',
-            read_only=True)
-        speed = declare_parameter(self, 'max_speed', 0.0,
-                                  "leg speed limit [m/s] of limit_velocity; 0 = the robot's max_speed",
-                                  min_value=0.0, max_value=100.0)
+        self.quaternion_tolerance = values['quaternion_tolerance']
+        self.limit_velocity = values['limit_velocity']
+        speed = values['max_speed']
         self.max_speed = speed if speed > 0.0 else self.geometry.max_speed
         if self.limit_velocity and math.isinf(self.max_speed):
             raise ValueError('limit_velocity needs a finite max_speed (the robot has none): set max_speed')
