@@ -74,14 +74,15 @@ PARAMETERS_DOC = Path(__file__).resolve().parents[3] / 'docs' / 'parameters.md'
 
 def generated_files() -> dict[Path, str]:
     """{path: text} of every node's parameter file and of docs/parameters.md, from the schemas."""
-    nodes = registered_nodes()
-    files = {SOURCE_CONFIG / f'{name}.yaml': node.parameters().config_yaml() for name, node in nodes.items()}
+    schemas = {name: node.parameters() for name, node in registered_nodes().items()}
+    schemas = {name: schema for name, schema in schemas.items() if schema is not None}
+    files = {SOURCE_CONFIG / f'{name}.yaml': schema.config_yaml() for name, schema in schemas.items()}
     doc = ['# Node parameters', '',
            'Every parameter of every rrps node, generated from the nodes\' parameter schemas',
            '(`rrps-params --write`; a test keeps this file and `rrps_bringup/config/*.yaml` equal to',
            'them). Parameters not settable at run time are read-only.', '']
-    for node in nodes.values():
-        doc.append(node.parameters().markdown())
+    for schema in schemas.values():
+        doc.append(schema.markdown())
     files[PARAMETERS_DOC] = '\n'.join(doc)
     return files
 

@@ -35,8 +35,8 @@ class RegisteredNode:
         return getattr(importlib.import_module(module), cls)
 
     def parameters(self):
-        """The node's parameter schema (its module's ``PARAMETERS``, a NodeParameters)."""
-        return importlib.import_module(self.module).PARAMETERS
+        """The node's parameter schema (its module's ``PARAMETERS``, a NodeParameters), or None."""
+        return getattr(importlib.import_module(self.module), 'PARAMETERS', None)
 
 
 def registered_nodes() -> dict[str, RegisteredNode]:
