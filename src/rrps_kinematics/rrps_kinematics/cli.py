@@ -38,6 +38,17 @@ import numpy as np
 from rrps_description.geometry import RobotGeometry, shipped_robots
 from rrps_description.pose import validate_pose
 from rrps_kinematics.assembly import assembly_modes
+from rrps_kinematics.cli_support import (
+    EXIT_FAILED,
+    EXIT_OK,
+    OneLineParser,
+    UsageError,
+    join_negative_vectors,
+    load_robot_or_usage_error,
+    positive,
+    run_command,
+    vector,
+)
 from rrps_kinematics.errors import ComputationError
 from rrps_kinematics.forward import check_lengths, forward_kinematics
 from rrps_kinematics.inverse import inverse_kinematics
@@ -51,17 +62,6 @@ from rrps_kinematics.workspace import (
     distance_to_boundary,
     orientation_range,
     reachable_workspace,
-)
-from rrps_runtime.cli_support import (
-    EXIT_FAILED,
-    EXIT_OK,
-    OneLineParser,
-    UsageError,
-    join_negative_vectors,
-    load_robot_or_usage_error,
-    positive,
-    run_command,
-    vector,
 )
 
 PROG = 'rrps-kinematics'

@@ -35,7 +35,7 @@ from typing import Sequence
 import numpy as np
 
 from rrps_description.geometry import RobotGeometry, shipped_robots
-from rrps_runtime.cli_support import (
+from rrps_kinematics.cli_support import (
     OneLineParser,
     UsageError,
     count,

@@ -21,7 +21,7 @@ import traceback
 from typing import Sequence
 
 from rrps_description.structures import STRUCTURES, make_structure
-from rrps_runtime.cli_support import (
+from rrps_kinematics.cli_support import (
     EXIT_BUG,
     EXIT_FAILED,
     EXIT_USAGE,
