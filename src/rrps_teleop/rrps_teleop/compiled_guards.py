@@ -201,7 +201,7 @@ def guarded_joint_step(g, inv_scale, prev, target, max_leg_step, slowdown, halt,
 @jit
 def _pose_step(g, prev, p1, rv, fraction, out):
     """out <- the command a ``fraction`` of the way from prev's pose to (p1, exp(rv) ⊗ q_prev)
-    (mapping.pose_step: straight line, constant-axis rotation)."""
+    (guards.pose_step: straight line, constant-axis rotation)."""
     p = np.empty(3)
     for k in range(3):
         p[k] = prev[k] + fraction * (p1[k] - prev[k])

@@ -53,37 +53,20 @@ from rrps_description.rotations import (
     normalize_quat,
     quat_conjugate_xyzw,
     quat_multiply_xyzw,
-    quat_xyzw_to_rotation_vector,
     rotation_angle_between,
-    rotation_vector_to_quat_xyzw,
 )
 from rrps_description.tool import b_T_tool, ring_b_pose, tool_pose
 from rrps_interfaces.teleop import TeleopCode
-from rrps_kinematics import forward_kinematics
 from rrps_kinematics.backend import use_numba
-from rrps_kinematics.limits import PoseMargins, limit_arrays, pose_margins
+from rrps_kinematics.limits import limit_arrays, pose_margins
 from rrps_teleop.command_layout import (
     CHECK_CONDITIONING,
     COMMAND_SIZE,
-    INTERFERENCE,
-    INVERSE_CONDITION,
-    LENGTHS,
-    LIMIT_COLLISION_DECELERATE,
-    LIMIT_COLLISION_HALT,
-    LIMIT_NONE,
-    LIMIT_SINGULARITY_DECELERATE,
-    LIMIT_SINGULARITY_HALT,
-    LIMIT_SPEED,
-    QUATERNION,
-    SPEED_TOLERANCE,
-    SPHERICAL,
-    STEP_ACCEPTED,
     STEP_FK_FAILED,
     STEP_REFUSED,
     STEP_UNCHANGED,
-    STROKE,
-    UNIVERSAL,
 )
+from rrps_teleop.guards import CHECK_STARTS, LEG_SPEED_ITERATIONS, GuardedCommand, ReferenceGuards
 from rrps_teleop.teleop_config import MODES, ROTATION_MODES, TeleopConfig, validate_scale
 
 __all__ = [
@@ -91,63 +74,9 @@ __all__ = [
     'ROTATION_MODES',
     'TeleopConfig',
     'TeleopOutput',
-    'GuardedCommand',
     'TeleopMapping',
     'validate_scale',
-    'pose_step',
 ]
-
-#: Most re-scalings of a Cartesian step for the leg speed limit (leg lengths are not linear in it).
-LEG_SPEED_ITERATIONS = 4
-
-
-def pose_step(p0: np.ndarray, q0: np.ndarray, p1: np.ndarray, q1: np.ndarray,
-              fraction: float) -> tuple[np.ndarray, np.ndarray]:
-    """The pose a ``fraction`` of the way from (p0, q0) to (p1, q1): straight line, constant-axis rotation."""
-    rv = quat_xyzw_to_rotation_vector(quat_multiply_xyzw(q1, quat_conjugate_xyzw(q0)))
-    q = quat_multiply_xyzw(rotation_vector_to_quat_xyzw(fraction * rv), q0)
-    return p0 + fraction * (p1 - p0), normalize_quat(q)
-
-
-class GuardedCommand:
-    """A guarded slave command: ring_b's pose in ring_a, the leg lengths and every margin there,
-    held in one read-only float64 buffer (layout :mod:`rrps_teleop.command_layout`)."""
-
-    __slots__ = ('buffer', 'min_conditioning')
-
-    def __init__(self, buffer: np.ndarray, min_conditioning: float):
-        buffer.flags.writeable = False
-        self.buffer = buffer
-        self.min_conditioning = float(min_conditioning)
-
-    @classmethod
-    def at(cls, position, quaternion, lengths, margins: PoseMargins,
-           min_conditioning: float) -> GuardedCommand:
-        """The command of a pose (p, q), its commanded lengths and its margins."""
-        return cls(np.concatenate([position, quaternion, lengths, margins.stroke, margins.universal,
-                                   margins.spherical, margins.interference,
-                                   [margins.inverse_condition]]), min_conditioning)
-
-    @property
-    def position(self) -> np.ndarray:
-        return self.buffer[0:QUATERNION]
-
-    @property
-    def quaternion(self) -> np.ndarray:
-        return self.buffer[QUATERNION:LENGTHS]
-
-    @property
-    def lengths(self) -> np.ndarray:
-        return self.buffer[LENGTHS:STROKE]
-
-    @property
-    def margins(self) -> PoseMargins:
-        b = self.buffer
-        inv_cond = float(b[INVERSE_CONDITION])
-        return PoseMargins(b[LENGTHS:STROKE], b[STROKE:UNIVERSAL], b[UNIVERSAL:SPHERICAL],
-                           b[SPHERICAL:INTERFERENCE], b[INTERFERENCE:INVERSE_CONDITION], inv_cond,
-                           inv_cond - self.min_conditioning)
-
 
 @dataclass
 class TeleopOutput:
@@ -191,6 +120,7 @@ class TeleopMapping:
         self.slave = slave
         #: the compiled guards (:mod:`.compiled_guards`) with numba, else the NumPy reference
         self._kernels = _compiled_guards() if use_numba(backend) else None
+        self._reference = ReferenceGuards(slave)
         self._limit_arrays = limit_arrays(slave)
         self.config = self._checked(config or TeleopConfig())
         self._enable_value = False
@@ -219,9 +149,8 @@ class TeleopMapping:
             self._warm_up()
 
     def _warm_up(self) -> None:
-        """Load (or compile) the guard kernels now, for the argument types of a real step: the
-        first engaged step must not stall its executor while numba loads them (0.1-0.2 s from
-        the cache here, longer than ``master_timeout``; seconds when it compiles)."""
+        """Load (or compile) the guard kernels now, for the argument types of a real step, so
+        that the first engaged step does not wait for numba."""
         g = self.slave
         p, q = np.array(g.home_position, dtype=float), np.array(g.home_quaternion_xyzw, dtype=float)
         m = pose_margins(g, p, q)
@@ -463,7 +392,8 @@ class TeleopMapping:
         c = self.config
         p1, q1 = self.desired()
         if self._kernels is None:
-            outcome, limit, check, index, cand = self._reference_cartesian_step(p1, q1, dt)
+            outcome, limit, check, index, cand = self._reference.cartesian_step(
+                self._command, p1, q1, dt, c, self._halt)
         else:
             buffer = np.empty(COMMAND_SIZE)
             outcome, limit, check, index = self._kernels.guarded_cartesian_step(
@@ -477,7 +407,8 @@ class TeleopMapping:
         c = self.config
         L1 = self.desired()
         if self._kernels is None:
-            outcome, limit, check, index, cand = self._reference_joint_step(L1, dt)
+            outcome, limit, check, index, cand = self._reference.joint_step(
+                self._command, L1, dt, c, self._halt)
         else:
             buffer = np.empty(COMMAND_SIZE)
             outcome, limit, check, index = self._kernels.guarded_joint_step(
@@ -499,110 +430,11 @@ class TeleopMapping:
             if check == CHECK_CONDITIONING:
                 value = cand.margins.inverse_condition - self._halt
             else:
-                value = cand.buffer[_CHECK_STARTS[check] + index]
+                value = cand.buffer[CHECK_STARTS[check] + index]
             return halt_code, f'{name} margin {float(value):.4g} would be negative: holding'
         self._command = cand
         return _LIMIT_CODES[limit], ''
 
-    # --- the reference guards (NumPy; the compiled kernels compute the same) ------------
-
-    def _evaluate_pose(self, p, q) -> GuardedCommand:
-        m = pose_margins(self.slave, p, q, backend='numpy')
-        return GuardedCommand.at(p, q, m.lengths, m, self.slave.min_conditioning)
-
-    def _reference_cartesian_step(self, p1, q1, dt: float):
-        c = self.config
-        prev = self._command
-        dp = float(np.linalg.norm(p1 - prev.position))
-        dth = rotation_angle_between(prev.quaternion, q1)
-        if dp < 1e-12 and dth < 1e-12:
-            return STEP_UNCHANGED, LIMIT_NONE, -1, -1, prev
-        fraction, limit = 1.0, LIMIT_NONE
-        bound = min(c.max_linear_speed * dt / dp if dp > 0 else math.inf,
-                    c.max_angular_speed * dt / dth if dth > 0 else math.inf)
-        if bound < 1.0 - SPEED_TOLERANCE:
-            fraction, limit = bound, LIMIT_SPEED
-        cand = self._evaluate_pose(*pose_step(prev.position, prev.quaternion, p1, q1, fraction))
-        leg_limit = self.slave.max_speed * dt
-        for _ in range(LEG_SPEED_ITERATIONS):  # lengths are nearly linear in the fraction: 1-2 passes
-            leg_step = float(np.max(np.abs(cand.lengths - prev.lengths)))
-            if leg_step <= leg_limit * (1.0 + SPEED_TOLERANCE):
-                break
-            fraction *= leg_limit / leg_step * (1.0 - 1e-9)
-            limit = LIMIT_SPEED
-            cand = self._evaluate_pose(*pose_step(prev.position, prev.quaternion, p1, q1, fraction))
-        factor, slow = self._deceleration(prev.margins, cand.margins)
-        if factor < 1.0:
-            fraction *= factor
-            limit = slow
-            cand = self._evaluate_pose(*pose_step(prev.position, prev.quaternion, p1, q1, fraction))
-        return self._refusal(cand, limit)
-
-    def _reference_joint_step(self, L1, dt: float):
-        prev = self._command
-        dL = L1 - prev.lengths
-        largest = float(np.max(np.abs(dL)))
-        if largest < 1e-12:
-            return STEP_UNCHANGED, LIMIT_NONE, -1, -1, prev
-        fraction, limit = 1.0, LIMIT_NONE
-        if largest > self.slave.max_speed * dt * (1.0 + SPEED_TOLERANCE):
-            fraction, limit = self.slave.max_speed * dt / largest, LIMIT_SPEED
-        cand = self._evaluate_lengths(prev, prev.lengths + fraction * dL)
-        if cand is None:
-            return STEP_FK_FAILED, limit, -1, -1, prev
-        factor, slow = self._deceleration(prev.margins, cand.margins)
-        if factor < 1.0:
-            fraction *= factor
-            limit = slow
-            cand = self._evaluate_lengths(prev, prev.lengths + fraction * dL)
-            if cand is None:
-                return STEP_FK_FAILED, limit, -1, -1, prev
-        return self._refusal(cand, limit)
-
-    def _evaluate_lengths(self, prev: GuardedCommand, lengths: np.ndarray) -> GuardedCommand | None:
-        fk = forward_kinematics(self.slave, lengths, prev.position, prev.quaternion, backend='numpy')
-        if not fk.converged:
-            return None
-        m = pose_margins(self.slave, fk.position, fk.quaternion_xyzw, backend='numpy')
-        return GuardedCommand.at(fk.position, fk.quaternion_xyzw, lengths, m, self.slave.min_conditioning)
-
-    def _deceleration(self, before: PoseMargins, after: PoseMargins) -> tuple[float, int]:
-        """Step scale in [0, 1] near a singularity or interference, when the step approaches it."""
-        c = self.config
-        factor, limit = 1.0, LIMIT_NONE
-        halt = self._halt
-        c0, c1 = float(before.inverse_condition), float(after.inverse_condition)
-        if c1 < c0 and c0 < c.singularity_slowdown:
-            f = min(max((c0 - halt) / (c.singularity_slowdown - halt), 0.0), 1.0)
-            if f < factor:
-                factor = f
-                limit = LIMIT_SINGULARITY_DECELERATE if f > 0.0 else LIMIT_SINGULARITY_HALT
-        d0, d1 = float(np.min(before.interference)), float(np.min(after.interference))
-        if d1 < d0 and d0 < c.collision_slowdown:
-            f = min(max(d0 / c.collision_slowdown, 0.0), 1.0)
-            if f < factor:
-                factor = f
-                limit = LIMIT_COLLISION_DECELERATE if f > 0.0 else LIMIT_COLLISION_HALT
-        return factor, limit
-
-    def _refusal(self, cand: GuardedCommand, limit: int):
-        """The step's outcome: refused at the first margin it makes negative (or, where already
-        negative, smaller), else accepted."""
-        prev, new = self._command.buffer, cand.buffer
-        halt = self._halt
-        for check, start in enumerate(_CHECK_STARTS):
-            if check == CHECK_CONDITIONING:
-                n, o = new[start:start + 1] - halt, prev[start:start + 1] - halt
-            else:
-                n, o = new[start:_CHECK_STARTS[check + 1]], prev[start:_CHECK_STARTS[check + 1]]
-            worse = ~(n >= 0.0) & ~(n >= o)
-            if np.any(worse):
-                return STEP_REFUSED, limit, check, int(np.flatnonzero(worse)[0]), cand
-        return STEP_ACCEPTED, limit, -1, -1, cand
-
-
-#: Where each checked margin starts in a command buffer (CHECK_* order; conditioning last).
-_CHECK_STARTS = (STROKE, UNIVERSAL, SPHERICAL, INTERFERENCE, INVERSE_CONDITION)
 #: Name and halt code of each check (CHECK_* order).
 _CHECKS = (('stroke', TeleopCode.JOINT_BOUND), ('universal joint', TeleopCode.JOINT_BOUND),
            ('spherical joint', TeleopCode.JOINT_BOUND), ('interference', TeleopCode.HALT_FOR_COLLISION),

@@ -30,7 +30,8 @@ from rrps_description.pose import validate_pose
 from rrps_description.rotations import quat_multiply_xyzw, rotation_angle_between, rotation_vector_to_quat_xyzw
 from rrps_kinematics import check_pose, inverse_kinematics
 from rrps_kinematics.limits import pose_margins
-from rrps_teleop.mapping import pose_step, validate_scale
+from rrps_teleop.guards import pose_step
+from rrps_teleop.teleop_config import validate_scale
 
 __all__ = ['TRAJECTORIES', 'scripted_pose', 'HandleMotion', 'HandleStep', 'MasterModel']
 
