@@ -14,7 +14,7 @@ import math
 import pytest
 
 from rrps_testing import fault_report as report
-from rrps_testing.netns_rig import netns_supported
+from rrps_testing.netns import netns_supported
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 

@@ -41,7 +41,8 @@ from rrps_testing.fault_metrics import (
     pose_change,
     teleop,
 )
-from rrps_testing.netns_rig import AgentHandle, Rig, netns_supported, rig_namespaces, wait
+from rrps_testing.netns import netns_supported, rig_namespaces, wait
+from rrps_testing.netns_rig import AgentHandle, Rig
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.netns]
 rig_factory = netns_rig.rig_factory  # the fixture

