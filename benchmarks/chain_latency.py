@@ -13,7 +13,7 @@ Baselines measured in the same run, interleaved sample by sample with the chain:
   (same kind) as the chain, with the chain's nodes spinning alongside;
 * across processes: a round trip through an echo process (bare rclpy sub -> pub), 2 hops,
   next to the chain's 4 hops through the installed executables (EventsExecutor in each).
-Target (issue 4): in-process, the chain adds <= 1 ms p99 over the bare pub -> sub baseline.
+Target: in-process, the chain adds <= 1 ms p99 over the bare pub -> sub baseline.
 Runs on loopback with a private ROS_DOMAIN_ID.
 """
 

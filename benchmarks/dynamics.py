@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Benchmark of the multibody dynamics, the 91-coordinate direct kinematics and the inverse
-dynamics (issues 3 and 13).
+dynamics.
 
     python benchmarks/dynamics.py [--robot pole_climber] [--duration 0.5] [--dt 0.001] [--repeats 5]
 

@@ -26,7 +26,7 @@ two others:
 * The driver's period: differences of the ``actuators/state`` header stamps (its timer),
   received by this separate process; p50, p99, max.
 
-Targets (issue 12): the recorder adds < 10 % to the stack's CPU; the driver's period p99 does
+Targets: the recorder adds < 10 % to the stack's CPU; the driver's period p99 does
 not change (within the spread of the recorder-off phases, at least 0.25 ms). The recording of
 the first "recorder on" phase is read back with the mcap reader: channels, counts, size.
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Cross-check of the two dynamics formulations (issue 3, item 5), printed as a table.
+"""Cross-check of the two dynamics formulations, printed as a table.
 
     python benchmarks/reduced_crosscheck.py [--robot pole_climber ...] [--method hybrid ...]
 

@@ -5,7 +5,7 @@ subscribes to it (as the IK node would). The publisher's CPU is measured in alte
 no recorder (its tap idle), then a "sink" that only subscribes to the publisher's
 ``~/recording_tap`` (the tap active, as while a recorder runs; the sink does nothing with the
 bundles). The same-run baseline is a plain publisher (no tap), whose CPU must not change with
-the sink. Each variant is a flush period of the tap. Issue 12's recorder budget: this is the
+the sink. Each variant is a flush period of the tap. The recorder's CPU budget: this is the
 part of a recording that the stack's own processes pay.
 
     python benchmarks/tap_cost.py [--seconds 8] [--cycles 3] [--flush-periods 0.1 0.25]

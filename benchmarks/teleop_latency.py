@@ -21,7 +21,7 @@ the previous one. Runs, interleaved sample by sample so they share the machine's
   - joint mode: bench -> teleop_node -> bench (2 deliveries);
   - Cartesian mode: bench -> teleop_node -> ik_node -> bench (3 deliveries).
 
-The targets (p99 <= 1.5x the baseline's) are printed twice: as issue 13 words them (joint mode
+The targets (p99 <= 1.5x the baseline's) are printed twice: as the target words them (joint mode
 against 1 delivery, Cartesian against 2: each chain has one delivery more than its baseline),
 and against the bare chain of the same topology, which isolates what the mapping and its
 guards cost from what the transport costs.

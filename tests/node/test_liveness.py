@@ -1,4 +1,4 @@
-"""Liveness: nothing commands motion on stale information (issue: field-grade operation).
+"""Liveness: nothing commands motion on stale information.
 
 Pure mapping checks (state timeout, the operator's round trip, the driver's activity) and the
 climb node in-process: a step pauses when the robot's state or the operator station goes

@@ -1,5 +1,5 @@
 """Reduced 6-DOF model (rrps_sim.reduced): its kinematics, energy, and the cross-check against
-the 91-coordinate multibody DAE of rrps_sim.dynamics (issue 3, item 5)."""
+the 91-coordinate multibody DAE of rrps_sim.dynamics."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""markers_node: the robot as visualization_msgs/MarkerArray, for RViz2 and Foxglove (issue 12).
+"""markers_node: the robot as visualization_msgs/MarkerArray, for RViz2 and Foxglove.
 
 Publishes ``robot/markers`` at ``rate`` Hz (:func:`rrps_recording.markers.robot_markers`):
 in frame ``ring_a`` both rings, the six legs coloured by their worst margin (the viewer's

@@ -1,4 +1,4 @@
-"""recorder_node: every rrps topic and /diagnostics to MCAP, and the flight recorder (issue 12).
+"""recorder_node: every rrps topic and /diagnostics to MCAP, and the flight recorder.
 
 Recording (``record``, default on): every topic of the node's namespace, ``/diagnostics`` and
 ``/tf`` (or the names/prefixes of ``topics``) is found in the ROS graph every

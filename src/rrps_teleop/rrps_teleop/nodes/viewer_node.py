@@ -1,4 +1,4 @@
-"""viewer_node: the viser web viewer for remote operators (issue 6).
+"""viewer_node: the viser web viewer for remote operators.
 
 Subscribes (relative names): ``actuators/state``, ``pose`` (FK a_T_b, frame ring_a), ``target_pose``
 (the commanded a_T_b, drawn as a ghost), ``master/pose`` (frame master_ring_a),
@@ -167,7 +167,7 @@ class ViewerNode(Node):
         self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, STATE_QOS)
         self.requests = ViewerRequests(self, tell=lambda c, m, ok: self.viewer.tell(c, m, ok=ok))
         self._round_trip_pub = self.create_publisher(Float64, OPERATOR_ROUND_TRIP, COMMAND_QOS)
-        self.recording = ViewerRecording(  # "Save last 60 s", the replay timeline (issue 12)
+        self.recording = ViewerRecording(  # "Save last 60 s", the replay timeline
             self, tell=lambda c, m, ok: self.viewer.tell(c, m, ok=ok),
             send_file=lambda c, name, content: send_file(self.viewer.server, c, name, content))
         self.create_timer(1.0 / enable_rate, self._tick)

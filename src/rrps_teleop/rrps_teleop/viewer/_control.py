@@ -1,6 +1,6 @@
 """Who may drive the robot from a browser: the operator-control state machine (pure, no viser).
 
-Rules (issue 6): every viewer is read-only until it enters the operator token; at most one
+Rules: every viewer is read-only until it enters the operator token; at most one
 authenticated client holds control; the holder can release it or hand it over to another
 authenticated client; a client that disconnects loses control at once, and with it the deadman,
 so the robot holds. The deadman (``teleop/enable``) is alive only while the controller has the
