@@ -119,7 +119,7 @@ def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa
     climb_status = probe.collect(DiagnosticStatus, 'climb/status')
     teleop_status = probe.collect(DiagnosticStatus, 'teleop/status', stamped=True)
     keep = os.environ.get('RRPS_SCREENSHOT_DIR')  # e.g. to look at the pictures
-    shots = {name: tmp_path / f'{name}.png' for name in ('robot', 'previous', 'hidden', 'operator')}
+    shots = {name: tmp_path / f'{name}.png' for name in ('robot', 'previous', 'hidden', 'shown', 'operator')}
     steps = [
         {'page': 1, 'wait_text': 'Read-only viewer'},
         {'page': 1, 'wait_text': 'Latency: state'},
@@ -129,6 +129,9 @@ def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa
         # Taken until the hidden robot shows in the picture (or the test's deadline passed).
         {'page': 1, 'screenshot': str(shots['hidden']), 'sync': 'hidden shot'},
         {'page': 1, 'sync': 'show robot'},
+        # Taken until the robot's workspace shows again (it is drawn around the robot, hidden
+        # with it), or the test's deadline passed.
+        {'page': 1, 'screenshot': str(shots['shown']), 'sync': 'shown shot'},
         {'page': 1, 'close': True},
         {'page': 2, 'wait_text': 'Read-only viewer'},
         {'page': 2, 'fill': 'Token', 'value': TOKEN},
@@ -200,6 +203,10 @@ def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa
                 elif sync == 'show robot':
                     for handle in robot_nodes:
                         handle.visible = True
+                elif sync == 'shown shot':
+                    drawn = _workspace_pixels(shots['shown']) - _workspace_pixels(shots['hidden']) > 300
+                    deadline.setdefault(sync, time.monotonic() + DEADLINE)
+                    reply = 'go' if drawn or time.monotonic() > deadline[sync] else 'again'
                 elif sync == 'before hold':
                     assert viewer.control.controller is not None
                     nodes['master_node'].set_parameters([Parameter('trajectory', value='circle')])
@@ -240,8 +247,9 @@ def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa
     # Counted in the 3-D view only: the panel on the right updates live (latency, plots) meanwhile.
     count, _ = _changed_pixels(shots['robot'], shots['hidden'], VIEW_WIDTH)
     assert count > 2000, f'only {count} pixels of the 3-D view changed when the robot was hidden'
-    # The reachable workspace is drawn around the robot (hidden with it) and on the master.
-    ws_shown, ws_hidden = _workspace_pixels(shots['robot']), _workspace_pixels(shots['hidden'])
+    # The reachable workspace is drawn around the robot (hidden with it) and on the master: in
+    # the browser, once the robot shows again, the robot's copy adds its pixels to the master's.
+    ws_shown, ws_hidden = _workspace_pixels(shots['shown']), _workspace_pixels(shots['hidden'])
     print(f'workspace-coloured pixels: {ws_shown} with the robot, {ws_hidden} without')
     assert ws_shown - ws_hidden > 300, (ws_shown, ws_hidden)
     assert ws_hidden > 20, ws_hidden  # the master's copy
