@@ -30,7 +30,8 @@ from rrps_kinematics.cli_support import (
     count,
     load_robot_or_usage_error,
 )
-from rrps_teleop.climbing.gait import CSV_COLUMNS, GaitPlanner, PlanError
+from rrps_teleop.climbing.gait import GaitPlanner
+from rrps_teleop.climbing.plan import CSV_COLUMNS, PlanError
 
 PROG = 'rrps-climb'
 

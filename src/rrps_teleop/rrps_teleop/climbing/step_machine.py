@@ -40,8 +40,9 @@ from rrps_description.pose import Pose, pose_error
 from rrps_interfaces.climb import CLIMB_RESUME, ClimbState, ClimbStatus, PauseReason, PhaseAction
 from rrps_kinematics.odometry import RingOdometry
 from rrps_teleop.climbing.climb_watch import InputWatch
-from rrps_teleop.climbing.gait import GaitPlanner, Phase, PlanError
+from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_teleop.climbing.phase_path import PhasePath
+from rrps_teleop.climbing.plan import Phase, PlanError
 
 __all__ = ['StepConfig', 'ClimbTarget', 'GripperRequest', 'ClimbOutput', 'ClimbStepMachine']
 
