@@ -1,26 +1,22 @@
 """rrps-demo: the whole stack with the web viewer (``./rrps demo``).
 
-The demo runs as the system would on a robot and an operator station, in four processes:
+The demo runs as the system would on a robot and an operator station, in four processes
+(docs/deployment.md):
 
-* the simulated hardware (``driver_node``, 500 Hz), as a real robot's driver, active at the
-  first start; it keeps the robot's physical state in a file of the run, and a driver that
-  dies is restarted inactive where the robot is (the viewer's "Activate driver" resumes);
+* the simulated hardware (``driver_node``, 500 Hz), active at the first start; it keeps the
+  robot's physical state in a file of the run, and a driver that dies is restarted inactive
+  where the robot is (the viewer's "Activate driver" resumes);
 * the robot computer's nodes, IK, FK and climbing, composed in one process (``rrps-compose``);
 * the operator station, master, teleop and the viewer, in this process;
-* the observers, the flight recorder and markers_node (:func:`start_recorder`).
+* the observers (:func:`start_recorder`): the flight recorder (the last 60 s, written on a fault
+  or on the viewer's "Save last 60 s", in ``--recordings``; ``--record`` also records the whole
+  session there) and ``markers_node`` (the robot for RViz2 and Foxglove).
 
-The 500 Hz state fan-out and the viewer's web server therefore never share an executor (or a
-GIL) with the command path of the robot. A robot process that dies is restarted (at most 3
-times a minute); the children die with this process (a parent-death signal), and Ctrl-C or
-SIGTERM stops them all. The viewer's URL and operator token are
-printed once the robot is up.
-
-Every node reads its parameter file (``config/<node>.yaml`` of its package, :mod:`rrps_bringup.params`)
-before the demo's own settings (robot, rate, host, port, token), which win. A fourth process
-runs the observers: the flight recorder (``recorder_node``: the last 60 s for the viewer's
-"Save last 60 s" and for fault dumps, in ``--recordings``, default ``rrps_recordings``;
-``--record`` also records the whole session there) and ``markers_node`` (the robot for RViz2
-and Foxglove).
+A robot process that dies is restarted (at most 3 times a minute); the children die with this
+process (a parent-death signal), and Ctrl-C or SIGTERM stops them all. The viewer's URL and
+operator token are printed once the robot is up. Every node reads its parameter file
+(:mod:`rrps_bringup.params`) before the demo's own settings (robot, rate, host, port, token),
+which win.
 
 ``--headless`` runs no browser: a scripted teleop session (the operator's handle moves the
 master, a deadman stream engages the mapping, the slave follows; releasing the deadman holds the

@@ -129,6 +129,7 @@ def combine_bodies(a: RigidBodyInertia, b: RigidBodyInertia, b_R: np.ndarray,
 
 
 def as_array(value: Any, shape: tuple[int, ...], key: str) -> np.ndarray:
+    """A read-only float array of ``shape``, finite; RobotDescriptionError naming ``key`` otherwise."""
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -143,6 +144,7 @@ def as_array(value: Any, shape: tuple[int, ...], key: str) -> np.ndarray:
 
 
 def as_scalar(value: Any, key: str, *, positive: bool = False, nonnegative: bool = False) -> float:
+    """A finite float (> 0 or >= 0 when asked); RobotDescriptionError naming ``key`` otherwise."""
     if isinstance(value, bool):
         raise RobotDescriptionError(f'{key}: expected a number, got {value!r}')
     try:
@@ -159,6 +161,8 @@ def as_scalar(value: Any, key: str, *, positive: bool = False, nonnegative: bool
 
 
 def check_inertia(inertia: np.ndarray, key: str) -> None:
+    """RobotDescriptionError naming ``key`` unless ``inertia`` is a physical inertia tensor (symmetric,
+    positive definite, principal moments obeying the triangle inequality)."""
     if not np.allclose(inertia, inertia.T, rtol=1e-9, atol=1e-12):
         raise RobotDescriptionError(f'{key}: inertia must be symmetric')
     eig = np.linalg.eigvalsh(inertia)

@@ -1,12 +1,11 @@
 """CDR encoders of the stack's high-rate message types (pure, no ROS import).
 
 A recording tap sends a recorder the CDR bytes of every message its node publishes
-(:mod:`rrps_runtime.recording_tap`), up to 500 a second per stream. rclpy's
-``serialize_message`` converts the whole message to C first: 5 µs for a JointState in a loop
-here, 7-8 µs in a running node. These encoders write the same bytes from the message's fields
-with ``struct`` and cache what does not change from one message to the next (a JointState's
-frame and joint names, a PoseStamped's frame): 1.9 µs for a JointState, 0.5 µs for a
-PoseStamped, in a loop.
+(:mod:`rrps_runtime.recording_tap`), up to 500 a second per stream. Where rclpy's
+``serialize_message`` converts the whole message to C first, these encoders write the same
+bytes from the message's fields with ``struct`` and cache what does not change from one message
+to the next (a JointState's frame and joint names, a PoseStamped's frame). Their cost against
+rclpy's: docs/measurements.md (Recording).
 
 Encoding: XCDR1 little-endian, as rclpy and MCAP's ros2 profile use it. A 4-byte encapsulation
 header, then each field aligned to its own size (strings and sequence lengths to 4, float64 to
@@ -99,7 +98,7 @@ def _cached(cache: dict, key, build, *args) -> bytes:
 
 
 # The encoders read rclpy's message slots (rosidl_generator_py stores field ``f`` in ``_f``)
-# rather than its properties: 3-5 times quicker per field, which is most of the cost here.
+# rather than its properties, which is most of the cost saved.
 # The tests compare every encoder with MCAP's and rclpy's own serialisation.
 
 def joint_state_cdr(msg) -> bytes:

@@ -22,7 +22,7 @@ __all__ = ['make_executor', 'spin_until_shutdown', 'freeze_startup_objects', 'ru
 
 
 def make_executor(context, kind: str = 'events'):
-    """An EventsExecutor (about 5x lower latency here) or a SingleThreadedExecutor."""
+    """An EventsExecutor (the default: lower latency, docs/measurements.md) or a SingleThreadedExecutor."""
     if kind == 'events':
         from rclpy.experimental import EventsExecutor
         return EventsExecutor(context=context)
@@ -49,8 +49,8 @@ def freeze_startup_objects() -> None:
     """Move every object alive now (modules, compiled kernels, the nodes) out of the garbage
     collector's reach (``gc.freeze``), once a process has started its nodes.
 
-    A full collection otherwise walks them all: about 150,000 objects, 70-100 ms here with the
-    GIL held, long enough for a 0.1 s command timeout to reject a message queued behind it.
+    A full collection otherwise walks them all with the GIL held, which can take long enough for
+    a 0.1 s command timeout to reject a message queued behind it (docs/measurements.md).
     """
     gc.collect()
     gc.freeze()

@@ -1,8 +1,8 @@
 """Recording bundles: a node's published messages, batched for a recorder (pure, no ROS import).
 
 A recorder that subscribes to every topic gets a second DDS delivery of every message, and at
-the stack's rates that delivery alone costs more than the recording budget (a bare Python
-listener of the demo's topics adds more than 10 % of its CPU; README, *Recording*). A node with a recording
+the stack's rates that delivery alone costs more than the recording budget (docs/recording.md,
+docs/measurements.md). A node with a recording
 tap (:mod:`rrps_runtime.recording_tap`) therefore keeps, while a recorder listens, the
 CDR bytes it publishes on its high-rate topics, and sends them every 0.1 s as one bundle on its
 private topic ``~/recording_tap``: one DDS delivery per tenth of a second instead of one per

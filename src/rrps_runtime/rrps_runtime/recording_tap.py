@@ -1,7 +1,7 @@
 """A node's recording tap: its high-rate publications, batched for a recorder.
 
 Receiving every message of the stack again, in a separate process, costs a recorder more than
-the recording budget before it writes a byte (see :mod:`rrps_runtime.recording_bundle`).
+the recording budget before it writes a byte (docs/recording.md: recording taps).
 A node therefore creates its high-rate publishers through its :class:`RecordingTap`::
 
     self._tap = RecordingTap(self)
@@ -132,10 +132,9 @@ class RecordingTap:
     def flush(self) -> None:
         """Send the kept messages as one bundle (an empty one at most every IDLE_PERIOD).
 
-        Encoding here, fifty messages at a time, costs about half of encoding each one as it is
-        published (5 against 9-10 µs a JointState in a running node here): the interpreter's
-        caches are warm. A message that cannot be encoded is left out and logged, never raised
-        into the node's executor.
+        Encoding here, many messages at a time, is cheaper than encoding each one as it is
+        published (the interpreter's caches are warm). A message that cannot be encoded is left
+        out and logged, never raised into the node's executor.
         """
         active = self._bundle_pub.get_subscription_count() > 0
         now = time.monotonic()

@@ -1,37 +1,21 @@
-"""Child processes that never outlive their supervisor, and a clean way to stop them.
+"""Child processes that never outlive their supervisor, their scheduling, and a clean way to stop them.
 
-A robot's driver left running after its supervisor died keeps publishing and accepting
-commands with nobody watching. :func:`start_child` starts a process that the kernel stops
-(``SIGTERM``) when the process that started it dies, however it dies (Linux
-``PR_SET_PDEATHSIG``; elsewhere the child's own :func:`exit_with_parent` watchdog catches it
-within a second). :func:`stop_child` asks politely (SIGTERM: the nodes' clean shutdown) and
-kills what is still running after a timeout.
+:func:`start_child` starts a process that the kernel stops (``SIGTERM``) when the process that
+started it dies, however it dies (Linux ``PR_SET_PDEATHSIG``; elsewhere the child's own
+:func:`exit_with_parent` watchdog catches it within a second), so a robot's driver never keeps
+running with nobody watching. :func:`stop_child` asks politely (SIGTERM: the nodes' clean
+shutdown) and kills what is still running after a timeout; :class:`Respawner` restarts children
+that die, as a launch file's ``respawn``.
 
-Scheduling: on a small computer the robot's command path (the driver, IK, FK, climbing) must
-not wait behind a browser, a recorder or another job. :func:`start_child` starts such a child
-with the real-time round-robin policy (``SCHED_RR`` at :data:`CONTROL_RT_PRIORITY`, as
-ros2_control runs its control loop and systemd's ``CPUSchedulingPolicy=rr`` does): it runs as
-soon as it is ready, ahead of every normal process, and the kernel's real-time throttling (95 %
-of each core by default) still keeps a runaway loop from locking the machine. The operator
-station runs real-time too, at a lower priority (:data:`OPERATOR_RT_PRIORITY`); observers get a
-nice value (:data:`OBSERVER_NICE`). Both need root or
-``CAP_SYS_NICE`` (for SCHED_RR, or an ``RLIMIT_RTPRIO`` allowance); without them the child runs
-at the best priority it may have and :func:`scheduling_of` tells.
-
-Why real time: a nice value only weighs a process's share of the CPU. With the other core busy
-and a browser rendering, a nice -10 process still waited up to 0.13 s for a core now and then,
-which is enough for a 0.1 s command timeout to reject a message between two nodes of the same
-process; with SCHED_RR the same process's commands were at most 2 ms old
-(``benchmarks/executor_lag.py``).
-
-A nice value also only ranks a process within its CPU scheduling group. With Linux autogroup
-(``/proc/sys/kernel/sched_autogroup_enabled``, on by default on desktop and many server
-kernels) every session is such a group and each group weighs the same: a nice -10 process in
-the shell's session gets no more CPU than another session's busy loop. A child started with a
-nice value therefore leads its own session and gives that session's group the same nice value
-(``/proc/self/autogroup``). It still dies with its supervisor; terminal Ctrl-C reaches the
-supervisor only, which stops it (SIGTERM). Under systemd, whose services are cgroups, set
-``CPUWeight=`` next to ``Nice=`` for the same effect.
+Scheduling: the robot's command path (driver, IK, FK, climbing) runs with the real-time
+round-robin policy (``SCHED_RR`` at :data:`CONTROL_RT_PRIORITY`, as ros2_control runs its
+control loop), the operator station at :data:`OPERATOR_RT_PRIORITY`, observers at the nice value
+:data:`OBSERVER_NICE`. A child started with a nice value leads its own session and gives that
+session's autogroup (``/proc/self/autogroup``) the same nice value, since with Linux autogroup a
+nice value only ranks a process within its session; terminal Ctrl-C then reaches the supervisor
+only, which stops it. Raising priority needs root or ``CAP_SYS_NICE`` (or an ``RLIMIT_RTPRIO``
+allowance); without them a child runs at the best priority it may have and
+:func:`scheduling_of` tells. Why, and the systemd equivalent: docs/deployment.md.
 
 Pure Python, no ROS import.
 """

@@ -125,7 +125,7 @@ class MasterModel:
         if limit < 1.0:
             fraction, note = limit, HandleStep(HandleMotion.SPEED_LIMITED)
         p, q = pose_step(p0, q0, p1, q1, fraction)
-        m = pose_margins(self.geometry, p, q)  # the compiled check: a few microseconds
+        m = pose_margins(self.geometry, p, q)  # the compiled check
         if not m.ok:
             reason = check_pose(self.geometry, p, q)[1]  # which limit, in words (once)
             # Bisect for the furthest feasible fraction: the current pose is feasible.

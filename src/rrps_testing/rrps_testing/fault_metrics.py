@@ -20,14 +20,17 @@ __all__ = ['teleop', 'climb', 'length_change', 'pose_change', 'gripper_openings'
 
 
 def teleop(record: dict) -> TeleopStatus:
+    """The typed teleop/status of a record."""
     return TeleopStatus.from_values(record['values'])
 
 
 def climb(record: dict) -> ClimbStatus:
+    """The typed climb/status of a record."""
     return ClimbStatus.from_values(record['values'])
 
 
 def in_window(records: list[dict], start: float, end: float, by: str = 't') -> list[dict]:
+    """The records whose ``by`` time (receipt ``t`` or ``stamp``) lies in [start, end]."""
     return [r for r in records if start <= r.get(by, -math.inf) <= end]
 
 
@@ -93,4 +96,5 @@ def last_stamp(records: list[dict], start: float, end: float) -> float | None:
 
 
 def climb_states(records: list[dict]) -> list[ClimbState]:
+    """The climb states of climb/status records, in order."""
     return [climb(r).state for r in records]

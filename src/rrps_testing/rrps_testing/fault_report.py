@@ -3,7 +3,7 @@
 
     python -m rrps_testing.fault_report [--loopback] [--only NAME[,NAME...]] [--log-dir DIR]
 
-The stack runs as it is deployed (README: two machines): on the robot host the simulated
+The stack runs as it is deployed (docs/deployment.md): on the robot host the simulated
 driver (a process: the hardware) and the robot computer's nodes (IK, FK, climbing composed in a
 second process); on the operator station the master and teleop (a third process). As root
 (``ip netns``) the hosts are two network namespaces joined by a veth pair (rrps_testing.netns_rig:

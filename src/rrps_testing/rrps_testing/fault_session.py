@@ -36,6 +36,8 @@ SENDER = {'offset': 2.0, 'amplitude': 0.004, 'period': 2.0}
 
 @dataclasses.dataclass
 class Row:
+    """One row of the fault report: the fault, how it was detected, the time to a safe hold, the motion
+    (and the motion once held) [mm], the gripper openings and the recovery with its outcome."""
     fault: str
     detected: str = ''
     hold_s: float | None = None

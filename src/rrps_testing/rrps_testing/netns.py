@@ -32,6 +32,7 @@ def wait(predicate: Callable[[], object], timeout: float, period: float = 0.05) 
 
 
 def ip(*args: str, check: bool = True) -> subprocess.CompletedProcess:
+    """Run ``ip ARGS`` (iproute2), output captured."""
     return subprocess.run(['ip', *args], check=check, capture_output=True, text=True, timeout=30)
 
 
@@ -54,6 +55,7 @@ def rig_namespaces() -> list[str]:
 
 
 def pid_alive(pid: int) -> bool:
+    """Whether a process ``pid`` exists."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -110,5 +112,6 @@ def discovery_server_command(address: str, port: int = DISCOVERY_PORT) -> tuple[
 
 
 def sysconfig_path() -> str:
+    """This interpreter's site-packages (where the pinned wheels are)."""
     import sysconfig
     return sysconfig.get_paths()['purelib']

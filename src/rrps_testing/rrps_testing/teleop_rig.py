@@ -31,6 +31,7 @@ NS = '/rrps'
 
 
 def params(**values):
+    """rclpy Parameters from keyword values (a node's ``parameter_overrides``)."""
     return [Parameter(k, value=v) for k, v in values.items()]
 
 
@@ -54,10 +55,9 @@ class Rig:
         self.climb_pub = p.publisher(DiagnosticStatus, 'climb/status')
         self.enable = False
         self.handle = None  # where the operator holds the master's handle (position, quaternion)
-        # Unless a test is about them, timeouts far above any stall of a loaded 2-core machine, so
-        # that a stall never re-clutches in the middle of a test (1 s was not: with other jobs
-        # keeping the load average above 10, the deadman thread was once silent for over 1 s; and
-        # a slave state 0.2 s late re-clutched the mapping, losing the master's motion meanwhile).
+        # Unless a test is about them, timeouts far above any stall of a loaded machine, so that a
+        # stall never re-clutches in the middle of a test (docs/measurements.md: tests on a
+        # loaded machine).
         teleop = {'master_timeout': 5.0, 'enable_timeout': 5.0, 'state_timeout': 5.0} | (teleop or {})
         self.teleop = TeleopNode(context=ctx, namespace=NS, parameter_overrides=params(**teleop))
         nodes = [self.teleop, IkNode(context=ctx, namespace=NS), FkNode(context=ctx, namespace=NS),

@@ -16,10 +16,9 @@ least every ``flush_period`` s of log time, so a process that dies loses at most
 :class:`RotatingRecording` starts a new file ``<prefix>_<n>.mcap`` past ``max_bytes`` or
 ``max_seconds``, as rosbag2 splits a bag. No rclpy.
 
-The writer is Foxglove's SDK (``foxglove-sdk``, its MCAP writer compiled from Rust): about
-3 us a message here against about 9 us with the pure-Python ``mcap`` writer, which at the
-demo's 1,900 messages/s was the largest part of the recorder's cost. Files are read back
-with the ``mcap`` reader (replay, tests).
+The writer is Foxglove's SDK (``foxglove-sdk``, its MCAP writer compiled from Rust), quicker
+than the pure-Python ``mcap`` writer (docs/measurements.md). Files are read back with the
+``mcap`` reader (replay, tests).
 """
 
 from __future__ import annotations
@@ -43,8 +42,8 @@ __all__ = ['TopicInfo', 'McapRecording', 'RotatingRecording', 'write_recording',
 ROS_DISTRO = 'jazzy'
 METADATA_VERSION = 9
 COMPRESSIONS = {'zstd': MCAPCompression.Zstd, 'lz4': MCAPCompression.Lz4, 'none': None}
-#: zstd's quickest level: the stack's CDR streams compress about 3.3:1 at it, in the writer's
-#: thread (the recorder's), with no compression threads of its own.
+#: zstd's quickest level, in the writer's thread (the recorder's), with no compression threads
+#: of its own.
 COMPRESSION_LEVEL = 1
 
 
