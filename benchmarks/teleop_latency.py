@@ -346,8 +346,8 @@ def main() -> None:
           f'control=timer adds {timer - cart:.3f} ms over message-triggered control.')
     ok = True
     for what, ours, baseline in (
-            ('joint mode (teleop) vs bare 1 delivery [as the issue words it]', joint, bare),
-            ('Cartesian mode (teleop + ik) vs bare relay, 2 deliveries [as the issue words it]', cart, relay),
+            ('joint mode (teleop) vs bare 1 delivery [target as stated]', joint, bare),
+            ('Cartesian mode (teleop + ik) vs bare relay, 2 deliveries [target as stated]', cart, relay),
             ('joint mode vs bare relay, same topology (2 deliveries)', joint, relay),
             ('Cartesian mode vs bare two-relay chain, same topology (3 deliveries)', cart, relay2)):
         met = ours <= TARGET_RATIO * baseline
