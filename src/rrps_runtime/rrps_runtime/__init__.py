@@ -2,5 +2,5 @@
 message conversions, command freshness, supervision of child processes and the recording taps.
 
 Pure modules (no rclpy): ``freshness``, ``supervision``, ``cli_support``, ``cdr``,
-``recording_bundle``. The others need rclpy.
+``recording_bundle``, ``parameter_schema``. The others need rclpy.
 """
