@@ -21,6 +21,8 @@ import textwrap
 from dataclasses import dataclass, field
 from typing import Iterator, Sequence
 
+import yaml
+
 __all__ = ['Parameter', 'NodeParameters', 'ROBOT', 'format_value']
 
 _TYPES = (bool, int, float, str, tuple)
@@ -30,7 +32,7 @@ _TYPES = (bool, int, float, str, tuple)
 class Parameter:
     """One parameter of a node.
 
-    ``default`` fixes the type (bool, int, float, str, or a tuple of floats); ``None`` with
+    ``default`` fixes the type (bool, int, float, str, or a tuple of numbers or of strings); ``None`` with
     ``type=float`` declares a parameter left unset in the shipped file, whose default the node
     derives (e.g. from the robot). ``range`` bounds a number (inclusive), ``choices`` a string;
     ``dynamic`` parameters may be set while the node runs (the others are read-only).
@@ -56,9 +58,12 @@ class Parameter:
         object.__setattr__(self, 'type', kind)
         if self.default is not None and not isinstance(self.default, kind):
             raise ValueError(f'{self.name}: default {self.default!r} is not a {kind.__name__}')
-        if kind is tuple and not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                                     for v in self.default or ()):
-            raise ValueError(f'{self.name}: a list parameter holds numbers')
+        if kind is tuple and not (all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                      for v in self.default or ())
+                                  or all(isinstance(v, str) for v in self.default)):
+            raise ValueError(f'{self.name}: a list parameter holds numbers or strings')
+        if self.item_type is str and self.range is not None:
+            raise ValueError(f'{self.name}: a range needs a number type')
         if self.range is not None:
             lo, hi = self.range
             if kind not in (int, float, tuple) or not lo <= hi:
@@ -71,6 +76,13 @@ class Parameter:
     @property
     def read_only(self) -> bool:
         return not self.dynamic
+
+    @property
+    def item_type(self) -> type | None:
+        """The type of a list parameter's items: str for a default of strings, else float."""
+        if self.type is not tuple:
+            return None
+        return str if self.default and all(isinstance(v, str) for v in self.default) else float
 
     def check(self, value) -> None:
         """ValueError naming the parameter when ``value`` is outside its range or choices."""
@@ -104,17 +116,35 @@ ROBOT = Parameter('robot', 'pole_climber',
                   'shipped robot name (rrps-kinematics robots) or the path of a robot YAML')
 
 
+def _quoted(text: str) -> str:
+    return "'" + text.replace("'", "''") + "'"
+
+
+def _plain(text: str) -> bool:
+    """Whether YAML reads ``text`` unquoted as this very string."""
+    try:
+        return bool(text) and text.strip() == text and yaml.safe_load(text) == text
+    except yaml.YAMLError:
+        return False
+
+
 def format_value(value) -> str:
-    """A value as the YAML files and the docs write it."""
+    """A value as the YAML files and the docs write it (a string quoted where YAML would read it
+    as something else, and inside lists)."""
     if isinstance(value, bool):
         return 'true' if value else 'false'
     if isinstance(value, float):
-        if math.isinf(value):
-            return '.inf' if value > 0 else '-.inf'
-        text = repr(value)
-        return text if ('.' in text or 'e' in text or 'n' in text) else text + '.0'
+        if math.isinf(value) or math.isnan(value):
+            return '.nan' if math.isnan(value) else '.inf' if value > 0 else '-.inf'
+        mantissa, e, exponent = repr(value).partition('e')
+        if '.' not in mantissa:  # YAML 1.1 (PyYAML) reads 1e-12 as text, 1.0e-12 as a float
+            mantissa += '.0'
+        return mantissa + e + exponent
     if isinstance(value, (tuple, list)):
-        return '[' + ', '.join(format_value(float(v)) for v in value) + ']'
+        return '[' + ', '.join(_quoted(v) if isinstance(v, str) else format_value(float(v))
+                               for v in value) + ']'
+    if isinstance(value, str):
+        return value if _plain(value) else _quoted(value)
     return str(value)
 
 

@@ -47,6 +47,7 @@ from rrps_description.rotations import quat_multiply_xyzw, rotation_vector_to_qu
 from rrps_kinematics import inverse_kinematics, margins
 from rrps_kinematics.workspace import LIMIT_KINDS
 from rrps_teleop.mapping import validate_scale
+from rrps_teleop.teleop_config import PARAMETERS
 
 __all__ = ['DEFAULT_ACTIVATION', 'FixtureConfig', 'FixtureWrench', 'fixture_wrench', 'master_wrench']
 
@@ -74,7 +75,7 @@ class FixtureConfig:
     """
 
     activation: Mapping[str, float] = field(default_factory=lambda: dict(DEFAULT_ACTIVATION))
-    stiffness: float = 10.0
+    stiffness: float = PARAMETERS['fixture_stiffness'].default
     max_force: float = 20.0
     max_torque: float = 2.0
 

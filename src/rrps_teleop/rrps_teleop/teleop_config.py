@@ -1,7 +1,9 @@
-"""Teleoperation parameters: mapping modes and the guards' limits (SI units), validated.
+"""Teleoperation parameters: the teleop node's parameter schema and the mapping's validated
+configuration (SI units).
 
-:class:`TeleopConfig` is what :class:`rrps_teleop.mapping.TeleopMapping` runs with and what the
-teleop node's parameters set; an invalid value raises ValueError naming the parameter.
+:data:`PARAMETERS` declares every parameter of the teleop node once (name, default, unit, range,
+description); :class:`TeleopConfig` is what :class:`rrps_teleop.mapping.TeleopMapping` runs with,
+its field defaults taken from that schema; an invalid value raises ValueError naming the parameter.
 """
 
 from __future__ import annotations
@@ -11,12 +13,71 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from rrps_description.names import RING_A_FRAME
 from rrps_description.tool import TARGET_FRAMES
+from rrps_interfaces.teleop import MASTER_FRAME
+from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 
-__all__ = ['MODES', 'ROTATION_MODES', 'TeleopConfig', 'validate_scale']
+__all__ = ['CONTROL_TRIGGERS', 'MODES', 'PARAMETERS', 'ROTATION_MODES', 'TeleopConfig', 'validate_scale']
 
 MODES = ('cartesian', 'joint')
 ROTATION_MODES = ('relative', 'absolute')
+#: when the teleop node runs a control step: on each master sample or on a timer.
+CONTROL_TRIGGERS = ('message', 'timer')
+
+#: teleop_node's parameters (descriptors, the shipped file, the docs' table and the defaults of
+#: TeleopConfig and of the fixture's stiffness come from here).
+PARAMETERS = NodeParameters('teleop_node', 'rrps_teleop', [
+    ROBOT,
+    Parameter('frame_id', RING_A_FRAME, 'frame of pose and target_pose'),
+    Parameter('master_frame_id', MASTER_FRAME, 'frame of master/pose'),
+    Parameter('control', 'message', 'run the control step on each master sample or on a timer',
+              choices=CONTROL_TRIGGERS),
+    Parameter('control_rate', 200.0, 'control rate in timer mode', unit='Hz', range=(1.0, 2000.0)),
+    Parameter('status_rate', 10.0, 'teleop/status rate when unchanged', unit='Hz', range=(0.1, 100.0)),
+    Parameter('feedback_rate', 20.0, 'master/feedback (the virtual fixture) rate', unit='Hz',
+              range=(1.0, 200.0)),
+    Parameter('feedback_scale', 1.0, 'master force per newton of the fixture on the slave', range=(0.0, 100.0)),
+    Parameter('fixture_stiffness', 10.0, 'the fixture push of one limit at the limit', unit='N',
+              range=(1e-3, 1e4)),
+    Parameter('mode', 'cartesian', 'map master poses (cartesian) or leg lengths (joint)', choices=MODES,
+              dynamic=True),
+    Parameter('translation_scale', 4.0, 'slave translation = scale x master translation since engage',
+              range=(1e-3, 1e3), dynamic=True),
+    Parameter('rotation_mode', 'relative', 'master rotation since engage (relative) or its orientation '
+              '(absolute)', choices=ROTATION_MODES, dynamic=True),
+    Parameter('joint_scale', (4.0,) * 6, 'joint mode: a_i of L_slave,i = a_i L_master,i + b_i (6 values > 0; '
+              'b_i set at engage)', dynamic=True),
+    Parameter('enable_timeout', 0.2, 'hold when teleop/enable was not true for this long', unit='s',
+              range=(0.01, 5.0), dynamic=True),
+    Parameter('master_timeout', 0.1, 'hold when the master data is older than this', unit='s',
+              range=(0.005, 5.0), dynamic=True),
+    Parameter('max_linear_speed', 0.05, 'slave translation speed limit', unit='m/s', range=(1e-4, 10.0),
+              dynamic=True),
+    Parameter('max_angular_speed', 0.25, 'slave rotation speed limit', unit='rad/s', range=(1e-4, 100.0),
+              dynamic=True),
+    Parameter('singularity_slowdown', 0.08, 'inverse condition number below which motion towards a '
+              'singularity slows down', range=(1e-4, 1.0), dynamic=True),
+    Parameter('singularity_halt', None, 'inverse condition number where motion towards a singularity halts',
+              range=(0.0, 1.0), dynamic=True, type=float, unset_note="the robot's min_conditioning"),
+    Parameter('collision_slowdown', 0.02, 'leg-leg interference margin below which motion towards it slows '
+              'down', unit='m', range=(1e-5, 1.0), dynamic=True),
+    Parameter('align_tolerance', 0.1, 'absolute rotation mode: largest master/slave orientation difference '
+              'to engage', unit='rad', range=(1e-4, math.pi), dynamic=True),
+    Parameter('state_timeout', 0.2, 'hold when the slave pose (its measured state) is older than this',
+              unit='s', range=(0.01, 5.0), dynamic=True),
+    Parameter('slow_latency', 0.2, "the operator's round trip above which speeds are scaled down (to 1/4 at "
+              'hold_latency)', unit='s', range=(0.001, 5.0), dynamic=True),
+    Parameter('hold_latency', 0.3, "the operator's round trip above which the robot holds", unit='s',
+              range=(0.001, 5.0), dynamic=True),
+    Parameter('control_frame', 'ring_b', "the frame the master moves in cartesian mode: ring_b's origin or "
+              'the tool-centre point (translations move the tool tip, rotations turn about it)',
+              choices=TARGET_FRAMES, dynamic=True),
+])
+
+
+def _default(name: str):
+    return PARAMETERS[name].default
 
 
 def validate_scale(value, name: str = 'translation_scale') -> float:
@@ -32,36 +93,29 @@ def validate_scale(value, name: str = 'translation_scale') -> float:
 
 @dataclass(frozen=True)
 class TeleopConfig:
-    """Mapping and guard parameters (SI units); validated on construction (ValueError)."""
+    """Mapping and guard parameters (SI units; the teleop node's, described in :data:`PARAMETERS`);
+    validated on construction (ValueError)."""
 
-    mode: str = 'cartesian'
-    translation_scale: float = 4.0
-    rotation_mode: str = 'relative'
+    mode: str = _default('mode')
+    translation_scale: float = _default('translation_scale')
+    rotation_mode: str = _default('rotation_mode')
     #: a_i of the joint-space map, one per leg (a scalar is broadcast).
-    joint_scale: tuple = (4.0,) * 6
-    enable_timeout: float = 0.2
-    master_timeout: float = 0.1
-    max_linear_speed: float = 0.05
-    max_angular_speed: float = 0.25
-    #: inverse condition number below which steps towards the singularity slow down.
-    singularity_slowdown: float = 0.08
-    #: inverse condition number where motion towards the singularity halts (None: the robot's min_conditioning).
-    singularity_halt: float | None = None
-    #: leg-leg interference margin [m] below which steps towards interference slow down.
-    collision_slowdown: float = 0.02
-    #: absolute rotation mode engages only if master and slave orientations differ less [rad].
-    align_tolerance: float = 0.1
+    joint_scale: tuple = _default('joint_scale')
+    enable_timeout: float = _default('enable_timeout')
+    master_timeout: float = _default('master_timeout')
+    max_linear_speed: float = _default('max_linear_speed')
+    max_angular_speed: float = _default('max_angular_speed')
+    singularity_slowdown: float = _default('singularity_slowdown')
+    #: None: the robot's min_conditioning.
+    singularity_halt: float | None = _default('singularity_halt')
+    collision_slowdown: float = _default('collision_slowdown')
+    align_tolerance: float = _default('align_tolerance')
     #: longest time step [s] the speed limits allow (a late step never gets a large jump).
     max_period: float = 0.05
-    #: hold when the slave's pose (its measured state) is older than this [s].
-    state_timeout: float = 0.2
-    #: the operator's round trip [s] above which the speeds are scaled down (to 1/4 at hold_latency).
-    slow_latency: float = 0.2
-    #: the operator's round trip [s] above which the robot holds.
-    hold_latency: float = 0.3
-    #: the frame the master moves in Cartesian mode: ring_b's origin or the tool-centre point
-    #: (``tool``: translations move the tool tip, rotations turn about it).
-    control_frame: str = 'ring_b'
+    state_timeout: float = _default('state_timeout')
+    slow_latency: float = _default('slow_latency')
+    hold_latency: float = _default('hold_latency')
+    control_frame: str = _default('control_frame')
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:

@@ -1,16 +1,21 @@
 """Parameter files (config/<node>.yaml): each loads into its node with ``--params-file`` (rcl's
 own parsing, the ``/**/<node>`` section in a namespace), holds every parameter the node
-declares, and its values take effect (a copy with changed values is loaded too)."""
+declares, and its values take effect (a copy with changed values is loaded too). Every node
+declares its parameters in a schema, the shipped files and docs/parameters.md are what the
+schemas generate, and a value outside a parameter's range or choices is refused."""
 
 from __future__ import annotations
 
+import re
 import socket
 
 import pytest
 import yaml
 
+from rrps_bringup import params
 from rrps_bringup.params import config_file, parameter_overrides
 from rrps_bringup.registry import registered_nodes
+from rrps_runtime.parameter_schema import NodeParameters
 
 pytestmark = pytest.mark.ros
 
@@ -111,3 +116,89 @@ def test_each_parameter_file_loads_into_its_node(node_name, ros_domain_id, tmp_p
     finally:
         node.destroy_node()
         rclpy.shutdown(context=context)
+
+
+@pytest.mark.parametrize('node_name', sorted(registered_nodes()))
+def test_each_node_declares_its_parameters_in_a_schema(node_name):
+    node = registered_nodes()[node_name]
+    schema = node.parameters()
+    assert isinstance(schema, NodeParameters), f'{node.module} has no PARAMETERS schema'
+    assert (schema.node, schema.package) == (node_name, node.package)
+
+
+def test_shipped_files_are_what_the_schemas_generate(capsys):
+    assert params.main(['--check']) == 0, capsys.readouterr().out
+
+
+def test_check_finds_a_stale_file_and_write_renews_it(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(params, 'SOURCE_CONFIG', tmp_path / 'config')
+    monkeypatch.setattr(params, 'PARAMETERS_DOC', tmp_path / 'parameters.md')
+    (tmp_path / 'config').mkdir()
+    assert params.main(['--write']) == 0
+    assert params.main(['--check']) == 0
+    shipped = tmp_path / 'config' / 'ik_node.yaml'
+    assert shipped.read_text() == config_file('ik_node').read_text()
+    shipped.write_text(shipped.read_text().replace('timeout: 0.1', 'timeout: 0.2'))
+    capsys.readouterr()
+    assert params.main(['--check']) == 1
+    assert capsys.readouterr().out.strip() == f'differs from its schema: {shipped}'
+
+
+def test_a_value_outside_its_range_or_choices_is_refused_with_the_reason(ros_context):
+    from rclpy.parameter import Parameter
+
+    from rrps_teleop.nodes.master_node import MasterNode
+    node = MasterNode(context=ros_context, namespace='/rrps')
+    try:
+        refused = {
+            'trajectory': ('square', 'trajectory must be one of none | circle | lissajous'),
+            'amplitude': (0.5, 'amplitude out of range'),
+            'rate': (100.0, 'read-only'),
+        }
+        for name, (value, reason) in refused.items():
+            [result] = node.set_parameters([Parameter(name, value=value)])
+            assert not result.successful and reason in result.reason, (name, result.reason)
+        assert (node.trajectory, node.amplitude, node.rate) == ('none', 0.005, 200.0)
+        results = node.set_parameters([Parameter('trajectory', value='circle'),
+                                       Parameter('amplitude', value=0.01)])
+        assert all(r.successful for r in results)
+        assert (node.trajectory, node.amplitude) == ('circle', 0.01)
+    finally:
+        node.destroy_node()
+
+
+def test_a_value_outside_its_choices_stops_the_node_at_start(ros_domain_id):
+    import rclpy
+
+    from rrps_teleop.nodes.master_node import MasterNode
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=ros_domain_id,
+               args=['test', '--ros-args', '-p', 'trajectory:=square'])
+    try:
+        with pytest.raises(ValueError, match=re.escape('trajectory must be one of none | circle | lissajous')):
+            MasterNode(context=context, namespace='/rrps')
+    finally:
+        rclpy.shutdown(context=context)
+
+
+def test_a_parameter_the_node_derives_shows_the_derived_value_and_is_settable(ros_context):
+    from rclpy.parameter import Parameter
+
+    from rrps_teleop.nodes.teleop_node import TeleopNode
+    node = TeleopNode(context=ros_context, namespace='/rrps')
+    try:  # singularity_halt: unset in the file, the robot's min_conditioning
+        assert node.get_parameter('singularity_halt').value == node.geometry.min_conditioning
+        assert node.mapping.config.singularity_halt == node.geometry.min_conditioning
+        for value, reason in (('high', 'type'), (1.5, 'out of range')):
+            [result] = node.set_parameters([Parameter('singularity_halt', value=value)])
+            assert not result.successful and reason in result.reason.lower(), result.reason
+        [result] = node.set_parameters([Parameter('singularity_halt', value=0.05)])
+        assert result.successful and node.mapping.config.singularity_halt == 0.05
+    finally:
+        node.destroy_node()
+    node = TeleopNode(context=ros_context, namespace='/rrps',
+                      parameter_overrides=[Parameter('singularity_halt', value=0.03)])
+    try:
+        assert node.mapping.config.singularity_halt == 0.03
+    finally:
+        node.destroy_node()

@@ -21,6 +21,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
 
+from rrps_description.geometry import load_robot
 from rrps_description.names import RING_A_FRAME
 from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE, FkStatus
 from rrps_kinematics.inverse import inverse_kinematics
@@ -28,7 +29,8 @@ from rrps_kinematics.limits import inverse_condition_number
 from rrps_kinematics.tracking import PoseTracker
 from rrps_runtime.diagnostics import ERROR, OK, STALE, WARN, Diagnostics
 from rrps_runtime.messages import lengths_from_joint_state, pose_to_msg
-from rrps_runtime.parameters import declare_parameter, declare_robot_parameter
+from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
+from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
@@ -36,27 +38,31 @@ from rrps_runtime.recording_tap import RecordingTap
 __all__ = ['FkNode', 'main']
 
 
+#: fk_node's parameters (descriptors, the shipped file and the docs' table come from here).
+PARAMETERS = NodeParameters('fk_node', 'rrps_kinematics', [
+    ROBOT,
+    Parameter('frame_id', RING_A_FRAME, 'frame_id of the published pose'),
+    Parameter('tolerance', 1e-12, 'Newton convergence: largest leg-length residual', unit='m',
+              range=(1e-15, 1e-3), dynamic=True),
+    Parameter('max_iterations', 30, 'Newton iterations per solve', range=(1, 1000), dynamic=True),
+    Parameter('max_jump', 0.05, 'a larger change between estimates (translation + rotation x characteristic '
+              'length) is re-solved by continuation; 0 disables the check', unit='m', range=(0.0, 10.0),
+              dynamic=True),
+    Parameter('continuation_steps', 20, 'steps of the continuation solve', range=(1, 1000), dynamic=True),
+])
+
+
 class FkNode(Node):
     """Direct kinematics of the measured actuator lengths, warm-started."""
 
     def __init__(self, **kwargs):
         super().__init__('fk_node', **kwargs)
-        self.geometry = declare_robot_parameter(self)
-        self.frame_id = declare_parameter(self, 'frame_id', RING_A_FRAME, 'frame_id of the published pose',
-                                          read_only=True)
-        tolerance = declare_parameter(self, 'tolerance', 1e-12,
-                                      'Newton convergence: max leg-length residual [m]',
-                                      min_value=1e-15, max_value=1e-3)
-        max_iterations = declare_parameter(self, 'max_iterations', 30, 'Newton iterations per solve',
-                                           min_value=1, max_value=1000)
-        max_jump = declare_parameter(
-            self, 'max_jump', 0.05,
-            'a larger change between estimates [m] (translation + rotation x characteristic length) '
-            'is re-solved by continuation; 0 disables the check', min_value=0.0, max_value=10.0)
-        steps = declare_parameter(self, 'continuation_steps', 20, 'steps of the continuation solve',
-                                  min_value=1, max_value=1000)
-        self.tracker = PoseTracker(self.geometry, max_jump=max_jump, continuation_steps=steps,
-                                   tolerance=tolerance, max_iterations=max_iterations)
+        values = declare_parameters(self, PARAMETERS)
+        self.geometry = load_robot(values['robot'])
+        self.frame_id = values['frame_id']
+        self.tracker = PoseTracker(self.geometry, max_jump=values['max_jump'],
+                                   continuation_steps=values['continuation_steps'],
+                                   tolerance=values['tolerance'], max_iterations=values['max_iterations'])
         self.solved = 0
         self.failed = 0
         self._last: dict = {}
@@ -71,7 +77,7 @@ class FkNode(Node):
         self.add_post_set_parameters_callback(self._apply_parameters)
 
     def _apply_parameters(self, parameters) -> None:
-        """The solver parameters take effect at run time (ranges checked by rclpy)."""
+        """The solver parameters take effect at run time (their ranges checked by declare_parameters)."""
         for p in parameters:
             if p.name in ('tolerance', 'max_iterations', 'max_jump', 'continuation_steps'):
                 setattr(self.tracker, p.name, p.value)

@@ -36,6 +36,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
+from rrps_description.geometry import load_robot
 from rrps_description.pose import Pose
 from rrps_interfaces.climb import odometry_topic
 from rrps_interfaces.driver import GRIPPERS_STATE, gripper_states
@@ -44,7 +45,8 @@ from rrps_interfaces.recording import ROBOT_MARKERS, TF
 from rrps_recording.markers import MarkerSpec, robot_markers, robot_transforms, structure_marker, world_pose_of_ring_a
 from rrps_recording.storage.qos import TF_QOS
 from rrps_runtime.messages import pose_from_msg
-from rrps_runtime.parameters import declare_parameter, declare_robot_parameter
+from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
+from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
@@ -58,6 +60,16 @@ _TF_PUBLISHER_QOS = QoSProfile(history=HistoryPolicy(TF_QOS.history), depth=TF_Q
 
 _KINDS = {'line_strip': Marker.LINE_STRIP, 'line_list': Marker.LINE_LIST,
           'cylinder': Marker.CYLINDER, 'triangle_list': Marker.TRIANGLE_LIST}
+
+#: markers_node's parameters (descriptors, the shipped file and the docs' table come from here).
+PARAMETERS = NodeParameters('markers_node', 'rrps_recording', [
+    ROBOT,
+    Parameter('rate', 10.0, 'robot/markers rate', unit='Hz', range=(0.1, 100.0)),
+    Parameter('structure', 'pole', 'structure to draw in world (pole, palm_trunk, frame, facade; empty: none)'),
+    Parameter('structure_length', 3.0, 'drawn structure length', unit='m', range=(0.5, 100.0)),
+    Parameter('structure_period', 1.0, 'the structure is re-sent this often', unit='s', range=(0.1, 60.0)),
+    Parameter('tf_rate', 30.0, 'live /tf rate (needs tf2_msgs); 0 = off', unit='Hz', range=(0.0, 1000.0)),
+])
 
 
 def marker_msg(spec: MarkerSpec, stamp) -> Marker:
@@ -101,20 +113,11 @@ class MarkersNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__('markers_node', **kwargs)
-        self.geometry = declare_robot_parameter(self)
-        rate = declare_parameter(self, 'rate', 10.0, 'robot/markers rate [Hz]', min_value=0.1,
-                                 max_value=100.0, read_only=True)
-        structure = declare_parameter(self, 'structure', 'pole',
-                                      'structure to draw in world (pole, palm_trunk, frame, '
-                                      'facade; empty: none)', read_only=True)
-        length = declare_parameter(self, 'structure_length', 3.0, 'drawn structure length [m]',
-                                   min_value=0.5, max_value=100.0, read_only=True)
-        self.structure_period = declare_parameter(
-            self, 'structure_period', 1.0, 'the structure is re-sent this often [s]',
-            min_value=0.1, max_value=60.0, read_only=True)
-        tf_rate = declare_parameter(self, 'tf_rate', 30.0,
-                                    'live /tf rate [Hz] (needs tf2_msgs); 0 = off',
-                                    min_value=0.0, max_value=1000.0, read_only=True)
+        values = declare_parameters(self, PARAMETERS)
+        self.geometry = load_robot(values['robot'])
+        structure, length = values['structure'], values['structure_length']
+        self.structure_period = values['structure_period']
+        tf_rate = values['tf_rate']
         self._structure = None
         if structure:  # static: its message is built once (thousands of points)
             from rrps_description.structures import make_structure
@@ -137,7 +140,7 @@ class MarkersNode(Node):
         for topic in (ACTUATORS_STATE, GRIPPERS_STATE):
             self.create_subscription(JointState, topic,
                                      lambda msg, topic=topic: self._store(topic, msg), LATEST_QOS)
-        self.create_timer(1.0 / rate, self._publish)
+        self.create_timer(1.0 / values['rate'], self._publish)
         self.tf_published = 0
         self._tf_pub = None
         self._tf_cache: tuple[tuple, list] | None = None  # (inputs, transforms)

@@ -54,6 +54,7 @@ from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
+from rrps_description.geometry import load_robot
 from rrps_description.pose import Pose
 from rrps_interfaces.climb import CLIMB_STATUS, odometry_topic
 from rrps_interfaces.driver import GRIPPERS_STATE, gripper_states
@@ -70,7 +71,8 @@ from rrps_recording.transport.taps import TapRouter, fully_qualified_node
 from rrps_recording.transport.triggers import FaultWatch, StatusEvent
 from rrps_runtime.diagnostics import OK, WARN, Diagnostics
 from rrps_runtime.messages import pose_from_msg
-from rrps_runtime.parameters import declare_parameter, declare_robot_parameter
+from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
+from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import STATE_QOS
 from rrps_runtime.recording_bundle import BUNDLE_TYPE, decode_bundle
@@ -81,6 +83,34 @@ __all__ = ['RecorderNode', 'main', 'qos_spec', 'subscription_qos', 'type_hash_te
 
 TF_TYPE = 'tf2_msgs/msg/TFMessage'
 _IGNORED = ('/rosout', '/parameter_events')
+
+#: recorder_node's parameters (descriptors, the shipped file and the docs' table come from here).
+PARAMETERS = NodeParameters('recorder_node', 'rrps_recording', [
+    ROBOT,
+    Parameter('output_dir', 'rrps_recordings', 'folder of the recordings'),
+    Parameter('prefix', '', 'file name prefix (empty: rrps_<date>_<time>)'),
+    Parameter('record', True, 'write every message to MCAP files'),
+    Parameter('flight_recorder', True, 'keep the last buffer_seconds for fault dumps'),
+    Parameter('buffer_seconds', 60.0, 'flight recorder window', unit='s', range=(1.0, 3600.0)),
+    Parameter('buffer_max_mb', 512.0, 'flight recorder memory bound (of messages)', unit='MiB',
+              range=(1.0, 65536.0)),
+    Parameter('topics', ('',), "topics or prefixes to record ('' = the node's namespace, /diagnostics and /tf)"),
+    Parameter('discovery_period', 1.0, 'graph discovery period', unit='s', range=(0.05, 60.0)),
+    Parameter('max_file_size_mb', 0.0, 'start a new file past this size; 0 = no limit', unit='MiB',
+              range=(0.0, 1e6)),
+    Parameter('max_file_duration', 0.0, 'start a new file past this duration; 0 = no limit', unit='s',
+              range=(0.0, 1e6)),
+    Parameter('compression', 'zstd', 'chunk compression', choices=tuple(COMPRESSIONS)),
+    Parameter('flush_period', 1.0, 'write the chunk in progress at least this often (what a crash can lose)',
+              unit='s', range=(0.05, 600.0)),
+    Parameter('depth', 100, 'subscription queue depth', range=(1, 100000)),
+    Parameter('use_taps', True, "record the nodes' recording taps instead of subscribing to the topics they "
+              'cover'),
+    Parameter('tf_rate', 10.0, '/tf written at this rate; 0 = none', unit='Hz', range=(0.0, 1000.0)),
+    Parameter('post_trigger', 2.0, 'a fault dump waits this long to include the aftermath', unit='s',
+              range=(0.0, 600.0)),
+    Parameter('min_dump_interval', 10.0, 'at most one fault dump this often', unit='s', range=(0.0, 3600.0)),
+])
 
 
 def qos_spec(profile) -> QosSpec:
@@ -114,58 +144,20 @@ class RecorderNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__('recorder_node', **kwargs)
-        self.output_dir = Path(declare_parameter(
-            self, 'output_dir', 'rrps_recordings', 'folder of the recordings', read_only=True))
-        prefix = declare_parameter(self, 'prefix', '',
-                                   'file name prefix (empty: rrps_<date>_<time>)', read_only=True)
-        self.record = declare_parameter(self, 'record', True,
-                                        'write every message to MCAP files', read_only=True)
-        self.flight_recorder = declare_parameter(
-            self, 'flight_recorder', True, 'keep the last buffer_seconds for fault dumps',
-            read_only=True)
-        buffer_seconds = declare_parameter(self, 'buffer_seconds', 60.0,
-                                           'flight recorder window [s]', min_value=1.0,
-                                           max_value=3600.0, read_only=True)
-        buffer_mb = declare_parameter(self, 'buffer_max_mb', 512.0,
-                                      'flight recorder memory bound [MiB of messages]',
-                                      min_value=1.0, max_value=65536.0, read_only=True)
-        self.topics = list(declare_parameter(
-            self, 'topics', [''],
-            "topics or prefixes to record ('' = the node's namespace, /diagnostics and /tf)",
-            read_only=True))
-        self.discovery_period = declare_parameter(self, 'discovery_period', 1.0,
-                                                  'graph discovery period [s]', min_value=0.05,
-                                                  max_value=60.0, read_only=True)
-        max_mb = declare_parameter(self, 'max_file_size_mb', 0.0,
-                                   'start a new file past this size [MiB]; 0 = no limit',
-                                   min_value=0.0, max_value=1e6, read_only=True)
-        max_seconds = declare_parameter(self, 'max_file_duration', 0.0,
-                                        'start a new file past this duration [s]; 0 = no limit',
-                                        min_value=0.0, max_value=1e6, read_only=True)
-        compression = declare_parameter(self, 'compression', 'zstd', 'chunk compression',
-                                        read_only=True,
-                                        additional_constraints=' | '.join(COMPRESSIONS))
-        flush_period = declare_parameter(self, 'flush_period', 1.0,
-                                         'write the chunk in progress at least this often [s] '
-                                         '(what a crash can lose)', min_value=0.05,
-                                         max_value=600.0, read_only=True)
-        self.depth = declare_parameter(self, 'depth', 100, 'subscription queue depth',
-                                       min_value=1, max_value=100000, read_only=True)
-        self.use_taps = declare_parameter(
-            self, 'use_taps', True, "record the nodes' recording taps instead of subscribing "
-            'to the topics they cover', read_only=True)
-        self.geometry = declare_robot_parameter(self)
-        tf_rate = declare_parameter(self, 'tf_rate', 10.0, '/tf written at this rate [Hz]; 0 = none',
-                                    min_value=0.0, max_value=1000.0, read_only=True)
-        self.post_trigger = declare_parameter(self, 'post_trigger', 2.0,
-                                              'a fault dump waits this long [s] to include '
-                                              'the aftermath', min_value=0.0, max_value=600.0)
-        self.min_dump_interval = declare_parameter(
-            self, 'min_dump_interval', 10.0, 'at most one fault dump this often [s]',
-            min_value=0.0, max_value=3600.0)
-        if compression not in COMPRESSIONS:
-            raise ValueError(f'compression must be one of {sorted(COMPRESSIONS)}, '
-                             f'got {compression!r}')
+        values = declare_parameters(self, PARAMETERS)
+        self.geometry = load_robot(values['robot'])
+        self.output_dir = Path(values['output_dir'])
+        prefix = values['prefix']
+        self.record = values['record']
+        self.flight_recorder = values['flight_recorder']
+        buffer_seconds = values['buffer_seconds']
+        self.topics = list(values['topics'])
+        self.discovery_period = values['discovery_period']
+        self.depth = values['depth']
+        self.use_taps = values['use_taps']
+        tf_rate = values['tf_rate']
+        self.post_trigger = values['post_trigger']
+        self.min_dump_interval = values['min_dump_interval']
         self.prefix = prefix or time.strftime('rrps_%Y%m%d_%H%M%S')
         self._lock = threading.Lock()
         self._topics: dict[str, TopicInfo] = {}
@@ -182,10 +174,12 @@ class RecorderNode(Node):
                            f'{ns}/{odometry_topic("ring_a")}': 'ring_a',
                            f'{ns}/{odometry_topic("ring_b")}': 'ring_b'}
         self.recording = (RotatingRecording(self.output_dir, self.prefix,
-                                            max_bytes=int(max_mb * 2**20), max_seconds=max_seconds,
-                                            compression=compression, flush_period=flush_period)
+                                            max_bytes=int(values['max_file_size_mb'] * 2**20),
+                                            max_seconds=values['max_file_duration'],
+                                            compression=values['compression'],
+                                            flush_period=values['flush_period'])
                           if self.record else None)
-        self.ring = (MessageRing(buffer_seconds, max_bytes=int(buffer_mb * 2**20))
+        self.ring = (MessageRing(buffer_seconds, max_bytes=int(values['buffer_max_mb'] * 2**20))
                      if self.flight_recorder else None)
         self.buffer_seconds = buffer_seconds
         self.messages = 0

@@ -27,7 +27,6 @@ import time
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
@@ -36,11 +35,29 @@ from rrps_recording.storage.qos import offer_for_replay
 from rrps_recording.storage.schemas import message_class
 from rrps_recording.transport.replay import RecordingSet, ReplayClock, is_command_topic, replay_topic
 from rrps_runtime.diagnostics import OK, STALE, WARN, Diagnostics
-from rrps_runtime.parameters import declare_parameter
+from rrps_runtime.parameter_schema import NodeParameters, Parameter
+from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import STATE_QOS
 
 __all__ = ['ReplayNode', 'main']
+
+#: replay_node's parameters (descriptors, the shipped file and the docs' table come from here).
+PARAMETERS = NodeParameters('replay_node', 'rrps_recording', [
+    Parameter('files', ('',), 'MCAP file(s) of one recording'),
+    Parameter('rate', 1.0, 'replay speed (1.0 = as recorded)', range=(0.01, 100.0), dynamic=True),
+    Parameter('paused', False, 'hold the replay where it is', dynamic=True),
+    Parameter('seek', -1.0, 'set to a time from the start to jump there', unit='s', range=(-1.0, 1e9),
+              dynamic=True),
+    Parameter('start', 0.0, 'start this far into the recording', unit='s', range=(0.0, 1e9)),
+    Parameter('loop', False, 'start again at the end', dynamic=True),
+    Parameter('allow_commands', False, 'publish the command streams on their live names (default: under '
+              'remap_prefix)'),
+    Parameter('remap_prefix', REPLAY_PREFIX, 'where the command streams go unless allow_commands'),
+    Parameter('topics', ('',), "recorded topics to replay ('' = all)"),
+    Parameter('status_rate', 10.0, 'replay/status rate', unit='Hz', range=(0.5, 100.0)),
+    Parameter('exit_at_end', False, 'shut down when the recording ends (no loop)'),
+])
 
 
 class ReplayNode(Node):
@@ -48,32 +65,14 @@ class ReplayNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__('replay_node', **kwargs)
-        files = list(declare_parameter(self, 'files', [''], 'MCAP file(s) of one recording',
-                                       read_only=True))
-        rate = declare_parameter(self, 'rate', 1.0, 'replay speed (1.0 = as recorded)',
-                                 min_value=0.01, max_value=100.0)
-        paused = declare_parameter(self, 'paused', False, 'hold the replay where it is')
-        declare_parameter(self, 'seek', -1.0,
-                          'set to a time [s] from the start to jump there', min_value=-1.0,
-                          max_value=1e9)
-        start = declare_parameter(self, 'start', 0.0, 'start this far into the recording [s]',
-                                  min_value=0.0, max_value=1e9, read_only=True)
-        self.loop = declare_parameter(self, 'loop', False, 'start again at the end')
-        self.allow_commands = declare_parameter(
-            self, 'allow_commands', False,
-            'publish the command streams on their live names (default: under remap_prefix)',
-            read_only=True)
-        prefix = declare_parameter(self, 'remap_prefix', REPLAY_PREFIX,
-                                   'where the command streams go unless allow_commands',
-                                   read_only=True)
-        topics = [t for t in declare_parameter(self, 'topics', [''],
-                                               "recorded topics to replay ('' = all)",
-                                               read_only=True) if t]
-        status_rate = declare_parameter(self, 'status_rate', 10.0, 'replay/status rate [Hz]',
-                                        min_value=0.5, max_value=100.0, read_only=True)
-        self.exit_at_end = declare_parameter(self, 'exit_at_end', False,
-                                             'shut down when the recording ends (no loop)',
-                                             read_only=True)
+        values = declare_parameters(self, PARAMETERS)
+        files = values['files']
+        rate, paused, start = values['rate'], values['paused'], values['start']
+        self.loop = values['loop']
+        self.allow_commands = values['allow_commands']
+        prefix = values['remap_prefix']
+        topics = [t for t in values['topics'] if t]
+        self.exit_at_end = values['exit_at_end']
         files = [f for f in files if f]
         if not files:
             raise ValueError('files: give the recording to replay (-p files:=[a.mcap])')
@@ -113,8 +112,8 @@ class ReplayNode(Node):
                                       'their live names; a driver listening will act on them')
         self._status_pub = self.create_publisher(DiagnosticStatus, REPLAY_STATUS, STATE_QOS)
         self._diag = Diagnostics(self, 'replay', rate_hz=1.0)
-        self.add_on_set_parameters_callback(self._on_set_parameters)
-        self.create_timer(1.0 / status_rate, self._report)
+        self.add_post_set_parameters_callback(self._apply_parameters)
+        self.create_timer(1.0 / values['status_rate'], self._report)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name='replay', daemon=True)
         self._thread.start()
@@ -127,7 +126,8 @@ class ReplayNode(Node):
 
     # --- control -------------------------------------------------------------------------------
 
-    def _on_set_parameters(self, parameters) -> SetParametersResult:
+    def _apply_parameters(self, parameters) -> None:
+        """``rate``, ``paused``, ``seek`` and ``loop`` take effect at once."""
         now = time.monotonic()
         with self._cond:
             for p in parameters:
@@ -141,7 +141,6 @@ class ReplayNode(Node):
                 elif p.name == 'loop':
                     self.loop = bool(p.value)
             self._cond.notify_all()
-        return SetParametersResult(successful=True)
 
     def status(self) -> ReplayStatus:
         """Where the replay is now."""

@@ -16,21 +16,23 @@ that renders the wrench.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
 from geometry_msgs.msg import PoseStamped, WrenchStamped
-from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
+from rrps_description.geometry import load_robot
 from rrps_description.pose import validate_pose
 from rrps_description.rotations import quat_multiply_xyzw, rotation_vector_to_quat_xyzw
 from rrps_interfaces.teleop import MASTER_FEEDBACK, MASTER_FRAME, MASTER_POSE, MASTER_STATE, MASTER_TARGET_POSE
 from rrps_kinematics import forward_kinematics
 from rrps_runtime.diagnostics import ERROR, OK, WARN, Diagnostics
 from rrps_runtime.messages import joint_state_msg, pose_from_msg, pose_to_msg
-from rrps_runtime.parameters import declare_parameter, declare_robot_parameter
+from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
+from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
@@ -41,44 +43,45 @@ __all__ = ['MasterNode', 'main']
 #: master/feedback older than this [s] is ignored (the teleop node sends it at 20 Hz).
 FEEDBACK_TIMEOUT = 0.2
 
+#: master_node's parameters (descriptors, the shipped file and the docs' table come from here).
+PARAMETERS = NodeParameters('master_node', 'rrps_teleop', [
+    dataclasses.replace(ROBOT, default='master_robot'),
+    Parameter('frame_id', MASTER_FRAME, 'frame of master/target_pose and master/pose'),
+    Parameter('rate', 200.0, 'encoder (publication) rate', unit='Hz', range=(1.0, 2000.0)),
+    Parameter('idle_rate', 50.0, 'encoder rate while the handle rests at its target', unit='Hz',
+              range=(1.0, 2000.0)),
+    Parameter('trajectory', 'none', 'scripted motion of the handle', choices=TRAJECTORIES, dynamic=True),
+    Parameter('amplitude', 0.005, 'scripted translation amplitude', unit='m', range=(0.0, 0.05), dynamic=True),
+    Parameter('period', 10.0, 'scripted trajectory period', unit='s', range=(0.1, 1000.0), dynamic=True),
+    Parameter('angular_amplitude', 0.05, 'lissajous rotation amplitude', unit='rad', range=(0.0, 1.0),
+              dynamic=True),
+    Parameter('max_linear_speed', 0.05, 'handle speed limit', unit='m/s', range=(1e-4, 10.0)),
+    Parameter('max_angular_speed', 1.0, 'handle angular speed limit', unit='rad/s', range=(1e-4, 100.0)),
+    Parameter('feedback_compliance', 2e-4, "how far master/feedback pushes the handle back (the operator's "
+              'hand yields)', unit='m/N', range=(0.0, 0.1)),
+    Parameter('feedback_angular_compliance', 0.05, 'how far master/feedback turns the handle back',
+              unit='rad/(N m)', range=(0.0, 10.0)),
+])
+
 
 class MasterNode(Node):
     """The master robot: operator or scripted handle in, encoder lengths and FK pose out."""
 
     def __init__(self, **kwargs):
         super().__init__('master_node', **kwargs)
-        self.geometry = declare_robot_parameter(self, default='master_robot')
-        self.frame_id = declare_parameter(self, 'frame_id', MASTER_FRAME,
-                                          'frame of master/target_pose and master/pose', read_only=True)
-        self.rate = declare_parameter(self, 'rate', 200.0, 'encoder (publication) rate [Hz]',
-                                      min_value=1.0, max_value=2000.0, read_only=True)
-        self.idle_rate = declare_parameter(
-            self, 'idle_rate', 50.0, 'encoder rate while the handle rests at its target [Hz]',
-            min_value=1.0, max_value=2000.0, read_only=True)
-        self.trajectory = declare_parameter(self, 'trajectory', 'none', 'scripted motion of the handle',
-                                            additional_constraints=' | '.join(TRAJECTORIES))
-        self.amplitude = declare_parameter(self, 'amplitude', 0.005, 'scripted translation amplitude [m]',
-                                           min_value=0.0, max_value=0.05)
-        self.period = declare_parameter(self, 'period', 10.0, 'scripted trajectory period [s]',
-                                        min_value=0.1, max_value=1000.0)
-        self.angular_amplitude = declare_parameter(self, 'angular_amplitude', 0.05,
-                                                   'lissajous rotation amplitude [rad]',
-                                                   min_value=0.0, max_value=1.0)
-        linear = declare_parameter(self, 'max_linear_speed', 0.05, 'handle speed limit [m/s]',
-                                   min_value=1e-4, max_value=10.0, read_only=True)
-        angular = declare_parameter(self, 'max_angular_speed', 1.0, 'handle angular speed limit [rad/s]',
-                                    min_value=1e-4, max_value=100.0, read_only=True)
-        self.feedback_compliance = declare_parameter(
-            self, 'feedback_compliance', 2e-4,
-            'how far master/feedback pushes the handle back [m/N] (the operator\'s hand yields)',
-            min_value=0.0, max_value=0.1)
-        self.feedback_angular_compliance = declare_parameter(
-            self, 'feedback_angular_compliance', 0.05,
-            'how far master/feedback turns the handle back [rad/(N m)]', min_value=0.0,
-            max_value=10.0)
-        if self.trajectory not in TRAJECTORIES:
-            raise ValueError(f'trajectory must be one of {TRAJECTORIES}, got {self.trajectory!r}')
-        self.model = MasterModel(self.geometry, max_linear_speed=linear, max_angular_speed=angular)
+        values = declare_parameters(self, PARAMETERS)
+        self.geometry = load_robot(values['robot'])
+        self.frame_id = values['frame_id']
+        self.rate = values['rate']
+        self.idle_rate = values['idle_rate']
+        self.trajectory = values['trajectory']
+        self.amplitude = values['amplitude']
+        self.period = values['period']
+        self.angular_amplitude = values['angular_amplitude']
+        self.feedback_compliance = values['feedback_compliance']
+        self.feedback_angular_compliance = values['feedback_angular_compliance']
+        self.model = MasterModel(self.geometry, max_linear_speed=values['max_linear_speed'],
+                                 max_angular_speed=values['max_angular_speed'])
         self._target = (self.model.position.copy(), self.model.quaternion_xyzw.copy())
         self._fk_pose = (self.model.position.copy(), self.model.quaternion_xyzw.copy())
         self._fk_lengths = self.model.lengths.copy()
@@ -92,18 +95,10 @@ class MasterNode(Node):
         self.create_subscription(PoseStamped, MASTER_TARGET_POSE, self._on_target, COMMAND_QOS)
         self._feedback: tuple[float, np.ndarray, np.ndarray] | None = None
         self.create_subscription(WrenchStamped, MASTER_FEEDBACK, self._on_feedback, COMMAND_QOS)
-        self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self._tick_timer = self.create_timer(1.0 / self.rate, self._on_tick)
         self._resting = False
         self.create_timer(0.5, self._report)
-
-    def _check_parameters(self, parameters) -> SetParametersResult:
-        for p in parameters:
-            if p.name == 'trajectory' and p.value not in TRAJECTORIES:
-                return SetParametersResult(successful=False,
-                                           reason=f'trajectory must be one of {TRAJECTORIES}, got {p.value!r}')
-        return SetParametersResult(successful=True)
 
     def _apply_parameters(self, parameters) -> None:
         for p in parameters:

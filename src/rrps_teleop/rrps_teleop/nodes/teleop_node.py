@@ -39,17 +39,17 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64
 
-from rrps_description.names import RING_A_FRAME
+from rrps_description.geometry import load_robot
 from rrps_interfaces.climb import CLIMB_STATUS, ClimbState, ClimbStatus
 from rrps_interfaces.driver import DriverStatus
 from rrps_interfaces.kinematics import ACTUATORS_COMMAND, POSE, TARGET_POSE
 from rrps_interfaces.status import DIAGNOSTICS, source_node
 from rrps_interfaces.teleop import (
     MASTER_FEEDBACK,
-    MASTER_FRAME,
     MASTER_POSE,
     MASTER_STATE,
     OPERATOR_ROUND_TRIP,
@@ -66,16 +66,16 @@ from rrps_runtime.messages import (
     pose_to_msg,
     stamp_to_seconds,
 )
-from rrps_runtime.parameters import declare_parameter, declare_robot_parameter
+from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
 from rrps_teleop.fixture import FixtureConfig, fixture_wrench, master_wrench
-from rrps_teleop.mapping import MODES, ROTATION_MODES, TeleopConfig, TeleopMapping, TeleopOutput
+from rrps_teleop.mapping import TeleopConfig, TeleopMapping, TeleopOutput
+from rrps_teleop.teleop_config import PARAMETERS
 
 __all__ = ['TeleopNode', 'main']
 
-CONTROL_TRIGGERS = ('message', 'timer')
 WATCHDOG_PERIOD = 0.02
 #: Parameters that map onto TeleopConfig fields (settable at run time).
 CONFIG_PARAMETERS = ('mode', 'translation_scale', 'rotation_mode', 'joint_scale', 'enable_timeout',
@@ -96,92 +96,22 @@ class TeleopNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__('teleop_node', **kwargs)
-        self.geometry = declare_robot_parameter(self)
-        self.frame_id = declare_parameter(self, 'frame_id', RING_A_FRAME, 'frame of pose and target_pose',
-                                          read_only=True)
-        self.master_frame_id = declare_parameter(self, 'master_frame_id', MASTER_FRAME,
-                                                 'frame of master/pose', read_only=True)
-        self.control = declare_parameter(self, 'control', 'message',
-                                         'run the control step on each master sample or on a timer',
-                                         read_only=True, additional_constraints='message | timer')
-        control_rate = declare_parameter(self, 'control_rate', 200.0, 'control rate in timer mode [Hz]',
-                                         min_value=1.0, max_value=2000.0, read_only=True)
-        status_rate = declare_parameter(self, 'status_rate', 10.0, 'teleop/status rate when unchanged [Hz]',
-                                        min_value=0.1, max_value=100.0, read_only=True)
-        feedback_rate = declare_parameter(
-            self, 'feedback_rate', 20.0, 'master/feedback (the virtual fixture) rate [Hz]',
-            min_value=1.0, max_value=200.0, read_only=True)
-        self.feedback_scale = declare_parameter(
-            self, 'feedback_scale', 1.0, 'master force per newton of the fixture on the slave',
-            min_value=0.0, max_value=100.0)
-        self.fixture = FixtureConfig(stiffness=declare_parameter(
-            self, 'fixture_stiffness', 10.0, 'the fixture push of one limit at the limit [N]',
-            min_value=1e-3, max_value=1e4, read_only=True))
-        if self.control not in CONTROL_TRIGGERS:
-            raise ValueError(f'control must be one of {CONTROL_TRIGGERS}, got {self.control!r}')
-        d = TeleopConfig()
-        values = {
-            'mode': declare_parameter(self, 'mode', d.mode, 'cartesian | joint',
-                                      additional_constraints=' | '.join(MODES)),
-            'translation_scale': declare_parameter(
-                self, 'translation_scale', d.translation_scale,
-                'slave translation = scale x master translation since engage (> 0)',
-                min_value=1e-3, max_value=1e3),
-            'rotation_mode': declare_parameter(self, 'rotation_mode', d.rotation_mode, 'relative | absolute',
-                                               additional_constraints=' | '.join(ROTATION_MODES)),
-            'joint_scale': list(declare_parameter(
-                self, 'joint_scale', list(d.joint_scale),
-                'joint mode: a_i of L_slave,i = a_i L_master,i + b_i (6 values > 0; b_i set at engage)')),
-            'enable_timeout': declare_parameter(self, 'enable_timeout', d.enable_timeout,
-                                                'hold when teleop/enable was not true for this long [s]',
-                                                min_value=0.01, max_value=5.0),
-            'master_timeout': declare_parameter(self, 'master_timeout', d.master_timeout,
-                                                'hold when the master data is older than this [s]',
-                                                min_value=0.005, max_value=5.0),
-            'max_linear_speed': declare_parameter(self, 'max_linear_speed', d.max_linear_speed,
-                                                  'slave translation speed limit [m/s]',
-                                                  min_value=1e-4, max_value=10.0),
-            'max_angular_speed': declare_parameter(self, 'max_angular_speed', d.max_angular_speed,
-                                                   'slave rotation speed limit [rad/s]',
-                                                   min_value=1e-4, max_value=100.0),
-            'singularity_slowdown': declare_parameter(
-                self, 'singularity_slowdown', d.singularity_slowdown,
-                'inverse condition number below which motion towards a singularity slows down',
-                min_value=1e-4, max_value=1.0),
-            'singularity_halt': declare_parameter(
-                self, 'singularity_halt', float(self.geometry.min_conditioning),
-                'inverse condition number where motion towards a singularity halts',
-                min_value=0.0, max_value=1.0),
-            'collision_slowdown': declare_parameter(
-                self, 'collision_slowdown', d.collision_slowdown,
-                'leg-leg interference margin [m] below which motion towards it slows down',
-                min_value=1e-5, max_value=1.0),
-            'align_tolerance': declare_parameter(
-                self, 'align_tolerance', d.align_tolerance,
-                'absolute rotation mode: largest master/slave orientation difference to engage [rad]',
-                min_value=1e-4, max_value=math.pi),
-            'state_timeout': declare_parameter(
-                self, 'state_timeout', d.state_timeout,
-                'hold when the slave pose (its measured state) is older than this [s]',
-                min_value=0.01, max_value=5.0),
-            'slow_latency': declare_parameter(
-                self, 'slow_latency', d.slow_latency,
-                "the operator's round trip above which speeds are scaled down [s]",
-                min_value=0.001, max_value=5.0),
-            'hold_latency': declare_parameter(
-                self, 'hold_latency', d.hold_latency,
-                "the operator's round trip above which the robot holds [s]",
-                min_value=0.001, max_value=5.0),
-            'control_frame': declare_parameter(
-                self, 'control_frame', d.control_frame,
-                "the frame the master moves: ring_b's origin or the tool-centre point (tool)",
-                additional_constraints='ring_b | tool'),
-        }
-        self.mapping = TeleopMapping(self.geometry, TeleopConfig(**values))
+        values = declare_parameters(self, PARAMETERS)  # the schema: rrps_teleop.teleop_config
+        self.geometry = load_robot(values['robot'])
+        self.frame_id = values['frame_id']
+        self.master_frame_id = values['master_frame_id']
+        self.control = values['control']
+        self.feedback_scale = values['feedback_scale']
+        self.fixture = FixtureConfig(stiffness=values['fixture_stiffness'])
+        config = {name: values[name] for name in CONFIG_PARAMETERS}
+        if config['singularity_halt'] is None:  # unset: the robot's, which the parameter then shows
+            config['singularity_halt'] = float(self.geometry.min_conditioning)
+            self.set_parameters([Parameter('singularity_halt', value=config['singularity_halt'])])
+        self.mapping = TeleopMapping(self.geometry, TeleopConfig(**config))
         self._pending: TeleopConfig | None = None
         self._last_status: tuple | None = None
         self._last_status_time = -math.inf
-        self._status_period = 1.0 / status_rate
+        self._status_period = 1.0 / values['status_rate']
         self._output = TeleopOutput(TeleopCode.DEADMAN_RELEASED, False, 'waiting for teleop/enable')
         self._diag = Diagnostics(self, 'teleop', hardware_id=self.geometry.name)
         self._tap = RecordingTap(self)
@@ -199,10 +129,10 @@ class TeleopNode(Node):
         self.add_post_set_parameters_callback(self._apply_parameters)
         self._feedback_pub = self._tap.create_publisher(WrenchStamped, MASTER_FEEDBACK, COMMAND_QOS)
         self._feedback = (0.0, '')
-        self.create_timer(1.0 / feedback_rate, self._publish_feedback)
+        self.create_timer(1.0 / values['feedback_rate'], self._publish_feedback)
         self.create_timer(WATCHDOG_PERIOD, self._watchdog)
         if self.control == 'timer':
-            self.create_timer(1.0 / control_rate, self._control)
+            self.create_timer(1.0 / values['control_rate'], self._control)
 
     # --- parameters ----------------------------------------------------------------------
 

@@ -58,7 +58,8 @@ from rrps_interfaces.teleop import (
 )
 from rrps_kinematics.scene import Trail, robot_figure, world_ring_poses
 from rrps_runtime.messages import lengths_from_joint_state, pose_from_msg, pose_to_msg, stamp_to_seconds
-from rrps_runtime.parameters import declare_parameter, declare_robot_parameter
+from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
+from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, STATE_QOS
 from rrps_teleop.nodes.viewer_recording import ViewerRecording
@@ -74,6 +75,24 @@ PLOT_PERIOD = 0.2
 #: Queued browser requests for the recording side (the others are OperatorRequests).
 _RECORDING = object()
 
+#: viewer_node's parameters (descriptors, the shipped file and the docs' table come from here).
+PARAMETERS = NodeParameters('viewer_node', 'rrps_teleop', [
+    ROBOT,
+    Parameter('master_robot', 'master_robot', 'master robot to draw (shipped name or YAML path; empty: none)'),
+    Parameter('host', '127.0.0.1', 'address the web server binds (0.0.0.0: every interface)'),
+    Parameter('port', 8080, 'web server port', range=(1, 65535)),
+    Parameter('token', '', 'operator token (empty: generate one)'),
+    Parameter('render_rate', 40.0, 'scene updates per second', unit='Hz', range=(1.0, 120.0)),
+    Parameter('enable_rate', 20.0, 'teleop/enable and master/target_pose rate', unit='Hz', range=(10.0, 100.0)),
+    Parameter('deadman_timeout', 0.25, 'deadman expiry after the last hold event', unit='s', range=(0.05, 2.0)),
+    Parameter('master_origin', (0.0, -0.9, 0.0), 'world position of the master robot console', unit='m'),
+    Parameter('structure', 'pole', 'structure to draw (pole, palm_trunk, frame, facade; empty: none)'),
+    Parameter('structure_length', 3.0, 'length of the drawn structure', unit='m', range=(0.5, 100.0)),
+    Parameter('workspace_resolution', 0.02, 'grid of the reachable workspace drawn around the robot; 0: not '
+              'drawn', unit='m', range=(0.0, 0.2)),
+    Parameter('plot_window', 20.0, 'leg-length plot window', unit='s', range=(1.0, 600.0)),
+])
+
 
 def _structure_mesh(name: str, length: float):
     """(vertices, faces) of the climbed member to draw (``rrps_description.structures``), or None."""
@@ -85,42 +104,17 @@ class ViewerNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__('viewer_node', **kwargs)
-        self.geometry = declare_robot_parameter(self)
-        master_name = declare_parameter(self, 'master_robot', 'master_robot',
-                                        'master robot to draw (shipped name or YAML path; '
-                                        'empty: none)', read_only=True)
+        values = declare_parameters(self, PARAMETERS)
+        self.geometry = load_robot(values['robot'])
+        master_name = values['master_robot']
         self.master_geometry = load_robot(master_name) if master_name else None
-        host = declare_parameter(self, 'host', '127.0.0.1',
-                                 'address the web server binds (0.0.0.0: every interface)',
-                                 read_only=True)
-        port = declare_parameter(self, 'port', 8080, 'web server port', min_value=1,
-                                 max_value=65535, read_only=True)
-        token = declare_parameter(self, 'token', '', 'operator token (empty: generate one)',
-                                  read_only=True)
-        render_rate = declare_parameter(self, 'render_rate', 40.0, 'scene updates per second [Hz]',
-                                        min_value=1.0, max_value=120.0, read_only=True)
-        enable_rate = declare_parameter(self, 'enable_rate', 20.0,
-                                        'teleop/enable and master/target_pose rate [Hz]',
-                                        min_value=10.0, max_value=100.0, read_only=True)
-        deadman_timeout = declare_parameter(self, 'deadman_timeout', 0.25,
-                                            'deadman expiry after the last hold event [s]',
-                                            min_value=0.05, max_value=2.0, read_only=True)
-        origin = declare_parameter(self, 'master_origin', [0.0, -0.9, 0.0],
-                                   'world position of the master robot console [m]',
-                                   read_only=True)
-        structure = declare_parameter(self, 'structure', 'pole',
-                                      'structure to draw (pole, palm_trunk, frame, facade; '
-                                      'empty: none)', read_only=True)
-        structure_length = declare_parameter(self, 'structure_length', 3.0,
-                                             'length of the drawn structure [m]', min_value=0.5,
-                                             max_value=100.0, read_only=True)
-        resolution = declare_parameter(
-            self, 'workspace_resolution', 0.02,
-            'grid of the reachable workspace drawn around the robot [m]; 0: not drawn',
-            min_value=0.0, max_value=0.2, read_only=True)
-        self._plot_window = declare_parameter(self, 'plot_window', 20.0,
-                                              'leg-length plot window [s]', min_value=1.0,
-                                              max_value=600.0, read_only=True)
+        host, port, token = values['host'], values['port'], values['token']
+        render_rate, enable_rate = values['render_rate'], values['enable_rate']
+        deadman_timeout = values['deadman_timeout']
+        origin = values['master_origin']
+        structure, structure_length = values['structure'], values['structure_length']
+        resolution = values['workspace_resolution']
+        self._plot_window = values['plot_window']
         if len(origin) != 3 or not all(math.isfinite(v) for v in origin):
             raise ValueError(f'master_origin must be 3 finite numbers, got {list(origin)}')
         self.workspace = WorkspaceView(self.geometry, resolution=resolution) if resolution else None
