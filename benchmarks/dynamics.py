@@ -34,6 +34,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from rrps_description.geometry import load_robot
+from rrps_description.world import STANDARD_GRAVITY
 from rrps_description.rotations import (
     matrix_to_quat_xyzw,
     quat_conjugate_xyzw,
@@ -92,7 +93,7 @@ def mjcf(g, position, quaternion_xyzw, dt: float) -> str:
                         for k in range(6))
     motors = '\n'.join(f'    <motor joint="slide{k}" gear="1"/>' for k in range(6))
     return f'''<mujoco model="{g.name}">
-  <option timestep="{dt!r}" integrator="RK4" gravity="{_numbers(g.gravity)}">
+  <option timestep="{dt!r}" integrator="RK4" gravity="{_numbers(STANDARD_GRAVITY)}">
     <flag contact="disable"/>
   </option>
   <worldbody>
@@ -161,10 +162,10 @@ def dense_accelerations(dyn: MultibodyDynamics, q, v, forces, M):
     B = np.empty((13, 18))
     g = np.empty(13)
     W = v.reshape(13, 6)[:, 3:]
-    F.reshape(13, 6)[:, :3] = dyn.mass[:, None] * dyn.geometry.gravity
+    F.reshape(13, 6)[:, :3] = dyn.mass[:, None] * dyn.parameters.gravity
     F.reshape(13, 6)[:, 3:] = -np.cross(W, np.einsum('bij,bj->bi', dyn.inertia, W))
     for k in range(6):
-        leg_blocks(q, v, k, dyn.parameters.joints, B, g)
+        leg_blocks(q, v, k, dyn.parameters.joints, dyn.parameters.support, B, g)
         lo, up = 6 * (1 + 2 * k), 6 * (2 + 2 * k)
         cols = np.r_[0:6, lo:lo + 12]
         Phi[12 * k:12 * k + 12, cols] = B[:12]

@@ -17,6 +17,7 @@ from typing import Any, Mapping
 import numpy as np
 import yaml
 
+from rrps_description.loads import GripperCapacity, Payload, ToolWrench, check_payload, loads_from
 from rrps_description.robot_parts import (
     TOOL_SHAPES,
     ExtraRingDof,
@@ -44,6 +45,7 @@ __all__ = [
     'LinkInertia',
     'ExtraRingDof',
     'RobotGeometry',
+    'GRAVITY_MIGRATION',
     'shipped_robots',
     'robot_path',
     'load_robot',
@@ -51,14 +53,23 @@ __all__ = [
 
 GRIPPER_KINDS = ('clamp', 'hook', 'suction', 'none')
 
+#: Why a robot description may not give gravity, and what to do instead.
+GRAVITY_MIGRATION = (
+    'gravity: a robot description no longer gives gravity, the world does (0, 0, -9.81 m/s^2 '
+    "along the world's -z). Remove the 'gravity:' key and pass the supporting ring's attitude "
+    'in the world instead: rrps-dynamics ... --support ring_a|ring_b --support-quaternion '
+    'QX,QY,QZ,QW, or support= and world_q_support= of the rrps_sim functions')
+
 
 @dataclass(frozen=True, kw_only=True)
 class RobotGeometry:
     """Geometry, limits and inertias of one RRPS robot (SI units).
 
     Only the anchors are required: ``RobotGeometry(ring_a_anchors=A, ring_b_anchors=B)``.
-    ``ring_b_inertia`` is the ring alone; the dynamics and the statics use ``ring_b_body``, the
-    moving platform: the ring and its ``tool`` (if any) as one rigid body.
+    ``ring_a_inertia`` and ``ring_b_inertia`` are the rings alone; the dynamics and the statics
+    use ``ring_a_body`` and ``ring_b_body``: each ring with what it carries (ring_b its ``tool``,
+    either the ``payload``) as one rigid body. ``tool_wrench`` acts at the tool-centre point;
+    ``holding`` gives the grippers' capacities. Gravity is the world's (:mod:`.world`).
     Unspecified joint neutral axes are the leg directions at the home pose; an unspecified home
     pose is ring_b parallel to ring_a, raised along ring_a's z so the legs sit mid-stroke (or at
     45 degrees when the stroke is unbounded).
@@ -81,12 +92,14 @@ class RobotGeometry:
     ring_b_inertia: RigidBodyInertia = field(default_factory=RigidBodyInertia)
     lower_link: LinkInertia = field(default_factory=LinkInertia)
     upper_link: LinkInertia = field(default_factory=LinkInertia)
-    gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
     home_position: np.ndarray | None = None
     home_quaternion_xyzw: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 0.0, 1.0]))
     grippers: Mapping[str, str] = field(default_factory=lambda: {'ring_a': 'clamp', 'ring_b': 'clamp'})
     extra_dof: Mapping[str, ExtraRingDof] = field(default_factory=dict)
     tool: Tool | None = None
+    payload: Payload | None = None
+    tool_wrench: ToolWrench | None = None
+    holding: Mapping[str, GripperCapacity] = field(default_factory=dict)
     description: str = ''
 
     def __post_init__(self) -> None:
@@ -98,7 +111,7 @@ class RobotGeometry:
         self._check_inertias()
         if self.tool is not None:
             self._check_tool()
-        object.__setattr__(self, 'gravity', as_array(self.gravity, (3,), 'gravity'))
+        self._check_loads()
         self._set_home()
         self._set_joint_axes()
         self._check_grippers()
@@ -191,6 +204,15 @@ class RobotGeometry:
             if lo_ >= hi_:
                 raise RobotDescriptionError(f'extra_dof.{ring}: min_angle must be < max_angle')
 
+    def _check_loads(self) -> None:
+        if self.payload is not None:
+            object.__setattr__(self, 'payload', check_payload(self.payload))
+        if self.tool_wrench is not None and self.tool is None:
+            raise RobotDescriptionError('tool_wrench: acts at the tool-centre point, but there is no tool section')
+        for ring in self.holding:
+            if ring not in ('ring_a', 'ring_b'):
+                raise RobotDescriptionError(f'{ring}.holding: only ring_a and ring_b have grippers')
+
     def _check_tool(self) -> None:
         t = self.tool
         object.__setattr__(t, 'position', as_array(t.position, (3,), 'tool.position'))
@@ -227,15 +249,33 @@ class RobotGeometry:
             h = float(max(np.max(np.linalg.norm(self.ring_a_anchors, axis=1)), 1e-3))
         return np.array([0.0, 0.0, h])
 
+    def _with_payload(self, body: RigidBodyInertia, ring: str) -> RigidBodyInertia:
+        p = self.payload
+        if p is None or p.ring != ring or p.mass == 0.0:
+            return body
+        return combine_bodies(body, RigidBodyInertia(mass=p.mass, com=p.com, inertia=p.inertia),
+                              np.eye(3), np.zeros(3))
+
+    @cached_property
+    def ring_a_body(self) -> RigidBodyInertia:
+        """ring_a as one rigid body in its frame: the ring and a payload it carries."""
+        return self._with_payload(self.ring_a_inertia, 'ring_a')
+
     @cached_property
     def ring_b_body(self) -> RigidBodyInertia:
-        """The moving platform as one rigid body in ring_b's frame: the ring and its tool."""
-        if self.tool is None:
-            return self.ring_b_inertia
-        t = self.tool
-        return combine_bodies(self.ring_b_inertia,
-                              RigidBodyInertia(mass=t.mass, com=t.com, inertia=t.inertia),
-                              quat_xyzw_to_matrix(t.quaternion_xyzw), t.position)
+        """ring_b as one rigid body in its frame: the ring, its tool and a payload it carries."""
+        body = self.ring_b_inertia
+        if self.tool is not None:
+            t = self.tool
+            body = combine_bodies(body, RigidBodyInertia(mass=t.mass, com=t.com, inertia=t.inertia),
+                                  quat_xyzw_to_matrix(t.quaternion_xyzw), t.position)
+        return self._with_payload(body, 'ring_b')
+
+    @property
+    def total_mass(self) -> float:
+        """Both rings, what they carry and the twelve leg links [kg]."""
+        return (self.ring_a_body.mass + self.ring_b_body.mass
+                + 6.0 * (self.lower_link.mass + self.upper_link.mass))
 
     @property
     def home_lengths(self) -> np.ndarray:
@@ -267,8 +307,10 @@ class RobotGeometry:
     def _from_dict(cls, data: Mapping[str, Any]) -> 'RobotGeometry':
         if not isinstance(data, Mapping):
             raise RobotDescriptionError('top level: expected a mapping')
-        known = {'name', 'description', 'ring_a', 'ring_b', 'legs', 'gravity', 'home', 'limits',
-                 'extra_dof', 'tool'}
+        if 'gravity' in data:
+            raise RobotDescriptionError(GRAVITY_MIGRATION)
+        known = {'name', 'description', 'ring_a', 'ring_b', 'legs', 'home', 'limits',
+                 'extra_dof', 'tool', 'payload', 'tool_wrench'}
         unknown = set(data) - known
         if unknown:
             raise RobotDescriptionError(f'unknown top-level keys {sorted(unknown)}')
@@ -302,8 +344,7 @@ class RobotGeometry:
             if key in ring_b:
                 kwargs['ring_b_joint_axes'] = as_array(ring_b[key], (6, 3), f'ring_b.{key}')
         kwargs.update(leg_limits_from(legs))
-        if 'gravity' in data:
-            kwargs['gravity'] = as_array(data['gravity'], (3,), 'gravity')
+        kwargs.update(loads_from(data, ring_a, ring_b))
         home = section('home')
         if 'position' in home:
             kwargs['home_position'] = as_array(home['position'], (3,), 'home.position')

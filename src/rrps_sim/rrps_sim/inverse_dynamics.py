@@ -9,7 +9,7 @@ quaternion curve q(t) the angular velocity in ring_a's frame is ω = 2 vec(q̇ �
 rate ω̇ = (2 vec(q̈ ⊗ q*) - 2 (q · q̇) ω) / |q|²; accelerations given without velocities are
 used as they are, velocities given without accelerations are differentiated once.
 The forces then solve eq. 19 written in ring_b's twist (:mod:`rrps_sim.reduced`):
-J^T f = M ṫ + Q0(x, t), at every sample.
+J^T f = M ṫ + Q0(x, t), at every sample, on whichever ring supports the robot.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ from rrps_description.geometry import RobotGeometry
 from rrps_description.rotations import quat_conjugate_xyzw, quat_multiply_xyzw
 from rrps_sim.reduced import PlatformPose, generalized_forces
 from rrps_sim.statics import solve_actuator_forces
+from rrps_sim.support import support_of
 
 __all__ = ['STENCIL', 'check_trajectory', 'inverse_dynamics', 'sample_derivatives',
            'trajectory_twists']
@@ -115,16 +116,19 @@ def _given(name: str, value, k: int) -> np.ndarray:
 
 
 def inverse_dynamics(geometry: RobotGeometry, t, positions, quaternions_xyzw, *, twist=None,
-                     twist_dot=None) -> np.ndarray:
+                     twist_dot=None, support='ring_a', world_q_support=None, gravity=None) -> np.ndarray:
     """Actuator forces (K, 6) [N] (+ = pushing the rings apart) along a sampled ring_b trajectory.
 
     ``t`` (K,) strictly increasing [s], ``positions`` (K, 3) [m], ``quaternions_xyzw`` (K, 4)
     give a_T_b at each sample (K >= 4). ``twist`` (K, 6): ring_b's origin velocity [m/s] and
     angular velocity [rad/s], ``twist_dot`` (K, 6) their rates, both in ring_a's frame; each is
-    differentiated from the samples when not given. Includes the inertia and weight of ring_b and
-    of the twelve leg links. Raises ValueError for invalid input, SingularPoseError (a
+    differentiated from the samples when not given. ``support``: the gripping ring, turned by
+    ``world_q_support`` in a world of ``gravity`` (:func:`rrps_sim.support.support_of`; default
+    ring_a upright). Includes the inertia and weight of the free ring and of the twelve leg
+    links and the tool wrench. Raises ValueError for invalid input, SingularPoseError (a
     ValueError) for a singular pose on the way.
     """
+    world = support_of(support, world_q_support, gravity)
     t, p, q = check_trajectory(t, positions, quaternions_xyzw)
     k = t.shape[0]
     if twist is not None:
@@ -136,5 +140,5 @@ def inverse_dynamics(geometry: RobotGeometry, t, positions, quaternions_xyzw, *,
         twist_dot = rate if twist_dot is None else twist_dot
     elif twist_dot is None:
         twist_dot = sample_derivatives(t, twist)[0]
-    pose = PlatformPose(geometry, p, q)
+    pose = PlatformPose(geometry, p, q, world)
     return solve_actuator_forces(pose, generalized_forces(pose, twist, twist_dot))

@@ -1,8 +1,8 @@
-"""Reduced 6-DOF dynamics of an RRPS platform in ring_b's pose (the independent cross-check).
+"""Reduced 6-DOF dynamics of an RRPS robot in ring_b's pose (the independent cross-check).
 
 The paper integrates 13 bodies x 7 coordinates with 91 constraints (eqs. 19-20). Here the same
-mechanism is written in its 6 independent velocities, the twist t = (v, omega) of ring_b (origin
-velocity and angular velocity, both in ring_a's frame: the twist of
+mechanism is written in its 6 independent velocities, the twist t = (v, omega) of ring_b
+relative to ring_a (origin velocity and angular velocity, both in ring_a's frame: the twist of
 :mod:`rrps_kinematics.jacobian`), by Kane's method / virtual power::
 
     M(x) t_dot + Q0(x, t) = J(x)^T f
@@ -12,8 +12,9 @@ velocity and angular velocity, both in ring_a's frame: the twist of
 
 with J the inverse Jacobian of eq. 1 (so J^T f is the power of the actuator forces f_i l_dot_i).
 
-Bodies and their exact kinematics, for leg i with universal-joint centre a_i (ring_a frame),
-spherical-joint centre B_i = r + A_c s'_i and leg vector d_i = B_i - a_i = L_i u_i (eq. 1):
+Bodies and their exact kinematics *relative to ring_a*, for leg i with universal-joint centre
+a_i (ring_a frame), spherical-joint centre B_i = r + A_c s'_i and leg vector
+d_i = B_i - a_i = L_i u_i (eq. 1):
 
 * ring_b: com r + A_c c_b, angular velocity omega, inertia A_c J'_b A_c^T.
 * lower link: com a_i + c_lower u_i; upper link: com B_i - c_upper u_i (prismatic pair).
@@ -23,8 +24,14 @@ spherical-joint centre B_i = r + A_c s'_i and leg vector d_i = B_i - a_i = L_i u
   about the leg). Link inertias diag(I_t, I_t, I_axial) with z along the leg are I_t 1 + (I_axial
   - I_t) u u^T in ring_a's frame, independent of the spin angle.
 
-Accelerations follow by differentiating those expressions once more (no finite differences).
-All functions take a batch of N poses; the twist arguments broadcast against it.
+The supporting ring is the inertial frame. With ring_a supporting these are the motions. With
+ring_b supporting, ring_a moves so that ring_b stays: ring_a's frame turns with -omega, and a
+body at x (ring_a's frame, d = x - r) moves with V = x_dot - v - omega x d, W = w_rel - omega and
+accelerates with a = x_ddot - v_dot - omega_dot x d - 2 omega x (x_dot - v) + omega x (omega x d),
+alpha = w_rel_dot - omega_dot - omega x w_rel (all in ring_a's frame; ring_b's motion vanishes,
+ring_a's is that of a point fixed in it). The leg spin stays tied to ring_a, whose universal
+joints it has. Accelerations follow by differentiating once more (no finite differences). All
+functions take a batch of N poses; the twist arguments broadcast against it.
 """
 
 from __future__ import annotations
@@ -41,6 +48,7 @@ from rrps_description.rotations import cross
 from rrps_kinematics.errors import ConvergenceError, SingularPoseError
 from rrps_kinematics.inverse import inverse_kinematics, universal_joint_frames
 from rrps_kinematics.jacobian import inverse_jacobian
+from rrps_sim.support import Support, support_of, world_loads
 
 __all__ = [
     'ReducedState',
@@ -92,10 +100,13 @@ def assembled_pose(geometry: RobotGeometry, position, quaternion_xyzw):
 
 
 class PlatformPose:
-    """Pose-dependent quantities of N poses of ring_b (position (N, 3), quaternion (N, 4))."""
+    """Pose-dependent quantities of N poses of ring_b (position (N, 3), quaternion (N, 4)), and
+    the world's loads there for a ``support`` (:class:`~rrps_sim.support.Support`, default:
+    ring_a upright under the standard gravity)."""
 
-    def __init__(self, geometry: RobotGeometry, position, quaternion_xyzw):
+    def __init__(self, geometry: RobotGeometry, position, quaternion_xyzw, support: Support | None = None):
         self.geometry = geometry
+        self.support = Support.of() if support is None else support
         self.ik, self.x1, self.n = assembled_pose(geometry, position, quaternion_xyzw)
         p = self.ik.position
         self.rotation = self.ik.rotation                                   # (N, 3, 3)
@@ -106,9 +117,19 @@ class PlatformPose:
         self.n_sq = _dot(self.n, self.n)
         self.m = cross(self.n, self.u)
         self.com_b = np.einsum('nij,j->ni', self.rotation, geometry.ring_b_body.com)
-        self.inertia_b = self.rotation @ geometry.ring_b_body.inertia @ np.swapaxes(
-            self.rotation, -1, -2)
         lo, up = geometry.lower_link, geometry.upper_link
+        self.lower_com = geometry.ring_a_anchors + lo.com_from_joint * self.u     # (N, 6, 3)
+        self.upper_com = self.ik.ring_b_anchors_in_a - up.com_from_joint * self.u
+        self.loads = world_loads(geometry, self.support, p, self.rotation)
+        if self.support.index == 0:
+            self.free_mass = geometry.ring_b_body.mass
+            self.free_com = p + self.com_b                                   # (N, 3)
+            self.free_inertia = self.rotation @ geometry.ring_b_body.inertia @ np.swapaxes(
+                self.rotation, -1, -2)
+        else:
+            self.free_mass = geometry.ring_a_body.mass
+            self.free_com = np.broadcast_to(geometry.ring_a_body.com, p.shape)
+            self.free_inertia = np.broadcast_to(geometry.ring_a_body.inertia, self.rotation.shape)
         # Both links share one rotation: their angular inertias add up.
         self.link_transverse = lo.inertia_transverse + up.inertia_transverse
         self.link_axial = lo.inertia_axial + up.inertia_axial
@@ -124,17 +145,19 @@ class PlatformPose:
                 + (self.link_axial - self.link_transverse) * _dot(self.u, w)[..., None] * self.u)
 
     def ring_inertia_times(self, w: np.ndarray) -> np.ndarray:
-        """A_c J'_b A_c^T w for ring_b angular velocities w (..., N, 3)."""
-        return np.einsum('nij,...nj->...ni', self.inertia_b, w)
+        """The free ring's inertia (ring_a's frame) times its angular velocities w (..., N, 3)."""
+        return np.einsum('nij,...nj->...ni', self.free_inertia, w)
 
 
 @dataclass(frozen=True)
 class BodyMotion:
-    """Com velocities (or accelerations) and angular velocities (or accelerations) of the bodies.
+    """Com velocities (or accelerations) and angular velocities (or accelerations) of the moving
+    bodies relative to the supporting ring, in ring_a's frame.
 
-    ``ring`` (..., N, 3), ``ring_angular`` (..., N, 3), ``lower`` / ``upper`` (..., N, 6, 3)
-    link coms, ``link_angular`` (..., N, 6, 3) shared by each leg's two links, and
-    ``leg_rates`` (..., N, 6) = l_dot (or l_ddot).
+    ``ring`` (..., N, 3), ``ring_angular`` (..., N, 3) of the free ring (ring_b when ring_a
+    supports, ring_a when ring_b does), ``lower`` / ``upper`` (..., N, 6, 3) link coms,
+    ``link_angular`` (..., N, 6, 3) shared by each leg's two links, and ``leg_rates`` (..., N, 6)
+    = l_dot (or l_ddot).
     """
 
     ring: np.ndarray
@@ -163,9 +186,8 @@ def _leg_rates(pose: PlatformPose, twist: np.ndarray) -> _LegRates:
     return _LegRates(b_dot, l_dot, u_dot, alpha, beta)
 
 
-def body_velocities(pose: PlatformPose, twist) -> BodyMotion:
-    """Velocities of every body for ring_b twists (..., N, 6) (v, omega in ring_a's frame)."""
-    twist = np.asarray(twist, dtype=float)
+def _relative_velocities(pose: PlatformPose, twist: np.ndarray) -> BodyMotion:
+    """Body velocities relative to ring_a (``ring``: ring_b's)."""
     g = pose.geometry
     r = _leg_rates(pose, twist)
     w = twist[..., 3:]
@@ -179,10 +201,28 @@ def body_velocities(pose: PlatformPose, twist) -> BodyMotion:
     )
 
 
-def body_accelerations(pose: PlatformPose, twist, twist_dot) -> BodyMotion:
-    """Accelerations of every body for ring_b twists and their rates (..., N, 6)."""
+def body_velocities(pose: PlatformPose, twist) -> BodyMotion:
+    """Velocities of every moving body for ring_b twists (..., N, 6) relative to ring_a
+    (v, omega in ring_a's frame), relative to the supporting ring (module docstring)."""
     twist = np.asarray(twist, dtype=float)
-    twist_dot = np.asarray(twist_dot, dtype=float)
+    rel = _relative_velocities(pose, twist)
+    if pose.support.index == 0:
+        return rel
+    v, w = twist[..., None, :3], twist[..., None, 3:]
+    p = pose.position[..., None, :]
+
+    def moving(x_dot, x):
+        return x_dot - v - cross(w, x - p)
+
+    return BodyMotion(
+        ring=-twist[..., :3] - cross(twist[..., 3:], pose.free_com - pose.position),
+        ring_angular=-twist[..., 3:],
+        lower=moving(rel.lower, pose.lower_com), upper=moving(rel.upper, pose.upper_com),
+        link_angular=rel.link_angular - w, leg_rates=rel.leg_rates)
+
+
+def _relative_accelerations(pose: PlatformPose, twist: np.ndarray, twist_dot: np.ndarray) -> BodyMotion:
+    """Body accelerations relative to ring_a (``ring``: ring_b's)."""
     g = pose.geometry
     r = _leg_rates(pose, twist)
     w, w_dot = twist[..., None, 3:], twist_dot[..., None, 3:]
@@ -209,6 +249,32 @@ def body_accelerations(pose: PlatformPose, twist, twist_dot) -> BodyMotion:
     )
 
 
+def body_accelerations(pose: PlatformPose, twist, twist_dot) -> BodyMotion:
+    """Accelerations of every moving body, relative to the supporting ring, for ring_b twists
+    and their rates (..., N, 6) relative to ring_a."""
+    twist = np.asarray(twist, dtype=float)
+    twist_dot = np.asarray(twist_dot, dtype=float)
+    rel = _relative_accelerations(pose, twist, twist_dot)
+    if pose.support.index == 0:
+        return rel
+    vel = _relative_velocities(pose, twist)
+    v, w = twist[..., None, :3], twist[..., None, 3:]
+    v_dot, w_dot = twist_dot[..., None, :3], twist_dot[..., None, 3:]
+    p = pose.position[..., None, :]
+
+    def moving(x_ddot, x_dot, x):
+        d = x - p
+        return x_ddot - v_dot - cross(w_dot, d) - 2.0 * cross(w, x_dot - v) + cross(w, cross(w, d))
+
+    ring = moving(np.zeros(3), np.zeros(3), pose.free_com[..., None, :])[..., 0, :]
+    return BodyMotion(
+        ring=ring, ring_angular=-twist_dot[..., 3:],
+        lower=moving(rel.lower, vel.lower, pose.lower_com),
+        upper=moving(rel.upper, vel.upper, pose.upper_com),
+        link_angular=rel.link_angular - w_dot - cross(w, vel.link_angular),
+        leg_rates=rel.leg_rates)
+
+
 def _unit_velocities(pose: PlatformPose) -> BodyMotion:
     """Body velocities for the six unit twists: leading axis k = twist component (6, N, ...)."""
     return body_velocities(pose, np.eye(6)[:, None, :])
@@ -218,7 +284,7 @@ def mass_matrix(pose: PlatformPose) -> np.ndarray:
     """M (N, 6, 6) of the reduced model: kinetic energy = 1/2 t^T M t."""
     g = pose.geometry
     V = _unit_velocities(pose)
-    M = g.ring_b_body.mass * np.einsum('kni,jni->njk', V.ring, V.ring)
+    M = pose.free_mass * np.einsum('kni,jni->njk', V.ring, V.ring)
     M = M + np.einsum('kni,jni->njk', V.ring_angular, pose.ring_inertia_times(V.ring_angular))
     M = M + g.lower_link.mass * np.einsum('knli,jnli->njk', V.lower, V.lower)
     M = M + g.upper_link.mass * np.einsum('knli,jnli->njk', V.upper, V.upper)
@@ -227,23 +293,25 @@ def mass_matrix(pose: PlatformPose) -> np.ndarray:
 
 
 def generalized_forces(pose: PlatformPose, twist, twist_dot) -> np.ndarray:
-    """J^T f needed for the motion (twist, twist_dot) (N, 6): inertia, gyroscopic and gravity terms.
+    """J^T f needed for the motion (twist, twist_dot) (N, 6): inertia, gyroscopic, gravity and
+    tool-wrench terms.
 
-    Component k is the power of (m a - m g) and (I alpha + omega x I omega) of every body for the
-    unit twist e_k (Kane's generalized inertia + active forces, with the sign of eq. 19's right side
-    moved over). With twist = twist_dot = 0 it is the static load of eq. 19's gravity term.
+    Component k is the power of (m a - m g) and (I alpha + omega x I omega) of every moving body
+    for the unit twist e_k, minus that of the tool wrench when ring_b moves (Kane's generalized
+    inertia + active forces, with the sign of eq. 19's right side moved over). With twist =
+    twist_dot = 0 it is the static load of eq. 19 (:func:`rrps_sim.statics.static_load`).
     """
     g = pose.geometry
     twist = np.asarray(twist, dtype=float)
     V = _unit_velocities(pose)
     A = body_accelerations(pose, twist, twist_dot)
     w = body_velocities(pose, twist)
-    grav = g.gravity
-    ring_force = g.ring_b_body.mass * (A.ring - grav)
+    grav = pose.loads.gravity
+    ring_force = pose.free_mass * (A.ring - grav)
     ring_moment = (pose.ring_inertia_times(A.ring_angular)
                    + cross(w.ring_angular, pose.ring_inertia_times(w.ring_angular)))
-    lower_force = g.lower_link.mass * (A.lower - grav)
-    upper_force = g.upper_link.mass * (A.upper - grav)
+    lower_force = g.lower_link.mass * (A.lower - grav[:, None, :])
+    upper_force = g.upper_link.mass * (A.upper - grav[:, None, :])
     link_moment = (pose.link_inertia_times(A.link_angular)
                    + cross(w.link_angular, pose.link_inertia_times(w.link_angular)))
     Q = (np.einsum('kni,ni->nk', V.ring, ring_force)
@@ -251,14 +319,19 @@ def generalized_forces(pose: PlatformPose, twist, twist_dot) -> np.ndarray:
          + np.einsum('knli,nli->nk', V.lower, lower_force)
          + np.einsum('knli,nli->nk', V.upper, upper_force)
          + np.einsum('knli,nli->nk', V.link_angular, link_moment))
+    if pose.support.index == 0:
+        tool = pose.loads
+        at_tool = V.ring + cross(V.ring_angular, tool.tool_point - pose.free_com)
+        Q = Q - (np.einsum('kni,ni->nk', at_tool, tool.tool_force)
+                 + np.einsum('kni,ni->nk', V.ring_angular, tool.tool_torque))
     return Q
 
 
 def kinetic_energy(pose: PlatformPose, twist) -> np.ndarray:
-    """T (N,) [J] of ring_b and the twelve links for ring_b twists (N, 6)."""
+    """T (N,) [J] of the free ring and the twelve links for ring_b twists (N, 6)."""
     g = pose.geometry
     V = body_velocities(pose, twist)
-    return 0.5 * (g.ring_b_body.mass * _dot(V.ring, V.ring)
+    return 0.5 * (pose.free_mass * _dot(V.ring, V.ring)
                   + _dot(V.ring_angular, pose.ring_inertia_times(V.ring_angular))
                   + g.lower_link.mass * np.sum(_dot(V.lower, V.lower), axis=-1)
                   + g.upper_link.mass * np.sum(_dot(V.upper, V.upper), axis=-1)
@@ -266,14 +339,14 @@ def kinetic_energy(pose: PlatformPose, twist) -> np.ndarray:
 
 
 def potential_energy(pose: PlatformPose) -> np.ndarray:
-    """Gravity potential V (N,) [J] = -sum m g . com, zero with every com at ring_a's origin."""
+    """Gravity potential V (N,) [J] = -sum m g . com of the moving bodies, zero with every com
+    at the supporting ring's origin."""
     g = pose.geometry
-    ring_com = pose.position + pose.com_b
-    lower_com = g.ring_a_anchors + g.lower_link.com_from_joint * pose.u
-    upper_com = pose.ik.ring_b_anchors_in_a - g.upper_link.com_from_joint * pose.u
-    return -(g.ring_b_body.mass * _dot(ring_com, g.gravity)
-             + g.lower_link.mass * np.sum(_dot(lower_com, g.gravity), axis=-1)
-             + g.upper_link.mass * np.sum(_dot(upper_com, g.gravity), axis=-1))
+    grav = pose.loads.gravity
+    origin = (np.zeros_like(pose.position) if pose.support.index == 0 else pose.position)[:, None, :]
+    return -(pose.free_mass * _dot(pose.free_com - origin[:, 0], grav)
+             + g.lower_link.mass * np.sum(_dot(pose.lower_com - origin, grav[:, None, :]), axis=-1)
+             + g.upper_link.mass * np.sum(_dot(pose.upper_com - origin, grav[:, None, :]), axis=-1))
 
 
 def platform_accelerations(pose: PlatformPose, twist, forces) -> np.ndarray:
@@ -301,7 +374,7 @@ class ReducedResult:
     ``t`` (K,), ``position`` (K, 3), ``quaternion_xyzw`` (K, 4), ``velocity`` /
     ``angular_velocity`` (K, 3), ``lengths`` (K, 6), energies [J] (K,): ``kinetic_energy``,
     ``potential_energy`` and ``actuator_work`` (integral of f . l_dot), whose balance
-    T + V - W stays constant; ``evaluations``: right-hand-side calls of the integrator.
+    T + V - W stays constant without a tool wrench; ``evaluations``: right-hand-side calls of the integrator.
     """
 
     t: np.ndarray
@@ -334,8 +407,11 @@ def simulate_reduced(geometry: RobotGeometry, position, quaternion_xyzw,
                      forces: np.ndarray | Callable[[float, ReducedState], np.ndarray],
                      duration: float, dt: float, *,
                      velocity=(0.0, 0.0, 0.0), angular_velocity=(0.0, 0.0, 0.0),
-                     rtol: float = 1e-11, atol: float = 1e-13) -> ReducedResult:
-    """Integrate the reduced model from a pose (at rest unless velocities are given).
+                     rtol: float = 1e-11, atol: float = 1e-13, support='ring_a',
+                     world_q_support=None, gravity=None) -> ReducedResult:
+    """Integrate the reduced model from a pose (at rest unless velocities are given), on the
+    ``support`` ring turned by ``world_q_support`` in a world of ``gravity``
+    (:func:`rrps_sim.support.support_of`; default ring_a upright, 9.81 m/s² down).
 
     ``forces``: constant actuator forces (6,) [N] (+ = pushing the rings apart) — the paper's
     constant-force run — or ``forces(t, ReducedState) -> (6,)``, best smooth in t (the step
@@ -360,7 +436,8 @@ def simulate_reduced(geometry: RobotGeometry, position, quaternion_xyzw,
     v0 = _check_forces(np.concatenate([np.asarray(velocity, float).ravel(),
                                        np.asarray(angular_velocity, float).ravel()]),
                        'velocity and angular_velocity (3 + 3)')
-    pose0 = PlatformPose(geometry, position, quaternion_xyzw)
+    world = support_of(support, world_q_support, gravity)
+    pose0 = PlatformPose(geometry, position, quaternion_xyzw, world)
     q0 = np.asarray(quaternion_xyzw, dtype=float)
     y0 = np.concatenate([pose0.position[0], q0 / np.linalg.norm(q0), v0, [0.0]])
 
@@ -371,7 +448,7 @@ def simulate_reduced(geometry: RobotGeometry, position, quaternion_xyzw,
     def rhs(t, y):
         s = state_of(t, y)
         f = _check_forces(force_fn(t, s), f'forces({t:.6g}, state)')
-        pose = PlatformPose(geometry, s.position, s.quaternion_xyzw)
+        pose = PlatformPose(geometry, s.position, s.quaternion_xyzw, world)
         twist = y[7:13][None]
         acc = platform_accelerations(pose, twist, f[None])[0]
         w = y[10:13]
@@ -387,7 +464,7 @@ def simulate_reduced(geometry: RobotGeometry, position, quaternion_xyzw,
         raise ConvergenceError(f'reduced-model integration failed: {sol.message}')
     Y = sol.y.T
     quat = Y[:, 3:7] / np.linalg.norm(Y[:, 3:7], axis=1, keepdims=True)
-    pose = PlatformPose(geometry, Y[:, :3], quat)
+    pose = PlatformPose(geometry, Y[:, :3], quat, world)
     return ReducedResult(
         t=sol.t, position=Y[:, :3], quaternion_xyzw=quat, velocity=Y[:, 7:10],
         angular_velocity=Y[:, 10:13], lengths=pose.lengths,

@@ -1,10 +1,21 @@
-"""Statics of an RRPS platform: actuator forces that hold a pose against gravity (paper eq. 19
-at rest), by virtual work: the closed form of :func:`gravity_load`, checked against the reduced
-model of :mod:`rrps_sim.reduced`.
+"""Statics of an RRPS robot at rest on either ring (paper eq. 19 at rest), by virtual work.
 
-At rest eq. 19 leaves J^T f = Q_g, with Q_g the generalized load of gravity on ring_b and on
-every leg link (component k: the power of -m g on each body for the unit twist e_k of ring_b).
-Forces are positive when they push the rings apart.
+The supporting ring grips the structure; the other, *free* ring hangs on the six legs. With the
+twist of ring_b relative to ring_a as the six generalized velocities (the twist of the inverse
+Jacobian J, eq. 1), the actuators' wrench J^T f on ring_b at its origin (ring_a's frame) is
+reacted on ring_a as -J^T f, so at rest
+
+    ring_a supports:  J^T f = -W_b        ring_b supports:  J^T f = W_a
+
+with W the wrench (about ring_b's origin, ring_a's frame) of everything the free ring carries:
+its weight and payload, the tool wrench when ring_b is free, and each leg's weight. A leg's
+weight reaches the rings at its two joints: with k = (m_l c_l - m_u c_u) / L and g⊥ gravity
+normal to the leg, w_i = m_u g + k g⊥ at the spherical joint (on ring_b) and w'_i = m_l g - k g⊥
+at the universal joint (on ring_a), w_i + w'_i = (m_l + m_u) g: the links' moment balance about
+their joints (the prismatic pair turns the leg as one body, the spherical joint carries no
+moment, and the universal joint's torque has no part along the leg: it vanishes at rest).
+Gravity is the world's, in ring_a's frame at each pose (:mod:`rrps_sim.support`). Forces are
+positive when they push the rings apart; :mod:`rrps_sim.loads` adds the joint reactions.
 """
 
 from __future__ import annotations
@@ -17,8 +28,10 @@ from rrps_kinematics.errors import SingularPoseError
 from rrps_kinematics.inverse import InverseKinematicsResult
 from rrps_kinematics.jacobian import inverse_jacobian
 from rrps_sim.reduced import PlatformPose, assembled_pose
+from rrps_sim.support import Support, WorldLoads, support_of, world_loads
 
-__all__ = ['gravity_load', 'holding_forces', 'solve_actuator_forces', 'SINGULAR_CONDITIONING']
+__all__ = ['leg_weight_shares', 'static_load', 'holding_forces', 'solve_actuator_forces',
+           'SINGULAR_CONDITIONING']
 
 # Inverse condition number of the unit-consistent Jacobian below which a pose counts as singular.
 SINGULAR_CONDITIONING = 1e-9
@@ -26,10 +39,10 @@ SINGULAR_CONDITIONING = 1e-9
 
 def solve_actuator_forces(pose: PlatformPose, load: np.ndarray) -> np.ndarray:
     """Actuator forces f (N, 6) with J^T f = load (N, 6); SingularPoseError at a singular pose."""
-    return _solve_transposed(pose.inverse_jacobian, pose.geometry, load)
+    return solve_transposed(pose.inverse_jacobian, pose.geometry, load)
 
 
-def _solve_transposed(J: np.ndarray, geometry: RobotGeometry, load: np.ndarray) -> np.ndarray:
+def solve_transposed(J: np.ndarray, geometry: RobotGeometry, load: np.ndarray) -> np.ndarray:
     """f with J^T f = load. Singularity is judged on the unit-consistent Jacobian (angular
     columns divided by the robot's characteristic length), so the threshold does not depend on
     the robot's size."""
@@ -39,41 +52,56 @@ def _solve_transposed(J: np.ndarray, geometry: RobotGeometry, load: np.ndarray) 
     bad = np.flatnonzero(~(conditioning > SINGULAR_CONDITIONING))
     if bad.size:
         raise SingularPoseError(f'singular pose (sample {int(bad[0])}: inverse condition number '
-                         f'{conditioning[bad[0]]:.3g}): no finite actuator forces hold it')
+                                f'{conditioning[bad[0]]:.3g}): no finite actuator forces hold it')
     return np.linalg.solve(np.swapaxes(J, -1, -2), np.asarray(load, dtype=float)[..., None])[..., 0]
 
 
-def gravity_load(geometry: RobotGeometry, ik: InverseKinematicsResult) -> np.ndarray:
-    """Q_g (N, 6) [N, N m] in closed form: minus the power of the weights of ring_b and of every
-    leg link per unit twist (v, omega) of ring_b (virtual work; eq. 19 at rest).
-
-    The link coms move with the leg: the lower com a_i + c_l u_i, the upper com B_i - c_u u_i,
-    where dB_i = v + omega × (A_c s'_i) and du_i = (I - u_i u_i^T) dB_i / L_i. So each leg's
-    weight acts on ring_b as a force w_i = m_u g + (m_l c_l - m_u c_u) / L_i (I - u_i u_i^T) g
-    at B_i. The same load as ``generalized_forces(pose, 0, 0)`` without the dynamic terms.
-    """
-    g = geometry.gravity
+def leg_weight_shares(geometry: RobotGeometry, ik: InverseKinematicsResult,
+                      gravity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(w, w') (N, 6, 3) [N]: each leg's weight as forces at its spherical joint (on ring_b) and
+    at its universal joint (on ring_a), for gravity (N, 3) in ring_a's frame."""
     u, lengths = ik.unit_vectors, ik.lengths
     lo, up = geometry.lower_link, geometry.upper_link
-    g_normal = g - u * np.einsum('...ij,j->...i', u, g)[..., None]
-    w = ((lo.mass * lo.com_from_joint - up.mass * up.com_from_joint) / lengths)[..., None] * g_normal \
-        + up.mass * g
-    r = ik.ring_b_anchors_in_a - ik.position[..., None, :]                    # A_c s'_i
-    com = np.einsum('...ij,j->...i', ik.rotation, geometry.ring_b_body.com)
-    mass = geometry.ring_b_body.mass
-    force = mass * g + w.sum(axis=-2)
-    moment = mass * cross(com, g) + cross(r, w).sum(axis=-2)
-    return -np.concatenate([force, moment], axis=-1)
+    g = gravity[:, None, :]
+    g_normal = g - u * np.einsum('nij,nj->ni', u, gravity)[..., None]
+    k = ((lo.mass * lo.com_from_joint - up.mass * up.com_from_joint) / lengths)[..., None]
+    return up.mass * g + k * g_normal, lo.mass * g - k * g_normal
 
 
-def holding_forces(geometry: RobotGeometry, position, quaternion_xyzw) -> np.ndarray:
-    """Actuator forces [N] (6,) holding ring_b at rest at a pose against gravity, legs included.
+def static_load(geometry: RobotGeometry, ik: InverseKinematicsResult, support: Support,
+                loads: WorldLoads) -> np.ndarray:
+    """The load Q (N, 6) [N, N m] with J^T f = Q at rest (module docstring), for the world's
+    ``loads`` in ring_a's frame at the poses of ``ik``."""
+    g = loads.gravity
+    p = ik.position
+    w_b, w_a = leg_weight_shares(geometry, ik, g)
+    if support.index == 0:
+        body = geometry.ring_b_body
+        com = np.einsum('nij,j->ni', ik.rotation, body.com)                     # about p
+        force = body.mass * g + w_b.sum(axis=1) + loads.tool_force
+        moment = (body.mass * cross(com, g) + cross(ik.ring_b_anchors_in_a - p[:, None, :], w_b).sum(axis=1)
+                  + cross(loads.tool_point - p, loads.tool_force) + loads.tool_torque)
+        return -np.concatenate([force, moment], axis=-1)
+    body = geometry.ring_a_body
+    force = body.mass * g + w_a.sum(axis=1)
+    moment = (body.mass * cross(body.com - p, g)
+              + cross(geometry.ring_a_anchors - p[:, None, :], w_a).sum(axis=1))
+    return np.concatenate([force, moment], axis=-1)
+
+
+def holding_forces(geometry: RobotGeometry, position, quaternion_xyzw, *, support='ring_a',
+                   world_q_support=None, gravity=None) -> np.ndarray:
+    """Actuator forces [N] (6,) holding the robot at rest at a pose, legs included.
 
     ``position`` (3,) [m] and ``quaternion_xyzw`` (4,) give a_T_b; batches (N, 3), (N, 4) give
-    (N, 6). Raises ValueError for invalid input, SingularPoseError (a ValueError too) for a
-    locked universal joint or a singular pose.
+    (N, 6). ``support``: the gripping ring, turned by ``world_q_support`` (x, y, z, w; default
+    upright) in a world of ``gravity`` (default (0, 0, -9.81) m/s²). Raises ValueError for
+    invalid input, SingularPoseError (a ValueError too) for a locked universal joint or a
+    singular pose.
     """
+    world = support_of(support, world_q_support, gravity)
     single = np.ndim(position) == 1
     ik, _, _ = assembled_pose(geometry, position, quaternion_xyzw)
-    forces = _solve_transposed(inverse_jacobian(ik), geometry, gravity_load(geometry, ik))
+    load = static_load(geometry, ik, world, world_loads(geometry, world, ik.position, ik.rotation))
+    forces = solve_transposed(inverse_jacobian(ik), geometry, load)
     return forces[0] if single else forces

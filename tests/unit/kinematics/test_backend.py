@@ -51,7 +51,7 @@ def compute() -> dict[str, np.ndarray]:
     out['holding'] = forces - PUSH
     v = np.zeros(78)
     v[:6] = [0.05, -0.02, 0.04, 0.3, -0.2, 0.1]
-    assert solve_dependent(q, v, dyn.parameters.joints, 1e-13, 20) >= 0
+    assert solve_dependent(q, v, dyn.parameters, 1e-13, 20) >= 0
     acc, lam = np.empty(78), np.empty(72)
     ws = workspace(new_workspace())
     assert accelerations(q, v, forces, 10.0, 10.0, dyn.parameters, ws, acc)

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from rrps_description.geometry import load_robot
+from rrps_description.world import STANDARD_GRAVITY
 from rrps_description.rotations import rotation_vector_to_quat_xyzw
 from rrps_kinematics import inverse_kinematics
 from rrps_kinematics.errors import ConvergenceError
@@ -29,7 +30,7 @@ def moving_state(seed=0):
     v = np.zeros(78)
     v[0:6] = rng.normal(scale=[0.1, 0.1, 0.1, 0.5, 0.5, 0.5])
     q = dyn.q.copy()
-    assert solve_dependent(q, v, dyn.parameters.joints, 1e-13, 20) >= 0
+    assert solve_dependent(q, v, dyn.parameters, 1e-13, 20) >= 0
     return dyn, q, v
 
 
@@ -42,14 +43,14 @@ def dense_eq19(dyn, q, v, forces):
         M[6 * b:6 * b + 3, 6 * b:6 * b + 3] = dyn.mass[b] * np.eye(3)
         M[6 * b + 3:6 * b + 6, 6 * b + 3:6 * b + 6] = dyn.inertia[b]
         w = v[6 * b + 3:6 * b + 6]
-        F[6 * b:6 * b + 3] = dyn.mass[b] * GEOM.gravity
+        F[6 * b:6 * b + 3] = dyn.mass[b] * np.array(STANDARD_GRAVITY)
         F[6 * b + 3:6 * b + 6] = -np.cross(w, dyn.inertia[b] @ w)
     Phi = np.zeros((72, n))
     gamma = np.zeros(72)
     B = np.empty((13, 18))
     g = np.empty(13)
     for k in range(6):
-        leg_blocks(q, v, k, dyn.parameters.joints, B, g)
+        leg_blocks(q, v, k, dyn.parameters.joints, dyn.parameters.support, B, g)
         cols = np.r_[0:6, 6 * (1 + 2 * k):6 * (1 + 2 * k) + 12]
         Phi[12 * k:12 * k + 12, cols] = B[:12]
         gamma[12 * k:12 * k + 12] = g[:12]
@@ -81,7 +82,7 @@ def test_gamma_terms_keep_the_velocity_constraint_satisfied():
     B = np.empty((13, 18))
     g = np.empty(13)
     for k in range(6):
-        leg_blocks(q, v, k, dyn.parameters.joints, B, g)
+        leg_blocks(q, v, k, dyn.parameters.joints, dyn.parameters.support, B, g)
         idx = np.r_[0:6, 6 * (1 + 2 * k):6 * (1 + 2 * k) + 12]
         np.testing.assert_allclose(B[:12] @ v[idx], 0.0, atol=1e-12)
         np.testing.assert_allclose(B[:12] @ acc[idx], g[:12], atol=1e-9)

@@ -1,18 +1,33 @@
-"""The constraint rows of eq. 19 for one leg: [Φ_r Φ_π'] and γ (paper eqs. 3-10, 19).
+"""The constraint rows of eq. 19 for one leg: [Φ_r Φ_π'] and γ (paper eqs. 3-10, 19), and its
+joint residual, for either ring grounded.
 
 Velocities are v = [ṙ, ω'] per body, ω' in the body frame; π' are the matching virtual
 rotations, so a constraint's rotational columns are Φ_π' = Φ_π A (A the body's rotation). γ is
 the acceleration right-hand side: Φ_x ẍ = γ along any motion with Φ = 0.
+
+Body 0, the *hub*, is the free ring; the supporting ring is the ground. With ring_a grounded
+(``support`` 0, the paper's case) the hub is ring_b and carries the spherical joints: rows 0-2
+(eq. 3) couple the upper link to the hub, rows 3-6 (eqs. 4-5) tie the lower link to fixed
+points and axes. With ring_b grounded (``support`` 1) the hub is ring_a and carries the
+universal joints: rows 0-2 fix the upper link's joint centre at ring_b's anchor a_k, rows 3-5
+read r_l + A_l s'_l - r_h - A_h s'_h = 0 and row 6 (A_h h'_k)^T A_l y' = 0, with the joint data
+of :class:`~rrps_kinematics.multibody.JointGeometry` read as ``a`` the ground's joint centres,
+``sb`` the hub's (its com frame) and ``ha`` the universal axes in the universal joints' ring.
+Rows 7-12 (the prismatic pair and the driving constraint) involve the two links only.
 Small 3-vector helpers on tuples (no allocation) are shared with the other kernels.
 """
 
 from __future__ import annotations
 
 from rrps_kinematics.backend import jit
-from rrps_kinematics.multibody import rotation
+from rrps_kinematics.multibody import leg_residual_with_rotations, rotation
 
-__all__ = ['angular_velocity', 'cross3', 'dot3', 'leg_blocks', 'leg_blocks_with_rotations',
-           'matvec3']
+__all__ = ['HUB_ROWS', 'angular_velocity', 'cross3', 'dot3', 'leg_blocks', 'leg_blocks_with_rotations',
+           'joint_residual', 'matvec3']
+
+#: The rows of a leg that involve the hub, by support: the spherical joint's (ring_a grounded) or
+#: the universal joint's (ring_b grounded).
+HUB_ROWS = ((0, 1, 2), (3, 4, 5, 6))
 
 
 @jit
@@ -76,18 +91,36 @@ def _dot_row(B, row, ci, a, wi, cj, c, wj, gamma):
 
 
 @jit
-def leg_blocks(q, v, k, joints, B, gamma):
-    """Leg k's 13 rows (12 joint + driving) of [Φ_r Φ_π'] (13 x 18) and γ (13,) of eq. 19.
-
-    Columns: ring_b [r, π'], lower link [r, π'], upper link [r, π']. Rows are first written
-    for global virtual rotations π (δa = δπ × a), then Φ_π' = Φ_π A."""
-    leg_blocks_with_rotations(q, v, k, joints, rotation(q, 3), rotation(q, 7 * (1 + 2 * k) + 3),
-                rotation(q, 7 * (2 + 2 * k) + 3), B, gamma)
+def joint_residual(q, k, joints, support, Ab, Al, Au, out):
+    """Leg k's 12 joint constraints (eqs. 3-8) and its driving row (eq. 10, length 0) -> out,
+    for the hub's and the links' rotations given."""
+    leg_residual_with_rotations(q, k, 0.0, joints, Ab, Al, Au, out)
+    if support == 0:
+        return
+    a, ha, sb, cl, cu = joints
+    ol = 7 * (1 + 2 * k)
+    ou = 7 * (2 + 2 * k)
+    h = matvec3(Ab, (ha[k, 0], ha[k, 1], ha[k, 2]))
+    for i in range(3):
+        s_h = Ab[i, 0] * sb[k, 0] + Ab[i, 1] * sb[k, 1] + Ab[i, 2] * sb[k, 2]
+        out[i] = q[ou + i] + Au[i, 2] * cu - a[k, i]
+        out[3 + i] = q[ol + i] - Al[i, 2] * cl - q[i] - s_h
+    out[6] = h[0] * Al[0, 1] + h[1] * Al[1, 1] + h[2] * Al[2, 1]
 
 
 @jit
-def leg_blocks_with_rotations(q, v, k, joints, Ab, Al, Au, B, gamma):
-    """:func:`leg_blocks` with the rotations of ring_b and leg k's links given."""
+def leg_blocks(q, v, k, joints, support, B, gamma):
+    """Leg k's 13 rows (12 joint + driving) of [Φ_r Φ_π'] (13 x 18) and γ (13,) of eq. 19.
+
+    Columns: the hub [r, π'], lower link [r, π'], upper link [r, π']. Rows are first written
+    for global virtual rotations π (δa = δπ × a), then Φ_π' = Φ_π A."""
+    leg_blocks_with_rotations(q, v, k, joints, support, rotation(q, 3), rotation(q, 7 * (1 + 2 * k) + 3),
+                              rotation(q, 7 * (2 + 2 * k) + 3), B, gamma)
+
+
+@jit
+def leg_blocks_with_rotations(q, v, k, joints, support, Ab, Al, Au, B, gamma):
+    """:func:`leg_blocks` with the rotations of the hub and leg k's links given."""
     ha, sb, cl, cu = joints.ha, joints.sb, joints.cl, joints.cu
     B[:, :] = 0.0
     bl = 1 + 2 * k
@@ -116,20 +149,24 @@ def leg_blocks_with_rotations(q, v, k, joints, Ab, Al, Au, B, gamma):
     quad_u = cross3(wu, wsu)
     quad_l = cross3(wl, wsl)
     quad_b = cross3(wb, cross3(wb, s_b))
-    # spherical (eq. 3): r_u + s_u - r_b - s_b
+    # spherical (eq. 3): r_u + s_u - (r_b + s_b | a); universal, spherical part (eq. 4):
+    # r_l + s_l - (a | r_h + s_h); the hub's terms on the rows of its joint
+    hub = 0 if support == 0 else 3
     for i in range(3):
         B[i, 12 + i] = 1.0
-        B[i, i] = -1.0
-        gamma[i] = -quad_u[i] + quad_b[i]
-    _skew_cols(B, 0, 15, s_u, -1.0)
-    _skew_cols(B, 0, 3, s_b, 1.0)
-    # universal, spherical part (eq. 4): r_l + s_l - a
-    for i in range(3):
         B[3 + i, 6 + i] = 1.0
+        B[hub + i, i] = -1.0
+        gamma[i] = -quad_u[i]
         gamma[3 + i] = -quad_l[i]
+        gamma[hub + i] += quad_b[i]
+    _skew_cols(B, 0, 15, s_u, -1.0)
     _skew_cols(B, 3, 9, s_l, -1.0)
-    # universal dot-1 (eq. 5), translational (eqs. 6, 8)
-    _dot_row(B, 6, -1, (ha[k, 0], ha[k, 1], ha[k, 2]), (0.0, 0.0, 0.0), 9, g_l, wl, gamma)
+    _skew_cols(B, hub, 3, s_b, 1.0)
+    # universal dot-1 (eq. 5): the axis fixed in ring_a, ground or hub; translational (eqs. 6, 8)
+    if support == 0:
+        _dot_row(B, 6, -1, (ha[k, 0], ha[k, 1], ha[k, 2]), (0.0, 0.0, 0.0), 9, g_l, wl, gamma)
+    else:
+        _dot_row(B, 6, 3, matvec3(Ab, (ha[k, 0], ha[k, 1], ha[k, 2])), wb, 9, g_l, wl, gamma)
     _dot_row(B, 7, 9, f_l, wl, 15, h_u, wu, gamma)
     _dot_row(B, 8, 9, g_l, wl, 15, h_u, wu, gamma)
     _dot_row(B, 11, 9, f_l, wl, 15, g_u, wu, gamma)

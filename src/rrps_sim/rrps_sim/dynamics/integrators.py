@@ -4,8 +4,8 @@ accelerations, one step of the user's dt.
 * ``baumgarte``: constraint stabilisation, γ <- γ - 2 α Φ̇ - β² Φ, all 91 + 78 states integrated
   (:func:`rk4_full`).
 * ``partitioning``: coordinate partitioning (:func:`rk4_partitioned`). Independent coordinates:
-  ring_b's com position and Euler vector part (e1, e2, e3) with their velocities (ṙ_b, ω'_b);
-  dependent: ring_b's e0 (eq. 9) and the 84 leg-link coordinates, solved by Newton-Raphson on
+  the hub's (the free ring's) com position and Euler vector part (e1, e2, e3) with their
+  velocities (ṙ_b, ω'_b); dependent: the hub's e0 (eq. 9) and the 84 leg-link coordinates, solved by Newton-Raphson on
   the constraints (eqs. 3-9, per leg: 14 equations in 14 unknowns), the dependent velocities
   from Φ_q v = 0 (eq. 20) (:func:`solve_dependent`).
 * ``hybrid``: the paper's choice: Baumgarte-stabilised integration of all states and, whenever
@@ -23,10 +23,17 @@ import math
 import numpy as np
 
 from rrps_kinematics.backend import jit
-from rrps_kinematics.multibody import leg_jacobian, leg_residual
+from rrps_kinematics.multibody import JointGeometry, leg_jacobian, rotation, rotation_into
 from rrps_sim.dynamics.bundles import workspace
-from rrps_sim.dynamics.constraints import leg_blocks
-from rrps_sim.dynamics.kernels import accelerations, actuator_power, drift_and_norm, lu_solve, observe_into
+from rrps_sim.dynamics.constraints import joint_residual, leg_blocks, matvec3
+from rrps_sim.dynamics.kernels import (
+    accelerations,
+    actuator_power,
+    drift_and_norm,
+    lu_solve,
+    observe_into,
+    reactions_into,
+)
 
 __all__ = ['METHODS', 'NOT_CONVERGED', 'SINGULAR', 'rk4_full', 'rk4_partitioned', 'run',
            'solve_dependent', 'step']
@@ -83,16 +90,35 @@ def rk4_full(q, v, work, forces, dt, alpha, beta, params, ws):
 
 
 @jit
-def solve_dependent(q, v, joints, tolerance, max_iterations):  # noqa: C901 - a compiled kernel: flat loops for numba
-    """Partitioned correction: e0 of ring_b from eq. 9, each leg's 14 coordinates by Newton on
+def _newton_joints(q, params):
+    """The joint data whose link Jacobian (:func:`~rrps_kinematics.multibody.leg_jacobian`, its
+    columns 7-20) is that of the constraints of :mod:`.constraints` with the hub held still: the
+    universal axes as they stand, fixed (ring_a grounded) or turned by the hub (ring_b grounded)."""
+    joints = params.joints
+    Ah = rotation(q, 3)
+    ha = np.empty((6, 3))
+    for k in range(6):
+        h = (joints.ha[k, 0], joints.ha[k, 1], joints.ha[k, 2])
+        if params.support == 1:
+            h = matvec3(Ah, h)
+        for i in range(3):
+            ha[k, i] = h[i]
+    return JointGeometry(joints.a, ha, joints.sb, joints.cl, joints.cu)
+
+
+@jit
+def solve_dependent(q, v, params, tolerance, max_iterations):  # noqa: C901 - a compiled kernel: flat loops for numba
+    """Partitioned correction: e0 of the hub from eq. 9, each leg's 14 coordinates by Newton on
     its 12 joint constraints + 2 normalisations, then its 12 velocities from Φ_q v = 0 (eq. 20).
 
     Returns the Newton iterations summed over legs, or NOT_CONVERGED (a leg's Newton solve did not
-    converge, or ring_b's |e| >= 1) or SINGULAR (a leg's Jacobian is singular)."""
+    converge, or the hub's |e| >= 1) or SINGULAR (a leg's Jacobian is singular)."""
     e2 = q[4] ** 2 + q[5] ** 2 + q[6] ** 2
     if e2 >= 1.0:
         return NOT_CONVERGED
     q[3] = math.copysign(math.sqrt(1.0 - e2), q[3])
+    joints, support = params.joints, params.support
+    newton_joints = _newton_joints(q, params)
     total = 0
     res = np.empty(13)
     Jl = np.empty((13, 21))
@@ -100,12 +126,17 @@ def solve_dependent(q, v, joints, tolerance, max_iterations):  # noqa: C901 - a 
     rn = np.empty(14)
     B = np.empty((13, 18))
     gamma = np.empty(13)
+    Ah = rotation(q, 3)
+    Al = np.empty((3, 3))
+    Au = np.empty((3, 3))
     for k in range(6):
         ol = 7 * (1 + 2 * k)
         ou = 7 * (2 + 2 * k)
         it = 0
         while True:
-            leg_residual(q, k, 0.0, joints, res)
+            rotation_into(q, ol + 3, Al)
+            rotation_into(q, ou + 3, Au)
+            joint_residual(q, k, joints, support, Ah, Al, Au, res)
             for i in range(12):
                 rn[i] = res[i]
             rn[12] = q[ol + 3] ** 2 + q[ol + 4] ** 2 + q[ol + 5] ** 2 + q[ol + 6] ** 2 - 1.0
@@ -117,7 +148,7 @@ def solve_dependent(q, v, joints, tolerance, max_iterations):  # noqa: C901 - a 
                 break
             if it >= max_iterations:
                 return NOT_CONVERGED
-            leg_jacobian(q, k, joints, Jl)
+            leg_jacobian(q, k, newton_joints, Jl)
             Jn[:, :] = 0.0
             for i in range(12):
                 for j in range(14):
@@ -134,7 +165,7 @@ def solve_dependent(q, v, joints, tolerance, max_iterations):  # noqa: C901 - a 
                 q[ou + j] += rn[7 + j]
             it += 1
         total += it
-        leg_blocks(q, v, k, joints, B, gamma)
+        leg_blocks(q, v, k, joints, support, B, gamma)
         M = np.ascontiguousarray(B[:12, 6:18])
         x = np.empty(12)
         for r in range(12):
@@ -169,7 +200,7 @@ def rk4_partitioned(q, v, work, forces, dt, params, tolerance, max_iterations, w
                 q[4 + i] = y0[3 + i] + c * ky[s - 1, 3 + i]
             for i in range(6):
                 v[i] = y0[6 + i] + c * ky[s - 1, 6 + i]
-        it = solve_dependent(q, v, params.joints, tolerance, max_iterations)
+        it = solve_dependent(q, v, params, tolerance, max_iterations)
         if it < 0:
             return it, work, newton
         newton += it
@@ -191,7 +222,7 @@ def rk4_partitioned(q, v, work, forces, dt, params, tolerance, max_iterations, w
     for i in range(6):
         v[i] = y0[6 + i] + h6 * (ky[0, 6 + i] + 2.0 * ky[1, 6 + i] + 2.0 * ky[2, 6 + i]
                                  + ky[3, 6 + i])
-    it = solve_dependent(q, v, params.joints, tolerance, max_iterations)
+    it = solve_dependent(q, v, params, tolerance, max_iterations)
     if it < 0:
         return it, work, newton
     return 0, work + h6 * (kw[0] + 2.0 * kw[1] + 2.0 * kw[2] + kw[3]), newton + it
@@ -225,10 +256,10 @@ def _step(q, v, work, forces, dt, method, alpha, beta, correction_tolerance, new
         ok, new_work = rk4_full(q, v, work, forces, dt, alpha, beta, params, ws)
         status = 0 if ok else SINGULAR
         if ok and method == HYBRID:
-            drift, norm_error = drift_and_norm(q, params.joints, ws)
+            drift, norm_error = drift_and_norm(q, params, ws)
             if drift > correction_tolerance or norm_error > correction_tolerance:
                 corrected = True
-                it = solve_dependent(q, v, params.joints, newton_tolerance, max_iterations)
+                it = solve_dependent(q, v, params, newton_tolerance, max_iterations)
                 if it < 0:
                     status = it
                 else:
@@ -250,11 +281,12 @@ def _step(q, v, work, forces, dt, method, alpha, beta, correction_tolerance, new
 @jit
 def run(q, v, work, forces, dt, first, last, output_every, method, alpha, beta,
         correction_tolerance, newton_tolerance, max_iterations, params, buffer, observed, work_out,
-        newton_out, corrected_out):
+        newton_out, corrected_out, with_reactions, reactions_out):
     """Steps ``first`` .. ``last`` - 1 (0-based) of a constant-force run, in place, recording
     after step i when i + 1 is a multiple of ``output_every`` or i + 1 = len(newton_out) (the
-    last step): row (i + output_every) // output_every of ``observed`` (:class:`Observations`)
-    and ``work_out``. ``newton_out``, ``corrected_out``: per step, for the flop model.
+    last step): row (i + output_every) // output_every of ``observed`` (:class:`Observations`),
+    ``work_out`` and, if ``with_reactions``, ``reactions_out`` (:class:`Reactions`).
+    ``newton_out``, ``corrected_out``: per step, for the flop model.
 
     Returns (status, work, step): status 0 and ``last``, or the failure code and the step that
     failed (the state is then that before it)."""
@@ -272,4 +304,6 @@ def run(q, v, work, forces, dt, first, last, output_every, method, alpha, beta,
             row = (i + output_every) // output_every
             observe_into(q, v, params, ws, observed, row)
             work_out[row] = work
+            if with_reactions and not reactions_into(q, v, forces, params, ws, reactions_out, row):
+                return SINGULAR, work, i
     return 0, work, last

@@ -1,22 +1,24 @@
 """Compiled kernels of the 13-body dynamics: eq. 19 at one state, and what is observed of a state.
 
 Velocities are v = [ṙ_b, ω'_b] per body (78,), ω' in the body frame; positions are the 91
-coordinates of :mod:`rrps_kinematics.multibody`. Eq. 19 is
+coordinates of :mod:`rrps_kinematics.multibody`, in the grounded (supporting) ring's frame. Eq. 19 is
 
     [M    0    Φ_r^T ] [ r̈  ]   [ F^A            ]
     [0    J'   Φ_π'^T] [ ω̇' ] = [ n' - ω̃' J' ω'  ]
     [Φ_r  Φ_π' 0     ] [ λ  ]   [ γ              ]
 
-with F^A gravity plus each actuator force f_k applied along leg k's axis, -f_k h on the lower
-link and +f_k h on the upper link (f > 0 pushes the rings apart). It is solved exactly, by the
-structure of the robot. Leg k's 12 joint rows are B_b a_b + B_l a_l = γ_k with B_l (12 x 12, its
-two links) square and B_b non-zero in the 3 spherical-joint rows only: B_b = E P, P = [-I | Y].
-So a leg's link accelerations are a_l = c - H P a_b with H = B_l^-1 E, c = B_l^-1 γ, and its
-multipliers λ = B_l^-T (F_l - M_l a_l) load ring_b with P^T H^T (F_l - M_l a_l): ring_b obeys
+with F^A gravity, the tool wrench on the hub and each actuator force f_k applied along leg k's
+axis, -f_k h on the lower link and +f_k h on the upper link (f > 0 pushes the rings apart). It
+is solved exactly, by the structure of the robot. Leg k's 12 joint rows are B_h a_h + B_l a_l =
+γ_k with B_l (12 x 12, its two links) square and B_h, the hub's columns, non-zero in the m rows
+of the hub's joint only (:data:`~.constraints.HUB_ROWS`: the spherical joint's 3 with ring_a
+grounded, the universal joint's 4 with ring_b grounded): B_h = E P, P those rows (m x 6). So a
+leg's link accelerations are a_l = c - H P a_h with H = B_l^-1 E, c = B_l^-1 γ, and its
+multipliers λ = B_l^-T (F_l - M_l a_l) load the hub with P^T H^T (F_l - M_l a_l): the hub obeys
 
-    (M_b + Σ_k P^T Λ_k P) a_b = F_b - Σ_k P^T w_k,   Λ_k = H^T M_l H,  w_k = H^T (F_l - M_l c)
+    (M_h + Σ_k P^T Λ_k P) a_h = F_h - Σ_k P^T w_k,   Λ_k = H^T M_l H,  w_k = H^T (F_l - M_l c)
 
-(Λ_k, w_k: the leg's effective mass and force at its spherical joint), one 6 x 6 Cholesky solve.
+(Λ_k, w_k: the leg's effective mass and force at the hub's joint), one 6 x 6 Cholesky solve.
 B_l y = b itself is solved by its structure (:func:`_leg_solve`): the point-coincidence rows of
 the spherical joint and of the universal joint (eqs. 3-4) give the link translations from their
 rotations, which leaves 6 x 6 for the rotations (partial pivoting).
@@ -32,12 +34,19 @@ import math
 import numpy as np
 
 from rrps_kinematics.backend import jit
-from rrps_kinematics.multibody import gauss_eliminate, leg_residual_with_rotations, rotation_into
+from rrps_kinematics.multibody import gauss_eliminate, rotation_into
 from rrps_sim.dynamics.bundles import Observation, Observations, workspace
-from rrps_sim.dynamics.constraints import angular_velocity, cross3, dot3, leg_blocks_with_rotations, matvec3
+from rrps_sim.dynamics.constraints import (
+    angular_velocity,
+    cross3,
+    dot3,
+    joint_residual,
+    leg_blocks_with_rotations,
+    matvec3,
+)
 
-__all__ = ['accelerations', 'actuator_power', 'drift_and_norm', 'lu_solve', 'multipliers',
-           'observe', 'observe_into']
+__all__ = ['accelerations', 'actuator_power', 'applied_forces', 'drift_and_norm', 'lu_solve', 'multipliers',
+           'observe', 'observe_into', 'reactions_into']
 
 
 @jit(fastmath=True)
@@ -76,63 +85,54 @@ def _cholesky_solve(Lc, X, n, nrhs):
 
 
 @jit(fastmath=True)
-def _leg_solve(B, gamma, K, Y):
-    """Solve B_l y = b (B_l: leg rows 0-11 of ``B`` on the link columns 6-17) for b = e_0, e_1,
-    e_2 and b = γ: Y (12 x 4) = [H | c]; False if B_l is singular.
+def _leg_solve(B, R, n, K, Y):
+    """Solve B_l Y = R (B_l: leg rows 0-11 of ``B`` on the link columns 6-17) for the first n
+    columns of R (12 x n): Y (12 x n); False if B_l is singular.
 
-    Rows 0-2 (eq. 3) give r_u = b_0:3 - X_u π_u and rows 3-5 (eq. 4) r_l = b_3:6 - X_l π_l, with
+    Rows 0-2 (eq. 3) give r_u = R_0:3 - X_u π_u and rows 3-5 (eq. 4) r_l = R_3:6 - X_l π_l, with
     X the π' columns of those rows; substituted into rows 9-10 (eq. 7, which alone hold link
-    translations besides them) they leave K [π_l; π_u] = b' on rows 6-11, solved with partial
+    translations besides them) they leave K [π_l; π_u] = R' on rows 6-11, solved with partial
     pivoting. y = [r_l, π_l, r_u, π_u]."""
     for i in range(6):
         r = 6 + i
         for j in range(3):
             K[i, j] = B[r, 9 + j]
             K[i, 3 + j] = B[r, 15 + j]
-            K[i, 6 + j] = 0.0
-        K[i, 9] = gamma[r]
+        for c in range(n):
+            K[i, 6 + c] = R[r, c]
     for r in (9, 10):
         i = r - 6
         e0, e1, e2 = B[r, 12], B[r, 13], B[r, 14]
         for j in range(3):
             K[i, j] += e0 * B[3, 9 + j] + e1 * B[4, 9 + j] + e2 * B[5, 9 + j]
             K[i, 3 + j] -= e0 * B[0, 15 + j] + e1 * B[1, 15 + j] + e2 * B[2, 15 + j]
-        K[i, 6] = -e0
-        K[i, 7] = -e1
-        K[i, 8] = -e2
-        K[i, 9] += (e0 * (gamma[3] - gamma[0]) + e1 * (gamma[4] - gamma[1])
-                    + e2 * (gamma[5] - gamma[2]))
-    ok, _ = gauss_eliminate(K, 6, 6, 10)
+        for c in range(n):
+            K[i, 6 + c] += e0 * (R[3, c] - R[0, c]) + e1 * (R[4, c] - R[1, c]) + e2 * (R[5, c] - R[2, c])
+    ok, _ = gauss_eliminate(K, 6, 6, 6 + n)
     if not ok:
         return False
-    for col in range(4):
-        rhs = 6 + col
+    for c in range(n):
+        rhs = 6 + c
         for i in range(5, -1, -1):
             s = K[i, rhs]
             for m in range(i + 1, 6):
                 s -= K[i, m] * K[m, rhs]
             K[i, rhs] = s / K[i, i]
         for i in range(3):
-            Y[3 + i, col] = K[i, rhs]
-            Y[9 + i, col] = K[3 + i, rhs]
-            bl = gamma[3 + i] if col == 3 else 0.0
-            bu = gamma[i] if col == 3 else (1.0 if i == col else 0.0)
-            Y[i, col] = bl - (B[3 + i, 9] * K[0, rhs] + B[3 + i, 10] * K[1, rhs]
-                              + B[3 + i, 11] * K[2, rhs])
-            Y[6 + i, col] = bu - (B[i, 15] * K[3, rhs] + B[i, 16] * K[4, rhs]
-                                  + B[i, 17] * K[5, rhs])
+            Y[3 + i, c] = K[i, rhs]
+            Y[9 + i, c] = K[3 + i, rhs]
+            Y[i, c] = R[3 + i, c] - (B[3 + i, 9] * K[0, rhs] + B[3 + i, 10] * K[1, rhs]
+                                     + B[3 + i, 11] * K[2, rhs])
+            Y[6 + i, c] = R[i, c] - (B[i, 15] * K[3, rhs] + B[i, 16] * K[4, rhs]
+                                     + B[i, 17] * K[5, rhs])
     return True
 
 
 @jit(fastmath=True)
-def accelerations(q, v, forces, alpha, beta, params, ws, acc):  # noqa: C901 - a compiled kernel: flat loops for numba
-    """Solve eq. 19 for [r̈, ω̇'] (78,) -> acc; returns False if singular.
-
-    Baumgarte stabilisation with α, β (0, 0: none): γ <- γ - 2 α Φ̇ - β² Φ (joint rows). Leaves
-    the body rotations, F and each leg's blocks in ``ws`` (for :func:`multipliers`)."""
-    joints, mass, inertia, gravity = params.joints, params.mass, params.inertia, params.gravity
-    A = ws.rotations
-    F = ws.forces
+def applied_forces(q, v, params, A, F):
+    """F^A (78,) without the actuators: gravity, gyroscopic terms and the tool wrench on the hub
+    (forces in the ground's frame, moments in the body frames); A <- the 13 rotations."""
+    mass, inertia, gravity = params.mass, params.inertia, params.gravity
     for b in range(13):
         rotation_into(q, 7 * b + 3, A[b])
         w = (v[6 * b + 3], v[6 * b + 4], v[6 * b + 5])
@@ -140,93 +140,144 @@ def accelerations(q, v, forces, alpha, beta, params, ws, acc):  # noqa: C901 - a
         for i in range(3):
             F[6 * b + i] = mass[b] * gravity[i]
             F[6 * b + 3 + i] = -gyro[i]
+    tw, tp, Ah = params.tool_wrench, params.tool_point, A[0]
+    f = matvec3(Ah, (tw[2, 0], tw[2, 1], tw[2, 2]))
+    f_body = (tw[2, 0] + Ah[0, 0] * tw[0, 0] + Ah[1, 0] * tw[0, 1] + Ah[2, 0] * tw[0, 2],
+              tw[2, 1] + Ah[0, 1] * tw[0, 0] + Ah[1, 1] * tw[0, 1] + Ah[2, 1] * tw[0, 2],
+              tw[2, 2] + Ah[0, 2] * tw[0, 0] + Ah[1, 2] * tw[0, 1] + Ah[2, 2] * tw[0, 2])
+    arm = cross3(tp, f_body)
+    for i in range(3):
+        F[i] += tw[0, i] + f[i]
+        F[3 + i] += (arm[i] + tw[3, i] + Ah[0, i] * tw[1, 0] + Ah[1, i] * tw[1, 1]
+                     + Ah[2, i] * tw[1, 2])
+
+
+@jit(fastmath=True)
+def _leg_coupling(k, m, r0, mass, inertia, ws):
+    """Leg k's Λ P and w (module docstring) -> ws.coupling, ws.effective, added to the hub's
+    system ws.ring: S += P^T Λ P, t -= P^T w (m hub rows from r0)."""
+    B = ws.blocks[k]
+    H = ws.response[k]
+    MH = ws.effective
+    F = ws.forces
+    bl = 1 + 2 * k
+    bu = 2 + 2 * k
+    # M_l [H | c]: the links' masses and inertias J' on [r_l, π_l, r_u, π_u]
+    for col in range(m + 1):
+        for i in range(3):
+            MH[i, col] = mass[bl] * H[i, col]
+            MH[6 + i, col] = mass[bu] * H[6 + i, col]
+            MH[3 + i, col] = (inertia[bl, i, 0] * H[3, col] + inertia[bl, i, 1] * H[4, col]
+                              + inertia[bl, i, 2] * H[5, col])
+            MH[9 + i, col] = (inertia[bu, i, 0] * H[9, col] + inertia[bu, i, 1] * H[10, col]
+                              + inertia[bu, i, 2] * H[11, col])
+    # Λ = H^T M_l H (m x m) and w = H^T (F_l - M_l c) into the reduced system's spare rows
+    lam = ws.reduced
+    for a in range(m):
+        for b in range(a, m):
+            s = 0.0
+            for r in range(12):
+                s += H[r, a] * MH[r, b]
+            lam[a, b] = s
+            lam[b, a] = s
+        s = 0.0
+        for r in range(12):
+            s += H[r, a] * ((F[6 * bl + r] if r < 6 else F[6 * bu + r - 6]) - MH[r, m])
+        lam[a, m] = s
+    LP = ws.coupling
+    for a in range(m):
+        for j in range(6):
+            s = 0.0
+            for b in range(m):
+                s += lam[a, b] * B[r0 + b, j]
+            LP[a, j] = s
+    S = ws.ring
+    for i in range(6):
+        t = 0.0
+        for a in range(m):
+            t += B[r0 + a, i] * lam[a, m]
+        S[i, 6] -= t
+        for j in range(6):
+            s = 0.0
+            for a in range(m):
+                s += B[r0 + a, i] * LP[a, j]
+            S[i, j] += s
+
+
+@jit(fastmath=True)
+def _stabilise(q, v, k, alpha, beta, params, ws):
+    """Baumgarte's γ <- γ - 2 α Φ̇ - β² Φ on leg k's joint rows (its blocks in ``ws``)."""
+    A, B, gamma, res = ws.rotations, ws.blocks[k], ws.gamma[k], ws.residual
+    bl = 1 + 2 * k
+    bu = 2 + 2 * k
+    joint_residual(q, k, params.joints, params.support, A[0], A[bl], A[bu], res)
+    for r in range(12):
+        phidot = 0.0
+        for j in range(6):
+            phidot += B[r, j] * v[j] + B[r, 6 + j] * v[6 * bl + j] + B[r, 12 + j] * v[6 * bu + j]
+        gamma[r] -= 2.0 * alpha * phidot + beta * beta * res[r]
+
+
+@jit(fastmath=True)
+def accelerations(q, v, forces, alpha, beta, params, ws, acc):
+    """Solve eq. 19 for [r̈, ω̇'] (78,) -> acc; returns False if singular.
+
+    Baumgarte stabilisation with α, β (0, 0: none): γ <- γ - 2 α Φ̇ - β² Φ (joint rows). Leaves
+    the body rotations, F and each leg's blocks in ``ws`` (for :func:`multipliers`)."""
+    joints, mass, inertia, support = params.joints, params.mass, params.inertia, params.support
+    m = 3 if support == 0 else 4
+    r0 = 0 if support == 0 else 3
+    A = ws.rotations
+    F = ws.forces
+    applied_forces(q, v, params, A, F)
     S = ws.ring
     for i in range(6):
         for j in range(6):
-            S[i, j] = 0.0
+            S[i, j] = inertia[0, i - 3, j - 3] if i >= 3 and j >= 3 else (mass[0] if i == j else 0.0)
         S[i, 6] = F[i]
-    for i in range(3):
-        S[i, i] = mass[0]
-        for j in range(3):
-            S[3 + i, 3 + j] = inertia[0, i, j]
-    MH = ws.effective
+    R = ws.rhs
     for k in range(6):
         bl = 1 + 2 * k
         bu = 2 + 2 * k
         B = ws.blocks[k]
         gamma = ws.gamma[k]
-        leg_blocks_with_rotations(q, v, k, joints, A[0], A[bl], A[bu], B, gamma)
+        leg_blocks_with_rotations(q, v, k, joints, support, A[0], A[bl], A[bu], B, gamma)
         for i in range(3):
             F[6 * bl + i] -= forces[k] * A[bl, i, 2]
             F[6 * bu + i] += forces[k] * A[bl, i, 2]
         if alpha != 0.0 or beta != 0.0:
-            res = ws.residual
-            leg_residual_with_rotations(q, k, 0.0, joints, A[0], A[bl], A[bu], res)
-            for r in range(12):
-                phidot = 0.0
-                for j in range(6):
-                    phidot += (B[r, j] * v[j] + B[r, 6 + j] * v[6 * bl + j]
-                               + B[r, 12 + j] * v[6 * bu + j])
-                gamma[r] -= 2.0 * alpha * phidot + beta * beta * res[r]
-        H = ws.response[k]
-        if not _leg_solve(B, gamma, ws.reduced, H):
+            _stabilise(q, v, k, alpha, beta, params, ws)
+        for r in range(12):
+            for c in range(m):
+                R[r, c] = 1.0 if r == r0 + c else 0.0
+            R[r, m] = gamma[r]
+        if not _leg_solve(B, R, m + 1, ws.reduced, ws.response[k]):
             return False
-        # M_l [H | c]: the links' masses and inertias J' on [r_l, π_l, r_u, π_u]
-        for col in range(4):
-            for i in range(3):
-                MH[i, col] = mass[bl] * H[i, col]
-                MH[6 + i, col] = mass[bu] * H[6 + i, col]
-                MH[3 + i, col] = (inertia[bl, i, 0] * H[3, col] + inertia[bl, i, 1] * H[4, col]
-                                  + inertia[bl, i, 2] * H[5, col])
-                MH[9 + i, col] = (inertia[bu, i, 0] * H[9, col] + inertia[bu, i, 1] * H[10, col]
-                                  + inertia[bu, i, 2] * H[11, col])
-        # Λ = H^T M_l H and w = H^T (F_l - M_l c), then S += P^T Λ P, t -= P^T w (P = [-I | Y])
-        L00 = L01 = L02 = L11 = L12 = L22 = 0.0
-        w0 = w1 = w2 = 0.0
-        for m in range(12):
-            fm = (F[6 * bl + m] if m < 6 else F[6 * bu + m - 6]) - MH[m, 3]
-            h0, h1, h2 = H[m, 0], H[m, 1], H[m, 2]
-            L00 += h0 * MH[m, 0]
-            L01 += h0 * MH[m, 1]
-            L02 += h0 * MH[m, 2]
-            L11 += h1 * MH[m, 1]
-            L12 += h1 * MH[m, 2]
-            L22 += h2 * MH[m, 2]
-            w0 += h0 * fm
-            w1 += h1 * fm
-            w2 += h2 * fm
-        lam = ((L00, L01, L02), (L01, L11, L12), (L02, L12, L22))
-        w = (w0, w1, w2)
-        LY = ws.coupling
-        for i in range(3):
-            for j in range(3):
-                LY[i, j] = (lam[i][0] * B[0, 3 + j] + lam[i][1] * B[1, 3 + j]
-                            + lam[i][2] * B[2, 3 + j])
-        for i in range(3):
-            S[i, 6] += w[i]
-            S[3 + i, 6] -= B[0, 3 + i] * w0 + B[1, 3 + i] * w1 + B[2, 3 + i] * w2
-            for j in range(3):
-                S[i, j] += lam[i][j]
-                S[i, 3 + j] -= LY[i, j]
-                S[3 + j, i] -= LY[i, j]
-                S[3 + i, 3 + j] += (B[0, 3 + i] * LY[0, j] + B[1, 3 + i] * LY[1, j]
-                                    + B[2, 3 + i] * LY[2, j])
+        _leg_coupling(k, m, r0, mass, inertia, ws)
     if not _cholesky(S, 6):
         return False
     _cholesky_solve(S, S[:, 6:7], 6, 1)
     for i in range(6):
         acc[i] = S[i, 6]
+    _link_accelerations(m, r0, ws, acc)
+    return True
+
+
+@jit(fastmath=True)
+def _link_accelerations(m, r0, ws, acc):
+    """Each leg's link accelerations a_l = c - H P a_h from the hub's, acc[0:6]."""
     for k in range(6):
         B = ws.blocks[k]
         H = ws.response[k]
-        # P a_b = -ṙ_b + Y ω̇'_b, then a_l = c - H P a_b
-        z = (-acc[0] + B[0, 3] * acc[3] + B[0, 4] * acc[4] + B[0, 5] * acc[5],
-             -acc[1] + B[1, 3] * acc[3] + B[1, 4] * acc[4] + B[1, 5] * acc[5],
-             -acc[2] + B[2, 3] * acc[3] + B[2, 4] * acc[4] + B[2, 5] * acc[5])
         o = 6 * (1 + 2 * k)
-        for m in range(12):
-            acc[o + m] = H[m, 3] - (H[m, 0] * z[0] + H[m, 1] * z[1] + H[m, 2] * z[2])
-    return True
+        for r in range(12):
+            acc[o + r] = H[r, m]
+        for a in range(m):
+            z = 0.0
+            for j in range(6):
+                z += B[r0 + a, j] * acc[j]
+            for r in range(12):
+                acc[o + r] -= H[r, a] * z
 
 
 @jit
@@ -275,8 +326,34 @@ def multipliers(params, ws, acc, lam):
 
 
 @jit
+def reactions_into(q, v, forces, params, ws, out, row):
+    """The joint reactions of a state (:class:`~.bundles.Reactions`) from the multipliers of
+    eq. 19 into row ``row`` of ``out``: -λ of the spherical rows (eq. 3) on the upper link,
+    of the universal point rows (eq. 4) on the lower link, and the torque -λ_6 (g_l × h) of the
+    universal joint's dot-1 row (eq. 5). Returns False if eq. 19 is singular there."""
+    acc = np.empty(78)
+    lam = np.empty(72)
+    if not accelerations(q, v, forces, 0.0, 0.0, params, ws, acc) or not multipliers(params, ws, acc, lam):
+        return False
+    ha = params.joints.ha
+    for k in range(6):
+        o = 12 * k
+        Al = ws.rotations[1 + 2 * k]
+        h = (ha[k, 0], ha[k, 1], ha[k, 2])
+        if params.support == 1:
+            h = matvec3(ws.rotations[0], h)
+        torque = cross3((Al[0, 1], Al[1, 1], Al[2, 1]), h)
+        for i in range(3):
+            out.spherical[row, k, i] = -lam[o + i]
+            out.universal[row, k, i] = -lam[o + 3 + i]
+            out.universal_torque[row, k, i] = -lam[o + 6] * torque[i]
+    return True
+
+
+@jit
 def _leg_length_rate(q, v, k, joints, Ab, wb):
-    """Actuator k's length and rate from ring_b's state: S_k = r_b + A_b s'_k, L = |S_k - a_k|."""
+    """Actuator k's length and rate from the hub's state: S_k = r_h + A_h s'_k, L = |S_k - a_k|
+    (the hub's joint centre to the ground's)."""
     a, sb = joints.a, joints.sb
     s = matvec3(Ab, (sb[k, 0], sb[k, 1], sb[k, 2]))
     ws = cross3(wb, s)
@@ -287,7 +364,7 @@ def _leg_length_rate(q, v, k, joints, Ab, wb):
 
 @jit
 def actuator_power(q, v, forces, joints, Ab):
-    """Σ f_k L̇_k [W] at a state, A_b = ring_b's rotation."""
+    """Σ f_k L̇_k [W] at a state, A_b = the hub's rotation."""
     wb = angular_velocity(Ab, v, 0)
     power = 0.0
     for k in range(6):
@@ -296,7 +373,7 @@ def actuator_power(q, v, forces, joints, Ab):
 
 
 @jit
-def drift_and_norm(q, joints, ws):
+def drift_and_norm(q, params, ws):
     """‖Φ^K‖ (2-norm of the 72 joint constraints) and max_b |p_b^T p_b - 1|."""
     A = ws.rotations
     for b in range(13):
@@ -304,7 +381,7 @@ def drift_and_norm(q, joints, ws):
     res = ws.residual
     s = 0.0
     for k in range(6):
-        leg_residual_with_rotations(q, k, 0.0, joints, A[0], A[1 + 2 * k], A[2 + 2 * k], res)
+        joint_residual(q, k, params.joints, params.support, A[0], A[1 + 2 * k], A[2 + 2 * k], res)
         for i in range(12):
             s += res[i] * res[i]
     n = 0.0
@@ -318,8 +395,8 @@ def drift_and_norm(q, joints, ws):
 def observe_into(q, v, params, ws, out, row):
     """Everything reported about a state, in one pass, into row ``row`` of ``out``
     (:class:`Observations`)."""
-    mass, inertia, gravity, com_b = params.mass, params.inertia, params.gravity, params.com_b
-    drift, norm_error = drift_and_norm(q, params.joints, ws)
+    mass, inertia, gravity, com_b = params.mass, params.inertia, params.gravity, params.hub_com
+    drift, norm_error = drift_and_norm(q, params, ws)
     n = math.sqrt(q[3] ** 2 + q[4] ** 2 + q[5] ** 2 + q[6] ** 2)
     euler = out.euler_parameters[row]
     for i in range(4):

@@ -1,7 +1,9 @@
-"""The 13-body forward dynamics of one robot (eqs. 19-20), stepped by the caller.
+"""The 13-body forward dynamics of one robot (eqs. 19-20) on either ring, stepped by the caller.
 
+The supporting ring is the ground and the other ring the hub, body 0 (:mod:`.constraints`):
+coordinates and velocities are in the supporting ring's frame. Poses in and out are a_T_b.
 Energy balance: kinetic + potential - actuator work (∫ Σ f_k L̇_k dt, integrated with the
-states), minus its initial value, so an exact solution keeps it at zero.
+states), minus its initial value, so an exact solution without a tool wrench keeps it at zero.
 """
 
 from __future__ import annotations
@@ -13,14 +15,16 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from rrps_description.geometry import RobotGeometry
-from rrps_description.rotations import euler_parameters_to_quat_xyzw, normalize_quat
+from rrps_description.pose import Pose
 from rrps_kinematics.errors import ConvergenceError, SingularPoseError
 from rrps_kinematics.multibody import MultibodyModel
-from rrps_sim.dynamics.bundles import DynamicsParameters, Observation, Observations, new_workspace
+from rrps_sim.dynamics.bundles import DynamicsParameters, Observation, Observations, Reactions, new_workspace, workspace
 from rrps_sim.dynamics.constraints import leg_blocks
 from rrps_sim.dynamics.flops import step_flops
+from rrps_sim.dynamics.frames import grounded_coordinates, supported_pose
 from rrps_sim.dynamics.integrators import METHODS, NOT_CONVERGED, run, step
-from rrps_sim.dynamics.kernels import observe
+from rrps_sim.dynamics.kernels import applied_forces, observe, reactions_into
+from rrps_sim.support import support_of
 
 __all__ = ['MultibodyDynamics', 'RunRecord']
 
@@ -34,13 +38,15 @@ class RunRecord(NamedTuple):
     """What :meth:`MultibodyDynamics.run` records: ``t`` (R,) [s], ``observed``
     (:class:`~rrps_sim.dynamics.bundles.Observations`, R rows) and ``actuator_work`` (R,) [J] of
     the start (row 0) and of each output step; ``step_flops`` (S,) and ``step_seconds`` (S,) of
-    every step (flop model, wall time)."""
+    every step (flop model, wall time); ``reactions`` (:class:`~.bundles.Reactions`, R rows)
+    when asked for, else None."""
 
     t: np.ndarray
     observed: Observations
     actuator_work: np.ndarray
     step_flops: np.ndarray
     step_seconds: np.ndarray
+    reactions: Reactions | None = None
 
 
 class MultibodyDynamics:
@@ -48,12 +54,15 @@ class MultibodyDynamics:
 
     ``method``: 'baumgarte', 'partitioning' or 'hybrid'. ``alpha``, ``beta`` [1/s]: Baumgarte
     gains. ``correction_tolerance``: the hybrid's drift threshold for a partitioned correction.
-    ``newton_tolerance``: residual of the dependent-coordinate Newton solves.
+    ``newton_tolerance``: residual of the dependent-coordinate Newton solves. ``support``: the
+    gripping ring, turned by ``world_q_support`` in a world of ``gravity``
+    (:func:`rrps_sim.support.support_of`; default ring_a upright, 9.81 m/s² down).
     """
 
     def __init__(self, geometry: RobotGeometry, method: str = 'hybrid', *, alpha: float = 10.0,
                  beta: float = 10.0, correction_tolerance: float = 1e-10,
-                 newton_tolerance: float = 1e-13, max_newton_iterations: int = 20):
+                 newton_tolerance: float = 1e-13, max_newton_iterations: int = 20,
+                 support='ring_a', world_q_support=None, gravity=None):
         if method not in METHODS:
             raise ValueError(f'method must be one of {METHODS}, got {method!r}')
         for name, value in (('alpha', alpha), ('beta', beta)):
@@ -68,13 +77,28 @@ class MultibodyDynamics:
         self.newton_tolerance = float(newton_tolerance)
         self.max_newton_iterations = int(max_newton_iterations)
         self.model = MultibodyModel(geometry)
-        self._params = DynamicsParameters.of(geometry, self.model.joints)
-        for a in self._params[1:]:
-            a.flags.writeable = False
         self._buffer = new_workspace()
+        self._ground(support_of(support, world_q_support, gravity))
         self.corrections = 0
         self.last_step_flops = 0
         self.reset(geometry.home_position, geometry.home_quaternion_xyzw)
+
+    def _ground(self, support) -> None:
+        self.support = support
+        self._params = DynamicsParameters.of(self.geometry, support)
+        for a in self._params:
+            if isinstance(a, np.ndarray):
+                a.flags.writeable = False
+
+    def set_support(self, support, world_q_support=None, gravity=None) -> None:
+        """Ground the other ring (or turn the world) at the current pose, at rest: what a
+        gripper change does, both grippers closed. Time and actuator work carry on."""
+        position, quaternion = self.position, self.quaternion_xyzw
+        self._ground(support_of(support, world_q_support, gravity))
+        work, t = self.actuator_work, self.time
+        self.reset(position, quaternion)
+        self.actuator_work, self.time = work, t
+        self._energy0 -= work
 
     # --- what the kernels see ---
 
@@ -85,7 +109,8 @@ class MultibodyDynamics:
 
     @property
     def mass(self) -> np.ndarray:
-        """Body masses (13,) [kg]: ring_b, then each leg's lower and upper link."""
+        """Body masses (13,) [kg]: the hub (ring_b with ring_a grounded), then each leg's lower
+        and upper link."""
         return self._params.mass
 
     @property
@@ -97,7 +122,7 @@ class MultibodyDynamics:
 
     @property
     def q(self) -> np.ndarray:
-        """A copy of the 91 coordinates (:meth:`set_state` changes them)."""
+        """A copy of the 91 coordinates, in the supporting ring's frame (:meth:`set_state`)."""
         return self._q.copy()
 
     @property
@@ -118,7 +143,7 @@ class MultibodyDynamics:
 
     def reset(self, position, quaternion_xyzw) -> None:
         """At rest at the pose a_T_b (all joint constraints satisfied, zero velocities)."""
-        self._q = self.model.coordinates_from_pose(position, quaternion_xyzw)
+        self._q = self._coordinates(position, quaternion_xyzw)
         self._v = np.zeros(78)
         self._obs = None
         self.time = 0.0
@@ -126,6 +151,11 @@ class MultibodyDynamics:
         self.corrections = 0
         self.last_step_flops = 0
         self._energy0 = self.kinetic_energy + self.potential_energy
+
+    def _coordinates(self, position, quaternion_xyzw) -> np.ndarray:
+        """Consistent q (91,) for a_T_b, in the supporting ring's frame."""
+        return grounded_coordinates(self.model.coordinates_from_pose(position, quaternion_xyzw),
+                                    self.support, self.model.ring_b_com, self.geometry.ring_a_body.com)
 
     def step(self, forces, dt: float) -> None:
         """Advance by dt [s] with actuator forces (6,) [N] held over the step (+ = push apart).
@@ -144,18 +174,19 @@ class MultibodyDynamics:
         self.actuator_work = float(work)
         self.time += dt
         self.last_step_flops = step_flops(self.method, self.alpha != 0.0 or self.beta != 0.0,
-                                          newton, int(corrected))
+                                          newton, int(corrected), self.support.index)
 
     def run(self, forces, dt: float, steps: int, *, output_every: int = 1,
-            progress: Callable[[float], None] | None = None) -> RunRecord:
+            progress: Callable[[float], None] | None = None, reactions: bool = False) -> RunRecord:
         """``steps`` steps of ``dt`` [s] with constant actuator ``forces`` (6,) [N], compiled as
         one loop: no Python and no allocation between steps.
 
         Records the start (row 0) and the state after every ``output_every``-th step and after
-        the last. The steps run in about RUN_BATCHES batches, each timed (its mean is the wall
-        time of each of its steps), and ``progress(fraction)`` is called after each batch;
-        without ``progress``, in about RUN_BATCHES_UNWATCHED batches. Raises as :meth:`step`
-        (the state is then that before the failing step)."""
+        the last, with the joint reactions (:meth:`reactions`) if ``reactions``. The steps run in
+        about RUN_BATCHES batches, each timed (its mean is the wall time of each of its steps),
+        and ``progress(fraction)`` is called after each batch; without ``progress``, in about
+        RUN_BATCHES_UNWATCHED batches. Raises as :meth:`step` (the state is then that before the
+        failing step)."""
         f, dt = _checked(forces, dt)
         steps, output_every = int(steps), int(output_every)
         if steps < 1 or output_every < 1:
@@ -166,6 +197,10 @@ class MultibodyDynamics:
             field[0] = value
         work = np.empty(rows)
         work[0] = self.actuator_work
+        recorded = Reactions.empty(rows if reactions else 1)
+        if reactions:
+            for field, value in zip(recorded, self.reactions(f)):
+                field[0] = value
         newton = np.zeros(steps, dtype=np.int64)
         corrected = np.zeros(steps, dtype=np.bool_)
         seconds = np.empty(steps)
@@ -179,7 +214,7 @@ class MultibodyDynamics:
             start = time.perf_counter()
             status, self.actuator_work, failed = run(
                 self._q, self._v, self.actuator_work, f, dt, done, last, output_every, *settings,
-                self._params, self._buffer, observed, work, newton, corrected)
+                self._params, self._buffer, observed, work, newton, corrected, reactions, recorded)
             seconds[done:last] = (time.perf_counter() - start) / (last - done)
             self.time = t0 + failed * dt
             self.corrections += int(np.count_nonzero(corrected[done:min(failed + 1, last)]))
@@ -188,10 +223,11 @@ class MultibodyDynamics:
             done = last
             if progress is not None:
                 progress(done / steps)
-        flops = step_flops(self.method, self.alpha != 0.0 or self.beta != 0.0, newton, corrected)
+        flops = step_flops(self.method, self.alpha != 0.0 or self.beta != 0.0, newton, corrected,
+                           self.support.index)
         self.last_step_flops = int(flops[-1])
         ends = np.minimum(np.arange(rows) * output_every, steps)
-        return RunRecord(t0 + ends * dt, observed, work, flops, seconds)
+        return RunRecord(t0 + ends * dt, observed, work, flops, seconds, recorded if reactions else None)
 
     def _raise_for(self, status: int) -> None:
         """The exception of a failed step's status code (nothing for 0)."""
@@ -211,14 +247,20 @@ class MultibodyDynamics:
         return self._obs
 
     @property
+    def pose(self) -> Pose:
+        """a_T_b: ring_b's pose in ring_a's frame."""
+        return Pose(*supported_pose(self.observation.position, self.observation.euler_parameters,
+                                    self.support))
+
+    @property
     def position(self) -> np.ndarray:
         """ring_b's origin in ring_a's frame [m]."""
-        return self.observation.position.copy()
+        return self.pose.position.copy()
 
     @property
     def quaternion_xyzw(self) -> np.ndarray:
         """ring_b's orientation in ring_a's frame (x, y, z, w), w >= 0."""
-        return normalize_quat(euler_parameters_to_quat_xyzw(self.observation.euler_parameters))
+        return self.pose.quaternion_xyzw.copy()
 
     @property
     def lengths(self) -> np.ndarray:
@@ -247,7 +289,7 @@ class MultibodyDynamics:
 
     @property
     def potential_energy(self) -> float:
-        """-Σ m g·r [J] (zero at ring_a's origin)."""
+        """-Σ m g·r [J] (zero at the supporting ring's origin)."""
         return float(self.observation.potential)
 
     @property
@@ -260,26 +302,37 @@ class MultibodyDynamics:
         """Kinetic + potential - actuator work, minus its initial value [J] (0 if exact)."""
         return self.kinetic_energy + self.potential_energy - self.actuator_work - self._energy0
 
-    # --- statics from the Lagrange multipliers ---
+    # --- joint reactions and statics from the Lagrange multipliers ---
+
+    def reactions(self, forces) -> Reactions:
+        """The joint reactions (:class:`~.bundles.Reactions`, one row, in the supporting ring's
+        frame) of the current state under actuator ``forces`` (6,) [N], from the multipliers
+        of eq. 19. Raises SingularPoseError where eq. 19 has no solution."""
+        f, _ = _checked(forces, 1.0)
+        out = Reactions.empty(1)
+        if not reactions_into(self._q, self._v, f, self._params, workspace(self._buffer), out, 0):
+            raise SingularPoseError(f'singular configuration at t = {self.time:.6f} s: eq. 19 '
+                                    f'has no solution (a leg lost rank)')
+        return Reactions(*(field[0] for field in out))
 
     def holding_forces(self, position, quaternion_xyzw) -> np.ndarray:
-        """Actuator forces [N] (+ = push apart) that hold ring_b at rest at a pose.
+        """Actuator forces [N] (+ = push apart) that hold the robot at rest at a pose a_T_b.
 
         At rest eq. 19 with the 6 driving constraints (eq. 10) added reads Φ_x^T λ = F^A
-        (78 x 78, gravity only); the driving multipliers are the actuator forces: f = -λ_D.
-        Raises SingularPoseError (a ValueError) at a singular pose."""
-        q = self.model.coordinates_from_pose(position, quaternion_xyzw)
+        (78 x 78: gravity and the tool wrench); the driving multipliers are the actuator forces:
+        f = -λ_D. Raises SingularPoseError (a ValueError) at a singular pose."""
+        q = self._coordinates(position, quaternion_xyzw)
         v = np.zeros(78)
         Phi = np.zeros((78, 78))
         B = np.empty((13, 18))
         gamma = np.empty(13)
         for k in range(6):
-            leg_blocks(q, v, k, self._params.joints, B, gamma)
+            leg_blocks(q, v, k, self._params.joints, self._params.support, B, gamma)
             cols = np.r_[0:6, 6 * (1 + 2 * k):6 * (1 + 2 * k) + 12]
             Phi[12 * k:12 * k + 12, cols] = B[:12]
             Phi[72 + k, cols] = B[12]
         F = np.zeros(78)
-        F.reshape(13, 6)[:, :3] = self.mass[:, None] * self.geometry.gravity
+        applied_forces(q, v, self._params, np.empty((13, 3, 3)), F)
         try:
             lam = np.linalg.solve(Phi.T, F)
         except np.linalg.LinAlgError:
