@@ -2,10 +2,13 @@
 
     rrps-dynamics simulate --robot R [--position x,y,z] [--quaternion qx,qy,qz,qw]
         --forces f1,...,f6|hold --duration 0.5 --dt 0.001 --method {baumgarte,partitioning,hybrid}
-        --csv out.csv [--plot out.png] [--output-every N]
-    rrps-dynamics statics --robot R [--position x,y,z] [--quaternion qx,qy,qz,qw]
-    rrps-dynamics inverse --robot R --trajectory traj.csv --csv forces.csv
+        --csv out.csv [--plot out.png] [--output-every N] [--reactions] [WORLD]
+    rrps-dynamics statics --robot R [--position x,y,z] [--quaternion qx,qy,qz,qw] [--json] [WORLD]
+    rrps-dynamics inverse --robot R --trajectory traj.csv --csv forces.csv [WORLD]
     rrps-dynamics report  --robot R [--out-dir DIR] [--method M]     (Figures 6 and 7)
+
+WORLD: ``--support ring_a|ring_b --support-quaternion QX,QY,QZ,QW --gravity GX,GY,GZ``, the
+payload and the tool wrench (:mod:`rrps_sim.cli_world`); the default is ring_a gripping, upright.
 
 ``--robot`` takes a shipped robot name (default ``pole_climber``) or a YAML path; the pose
 defaults to the robot's home pose. Poses are a_T_b (ring_b in ring_a's frame), SI units, ROS
@@ -45,11 +48,21 @@ from rrps_kinematics.cli_support import (
     run_command,
     vector,
 )
+from rrps_sim.cli_world import (
+    REACTION_COLUMNS,
+    WORLD_VECTOR_OPTIONS,
+    add_world_options,
+    reaction_rows,
+    statics_json,
+    statics_lines,
+    with_loads,
+    world_of,
+)
 from rrps_sim.dynamics import METHODS, MultibodyDynamics, SimulationResult, simulate
 from rrps_sim.figures import figure6, figure7, format_vector, plot_simulation
 
 PROG = 'rrps-dynamics'
-_VECTOR_OPTIONS = ('--position', '--quaternion', '--forces')
+_VECTOR_OPTIONS = ('--position', '--quaternion', '--forces') + WORLD_VECTOR_OPTIONS
 SIMULATION_COLUMNS = (['t', 'x', 'y', 'z', 'qx', 'qy', 'qz', 'qw']
                       + [f'L{i}' for i in range(1, 7)] + [f'Ldot{i}' for i in range(1, 7)]
                       + [f'F{i}' for i in range(1, 7)]
@@ -99,10 +112,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help='write every N-th step (default 1)')
     p.add_argument('--csv', required=True, type=Path, help='output CSV, one row per output step')
     p.add_argument('--plot', type=Path, help='output PNG of the run')
+    p.add_argument('--reactions', action='store_true',
+                   help="add the joint reactions and the support's wrench to the CSV")
+    add_world_options(p)
 
-    p = sub.add_parser('statics', help='actuator forces holding a pose at rest [N]')
+    p = sub.add_parser('statics', help='actuator forces, joint reactions and the support holding a pose')
     robot(p)
     pose(p)
+    p.add_argument('--json', action='store_true', help='print everything as one JSON object')
+    add_world_options(p)
 
     p = sub.add_parser('inverse', help='actuator forces along a pose trajectory')
     robot(p)
@@ -110,6 +128,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help='CSV with columns t,x,y,z,qx,qy,qz,qw (a header row), optionally '
                         f'{",".join(VELOCITY_COLUMNS)} and {",".join(ACCELERATION_COLUMNS)}')
     p.add_argument('--csv', required=True, type=Path, help='output CSV: t,F1..F6')
+    add_world_options(p)
 
     p = sub.add_parser('report', help="the paper's Figures 6 and 7: PNG plots and tables")
     robot(p)
@@ -215,14 +234,20 @@ def _simulate(g: RobotGeometry, args) -> list[str]:
     position, quat = _pose(g, args)
     if args.dt > args.duration:
         raise UsageError(f'--dt ({args.dt}) must not exceed --duration ({args.duration})')
-    dyn = MultibodyDynamics(g, args.method)
+    world = world_of(args)
+    dyn = MultibodyDynamics(g, args.method, support=world)
     forces = dyn.holding_forces(position, quat) if isinstance(args.forces, str) else args.forces
     t0 = time.perf_counter()
     res = simulate(g, position, quat, forces, duration=args.duration, dt=args.dt,
                    method=args.method, output_every=args.output_every,
-                   progress=_Progress(f'simulate ({args.method})'))
+                   progress=_Progress(f'simulate ({args.method})'), reactions=args.reactions,
+                   support=world)
     wall = time.perf_counter() - t0
-    _write_csv(args.csv, SIMULATION_COLUMNS, simulation_rows(res))
+    if args.reactions:
+        _write_csv(args.csv, SIMULATION_COLUMNS + REACTION_COLUMNS,
+                   np.column_stack([simulation_rows(res), reaction_rows(res)]))
+    else:
+        _write_csv(args.csv, SIMULATION_COLUMNS, simulation_rows(res))
     if args.plot is not None:
         with _writing(args.plot):
             plot_simulation(res, args.plot,
@@ -248,10 +273,10 @@ def _simulate(g: RobotGeometry, args) -> list[str]:
 
 
 def _statics(g: RobotGeometry, args) -> list[str]:
-    from rrps_sim.statics import holding_forces
+    from rrps_sim.loads import static_solution
     position, quat = _pose(g, args)
-    forces = holding_forces(g, position, quat)
-    return [f'leg_{k + 1}: {f:.6f} N' for k, f in enumerate(forces)]
+    sol = static_solution(g, (position, quat), support=world_of(args))
+    return [statics_json(g, position, quat, sol)] if args.json else statics_lines(sol)
 
 
 def _inverse(g: RobotGeometry, args) -> list[str]:
@@ -262,7 +287,7 @@ def _inverse(g: RobotGeometry, args) -> list[str]:
     except ValueError as exc:
         raise UsageError(f'{args.trajectory}: {exc}') from None
     forces = inverse_dynamics(g, data[:, 0], data[:, 1:4], data[:, 4:8], twist=twist,
-                              twist_dot=twist_dot)
+                              twist_dot=twist_dot, support=world_of(args))
     _write_csv(args.csv, ['t'] + [f'F{i}' for i in range(1, 7)], np.column_stack([data[:, 0], forces]))
     return [f'wrote {len(data)} rows (t,F1..F6) to {args.csv}; '
             f'max |F| = {np.max(np.abs(forces)):.3f} N']
@@ -288,6 +313,8 @@ def run(argv: Sequence[str] | None = None) -> int:
     def body() -> list[str]:
         args = build_parser().parse_args(join_negative_vectors(argv, _VECTOR_OPTIONS))
         g = load_robot_or_usage_error(args.robot)
+        if args.command != 'report':
+            g = with_loads(g, args)
         return COMMANDS[args.command](g, args)
 
     return run_command(PROG, body)

@@ -2,6 +2,7 @@
 status 2, failed computations with 1, bugs with 3 and their traceback."""
 
 import csv
+import json
 import shutil
 import subprocess
 import sys
@@ -11,12 +12,15 @@ import pytest
 import yaml
 
 from rrps_description.geometry import load_robot, robot_path
+from rrps_description.loads import Payload, ToolWrench
 from rrps_kinematics import inverse_kinematics
 from rrps_sim import cli
 from rrps_sim.cli import SIMULATION_COLUMNS, run
+from rrps_sim.cli_world import REACTION_COLUMNS
 from rrps_sim.dynamics import MultibodyDynamics, simulate
 from rrps_sim.figures import climb_poses
 from rrps_sim.inverse_dynamics import inverse_dynamics
+from rrps_sim.loads import static_solution
 from rrps_sim.statics import holding_forces
 
 GEOM = load_robot('pole_climber')
@@ -67,8 +71,8 @@ def test_simulate_hold_keeps_the_pose(tmp_path, capsys):
 def test_statics_prints_the_six_holding_forces(capsys):
     assert run(['statics', '--position', POS_ARG, '--quaternion', QUAT_ARG]) == 0
     lines = capsys.readouterr().out.strip().splitlines()
-    assert len(lines) == 6
-    printed = np.array([float(line.split()[1]) for line in lines])
+    assert [line.split(':')[0] for line in lines[:6]] == [f'leg_{i}' for i in range(1, 7)]
+    printed = np.array([float(line.split()[1]) for line in lines[:6]])
     np.testing.assert_allclose(printed, holding_forces(GEOM, POSITION, QUAT), atol=1e-6)
     np.testing.assert_allclose(printed, MultibodyDynamics(GEOM).holding_forces(POSITION, QUAT),
                                atol=1e-5)
@@ -154,6 +158,13 @@ def test_climb_is_800_mm_in_11_phases():
     (['statics', '--robot', 'no_such_robot'], 'unknown robot'),
     (['statics', '--quaternion', '0,0,0,0'], 'zero quaternion'),
     (['inverse', '--trajectory', '/nonexistent/traj.csv', '--csv', 'f.csv'], 'cannot read'),
+    (['statics', '--support', 'ring_c'], 'invalid choice'),
+    (['statics', '--support-quaternion', '0,0,0,2'], '--support-quaternion: quaternion norm 2 is not 1'),
+    (['statics', '--gravity', '0,-9.81'], 'expected 3 numbers'),
+    (['statics', '--payload-com', '0,0,0.1'], '--payload-com and --payload-ring need --payload-mass'),
+    (['statics', '--payload-mass', '-2'], 'payload.mass: must be >= 0'),
+    (['statics', '--robot', 'facade_climber', '--tool-force', '0,0,-30'], 'there is no tool section'),
+    (['statics', '--tool-force', '0,0,-30', '--tool-frame', 'ring_b'], 'invalid choice'),
     (['frobnicate'], 'invalid choice'),
 ])
 def test_bad_arguments_give_one_line_and_status_2(argv, message, capsys, tmp_path, monkeypatch):
@@ -229,7 +240,7 @@ def test_console_script(tmp_path):
     exe = shutil.which('rrps-dynamics') or sys.executable
     prefix = [] if exe.endswith('rrps-dynamics') else ['-m', 'rrps_sim.cli']
     ok = subprocess.run([exe, *prefix, 'statics'], capture_output=True, text=True, timeout=120)
-    assert ok.returncode == 0 and ok.stdout.count(' N') == 6
+    assert ok.returncode == 0 and ok.stdout.count('leg_') == 6
     bad = subprocess.run([exe, *prefix, 'statics', '--position', '1,2'], capture_output=True,
                          text=True, timeout=120)
     assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1
@@ -237,3 +248,83 @@ def test_console_script(tmp_path):
                             capture_output=True, text=True, timeout=120)
     assert failed.returncode == 1 and len(failed.stderr.strip().splitlines()) == 1
     assert 'singular pose' in failed.stderr
+
+
+WALL = '0.70710678,0,0,0.70710678'
+
+
+@pytest.mark.parametrize('robot,support', [('facade_climber', 'ring_a'), ('facade_climber', 'ring_b'),
+                                           ('pole_climber', 'ring_b')])
+def test_statics_on_either_ring_in_the_world(robot, support, capsys):
+    geom = load_robot(robot)
+    assert run(['statics', '--robot', robot, '--support', support, '--support-quaternion', WALL]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    sol = static_solution(geom, (geom.home_position, geom.home_quaternion_xyzw), support=support,
+                          world_q_support=np.array([0.70710678, 0, 0, 0.70710678]))
+    printed = {line.split(':')[0]: line.split(':', 1)[1] for line in lines}
+    forces = np.array([float(printed[f'leg_{i}'].split()[0]) for i in range(1, 7)])
+    np.testing.assert_allclose(forces, sol.actuator_forces, atol=1e-6)
+    assert printed['support'].startswith(f" {support}; vectors in {support}'s frame")
+    for name, values in (('universal', sol.universal_reactions), ('spherical', sol.spherical_reactions)):
+        for i in range(6):
+            np.testing.assert_allclose(np.array(printed[f'{name}_{i + 1}'].replace(' N', '').split(','), float),
+                                       values[i], atol=1e-6)
+    np.testing.assert_allclose(np.array(printed['support_force'].replace(' N', '').split(','), float),
+                               sol.support_wrench[:3], atol=1e-6)
+    assert float(printed['holding_margin']) == pytest.approx(float(sol.holding_margin), abs=1e-6)
+
+
+def test_statics_json_has_everything_and_the_load_flags_load_the_robot(capsys):
+    argv = ['statics', '--json', '--support', 'ring_b', '--support-quaternion', WALL, '--gravity', '0,0,-9.8',
+            '--payload-mass', '2.0', '--payload-com', '0.1,-0.05,0.02', '--payload-ring', 'ring_a',
+            '--tool-force', '0,-5,40', '--tool-torque', '0.5,0,-1', '--tool-frame', 'world']
+    assert run(argv) == 0
+    out = json.loads(capsys.readouterr().out)
+    loaded = GEOM.with_(payload=Payload(ring='ring_a', mass=2.0, com=np.array([0.1, -0.05, 0.02])),
+                        tool_wrench=ToolWrench(force=np.array([0.0, -5.0, 40.0]),
+                                               torque=np.array([0.5, 0.0, -1.0]), frame='world'))
+    sol = static_solution(loaded, (GEOM.home_position, GEOM.home_quaternion_xyzw), support='ring_b',
+                          world_q_support=np.array([0.70710678, 0, 0, 0.70710678]), gravity=[0, 0, -9.8])
+    assert out['support'] == out['frame'] == 'ring_b' and out['robot'] == 'pole_climber'
+    np.testing.assert_allclose(out['gravity_in_support'], [0.0, -9.8, 0.0], atol=1e-6)
+    np.testing.assert_allclose(list(out['actuator_forces'].values()), sol.actuator_forces, atol=1e-9)
+    np.testing.assert_allclose(list(out['universal_reactions'].values()), sol.universal_reactions, atol=1e-9)
+    np.testing.assert_allclose(out['support_wrench']['moment'], sol.support_wrench[3:], atol=1e-9)
+    assert out['holding_margin'] == pytest.approx(float(sol.holding_margin))
+    # the payload rides on ring_a, which hangs on the legs: the forces change
+    assert np.abs(sol.actuator_forces - holding_forces(GEOM, GEOM.home_position, GEOM.home_quaternion_xyzw,
+                                                       support='ring_b', world_q_support=[0.70710678, 0, 0,
+                                                                                          0.70710678])).max() > 1.0
+
+
+def test_simulate_writes_the_reactions_and_holds_on_ring_b(tmp_path, capsys):
+    out = tmp_path / 'reactions.csv'
+    assert run(['simulate', '--forces', 'hold', '--support', 'ring_b', '--support-quaternion', WALL,
+                '--duration', '0.02', '--dt', '0.002', '--output-every', '5', '--reactions',
+                '--csv', str(out)]) == 0
+    header, data = read_csv(out)
+    assert header == SIMULATION_COLUMNS + REACTION_COLUMNS and data.shape == (3, len(header))
+    np.testing.assert_allclose(data[:, 1:4], np.tile(GEOM.home_position, (3, 1)), atol=1e-12)
+    sol = static_solution(GEOM, (GEOM.home_position, GEOM.home_quaternion_xyzw), support='ring_b',
+                          world_q_support=np.array([0.70710678, 0, 0, 0.70710678]))
+    columns = {name: data[:, k] for k, name in enumerate(header)}
+    np.testing.assert_allclose(columns['U3y'], sol.universal_reactions[2, 1], atol=1e-6)
+    np.testing.assert_allclose(columns['S6z'], sol.spherical_reactions[5, 2], atol=1e-6)
+    np.testing.assert_allclose(columns['support_mx'], sol.support_wrench[3], atol=1e-6)
+
+
+def test_inverse_takes_the_world(tmp_path):
+    t = np.linspace(0.0, 0.5, 26)
+    positions = POSITION + np.outer(0.02 * np.sin(2 * np.pi * t), [0.0, 0.0, 1.0])
+    quats = np.tile(QUAT, (len(t), 1))
+    traj, out = tmp_path / 'traj.csv', tmp_path / 'forces.csv'
+    with open(traj, 'w', newline='') as fh:
+        w = csv.writer(fh)
+        w.writerow(['t', 'x', 'y', 'z', 'qx', 'qy', 'qz', 'qw'])
+        w.writerows(np.column_stack([t, positions, quats]))
+    assert run(['inverse', '--trajectory', str(traj), '--csv', str(out), '--support', 'ring_b',
+                '--support-quaternion', WALL]) == 0
+    _, data = read_csv(out)
+    expected = inverse_dynamics(GEOM, t, positions, quats, support='ring_b',
+                                world_q_support=np.array([0.70710678, 0, 0, 0.70710678]))
+    np.testing.assert_allclose(data[:, 1:], expected, atol=1e-9)
