@@ -34,13 +34,13 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from rrps_description.geometry import load_robot
-from rrps_description.world import STANDARD_GRAVITY
 from rrps_description.rotations import (
     matrix_to_quat_xyzw,
     quat_conjugate_xyzw,
     quat_multiply_xyzw,
     rotation_vector_to_quat_xyzw,
 )
+from rrps_description.world import STANDARD_GRAVITY
 from rrps_kinematics import forward_kinematics, inverse_kinematics
 from rrps_kinematics.backend import jit
 from rrps_kinematics.inverse import universal_joint_frames

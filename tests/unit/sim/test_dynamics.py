@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from rrps_description.geometry import load_robot
-from rrps_description.world import STANDARD_GRAVITY
 from rrps_description.rotations import rotation_vector_to_quat_xyzw
+from rrps_description.world import STANDARD_GRAVITY
 from rrps_kinematics import inverse_kinematics
 from rrps_kinematics.errors import ConvergenceError
 from rrps_sim.dynamics import METHODS, MultibodyDynamics, SimulationResult, simulate

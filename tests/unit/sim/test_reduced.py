@@ -11,7 +11,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rrps_description.geometry import load_robot
-from rrps_description.world import STANDARD_GRAVITY
 from rrps_description.robot_parts import LinkInertia
 from rrps_description.rotations import (
     quat_conjugate_xyzw,
@@ -20,6 +19,7 @@ from rrps_description.rotations import (
     quat_xyzw_to_rotation_vector,
     rotation_vector_to_quat_xyzw,
 )
+from rrps_description.world import STANDARD_GRAVITY
 from rrps_kinematics.inverse import lower_link_rotations
 from rrps_sim.dynamics import simulate
 from rrps_sim.reduced import (

@@ -9,9 +9,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rrps_description.geometry import RobotGeometry, load_robot
-from rrps_description.world import STANDARD_GRAVITY
 from rrps_description.robot_parts import LinkInertia
 from rrps_description.rotations import quat_multiply_xyzw, quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
+from rrps_description.world import STANDARD_GRAVITY
 from rrps_kinematics import inverse_kinematics, leg_forces
 from rrps_sim.dynamics import MultibodyDynamics, simulate
 from rrps_sim.reduced import PlatformPose, generalized_forces, simulate_reduced

@@ -139,9 +139,9 @@ class Workspace(NamedTuple):
 
     Evaluation of eq. 19: ``rotations`` A of the 13 bodies, ``forces`` F (78,), each leg's
     ``blocks`` [Φ_r Φ_π'] and ``gamma`` (kept for :func:`multipliers`), ``residual`` Φ of a leg,
-    the leg solve's ``reduced`` system [K | up to 5 right-hand sides] and those right-hand sides
-    ``rhs``, each leg's ``response`` [H | c], ``effective`` M_l [H | c], ``coupling`` Λ P and
-    the hub's system ``ring`` [S | t].
+    the leg solve's ``reduced`` system [K | up to 5 right-hand sides], each leg's ``response``
+    [H | c], ``effective`` M_l [H | c], ``coupling`` Λ P_r (P_r: the hub rows' rotational
+    columns) and the hub's system ``ring`` [S | t].
     RK4: stage derivatives ``kq``, ``kv``, ``kw``, stage states ``qs``, ``vs``, the state at the
     start of the step ``q0``, ``v0`` and the partitioned integrator's independent states ``y0``,
     ``ky``."""
@@ -152,7 +152,6 @@ class Workspace(NamedTuple):
     gamma: np.ndarray
     residual: np.ndarray
     reduced: np.ndarray
-    rhs: np.ndarray
     response: np.ndarray
     effective: np.ndarray
     coupling: np.ndarray
@@ -169,7 +168,7 @@ class Workspace(NamedTuple):
 
 
 #: Floats in a workspace buffer: the sizes of :class:`Workspace`'s fields, in order.
-WORKSPACE_SIZE = (117 + 78 + 6 * 13 * 18 + 6 * 13 + 13 + 66 + 60 + 6 * 12 * 5 + 60 + 24 + 42
+WORKSPACE_SIZE = (117 + 78 + 6 * 13 * 18 + 6 * 13 + 13 + 66 + 6 * 12 * 5 + 60 + 12 + 42
                   + 4 * 91 + 4 * 78 + 4 + 91 + 78 + 91 + 78 + 12 + 48)
 
 
@@ -197,14 +196,12 @@ def workspace(buffer):
     o += 13
     reduced = buffer[o:o + 66].reshape((6, 11))
     o += 66
-    rhs = buffer[o:o + 60].reshape((12, 5))
-    o += 60
     response = buffer[o:o + 360].reshape((6, 12, 5))
     o += 360
     effective = buffer[o:o + 60].reshape((12, 5))
     o += 60
-    coupling = buffer[o:o + 24].reshape((4, 6))
-    o += 24
+    coupling = buffer[o:o + 12].reshape((4, 3))
+    o += 12
     ring = buffer[o:o + 42].reshape((6, 7))
     o += 42
     kq = buffer[o:o + 364].reshape((4, 91))
@@ -224,5 +221,5 @@ def workspace(buffer):
     y0 = buffer[o:o + 12]
     o += 12
     ky = buffer[o:o + 48].reshape((4, 12))
-    return Workspace(rotations, forces, blocks, gamma, residual, reduced, rhs, response,
+    return Workspace(rotations, forces, blocks, gamma, residual, reduced, response,
                      effective, coupling, ring, kq, kv, kw, qs, vs, q0, v0, y0, ky)

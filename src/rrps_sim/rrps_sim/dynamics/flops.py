@@ -27,8 +27,10 @@ def _leg_solve(n: int) -> int:
 
 
 def _leg_coupling(m: int) -> int:
-    """M_l [H | c]; Λ = H^T M_l H and w; Λ P; S += P^T Λ P, t -= P^T w; a_l = c - H P a_h."""
-    return 36 * (m + 1) + 12 * m * (m + 1) + 36 * m + 12 * m * m + 12 * m + 72 * m + 36 * m
+    """M_l [H | c]; Λ = H^T M_l H and w (12 rows); Λ P_r (4 x 3); S += P^T Λ P, t -= P^T w;
+    P a_h and a_l = c - H P a_h."""
+    return (36 * (m + 1) + 12 * (m * (m + 1) + 1 + 2 * m) + 84 + 3 * 9 + 9 * 11 + 7 * m
+            + 12 * 2 * m)
 
 
 def evaluation_flops(support: int = 0) -> int:

@@ -34,7 +34,7 @@ import math
 import numpy as np
 
 from rrps_kinematics.backend import jit
-from rrps_kinematics.multibody import gauss_eliminate, rotation_into
+from rrps_kinematics.multibody import gauss_eliminate, leg_residual_with_rotations, rotation_into
 from rrps_sim.dynamics.bundles import Observation, Observations, workspace
 from rrps_sim.dynamics.constraints import (
     angular_velocity,
@@ -43,6 +43,7 @@ from rrps_sim.dynamics.constraints import (
     joint_residual,
     leg_blocks_with_rotations,
     matvec3,
+    ring_b_grounded_residual,
 )
 
 __all__ = ['accelerations', 'actuator_power', 'applied_forces', 'drift_and_norm', 'lu_solve', 'multipliers',
@@ -85,21 +86,31 @@ def _cholesky_solve(Lc, X, n, nrhs):
 
 
 @jit(fastmath=True)
-def _leg_solve(B, R, n, K, Y):
-    """Solve B_l Y = R (B_l: leg rows 0-11 of ``B`` on the link columns 6-17) for the first n
-    columns of R (12 x n): Y (12 x n); False if B_l is singular.
+def _rhs(row, c, r0, m, gamma):
+    """Row ``row`` of the leg solve's right-hand side c: the unit vector of hub row r0 + c for
+    c < m, γ for c = m."""
+    if c == m:
+        return gamma[row]
+    return 1.0 if row == r0 + c else 0.0
 
-    Rows 0-2 (eq. 3) give r_u = R_0:3 - X_u π_u and rows 3-5 (eq. 4) r_l = R_3:6 - X_l π_l, with
+
+@jit(fastmath=True)
+def _leg_solve(B, gamma, r0, m, K, Y):
+    """Solve B_l Y = [E | γ] (B_l: leg rows 0-11 of ``B`` on the link columns 6-17; E the unit
+    columns of the m hub rows from r0): Y (12 x m + 1) = [H | c]; False if B_l is singular.
+
+    Rows 0-2 (eq. 3) give r_u = b_0:3 - X_u π_u and rows 3-5 (eq. 4) r_l = b_3:6 - X_l π_l, with
     X the π' columns of those rows; substituted into rows 9-10 (eq. 7, which alone hold link
-    translations besides them) they leave K [π_l; π_u] = R' on rows 6-11, solved with partial
+    translations besides them) they leave K [π_l; π_u] = b' on rows 6-11, solved with partial
     pivoting. y = [r_l, π_l, r_u, π_u]."""
+    n = m + 1
     for i in range(6):
         r = 6 + i
         for j in range(3):
             K[i, j] = B[r, 9 + j]
             K[i, 3 + j] = B[r, 15 + j]
         for c in range(n):
-            K[i, 6 + c] = R[r, c]
+            K[i, 6 + c] = _rhs(r, c, r0, m, gamma)
     for r in (9, 10):
         i = r - 6
         e0, e1, e2 = B[r, 12], B[r, 13], B[r, 14]
@@ -107,7 +118,9 @@ def _leg_solve(B, R, n, K, Y):
             K[i, j] += e0 * B[3, 9 + j] + e1 * B[4, 9 + j] + e2 * B[5, 9 + j]
             K[i, 3 + j] -= e0 * B[0, 15 + j] + e1 * B[1, 15 + j] + e2 * B[2, 15 + j]
         for c in range(n):
-            K[i, 6 + c] += e0 * (R[3, c] - R[0, c]) + e1 * (R[4, c] - R[1, c]) + e2 * (R[5, c] - R[2, c])
+            K[i, 6 + c] += (e0 * (_rhs(3, c, r0, m, gamma) - _rhs(0, c, r0, m, gamma))
+                            + e1 * (_rhs(4, c, r0, m, gamma) - _rhs(1, c, r0, m, gamma))
+                            + e2 * (_rhs(5, c, r0, m, gamma) - _rhs(2, c, r0, m, gamma)))
     ok, _ = gauss_eliminate(K, 6, 6, 6 + n)
     if not ok:
         return False
@@ -115,16 +128,16 @@ def _leg_solve(B, R, n, K, Y):
         rhs = 6 + c
         for i in range(5, -1, -1):
             s = K[i, rhs]
-            for m in range(i + 1, 6):
-                s -= K[i, m] * K[m, rhs]
+            for j in range(i + 1, 6):
+                s -= K[i, j] * K[j, rhs]
             K[i, rhs] = s / K[i, i]
         for i in range(3):
             Y[3 + i, c] = K[i, rhs]
             Y[9 + i, c] = K[3 + i, rhs]
-            Y[i, c] = R[3 + i, c] - (B[3 + i, 9] * K[0, rhs] + B[3 + i, 10] * K[1, rhs]
-                                     + B[3 + i, 11] * K[2, rhs])
-            Y[6 + i, c] = R[i, c] - (B[i, 15] * K[3, rhs] + B[i, 16] * K[4, rhs]
-                                     + B[i, 17] * K[5, rhs])
+            Y[i, c] = _rhs(3 + i, c, r0, m, gamma) - (B[3 + i, 9] * K[0, rhs] + B[3 + i, 10] * K[1, rhs]
+                                                       + B[3 + i, 11] * K[2, rhs])
+            Y[6 + i, c] = _rhs(i, c, r0, m, gamma) - (B[i, 15] * K[3, rhs] + B[i, 16] * K[4, rhs]
+                                                       + B[i, 17] * K[5, rhs])
     return True
 
 
@@ -153,89 +166,30 @@ def applied_forces(q, v, params, A, F):
 
 
 @jit(fastmath=True)
-def _leg_coupling(k, m, r0, mass, inertia, ws):
-    """Leg k's Λ P and w (module docstring) -> ws.coupling, ws.effective, added to the hub's
-    system ws.ring: S += P^T Λ P, t -= P^T w (m hub rows from r0)."""
-    B = ws.blocks[k]
-    H = ws.response[k]
-    MH = ws.effective
-    F = ws.forces
-    bl = 1 + 2 * k
-    bu = 2 + 2 * k
-    # M_l [H | c]: the links' masses and inertias J' on [r_l, π_l, r_u, π_u]
-    for col in range(m + 1):
-        for i in range(3):
-            MH[i, col] = mass[bl] * H[i, col]
-            MH[6 + i, col] = mass[bu] * H[6 + i, col]
-            MH[3 + i, col] = (inertia[bl, i, 0] * H[3, col] + inertia[bl, i, 1] * H[4, col]
-                              + inertia[bl, i, 2] * H[5, col])
-            MH[9 + i, col] = (inertia[bu, i, 0] * H[9, col] + inertia[bu, i, 1] * H[10, col]
-                              + inertia[bu, i, 2] * H[11, col])
-    # Λ = H^T M_l H (m x m) and w = H^T (F_l - M_l c) into the reduced system's spare rows
-    lam = ws.reduced
-    for a in range(m):
-        for b in range(a, m):
-            s = 0.0
-            for r in range(12):
-                s += H[r, a] * MH[r, b]
-            lam[a, b] = s
-            lam[b, a] = s
-        s = 0.0
-        for r in range(12):
-            s += H[r, a] * ((F[6 * bl + r] if r < 6 else F[6 * bu + r - 6]) - MH[r, m])
-        lam[a, m] = s
-    LP = ws.coupling
-    for a in range(m):
-        for j in range(6):
-            s = 0.0
-            for b in range(m):
-                s += lam[a, b] * B[r0 + b, j]
-            LP[a, j] = s
-    S = ws.ring
-    for i in range(6):
-        t = 0.0
-        for a in range(m):
-            t += B[r0 + a, i] * lam[a, m]
-        S[i, 6] -= t
-        for j in range(6):
-            s = 0.0
-            for a in range(m):
-                s += B[r0 + a, i] * LP[a, j]
-            S[i, j] += s
-
-
-@jit(fastmath=True)
-def _stabilise(q, v, k, alpha, beta, params, ws):
-    """Baumgarte's γ <- γ - 2 α Φ̇ - β² Φ on leg k's joint rows (its blocks in ``ws``)."""
-    A, B, gamma, res = ws.rotations, ws.blocks[k], ws.gamma[k], ws.residual
-    bl = 1 + 2 * k
-    bu = 2 + 2 * k
-    joint_residual(q, k, params.joints, params.support, A[0], A[bl], A[bu], res)
-    for r in range(12):
-        phidot = 0.0
-        for j in range(6):
-            phidot += B[r, j] * v[j] + B[r, 6 + j] * v[6 * bl + j] + B[r, 12 + j] * v[6 * bu + j]
-        gamma[r] -= 2.0 * alpha * phidot + beta * beta * res[r]
-
-
-@jit(fastmath=True)
-def accelerations(q, v, forces, alpha, beta, params, ws, acc):
+def accelerations(q, v, forces, alpha, beta, params, ws, acc):  # noqa: C901 - a compiled kernel: flat loops for numba
     """Solve eq. 19 for [r̈, ω̇'] (78,) -> acc; returns False if singular.
 
     Baumgarte stabilisation with α, β (0, 0: none): γ <- γ - 2 α Φ̇ - β² Φ (joint rows). Leaves
-    the body rotations, F and each leg's blocks in ``ws`` (for :func:`multipliers`)."""
+    the body rotations, F and each leg's blocks in ``ws`` (for :func:`multipliers`). The hub
+    rows' P is [-I | Y] on the point rows and, with ring_b grounded, [0 | z^T] on the universal
+    joint's dot-1 row."""
     joints, mass, inertia, support = params.joints, params.mass, params.inertia, params.support
-    m = 3 if support == 0 else 4
-    r0 = 0 if support == 0 else 3
+    m = 3 + support
+    r0 = 3 * support
     A = ws.rotations
     F = ws.forces
     applied_forces(q, v, params, A, F)
     S = ws.ring
     for i in range(6):
         for j in range(6):
-            S[i, j] = inertia[0, i - 3, j - 3] if i >= 3 and j >= 3 else (mass[0] if i == j else 0.0)
+            S[i, j] = 0.0
         S[i, 6] = F[i]
-    R = ws.rhs
+    for i in range(3):
+        S[i, i] = mass[0]
+        for j in range(3):
+            S[3 + i, 3 + j] = inertia[0, i, j]
+    MH = ws.effective
+    LY = ws.coupling
     for k in range(6):
         bl = 1 + 2 * k
         bu = 2 + 2 * k
@@ -246,38 +200,89 @@ def accelerations(q, v, forces, alpha, beta, params, ws, acc):
             F[6 * bl + i] -= forces[k] * A[bl, i, 2]
             F[6 * bu + i] += forces[k] * A[bl, i, 2]
         if alpha != 0.0 or beta != 0.0:
-            _stabilise(q, v, k, alpha, beta, params, ws)
-        for r in range(12):
-            for c in range(m):
-                R[r, c] = 1.0 if r == r0 + c else 0.0
-            R[r, m] = gamma[r]
-        if not _leg_solve(B, R, m + 1, ws.reduced, ws.response[k]):
+            res = ws.residual
+            leg_residual_with_rotations(q, k, 0.0, joints, A[0], A[bl], A[bu], res)
+            if support == 1:
+                ring_b_grounded_residual(q, k, joints, A[0], A[bl], A[bu], res)
+            for r in range(12):
+                phidot = 0.0
+                for j in range(6):
+                    phidot += (B[r, j] * v[j] + B[r, 6 + j] * v[6 * bl + j]
+                               + B[r, 12 + j] * v[6 * bu + j])
+                gamma[r] -= 2.0 * alpha * phidot + beta * beta * res[r]
+        H = ws.response[k]
+        if not _leg_solve(B, gamma, r0, m, ws.reduced, H):
             return False
-        _leg_coupling(k, m, r0, mass, inertia, ws)
+        # M_l [H | c]: the links' masses and inertias J' on [r_l, π_l, r_u, π_u]
+        for col in range(m + 1):
+            for i in range(3):
+                MH[i, col] = mass[bl] * H[i, col]
+                MH[6 + i, col] = mass[bu] * H[6 + i, col]
+                MH[3 + i, col] = (inertia[bl, i, 0] * H[3, col] + inertia[bl, i, 1] * H[4, col]
+                                  + inertia[bl, i, 2] * H[5, col])
+                MH[9 + i, col] = (inertia[bu, i, 0] * H[9, col] + inertia[bu, i, 1] * H[10, col]
+                                  + inertia[bu, i, 2] * H[11, col])
+        # Λ = H^T M_l H and w = H^T (F_l - M_l c) over the hub rows (a fourth, the dot-1 row, with
+        # ring_b grounded; zero otherwise), then S += P^T Λ P, t -= P^T w
+        L00 = L01 = L02 = L03 = L11 = L12 = L13 = L22 = L23 = L33 = 0.0
+        w0 = w1 = w2 = w3 = 0.0
+        for r in range(12):
+            fm = (F[6 * bl + r] if r < 6 else F[6 * bu + r - 6]) - MH[r, m]
+            h0, h1, h2 = H[r, 0], H[r, 1], H[r, 2]
+            L00 += h0 * MH[r, 0]
+            L01 += h0 * MH[r, 1]
+            L02 += h0 * MH[r, 2]
+            L11 += h1 * MH[r, 1]
+            L12 += h1 * MH[r, 2]
+            L22 += h2 * MH[r, 2]
+            w0 += h0 * fm
+            w1 += h1 * fm
+            w2 += h2 * fm
+            if m == 4:
+                h3 = H[r, 3]
+                L03 += h0 * MH[r, 3]
+                L13 += h1 * MH[r, 3]
+                L23 += h2 * MH[r, 3]
+                L33 += h3 * MH[r, 3]
+                w3 += h3 * fm
+        lam = ((L00, L01, L02, L03), (L01, L11, L12, L13), (L02, L12, L22, L23), (L03, L13, L23, L33))
+        w = (w0, w1, w2, w3)
+        P = ((B[r0, 3], B[r0, 4], B[r0, 5]), (B[r0 + 1, 3], B[r0 + 1, 4], B[r0 + 1, 5]),
+             (B[r0 + 2, 3], B[r0 + 2, 4], B[r0 + 2, 5]),
+             (B[6, 3], B[6, 4], B[6, 5]) if m == 4 else (0.0, 0.0, 0.0))
+        for a in range(4):
+            for j in range(3):
+                LY[a, j] = lam[a][0] * P[0][j] + lam[a][1] * P[1][j] + lam[a][2] * P[2][j] + lam[a][3] * P[3][j]
+        for i in range(3):
+            S[i, 6] += w[i]
+            S[3 + i, 6] -= P[0][i] * w0 + P[1][i] * w1 + P[2][i] * w2 + P[3][i] * w3
+            for j in range(3):
+                S[i, j] += lam[i][j]
+                S[i, 3 + j] -= LY[i, j]
+                S[3 + j, i] -= LY[i, j]
+                S[3 + i, 3 + j] += (P[0][i] * LY[0, j] + P[1][i] * LY[1, j] + P[2][i] * LY[2, j]
+                                    + P[3][i] * LY[3, j])
     if not _cholesky(S, 6):
         return False
     _cholesky_solve(S, S[:, 6:7], 6, 1)
     for i in range(6):
         acc[i] = S[i, 6]
-    _link_accelerations(m, r0, ws, acc)
-    return True
-
-
-@jit(fastmath=True)
-def _link_accelerations(m, r0, ws, acc):
-    """Each leg's link accelerations a_l = c - H P a_h from the hub's, acc[0:6]."""
     for k in range(6):
         B = ws.blocks[k]
         H = ws.response[k]
+        # P a_h = -ṙ_h + Y ω̇'_h on the point rows (and z^T ω̇'_h on the dot-1 row), a_l = c - H P a_h
+        z0 = -acc[0] + B[r0, 3] * acc[3] + B[r0, 4] * acc[4] + B[r0, 5] * acc[5]
+        z1 = -acc[1] + B[r0 + 1, 3] * acc[3] + B[r0 + 1, 4] * acc[4] + B[r0 + 1, 5] * acc[5]
+        z2 = -acc[2] + B[r0 + 2, 3] * acc[3] + B[r0 + 2, 4] * acc[4] + B[r0 + 2, 5] * acc[5]
         o = 6 * (1 + 2 * k)
-        for r in range(12):
-            acc[o + r] = H[r, m]
-        for a in range(m):
-            z = 0.0
-            for j in range(6):
-                z += B[r0 + a, j] * acc[j]
+        if m == 3:
             for r in range(12):
-                acc[o + r] -= H[r, a] * z
+                acc[o + r] = H[r, 3] - (H[r, 0] * z0 + H[r, 1] * z1 + H[r, 2] * z2)
+        else:
+            z3 = B[6, 3] * acc[3] + B[6, 4] * acc[4] + B[6, 5] * acc[5]
+            for r in range(12):
+                acc[o + r] = H[r, 4] - (H[r, 0] * z0 + H[r, 1] * z1 + H[r, 2] * z2 + H[r, 3] * z3)
+    return True
 
 
 @jit
