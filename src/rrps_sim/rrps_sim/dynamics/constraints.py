@@ -20,10 +20,10 @@ Small 3-vector helpers on tuples (no allocation) are shared with the other kerne
 from __future__ import annotations
 
 from rrps_kinematics.backend import jit
-from rrps_kinematics.multibody import leg_residual_with_rotations, rotation
+from rrps_kinematics.multibody import rotation
 
 __all__ = ['HUB_ROWS', 'angular_velocity', 'cross3', 'dot3', 'leg_blocks', 'leg_blocks_with_rotations',
-           'joint_residual', 'matvec3', 'ring_b_grounded_residual']
+           'matvec3', 'ring_b_grounded_residual']
 
 #: The rows of a leg that involve the hub, by support: the spherical joint's (ring_a grounded) or
 #: the universal joint's (ring_b grounded).
@@ -91,19 +91,11 @@ def _dot_row(B, row, ci, a, wi, cj, c, wj, gamma):
 
 
 @jit
-def joint_residual(q, k, joints, support, Ab, Al, Au, out):
-    """Leg k's 12 joint constraints (eqs. 3-8) and its driving row (eq. 10, length 0) -> out,
-    for the hub's and the links' rotations given."""
-    leg_residual_with_rotations(q, k, 0.0, joints, Ab, Al, Au, out)
-    if support == 1:
-        ring_b_grounded_residual(q, k, joints, Ab, Al, Au, out)
-
-
-@jit
 def ring_b_grounded_residual(q, k, joints, Ab, Al, Au, out):
-    """Rows 0-6 of leg k's residual with ring_b grounded (the hub, ring_a, carries the universal
-    joints) -> out[0:7], over the ring_a-grounded rows of
-    :func:`~rrps_kinematics.multibody.leg_residual_with_rotations`; rows 7-12 are the same."""
+    """Rows 0-6 of leg k's joint residual with ring_b grounded (the hub, ring_a, carries the
+    universal joints) -> out[0:7], over the ring_a-grounded rows that
+    :func:`~rrps_kinematics.multibody.leg_residual_with_rotations` wrote there; its rows 7-12
+    (the prismatic pair, the driving row) hold for either support."""
     a, ha, sb, cl, cu = joints
     ol = 7 * (1 + 2 * k)
     ou = 7 * (2 + 2 * k)

@@ -23,9 +23,9 @@ import math
 import numpy as np
 
 from rrps_kinematics.backend import jit
-from rrps_kinematics.multibody import JointGeometry, leg_jacobian, rotation, rotation_into
+from rrps_kinematics.multibody import JointGeometry, leg_jacobian, leg_residual_with_rotations, rotation, rotation_into
 from rrps_sim.dynamics.bundles import workspace
-from rrps_sim.dynamics.constraints import joint_residual, leg_blocks, matvec3
+from rrps_sim.dynamics.constraints import leg_blocks, matvec3, ring_b_grounded_residual
 from rrps_sim.dynamics.kernels import (
     accelerations,
     actuator_power,
@@ -136,7 +136,9 @@ def solve_dependent(q, v, params, tolerance, max_iterations):  # noqa: C901 - a 
         while True:
             rotation_into(q, ol + 3, Al)
             rotation_into(q, ou + 3, Au)
-            joint_residual(q, k, joints, support, Ah, Al, Au, res)
+            leg_residual_with_rotations(q, k, 0.0, joints, Ah, Al, Au, res)
+            if support == 1:
+                ring_b_grounded_residual(q, k, joints, Ah, Al, Au, res)
             for i in range(12):
                 rn[i] = res[i]
             rn[12] = q[ol + 3] ** 2 + q[ol + 4] ** 2 + q[ol + 5] ** 2 + q[ol + 6] ** 2 - 1.0

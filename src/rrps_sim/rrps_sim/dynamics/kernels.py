@@ -40,7 +40,6 @@ from rrps_sim.dynamics.constraints import (
     angular_velocity,
     cross3,
     dot3,
-    joint_residual,
     leg_blocks_with_rotations,
     matvec3,
     ring_b_grounded_residual,
@@ -86,45 +85,39 @@ def _cholesky_solve(Lc, X, n, nrhs):
 
 
 @jit(fastmath=True)
-def _rhs(row, c, r0, m, gamma):
-    """Row ``row`` of the leg solve's right-hand side c: the unit vector of hub row r0 + c for
-    c < m, γ for c = m."""
-    if c == m:
-        return gamma[row]
-    return 1.0 if row == r0 + c else 0.0
-
-
-@jit(fastmath=True)
 def _leg_solve(B, gamma, r0, m, K, Y):
     """Solve B_l Y = [E | γ] (B_l: leg rows 0-11 of ``B`` on the link columns 6-17; E the unit
-    columns of the m hub rows from r0): Y (12 x m + 1) = [H | c]; False if B_l is singular.
+    columns of the m hub rows r0 .. r0 + m - 1): Y (12 x m + 1) = [H | c]; False if B_l is
+    singular.
 
     Rows 0-2 (eq. 3) give r_u = b_0:3 - X_u π_u and rows 3-5 (eq. 4) r_l = b_3:6 - X_l π_l, with
     X the π' columns of those rows; substituted into rows 9-10 (eq. 7, which alone hold link
     translations besides them) they leave K [π_l; π_u] = b' on rows 6-11, solved with partial
     pivoting. y = [r_l, π_l, r_u, π_u]."""
-    n = m + 1
     for i in range(6):
         r = 6 + i
         for j in range(3):
             K[i, j] = B[r, 9 + j]
             K[i, 3 + j] = B[r, 15 + j]
-        for c in range(n):
-            K[i, 6 + c] = _rhs(r, c, r0, m, gamma)
+        for c in range(m):
+            K[i, 6 + c] = 1.0 if r == r0 + c else 0.0
+        K[i, 6 + m] = gamma[r]
     for r in (9, 10):
         i = r - 6
         e0, e1, e2 = B[r, 12], B[r, 13], B[r, 14]
         for j in range(3):
             K[i, j] += e0 * B[3, 9 + j] + e1 * B[4, 9 + j] + e2 * B[5, 9 + j]
             K[i, 3 + j] -= e0 * B[0, 15 + j] + e1 * B[1, 15 + j] + e2 * B[2, 15 + j]
-        for c in range(n):
-            K[i, 6 + c] += (e0 * (_rhs(3, c, r0, m, gamma) - _rhs(0, c, r0, m, gamma))
-                            + e1 * (_rhs(4, c, r0, m, gamma) - _rhs(1, c, r0, m, gamma))
-                            + e2 * (_rhs(5, c, r0, m, gamma) - _rhs(2, c, r0, m, gamma)))
-    ok, _ = gauss_eliminate(K, 6, 6, 6 + n)
+        for c in range(m):                  # + e · (b_3:6 - b_0:3) of a unit column
+            u = r0 + c
+            if u < 6:
+                K[i, 6 + c] += B[r, 12 + u - 3] if u >= 3 else -B[r, 12 + u]
+        K[i, 6 + m] += (e0 * (gamma[3] - gamma[0]) + e1 * (gamma[4] - gamma[1])
+                        + e2 * (gamma[5] - gamma[2]))
+    ok, _ = gauss_eliminate(K, 6, 6, 7 + m)
     if not ok:
         return False
-    for c in range(n):
+    for c in range(m + 1):
         rhs = 6 + c
         for i in range(5, -1, -1):
             s = K[i, rhs]
@@ -134,10 +127,10 @@ def _leg_solve(B, gamma, r0, m, K, Y):
         for i in range(3):
             Y[3 + i, c] = K[i, rhs]
             Y[9 + i, c] = K[3 + i, rhs]
-            Y[i, c] = _rhs(3 + i, c, r0, m, gamma) - (B[3 + i, 9] * K[0, rhs] + B[3 + i, 10] * K[1, rhs]
-                                                       + B[3 + i, 11] * K[2, rhs])
-            Y[6 + i, c] = _rhs(i, c, r0, m, gamma) - (B[i, 15] * K[3, rhs] + B[i, 16] * K[4, rhs]
-                                                       + B[i, 17] * K[5, rhs])
+            bl = gamma[3 + i] if c == m else (1.0 if r0 + c == 3 + i else 0.0)
+            bu = gamma[i] if c == m else (1.0 if r0 + c == i else 0.0)
+            Y[i, c] = bl - (B[3 + i, 9] * K[0, rhs] + B[3 + i, 10] * K[1, rhs] + B[3 + i, 11] * K[2, rhs])
+            Y[6 + i, c] = bu - (B[i, 15] * K[3, rhs] + B[i, 16] * K[4, rhs] + B[i, 17] * K[5, rhs])
     return True
 
 
@@ -386,7 +379,9 @@ def drift_and_norm(q, params, ws):
     res = ws.residual
     s = 0.0
     for k in range(6):
-        joint_residual(q, k, params.joints, params.support, A[0], A[1 + 2 * k], A[2 + 2 * k], res)
+        leg_residual_with_rotations(q, k, 0.0, params.joints, A[0], A[1 + 2 * k], A[2 + 2 * k], res)
+        if params.support == 1:
+            ring_b_grounded_residual(q, k, params.joints, A[0], A[1 + 2 * k], A[2 + 2 * k], res)
         for i in range(12):
             s += res[i] * res[i]
     n = 0.0
