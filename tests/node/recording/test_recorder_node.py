@@ -86,7 +86,7 @@ def test_recording_topics_schemas_counts_values_qos_and_tf(ros_context, tmp_path
             time.sleep(0.004)
         assert wait_for(lambda: recorder.recording.messages >= 400, timeout=10.0)
         time.sleep(0.3)
-    summary, messages = _read(tmp_path / 'test_0.mcap')
+    summary, messages = _read(tmp_path / 'test' / 'test_0.mcap')
     channels = {c.topic: c for c in summary.channels.values()}
     schemas = {c.topic: summary.schemas[c.schema_id].name for c in summary.channels.values()}
     assert schemas[f'{NS}/pose'] == 'geometry_msgs/msg/PoseStamped'
@@ -121,7 +121,7 @@ def test_recording_topics_schemas_counts_values_qos_and_tf(ros_context, tmp_path
     enable_qos = yaml.safe_load(channels[f'{NS}/teleop/enable'].metadata['offered_qos_profiles'])
     assert enable_qos[0]['reliability'] == 'best_effort'
     assert channels[f'{NS}/pose'].metadata['topic_type_hash'].startswith('RIHS01_')
-    with open(tmp_path / 'test_0.mcap', 'rb') as stream:
+    with open(tmp_path / 'test' / 'test_0.mcap', 'rb') as stream:
         [bag] = [m for m in make_reader(stream).iter_metadata() if m.name == 'rosbag2']
     meta = yaml.safe_load(bag.metadata['serialized_metadata'])
     assert meta['version'] == 9 and meta['message_count'] == summary.statistics.message_count
@@ -133,9 +133,36 @@ def test_recording_topics_schemas_counts_values_qos_and_tf(ros_context, tmp_path
     assert last[('ring_a', 'ring_b')].translation.z == pytest.approx(poses[-1].pose.position.z)
     assert {('ring_a', f'leg_{i}_base') for i in range(1, 7)} <= set(last)
     assert {(f'leg_{i}_base', f'leg_{i}_tip') for i in range(1, 7)} <= set(last)
-    # the recorder reports on /diagnostics (recorded too)
-    diag = [d for t, _, d, _ in messages if t == '/diagnostics']
-    assert any(s.name.startswith('recorder_node:') for a in diag for s in a.status)
+    # the recorder reports on /diagnostics (recorded too), with its host role as hardware_id
+    diag = [s for t, _, d, _ in messages if t == '/diagnostics' for s in d.status]
+    assert any(s.name.startswith('recorder_node:') and s.hardware_id == 'observer' for s in diag)
+    # the bag folder as rosbags (an independent rosbag2 reader) sees it
+    _check_bag_with_rosbags(tmp_path / 'test', summary, poses)
+
+
+def _check_bag_with_rosbags(folder: Path, summary, poses) -> None:
+    """metadata.yaml agrees with the MCAP summary; rosbags reads topics, types, counts, time
+    range, QoS and the published poses."""
+    from rosbags.rosbag2 import Reader
+    from rosbags.typesys import Stores, get_typestore
+
+    counts = summary.statistics.channel_message_counts
+    expected = {c.topic: (summary.schemas[c.schema_id].name, counts.get(cid, 0))
+                for cid, c in summary.channels.items()}
+    store = get_typestore(Stores.ROS2_JAZZY)
+    with Reader(folder) as reader:
+        assert reader.ros_distro == 'jazzy'
+        assert {c.topic: (c.msgtype, c.msgcount) for c in reader.connections} == expected
+        assert reader.message_count == summary.statistics.message_count
+        assert (reader.start_time, reader.end_time - 1) == (summary.statistics.message_start_time,
+                                                            summary.statistics.message_end_time)
+        qos = {c.topic: c.ext.offered_qos_profiles for c in reader.connections}
+        assert [q.reliability.name for q in qos[f'{NS}/teleop/enable']] == ['BEST_EFFORT']
+        assert [q.reliability.name for q in qos[f'{NS}/pose']] == ['RELIABLE']
+        pose_connection = [c for c in reader.connections if c.topic == f'{NS}/pose']
+        zs = [store.deserialize_cdr(data, c.msgtype).pose.position.z
+              for c, _, data in reader.messages(connections=pose_connection)]
+    assert zs == [p.pose.position.z for p in poses]
 
 
 def test_with_a_live_tf_the_recorder_writes_its_own_tf_only(ros_context, tmp_path):
@@ -173,7 +200,7 @@ def test_with_a_live_tf_the_recorder_writes_its_own_tf_only(ros_context, tmp_pat
     assert subscribers == {'recorder_live'}
     tf = {}
     for name in ('own', 'live'):
-        summary, messages = _read(tmp_path / name / 'test_0.mcap')
+        summary, messages = _read(tmp_path / name / 'test' / 'test_0.mcap')
         [channel] = [c for c in summary.channels.values() if c.topic == '/tf']
         [offered] = yaml.safe_load(channel.metadata['offered_qos_profiles'])
         assert (offered['reliability'], offered['durability']) == ('reliable', 'volatile')
@@ -224,7 +251,7 @@ def test_a_recording_cut_by_a_crash_is_readable_up_to_the_crash(ros_context, ros
         if child.poll() is None:
             child.kill()
             child.wait()
-    path = tmp_path / 'crash_0.mcap'
+    path = tmp_path / 'crash' / 'crash_0.mcap'
     zs = []
     with open(path, 'rb') as stream:
         try:
@@ -237,6 +264,15 @@ def test_a_recording_cut_by_a_crash_is_readable_up_to_the_crash(ros_context, ros
     assert zs == list(range(len(zs)))  # what is there is whole and in order
     # lost: at most what came after the last flush (flush_period 0.2 s) and the last 0.1 s
     assert len(zs) >= sent - rate * 1.0, (len(zs), sent)
+    # the bag: metadata.yaml lists the files closed before the crash (none here); the cut
+    # file stays in the folder, and a replay of the folder reads it
+    from rrps_recording.storage.bag import bag_files
+    from rrps_recording.transport.replay import RecordingSet
+    meta = yaml.safe_load((tmp_path / 'crash' / 'metadata.yaml').read_text())
+    assert meta['rosbag2_bagfile_information']['relative_file_paths'] == []
+    assert bag_files(tmp_path / 'crash') == [path]
+    replayed = RecordingSet([tmp_path / 'crash']).messages(topics=[f'{NS}/pose'])
+    assert sum(1 for _ in replayed) == len(zs)
 
 
 def _trigger(client, node, timeout=10.0):
@@ -269,7 +305,7 @@ def test_flight_recorder_saves_on_request_and_on_faults(ros_context, tmp_path):
         return DiagnosticArray(status=[status])
 
     def dumps(kind):
-        return sorted(tmp_path.glob(f'flight_*_{kind}*.mcap'))
+        return sorted(tmp_path.glob(f'flight_*_{kind}*/*.mcap'))
 
     with Spinner(ros_context, [recorder, probe]):
         assert wait_for(lambda: f'{NS}/pose' in recorder._raw_subscriptions, timeout=10.0)
@@ -286,7 +322,7 @@ def test_flight_recorder_saves_on_request_and_on_faults(ros_context, tmp_path):
               if t == f'{NS}/pose']
         assert zs and zs[-1] == 299 and zs == list(range(zs[0], 300))
         assert 50 <= len(zs) <= 200  # about the 1 s window, not the whole 3 s
-        assert not list(tmp_path.glob('test_*.mcap'))  # record:=false writes no recording
+        assert not list(tmp_path.glob('test*'))  # record:=false writes no recording
         # a gripper refusal (the driver's typed count goes up)
         diag_pub.publish(driver(0))
         assert wait_for(lambda: recorder._faults._refusals == 0, timeout=10.0)
@@ -329,8 +365,8 @@ def test_faults_trigger_a_dump_also_when_their_topics_are_not_recorded(ros_conte
             time.sleep(0.01)
         diag_pub.publish(DiagnosticArray(status=[DiagnosticStatus(
             level=DiagnosticStatus.ERROR, name='fk_node: forward kinematics')]))
-        assert wait_for(lambda: list(tmp_path.glob('flight_*_node_error*.mcap')), timeout=20.0)
+        assert wait_for(lambda: list(tmp_path.glob('flight_*_node_error*/*.mcap')), timeout=20.0)
         recorder.wait_for_dumps()
-    path, = tmp_path.glob('flight_*_node_error*.mcap')
+    path, = tmp_path.glob('flight_*_node_error*/*.mcap')
     _, messages = _read(path)
     assert {t for t, _, _, _ in messages} == {f'{NS}/pose'}

@@ -92,7 +92,7 @@ def test_replay_into_a_fresh_fk_and_viewer_reproduces_the_recorded_poses(ros_con
             target(probe, [0.0, 0.0, 0.42 + 2e-4 * 74], [0.0, 0.0, np.sin(0.074), np.cos(0.074)]))
             or False, timeout=60.0, period=0.02)
         time.sleep(0.3)
-    path = tmp_path / 'session_0.mcap'
+    path = tmp_path / 'session' / 'session_0.mcap'
     recorded = {}
     with open(path, 'rb') as stream:
         reader = make_reader(stream, decoder_factories=[DecoderFactory()])
@@ -109,7 +109,7 @@ def test_replay_into_a_fresh_fk_and_viewer_reproduces_the_recorded_poses(ros_con
         port = s.getsockname()[1]
     viewer = ViewerNode(context=ros_context, namespace=NS, parameter_overrides=robot + [
         Parameter('port', value=port), Parameter('token', value='replay-test-token')])
-    replay = _replay(ros_context, [path], topics=[f'{NS}/actuators/state'], rate=2.0)
+    replay = _replay(ros_context, [tmp_path / 'session'], topics=[f'{NS}/actuators/state'], rate=2.0)
     probe = Probe(context=ros_context, name='replay_probe', namespace=NS)
     fresh = probe.collect(PoseStamped, 'pose')
     with Spinner(ros_context, [fk, viewer, replay, probe]):

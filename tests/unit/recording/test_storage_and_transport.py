@@ -18,7 +18,8 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 from rrps_interfaces.recording import COMMAND_TOPICS, RecorderTrigger
-from rrps_recording.storage.mcap_files import McapRecording, RotatingRecording, TopicInfo, write_recording
+from rrps_recording.storage.bag import BagRecording
+from rrps_recording.storage.mcap_files import McapRecording, TopicInfo, write_recording
 from rrps_recording.storage.qos import (
     INFINITE_NS,
     QosSpec,
@@ -216,7 +217,7 @@ def test_recorder_and_replay_qos_follow_the_publishers():
 
 def test_rotation_by_duration_and_by_size_and_bag_metadata(tmp_path):
     topic = TopicInfo('/rrps/x', 'std_msgs/msg/Bool')
-    by_time = RotatingRecording(tmp_path / 'time', 'r', max_seconds=1.0)
+    by_time = BagRecording(tmp_path / 'time' / 'r', max_seconds=1.0)
     by_time.add_topic(topic)
     for i in range(30):  # 3 s of 10 Hz
         by_time.write('/rrps/x', 10**9 * 100 + i * 10**8, b'\x00\x01\x00\x00\x01')
@@ -224,8 +225,7 @@ def test_rotation_by_duration_and_by_size_and_bag_metadata(tmp_path):
     assert [p.name for p in by_time.files] == ['r_0.mcap', 'r_1.mcap', 'r_2.mcap']
     counts = [len(_decoded(p)) for p in by_time.files]
     assert counts == [10, 10, 10]
-    by_size = RotatingRecording(tmp_path / 'size', 'r', max_bytes=20_000, compression='none',
-                                chunk_size=4096)
+    by_size = BagRecording(tmp_path / 'size' / 'r', max_bytes=20_000, compression='none', chunk_size=4096)
     by_size.add_topic(topic)
     for i in range(3000):
         by_size.write('/rrps/x', i, b'\x00\x01\x00\x00' + bytes([i % 2]) + bytes(60))
@@ -238,7 +238,7 @@ def test_rotation_by_duration_and_by_size_and_bag_metadata(tmp_path):
     bag = yaml.safe_load(record.metadata['serialized_metadata'])
     assert bag['version'] == 9 and bag['storage_identifier'] == 'mcap'
     assert bag['ros_distro'] == 'jazzy' and bag['message_count'] == 10
-    assert bag['relative_file_paths'] == ['r_1.mcap']
+    assert bag['relative_file_paths'] == ['r_1.mcap']  # each file is a bag by itself too
     [entry] = bag['topics_with_message_count']
     assert entry['message_count'] == 10
     assert entry['topic_metadata']['type'] == 'std_msgs/msg/Bool'
