@@ -8,6 +8,7 @@ NODES = {
     'recorder_node': ('rrps_recording.nodes.recorder_node', 'RecorderNode'),
     'replay_node': ('rrps_recording.nodes.replay_node', 'ReplayNode'),
     'markers_node': ('rrps_recording.nodes.markers_node', 'MarkersNode'),
+    'foxglove_node': ('rrps_recording.nodes.foxglove_node', 'FoxgloveNode'),
 }
 
 setup(

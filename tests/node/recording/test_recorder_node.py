@@ -315,8 +315,11 @@ def test_flight_recorder_saves_on_request_and_on_faults(ros_context, tmp_path):
         response = _trigger(client, probe)
         assert response.success
         path = Path(response.message)
-        assert path.parent == tmp_path.resolve() and 'operator' in path.name
+        # the MCAP file of the bag folder <output_dir>/flight_<time>_operator/
+        assert path.parent.parent == tmp_path.resolve() and path.name == f'{path.parent.name}_0.mcap'
+        assert 'operator' in path.name
         assert wait_for(path.exists, timeout=20.0)
+        assert (path.parent / 'metadata.yaml').is_file()
         _, messages = _read(path)
         zs = [round((d.pose.position.z - 0.4) * 1e5) for t, _, d, _ in messages
               if t == f'{NS}/pose']
