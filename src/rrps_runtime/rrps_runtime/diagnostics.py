@@ -49,6 +49,15 @@ class Diagnostics:
         self.level = OK
         self.message = ''
 
+    @property
+    def name(self) -> str:
+        """The status's name, ``<node name>: <what>``."""
+        return self._name
+
+    @property
+    def hardware_id(self) -> str:
+        return self._hardware_id
+
     def report(self, level: bytes, message: str, values: StatusValues | dict | None = None, *,
                force: bool = False) -> None:
         """Publish a status now if it changed, if forced, or if the period has elapsed.
