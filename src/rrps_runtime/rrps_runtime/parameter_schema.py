@@ -30,9 +30,9 @@ _TYPES = (bool, int, float, str, tuple)
 class Parameter:
     """One parameter of a node.
 
-    ``default`` fixes the type (bool, int, float, str, or a tuple of floats); ``None`` with
-    ``type=float`` declares a parameter left unset in the shipped file, whose default the node
-    derives (e.g. from the robot). ``range`` bounds a number (inclusive), ``choices`` a string;
+    ``default`` fixes the type (bool, int, float, str, or a tuple of ``item_type``: floats or
+    ints); ``None`` with ``type`` declares a parameter left unset in the shipped file, whose
+    default the node derives (e.g. from the robot). ``range`` bounds a number (inclusive), ``choices`` a string;
     ``dynamic`` parameters may be set while the node runs (the others are read-only).
     """
 
@@ -46,6 +46,8 @@ class Parameter:
     type: type | None = None
     #: the node derives the default when the value is unset (documented in the file, not set there)
     unset_note: str = ''
+    #: the type of a list parameter's items: float or int
+    item_type: type = float
 
     def __post_init__(self) -> None:
         kind = self.type or type(self.default)
@@ -56,9 +58,12 @@ class Parameter:
         object.__setattr__(self, 'type', kind)
         if self.default is not None and not isinstance(self.default, kind):
             raise ValueError(f'{self.name}: default {self.default!r} is not a {kind.__name__}')
+        if self.item_type not in (float, int):
+            raise ValueError(f'{self.name}: a list parameter holds floats or ints')
         if kind is tuple and not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                     and (self.item_type is float or isinstance(v, int))
                                      for v in self.default or ()):
-            raise ValueError(f'{self.name}: a list parameter holds numbers')
+            raise ValueError(f'{self.name}: a list parameter holds {self.item_type.__name__}s')
         if self.range is not None:
             lo, hi = self.range
             if kind not in (int, float, tuple) or not lo <= hi:
@@ -81,14 +86,14 @@ class Parameter:
             values = value if isinstance(value, (tuple, list)) else (value,)
             for v in values:
                 if not (isinstance(v, (int, float)) and lo <= v <= hi):
-                    raise ValueError(f'{self.name} must be in [{lo:g}, {hi:g}], got {value!r}')
+                    raise ValueError(f'{self.name} must be in [{_bound(lo)}, {_bound(hi)}], got {value!r}')
 
     def constraints(self) -> str:
         """The range or the choices in words ('' when neither)."""
         if self.choices:
             return ' | '.join(self.choices)
         if self.range is not None:
-            return f'[{self.range[0]:g} .. {self.range[1]:g}]'
+            return f'[{_bound(self.range[0])} .. {_bound(self.range[1])}]'
         return ''
 
     def summary(self) -> str:
@@ -97,6 +102,11 @@ class Parameter:
         if self.constraints():
             text += f' {self.constraints()}'
         return text + (' (read-only)' if self.read_only else '')
+
+
+def _bound(value: float) -> str:
+    """A range bound in words: an int as it is, a float in %g."""
+    return str(value) if isinstance(value, int) else f'{value:g}'
 
 
 #: The robot every node serves: a shipped robot's name or the path of a robot YAML.
@@ -115,7 +125,7 @@ def format_value(value) -> str:
         return text if ('.' in text or 'e' in text or 'n' in text) else text + '.0'
     if isinstance(value, (tuple, list)):
         return '[' + ', '.join(format_value(float(v)) for v in value) + ']'
-    return str(value)
+    return str(value) if value != '' else "''"
 
 
 @dataclass(frozen=True)

@@ -5,20 +5,26 @@ from __future__ import annotations
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType, SetParametersResult
 from rclpy.node import Node
+from rclpy.parameter import Parameter as RosParameter
 
 from rrps_runtime.parameter_schema import NodeParameters, Parameter
 
 __all__ = ['descriptor', 'declare_parameters']
 
 _TYPES = {bool: ParameterType.PARAMETER_BOOL, int: ParameterType.PARAMETER_INTEGER,
-          float: ParameterType.PARAMETER_DOUBLE, str: ParameterType.PARAMETER_STRING,
-          tuple: ParameterType.PARAMETER_DOUBLE_ARRAY}
+          float: ParameterType.PARAMETER_DOUBLE, str: ParameterType.PARAMETER_STRING}
+_ARRAY_TYPES = {float: ParameterType.PARAMETER_DOUBLE_ARRAY, int: ParameterType.PARAMETER_INTEGER_ARRAY}
+
+
+def _ros_type(parameter: Parameter) -> int:
+    """The ParameterType of ``parameter``."""
+    return _ARRAY_TYPES[parameter.item_type] if parameter.type is tuple else _TYPES[parameter.type]
 
 
 def descriptor(parameter: Parameter) -> ParameterDescriptor:
     """The ROS ParameterDescriptor of ``parameter``."""
     d = ParameterDescriptor(description=parameter.summary(), read_only=parameter.read_only,
-                            type=_TYPES[parameter.type],
+                            type=_ros_type(parameter),
                             additional_constraints=parameter.constraints())
     if parameter.range is not None:
         lo, hi = parameter.range
@@ -37,13 +43,13 @@ def declare_parameters(node: Node, schema: NodeParameters) -> dict:
     """
     values = {}
     for p in schema:
-        if p.default is None:
-            value = node.declare_parameter(p.name, _TYPES[p.type], descriptor(p)).value
+        if p.default is None:  # statically typed, unset unless given
+            value = node.declare_parameter(p.name, RosParameter.Type(_ros_type(p)), descriptor(p)).value
         else:
             default = list(p.default) if p.type is tuple else p.default
             value = node.declare_parameter(p.name, default, descriptor(p)).value
         if p.type is tuple and value is not None:
-            value = tuple(float(v) for v in value)
+            value = tuple(p.item_type(v) for v in value)
         if value is not None:
             p.check(value)
         values[p.name] = value
