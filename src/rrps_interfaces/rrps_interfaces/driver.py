@@ -63,6 +63,10 @@ class DriverStatus(CommandAgeStatus):
     gripper_refusals: int = 0
     #: why the last write of ``state_file`` failed ('' when it succeeded or there is none)
     state_file_error: str = ''
+    #: the hardware implementation the driver hosts (its ``hardware`` parameter)
+    hardware: str = 'simulated'
+    #: the hardware's latched faults, ``<actuator>:<kind>`` (kind: a FaultKind value of rrps_sim.hardware)
+    faults: tuple[str, ...] = ()
 
     @classmethod
     def grippers(cls, closed: Mapping[str, bool]) -> dict:

@@ -221,8 +221,8 @@ class RecorderNode(Node):
         now = time.time_ns()
         graph = self.get_topic_names_and_types()
         # The graph's shape (topics, types, publisher counts, nodes): while it is unchanged and
-        # no tap's topics changed, nothing is looked at again (the per-topic endpoint queries,
-        # about 0.2 ms each, are most of discovery's cost).
+        # no tap's topics changed, nothing is looked at again (the per-topic endpoint queries are
+        # most of discovery's cost).
         signature = (tuple((name, tuple(types)) for name, types in graph),
                      tuple(self.get_node_names_and_namespaces()),
                      tuple(self.count_publishers(name) for name, _ in graph))
