@@ -219,3 +219,13 @@ def test_write_bag_writes_a_whole_folder_named_like_rosbag2s(tmp_path):
         write_bag(tmp_path / 'flight_x', [], [])
     with pytest.raises(ValueError, match='not a bag folder'):
         bag_files(tmp_path / 'nothing_here')
+
+
+def test_free_name_never_returns_a_folder_that_exists_or_is_being_written(tmp_path):
+    from rrps_recording.storage.bag import free_name
+
+    assert free_name(tmp_path, 'rrps_x') == 'rrps_x'
+    (tmp_path / 'rrps_x').mkdir()
+    (tmp_path / 'rrps_x_1.part').mkdir()
+    assert free_name(tmp_path, 'rrps_x') == 'rrps_x_2'
+    assert free_name(tmp_path, 'rrps_x', taken={'rrps_x_2'}) == 'rrps_x_3'

@@ -65,7 +65,7 @@ from rrps_interfaces.status import DIAGNOSTICS
 from rrps_interfaces.teleop import TELEOP_STATUS
 from rrps_recording.markers import robot_transforms, tf_message_cdr, world_pose_of_ring_a
 from rrps_recording.nodes.topic_graph import offered, qos_spec, subscription_for, subscription_qos, type_hash_text
-from rrps_recording.storage.bag import BagRecording
+from rrps_recording.storage.bag import BagRecording, free_name
 from rrps_recording.storage.bag_metadata import TopicInfo
 from rrps_recording.storage.mcap_files import COMPRESSIONS
 from rrps_recording.storage.qos import TF_QOS
@@ -93,7 +93,7 @@ _IGNORED = ('/rosout', '/parameter_events')
 PARAMETERS = NodeParameters('recorder_node', 'rrps_recording', [
     ROBOT,
     Parameter('output_dir', 'rrps_recordings', 'folder of the recordings'),
-    Parameter('prefix', '', 'bag folder name in output_dir (empty: rrps_<date>_<time>)'),
+    Parameter('prefix', '', 'bag folder name in output_dir, which must not exist (empty: rrps_<date>_<time>)'),
     Parameter('record', True, 'write every message to MCAP files'),
     Parameter('flight_recorder', True, 'keep the last buffer_seconds for fault dumps'),
     Parameter('buffer_seconds', 60.0, 'flight recorder window', unit='s', range=(1.0, 3600.0)),
@@ -137,7 +137,7 @@ class RecorderNode(Node):
         tf_rate = values['tf_rate']
         self.post_trigger = values['post_trigger']
         self.min_dump_interval = values['min_dump_interval']
-        self.prefix = prefix or time.strftime('rrps_%Y%m%d_%H%M%S')
+        self.prefix = prefix or free_name(self.output_dir, time.strftime('rrps_%Y%m%d_%H%M%S'))
         self._lock = threading.Lock()
         self._topics: dict[str, TopicInfo] = {}
         self._raw_subscriptions: dict[str, object] = {}

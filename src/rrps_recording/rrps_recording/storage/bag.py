@@ -32,7 +32,7 @@ from rrps_recording.storage.bag_metadata import (
 )
 from rrps_recording.storage.mcap_files import McapRecording
 
-__all__ = ['BagRecording', 'write_bag', 'bag_files', 'is_bag']
+__all__ = ['BagRecording', 'write_bag', 'bag_files', 'is_bag', 'free_name']
 
 
 class BagRecording:
@@ -161,6 +161,17 @@ def write_bag(folder: str | os.PathLike, topics: Sequence[TopicInfo],
         bag.close()
     os.replace(part, folder)
     return folder / bag.files[0].name
+
+
+def free_name(parent: str | os.PathLike, name: str, taken=()) -> str:
+    """``name``, else ``name_1``, ``name_2``, ...: the first with no folder (nor ``.part``
+    folder) in ``parent`` and not in ``taken``."""
+    parent = Path(parent)
+    candidate, n = name, 1
+    while (candidate in taken or (parent / candidate).exists()
+           or (parent / f'{candidate}.part').exists()):
+        candidate, n = f'{name}_{n}', n + 1
+    return candidate
 
 
 def is_bag(path: str | os.PathLike) -> bool:

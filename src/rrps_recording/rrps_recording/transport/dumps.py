@@ -10,7 +10,7 @@ import time
 from pathlib import Path
 from typing import Callable, Sequence
 
-from rrps_recording.storage.bag import write_bag
+from rrps_recording.storage.bag import free_name, write_bag
 from rrps_recording.storage.bag_metadata import TopicInfo
 
 __all__ = ['FlightDumps']
@@ -28,13 +28,9 @@ class FlightDumps:
         self._writers: list[threading.Thread] = []
 
     def _folder(self, why: str) -> Path:
-        stamp = time.strftime('%Y%m%d_%H%M%S')
-        folder = self.output_dir / f'flight_{stamp}_{why}'
-        n = 1
-        while folder.exists() or folder in self.folders or folder.with_name(folder.name + '.part').exists():
-            folder = self.output_dir / f'flight_{stamp}_{why}_{n}'
-            n += 1
-        return folder
+        name = free_name(self.output_dir, f'flight_{time.strftime("%Y%m%d_%H%M%S")}_{why}',
+                         taken={f.name for f in self.folders})
+        return self.output_dir / name
 
     def start(self, why: str, messages: Callable[[], Messages], topics: Callable[[], list[TopicInfo]],
               *, settle: float = 0.0) -> Path:
