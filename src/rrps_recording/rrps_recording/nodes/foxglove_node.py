@@ -1,13 +1,13 @@
 """foxglove_node: the robot live in Foxglove, through the Foxglove SDK's WebSocket server.
 
-Every topic of the node's namespace, ``/diagnostics``, ``/tf`` and ``/tf_static`` (or the
-names/prefixes of ``topics``) is found in the ROS graph every ``discovery_period`` s, so late
-publishers are bridged too: one channel per topic, the ``ros2msg`` schema the recorder writes
-(:func:`rrps_recording.storage.schemas.message_schema`) and the CDR bytes as received (raw
-subscriptions, nothing deserialised), with the QoS that hears every publisher (rosbag2's rule: a
-latched ``robot_description`` arrives to a late bridge too; its newest message is sent again to
-each client that subscribes to it). Each topic is sent at most
-``max_rate`` times a second, the newest message
+Every topic of the node's namespace, ``/diagnostics``, ``/tf``, ``/tf_static`` and
+``/robot_description`` (or the names/prefixes of ``topics``) is found in the ROS graph every
+``discovery_period`` s, so late publishers are bridged too: one channel per topic, the
+``ros2msg`` schema the recorder writes (:func:`rrps_recording.storage.schemas.message_schema`)
+and the CDR bytes as received (raw subscriptions, nothing deserialised), with the QoS that
+hears every publisher (rosbag2's rule: a latched ``robot_description`` arrives to a late bridge
+too; its newest message is sent again to each client that subscribes to it). Each topic is
+sent at most ``max_rate`` times a second, the newest message
 (:class:`rrps_recording.transport.throttle.Throttle`), except the ``unthrottled`` ones
 (``/diagnostics``: several nodes share it; ``robot_description``). The recording taps' bundles
 are not bridged.
@@ -44,16 +44,18 @@ __all__ = ['FoxgloveNode', 'main', 'TF_STATIC']
 
 TF_STATIC = '/tf_static'
 _IGNORED = ('/rosout', '/parameter_events')
+#: The absolute topics bridged with the namespace's.
+_ABSOLUTE = (DIAGNOSTICS, TF, TF_STATIC, '/robot_description')
 
 #: foxglove_node's parameters (descriptors, the shipped file and the docs' table come from here).
 PARAMETERS = NodeParameters('foxglove_node', 'rrps_recording', [
     Parameter('host', '127.0.0.1', 'address the WebSocket server listens on (127.0.0.1: this machine only)'),
     Parameter('port', 8765, 'WebSocket server port (0: any free port)', range=(0, 65535)),
     Parameter('topics', ('',), "topics or prefixes to bridge ('' = the node's namespace, /diagnostics, /tf, "
-              '/tf_static)'),
+              '/tf_static, /robot_description)'),
     Parameter('max_rate', 30.0, 'each topic sent at most this often (the newest message)', unit='Hz',
               range=(0.1, 1000.0)),
-    Parameter('unthrottled', ('/diagnostics', 'robot_description'),
+    Parameter('unthrottled', ('/diagnostics', 'robot_description', '/robot_description'),
               'topics sent whole (relative names are in the namespace)'),
     Parameter('discovery_period', 1.0, 'graph discovery period', unit='s', range=(0.05, 60.0)),
     Parameter('depth', 10, 'subscription queue depth', range=(1, 10000)),
@@ -118,7 +120,7 @@ class FoxgloveNode(Node):
         ns = self.get_namespace().rstrip('/')
         for entry in self.topics:
             if entry == '':
-                if name in (DIAGNOSTICS, TF, TF_STATIC) or not ns or name.startswith(ns + '/'):
+                if name in _ABSOLUTE or not ns or name.startswith(ns + '/'):
                     return True
             elif name == entry or name.startswith(entry.rstrip('/') + '/'):
                 return True
