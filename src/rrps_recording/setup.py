@@ -32,7 +32,7 @@ setup(
         'rrps_runtime',
         'rrps_kinematics',
     ],
-    extras_require={'test': ['pytest', 'hypothesis']},
+    extras_require={'test': ['pytest', 'hypothesis', 'rosbags', 'websockets']},
     zip_safe=True,
     maintainer='rrps maintainers',
     maintainer_email='maintainers@users.noreply.h-seed-0d31557d.example',
