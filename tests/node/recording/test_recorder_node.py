@@ -58,7 +58,9 @@ def test_recording_topics_schemas_counts_values_qos_and_tf(ros_context, tmp_path
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Bool
 
+    from rrps_description.pose import Pose
     from rrps_runtime.messages import joint_state_msg
+    from rrps_testing.transform_tree import pose_in
     probe = Probe(context=ros_context, namespace=NS)
     pose_pub = probe.publisher(PoseStamped, 'pose')
     state_pub = probe.publisher(JointState, 'actuators/state')
@@ -130,9 +132,14 @@ def test_recording_topics_schemas_counts_values_qos_and_tf(ros_context, tmp_path
     assert tf
     last = {(x.header.frame_id, x.child_frame_id): x.transform for x in tf[-1].transforms}
     assert last[('world', 'ring_a')].translation.z == pytest.approx(1.5)
-    assert last[('ring_a', 'ring_b')].translation.z == pytest.approx(poses[-1].pose.position.z)
-    assert {('ring_a', f'leg_{i}_base') for i in range(1, 7)} <= set(last)
-    assert {(f'leg_{i}_base', f'leg_{i}_tip') for i in range(1, 7)} <= set(last)
+    # the URDF's tree, fixed joints included (any part of a recording shows the whole robot)
+    tree = [(parent, child, Pose([t.translation.x, t.translation.y, t.translation.z],
+                                 [t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w]))
+            for (parent, child), t in last.items()]
+    assert pose_in(tree, 'ring_b', 'ring_a').position[2] == pytest.approx(poses[-1].pose.position.z)
+    assert {('ring_a', f'leg_{i}_universal_cross') for i in range(1, 7)} <= set(last)
+    assert {(f'leg_{i}_spherical_x_link', f'leg_{i}_tip') for i in range(1, 7)} <= set(last)
+    assert ('leg_1_tip', 'ring_b') in last
     # the recorder reports on /diagnostics (recorded too), with its host role as hardware_id
     diag = [s for t, _, d, _ in messages if t == '/diagnostics' for s in d.status]
     assert any(s.name.startswith('recorder_node:') and s.hardware_id == 'observer' for s in diag)
@@ -167,12 +174,15 @@ def _check_bag_with_rosbags(folder: Path, summary, poses) -> None:
 
 def test_with_a_live_tf_the_recorder_writes_its_own_tf_only(ros_context, tmp_path):
     """markers_node publishes live /tf: a recorder that writes /tf (tf_rate > 0) does not
-    subscribe to it (no duplicate /tf); one at tf_rate 0 records the live /tf, and both agree."""
+    subscribe to it (no duplicate /tf); one at tf_rate 0 records the live /tf, and both agree
+    (the recorder's /tf also has the URDF's fixed joints, which markers_node puts on /tf_static)."""
     require(importlib.util.find_spec('tf2_msgs') is not None,
             'tf2_msgs is not installed (./rrps builds it when cmake and a C compiler are there)')
     from geometry_msgs.msg import PoseStamped
     from rclpy.parameter import Parameter
 
+    from rrps_description.geometry import load_robot
+    from rrps_recording.markers import fixed_transforms
     from rrps_recording.nodes.markers_node import MarkersNode
     from rrps_recording.nodes.recorder_node import RecorderNode
     probe = Probe(context=ros_context, namespace=NS)
@@ -211,9 +221,11 @@ def test_with_a_live_tf_the_recorder_writes_its_own_tf_only(ros_context, tmp_pat
     assert len(tf['live']) > len(tf['own'])
     frames = [{(x.header.frame_id, x.child_frame_id): x.transform for x in d.transforms}
               for d in (tf['own'][-1][1], tf['live'][-1][1])]
-    assert frames[0].keys() == frames[1].keys() and ('world', 'ring_a') in frames[0]
-    for key, a in frames[0].items():
-        b = frames[1][key]
+    fixed = {(parent, child) for parent, child, _ in fixed_transforms(load_robot('pole_climber'))}
+    assert frames[0].keys() == frames[1].keys() | fixed and ('world', 'ring_a') in frames[1]
+    assert not frames[1].keys() & fixed
+    for key, b in frames[1].items():
+        a = frames[0][key]
         assert [a.translation.x, a.translation.y, a.translation.z, a.rotation.x, a.rotation.y,
                 a.rotation.z, a.rotation.w] == pytest.approx(
             [b.translation.x, b.translation.y, b.translation.z, b.rotation.x, b.rotation.y,

@@ -356,31 +356,31 @@ def test_command_topics_are_remapped_unless_allowed():
 def test_transforms_chain_to_the_joint_centres_and_markers_use_the_viewer_colours():
     from rrps_description.geometry import load_robot
     from rrps_description.pose import Pose
+    from rrps_description.urdf import leg_chain
     from rrps_kinematics.inverse import inverse_kinematics
     from rrps_kinematics.scene import robot_figure
-    from rrps_recording.markers import robot_markers, robot_transforms
+    from rrps_recording.markers import fixed_transforms, robot_markers, robot_transforms
+    from rrps_testing.transform_tree import pose_in
 
     geom = load_robot('pole_climber')
     a_T_b = Pose([0.01, -0.005, 0.42], [math.sin(0.05), 0.0, 0.0, math.cos(0.05)])
     world_T_a = Pose([0.0, 0.0, 1.2], [0.0, 0.0, math.sin(0.3), math.cos(0.3)])
     tree = robot_transforms(geom, a_T_b, world_T_a)
-    poses = {child: (parent, pose) for parent, child, pose in tree}
-
-    def in_world(frame):
-        pose = Pose()
-        while frame != 'world':
-            parent, step = poses[frame]
-            pose = step.compose(pose)
-            frame = parent
-        return pose
+    moving = robot_transforms(geom, a_T_b, world_T_a, fixed=False)
+    # the fixed joints are robot_state_publisher's /tf_static: the whole tree is the two
+    assert sorted(tree, key=repr) == sorted(moving + fixed_transforms(geom), key=repr)
+    assert ('leg_1_tip', 'ring_b') in {(p, c) for p, c, _ in fixed_transforms(geom)}
 
     ik = inverse_kinematics(geom, a_T_b.position, a_T_b.quaternion_xyzw)
     for i in range(6):
-        tip = in_world(f'leg_{i + 1}_tip').position
-        base = in_world(f'leg_{i + 1}_base').position
+        chain = leg_chain(i + 1)
+        tip = pose_in(tree, chain.tip, 'world').position
+        base = pose_in(tree, chain.links[0], 'world').position
         np.testing.assert_allclose(tip, world_T_a.apply(ik.ring_b_anchors_in_a[i]), atol=1e-9)
         np.testing.assert_allclose(base, world_T_a.apply(geom.ring_a_anchors[i]), atol=1e-9)
-    np.testing.assert_allclose(in_world('ring_b').position, world_T_a.compose(a_T_b).position)
+        upper = pose_in(tree, chain.links[2], 'ring_a')  # at the S-joint, z along the leg
+        np.testing.assert_allclose(upper.rotation[:, 2], ik.unit_vectors[i], atol=1e-12)
+    np.testing.assert_allclose(pose_in(tree, 'ring_b', 'world').position, world_T_a.compose(a_T_b).position)
 
     markers = robot_markers(geom, a_T_b, grippers={'ring_a': True, 'ring_b': False},
                             target=a_T_b, world_T_a=world_T_a)

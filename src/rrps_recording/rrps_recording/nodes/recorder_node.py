@@ -20,13 +20,13 @@ of one per message, which is what keeps the recorder's cost within its budget (R
 the two loses and doubles nothing (:class:`rrps_recording.transport.taps.TapRouter`). A tapped
 message is logged at its publish time plus the node's smallest bundle delay.
 
-The transforms ``world -> ring_a -> ring_b`` and each leg's links
-(:func:`rrps_recording.markers.robot_transforms`) are written to ``/tf`` as
+The transforms ``world -> ring_a`` and the URDF's, fixed joints included
+(:func:`rrps_recording.markers.robot_transforms`), are written to ``/tf`` as
 ``tf2_msgs/msg/TFMessage`` at ``tf_rate`` Hz from the newest ``pose``, ``odometry/*`` and
 ``grippers/state`` (:func:`rrps_recording.markers.tf_message_cdr`: tf2_msgs is not
-needed); a live ``/tf`` (markers_node's) is then not subscribed to, so the recording has no
-duplicate transforms. With
-``tf_rate`` 0 the live ``/tf`` is recorded like any topic (where tf2_msgs is installed).
+needed); a live ``/tf`` is then not subscribed to, so the recording has no duplicate transforms,
+and any part of it shows the whole robot. With ``tf_rate`` 0 the live ``/tf`` is recorded like
+any topic (where tf2_msgs is installed; add ``/tf_static`` to ``topics`` for the fixed joints).
 
 Flight recorder (``flight_recorder``, default on): the last ``buffer_seconds`` of the same
 messages in memory (:class:`rrps_recording.transport.ring.MessageRing`), written to
