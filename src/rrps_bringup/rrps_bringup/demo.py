@@ -224,7 +224,8 @@ def _banner(viewer, driver_scheduling: str) -> str:
     return (f'\nrrps demo: the pole climber is live.\n'
             f'  viewer:         {viewer.url}\n'
             f'  operator token: {viewer.token}\n'
-            f'  robot for RViz2/Foxglove: {NAMESPACE}/robot/markers (MarkerArray, frame ring_a)\n'
+            f'  robot for RViz2/Foxglove: {NAMESPACE}/robot_description (RobotModel), '
+            f'{NAMESPACE}/robot/markers (MarkerArray), /tf; fixed frame ring_a\n'
             f'  scheduling:     {scheduling}\n'
             f'  (every browser is read-only until it enters the token; Ctrl-C stops everything)\n')
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Mapping
 
 import numpy as np
@@ -31,7 +32,7 @@ import numpy as np
 from rrps_description.geometry import RobotGeometry
 from rrps_description.names import LEG_NAMES, RING_A_FRAME, RING_B_FRAME, ring_joint
 from rrps_description.pose import Pose
-from rrps_description.rotations import cross, rotation_vector_to_quat_xyzw
+from rrps_description.rotations import cross
 from rrps_description.tool import TARGET_FRAMES
 
 __all__ = ['Shape', 'Inertial', 'Link', 'Joint', 'RobotModel', 'LegChain', 'leg_chain',
@@ -39,6 +40,7 @@ __all__ = ['Shape', 'Inertial', 'Link', 'Joint', 'RobotModel', 'LegChain', 'leg_
 
 #: What a limit the robot description leaves unbounded is written as (URDF needs numbers).
 UNBOUNDED = 1e9
+#: The tool's link: the tool-centre-point frame, named as ik_node's target frame.
 TOOL_LINK = TARGET_FRAMES[1]
 _MATERIALS = {'ring': (0.47, 0.51, 0.59, 1.0), 'leg': (0.16, 0.67, 0.27, 1.0),
               'joint': (0.25, 0.25, 0.25, 1.0), 'gripper': (0.78, 0.78, 0.78, 1.0),
@@ -113,19 +115,25 @@ class Joint:
     effort: float = 0.0
     velocity: float = 0.0
 
-    @property
+    @cached_property
     def origin(self) -> Pose:
         """The joint's origin as a Pose (from the written rpy, as a URDF parser reads it)."""
         return Pose.from_rotation(self.xyz, rpy_to_matrix(self.rpy))
 
     def transform(self, value: float = 0.0) -> Pose:
-        """parent_T_child at joint value ``value`` [rad or m]: the origin, then the motion."""
-        axis = np.asarray(self.axis)
+        """parent_T_child at joint value ``value`` [rad or m]: the origin, then the motion (a
+        translation along the axis, or a rotation about it by the quaternion (axis sin, cos))."""
+        origin = self.origin
         if self.kind == 'fixed':
-            return self.origin
+            return origin
         if self.kind == 'prismatic':
-            return self.origin @ Pose(axis * value)
-        return self.origin @ Pose((0.0, 0.0, 0.0), rotation_vector_to_quat_xyzw(axis * value))
+            return Pose(origin.position + origin.rotation @ (np.asarray(self.axis) * value),
+                        origin.quaternion_xyzw)
+        x1, y1, z1, w1 = (float(v) for v in origin.quaternion_xyzw)
+        s, w2 = math.sin(0.5 * value), math.cos(0.5 * value)
+        x2, y2, z2 = (s * v for v in self.axis)
+        return Pose(origin.position, (w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2, w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+                                      w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2, w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2))
 
 
 @dataclass(frozen=True)
@@ -185,10 +193,6 @@ class RobotModel:
     links: tuple[Link, ...]
     joints: tuple[Joint, ...]
     notes: tuple[str, ...] = ()
-
-    @property
-    def root(self) -> str:
-        return self.links[0].name
 
     @property
     def moving_joints(self) -> tuple[str, ...]:
@@ -316,9 +320,8 @@ def _leg(g: RobotGeometry, sizes: _Sizes, i: int, yoke: np.ndarray) -> tuple[lis
     upper_body = Shape('cylinder', (r, body), (0.0, 0.0, -0.5 * body), material='leg')
 
     def leg_link(name: str, part, sign: float, shape: Shape) -> Link:
-        inertia = np.diag([part.inertia_transverse, part.inertia_transverse, part.inertia_axial])
         return Link(name, (shape,), (shape,),
-                    Inertial(part.mass, np.array([0.0, 0.0, sign * part.com_from_joint]), inertia))
+                    Inertial(part.mass, np.array([0.0, 0.0, sign * part.com_from_joint]), part.inertia_tensor()))
 
     links = [Link(cross_link, (ball,)), leg_link(lower, g.lower_link, 1.0, lower_body),
              leg_link(upper, g.upper_link, -1.0, upper_body), Link(sz), Link(sx), Link(tip, (ball,))]

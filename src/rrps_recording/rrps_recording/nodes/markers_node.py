@@ -237,7 +237,8 @@ class MarkersNode(Node):
         state, grippers = latest.get(ACTUATORS_STATE), latest.get(GRIPPERS_STATE)
         return (pose(latest.get(POSE)), pose(latest.get(TARGET_POSE)),
                 pose(latest.get(odometry_topic('ring_a'))), pose(latest.get(odometry_topic('ring_b'))),
-                None if state is None else (tuple(state.effort), tuple(state.position)),
+                None if state is None else (tuple(state.effort), tuple(
+                    v for n, v in zip(state.name, state.position) if n in self._ring_joints)),
                 None if grippers is None else tuple(grippers.position))
 
     def _publish(self) -> None:
