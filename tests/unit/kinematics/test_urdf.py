@@ -1,14 +1,19 @@
 """The URDF against an independent parser and forward kinematics (yourdfpy): for every shipped
 robot it parses, its joints, limits and inertias are the robot description's, and the joint
 states of a pose put every leg's tip on its ring_b anchor and ring_b where our FK says; our /tf
-tree is the one a URDF parser computes. ``rrps-kinematics urdf`` writes it."""
+tree is the one a URDF parser computes; urdfdom (robot_state_publisher's parser) reads it.
+``rrps-kinematics urdf`` writes it."""
 
 from __future__ import annotations
 
 import io
 import math
+import os
+import re
 import shutil
 import subprocess
+from importlib.metadata import distribution
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -156,6 +161,29 @@ def test_the_spherical_joints_stay_far_from_gimbal_lock(name):
     assert max(abs(home[n]) for i in range(1, 7) for n in leg_chain(i).spherical[1:]) < 1e-12
 
 
+def _check_urdf(path: Path) -> subprocess.CompletedProcess:
+    """urdfdom's check_urdf: the C++ parser under robot_state_publisher (cmeel-urdfdom)."""
+    prefix = Path(str(distribution('cmeel-urdfdom').locate_file('cmeel.prefix')))
+    return subprocess.run([str(prefix / 'bin' / 'check_urdf'), str(path)], capture_output=True, text=True,
+                          env={**os.environ, 'LD_LIBRARY_PATH': str(prefix / 'lib')}, timeout=60)
+
+
+@pytest.mark.parametrize('name', ROBOTS)
+def test_urdfdom_robot_state_publishers_parser_reads_the_tree(name, tmp_path):
+    g = load_robot(name)
+    path = tmp_path / f'{name}.urdf'
+    path.write_text(robot_urdf(g))
+    result = _check_urdf(path)
+    assert result.returncode == 0, result.stderr
+    assert 'root Link: ring_a has' in result.stdout
+    links = {line.split(':', 1)[1].strip() for line in result.stdout.splitlines()
+             if line.strip().startswith('child(')}
+    assert links == set(_parse(robot_urdf(g)).link_map) - {'ring_a'}
+    # and it refuses what it must: a limit without an effort
+    path.write_text(re.sub(r' effort="[^"]*"', '', robot_urdf(g), count=1))
+    assert _check_urdf(path).returncode != 0
+
+
 def test_a_users_robot_file_with_its_own_joint_axes_and_no_limits(tmp_path):
     """Any robot file: joint axes given (not along the home legs), the stroke unbounded."""
     data = yaml.safe_load(robot_path('facade_climber').read_text())
@@ -168,6 +196,8 @@ def test_a_users_robot_file_with_its_own_joint_axes_and_no_limits(tmp_path):
     text = robot_urdf(g)
     urdf = _parse(text)
     assert urdf.joint_map['leg_2'].limit.upper == UNBOUNDED and 'max_length, max_force, max_speed' in text
+    (tmp_path / 'mine.urdf').write_text(text)
+    assert _check_urdf(tmp_path / 'mine.urdf').returncode == 0
     a_T_b = Pose(g.home_position + [0.01, -0.02, 0.03], rotation_vector_to_quat_xyzw([0.05, 0.0, 0.1]))
     urdf.update_cfg(joint_values(g, a_T_b))
     for i in range(6):
