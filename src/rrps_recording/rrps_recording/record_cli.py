@@ -1,6 +1,6 @@
 """rrps-record: record the rrps topics to a bag folder (``ros2 bag record -s mcap`` for this stack).
 
-    rrps-record -o recordings                       # every topic under /rrps, /diagnostics, /tf
+    rrps-record -o recordings                       # every topic under /rrps, /diagnostics, /tf, /tf_static
     rrps-record -o recordings --max-size 500 --max-duration 600     # split files
     rrps-record -o recordings --flight-recorder-only                # only fault dumps
     rrps-record ... --ros-args -p buffer_seconds:=120.0             # any recorder_node parameter
@@ -24,7 +24,7 @@ __all__ = ['main', 'parser']
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog='rrps-record',
-        description='Record every rrps topic, /diagnostics and /tf to a rosbag2 bag folder '
+        description='Record every rrps topic, /diagnostics, /tf and /tf_static to a rosbag2 bag folder '
                     '(metadata.yaml and MCAP files: CDR messages, ros2msg schemas, offered QoS), '
                     'with a flight recorder that writes the last seconds when a fault is reported.')
     p.add_argument('-o', '--output', default='rrps_recordings', help='folder of the bag folders')
@@ -32,7 +32,7 @@ def parser() -> argparse.ArgumentParser:
                    help='name of the bag folder in --output (default rrps_<date>_<time>; must not exist)')
     p.add_argument('--namespace', default='/rrps', help="the stack's namespace (default /rrps)")
     p.add_argument('--topics', nargs='+', default=None,
-                   help='topics or prefixes to record (default: the namespace, /diagnostics, /tf)')
+                   help='topics or prefixes to record (default: the namespace, /diagnostics, /tf, /tf_static)')
     p.add_argument('--max-size', type=float, default=0.0,
                    help='start a new file past this size [MiB] (0: no limit)')
     p.add_argument('--max-duration', type=float, default=0.0,

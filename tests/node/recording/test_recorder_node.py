@@ -173,8 +173,8 @@ def _check_bag_with_rosbags(folder: Path, summary, poses) -> None:
 
 
 def test_with_a_live_tf_the_recorder_writes_its_own_tf_only(ros_context, tmp_path):
-    """markers_node publishes live /tf: a recorder that writes /tf (tf_rate > 0) does not
-    subscribe to it (no duplicate /tf); one at tf_rate 0 records the live /tf, and both agree
+    """markers_node publishes live /tf and /tf_static: a recorder that writes /tf (tf_rate > 0)
+    subscribes to neither (no duplicate transforms); one at tf_rate 0 records both, and they agree
     (the recorder's /tf also has the URDF's fixed joints, which markers_node puts on /tf_static)."""
     require(importlib.util.find_spec('tf2_msgs') is not None,
             'tf2_msgs is not installed (./rrps builds it when cmake and a C compiler are there)')
@@ -201,12 +201,13 @@ def test_with_a_live_tf_the_recorder_writes_its_own_tf_only(ros_context, tmp_pat
                         and probe.count_subscribers(f'{NS}/odometry/ring_a') >= 3, timeout=10.0)
         odom_pub.publish(_pose(probe, 1.5, frame='world'))
         pose_pub.publish(_pose(probe, 0.42))
-        assert wait_for(lambda: '/tf' in live._raw_subscriptions, timeout=10.0)
+        assert wait_for(lambda: {'/tf', '/tf_static'} <= set(live._raw_subscriptions), timeout=10.0)
         seen = own.messages
         assert wait_for(lambda: own.messages > seen + 20 and markers.tf_published > 100,
                         timeout=20.0)
         subscribers = {i.node_name for i in probe.get_subscriptions_info_by_topic('/tf')}
-        assert '/tf' not in own._raw_subscriptions and '/tf' not in own.dropped_topics
+        for topic in ('/tf', '/tf_static'):
+            assert topic not in own._raw_subscriptions and topic not in own.dropped_topics
     assert subscribers == {'recorder_live'}
     tf = {}
     for name in ('own', 'live'):
@@ -215,6 +216,8 @@ def test_with_a_live_tf_the_recorder_writes_its_own_tf_only(ros_context, tmp_pat
         [offered] = yaml.safe_load(channel.metadata['offered_qos_profiles'])
         assert (offered['reliability'], offered['durability']) == ('reliable', 'volatile')
         tf[name] = [(t, d) for topic, _, d, t in messages if topic == '/tf']
+        static = [d for topic, _, d, _ in messages if topic == '/tf_static']
+    assert len(static) == 1  # latched: the one message markers_node sent before the recorder joined
     # own: the recorder's 10 Hz only, not the live 100 Hz as well
     span = (tf['own'][-1][0] - tf['own'][0][0]) * 1e-9
     assert len(tf['own']) <= 10.0 * span + 3
@@ -224,6 +227,7 @@ def test_with_a_live_tf_the_recorder_writes_its_own_tf_only(ros_context, tmp_pat
     fixed = {(parent, child) for parent, child, _ in fixed_transforms(load_robot('pole_climber'))}
     assert frames[0].keys() == frames[1].keys() | fixed and ('world', 'ring_a') in frames[1]
     assert not frames[1].keys() & fixed
+    assert {(x.header.frame_id, x.child_frame_id) for x in static[0].transforms} == fixed
     for key, b in frames[1].items():
         a = frames[0][key]
         assert [a.translation.x, a.translation.y, a.translation.z, a.rotation.x, a.rotation.y,

@@ -30,7 +30,8 @@ import foxglove.websocket
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy
 
-from rrps_interfaces.recording import RECORDING_TAP, TF
+from rrps_interfaces.kinematics import ROBOT_DESCRIPTION
+from rrps_interfaces.recording import RECORDING_TAP, TF, TF_STATIC
 from rrps_interfaces.status import DIAGNOSTICS
 from rrps_recording.nodes.topic_graph import offered, subscription_for
 from rrps_recording.storage.schemas import message_class, message_schema
@@ -40,12 +41,11 @@ from rrps_runtime.parameter_schema import NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 
-__all__ = ['FoxgloveNode', 'main', 'TF_STATIC']
+__all__ = ['FoxgloveNode', 'main']
 
-TF_STATIC = '/tf_static'
 _IGNORED = ('/rosout', '/parameter_events')
 #: The absolute topics bridged with the namespace's.
-_ABSOLUTE = (DIAGNOSTICS, TF, TF_STATIC, '/robot_description')
+_ABSOLUTE = (DIAGNOSTICS, TF, TF_STATIC, f'/{ROBOT_DESCRIPTION}')
 
 #: foxglove_node's parameters (descriptors, the shipped file and the docs' table come from here).
 PARAMETERS = NodeParameters('foxglove_node', 'rrps_recording', [

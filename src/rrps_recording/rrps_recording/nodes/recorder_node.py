@@ -1,7 +1,7 @@
 """recorder_node: every rrps topic and /diagnostics to a rosbag2 bag folder, and the flight recorder.
 
-Recording (``record``, default on): every topic of the node's namespace, ``/diagnostics`` and
-``/tf`` (or the names/prefixes of ``topics``) is found in the ROS graph every
+Recording (``record``, default on): every topic of the node's namespace, ``/diagnostics``,
+``/tf`` and ``/tf_static`` (or the names/prefixes of ``topics``) is found in the ROS graph every
 ``discovery_period`` s, so late publishers are recorded too, and subscribed to raw: the CDR
 bytes are written as received, never deserialised. The recording is the bag folder
 ``<output_dir>/<prefix>/`` (:mod:`rrps_recording.storage.bag`): ``metadata.yaml`` and MCAP files
@@ -24,9 +24,9 @@ The transforms ``world -> ring_a`` and the URDF's, fixed joints included
 (:func:`rrps_recording.markers.robot_transforms`), are written to ``/tf`` as
 ``tf2_msgs/msg/TFMessage`` at ``tf_rate`` Hz from the newest ``pose``, ``odometry/*`` and
 ``grippers/state`` (:func:`rrps_recording.markers.tf_message_cdr`: tf2_msgs is not
-needed); a live ``/tf`` is then not subscribed to, so the recording has no duplicate transforms,
-and any part of it shows the whole robot. With ``tf_rate`` 0 the live ``/tf`` is recorded like
-any topic (where tf2_msgs is installed; add ``/tf_static`` to ``topics`` for the fixed joints).
+needed); the live ``/tf`` and ``/tf_static`` are then not subscribed to, so the recording has no
+duplicate transforms, and any part of it shows the whole robot. With ``tf_rate`` 0 the live
+``/tf`` and ``/tf_static`` are recorded like any topic (where tf2_msgs is installed).
 
 Flight recorder (``flight_recorder``, default on): the last ``buffer_seconds`` of the same
 messages in memory (:class:`rrps_recording.transport.ring.MessageRing`), written to
@@ -60,7 +60,14 @@ from rrps_description.pose import Pose
 from rrps_interfaces.climb import CLIMB_STATUS, odometry_topic
 from rrps_interfaces.driver import GRIPPERS_STATE, gripper_states
 from rrps_interfaces.kinematics import POSE
-from rrps_interfaces.recording import FLIGHT_RECORDER_SAVE, RECORDING_TAP, TF, RecorderStatus, RecorderTrigger
+from rrps_interfaces.recording import (
+    FLIGHT_RECORDER_SAVE,
+    RECORDING_TAP,
+    TF,
+    TF_STATIC,
+    RecorderStatus,
+    RecorderTrigger,
+)
 from rrps_interfaces.status import DIAGNOSTICS
 from rrps_interfaces.teleop import TELEOP_STATUS
 from rrps_recording.markers import robot_transforms, tf_message_cdr, world_pose_of_ring_a
@@ -99,7 +106,8 @@ PARAMETERS = NodeParameters('recorder_node', 'rrps_recording', [
     Parameter('buffer_seconds', 60.0, 'flight recorder window', unit='s', range=(1.0, 3600.0)),
     Parameter('buffer_max_mb', 512.0, 'flight recorder memory bound (of messages)', unit='MiB',
               range=(1.0, 65536.0)),
-    Parameter('topics', ('',), "topics or prefixes to record ('' = the node's namespace, /diagnostics and /tf)"),
+    Parameter('topics', ('',), "topics or prefixes to record ('' = the node's namespace, /diagnostics, /tf and "
+              '/tf_static)'),
     Parameter('discovery_period', 1.0, 'graph discovery period', unit='s', range=(0.05, 60.0)),
     Parameter('max_file_size_mb', 0.0, 'start a new file past this size; 0 = no limit', unit='MiB',
               range=(0.0, 1e6)),
@@ -203,7 +211,7 @@ class RecorderNode(Node):
         ns = self.get_namespace().rstrip('/')
         for entry in self.topics:
             if entry == '':
-                if name in (DIAGNOSTICS, TF) or (ns and name.startswith(ns + '/')) or not ns:
+                if name in (DIAGNOSTICS, TF, TF_STATIC) or (ns and name.startswith(ns + '/')) or not ns:
                     return True
             elif name == entry or name.startswith(entry.rstrip('/') + '/'):
                 return True
@@ -234,8 +242,8 @@ class RecorderNode(Node):
         for name, types in graph:
             if not self._selected(name) or self._is_tap(name, types):
                 continue
-            if name == TF and self._writes_tf:
-                continue  # written by this node from the robot's state
+            if name in (TF, TF_STATIC) and self._writes_tf:
+                continue  # written by this node from the robot's state (/tf: every joint)
             if len(types) != 1:
                 self.dropped_topics[name] = f'several types {types}'
                 continue
