@@ -43,10 +43,10 @@ def test_markers_of_the_robot_in_ring_a_and_world(ros_context):
     a_T_b = Pose([0.005, 0.0, 0.43], [0.0, 0.0, math.sin(0.05), math.cos(0.05)])
     stamp = probe.get_clock().now().to_msg
     with Spinner(ros_context, [node, probe]):
-        assert wait_for(lambda: probe.count_subscribers(f'{NS}/pose') > 0, timeout=10.0)
+        assert wait_for(lambda: probe.count_subscribers(f'{NS}/pose') > 0)
         probe.publisher(PoseStamped, 'pose').publish(
             pose_to_msg(a_T_b.position, a_T_b.quaternion_xyzw, frame_id='ring_a', stamp=stamp()))
-        assert wait_for(lambda: arrays, timeout=10.0)
+        assert wait_for(lambda: arrays)
         first = arrays[-1]
         probe.publisher(JointState, 'grippers/state').publish(
             joint_state_msg(stamp(), [1.0, 0.0], names=['ring_a', 'ring_b']))
@@ -56,7 +56,7 @@ def test_markers_of_the_robot_in_ring_a_and_world(ros_context):
             pose_to_msg([0.0, 0.0, 0.44], [0, 0, 0, 1], frame_id='ring_a', stamp=stamp()))
         n = len(arrays)
         assert wait_for(lambda: len(arrays) > n + 2 and any(
-            m.ns == 'ghost' for m in arrays[-1].markers), timeout=10.0)
+            m.ns == 'ghost' for m in arrays[-1].markers))
         last = arrays[-1]
     assert {m.header.frame_id for m in first.markers} <= {'ring_a', 'world'}
     by_key = {(m.ns, m.id): m for m in last.markers}
@@ -128,17 +128,17 @@ def test_live_tf_agrees_with_robot_transforms(ros_context):
     stamp = probe.get_clock().now().to_msg
     with Spinner(ros_context, [node, probe]):
         assert wait_for(lambda: probe.count_subscribers(f'{NS}/pose') > 0
-                        and probe.get_publishers_info_by_topic('/tf'), timeout=10.0)
+                        and probe.get_publishers_info_by_topic('/tf'))
         [info] = probe.get_publishers_info_by_topic('/tf')
         probe.publisher(PoseStamped, 'pose').publish(
             pose_to_msg(a_T_b.position, a_T_b.quaternion_xyzw, frame_id='ring_a', stamp=stamp()))
         # no odometry yet: the URDF's moving joints, no world
-        assert wait_for(lambda: tf, timeout=10.0)
+        assert wait_for(lambda: tf)
         _assert_transforms(tf[-1], robot_transforms(geometry, a_T_b, fixed=False))
         probe.publisher(PoseStamped, 'odometry/ring_a').publish(
             pose_to_msg(world_T_a.position, world_T_a.quaternion_xyzw, frame_id='world',
                         stamp=stamp()))
-        assert wait_for(lambda: ('world', 'ring_a') in _by_frames(tf[-1]), timeout=10.0)
+        assert wait_for(lambda: ('world', 'ring_a') in _by_frames(tf[-1]))
         _assert_transforms(tf[-1], robot_transforms(geometry, a_T_b, world_T_a, fixed=False))
         # ring_a open, ring_b grips: world -> ring_a through ring_b's odometry
         probe.publisher(PoseStamped, 'odometry/ring_b').publish(
@@ -148,7 +148,7 @@ def test_live_tf_agrees_with_robot_transforms(ros_context):
             joint_state_msg(stamp(), [0.0, 1.0], names=['ring_a', 'ring_b']))
         expected = robot_transforms(geometry, a_T_b, world_T_b.compose(a_T_b.inverse()), fixed=False)
         assert wait_for(lambda: _by_frames(tf[-1])[('world', 'ring_a')].transform.translation.z
-                        == pytest.approx(expected[0][2].position[2], abs=1e-12), timeout=10.0)
+                        == pytest.approx(expected[0][2].position[2], abs=1e-12))
         _assert_transforms(tf[-1], expected)
     assert info.node_name == 'markers_node' and info.topic_type == 'tf2_msgs/msg/TFMessage'
     # what tf2_ros' TransformBroadcaster offers (the graph does not carry history and depth)
@@ -215,7 +215,7 @@ def test_tf2_msgs_type_hash_is_the_official_jazzy_one(ros_context):
     node = MarkersNode(context=ros_context, namespace=NS)
     probe = Probe(context=ros_context, namespace=NS)
     with Spinner(ros_context, [node, probe]):
-        assert wait_for(lambda: probe.get_publishers_info_by_topic('/tf'), timeout=10.0)
+        assert wait_for(lambda: probe.get_publishers_info_by_topic('/tf'))
         [info] = probe.get_publishers_info_by_topic('/tf')
     assert type_hash_text(info.topic_type_hash) == JAZZY_TF_MESSAGE_HASH
 
@@ -235,10 +235,10 @@ def test_without_tf2_msgs_or_at_tf_rate_0_only_the_markers(ros_context, monkeypa
     probe = Probe(context=ros_context, namespace=NS)
     arrays = probe.collect(MarkerArray, 'missing/robot/markers')
     with Spinner(ros_context, [off, missing, probe]):
-        assert wait_for(lambda: probe.count_subscribers(f'{NS}/missing/pose') > 0, timeout=10.0)
+        assert wait_for(lambda: probe.count_subscribers(f'{NS}/missing/pose') > 0)
         probe.publisher(PoseStamped, 'missing/pose').publish(
             pose_to_msg([0.0, 0.0, 0.43], [0, 0, 0, 1], frame_id='ring_a',
                         stamp=probe.get_clock().now().to_msg()))
-        assert wait_for(lambda: arrays, timeout=10.0)
+        assert wait_for(lambda: arrays)
         assert probe.get_publishers_info_by_topic('/tf') == []
     assert off.tf_published == 0 and missing.tf_published == 0

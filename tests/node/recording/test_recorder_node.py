@@ -69,10 +69,10 @@ def test_recording_topics_schemas_counts_values_qos_and_tf(ros_context, tmp_path
     poses, states = [], []
     with Spinner(ros_context, [recorder, probe]):
         assert wait_for(lambda: {f'{NS}/pose', f'{NS}/actuators/state', f'{NS}/odometry/ring_a'}
-                        <= set(recorder._raw_subscriptions), timeout=10.0)
+                        <= set(recorder._raw_subscriptions))
         # a publisher that appears after the recorder started (best effort, a command stream)
         enable_pub = probe.publisher(Bool, 'teleop/enable', command=True)
-        assert wait_for(lambda: f'{NS}/teleop/enable' in recorder._raw_subscriptions, timeout=10.0)
+        assert wait_for(lambda: f'{NS}/teleop/enable' in recorder._raw_subscriptions)
         odom_pub.publish(_pose(probe, 1.5, frame='world'))
         for i in range(200):
             msg = _pose(probe, 0.40 + 1e-4 * i)
@@ -86,7 +86,7 @@ def test_recording_topics_schemas_counts_values_qos_and_tf(ros_context, tmp_path
             if i % 10 == 0:
                 enable_pub.publish(Bool(data=True))
             time.sleep(0.004)
-        assert wait_for(lambda: recorder.recording.messages >= 400, timeout=10.0)
+        assert wait_for(lambda: recorder.recording.messages >= 400)
         time.sleep(0.3)
     summary, messages = _read(tmp_path / 'test' / 'test_0.mcap')
     channels = {c.topic: c for c in summary.channels.values()}
@@ -198,10 +198,10 @@ def test_with_a_live_tf_the_recorder_writes_its_own_tf_only(ros_context, tmp_pat
     odom_pub = probe.publisher(PoseStamped, 'odometry/ring_a')
     with Spinner(ros_context, [markers, own, live, probe]):
         assert wait_for(lambda: probe.count_subscribers(f'{NS}/pose') >= 3
-                        and probe.count_subscribers(f'{NS}/odometry/ring_a') >= 3, timeout=10.0)
+                        and probe.count_subscribers(f'{NS}/odometry/ring_a') >= 3)
         odom_pub.publish(_pose(probe, 1.5, frame='world'))
         pose_pub.publish(_pose(probe, 0.42))
-        assert wait_for(lambda: {'/tf', '/tf_static'} <= set(live._raw_subscriptions), timeout=10.0)
+        assert wait_for(lambda: {'/tf', '/tf_static'} <= set(live._raw_subscriptions))
         seen = own.messages
         assert wait_for(lambda: own.messages > seen + 20 and markers.tf_published > 100,
                         timeout=20.0)
@@ -252,7 +252,7 @@ def test_a_recording_cut_by_a_crash_is_readable_up_to_the_crash(ros_context, ros
     rate = 100.0
     try:
         with Spinner(ros_context, [probe]):
-            assert wait_for(lambda: pub.get_subscription_count() > 0, timeout=30.0)
+            assert wait_for(lambda: pub.get_subscription_count() > 0)
             time.sleep(0.5)
             sent = 0
             t_end = time.monotonic() + 2.0
@@ -324,7 +324,7 @@ def test_flight_recorder_saves_on_request_and_on_faults(ros_context, tmp_path):
         return sorted(tmp_path.glob(f'flight_*_{kind}*/*.mcap'))
 
     with Spinner(ros_context, [recorder, probe]):
-        assert wait_for(lambda: f'{NS}/pose' in recorder._raw_subscriptions, timeout=10.0)
+        assert wait_for(lambda: f'{NS}/pose' in recorder._raw_subscriptions)
         for i in range(300):  # 3 s at 100 Hz: the 1 s window keeps the last ~100
             pose_pub.publish(_pose(probe, 0.4 + 1e-5 * i))
             time.sleep(0.01)
@@ -334,7 +334,7 @@ def test_flight_recorder_saves_on_request_and_on_faults(ros_context, tmp_path):
         # the MCAP file of the bag folder <output_dir>/flight_<time>_operator/
         assert path.parent.parent == tmp_path.resolve() and path.name == f'{path.parent.name}_0.mcap'
         assert 'operator' in path.name
-        assert wait_for(path.exists, timeout=20.0)
+        assert wait_for(path.exists)
         assert (path.parent / 'metadata.yaml').is_file()
         _, messages = _read(path)
         zs = [round((d.pose.position.z - 0.4) * 1e5) for t, _, d, _ in messages
@@ -344,19 +344,19 @@ def test_flight_recorder_saves_on_request_and_on_faults(ros_context, tmp_path):
         assert not list(tmp_path.glob('test*'))  # record:=false writes no recording
         # a gripper refusal (the driver's typed count goes up)
         diag_pub.publish(driver(0))
-        assert wait_for(lambda: recorder._faults._refusals == 0, timeout=10.0)
+        assert wait_for(lambda: recorder._faults._refusals == 0)
         diag_pub.publish(driver(1))
-        assert wait_for(lambda: dumps('gripper_refusal'), timeout=20.0)
+        assert wait_for(lambda: dumps('gripper_refusal'))
         # a node at ERROR
         diag_pub.publish(DiagnosticArray(status=[DiagnosticStatus(
             level=DiagnosticStatus.ERROR, name='fk_node: forward kinematics')]))
-        assert wait_for(lambda: dumps('node_error'), timeout=20.0)
+        assert wait_for(lambda: dumps('node_error'))
         # a lost teleop link: healthy, then STALE
         teleop_pub.publish(DiagnosticStatus(level=DiagnosticStatus.OK, name='teleop_node: teleop'))
         time.sleep(0.3)
         teleop_pub.publish(DiagnosticStatus(level=DiagnosticStatus.STALE,
                                             name='teleop_node: teleop'))
-        assert wait_for(lambda: dumps('link_lost'), timeout=20.0)
+        assert wait_for(lambda: dumps('link_lost'))
         recorder.wait_for_dumps()
     for kind in ('gripper_refusal', 'node_error', 'link_lost'):
         for path in dumps(kind):  # (another process on this domain may add a fault)
@@ -376,15 +376,15 @@ def test_faults_trigger_a_dump_also_when_their_topics_are_not_recorded(ros_conte
     recorder = _recorder(ros_context, tmp_path, record=False, topics=[f'{NS}/pose'],
                          post_trigger=0.1, min_dump_interval=0.0, tf_rate=0.0)
     with Spinner(ros_context, [recorder, probe]):
-        assert wait_for(lambda: f'{NS}/pose' in recorder._raw_subscriptions, timeout=10.0)
+        assert wait_for(lambda: f'{NS}/pose' in recorder._raw_subscriptions)
         assert '/diagnostics' not in recorder._raw_subscriptions
-        assert wait_for(lambda: diag_pub.get_subscription_count() >= 1, timeout=10.0)
+        assert wait_for(lambda: diag_pub.get_subscription_count() >= 1)
         for i in range(20):
             pose_pub.publish(_pose(probe, 0.4 + 1e-5 * i))
             time.sleep(0.01)
         diag_pub.publish(DiagnosticArray(status=[DiagnosticStatus(
             level=DiagnosticStatus.ERROR, name='fk_node: forward kinematics')]))
-        assert wait_for(lambda: list(tmp_path.glob('flight_*_node_error*/*.mcap')), timeout=20.0)
+        assert wait_for(lambda: list(tmp_path.glob('flight_*_node_error*/*.mcap')))
         recorder.wait_for_dumps()
     path, = tmp_path.glob('flight_*_node_error*/*.mcap')
     _, messages = _read(path)
