@@ -148,6 +148,8 @@ class RemoteDrive:
             self.write_object(0x6098, None, c.homing)
             self.write_object(0x607C, None, s.counts(c.home_position))
             self.write_object(0x6099, 1, abs(s.counts_per_second(c.homing_speed)))
+        if c.rated_force is not None:
+            self.write_object(0x6076, None, round(c.rated_force * 1000.0))  # N -> mN
         s.rated_force = self.read_object(0x6076) / 1000.0  # mN -> N
         self.write_object(0x6060, None, int(self.mode))
         self._map_pdos()

@@ -79,7 +79,8 @@ class CanopenRobot(SystemInterface):
         io = g.bus.grippers
         if io is None and any(kind != 'none' for kind in g.grippers.values()):
             return _failure(f'robot {g.name!r} has grippers but its bus section has no grippers entry')
-        digital_io = frozenset(ch.drive for ch in io.rings.values()) if io is not None and io.io == 'drive' else frozenset()
+        on_drives = io is not None and io.io == 'drive'
+        digital_io = frozenset(ch.drive for ch in io.rings.values()) if on_drives else frozenset()
         try:
             self.drives = DriveSet(g.bus, Mode.CYCLIC_SYNCHRONOUS_POSITION, digital_io=digital_io,
                                    extra=self._extra)

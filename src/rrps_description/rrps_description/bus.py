@@ -45,7 +45,7 @@ GRIPPER_IO = ('cia401', 'drive')
 _BUS_KEYS = {'interface', 'channel', 'bitrate', 'options', 'sync_period', 'heartbeat_period', 'heartbeat_timeout',
              'sdo_timeout', 'drive_defaults', 'drives', 'grippers', 'force_output'}
 _DRIVE_KEYS = {'node_id', 'eds', 'counts_per_metre', 'direction', 'offset', 'min_position', 'max_position',
-               'homing', 'home_position', 'homing_speed', 'following_error', 'following_error_time'}
+               'homing', 'home_position', 'homing_speed', 'following_error', 'following_error_time', 'rated_force'}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -54,7 +54,8 @@ class DriveConfig:
     ``min_position``/``max_position`` [m] its soft limits; ``homing`` ``'absolute'`` or a CiA 402
     homing method (e.g. 37: here is ``home_position``; 17: move to the negative limit switch at
     ``homing_speed`` [m/s], which is ``home_position``); ``following_error`` [m] the window the
-    drive trips on after ``following_error_time`` [s]."""
+    drive trips on after ``following_error_time`` [s]; ``rated_force`` [N] the force of 1000 per
+    mille of its torque values, written to the drive (None: the drive's own 0x6076)."""
 
     actuator: str
     node_id: int
@@ -69,6 +70,7 @@ class DriveConfig:
     homing_speed: float = 0.01
     following_error: float = 0.005
     following_error_time: float = 0.02
+    rated_force: float | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -176,7 +178,9 @@ def _drive(actuator: str, sec: Mapping[str, Any], stroke: tuple[float, float]) -
         homing_speed=as_scalar(sec.get('homing_speed', 0.01), f'{key}.homing_speed', positive=True),
         following_error=as_scalar(sec.get('following_error', 0.005), f'{key}.following_error', positive=True),
         following_error_time=as_scalar(sec.get('following_error_time', 0.02), f'{key}.following_error_time',
-                                       nonnegative=True))
+                                       nonnegative=True),
+        rated_force=(as_scalar(sec['rated_force'], f'{key}.rated_force', positive=True) if 'rated_force' in sec
+                     else None))
 
 
 def _grippers(sec: Mapping[str, Any], drives: tuple[DriveConfig, ...]) -> GripperIoConfig:

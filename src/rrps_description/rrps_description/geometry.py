@@ -319,9 +319,9 @@ class RobotGeometry:
         kwargs['extra_dof'] = extra_dof_from(section('extra_dof'))
         if 'tool' in data:
             kwargs['tool'] = tool_from(section('tool'))
-        if 'bus' in data:
-            stroke = {'min_length': kwargs.get('min_length', 0.0), 'max_length': kwargs.get('max_length', math.inf)}
-            kwargs['bus'] = bus_from(data['bus'], **stroke, source=source if source != '<dict>' else '')
+        kwargs['bus'] = bus_from(data['bus'], min_length=kwargs.get('min_length', 0.0),
+                                 max_length=kwargs.get('max_length', math.inf),
+                                 source=source if source != '<dict>' else '') if 'bus' in data else None
         return cls(**kwargs)
 
     @classmethod

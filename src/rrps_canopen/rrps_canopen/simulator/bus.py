@@ -150,10 +150,9 @@ class SimulatedBus:
             clamp = self.clamps[ring]
             clamp.step(bool(outputs >> channel.output & 1), dt)
             bit = 1 << channel.sensor
-            if io.io == 'cia401':
-                device.inputs = (device.inputs | bit) if clamp.sensor() else (device.inputs & ~bit)
-            else:
-                device.digital_inputs = (device.digital_inputs | bit) if clamp.sensor() else (device.digital_inputs & ~bit)
+            field = 'inputs' if io.io == 'cia401' else 'digital_inputs'
+            word = getattr(device, field)
+            setattr(device, field, (word | bit) if clamp.sensor() else (word & ~bit))
 
     # --- a test's requests ---
 

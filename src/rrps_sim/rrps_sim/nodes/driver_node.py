@@ -78,7 +78,8 @@ class DriverNode(LifecycleNode):
         self.hardware = hardware_class(self.hardware_name)()
         self._config = HardwareConfig(g, values)
         self.mode = ActuatorMode(values['mode'])
-        self.label = f'{self.mode.value} actuators' if self.hardware_name == 'simulated' else f'{self.hardware_name} hardware'
+        simulated = self.hardware_name == 'simulated'
+        self.label = f'{self.mode.value} actuators' if simulated else f'{self.hardware_name} hardware'
         self.rate, self.idle_rate, self.timeout = values['rate'], values['idle_rate'], values['timeout']
         self.publish_on_command, self.hold_when_silent = values['publish_on_command'], values['hold_when_silent']
         self.state_file = values['state_file']
