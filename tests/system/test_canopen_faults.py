@@ -81,7 +81,9 @@ def climb_state(stack) -> ClimbStatus | None:
 def test_faults_during_climbing(ros_context, ros_domain_id):
     rng = np.random.default_rng(20250403)
     with canopen_stack(ros_context, ros_domain_id) as stack:
-        for kind in FAULTS:
+        # A following error leaves its leg off the planned path: the paused step cannot resume on
+        # it (climb/resume refuses a robot off the paused path), so it comes last.
+        for kind in sorted(FAULTS, key=lambda k: k == 'blocked'):
             assert wait_for(lambda: climb_state(stack) and climb_state(stack).state is ClimbState.IDLE)
             ok, message = call(stack, CLIMB_STEP_UP)
             assert ok, message
@@ -89,8 +91,17 @@ def test_faults_during_climbing(ros_context, ros_domain_id):
             time.sleep(rng.uniform(0.3, 4.0))
             drive = f'leg_{rng.integers(1, 7)}'
             check(fault_episode(stack, kind, drive), POLE.max_speed)
-            assert wait_for(lambda: climb_state(stack).state in (ClimbState.PAUSED, ClimbState.EXECUTING,
-                                                                  ClimbState.IDLE)), climb_state(stack)
-            if climb_state(stack).state is ClimbState.PAUSED:
-                assert wait_for(lambda: call(stack, CLIMB_RESUME)[0], period=0.5), climb_state(stack)
-            assert wait_for(lambda: climb_state(stack).state is ClimbState.IDLE, timeout=120), climb_state(stack)
+            if kind != 'blocked':
+                finish_step(stack)
+
+
+def finish_step(stack, resumes: int = 10) -> None:
+    """Resume the step (paused by the fault, or by a late state on a busy machine) until it ends idle."""
+    for _ in range(resumes):
+        assert wait_for(lambda: climb_state(stack).state in (ClimbState.PAUSED, ClimbState.IDLE, ClimbState.FAILED),
+                        timeout=120), climb_state(stack)
+        if climb_state(stack).state is not ClimbState.PAUSED:
+            break
+        assert wait_for(lambda: call(stack, CLIMB_RESUME)[0], period=0.5), (climb_state(stack), stack.probe.latest())
+        assert wait_for(lambda: climb_state(stack).state is not ClimbState.PAUSED), climb_state(stack)
+    assert climb_state(stack).state is ClimbState.IDLE, climb_state(stack)

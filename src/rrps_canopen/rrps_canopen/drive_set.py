@@ -84,7 +84,6 @@ class DriveSet:
         self.sync_times: deque[float] = deque(maxlen=100_000)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        self._started: float | None = None
 
     # --- bring-up ---
 
@@ -119,7 +118,6 @@ class DriveSet:
     def start_cycle(self) -> None:
         sys.setswitchinterval(SWITCH_INTERVAL)
         self._stop.clear()
-        self._started = time.monotonic()
         self._thread = threading.Thread(target=self._run, name='canopen-sync', daemon=True)
         self._thread.start()
 
@@ -192,15 +190,25 @@ class DriveSet:
         if alive and hb is not None and now - hb > self.bus.heartbeat_timeout:
             self.latch(d.name, FaultKind.LOST_HEARTBEAT, f'no heartbeat for {now - hb:.3f} s', now)
 
+    def _unanswered(self, heard: float) -> int:
+        """How many SYNCs went out since the last frame heard (a process that did not run sent none)."""
+        count = 0
+        for t in reversed(self.sync_times):
+            if t <= heard:
+                break
+            count += 1
+        return count
+
     def _watch_bus(self, now: float, heard: float) -> None:
-        """The bus is lost on a bus-off, or when no drive was heard for the heartbeat timeout;
-        back when every drive is heard again (its faults stay latched until reset)."""
+        """The bus is lost on a bus-off, or when no drive answered the SYNCs of a heartbeat
+        timeout (and half as many SYNCs went out); back when every drive is heard again (its
+        faults stay latched until reset)."""
         silence = self.bus.heartbeat_timeout
         if self.listener.bus_off.is_set():
             self.listener.bus_off.clear()
             self._lose_bus('the CAN controller is bus-off', now)
-        elif not self.bus_lost and self._started is not None and now - self._started > silence and \
-                now - heard > silence:
+        elif not self.bus_lost and now - heard > silence and \
+                self._unanswered(heard) >= max(3, int(0.5 * silence / self.period)):
             self._lose_bus(f'no frame from any drive for {now - heard:.3f} s', now)
         elif self.bus_lost and all(max(t for t in (s.tpdo_time, s.heartbeat_time, 0.0) if t is not None) > now - silence
                                    for s in self.data.values()):

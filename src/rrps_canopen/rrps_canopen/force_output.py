@@ -1,12 +1,16 @@
 """Passive, bounded leg forces for a master robot's drives: the operator feels the slave's limits
 and the master never puts energy into the operator's hand.
 
-Per leg (each a port of force ``F`` and speed ``v``): ``F = clip(F_wanted - damping * v,
--limit, limit)``, then a time-domain passivity controller: an observer sums the energy that
-went *into* the leg from the hand, ``E += -F_prev * (x - x_prev)``, and the next force may give
-back at most that energy over the next period (``F * v * dt <= E``), so that the work the drive
-does on the hand, ``-E``, never exceeds zero beyond one period's rounding (Hannaford and Ryu,
-"Time-domain passivity control of haptic interfaces", IEEE T-RA 18(1), 2002). Pure Python.
+Per leg (each a port of force ``F`` and speed ``v``): the rendered force ``F_w = clip(F_wanted,
+-limit, limit)`` goes through a passivity controller, then the damping: ``F = clip(F_w -
+damping * v, -limit, limit)``. The controller's observer sums the energy that went *into* the
+leg from the hand, ``E += -F_prev * (x - x_prev)``, and over the next period ``F_w`` may give
+back at most what is in it (``F_w * v * dt <= E``, else ``F_w`` is scaled down); while ``E`` is
+negative (the period in which a hand at rest started to move let a little through) ``F_w`` is
+off until the damping has taken that back. The damping only ever takes energy. So the work the
+drive does on the hand, ``-E``, never exceeds what one period can let through (Hannaford and Ryu,
+"Time-domain passivity control of haptic interfaces", IEEE T-RA 18(1), 2002: the passivity
+observer). Pure Python.
 """
 
 from __future__ import annotations
@@ -41,10 +45,10 @@ class PassiveForceOutput:
             self.stored = self.stored - self.forces * (x - self._x)   # the work the hand did on the drive
         self._x = x.copy()
         v = np.asarray(velocities, dtype=float)
-        f = np.clip(np.asarray(wanted, dtype=float) - self.damping * v, -self.limit, self.limit)
-        giving = f * v * dt                                           # > 0: the drive would push the hand
+        rendered = np.clip(np.asarray(wanted, dtype=float), -self.limit, self.limit)
         budget = np.maximum(self.stored, 0.0)
-        over = (giving > budget) & (np.abs(v) * dt > 0.0)
-        f = np.where(over, budget / np.where(over, v * dt, 1.0), f)
-        self.forces = np.clip(f, -self.limit, self.limit)
+        over = rendered * v * dt > budget                             # it would give more than it got
+        rendered = np.where(over, budget / np.where(over, v * dt, 1.0), rendered)
+        rendered = np.where(self.stored < 0.0, 0.0, rendered)
+        self.forces = np.clip(rendered - self.damping * v, -self.limit, self.limit)
         return self.forces.copy()

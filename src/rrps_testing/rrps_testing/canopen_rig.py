@@ -24,6 +24,9 @@ __all__ = ['free_port', 'DriveSim', 'driver_process', 'can_env']
 
 #: [s] how long a request to the simulator may take on a busy machine.
 ANSWER_TIMEOUT = 30.0
+#: SCHED_RR priority of the drive simulator: above the robot's command path, as real drives are
+#: hardware of their own that the driver's computer cannot starve.
+SIM_RT_PRIORITY = CONTROL_RT_PRIORITY + 10
 
 
 def free_port() -> int:
@@ -49,7 +52,7 @@ class DriveSim:
         args += ['--master'] if master else []
         args += ['--lengths', *map(str, lengths)] if lengths is not None else []
         args += ['--time-constant', str(time_constant)] if time_constant is not None else []
-        self.process = start_child(args, env=can_env(self.port), nice=CONTROL_NICE, realtime=CONTROL_RT_PRIORITY,
+        self.process = start_child(args, env=can_env(self.port), nice=CONTROL_NICE, realtime=SIM_RT_PRIORITY,
                                    stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         self._lines: queue.Queue[str | None] = queue.Queue()
         threading.Thread(target=self._read, daemon=True).start()
