@@ -24,12 +24,19 @@ from typing import Any
 import can
 from can.interfaces.udp_multicast.utils import pack_message, unpack_message
 
-__all__ = ['LoopbackBus', 'DEFAULT_GROUP', 'DEFAULT_PORT']
+__all__ = ['LoopbackBus', 'DEFAULT_GROUP', 'DEFAULT_PORT', 'free_port']
 
 DEFAULT_GROUP = '239.74.163.10'
 DEFAULT_PORT = 43120
 LOOPBACK = '127.0.0.1'
 _MAX_DATAGRAM = 4096
+
+
+def free_port() -> int:
+    """A UDP port nothing on 127.0.0.1 uses now (a bus of its own for a demo or a test)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind((LOOPBACK, 0))
+        return s.getsockname()[1]
 
 
 def _group(channel: Any) -> str:

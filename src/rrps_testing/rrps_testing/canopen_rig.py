@@ -13,10 +13,11 @@ from __future__ import annotations
 import json
 import os
 import queue
-import socket
 import subprocess
 import sys
 import threading
+
+from rrps_canopen.loopback_bus import free_port
 
 from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child, stop_child
 
@@ -27,13 +28,6 @@ ANSWER_TIMEOUT = 30.0
 #: SCHED_RR priority of the drive simulator: above the robot's command path, as real drives are
 #: hardware of their own that the driver's computer cannot starve.
 SIM_RT_PRIORITY = CONTROL_RT_PRIORITY + 10
-
-
-def free_port() -> int:
-    """A UDP port nothing on 127.0.0.1 uses now (the bus of one rig)."""
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
 
 
 def can_env(port: int, **extra: str) -> dict:
@@ -48,7 +42,7 @@ class DriveSim:
     def __init__(self, robot: str = 'pole_climber', *, port: int | None = None, master: bool = False,
                  lengths=None, time_constant: float | None = None):
         self.port = free_port() if port is None else port
-        args = [sys.executable, '-m', 'rrps_canopen.simulator.process', '--robot', robot]
+        args = [sys.executable, '-m', 'rrps_canopen.simulator.process', '--robot', robot, '--stdin']
         args += ['--master'] if master else []
         args += ['--lengths', *map(str, lengths)] if lengths is not None else []
         args += ['--time-constant', str(time_constant)] if time_constant is not None else []

@@ -4,11 +4,11 @@
     rrps-drive-sim --robot master_robot --master     # a master's legs (CST), held by a hand
 
 It opens the bus of the robot YAML's ``bus`` section (``RRPS_CAN_CHANNEL`` / ``RRPS_CAN_PORT``
-override it), boots every device (boot-up messages, PRE-OPERATIONAL) and serves until SIGTERM,
-SIGINT or the end of its standard input. Requests come as JSON lines on standard input
-(:meth:`rrps_canopen.simulator.bus.SimulatedBus.control`), each answered by one JSON line on
-standard output; the first line out is ``{"ready": true, ...}``. Exit status 2 and one line on a
-bad robot or bus.
+override it), boots every device (boot-up messages, PRE-OPERATIONAL) and serves until SIGTERM or
+SIGINT. The first line out is ``{"ready": true, ...}``. With ``--stdin`` it takes requests (faults,
+the bus' loss, a stuck sensor: :meth:`rrps_canopen.simulator.bus.SimulatedBus.control`) as JSON
+lines on standard input, answers each with one JSON line, and stops at the end of the input.
+Exit status 2 and one line on a bad robot or bus.
 """
 
 from __future__ import annotations
@@ -32,6 +32,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument('--lengths', type=float, nargs=6, default=None, metavar='M',
                    help='the legs\' lengths at power-on [m] (default: the home pose)')
     p.add_argument('--time-constant', type=float, default=0.02, help='the legs\' first-order lag [s]')
+    p.add_argument('--stdin', action='store_true', help='take requests (JSON lines) on standard input, answer '
+                   'on standard output, and stop at the end of the input')
     return p
 
 
@@ -65,7 +67,8 @@ def main(argv=None) -> int:
     try:
         print(json.dumps({'ready': True, 'robot': geometry.name,
                           'nodes': geometry.bus.node_ids()}), flush=True)
-        threading.Thread(target=_serve, args=(bus, stop), daemon=True).start()
+        if args.stdin:
+            threading.Thread(target=_serve, args=(bus, stop), daemon=True).start()
         while not stop.wait(0.2):
             pass
     finally:
