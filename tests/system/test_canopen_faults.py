@@ -11,12 +11,10 @@ import time
 
 import numpy as np
 import pytest
-from std_srvs.srv import Trigger
 
 from rrps_description.geometry import load_robot
-from rrps_interfaces.climb import CLIMB_RESUME, CLIMB_STEP_UP, ClimbState, ClimbStatus
-from rrps_interfaces.teleop import TeleopStatus
-from rrps_testing.canopen_stack import canopen_stack, fault_episode
+from rrps_interfaces.climb import CLIMB_STEP_UP, ClimbState
+from rrps_testing.canopen_stack import call, canopen_stack, climb_state, engage, fault_episode, finish_step
 from rrps_testing.ros_harness import wait_for
 
 pytestmark = [pytest.mark.slow, pytest.mark.ros]
@@ -36,21 +34,6 @@ def check(episode, max_speed: float) -> None:
     assert episode.recovered, episode
 
 
-def teleop_status(stack) -> TeleopStatus | None:
-    return TeleopStatus.from_key_values(stack.teleop_status[-1][1].values) if stack.teleop_status else None
-
-
-def engage(stack) -> None:
-    """Release and press the deadman, as an operator does after a fault; wait until the slave moves."""
-    stack.deadman.clear()
-    time.sleep(0.3)
-    stack.deadman.set()
-    assert wait_for(lambda: teleop_status(stack) is not None and teleop_status(stack).engaged), teleop_status(stack)
-    n = len(stack.poses)
-    assert wait_for(lambda: len(stack.poses) > n + 20 and np.ptp(
-        [m.pose.position.z for _, m in stack.poses[-20:]]) > 1e-6), 'the slave does not move'
-
-
 def test_faults_during_teleoperation(ros_context, ros_domain_id):
     rng = np.random.default_rng(20250402)
     with canopen_stack(ros_context, ros_domain_id) as stack:
@@ -66,18 +49,6 @@ def test_faults_during_teleoperation(ros_context, ros_domain_id):
         engage(stack)
 
 
-def call(stack, name: str) -> tuple[bool, str]:
-    client = stack.probe.create_client(Trigger, name) if not hasattr(stack, name) else getattr(stack, name)
-    assert client.wait_for_service(timeout_sec=60)
-    future = client.call_async(Trigger.Request())
-    assert wait_for(future.done)
-    return future.result().success, future.result().message
-
-
-def climb_state(stack) -> ClimbStatus | None:
-    return ClimbStatus.from_key_values(stack.climb_status[-1][1].values) if stack.climb_status else None
-
-
 def test_faults_during_climbing(ros_context, ros_domain_id):
     rng = np.random.default_rng(20250403)
     with canopen_stack(ros_context, ros_domain_id) as stack:
@@ -85,8 +56,7 @@ def test_faults_during_climbing(ros_context, ros_domain_id):
         # it (climb/resume refuses a robot off the paused path), so it comes last.
         for kind in sorted(FAULTS, key=lambda k: k == 'blocked'):
             assert wait_for(lambda: climb_state(stack) and climb_state(stack).state is ClimbState.IDLE)
-            ok, message = call(stack, CLIMB_STEP_UP)
-            assert ok, message
+            assert wait_for(lambda: call(stack, CLIMB_STEP_UP)[0], period=0.5), climb_state(stack)  # a busy machine
             assert wait_for(lambda: climb_state(stack).state is ClimbState.EXECUTING)
             time.sleep(rng.uniform(0.3, 4.0))
             drive = f'leg_{rng.integers(1, 7)}'
@@ -94,14 +64,3 @@ def test_faults_during_climbing(ros_context, ros_domain_id):
             if kind != 'blocked':
                 finish_step(stack)
 
-
-def finish_step(stack, resumes: int = 10) -> None:
-    """Resume the step (paused by the fault, or by a late state on a busy machine) until it ends idle."""
-    for _ in range(resumes):
-        assert wait_for(lambda: climb_state(stack).state in (ClimbState.PAUSED, ClimbState.IDLE, ClimbState.FAILED),
-                        timeout=120), climb_state(stack)
-        if climb_state(stack).state is not ClimbState.PAUSED:
-            break
-        assert wait_for(lambda: call(stack, CLIMB_RESUME)[0], period=0.5), (climb_state(stack), stack.probe.latest())
-        assert wait_for(lambda: climb_state(stack).state is not ClimbState.PAUSED), climb_state(stack)
-    assert climb_state(stack).state is ClimbState.IDLE, climb_state(stack)

@@ -5,7 +5,8 @@
 the mode needs; ``configure`` sets it up by SDO (heartbeat producer, quick-stop option "stop and
 stay", following-error window, soft limits, interpolation period, homing, the PDO mapping for
 cyclic synchronous position or torque mode: RPDO1 controlword + target, TPDO1 statusword +
-position, TPDO2 velocity + torque, and the digital I/O when the grippers are on the drive). Its
+position on every SYNC, TPDO2 velocity + torque, and the digital I/O when the grippers are on
+the drive). Its
 TPDOs, heartbeat and EMCYs update :class:`ProcessData` from canopen's receive thread. Pure
 Python (canopen), no ROS import.
 """
@@ -16,9 +17,9 @@ import threading
 import time
 from dataclasses import dataclass, field
 
-import canopen
 from canopen.sdo import SdoAbortedError, SdoCommunicationError
 
+import canopen
 from rrps_canopen.cia402 import Mode, State, state_of
 from rrps_canopen.units import AxisScale
 from rrps_description.bus import HOMING_ABSOLUTE, DriveConfig
@@ -38,6 +39,9 @@ REQUIRED_OBJECTS = {
 }
 #: Heartbeat state of a boot-up message.
 BOOT_UP = 0
+#: In position mode the drive's velocity and torque (TPDO2) go out every this many SYNCs (they
+#: inform, they do not close a loop); in torque mode every SYNC (the force output's damping).
+SLOW_TPDO_EVERY = 5
 
 
 class ConfigureError(Exception):
@@ -169,14 +173,18 @@ class RemoteDrive:
         if self.digital_io:
             rpdo.append([(0x60FE, 1)])
             tpdo.append([0x60FD])
+        slow = SLOW_TPDO_EVERY if self.mode is Mode.CYCLIC_SYNCHRONOUS_POSITION else 1
         for maps, wanted in ((node.rpdo, rpdo), (node.tpdo, tpdo)):
             for number, pdo in maps.map.items():
                 pdo.clear()
                 objects = wanted[number - 1] if number <= len(wanted) else []
                 for obj in objects:
-                    pdo.add_variable(*obj) if isinstance(obj, tuple) else pdo.add_variable(obj)
-                pdo.trans_type = 1
+                    index, subindex = obj if isinstance(obj, tuple) else (obj, 0)
+                    pdo.add_variable(index, subindex)
+                pdo.trans_type = slow if maps is node.tpdo and number == 2 else 1
                 pdo.enabled = bool(objects)
+                if pdo.enabled and not pdo.cob_id:
+                    pdo.cob_id = pdo.predefined_cob_id
         try:
             node.rpdo.save()
             node.tpdo.save()

@@ -18,16 +18,18 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from std_msgs.msg import Bool
+from std_srvs.srv import Trigger
 
-from rrps_interfaces.climb import CLIMB_STATUS
+from rrps_interfaces.climb import CLIMB_RESUME, CLIMB_STATUS, ClimbState, ClimbStatus
 from rrps_interfaces.kinematics import POSE
-from rrps_interfaces.teleop import TELEOP_ENABLE, TELEOP_STATUS
+from rrps_interfaces.teleop import TELEOP_ENABLE, TELEOP_STATUS, TeleopStatus
 from rrps_runtime.supervision import stop_children
 from rrps_testing.canopen_rig import DriveSim, driver_process
 from rrps_testing.driver_probe import DriverProbe
 from rrps_testing.ros_harness import Spinner, wait_for
 
-__all__ = ['Stack', 'canopen_stack', 'FaultEpisode', 'fault_episode', 'hold_time']
+__all__ = ['Stack', 'canopen_stack', 'FaultEpisode', 'fault_episode', 'hold_time', 'teleop_status', 'engage',
+           'call', 'climb_state', 'finish_step']
 
 NAMESPACE = '/rrps_canopen'
 
@@ -169,3 +171,53 @@ def fault_episode(stack: Stack, kind: str, drive: str, *, window: float = 0.5, d
     return FaultEpisode(kind, drive, (first - t_inject) if first is not None else float('nan'), t_hold, moved,
                         switches, report[2] if report else 'no report', bool(recovered),
                         messages[-1] if messages else '')
+
+
+# --- the operator ---
+
+def teleop_status(stack: Stack) -> TeleopStatus | None:
+    """The latest teleop/status."""
+    return TeleopStatus.from_key_values(stack.teleop_status[-1][1].values) if stack.teleop_status else None
+
+
+def engage(stack: Stack) -> None:
+    """Release and press the deadman, as an operator does after a fault; wait until the slave moves."""
+    stack.deadman.clear()
+    time.sleep(0.3)
+    stack.deadman.set()
+    assert wait_for(lambda: teleop_status(stack) is not None and teleop_status(stack).engaged), teleop_status(stack)
+    n = len(stack.poses)
+    assert wait_for(lambda: len(stack.poses) > n + 20 and np.ptp(
+        [m.pose.position.z for _, m in stack.poses[-20:]]) > 1e-6), 'the slave does not move'
+
+
+_CLIENTS: dict = {}
+
+
+def call(stack: Stack, name: str) -> tuple[bool, str]:
+    """Call the Trigger service ``name``; (success, message)."""
+    key = (id(stack.probe), name)
+    if key not in _CLIENTS:
+        _CLIENTS[key] = stack.probe.create_client(Trigger, name)
+    client = _CLIENTS[key]
+    assert client.wait_for_service(timeout_sec=60)
+    future = client.call_async(Trigger.Request())
+    assert wait_for(future.done)
+    return future.result().success, future.result().message
+
+
+def climb_state(stack: Stack) -> ClimbStatus | None:
+    """The latest climb/status."""
+    return ClimbStatus.from_key_values(stack.climb_status[-1][1].values) if stack.climb_status else None
+
+
+def finish_step(stack: Stack, resumes: int = 10) -> None:
+    """Resume the step (paused by a fault, or by a late state on a busy machine) until it ends idle."""
+    for _ in range(resumes):
+        assert wait_for(lambda: climb_state(stack).state in (ClimbState.PAUSED, ClimbState.IDLE, ClimbState.FAILED),
+                        timeout=120), climb_state(stack)
+        if climb_state(stack).state is not ClimbState.PAUSED:
+            break
+        assert wait_for(lambda: call(stack, CLIMB_RESUME)[0], period=0.5), (climb_state(stack), stack.probe.latest())
+        assert wait_for(lambda: climb_state(stack).state is not ClimbState.PAUSED), climb_state(stack)
+    assert climb_state(stack).state is ClimbState.IDLE, climb_state(stack)
