@@ -21,8 +21,8 @@ from collections import deque
 from typing import Callable
 
 import can
-import canopen
 
+import canopen
 from rrps_canopen.cia402 import Controlword, Mode, State, Statusword, controlword_toward
 from rrps_canopen.drive import ConfigureError, ProcessData, RemoteDrive, keep_word
 from rrps_canopen.network import open_network, resolve_eds
@@ -75,6 +75,8 @@ class DriveSet:
         self.faults: dict[str, ActuatorFault] = {}
         self.fault_times: dict[str, float] = {}
         self.bus_lost = False
+        #: a drive was heard within a few periods (this process ran and the bus carries frames)
+        self.alive = False
         self.want: dict[str, State | None] = {d.name: None for d in self.drives}
         self._quick_stop: set[str] = set()
         self._reset_cycles: dict[str, int] = {}
@@ -152,7 +154,7 @@ class DriveSet:
         with self.lock:
             snaps = [d.snapshot() for d in self.drives]
             heard = max(max(t for t in (s.tpdo_time, s.heartbeat_time, 0.0) if t is not None) for s in snaps)
-            alive = now - heard < max(ALIVE_PERIODS * self.period, ALIVE_MIN)
+            alive = self.alive = now - heard < max(ALIVE_PERIODS * self.period, ALIVE_MIN)
             for d, snap in zip(self.drives, snaps):
                 self._look_at(d, snap, now, alive)
             self._watch_bus(now, heard)

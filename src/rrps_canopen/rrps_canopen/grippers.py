@@ -16,9 +16,9 @@ import threading
 import time
 from typing import Callable, Mapping
 
-import canopen
 from canopen.sdo import SdoAbortedError, SdoCommunicationError
 
+import canopen
 from rrps_canopen.drive import BOOT_UP, ConfigureError, RemoteDrive
 from rrps_description.bus import GripperIoConfig
 from rrps_description.names import RINGS
@@ -150,15 +150,17 @@ class GripperIo:
             closed[ring] = bool(word >> channel.sensor & 1)
         return closed
 
-    def cycle(self, now: float) -> None:
-        """Each cycle: the module's heartbeat and boot-up, and each sensor against its command."""
+    def cycle(self, now: float, alive: bool = True) -> None:
+        """Each cycle: the module's heartbeat and boot-up (its heartbeat is lost only while the
+        drives are ``alive``: else the bus or this process is the matter), and each sensor
+        against its command."""
         if self.node is not None:
             with self.lock:
                 booted, self.booted, heartbeat = self.booted, False, self.heartbeat
             if booted:
                 self.latch(IO_MODULE, FaultKind.REBOOTED, 'boot-up message: its outputs restarted de-energised', now)
                 threading.Thread(target=self._reconfigure, name='reconfigure-gripper-io', daemon=True).start()
-            elif heartbeat is not None and now - heartbeat > self.heartbeat_timeout:
+            elif alive and heartbeat is not None and now - heartbeat > self.heartbeat_timeout:
                 self.latch(IO_MODULE, FaultKind.LOST_HEARTBEAT, f'no heartbeat for {now - heartbeat:.3f} s', now)
         sensors = self.sensors()
         for ring in self.rings:

@@ -107,7 +107,7 @@ class CanopenRobot(SystemInterface):
 
     def _extra(self, now: float) -> None:
         if self.grippers is not None:
-            self.grippers.cycle(now)
+            self.grippers.cycle(now, alive=self.drives.alive)
 
     def on_activate(self) -> Transition:
         d = self.drives

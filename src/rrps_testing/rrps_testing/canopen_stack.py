@@ -166,7 +166,10 @@ def fault_episode(stack: Stack, kind: str, drive: str, *, window: float = 0.5, d
     recovered = ok and wait_for(reset, timeout=deadline, period=0.2)
     recovered = recovered and probe.activate() and wait_for(
         lambda: probe.latest()[3].active and not probe.latest()[3].faults, timeout=deadline)
-    t_hold, moved = hold_time(trace, t_inject) if trace else (float('nan'), float('nan'))
+    if trace:
+        t_hold, moved = hold_time(trace, t_inject)
+    else:  # a cut bus: no SYNC and no target reached the drives after it, they kept their last one
+        t_hold, moved = (0.0, 0.0) if kind == 'bus' else (float('nan'), float('nan'))
     switches = 0 if outputs0 == outputs1 else bin((outputs0 or 0) ^ (outputs1 or 0)).count('1')
     return FaultEpisode(kind, drive, (first - t_inject) if first is not None else float('nan'), t_hold, moved,
                         switches, report[2] if report else 'no report', bool(recovered),
