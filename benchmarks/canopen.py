@@ -43,6 +43,10 @@ from rrps_testing.processes import cpu_seconds  # noqa: E402
 NAMESPACE = '/rrps_bench'
 ROBOT = load_robot('pole_climber')
 PERIOD = ROBOT.bus.sync_period
+#: Commands in a row with distinct lengths (then they repeat): 1 um apart, 4 mm in all.
+UNIQUE = 4000
+#: [s] a command not seen this long after it was sent counts as lost, not as late.
+LOST_AFTER = 1.0
 PARAMS = ('auto_activate:=true', 'publish_on_command:=true', 'time_constant:=0.0', 'limit_speed:=false',
           'timeout:=1.0')
 
@@ -79,7 +83,7 @@ def run_backend(hardware: str, *, seconds: float, rate: float) -> dict:
             sent = []
             k = 0
             while time.monotonic() - t0 < seconds:
-                lengths = home + 1e-6 * (1 + k % 40)
+                lengths = home + 1e-6 * (1 + k % UNIQUE)  # one count more each: every command told apart
                 sent.append((time.monotonic(), float(lengths[0])))
                 pub.publish(joint_state_msg(probe.get_clock().now().to_msg(), lengths))
                 k += 1
@@ -99,9 +103,10 @@ def run_backend(hardware: str, *, seconds: float, rate: float) -> dict:
 
 
 def first_after(times, values, t, value) -> float | None:
-    """The first time >= t at which ``values`` equals ``value`` (None: never)."""
-    i = np.searchsorted(times, t)
-    hits = np.flatnonzero(np.abs(values[i:] - value) < 5e-7)
+    """The first time in [t, t + LOST_AFTER] at which ``values`` equals ``value`` (None: none; a
+    drive that took a newer target before this one's SYNC never shows it)."""
+    i, j = np.searchsorted(times, t), np.searchsorted(times, t + LOST_AFTER)
+    hits = np.flatnonzero(np.abs(values[i:j] - value) < 5e-7)
     return float(times[i + hits[0]]) if hits.size else None
 
 

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import can
 import pytest
-from rrps_canopen.loopback_bus import free_port
 
+from rrps_canopen.loopback_bus import free_port
 from rrps_testing.ci import require
 
 pytestmark = pytest.mark.slow

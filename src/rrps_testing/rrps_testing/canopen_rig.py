@@ -18,7 +18,6 @@ import sys
 import threading
 
 from rrps_canopen.loopback_bus import free_port
-
 from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child, stop_child
 
 __all__ = ['free_port', 'DriveSim', 'driver_process', 'can_env']

@@ -5,6 +5,7 @@ backend picks."""
 from __future__ import annotations
 
 import pytest
+
 from rrps_canopen.cia402 import ENABLE_PATH, Controlword, DeviceStateMachine, State, controlword_toward, state_of
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from rrps_canopen.force_output import PassiveForceOutput
 
 DT = 0.002

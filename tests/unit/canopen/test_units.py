@@ -4,8 +4,8 @@ checked against values worked out by hand."""
 from __future__ import annotations
 
 import pytest
-from rrps_canopen.units import AxisScale
 
+from rrps_canopen.units import AxisScale
 from rrps_description.bus import DriveConfig
 
 

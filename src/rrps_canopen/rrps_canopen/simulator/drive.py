@@ -16,7 +16,6 @@ import math
 from typing import Any
 
 import canopen
-
 from rrps_canopen.cia402 import Controlword, DeviceStateMachine, Mode, State, Statusword
 from rrps_canopen.simulator.node import SimulatedNode
 from rrps_description.bus import HOMING_ABSOLUTE, DriveConfig

@@ -14,8 +14,9 @@ from __future__ import annotations
 import logging
 from typing import Any
 
-import canopen
 from canopen.pdo import PdoMap
+
+import canopen
 
 __all__ = ['SimulatedNode']
 
