@@ -160,7 +160,7 @@ def _drive(actuator: str, sec: Mapping[str, Any], stroke: tuple[float, float]) -
         raise RobotDescriptionError(f'{key}.direction: must be 1 or -1, got {direction!r}')
     lo = as_scalar(sec.get('min_position', stroke[0]), f'{key}.min_position')
     hi = as_scalar(sec.get('max_position', stroke[1]), f'{key}.max_position')
-    if not stroke[0] <= lo < hi <= stroke[1]:
+    if stroke[0] < stroke[1] and not stroke[0] <= lo < hi <= stroke[1]:  # a bad stroke is the legs' error
         raise RobotDescriptionError(f'{key}: soft limits [{lo}, {hi}] m must be increasing and within the '
                                     f'stroke [{stroke[0]}, {stroke[1]}] m')
     homing = sec.get('homing', HOMING_ABSOLUTE)

@@ -19,19 +19,28 @@ from typing import Callable
 from rrps_sim.hardware.interface import SystemInterface
 from rrps_sim.hardware.master import MasterInterface
 
-__all__ = ['GROUP', 'MASTER_GROUP', 'registered_hardware', 'hardware_class', 'master_hardware_class']
+__all__ = ['GROUP', 'MASTER_GROUP', 'registered_hardware', 'registered_master_hardware', 'hardware_class',
+           'master_hardware_class']
 
 GROUP = 'rrps.hardware'
 MASTER_GROUP = 'rrps.master_hardware'
 
 
-def registered_hardware(group: str = GROUP) -> dict[str, Callable[[], type]]:
-    """{name: loader of the class} of every installed implementation, sorted by name."""
+def _entry_points(group: str) -> dict[str, Callable[[], type]]:
     return {ep.name: ep.load for ep in sorted(entry_points(group=group), key=lambda ep: ep.name)}
 
 
-def _registered(name: str, group: str, base: type) -> type:
-    known = registered_hardware(group)
+def registered_hardware() -> dict[str, Callable[[], type[SystemInterface]]]:
+    """{name: loader of the class} of every installed implementation, sorted by name."""
+    return _entry_points(GROUP)
+
+
+def registered_master_hardware() -> dict[str, Callable[[], type[MasterInterface]]]:
+    """{name: loader of the class} of every installed master hardware, sorted by name."""
+    return _entry_points(MASTER_GROUP)
+
+
+def _registered(name: str, known: dict, base: type) -> type:
     if name not in known:
         raise ValueError(f'unknown hardware {name!r}; known: {", ".join(sorted(known)) or "none"}')
     cls = known[name]()
@@ -42,9 +51,9 @@ def _registered(name: str, group: str, base: type) -> type:
 
 def hardware_class(name: str) -> type[SystemInterface]:
     """The implementation registered as ``name``; ValueError naming the known ones."""
-    return _registered(name, GROUP, SystemInterface)
+    return _registered(name, registered_hardware(), SystemInterface)
 
 
 def master_hardware_class(name: str) -> type[MasterInterface]:
     """The master robot's hardware registered as ``name``; ValueError naming the known ones."""
-    return _registered(name, MASTER_GROUP, MasterInterface)
+    return _registered(name, registered_master_hardware(), MasterInterface)
