@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from rrps_description.bus import DriveConfig
 
 __all__ = ['AxisScale', 'INT32']
@@ -67,7 +65,3 @@ class AxisScale:
         """The leg force [N] of an actual torque value."""
         return per_mille * self.rated_force * math.copysign(1.0, self.gain) / 1000.0
 
-
-def positions(scales: list[AxisScale], counts) -> np.ndarray:
-    """Lengths [m] of one count per drive."""
-    return np.array([s.position(c) for s, c in zip(scales, counts)], dtype=float)
