@@ -61,8 +61,10 @@ def _stop(proc: subprocess.Popen) -> None:
 
 
 @pytest.mark.slow
-def test_headless_demo_runs_a_teleop_session_and_a_climb(ros_domain_id):
-    proc = subprocess.Popen([*_command(), '--headless', '--port', str(_free_port())],
+@pytest.mark.parametrize('hardware', ['simulated', 'canopen'])
+def test_headless_demo_runs_a_teleop_session_and_a_climb(ros_domain_id, hardware):
+    """On the simulated hardware, and on simulated CANopen drives (rrps-drive-sim, a loopback bus)."""
+    proc = subprocess.Popen([*_command(), '--headless', '--port', str(_free_port()), '--hardware', hardware],
                             env=_env(ros_domain_id), stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
     try:

@@ -24,7 +24,7 @@ from rrps_testing.ci import require
 ROOT = Path(__file__).resolve().parents[2]
 SRC = ROOT / 'src'
 PACKAGES = ('rrps_description', 'rrps_interfaces', 'rrps_runtime', 'rrps_kinematics', 'rrps_sim', 'rrps_teleop',
-            'rrps_recording', 'rrps_bringup', 'rrps_testing')
+            'rrps_recording', 'rrps_canopen', 'rrps_bringup', 'rrps_testing')
 
 pytestmark = pytest.mark.slow
 

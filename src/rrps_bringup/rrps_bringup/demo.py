@@ -19,6 +19,10 @@ operator token are printed once the robot is up. Every node reads its parameter 
 (:mod:`rrps_bringup.params`) before the demo's own settings (robot, rate, host, port, token),
 which win.
 
+``--hardware canopen`` puts the robot's legs and grippers on CANopen (CiA 402 drives, a CiA 401
+I/O module: :mod:`rrps_canopen`), simulated by ``rrps-drive-sim`` in a supervised process of its
+own on a loopback CAN bus that stays on this machine; the master stays simulated.
+
 ``--headless`` runs no browser: a scripted teleop session (the operator's handle moves the
 master, a deadman stream engages the mapping, the slave follows; releasing the deadman holds the
 robot) and a scripted climb (one step up through ``climb/step_up``), prints what happened and
@@ -68,6 +72,9 @@ def _parser() -> argparse.ArgumentParser:
                    help='folder of the flight recorder\'s files (and of --record)')
     p.add_argument('--record', action='store_true',
                    help='also record the whole session to MCAP in --recordings')
+    p.add_argument('--hardware', choices=('simulated', 'canopen'), default='simulated',
+                   help="the driver's hardware: simulated, or canopen (simulated CiA 402 drives on a loopback "
+                        'CAN bus; default simulated)')
     return p
 
 
@@ -137,7 +144,7 @@ def _with_file(node: str, overrides: list) -> list:
 
 
 def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
-                 state_file: str = '', activate: bool = False) -> subprocess.Popen:
+                 state_file: str = '', activate: bool = False, hardware: str = 'simulated') -> subprocess.Popen:
     """The simulated hardware (driver_node) in a process of its own, as a real robot's driver.
 
     Its 500 Hz loop has an interpreter and a core to itself. It keeps the robot's physical
@@ -146,18 +153,26 @@ def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
     it with :func:`rrps_runtime.supervision.stop_children`.
     """
     from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child
-    return start_child(driver_command(robot=robot, rate=rate, namespace=namespace,
-                                      state_file=state_file, activate=activate), nice=CONTROL_NICE,
+    return start_child(driver_command(robot=robot, rate=rate, namespace=namespace, state_file=state_file,
+                                      activate=activate, hardware=hardware), nice=CONTROL_NICE,
                        realtime=CONTROL_RT_PRIORITY)
 
 
+def start_drives(*, robot: str) -> subprocess.Popen:
+    """The simulated CANopen drives of ``robot``'s bus (``rrps-drive-sim``), above the driver's
+    priority as real drives are hardware of their own; on the bus port of ``RRPS_CAN_PORT``."""
+    from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child
+    return start_child([sys.executable, '-m', 'rrps_canopen.simulator.process', '--robot', robot],
+                       nice=CONTROL_NICE, realtime=CONTROL_RT_PRIORITY + 10)
+
+
 def driver_command(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
-                   state_file: str = '', activate: bool = False) -> list[str]:
+                   state_file: str = '', activate: bool = False, hardware: str = 'simulated') -> list[str]:
     """The command line of :func:`start_driver` (no state file: the parameter's default)."""
     from rrps_bringup.params import params_file_arguments
     return [sys.executable, '-m', 'rrps_sim.nodes.driver_node', '--ros-args',
             *params_file_arguments('driver_node'), '-r', f'__ns:={namespace}',
-            '-p', f'robot:={robot}', '-p', f'rate:={float(rate)}',
+            '-p', f'robot:={robot}', '-p', f'rate:={float(rate)}', '-p', f'hardware:={hardware}',
             *(['-p', f'state_file:={state_file}'] if state_file else []),
             '-p', f'auto_activate:={str(activate).lower()}']
 
@@ -246,8 +261,15 @@ def _start_robot(args, run_dir: str):
     from rrps_runtime.supervision import Respawner
 
     state_file = os.path.join(run_dir, f'{args.robot}-hardware.json')
+    drives = {}
+    if args.hardware == 'canopen':  # the drives first: the driver configures them at its start
+        from rrps_canopen.loopback_bus import free_port
+        os.environ.setdefault('RRPS_CAN_PORT', str(free_port()))
+        drives = {'drives': lambda first: start_drives(robot=args.robot)}
     return Respawner({
-        'driver': lambda first: start_driver(robot=args.robot, state_file=state_file, activate=first),
+        **drives,
+        'driver': lambda first: start_driver(robot=args.robot, state_file=state_file, activate=first,
+                                             hardware=args.hardware),
         'robot nodes': lambda first: start_robot_nodes(robot=args.robot),
         'observer': lambda first: start_recorder(robot=args.robot, output_dir=args.recordings,
                                                  record=args.record),

@@ -158,5 +158,5 @@ def test_the_driver_hosts_a_hardware_registered_under_another_name(ros_context, 
 
 
 def test_an_unknown_hardware_is_refused_naming_the_known_ones(ros_context, ideal_registered):
-    with pytest.raises(ValueError, match=r"unknown hardware 'cia402'; known: ideal, simulated"):
+    with pytest.raises(ValueError, match=r"unknown hardware 'cia402'; known: canopen, ideal, simulated"):
         DriverNode(context=ros_context, parameter_overrides=[Parameter('hardware', value='cia402')])

@@ -79,14 +79,16 @@ class FaultKind(enum.Enum):
 
     FOLLOWING_ERROR = 'following_error'  # too far from its target
     DRIVE_FAULT = 'drive_fault'          # the drive's fault bit (over-current, temperature, ...)
+    EMERGENCY = 'emergency'              # the drive reported an error (a CANopen EMCY: its code in the detail)
     LOST_HEARTBEAT = 'lost_heartbeat'    # the drive stopped answering
     REBOOTED = 'rebooted'                # the drive restarted (it lost its homing)
     BUS_LOST = 'bus_lost'                # the bus carrying it went down
+    GRIPPER_SENSOR = 'gripper_sensor'    # a gripper's clamp sensor disagrees with its command
 
 
 @dataclass(frozen=True)
 class ActuatorFault:
-    """A latched fault of one actuator (a leg or a ring's extra DOF)."""
+    """A latched fault of one actuator (a leg, a ring's extra DOF, or a ring's gripper)."""
 
     actuator: str
     kind: FaultKind
@@ -131,7 +133,8 @@ class SystemState:
     Legs: ``positions`` [m], ``velocities`` [m/s], ``efforts`` [N] and ``targets`` [m] (the
     lengths the drives are following), each (6,); the rings' extra DOF: ``ring_positions``,
     ``ring_velocities``, ``ring_targets`` [rad], (k,); ``grippers`` {ring: closed} as measured;
-    ``actuators`` the legs' then the ring DOFs' status; ``lost``: this cycle's sample did not
+    ``actuators`` the legs' then the ring DOFs' status; ``gripper_faults`` the latched faults of
+    the grippers (actuator ``<ring>_gripper``); ``lost``: this cycle's sample did not
     arrive (the values are the previous sample's); ``persist_error``: why the hardware could not
     keep its state across driver restarts ('' when it could or does not need to).
     """
@@ -148,6 +151,7 @@ class SystemState:
     bus: BusState = BusState.OPERATIONAL
     lost: bool = False
     persist_error: str = ''
+    gripper_faults: tuple[ActuatorFault, ...] = ()
 
     @classmethod
     def no_sample(cls) -> SystemState:
@@ -157,8 +161,8 @@ class SystemState:
 
     @property
     def faults(self) -> tuple[ActuatorFault, ...]:
-        """The latched faults, in actuator order."""
-        return tuple(a.fault for a in self.actuators if a.fault is not None)
+        """The latched faults, in actuator order, then the grippers'."""
+        return tuple(a.fault for a in self.actuators if a.fault is not None) + self.gripper_faults
 
     def at_rest(self, speed: float = 1e-9) -> bool:
         """Every actuator at its target and none faster than ``speed`` [m/s, rad/s]."""

@@ -6,8 +6,10 @@ transitions, and each cycle ``write`` (the last accepted command) then ``read`` 
 
 A lifecycle node, **inactive** after start-up: the state streams but nothing moves and the
 grippers do not switch until ``activate`` through ``driver_node/change_state`` (or
-``auto_activate``). Deactivating holds the robot; a hardware fault deactivates the node, and the
-hardware refuses activation until its faults are reset. The state is published at ``rate`` Hz,
+``auto_activate``). Deactivating holds the robot; a hardware fault deactivates the node (ERROR on
+/diagnostics, the faults in its status), and the hardware refuses activation until an operator
+resets its faults through the Trigger service ``driver_node/reset_faults`` (refused while active
+or while the bus is lost), then activates again. The state is published at ``rate`` Hz,
 at ``idle_rate`` once the robot rests (every actuator at its target, no command for 0.5 s).
 
 A command is not acted on (the last accepted one stands; /diagnostics and the log say why) when
@@ -26,11 +28,11 @@ import numpy as np
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.lifecycle import LifecycleNode, State, TransitionCallbackReturn
 from sensor_msgs.msg import JointState
-from std_srvs.srv import SetBool
+from std_srvs.srv import SetBool, Trigger
 
 from rrps_description.geometry import load_robot
 from rrps_description.names import LEG_NAMES, RINGS
-from rrps_interfaces.driver import GRIPPERS_STATE, ActuatorMode, DriverStatus, gripper_service
+from rrps_interfaces.driver import GRIPPERS_STATE, RESET_FAULTS, ActuatorMode, DriverStatus, gripper_service
 from rrps_interfaces.kinematics import ACTUATORS_COMMAND, ACTUATORS_STATE
 from rrps_runtime.diagnostics import ERROR, OK, STALE, WARN, Diagnostics
 from rrps_runtime.freshness import CommandAges, CommandFreshness, RejectedCommand
@@ -42,7 +44,7 @@ from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
 from rrps_sim.hardware import hardware_class
 from rrps_sim.hardware.commands import checked_command, ring_joints
-from rrps_sim.hardware.interface import Command, HardwareConfig, Result, ReturnType, Transition
+from rrps_sim.hardware.interface import BusState, Command, HardwareConfig, Result, ReturnType, Transition
 from rrps_sim.hardware.simulated import SimulatedRobot
 
 __all__ = ['DriverNode', 'PARAMETERS', 'main']
@@ -76,6 +78,8 @@ class DriverNode(LifecycleNode):
         self.hardware = hardware_class(self.hardware_name)()
         self._config = HardwareConfig(g, values)
         self.mode = ActuatorMode(values['mode'])
+        simulated = self.hardware_name == 'simulated'
+        self.label = f'{self.mode.value} actuators' if simulated else f'{self.hardware_name} hardware'
         self.rate, self.idle_rate, self.timeout = values['rate'], values['idle_rate'], values['timeout']
         self.publish_on_command, self.hold_when_silent = values['publish_on_command'], values['hold_when_silent']
         self.state_file = values['state_file']
@@ -100,8 +104,9 @@ class DriverNode(LifecycleNode):
         for ring in RINGS:
             self.create_service(SetBool, gripper_service(ring),
                                 lambda request, response, ring=ring: self._on_gripper(ring, request, response))
+        self.create_service(Trigger, RESET_FAULTS, self._on_reset_faults)
         self.add_on_set_parameters_callback(self._on_set_parameters)
-        self._diag = Diagnostics(self, f'{self.mode.value} actuators', hardware_id=g.name)
+        self._diag = Diagnostics(self, self.label, hardware_id=g.name)
         self._tick_timer = self.create_timer(1.0 / self.rate, self._on_tick)
         self._resting = False
         self.create_timer(0.05, self._publish_grippers)
@@ -137,7 +142,7 @@ class DriverNode(LifecycleNode):
             return result
         self._drop_command()
         self.active = True
-        self._set_status(OK, f'{self.mode.value} actuators active, holding: waiting for actuators/command')
+        self._set_status(OK, f'{self.label} active, holding: waiting for actuators/command')
         return super().on_activate(state)
 
     def on_deactivate(self, state: State) -> TransitionCallbackReturn:
@@ -234,7 +239,7 @@ class DriverNode(LifecycleNode):
         self.accepted += 1
         self._wake()
         self._last_command_time = time.monotonic()
-        self._set_status(OK, f'{self.mode.value} actuators tracking actuators/command')
+        self._set_status(OK, f'{self.label} tracking actuators/command')
         if self.publish_on_command:
             self._cycle()
 
@@ -251,11 +256,14 @@ class DriverNode(LifecycleNode):
         result = self.hardware.write(t, dt, self._command)
         if not result.ok:  # the hardware stopped and holds: the last command is void
             self._command = None
-            self._set_status(ERROR, result.message)
         s = self.state = self.hardware.read(t, dt)
-        if s.faults and self.active:
-            self.trigger_deactivate()
-            self._set_status(ERROR, f'{"; ".join(map(str, s.faults))}: holding, inactive')
+        if s.faults:
+            if self.active:
+                self.trigger_deactivate()
+            self._set_status(ERROR, f'{"; ".join(map(str, s.faults))}: holding, inactive; reset the faults '
+                                    f'({self.get_name()}/reset_faults), then activate')
+        elif not result.ok:
+            self._set_status(ERROR, result.message)
         if s.lost:
             self.dropped += 1
             return
@@ -279,6 +287,24 @@ class DriverNode(LifecycleNode):
         if self._resting:
             self._set_tick_rate(self.rate)
             self._last_step = time.monotonic()
+
+    # --- faults ---
+
+    def _on_reset_faults(self, request, response):
+        """The operator's fault reset: refused while active or while the bus is lost."""
+        if self.active:
+            result = Result(ReturnType.ERROR, 'refused: the driver is active (a fault deactivates it)')
+        elif self.state.bus is BusState.LOST:
+            result = Result(ReturnType.ERROR, 'refused: the bus is lost')
+        else:
+            result = self.hardware.reset_faults()
+        response.success, response.message = result.ok, result.message
+        if result.ok:
+            self.state = self.hardware.read(time.monotonic(), 0.0)
+            self._set_status(WARN, f'{result.message}; inactive: activate through {self.get_name()}/change_state')
+        else:
+            self.get_logger().warning(f'fault reset refused: {result.message}')
+        return response
 
     # --- grippers ---
 
