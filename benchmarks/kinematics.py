@@ -9,7 +9,7 @@ each pose from its lengths, seeded by the previous pose (the real-time use of fk
 Baselines: ``scipy.optimize.fsolve`` on the six leg equations (unknowns: position and a rotation
 vector relative to the seed) and a plain NumPy Newton loop (np.linalg.solve per iteration).
 Single-solve times are medians over ``--samples`` calls; batches report throughput.
-Targets (issue 2, this 2-core machine): FK single <= 25 us median and >= 10x faster than
+Targets (this 2-core machine): FK single <= 25 us median and >= 10x faster than
 fsolve; batch IK >= 2 M poses/s; batch FK >= 200 k solves/s.
 """
 

@@ -7,6 +7,11 @@ package_name = 'rrps_sim'
 NODES = {
     'driver_node': ('rrps_sim.nodes.driver_node', 'DriverNode'),
 }
+#: The hardware implementations driver_node can host (its ``hardware`` parameter): name ->
+#: 'module:SystemInterface subclass', the 'rrps.hardware' entry-point group (rrps_sim.hardware).
+HARDWARE = {
+    'simulated': 'rrps_sim.hardware.simulated:SimulatedRobot',
+}
 
 setup(
     name=package_name,
@@ -36,5 +41,6 @@ setup(
             'rrps-dynamics = rrps_sim.cli:main',
         ] + [f'{node} = {module}:main' for node, (module, _) in NODES.items()],
         'rrps.nodes': [f'{node} = {module}:{cls}' for node, (module, cls) in NODES.items()],
+        'rrps.hardware': [f'{name} = {target}' for name, target in HARDWARE.items()],
     },
 )

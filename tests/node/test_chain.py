@@ -144,4 +144,4 @@ def test_gripper_interlock_in_the_chain(ros_context):
         assert not call('ring_b', False)                  # refused: nothing would grip
         assert chain.reach(POLE.home_position + [0.0, 0.0, 0.01], [0, 0, 0, 1])   # step while ring_b grips
         assert call('ring_a', True) and call('ring_b', False) and not call('ring_a', False)
-    assert chain.driver.grippers.positions() == [1.0, 0.0]
+    assert chain.driver.state.grippers == {'ring_a': True, 'ring_b': False}

@@ -86,6 +86,7 @@ def test_installed_executables_close_the_chain_and_stop_on_ctrl_c(ros_context, r
 @pytest.mark.parametrize('executable, param, message', [
     ('ik_node', 'robot:=no_such_robot', 'no_such_robot'),
     ('driver_node', 'mode:=fast', 'mode must be one of'),
+    ('driver_node', 'hardware:=cia402', "unknown hardware 'cia402'; known: canopen, simulated"),
 ])
 def test_invalid_parameters_exit_2_with_one_line(ros_domain_id, executable, param, message):
     process = start(executable, ros_domain_id, param)

@@ -61,8 +61,10 @@ def _stop(proc: subprocess.Popen) -> None:
 
 
 @pytest.mark.slow
-def test_headless_demo_runs_a_teleop_session_and_a_climb(ros_domain_id):
-    proc = subprocess.Popen([*_command(), '--headless', '--port', str(_free_port())],
+@pytest.mark.parametrize('hardware', ['simulated', 'canopen'])
+def test_headless_demo_runs_a_teleop_session_and_a_climb(ros_domain_id, hardware):
+    """On the simulated hardware, and on simulated CANopen drives (rrps-drive-sim, a loopback bus)."""
+    proc = subprocess.Popen([*_command(), '--headless', '--port', str(_free_port()), '--hardware', hardware],
                             env=_env(ros_domain_id), stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
     try:
@@ -127,7 +129,8 @@ def test_compose_names_its_nodes_and_refuses_unknown_ones():
     assert main([]) == 2
     nodes = registered_nodes()
     assert set(nodes) == {'ik_node', 'fk_node', 'driver_node', 'master_node', 'teleop_node', 'climb_node',
-                          'viewer_node', 'recorder_node', 'replay_node', 'markers_node'}
+                          'viewer_node', 'recorder_node', 'replay_node', 'markers_node', 'foxglove_node',
+                          'robot_description_node'}
     for name, node in nodes.items():
         assert node_class(name).__name__.endswith('Node')
         assert node.module.startswith(node.package + '.nodes.'), node  # each node in its package

@@ -10,13 +10,18 @@ The demo runs as the system would on a robot and an operator station, in four pr
 * the operator station, master, teleop and the viewer, in this process;
 * the observers (:func:`start_recorder`): the flight recorder (the last 60 s, written on a fault
   or on the viewer's "Save last 60 s", in ``--recordings``; ``--record`` also records the whole
-  session there) and ``markers_node`` (the robot for RViz2 and Foxglove).
+  session there), ``markers_node`` and ``robot_description_node`` (the robot for RViz2 and
+  Foxglove: markers, /tf, robot_description and joint_states).
 
 A robot process that dies is restarted (at most 3 times a minute); the children die with this
 process (a parent-death signal), and Ctrl-C or SIGTERM stops them all. The viewer's URL and
 operator token are printed once the robot is up. Every node reads its parameter file
 (:mod:`rrps_bringup.params`) before the demo's own settings (robot, rate, host, port, token),
 which win.
+
+``--hardware canopen`` puts the robot's legs and grippers on CANopen (CiA 402 drives, a CiA 401
+I/O module: :mod:`rrps_canopen`), simulated by ``rrps-drive-sim`` in a supervised process of its
+own on a loopback CAN bus that stays on this machine; the master stays simulated.
 
 ``--headless`` runs no browser: a scripted teleop session (the operator's handle moves the
 master, a deadman stream engages the mapping, the slave follows; releasing the deadman holds the
@@ -67,6 +72,9 @@ def _parser() -> argparse.ArgumentParser:
                    help='folder of the flight recorder\'s files (and of --record)')
     p.add_argument('--record', action='store_true',
                    help='also record the whole session to MCAP in --recordings')
+    p.add_argument('--hardware', choices=('simulated', 'canopen'), default='simulated',
+                   help="the driver's hardware: simulated, or canopen (simulated CiA 402 drives on a loopback "
+                        'CAN bus; default simulated)')
     return p
 
 
@@ -136,7 +144,7 @@ def _with_file(node: str, overrides: list) -> list:
 
 
 def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
-                 state_file: str = '', activate: bool = False) -> subprocess.Popen:
+                 state_file: str = '', activate: bool = False, hardware: str = 'simulated') -> subprocess.Popen:
     """The simulated hardware (driver_node) in a process of its own, as a real robot's driver.
 
     Its 500 Hz loop has an interpreter and a core to itself. It keeps the robot's physical
@@ -145,18 +153,26 @@ def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
     it with :func:`rrps_runtime.supervision.stop_children`.
     """
     from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child
-    return start_child(driver_command(robot=robot, rate=rate, namespace=namespace,
-                                      state_file=state_file, activate=activate), nice=CONTROL_NICE,
+    return start_child(driver_command(robot=robot, rate=rate, namespace=namespace, state_file=state_file,
+                                      activate=activate, hardware=hardware), nice=CONTROL_NICE,
                        realtime=CONTROL_RT_PRIORITY)
 
 
+def start_drives(*, robot: str) -> subprocess.Popen:
+    """The simulated CANopen drives of ``robot``'s bus (``rrps-drive-sim``), above the driver's
+    priority as real drives are hardware of their own; on the bus port of ``RRPS_CAN_PORT``."""
+    from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child
+    return start_child([sys.executable, '-m', 'rrps_canopen.simulator.process', '--robot', robot],
+                       nice=CONTROL_NICE, realtime=CONTROL_RT_PRIORITY + 10)
+
+
 def driver_command(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
-                   state_file: str = '', activate: bool = False) -> list[str]:
+                   state_file: str = '', activate: bool = False, hardware: str = 'simulated') -> list[str]:
     """The command line of :func:`start_driver` (no state file: the parameter's default)."""
     from rrps_bringup.params import params_file_arguments
     return [sys.executable, '-m', 'rrps_sim.nodes.driver_node', '--ros-args',
             *params_file_arguments('driver_node'), '-r', f'__ns:={namespace}',
-            '-p', f'robot:={robot}', '-p', f'rate:={float(rate)}',
+            '-p', f'robot:={robot}', '-p', f'rate:={float(rate)}', '-p', f'hardware:={hardware}',
             *(['-p', f'state_file:={state_file}'] if state_file else []),
             '-p', f'auto_activate:={str(activate).lower()}']
 
@@ -172,14 +188,14 @@ def start_robot_nodes(*, robot: str, namespace: str = NAMESPACE) -> subprocess.P
 
 
 #: The observers: the flight recorder and the robot's markers for RViz2 / Foxglove.
-OBSERVER_NODES = ('recorder_node', 'markers_node')
+OBSERVER_NODES = ('recorder_node', 'markers_node', 'robot_description_node')
 
 
 def start_recorder(*, robot: str, output_dir: str, record: bool = False,
                    namespace: str = NAMESPACE) -> subprocess.Popen:
     """The observers (:data:`OBSERVER_NODES`) in a process of their own, off the command path:
     the flight recorder (the last 60 s, written on a fault or on the viewer's "Save last 60 s";
-    with ``record`` the whole session too) and markers_node."""
+    with ``record`` the whole session too), markers_node and robot_description_node."""
     from rrps_bringup.params import params_file_arguments
     from rrps_runtime.supervision import OBSERVER_NICE, start_child
     return start_child([sys.executable, '-m', 'rrps_bringup.compose', *OBSERVER_NODES,
@@ -223,7 +239,8 @@ def _banner(viewer, driver_scheduling: str) -> str:
     return (f'\nrrps demo: the pole climber is live.\n'
             f'  viewer:         {viewer.url}\n'
             f'  operator token: {viewer.token}\n'
-            f'  robot for RViz2/Foxglove: {NAMESPACE}/robot/markers (MarkerArray, frame ring_a)\n'
+            f'  robot for RViz2/Foxglove: {NAMESPACE}/robot_description (RobotModel), '
+            f'{NAMESPACE}/robot/markers (MarkerArray), /tf; fixed frame ring_a\n'
             f'  scheduling:     {scheduling}\n'
             f'  (every browser is read-only until it enters the token; Ctrl-C stops everything)\n')
 
@@ -244,8 +261,15 @@ def _start_robot(args, run_dir: str):
     from rrps_runtime.supervision import Respawner
 
     state_file = os.path.join(run_dir, f'{args.robot}-hardware.json')
+    drives = {}
+    if args.hardware == 'canopen':  # the drives first: the driver configures them at its start
+        from rrps_canopen.loopback_bus import free_port
+        os.environ.setdefault('RRPS_CAN_PORT', str(free_port()))
+        drives = {'drives': lambda first: start_drives(robot=args.robot)}
     return Respawner({
-        'driver': lambda first: start_driver(robot=args.robot, state_file=state_file, activate=first),
+        **drives,
+        'driver': lambda first: start_driver(robot=args.robot, state_file=state_file, activate=first,
+                                             hardware=args.hardware),
         'robot nodes': lambda first: start_robot_nodes(robot=args.robot),
         'observer': lambda first: start_recorder(robot=args.robot, output_dir=args.recordings,
                                                  record=args.record),

@@ -17,6 +17,7 @@ from typing import Any, Mapping
 import numpy as np
 import yaml
 
+from rrps_description.bus import BusConfig, bus_from
 from rrps_description.loads import GripperCapacity, Payload, ToolWrench, check_payload, loads_from
 from rrps_description.robot_parts import (
     TOOL_SHAPES,
@@ -101,6 +102,8 @@ class RobotGeometry:
     tool_wrench: ToolWrench | None = None
     holding: Mapping[str, GripperCapacity] = field(default_factory=dict)
     description: str = ''
+    #: the fieldbus of the robot's drives (the YAML's optional ``bus`` section, :mod:`rrps_description.bus`)
+    bus: BusConfig | None = None
 
     def __post_init__(self) -> None:
         A = as_array(self.ring_a_anchors, (6, 3), 'ring_a.anchors')
@@ -299,18 +302,18 @@ class RobotGeometry:
     def from_dict(cls, data: Mapping[str, Any], *, source: str = '<dict>') -> 'RobotGeometry':
         """Build from the parsed YAML schema; errors name the file and the key."""
         try:
-            return cls._from_dict(data)
+            return cls._from_dict(data, source)
         except RobotDescriptionError as exc:
             raise RobotDescriptionError(f'{source}: {exc}') from None
 
     @classmethod
-    def _from_dict(cls, data: Mapping[str, Any]) -> 'RobotGeometry':
+    def _from_dict(cls, data: Mapping[str, Any], source: str) -> 'RobotGeometry':
         if not isinstance(data, Mapping):
             raise RobotDescriptionError('top level: expected a mapping')
         if 'gravity' in data:
             raise RobotDescriptionError(GRAVITY_MIGRATION)
         known = {'name', 'description', 'ring_a', 'ring_b', 'legs', 'home', 'limits',
-                 'extra_dof', 'tool', 'payload', 'tool_wrench'}
+                 'extra_dof', 'tool', 'payload', 'tool_wrench', 'bus'}
         unknown = set(data) - known
         if unknown:
             raise RobotDescriptionError(f'unknown top-level keys {sorted(unknown)}')
@@ -357,6 +360,9 @@ class RobotGeometry:
         kwargs['extra_dof'] = extra_dof_from(section('extra_dof'))
         if 'tool' in data:
             kwargs['tool'] = tool_from(section('tool'))
+        kwargs['bus'] = bus_from(data['bus'], min_length=kwargs.get('min_length', 0.0),
+                                 max_length=kwargs.get('max_length', math.inf),
+                                 source=source if source != '<dict>' else '') if 'bus' in data else None
         return cls(**kwargs)
 
     @classmethod

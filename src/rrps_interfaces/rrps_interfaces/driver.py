@@ -4,6 +4,7 @@ Topics and services (relative names), beside :mod:`rrps_interfaces.kinematics`' 
 
     GRIPPERS_STATE            sensor_msgs/JointState  name RINGS, position 1.0 closed / 0.0 open
     gripper_service(ring)     std_srvs/SetBool        data true = close; refused: success false
+    RESET_FAULTS              std_srvs/Trigger        reset the hardware's latched faults (inactive driver only)
 
 and the driver's /diagnostics values, :class:`DriverStatus`. Pure Python, no ROS import.
 """
@@ -17,9 +18,11 @@ from typing import Mapping, Sequence
 from rrps_description.names import RINGS
 from rrps_interfaces.status import CommandAgeStatus
 
-__all__ = ['GRIPPERS_STATE', 'gripper_service', 'gripper_states', 'ActuatorMode', 'DriverStatus']
+__all__ = ['GRIPPERS_STATE', 'RESET_FAULTS', 'gripper_service', 'gripper_states', 'ActuatorMode', 'DriverStatus']
 
 GRIPPERS_STATE = 'grippers/state'
+#: The driver's fault reset (the operator's, after a hardware fault; then activate again).
+RESET_FAULTS = 'driver_node/reset_faults'
 
 
 def gripper_service(ring: str) -> str:
@@ -63,6 +66,10 @@ class DriverStatus(CommandAgeStatus):
     gripper_refusals: int = 0
     #: why the last write of ``state_file`` failed ('' when it succeeded or there is none)
     state_file_error: str = ''
+    #: the hardware implementation the driver hosts (its ``hardware`` parameter)
+    hardware: str = 'simulated'
+    #: the hardware's latched faults, ``<actuator>:<kind>`` (kind: a FaultKind value of rrps_sim.hardware)
+    faults: tuple[str, ...] = ()
 
     @classmethod
     def grippers(cls, closed: Mapping[str, bool]) -> dict:

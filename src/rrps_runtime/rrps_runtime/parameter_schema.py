@@ -32,9 +32,9 @@ _TYPES = (bool, int, float, str, tuple)
 class Parameter:
     """One parameter of a node.
 
-    ``default`` fixes the type (bool, int, float, str, or a tuple of numbers or of strings); ``None`` with
-    ``type=float`` declares a parameter left unset in the shipped file, whose default the node
-    derives (e.g. from the robot). ``range`` bounds a number (inclusive), ``choices`` a string;
+    ``default`` fixes the type (bool, int, float, str, or a tuple of ``item_type``: floats, ints
+    or strings); ``None`` with ``type`` declares a parameter left unset in the shipped file, whose
+    default the node derives (e.g. from the robot). ``range`` bounds a number (inclusive), ``choices`` a string;
     ``dynamic`` parameters may be set while the node runs (the others are read-only).
     """
 
@@ -48,6 +48,9 @@ class Parameter:
     type: type | None = None
     #: the node derives the default when the value is unset (documented in the file, not set there)
     unset_note: str = ''
+    #: the type of a list parameter's items: float, int or str (None: str for a default of
+    #: strings, else float)
+    item_type: type | None = None
 
     def __post_init__(self) -> None:
         kind = self.type or type(self.default)
@@ -58,12 +61,19 @@ class Parameter:
         object.__setattr__(self, 'type', kind)
         if self.default is not None and not isinstance(self.default, kind):
             raise ValueError(f'{self.name}: default {self.default!r} is not a {kind.__name__}')
-        if kind is tuple and not (all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                                      for v in self.default or ())
-                                  or all(isinstance(v, str) for v in self.default)):
-            raise ValueError(f'{self.name}: a list parameter holds numbers or strings')
-        if self.item_type is str and self.range is not None:
-            raise ValueError(f'{self.name}: a range needs a number type')
+        if kind is tuple:
+            item = self.item_type or (str if self.default and all(isinstance(v, str) for v in self.default)
+                                      else float)
+            object.__setattr__(self, 'item_type', item)
+            if item not in (float, int, str):
+                raise ValueError(f'{self.name}: a list parameter holds floats, ints or strings')
+            if not all(isinstance(v, str) if item is str else
+                       (isinstance(v, (int, float)) and not isinstance(v, bool)
+                        and (item is float or isinstance(v, int)))
+                       for v in self.default or ()):
+                raise ValueError(f'{self.name}: a list parameter holds {item.__name__}s')
+            if item is str and self.range is not None:
+                raise ValueError(f'{self.name}: a range needs a number type')
         if self.range is not None:
             lo, hi = self.range
             if kind not in (int, float, tuple) or not lo <= hi:
@@ -77,13 +87,6 @@ class Parameter:
     def read_only(self) -> bool:
         return not self.dynamic
 
-    @property
-    def item_type(self) -> type | None:
-        """The type of a list parameter's items: str for a default of strings, else float."""
-        if self.type is not tuple:
-            return None
-        return str if self.default and all(isinstance(v, str) for v in self.default) else float
-
     def check(self, value) -> None:
         """ValueError naming the parameter when ``value`` is outside its range or choices."""
         if self.choices and value not in self.choices:
@@ -93,14 +96,14 @@ class Parameter:
             values = value if isinstance(value, (tuple, list)) else (value,)
             for v in values:
                 if not (isinstance(v, (int, float)) and lo <= v <= hi):
-                    raise ValueError(f'{self.name} must be in [{lo:g}, {hi:g}], got {value!r}')
+                    raise ValueError(f'{self.name} must be in [{_bound(lo)}, {_bound(hi)}], got {value!r}')
 
     def constraints(self) -> str:
         """The range or the choices in words ('' when neither)."""
         if self.choices:
             return ' | '.join(self.choices)
         if self.range is not None:
-            return f'[{self.range[0]:g} .. {self.range[1]:g}]'
+            return f'[{_bound(self.range[0])} .. {_bound(self.range[1])}]'
         return ''
 
     def summary(self) -> str:
@@ -109,6 +112,11 @@ class Parameter:
         if self.constraints():
             text += f' {self.constraints()}'
         return text + (' (read-only)' if self.read_only else '')
+
+
+def _bound(value: float) -> str:
+    """A range bound in words: an int as it is, a float in %g."""
+    return str(value) if isinstance(value, int) else f'{value:g}'
 
 
 #: The robot every node serves: a shipped robot's name or the path of a robot YAML.
@@ -141,7 +149,8 @@ def format_value(value) -> str:
             mantissa += '.0'
         return mantissa + e + exponent
     if isinstance(value, (tuple, list)):
-        return '[' + ', '.join(_quoted(v) if isinstance(v, str) else format_value(float(v))
+        return '[' + ', '.join(_quoted(v) if isinstance(v, str) else
+                               str(v) if isinstance(v, int) else format_value(float(v))
                                for v in value) + ']'
     if isinstance(value, str):
         return value if _plain(value) else _quoted(value)

@@ -13,7 +13,8 @@ __all__ = ['descriptor', 'declare_parameters']
 
 _TYPES = {bool: ParameterType.PARAMETER_BOOL, int: ParameterType.PARAMETER_INTEGER,
           float: ParameterType.PARAMETER_DOUBLE, str: ParameterType.PARAMETER_STRING}
-_ARRAY_TYPES = {float: ParameterType.PARAMETER_DOUBLE_ARRAY, str: ParameterType.PARAMETER_STRING_ARRAY}
+_ARRAY_TYPES = {float: ParameterType.PARAMETER_DOUBLE_ARRAY, int: ParameterType.PARAMETER_INTEGER_ARRAY,
+                str: ParameterType.PARAMETER_STRING_ARRAY}
 
 
 def _ros_type(parameter: Parameter) -> int:
@@ -69,31 +70,3 @@ def declare_parameters(node: Node, schema: NodeParameters) -> dict:
     node.add_on_set_parameters_callback(refuse_outside)
     return values
 
-
-def declare_parameter(node: Node, name: str, default, description: str, *,
-                      min_value: float | None = None, max_value: float | None = None,
-                      read_only: bool = False, additional_constraints: str = ''):
-    """Declare a parameter with a descriptor (and a range for numbers); return its value."""
-    d = ParameterDescriptor(description=description, read_only=read_only,
-                            additional_constraints=additional_constraints)
-    if isinstance(default, bool):
-        d.type = ParameterType.PARAMETER_BOOL
-    elif isinstance(default, int) and min_value is not None and max_value is not None:
-        d.type = ParameterType.PARAMETER_INTEGER
-        d.integer_range = [IntegerRange(from_value=int(min_value), to_value=int(max_value), step=0)]
-    elif isinstance(default, float) and min_value is not None and max_value is not None:
-        d.type = ParameterType.PARAMETER_DOUBLE
-        d.floating_point_range = [FloatingPointRange(from_value=float(min_value),
-                                                     to_value=float(max_value), step=0.0)]
-    return node.declare_parameter(name, default, d).value
-
-
-def declare_robot_parameter(node: Node, name: str = 'robot', default: str = 'pole_climber',
-                            description: str | None = None):
-    """Declare the ``robot`` parameter (a shipped robot name or a YAML path) and load it."""
-    from rrps_description.geometry import load_robot, shipped_robots
-    value = declare_parameter(
-        node, name, default,
-        description or f'shipped robot name ({", ".join(shipped_robots())}) or a robot YAML path',
-        read_only=True)
-    return load_robot(value)

@@ -1,14 +1,15 @@
 """The QoS profiles of the rrps topics.
 
 Command streams are best effort, depth 1, with a staleness check in the receiver
-(:mod:`rrps_runtime.freshness`); state and status streams are reliable.
+(:mod:`rrps_runtime.freshness`); state and status streams are reliable; a latched topic keeps
+its one message for subscribers that join later.
 """
 
 from __future__ import annotations
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-__all__ = ['COMMAND_QOS', 'STATE_QOS', 'LATEST_QOS']
+__all__ = ['COMMAND_QOS', 'STATE_QOS', 'LATEST_QOS', 'LATCHED_QOS']
 
 COMMAND_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                          reliability=ReliabilityPolicy.BEST_EFFORT,
@@ -22,3 +23,8 @@ STATE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
 LATEST_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                         reliability=ReliabilityPolicy.RELIABLE,
                         durability=DurabilityPolicy.VOLATILE)
+#: A latched topic (robot_description as robot_state_publisher publishes it, /tf_static as
+#: tf2_ros' StaticTransformBroadcaster does): reliable, transient local, keep last 1.
+LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
+                         reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)

@@ -183,7 +183,7 @@ class QuasiStaticEfforts:
 
     The forces that hold the current pose against gravity (legs included,
     :func:`rrps_sim.statics.holding_forces`) at the pose found by FK from the current lengths,
-    refreshed at most every ``period`` s (one solve costs about a millisecond). A pose where FK
+    refreshed at most every ``period`` s (an FK and a statics solve per refresh). A pose where FK
     fails or the Jacobian is singular keeps the previous efforts.
     """
 

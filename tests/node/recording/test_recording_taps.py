@@ -255,21 +255,21 @@ def test_the_recorder_takes_a_tapped_topic_from_the_tap_and_another_publisher_fr
             time.sleep(0.004)
 
     with Spinner(ros_context, [talker.node, recorder, tool]):
-        assert wait_for(lambda: recorder._taps.is_tapped(topic), timeout=15.0)
+        assert wait_for(lambda: recorder._taps.is_tapped(topic))
         assert topic not in recorder._raw_subscriptions and talker.tap.active
         stream(100, 0.0)
         tool_pub = tool.publisher(JointState, 'actuators/state')
-        assert wait_for(lambda: topic in recorder._raw_subscriptions, timeout=15.0)
+        assert wait_for(lambda: topic in recorder._raw_subscriptions)
         assert not recorder._taps.is_tapped(topic)
         assert wait_for(lambda: recorder._raw_subscriptions[topic].get_publisher_count() == 2, 10.0)
         stream(100, 100.0, with_tool=tool_pub)
         tool.destroy_publisher(tool_pub)
-        assert wait_for(lambda: recorder._taps.is_tapped(topic), timeout=15.0)
+        assert wait_for(lambda: recorder._taps.is_tapped(topic))
         assert topic not in recorder._raw_subscriptions
         stream(100, 200.0)
         time.sleep(0.5)  # the talker's last bundle
     recorder.destroy_node()
-    recorded = _recorded_positions(tmp_path / 'taps_0.mcap', topic)
+    recorded = _recorded_positions(tmp_path / 'taps' / 'taps_0.mcap', topic)
     assert sorted(v for v in recorded if v < 1000.0) == talker.sent  # each once, none lost
     assert sorted(v for v in recorded if v >= 1000.0) == tool_sent
     assert talker.tap.bundles_sent > 0
@@ -287,7 +287,7 @@ def test_without_taps_the_recorder_subscribes_to_every_topic(ros_context, tmp_pa
         Parameter('discovery_period', value=0.1), Parameter('use_taps', value=False),
         Parameter('flight_recorder', value=False), Parameter('tf_rate', value=0.0)])
     with Spinner(ros_context, [talker.node, recorder]):
-        assert wait_for(lambda: topic in recorder._raw_subscriptions, timeout=15.0)
+        assert wait_for(lambda: topic in recorder._raw_subscriptions)
         assert wait_for(lambda: recorder._raw_subscriptions[topic].get_publisher_count() == 1, 10.0)
         for i in range(100):
             talker.publish(float(i))
@@ -295,7 +295,7 @@ def test_without_taps_the_recorder_subscribes_to_every_topic(ros_context, tmp_pa
         time.sleep(0.5)
     recorder.destroy_node()
     assert not talker.tap.active  # nobody took the bundles
-    assert _recorded_positions(tmp_path / 'dds_0.mcap', topic) == talker.sent
+    assert _recorded_positions(tmp_path / 'dds' / 'dds_0.mcap', topic) == talker.sent
 
 
 @pytest.mark.ros
@@ -363,7 +363,7 @@ def test_a_malformed_bundle_is_counted_and_reported_and_recording_goes_on(ros_co
         assert reported().level == b'\x01'  # WARN
         time.sleep(0.3)
     recorder.destroy_node()
-    assert _recorded_positions(tmp_path / 'bad_0.mcap', topic) == talker.sent
+    assert _recorded_positions(tmp_path / 'bad' / 'bad_0.mcap', topic) == talker.sent
 
 
 @pytest.mark.ros
@@ -392,7 +392,7 @@ def test_a_tap_bundles_encoded_and_serialised_types_in_publish_order(ros_context
     states = sink.collect(JointState, 'actuators/state')
     sent = []
     with Spinner(ros_context, [node, sink]):
-        assert wait_for(lambda: tap.active, timeout=10.0)
+        assert wait_for(lambda: tap.active)
         for i in range(120):
             if i % 3 == 0:
                 msg, publisher = Bool(data=i % 2 == 0), flag_pub
@@ -435,10 +435,10 @@ def test_a_message_the_tap_cannot_encode_is_left_out_and_counted_never_raised(ro
     sink.create_subscription(UInt8MultiArray, f'tapped_talker/{RECORDING_TAP}', bundles.append,
                              TAP_QOS, raw=True)
     with Spinner(ros_context, [talker.node, sink]):
-        assert wait_for(lambda: talker.tap.active, timeout=10.0)
+        assert wait_for(lambda: talker.tap.active)
         for i in range(20):
             talker.publish(float(i))
-        assert wait_for(lambda: talker.tap.unencodable == 20, timeout=5.0)
-        assert wait_for(lambda: bundles, timeout=5.0)  # the tap goes on
+        assert wait_for(lambda: talker.tap.unencodable == 20)
+        assert wait_for(lambda: bundles)  # the tap goes on
     assert all(not decode_bundle(data).frames for data in bundles)
     sink.destroy_node()

@@ -159,7 +159,7 @@ def test_dynamic_mode_holds_and_tracks_with_effort_as_force(ros_context):
             pub.publish(command(probe, goal))
             return np.allclose(states[-1].position, goal, rtol=0, atol=1e-9)
         assert wait_for(stream, period=0.05)
-    np.testing.assert_allclose(node.actuators.dynamics.position, p, atol=1e-7)
+    np.testing.assert_allclose(node.hardware.actuators.dynamics.position, p, atol=1e-7)
     assert np.max(np.abs([m.effort for m in states])) <= POLE.max_force
 
 
@@ -197,7 +197,7 @@ def test_invalid_parameters_refuse_to_start(ros_context, overrides, message):
 def test_initial_lengths(ros_context):
     lengths = inverse_kinematics(POLE, POLE.home_position + [0.0, 0.01, 0.0], [0, 0, 0, 1]).lengths
     node = driver(ros_context, initial_lengths=list(lengths))
-    np.testing.assert_array_equal(node.actuators.positions, lengths)
+    np.testing.assert_array_equal(node.state.positions, lengths)
     node.destroy_node()
 
 

@@ -62,22 +62,25 @@ def test_save_last_60_s_writes_the_flight_recorder_and_offers_the_file(ros_conte
     probe = Probe(context=ros_context, namespace=NS)
     pub = probe.publisher(PoseStamped, 'pose')
     with Spinner(ros_context, [viewer, recorder, probe]):
-        assert wait_for(lambda: f'{NS}/pose' in recorder._raw_subscriptions, timeout=10.0)
+        assert wait_for(lambda: f'{NS}/pose' in recorder._raw_subscriptions)
         for i in range(50):
             pub.publish(pose_to_msg([0, 0, 0.42 + 1e-4 * i], [0, 0, 0, 1], frame_id='ring_a',
                                     stamp=probe.get_clock().now().to_msg()))
             time.sleep(0.01)
         viewer.control.connect(3)  # a read-only browser is refused
         viewer.save_flight_recording(3)
-        assert wait_for(lambda: any(c == 3 and not ok for c, _, ok in viewer.told), timeout=5.0)
+        assert wait_for(lambda: any(c == 3 and not ok for c, _, ok in viewer.told))
         cid = _operator(viewer.control)
-        assert wait_for(lambda: viewer.recording._save_client.service_is_ready(), timeout=10.0)
+        assert wait_for(lambda: viewer.recording._save_client.service_is_ready())
         viewer.save_flight_recording(cid)
-        assert wait_for(lambda: viewer.sent, timeout=30.0)
+        assert wait_for(lambda: viewer.sent)
     [(to, name, content)] = viewer.sent
-    assert to == cid and name.startswith('flight_') and name.endswith('_operator.mcap')
-    assert (tmp_path / name).read_bytes() == content
-    with open(tmp_path / name, 'rb') as stream:
+    # the dump is a bag folder flight_<time>_operator/ of one file, which the browser gets
+    assert to == cid and name.startswith('flight_') and name.endswith('_operator_0.mcap')
+    bag = tmp_path / name.removesuffix('_0.mcap')
+    assert (bag / 'metadata.yaml').is_file()
+    assert (bag / name).read_bytes() == content
+    with open(bag / name, 'rb') as stream:
         reader = make_reader(stream, decoder_factories=[DecoderFactory()])
         zs = [d.pose.position.z for _, c, _, d in reader.iter_decoded_messages()
               if c.topic == f'{NS}/pose']
@@ -99,15 +102,15 @@ def test_the_timeline_follows_the_replay_and_drives_it(ros_context, viewer, tmp_
         Parameter('files', value=[str(path)]), Parameter('paused', value=True)])
     assert viewer.frame().replay is None  # no replay yet: no timeline
     with Spinner(ros_context, [viewer, replay]):
-        assert wait_for(lambda: viewer.frame().replay is not None, timeout=10.0)
+        assert wait_for(lambda: viewer.frame().replay is not None)
         status = viewer.frame().replay
         assert status.paused and status.duration == pytest.approx(2.0) and status.time == 0.0
         cid = _operator(viewer.control)
-        assert wait_for(lambda: viewer.recording._replay_client.service_is_ready(), timeout=10.0)
+        assert wait_for(lambda: viewer.recording._replay_client.service_is_ready())
         viewer.replay_control(cid, seek=1.5)
-        assert wait_for(lambda: viewer.frame().replay.time == pytest.approx(1.5), timeout=10.0)
+        assert wait_for(lambda: viewer.frame().replay.time == pytest.approx(1.5))
         viewer.replay_control(cid, rate=4.0, paused=False)
-        assert wait_for(lambda: viewer.frame().replay.finished, timeout=10.0)
+        assert wait_for(lambda: viewer.frame().replay.finished)
         assert viewer.frame().replay.rate == 4.0
     assert replay.published == 6  # 1.5 s .. 2.0 s
     assert not [m for _, m, ok in viewer.told if not ok]

@@ -11,6 +11,6 @@ def test_probe_round_trip(ros_context):
     got = receiver.collect(String, 'chatter')
     pub = sender.publisher(String, 'chatter')
     with Spinner(ros_context, [sender, receiver]):
-        assert wait_for(lambda: receiver.count_publishers('chatter') == 1, timeout=5.0)
-        assert wait_for(lambda: (pub.publish(String(data='hello')), got)[1], timeout=5.0)
+        assert wait_for(lambda: receiver.count_publishers('chatter') == 1)
+        assert wait_for(lambda: (pub.publish(String(data='hello')), got)[1])
     assert got[0].data == 'hello'

@@ -1,6 +1,6 @@
 """Parameter schemas (rrps_runtime.parameter_schema): values written so that YAML (PyYAML, as
-rrps_bringup.params reads the files) reads them back as the same value and type, string lists,
-and the checks of a declaration."""
+rrps_bringup.params reads the files) reads them back as the same value and type, lists of
+strings and of ints, unset lists, empty strings, and the checks of a declaration."""
 
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ def test_list_parameters_hold_numbers_or_strings():
     assert Parameter('origin', (0.0, -0.9, 0.0), 'a position').item_type is float
     assert Parameter('files', ('',), 'files').item_type is str
     assert Parameter('speed', 1.0, 'a speed').item_type is None
-    with pytest.raises(ValueError, match='numbers or strings'):
+    with pytest.raises(ValueError, match='holds floats'):
         Parameter('mixed', (1.0, 'a'), 'mixed')
     with pytest.raises(ValueError, match='range needs a number type'):
         Parameter('files', ('a',), 'files', range=(0.0, 1.0))
@@ -65,3 +65,27 @@ def test_the_file_holds_every_set_default_and_notes_the_unset_one():
     assert '| `halt` | the robot\'s value |' in schema.markdown()
     with pytest.raises(ValueError, match='declared twice'):
         NodeParameters('n', 'p', [Parameter('a', 1.0, 'a'), Parameter('a', 2.0, 'a')])
+
+
+def test_a_list_of_ints_is_checked_item_by_item():
+    legs = Parameter('stuck_legs', None, 'legs', type=tuple, item_type=int, range=(1, 6), dynamic=True,
+                     unset_note='none')
+    legs.check((1, 6))
+    with pytest.raises(ValueError, match=r'stuck_legs must be in \[1, 6\], got \(7,\)'):
+        legs.check((7,))
+    assert legs.constraints() == '[1 .. 6]'
+    with pytest.raises(ValueError, match='holds ints'):
+        Parameter('legs', (1.5,), 'legs', item_type=int)
+    with pytest.raises(ValueError, match='floats, ints or strings'):
+        Parameter('legs', (), 'legs', item_type=bool)
+
+
+def test_the_generated_file_keeps_an_empty_string_and_leaves_unset_lists_out():
+    schema = NodeParameters('n', 'p', [
+        Parameter('state_file', '', 'a file; empty: none'),
+        Parameter('initial', None, 'initial lengths', unit='m', type=tuple, unset_note='the home pose'),
+        Parameter('seed', 0, 'a seed', range=(0, 2**31 - 1)),
+    ])
+    text = schema.config_yaml()
+    assert yaml.safe_load(text)['/**/n']['ros__parameters'] == {'state_file': '', 'seed': 0}
+    assert '# initial: unset here: the home pose' in text and '[0 .. 2147483647]' in text

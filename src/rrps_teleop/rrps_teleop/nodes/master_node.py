@@ -12,6 +12,13 @@ own FK of those lengths, seeded by the previous estimate).
 node) pushes the simulated handle back: its target yields ``feedback_compliance`` [m/N] and
 ``feedback_angular_compliance`` [rad/(N m)], as an operator's hand would against a master
 that renders the wrench.
+
+With ``hardware`` other than ``simulated`` (a name of the ``rrps.master_hardware`` entry points,
+e.g. ``canopen``) the lengths come from the real master's encoders and master/feedback becomes
+the leg forces that balance it on the master's ring_b (eq. 1's force mapping, J^T f = wrench),
+which the hardware renders bounded and passive; master/target_pose and the trajectories do not
+apply. A hardware fault stops the publications and the force output (ERROR) until
+``master_node/reset_faults`` (std_srvs/Trigger).
 """
 
 from __future__ import annotations
@@ -23,19 +30,23 @@ import numpy as np
 from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
+from std_srvs.srv import Trigger
 
 from rrps_description.geometry import load_robot
 from rrps_description.pose import validate_pose
 from rrps_description.rotations import quat_multiply_xyzw, rotation_vector_to_quat_xyzw
 from rrps_interfaces.teleop import MASTER_FEEDBACK, MASTER_FRAME, MASTER_POSE, MASTER_STATE, MASTER_TARGET_POSE
-from rrps_kinematics import forward_kinematics
-from rrps_runtime.diagnostics import ERROR, OK, WARN, Diagnostics
+from rrps_kinematics import forward_kinematics, inverse_kinematics
+from rrps_kinematics.jacobian import leg_forces
+from rrps_runtime.diagnostics import ERROR, OK, OPERATOR_STATION, WARN, Diagnostics
 from rrps_runtime.messages import joint_state_msg, pose_from_msg, pose_to_msg
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
+from rrps_sim.hardware import master_hardware_class
+from rrps_sim.hardware.interface import HardwareConfig
 from rrps_teleop.master import TRAJECTORIES, HandleMotion, MasterModel, scripted_pose
 
 __all__ = ['MasterNode', 'main']
@@ -46,6 +57,8 @@ FEEDBACK_TIMEOUT = 0.2
 #: master_node's parameters (descriptors, the shipped file and the docs' table come from here).
 PARAMETERS = NodeParameters('master_node', 'rrps_teleop', [
     dataclasses.replace(ROBOT, default='master_robot'),
+    Parameter('hardware', 'simulated', "the master: simulated (a handle model), or the name of its hardware "
+              '(an rrps.master_hardware entry point, e.g. canopen)'),
     Parameter('frame_id', MASTER_FRAME, 'frame of master/target_pose and master/pose'),
     Parameter('rate', 200.0, 'encoder (publication) rate', unit='Hz', range=(1.0, 2000.0)),
     Parameter('idle_rate', 50.0, 'encoder rate while the handle rests at its target', unit='Hz',
@@ -88,17 +101,47 @@ class MasterNode(Node):
         self._start = time.monotonic()
         self._last_tick: float | None = None
         self._status = (OK, 'holding the home pose')
-        self._diag = Diagnostics(self, 'master robot', hardware_id=self.geometry.name)
+        self._diag = Diagnostics(self, 'master robot', hardware_id=OPERATOR_STATION)
         self._tap = RecordingTap(self)
         self._state_pub = self._tap.create_publisher(JointState, MASTER_STATE, STATE_QOS)
         self._pose_pub = self._tap.create_publisher(PoseStamped, MASTER_POSE, STATE_QOS)
         self.create_subscription(PoseStamped, MASTER_TARGET_POSE, self._on_target, COMMAND_QOS)
         self._feedback: tuple[float, np.ndarray, np.ndarray] | None = None
         self.create_subscription(WrenchStamped, MASTER_FEEDBACK, self._on_feedback, COMMAND_QOS)
+        self.hardware = None
+        if values['hardware'] != 'simulated':
+            self._start_hardware(values)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self._tick_timer = self.create_timer(1.0 / self.rate, self._on_tick)
         self._resting = False
         self.create_timer(0.5, self._report)
+
+    def _start_hardware(self, values) -> None:
+        """Configure and activate the master's hardware; ValueError (the reason) when it fails."""
+        self.hardware = master_hardware_class(values['hardware'])()
+        for verb in (lambda: self.hardware.on_configure(HardwareConfig(self.geometry, values)),
+                     self.hardware.on_activate):
+            outcome = verb()
+            if not outcome.ok:
+                self.hardware.on_shutdown()
+                self.destroy_node()
+                raise ValueError(f'{values["hardware"]} master: {outcome.reason}')
+        self._status = (OK, f'{values["hardware"]} master: encoders and force output on')
+        self.create_service(Trigger, f'{self.get_name()}/reset_faults', self._on_reset_faults)
+
+    def _on_reset_faults(self, request, response):
+        """The operator's fault reset of the master's hardware, then its force output on again."""
+        result = self.hardware.reset_faults()
+        response.success, response.message = result.ok, result.message
+        if result.ok:
+            activated = self.hardware.on_activate()
+            response.success, response.message = activated.ok, activated.reason or result.message
+        return response
+
+    def destroy_node(self) -> None:
+        if getattr(self, 'hardware', None) is not None:
+            self.hardware.on_shutdown()
+        super().destroy_node()
 
     def _apply_parameters(self, parameters) -> None:
         for p in parameters:
@@ -179,8 +222,45 @@ class MasterNode(Node):
         elif not idle:
             self._wake()
 
+    def _feedback_forces(self, now: float) -> np.ndarray | None:
+        """The leg forces that put the (fresh) feedback wrench on the master's ring_b: J^T f = w."""
+        if self._feedback is None or now - self._feedback[0] > FEEDBACK_TIMEOUT:
+            return None
+        _, force, torque = self._feedback
+        try:
+            return -leg_forces(inverse_kinematics(self.geometry, *self._fk_pose), np.concatenate([force, torque]))
+        except np.linalg.LinAlgError:
+            return None
+
+    def _hardware_tick(self, now: float) -> None:
+        sample = self.hardware.read(now)
+        if sample.faults or sample.lost:
+            reason = '; '.join(map(str, sample.faults)) or 'the bus is lost'
+            self._set_status(ERROR, f'master hardware: {reason}: force output off; master_node/reset_faults')
+            return
+        result = self.hardware.write(now, self._feedback_forces(now))
+        if not result.ok:
+            self._set_status(WARN, f'master force output: {result.message}')
+        self._publish(sample.lengths)
+
+    def _publish(self, lengths: np.ndarray) -> None:
+        """master/actuators/state and the FK pose of ``lengths``."""
+        stamp = self.get_clock().now().to_msg()
+        self._state_pub.publish(joint_state_msg(stamp, lengths))
+        if not np.array_equal(lengths, self._fk_lengths):  # a resting handle: the same pose
+            fk = forward_kinematics(self.geometry, lengths, *self._fk_pose)
+            if fk.converged:
+                self._fk_pose, self._fk_lengths = (fk.position, fk.quaternion_xyzw), lengths.copy()
+            else:
+                self._set_status(ERROR, f'master FK did not converge (residual {fk.residual:.3g} m): '
+                                        'holding the last estimate')
+        self._pose_pub.publish(pose_to_msg(*self._fk_pose, frame_id=self.frame_id, stamp=stamp))
+
     def _on_tick(self) -> None:
         now = time.monotonic()
+        if self.hardware is not None:
+            self._hardware_tick(now)
+            return
         dt = 0.0 if self._last_tick is None else now - self._last_tick
         self._last_tick = now
         if self.trajectory != 'none':
@@ -193,17 +273,7 @@ class MasterNode(Node):
         else:
             self._set_status(OK, f'trajectory {self.trajectory}' if self.trajectory != 'none'
                              else 'following master/target_pose')
-        stamp = self.get_clock().now().to_msg()
-        lengths = self.model.lengths
-        self._state_pub.publish(joint_state_msg(stamp, lengths))
-        if not np.array_equal(lengths, self._fk_lengths):  # a resting handle: the same pose
-            fk = forward_kinematics(self.geometry, lengths, *self._fk_pose)
-            if fk.converged:
-                self._fk_pose, self._fk_lengths = (fk.position, fk.quaternion_xyzw), lengths.copy()
-            else:
-                self._set_status(ERROR, f'master FK did not converge (residual {fk.residual:.3g} m): '
-                                        'holding the last estimate')
-        self._pose_pub.publish(pose_to_msg(*self._fk_pose, frame_id=self.frame_id, stamp=stamp))
+        self._publish(self.model.lengths)
         self._rest_if_idle(note)
 
 

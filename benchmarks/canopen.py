@@ -1,0 +1,184 @@
+"""The CANopen backend's timing against the simulated backend's, in the same run, under load.
+
+Each backend runs as the demo runs it (SCHED_RR where permitted): driver_node in a process of
+its own (``publish_on_command``: a command is written to the hardware when it arrives), and for
+``canopen`` the drive simulator (``rrps-drive-sim``, a loopback bus of its own, no lag in the
+legs). This process sends ``actuators/command`` at ``--rate`` Hz, each a distinct set of leg
+lengths a micrometre apart (one count), and records when each arrives where:
+
+* **SYNC period**: the drives' receipt times of the SYNCs (the simulator's clock), their
+  deviation from the bus' period (p50, p99, max);
+* **command -> drive target**: from publishing a command to the SYNC at which the drive takes
+  it as its target (canopen only: the simulated backend has no drive);
+* **drive actual -> actuators/state**: from the SYNC at which the drive's actual position is
+  that command's to the receipt of an ``actuators/state`` that shows it (canopen only);
+* **command -> actuators/state**: the round trip through the driver, both backends;
+* **CPU**: of the driver and of the simulator over the run (/proc), per drive for canopen.
+
+Targets: p99 SYNC jitter <= 1 ms and command -> drive target <= one period at p99, with
+``rrps_testing.load`` running (a busy core and a DDS flood; ``--no-load``: without). Prints a
+table and MET or MISSED for each target. All clocks are this machine's CLOCK_MONOTONIC.
+
+    python benchmarks/canopen.py [--seconds 20] [--rate 200] [--no-load]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+os.environ.setdefault('ROS_DOMAIN_ID', str(100 + os.getpid() % 50))
+
+import numpy as np  # noqa: E402
+
+from rrps_description.geometry import load_robot  # noqa: E402
+from rrps_runtime.supervision import stop_children  # noqa: E402
+from rrps_testing.canopen_rig import DriveSim, driver_process  # noqa: E402
+from rrps_testing.load import Load  # noqa: E402
+from rrps_testing.processes import cpu_seconds  # noqa: E402
+
+NAMESPACE = '/rrps_bench'
+ROBOT = load_robot('pole_climber')
+PERIOD = ROBOT.bus.sync_period
+#: Commands in a row with distinct lengths (then they repeat): 1 um apart, 4 mm in all.
+UNIQUE = 4000
+#: [s] a command not seen this long after it was sent counts as lost, not as late.
+LOST_AFTER = 1.0
+PARAMS = ('auto_activate:=true', 'publish_on_command:=true', 'time_constant:=0.0', 'limit_speed:=false',
+          'timeout:=1.0')
+
+
+def percentiles(values) -> tuple[float, float, float]:
+    v = np.asarray(values, dtype=float)
+    return (float(np.percentile(v, 50)), float(np.percentile(v, 99)), float(v.max())) if v.size else (np.nan,) * 3
+
+
+def run_backend(hardware: str, *, seconds: float, rate: float) -> dict:
+    import rclpy
+    from sensor_msgs.msg import JointState
+
+    from rrps_runtime.messages import joint_state_msg
+    from rrps_testing.ros_harness import Probe, Spinner, wait_for
+
+    sim = DriveSim('pole_climber', time_constant=0.0) if hardware == 'canopen' else None
+    driver = driver_process(sim.port if sim else 0, *PARAMS, namespace=NAMESPACE, hardware=hardware)
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        probe = Probe(context=context, name='bench', namespace=NAMESPACE)
+        states = probe.collect(JointState, 'actuators/state', stamped=True)
+        pub = probe.publisher(JointState, 'actuators/command', command=True)
+        with Spinner(context, [probe]):
+            assert wait_for(lambda: states and pub.get_subscription_count() > 0), driver.poll()
+            time.sleep(1.0)
+            home = np.round(np.array(states[-1][1].position[:6]), 6)
+            if sim:
+                sim.ask(cmd='syncs')
+                sim.ask(cmd='trace', on=True)
+            pids = [driver.pid] + ([sim.process.pid] if sim else [])
+            cpu0, t0 = [cpu_seconds([p]) for p in pids], time.monotonic()
+            sent = []
+            k = 0
+            while time.monotonic() - t0 < seconds:
+                lengths = home + 1e-6 * (1 + k % UNIQUE)  # one count more each: every command told apart
+                sent.append((time.monotonic(), float(lengths[0])))
+                pub.publish(joint_state_msg(probe.get_clock().now().to_msg(), lengths))
+                k += 1
+                time.sleep(max(0.0, t0 + k / rate - time.monotonic()))
+            time.sleep(0.2)
+            elapsed = time.monotonic() - t0
+            cpu = [(cpu_seconds([p]) - c) / elapsed for p, c in zip(pids, cpu0)]
+            received = [(t, round(m.position[0], 7)) for t, m in list(states) if t >= t0]
+            trace = sim.ask(cmd='trace', on=False)['trace'] if sim else []
+            syncs = sim.ask(cmd='syncs')['syncs'] if sim else []
+    finally:
+        rclpy.try_shutdown(context=context)
+        stop_children([driver])
+        if sim:
+            sim.stop()
+    return analyse(sent, received, trace, syncs, cpu)
+
+
+def first_after(times, values, t, value) -> float | None:
+    """The first time in [t, t + LOST_AFTER] at which ``values`` equals ``value`` (None: none; a
+    drive that took a newer target before this one's SYNC never shows it)."""
+    i, j = np.searchsorted(times, t), np.searchsorted(times, t + LOST_AFTER)
+    hits = np.flatnonzero(np.abs(values[i:j] - value) < 5e-7)
+    return float(times[i + hits[0]]) if hits.size else None
+
+
+def analyse(sent, received, trace, syncs, cpu) -> dict:
+    r_times = np.array([t for t, _ in received])
+    r_values = np.array([v for _, v in received])
+    result = {'cpu': cpu, 'round_trip': [], 'to_drive': [], 'to_state': [], 'jitter': []}
+    if syncs:
+        result['jitter'] = np.abs(np.diff(syncs) - PERIOD).tolist()
+    if trace:
+        s_times = np.array([row[0] for row in trace])
+        targets = np.array([row[1][0] for row in trace])
+        actual = np.array([row[2][0] for row in trace])
+    for t, value in sent[:-1]:
+        seen = first_after(r_times, r_values, t, value)
+        if seen is not None:
+            result['round_trip'].append(seen - t)
+        if trace:
+            taken = first_after(s_times, targets, t, value)
+            there = first_after(s_times, actual, t, value)
+            if taken is not None:
+                result['to_drive'].append(taken - t)
+            if there is not None:
+                shown = first_after(r_times, r_values, there, value)
+                if shown is not None:
+                    result['to_state'].append(shown - there)
+    return result
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    p.add_argument('--seconds', type=float, default=20.0)
+    p.add_argument('--rate', type=float, default=200.0, help='actuators/command rate [Hz]')
+    p.add_argument('--no-load', action='store_true')
+    args = p.parse_args()
+    loader = None if args.no_load else Load(busy=1, flood_rate=2000.0, quiet=True)
+    results = {}
+    try:
+        if loader:
+            loader.start()
+        for hardware in ('simulated', 'canopen'):
+            results[hardware] = run_backend(hardware, seconds=args.seconds, rate=args.rate)
+    finally:
+        if loader:
+            loader.stop()
+    ms = 1e3
+    print(f'\nCANopen backend vs simulated, {args.seconds:.0f} s each, commands at {args.rate:.0f} Hz, '
+          f'{"with" if loader else "without"} load; SYNC period {PERIOD * ms:.1f} ms')
+    print(f'{"figure [ms]":<34}{"simulated p50/p99/max":>26}{"canopen p50/p99/max":>26}')
+    for key, label in (('jitter', 'SYNC jitter (drives\' clock)'), ('to_drive', 'command -> drive target'),
+                       ('to_state', 'drive actual -> actuators/state'), ('round_trip', 'command -> actuators/state')):
+        cells = []
+        for hardware in ('simulated', 'canopen'):
+            values = results[hardware][key]
+            figures = (ms * x for x in percentiles(values))
+            cells.append('n/a' if not values else '{:.2f} / {:.2f} / {:.2f}'.format(*figures))
+        print(f'{label:<34}{cells[0]:>26}{cells[1]:>26}')
+    sim_cpu, can_cpu = results['simulated']['cpu'], results['canopen']['cpu']
+    print(f'{"CPU [% of a core]":<34}{f"driver {100 * sim_cpu[0]:.0f}":>26}'
+          f'{f"driver {100 * can_cpu[0]:.0f}, drives {100 * can_cpu[1]:.0f}":>26}')
+    print(f'{"CPU per drive [% of a core]":<34}{"":>26}'
+          f'{f"driver {100 * (can_cpu[0] - sim_cpu[0]) / 6:.1f}, simulator {100 * can_cpu[1] / 6:.1f}":>26}')
+    jitter99 = percentiles(results['canopen']['jitter'])[1]
+    drive99 = percentiles(results['canopen']['to_drive'])[1]
+    met = True
+    for text, value, target in (('p99 SYNC jitter <= 1 ms', jitter99, 1e-3),
+                                (f'command -> drive target p99 <= one period ({PERIOD * ms:.0f} ms)', drive99, PERIOD)):
+        ok = bool(value <= target)
+        met &= ok
+        print(f'{"MET" if ok else "MISSED"}: {text}: {value * ms:.2f} ms')
+    return 0 if met else 1
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,110 @@
+"""Simulated CANopen drives and the CANopen driver as real processes, for tests and benchmarks.
+
+:class:`DriveSim` runs ``rrps-drive-sim`` (the drive simulator of a robot's bus) and talks to it
+through its JSON lines; :func:`driver_process` starts driver_node with ``hardware:=canopen``.
+Each rig runs its bus on a loopback port of its own (``RRPS_CAN_PORT``), so rigs of parallel
+tests never hear each other. The processes run at the robot's real-time priority where that is
+permitted (root or CAP_SYS_NICE), as the demo runs them, and die with the process that started
+them; :meth:`DriveSim.stop` and :func:`rrps_runtime.supervision.stop_children` stop them.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import queue
+import subprocess
+import sys
+import threading
+
+from rrps_canopen.loopback_bus import free_port
+from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child, stop_child
+
+__all__ = ['free_port', 'DriveSim', 'driver_process', 'can_env']
+
+#: [s] how long a request to the simulator may take on a busy machine.
+ANSWER_TIMEOUT = 30.0
+#: SCHED_RR priority of the drive simulator: above the robot's command path, as real drives are
+#: hardware of their own that the driver's computer cannot starve.
+SIM_RT_PRIORITY = CONTROL_RT_PRIORITY + 10
+
+
+def can_env(port: int, **extra: str) -> dict:
+    """The environment of a process on the rig's bus (and DDS on this machine)."""
+    return dict(os.environ, RRPS_CAN_PORT=str(port), ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST', PYTHONUNBUFFERED='1',
+                **extra)
+
+
+class DriveSim:
+    """``rrps-drive-sim`` in a process of its own; ``ask`` sends one request, returns the answer."""
+
+    def __init__(self, robot: str = 'pole_climber', *, port: int | None = None, master: bool = False,
+                 lengths=None, time_constant: float | None = None):
+        self.port = free_port() if port is None else port
+        args = [sys.executable, '-m', 'rrps_canopen.simulator.process', '--robot', robot, '--stdin']
+        args += ['--master'] if master else []
+        args += ['--lengths', *map(str, lengths)] if lengths is not None else []
+        args += ['--time-constant', str(time_constant)] if time_constant is not None else []
+        self.process = start_child(args, env=can_env(self.port), nice=CONTROL_NICE, realtime=SIM_RT_PRIORITY,
+                                   stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        self._lines: queue.Queue[str | None] = queue.Queue()
+        threading.Thread(target=self._read, daemon=True).start()
+        self.ready = self._next()
+        if not self.ready.get('ready'):
+            self.stop()
+            raise RuntimeError(f'rrps-drive-sim did not start: {self.ready}')
+
+    def _read(self) -> None:
+        for line in self.process.stdout:
+            self._lines.put(line)
+        self._lines.put(None)
+
+    def _next(self) -> dict:
+        try:
+            line = self._lines.get(timeout=ANSWER_TIMEOUT)
+        except queue.Empty:
+            return {'ok': False, 'error': 'no answer'}
+        if line is None:
+            return {'ok': False, 'error': f'exited: {self.process.poll()}: {self.process.stderr.read()[-2000:]}'}
+        return json.loads(line)
+
+    def ask(self, **request) -> dict:
+        self.process.stdin.write(json.dumps(request) + '\n')
+        self.process.stdin.flush()
+        answer = self._next()
+        if not answer.get('ok'):
+            raise RuntimeError(f'rrps-drive-sim refused {request}: {answer}')
+        return answer
+
+    def status(self) -> dict:
+        return self.ask(cmd='status')
+
+    def fault(self, drive: str, kind: str) -> float:
+        """Inject a fault; the simulator's monotonic time of it."""
+        return self.ask(cmd='fault', drive=drive, kind=kind)['time']
+
+    def stop(self) -> int:
+        if self.process.stdin and not self.process.stdin.closed:
+            try:
+                self.process.stdin.close()
+            except OSError:
+                pass
+        return stop_child(self.process)
+
+    def __enter__(self) -> 'DriveSim':
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self.stop()
+
+
+def driver_process(port: int, *params: str, robot: str = 'pole_climber', namespace: str = '/rrps_test',
+                   domain_id: int | None = None, hardware: str = 'canopen') -> subprocess.Popen:
+    """driver_node with ``hardware`` (canopen: on the rig's bus); ``params``: more ``name:=value``."""
+    args = [sys.executable, '-m', 'rrps_sim.nodes.driver_node', '--ros-args', '-r', f'__ns:={namespace}',
+            '-p', f'robot:={robot}', '-p', f'hardware:={hardware}']
+    for p in params:
+        args += ['-p', p]
+    env = can_env(port, **({'ROS_DOMAIN_ID': str(domain_id)} if domain_id is not None else {}))
+    return start_child(args, env=env, nice=CONTROL_NICE, realtime=CONTROL_RT_PRIORITY, stdout=subprocess.PIPE,
+                       stderr=subprocess.PIPE, text=True)

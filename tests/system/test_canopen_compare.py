@@ -1,0 +1,101 @@
+"""One climbing step and teleoperation through the CANopen backend reach the same poses, along the
+same path, as through the simulated backend: the same session on each (climb/step_up from the
+home pose; then the master's handle 4 mm up with the deadman held), compared. A teleoperated
+motion's length depends on when the mapping engaged (a clutch on a busy machine loses the
+master's motion meanwhile), so each backend's teleoperated pose is compared with the target
+teleop sent it."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+from geometry_msgs.msg import PoseStamped
+
+from rrps_description.geometry import load_robot
+from rrps_interfaces.climb import CLIMB_STEP_UP, ClimbState
+from rrps_interfaces.kinematics import TARGET_POSE
+from rrps_interfaces.teleop import MASTER_FRAME, MASTER_TARGET_POSE
+from rrps_runtime.messages import pose_from_msg, pose_to_msg
+from rrps_runtime.qos import COMMAND_QOS
+from rrps_testing.canopen_stack import call, canopen_stack, climb_state, finish_step, teleop_status
+from rrps_testing.ros_harness import wait_for
+
+pytestmark = [pytest.mark.slow, pytest.mark.ros]
+MASTER = load_robot('master_robot')
+HANDLE_STEP = 0.004
+
+
+def flat(msg) -> np.ndarray:
+    return np.concatenate(pose_from_msg(msg))
+
+
+def at_rest(stack, n: int = 100) -> np.ndarray:
+    """Wait until the last ``n`` poses are one pose (within 1 um); return it (position, quaternion)."""
+    def still():
+        last = np.array([flat(m) for _, m in stack.poses[-n:]])
+        return len(last) == n and np.ptp(last, axis=0).max() < 1e-6
+    assert wait_for(still, timeout=120)
+    return flat(stack.poses[-1][1])
+
+
+def climb(stack) -> tuple[np.ndarray, np.ndarray]:
+    """One climbing step up from the home pose: (the poses along it, the pose after it)."""
+    assert wait_for(lambda: climb_state(stack) and climb_state(stack).state is ClimbState.IDLE)
+    first = len(stack.poses)
+    assert wait_for(lambda: call(stack, CLIMB_STEP_UP)[0], period=0.5), call(stack, CLIMB_STEP_UP)  # a busy machine
+    finish_step(stack)
+    final = at_rest(stack)
+    return np.array([flat(m) for _, m in stack.poses[first:]]), final
+
+
+def teleoperate(stack) -> tuple[np.ndarray, np.ndarray]:
+    """The master's handle 4 mm up with the deadman held: (the slave's pose at rest, the last
+    target_pose teleop commanded)."""
+    targets = stack.probe.collect(PoseStamped, TARGET_POSE, qos=COMMAND_QOS)
+    handle = stack.probe.publisher(PoseStamped, MASTER_TARGET_POSE, command=True)
+    stack.deadman.set()
+    assert wait_for(lambda: teleop_status(stack) is not None and teleop_status(stack).engaged)
+    start = flat(stack.poses[-1][1])
+    goal = MASTER.home_position + [0.0, 0.0, HANDLE_STEP]
+
+    def hold_handle():
+        handle.publish(pose_to_msg(goal, MASTER.home_quaternion_xyzw, frame_id=MASTER_FRAME,
+                                   stamp=stack.probe.get_clock().now().to_msg()))
+        return flat(stack.poses[-1][1])[2] - start[2] > 1e-3
+    assert wait_for(hold_handle, period=0.02, timeout=120), (teleop_status(stack), stack.probe.latest())
+    for _ in range(150):  # the handle stays at its goal while the slave settles
+        hold_handle()
+        time.sleep(0.02)
+    pose = at_rest(stack)
+    stack.deadman.clear()
+    return pose, flat(targets[-1])
+
+
+def distance_to_path(points: np.ndarray, path: np.ndarray) -> np.ndarray:
+    """Each point's distance [m] to the polyline ``path`` (positions only)."""
+    a, b = path[:-1, :3], path[1:, :3]
+    ab = b - a
+    t = np.clip(np.einsum('sk,psk->ps', ab, points[:, None, :3] - a) / np.maximum(np.einsum('sk,sk->s', ab, ab),
+                                                                                 1e-18), 0.0, 1.0)
+    nearest = a + t[..., None] * ab
+    return np.linalg.norm(points[:, None, :3] - nearest, axis=2).min(axis=1)
+
+
+def test_a_climbing_step_and_teleop_reach_the_same_poses_on_both_backends(ros_context, ros_domain_id):
+    results = {}
+    for hardware in ('simulated', 'canopen'):
+        with canopen_stack(ros_context, ros_domain_id, hardware=hardware) as stack:
+            path, end = climb(stack)
+            pose, commanded = teleoperate(stack)
+            results[hardware] = (path, end, pose, commanded)
+    (path_sim, end_sim, _, _), (path_can, end_can, _, _) = results['simulated'], results['canopen']
+    assert np.abs(end_sim[:3] - end_can[:3]).max() < 5e-4, (end_sim, end_can)
+    assert np.abs(np.abs(end_sim[3:] @ end_can[3:]) - 1.0) < 1e-6, (end_sim, end_can)
+    assert np.ptp(path_can[:, 2]) > 0.01  # it climbed
+    assert distance_to_path(path_can[::10], path_sim).max() < 1e-3
+    assert distance_to_path(path_sim[::10], path_can).max() < 1e-3
+    for hardware, (_, end, pose, commanded) in results.items():  # teleop: each reached what it was sent
+        assert pose[2] - end[2] > 1e-3, hardware
+        assert np.abs(pose[:3] - commanded[:3]).max() < 2e-4, (hardware, pose, commanded)
