@@ -8,8 +8,9 @@ Pure Python and NumPy, no ROS import::
 
 Modules: ``geometry`` (the robot YAML and its validation), ``robot_parts`` (tools, inertias,
 the extra ring DOF), ``names`` (frames, joints, rings), ``pose`` (the one pose type and its
-validator), ``rotations``, ``tool`` (the tool-centre point), ``structures`` (poles, palm trunks,
-frames, facades). The shipped robots are ``robots/*.yaml`` (installed to share/rrps_description).
+validator), ``rotations``, ``tool`` (the tool-centre point), ``loads`` (payloads, the tool
+wrench, gripper capacities), ``world`` (gravity, the supporting ring's attitude), ``structures``
+(poles, palm trunks, frames, facades). The shipped robots are ``robots/*.yaml`` (installed to share/rrps_description).
 """
 
 from rrps_description.geometry import RobotDescriptionError, RobotGeometry, load_robot, robot_path, shipped_robots

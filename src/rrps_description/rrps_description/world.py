@@ -64,11 +64,6 @@ class Support:
         """0 when ring_a grips (the paper's case), 1 when ring_b grips."""
         return RINGS.index(self.ring)
 
-    @property
-    def free_ring(self) -> str:
-        """The ring that moves: the other one."""
-        return RINGS[1 - self.index]
-
     @cached_property
     def world_R_support(self) -> np.ndarray:
         """Rotation (3, 3) of the supporting ring's frame in the world."""

@@ -22,12 +22,8 @@ from __future__ import annotations
 from rrps_kinematics.backend import jit
 from rrps_kinematics.multibody import rotation
 
-__all__ = ['HUB_ROWS', 'angular_velocity', 'cross3', 'dot3', 'leg_blocks', 'leg_blocks_with_rotations',
+__all__ = ['angular_velocity', 'cross3', 'dot3', 'leg_blocks', 'leg_blocks_with_rotations',
            'matvec3', 'ring_b_grounded_residual']
-
-#: The rows of a leg that involve the hub, by support: the spherical joint's (ring_a grounded) or
-#: the universal joint's (ring_b grounded).
-HUB_ROWS = ((0, 1, 2), (3, 4, 5, 6))
 
 
 @jit

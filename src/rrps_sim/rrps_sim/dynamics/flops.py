@@ -15,7 +15,7 @@ from rrps_kinematics.multibody import FLOPS_LEG_JACOBIAN, FLOPS_LEG_RESIDUAL, FL
 
 __all__ = ['EVALUATION_FLOPS', 'NEWTON_LEG_FLOPS', 'VELOCITY_LEG_FLOPS', 'evaluation_flops', 'step_flops']
 
-# One leg of an evaluation of eq. 19, with m rows coupling the leg to the hub (HUB_ROWS):
+# One leg of an evaluation of eq. 19, with m rows coupling the leg to the hub (3 or 4):
 _LEG_BLOCKS = 13 * 3 * 3 * 5 + 700        # [Φ_r Φ_π'] and γ: Φ_π' = Φ_π A, vectors, crosses
 
 

@@ -11,8 +11,8 @@ with F^A gravity, the tool wrench on the hub and each actuator force f_k applied
 axis, -f_k h on the lower link and +f_k h on the upper link (f > 0 pushes the rings apart). It
 is solved exactly, by the structure of the robot. Leg k's 12 joint rows are B_h a_h + B_l a_l =
 γ_k with B_l (12 x 12, its two links) square and B_h, the hub's columns, non-zero in the m rows
-of the hub's joint only (:data:`~.constraints.HUB_ROWS`: the spherical joint's 3 with ring_a
-grounded, the universal joint's 4 with ring_b grounded): B_h = E P, P those rows (m x 6). So a
+of the hub's joint only (:mod:`.constraints`: the spherical joint's 0-2 with ring_a grounded,
+the universal joint's 3-6 with ring_b grounded): B_h = E P, P those rows (m x 6). So a
 leg's link accelerations are a_l = c - H P a_h with H = B_l^-1 E, c = B_l^-1 γ, and its
 multipliers λ = B_l^-T (F_l - M_l a_l) load the hub with P^T H^T (F_l - M_l a_l): the hub obeys
 
