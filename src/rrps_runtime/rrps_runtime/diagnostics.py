@@ -8,7 +8,7 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 
-from rrps_interfaces.status import DIAGNOSTICS, StatusValues
+from rrps_interfaces.status import DIAGNOSTICS, StatusValues, status_name
 from rrps_runtime.qos import STATE_QOS
 
 __all__ = ['OK', 'WARN', 'ERROR', 'STALE', 'Diagnostics']
@@ -26,7 +26,8 @@ class Diagnostics:
 
     def __init__(self, node: Node, name: str, *, hardware_id: str = '', rate_hz: float = 2.0):
         self._node = node
-        self._name = f'{node.get_name()}: {name}'
+        # the namespace in the name: several robots' nodes share /diagnostics
+        self._name = status_name(node.get_namespace(), node.get_name(), name)
         self._hardware_id = hardware_id
         self._period = 1.0 / rate_hz
         self._pub = node.create_publisher(DiagnosticArray, DIAGNOSTICS, STATE_QOS)
