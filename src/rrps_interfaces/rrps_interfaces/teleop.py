@@ -97,11 +97,13 @@ class TeleopStatus(StatusValues):
 
 @dataclasses.dataclass(frozen=True)
 class ViewerStatus(StatusValues):
-    """viewer_node's /diagnostics values: how many robots it lists, the one it draws (its
-    namespace), the frames it drew and the drawn robot's pose samples it received per second
-    over the last second, that pose's age [ms] and the browsers connected."""
+    """viewer_node's /diagnostics values: how many robots it lists and how many of them it heard
+    in the last 2 s, the one it draws (its namespace), the frames it drew and the drawn robot's
+    pose samples it received per second over the last second, that pose's age [ms] and the
+    browsers connected."""
 
     robots: int = 1
+    heard: int = 0
     drawn: str = ''
     draw_rate: float = 0.0
     pose_rate: float = 0.0

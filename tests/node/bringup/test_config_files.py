@@ -25,7 +25,7 @@ CHANGED = {
     'driver_node': {'rate': 400.0, 'sensor_noise': 1e-6}, 'master_node': {'rate': 150.0},
     'teleop_node': {'translation_scale': 3.0}, 'climb_node': {'speed': 0.03},
     'viewer_node': {'render_rate': 30.0}, 'recorder_node': {'buffer_seconds': 30.0},
-    'replay_node': {'rate': 2.0}, 'markers_node': {'rate': 5.0},
+    'replay_node': {'rate': 2.0}, 'markers_node': {'rate': 5.0}, 'link_relay_node': {'pose_rate': 25.0},
 }
 #: Declared but deliberately not in the files (rclpy's own, or robot-dependent defaults).
 NOT_IN_FILES = {'use_sim_time', 'start_type_description_service', 'singularity_halt'}

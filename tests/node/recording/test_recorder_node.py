@@ -18,6 +18,7 @@ import yaml
 from mcap.reader import NonSeekingReader, make_reader
 from mcap_ros2.decoder import DecoderFactory
 
+from rrps_interfaces.status import source_node
 from rrps_testing.ci import require
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
 
@@ -135,7 +136,7 @@ def test_recording_topics_schemas_counts_values_qos_and_tf(ros_context, tmp_path
     assert {(f'leg_{i}_base', f'leg_{i}_tip') for i in range(1, 7)} <= set(last)
     # the recorder reports on /diagnostics (recorded too)
     diag = [d for t, _, d, _ in messages if t == '/diagnostics']
-    assert any(s.name.startswith('recorder_node:') for a in diag for s in a.status)
+    assert any(source_node(s.name) == 'recorder_node' for a in diag for s in a.status)
 
 
 def test_with_a_live_tf_the_recorder_writes_its_own_tf_only(ros_context, tmp_path):

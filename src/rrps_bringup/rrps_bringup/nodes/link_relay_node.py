@@ -57,7 +57,7 @@ PARAMETERS = NodeParameters('link_relay_node', 'rrps_bringup', [
               unit='Hz', range=_RATE),
     Parameter('grippers_rate', 2.0, 'link/grippers/state rate while no gripper changes (a change goes at '
               'once); 0: not relayed', unit='Hz', range=_RATE),
-    Parameter('diagnostics_period', 1.0, 'link/diagnostics period while no status changes (a change goes '
+    Parameter('diagnostics_period', 0.5, 'link/diagnostics period while no status changes (a change goes '
               'within 0.1 s)', unit='s', range=(0.1, 60.0)),
     Parameter('diagnostics_nodes', ('driver_node', 'ik_node', 'fk_node', 'climb_node', 'recorder_node'),
               "the robot's nodes whose statuses go on link/diagnostics"),

@@ -101,8 +101,8 @@ PARAMETERS = NodeParameters('viewer_node', 'rrps_teleop', [
     Parameter('plot_window', 20.0, 'leg-length plot window', unit='s', range=(1.0, 600.0)),
     Parameter('robot_topics', 'direct', "read the robots' state from their own topics (direct) or from their "
               'link relays (link)', choices=SOURCES),
-    Parameter('robots', (), "the namespaces of a fleet's robots, the first drawn at start (empty: one robot, "
-              "in the viewer's own namespace)", item_type=str),
+    Parameter('robots', ('',), "the namespaces of the robots (a fleet's: /robot_1, ...; '': the viewer's own), "
+              'the first drawn at start', item_type=str),
 ])
 
 
@@ -267,7 +267,8 @@ class ViewerNode(Node):
         age = (None if pose is None else
                round(1e3 * (self.get_clock().now().nanoseconds * 1e-9 - stamp_to_seconds(pose.header.stamp)), 1))
         self._diag.report(OK, f'drawing {self.robots.name(self.robots.selected)}', ViewerStatus(
-            robots=len(self.robots.robots), drawn=self.robots.absolute(self.robots.selected),
+            robots=len(self.robots.robots), heard=self.robots.heard_count(2.0),
+            drawn=self.robots.absolute(self.robots.selected),
             draw_rate=round((frames - frames0) / dt, 1), pose_rate=round((self._pose_count - poses0) / dt, 1),
             pose_age_ms=age, clients=len(self.control.clients())))
 

@@ -44,12 +44,12 @@ class ViewerRobots:
     """The robots of a viewer (module docstring). ``on_drawn(topic, msg)`` receives the
     selected robot's drawn topics (relative names as keys)."""
 
-    def __init__(self, node, robots: Sequence[str], source: str, on_drawn: Callable[[str, object], None]):
+    def __init__(self, node, robots: Sequence[str] | None, source: str, on_drawn: Callable[[str, object], None]):
         self._node = node
         self.source = source
         self._on_drawn = on_drawn
         own = node.get_namespace()
-        names = [normalize_namespace(r) for r in robots] or ['']
+        names = [normalize_namespace(r) for r in robots or ()] or ['']
         self.robots = ['' if r == own else r for r in names]
         if len(set(self.robots)) != len(self.robots):
             raise ValueError(f'robots names a robot twice: {list(robots)}')
@@ -118,6 +118,10 @@ class ViewerRobots:
         with self._lock:
             t = self._heard[robot]
         return None if t == -math.inf else time.monotonic() - t
+
+    def heard_count(self, within: float) -> int:
+        """How many robots were heard in the last ``within`` s."""
+        return sum((h := self.heard(r)) is not None and h < within for r in self.robots)
 
     def panel_lines(self) -> list[str]:
         """The panel's fleet list: one line per robot (driven or holding, driver, climb,
