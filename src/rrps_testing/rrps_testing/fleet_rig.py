@@ -31,7 +31,7 @@ __all__ = ['FleetRig', 'Fleet', 'robot_namespace', 'ROBOT_REMAPS']
 
 #: the robots' statuses stay in their namespaces (the operator reads them from the relays)
 ROBOT_REMAPS = ('/diagnostics:=diagnostics',)
-ROBOT_RECORD = ('pose', 'actuators/command', 'actuators/state', 'grippers/state', 'climb/status')
+ROBOT_RECORD = ('pose', 'actuators/command', 'actuators/state', 'grippers/state', 'climb/status', 'teleop/status')
 OPERATOR_RECORD = ('teleop/status', 'teleop/enable', '/diagnostics')
 DEADLINE = 120.0
 
