@@ -116,10 +116,12 @@ class FleetRig(Rig):
 
 class Fleet:
     """The stack on a :class:`FleetRig` (module docstring): ``driver_rate`` of each driver,
-    ``master_rate``, teleop's ``command_rate``."""
+    ``master_rate``, teleop's ``command_rate``; an agent on the operator station and, with
+    ``robot_agents``, one on each robot host."""
 
     def __init__(self, rig: FleetRig, *, driver_rate: float = 50.0, master_rate: float = 50.0,
-                 command_rate: float = 50.0, render_rate: float = 10.0, recorder: bool = True, agents: bool = True):
+                 command_rate: float = 50.0, render_rate: float = 10.0, recorder: bool = True,
+                 robot_agents: bool = True):
         self.rig = rig
         self.namespaces = [robot_namespace(j) for j in range(1, rig.robot_count + 1)]
         self.t_start = time.time()
@@ -143,24 +145,26 @@ class Fleet:
                     'viewer_node:workspace_resolution': 0.0}
         rig.python('operator', 'operator', ['-m', 'rrps_bringup.compose', 'master_node', 'teleop_node',
                                             'viewer_node', *rig.ros_args(operator)])
-        self.robots = {}
-        self.operator = None
-        if agents:
-            self.operator = rig.agent('operator', record=OPERATOR_RECORD)
-            self.robots = {ns: rig.agent(host, f'{host}_agent', record=ROBOT_RECORD, namespace=ns, remaps=ROBOT_REMAPS)
-                           for host, ns in zip(rig.hosts, self.namespaces)}
+        self.operator = rig.agent('operator', record=OPERATOR_RECORD)
+        self.robots = {ns: rig.agent(host, f'{host}_agent', record=ROBOT_RECORD, namespace=ns, remaps=ROBOT_REMAPS)
+                       for host, ns in zip(rig.hosts, self.namespaces)} if robot_agents else {}
+
+    def viewer_status(self, since: float = -float('inf')):
+        """The viewer's newest ViewerStatus received since ``since`` (None: none)."""
+        from rrps_interfaces.teleop import ViewerStatus
+        rows = [r for r in self.operator.records('/diagnostics', since) if r['node'] == 'viewer_node']
+        return ViewerStatus.from_values(rows[-1]['values']) if rows else None
 
     def viewer_heard_all(self) -> bool:
         """Whether the viewer has heard every robot lately (its status on /diagnostics)."""
-        from rrps_interfaces.teleop import ViewerStatus
-        rows = [r for r in self.operator.records('/diagnostics', time.time() - 2.0) if r['node'] == 'viewer_node']
-        return bool(rows) and ViewerStatus.from_values(rows[-1]['values']).heard == self.rig.robot_count
+        status = self.viewer_status(time.time() - 2.0)
+        return status is not None and status.heard == self.rig.robot_count
 
     def wait_up(self) -> float:
         """Wait until every robot moves its pose and the viewer heard them all; seconds since the
         operator station started."""
         ok = wait(lambda: all(agent.records('pose') for agent in self.robots.values()) and self.viewer_heard_all(),
-                  DEADLINE, period=0.2)
+                  DEADLINE, period=0.1)
         if not ok:
             raise RuntimeError('the fleet did not come up:\n' + self.logs())
         return time.time() - self.t_operator
