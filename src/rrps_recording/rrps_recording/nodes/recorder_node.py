@@ -292,9 +292,8 @@ class RecorderNode(Node):
         return name.endswith('/' + RECORDING_TAP) and list(types) == [BUNDLE_TYPE]
 
     def _discover_taps(self, graph) -> None:
-        """Subscribe to every recording tap of the recorded topics (a node in the recorded
-        namespace: never another robot's, which would bring its streams across the network);
-        forget the nodes whose tap is gone."""
+        """Subscribe to the recording taps of the recorded namespaces (never another robot's:
+        its streams would cross the network); forget the nodes whose tap is gone."""
         alive = set()
         for name, types in graph:
             if not self._is_tap(name, types) or not self._selected(name):
