@@ -64,8 +64,8 @@ def _ms(value) -> str:
 
 def profile_rows(names: list[str], log_dir: Path) -> list[str]:
     rows = ['| profile | pattern | robot→op kbit/s | op→robot kbit/s | slave motion [mm] | age p50/p99 [ms] '
-            '| teleop codes | viewer pose Hz | climbing step | targets |',
-            '|---|---|---|---|---|---|---|---|---|---|']
+            '| teleop codes | disengaged: link / own stalls | viewer pose Hz | climbing step | targets |',
+            '|---|---|---|---|---|---|---|---|---|---|---|']
     for label, (pattern, command_rate, only) in PATTERNS.items():
         wanted = [n for n in names if only is None or n in only]
         if not wanted:
@@ -77,7 +77,7 @@ def profile_rows(names: list[str], log_dir: Path) -> list[str]:
                 viewer = '—' if r.viewer_rate is None else f'{r.viewer_rate:.0f}'
                 row = (f'| {PROFILES[name].name} | {label} | {_kbit(r.robot_to_operator)} | '
                        f'{_kbit(r.operator_to_robot)} | {r.motion_mm:.1f} | {_ms(r.age_p50)}/{_ms(r.age_p99)} | '
-                       f'{", ".join(r.codes)} | {viewer} | {r.climb or "—"} | '
+                       f'{", ".join(r.codes)} | {r.spurious} / {r.stalls} | {viewer} | {r.climb or "—"} | '
                        f'{"MET" if r.met() else "MISSED"} |')
                 print(row, flush=True)
                 rows.append(row)

