@@ -43,6 +43,7 @@ CLIMB_PARAMS = {'climb_node:step_length': 0.03, 'climb_node:speed': 0.03, 'climb
 MAX_LINEAR_SPEED = 0.05    # m/s, teleop's slave speed limit (default)
 COMMAND_TIMEOUT = 0.1      # s, the IK node's command timeout (default)
 ENGAGE_GRACE = 1.5         # s after a link returns before teleop must be engaged again
+ROBOT_STALL = 0.1          # s: a longer gap in the robot's own pose stream is a stall of its processes
 #: teleop codes of an engaged mapping
 ENGAGED = frozenset(TeleopCode) - DISENGAGED_CODES
 
@@ -82,6 +83,9 @@ class Result:
     codes: list[str] = dataclasses.field(default_factory=list)
     spurious: int = 0
     stalls: int = 0
+    #: the longest gap [s] between the robot's own pose samples on the robot host (by stamp):
+    #: a stall of the robot's processes (a busy machine), not of the link
+    robot_gap: float = math.nan
     viewer_rate: float | None = None
     clutch_mm: list[tuple[float, float]] = dataclasses.field(default_factory=list)
     outage_holds: list[float] = dataclasses.field(default_factory=list)
@@ -216,30 +220,40 @@ class FieldSession:
         return outages
 
     def _judge_teleop(self, result: Result, t0: float, t1: float, outages: list[tuple[float, float]]) -> None:
+        """Teleop's codes, ages and disengagements in [t0, t1]. A disengagement while the robot's
+        own pose stream stalled on the robot host (a gap over ROBOT_STALL, and 0.5 s after it)
+        or for a stale master (the operator station's own samples) is a stall of a busy
+        machine, not of the link: counted in ``stalls``, its ages left out."""
         statuses = self.operator.records('teleop/status', t0, t1)
         typed = [teleop(r) for r in statuses]
         result.codes = sorted({s.code.name for s in typed})
         result.engaged_share = sum(s.engaged for s in typed) / max(len(typed), 1)
-        ages = [s.slave_age_ms for s in typed if s.engaged and s.slave_age_ms is not None]
-        if ages:
-            result.age_p50, result.age_p99 = (float(np.percentile(ages, q)) for q in (50, 99))
+        poses = in_window(self.robot.records('pose'), t0 - 1.0, t1, by='stamp')
+        stamps = np.array(sorted(r['stamp'] for r in poses))
+        gaps = [(a, b + 0.5) for a, b in zip(stamps[:-1], stamps[1:]) if b - a > ROBOT_STALL]
+
+        def stalled(t: float) -> bool:
+            return any(a <= t <= b for a, b in gaps)
 
         def nominal(t: float) -> bool:  # the link was up long enough to be engaged again
             return not any(down <= t <= up + ENGAGE_GRACE for down, up in outages)
+        ages = [s.slave_age_ms for r, s in zip(statuses, typed)
+                if s.engaged and s.slave_age_ms is not None and not stalled(r['t'])]
+        if ages:
+            result.age_p50, result.age_p99 = (float(np.percentile(ages, q)) for q in (50, 99))
         previous = True
         for r, s in zip(statuses, typed):
             if nominal(r['t']) and previous and not s.engaged:
-                # the master's samples are the operator station's own: a stall of its process,
-                # not of the link
-                if s.code is TeleopCode.MASTER_STALE:
+                if s.code is TeleopCode.MASTER_STALE or stalled(r['t']):
                     result.stalls += 1
                 else:
                     result.spurious += 1
             previous = s.engaged or not nominal(r['t'])
-        poses = in_window(self.robot.records('pose'), t0, t1, by='stamp')
-        if poses:
-            p = np.array([r['p'] for r in poses])
+        window = [r for r in poses if t0 <= r['stamp'] <= t1]
+        if len(window) > 1:
+            p = np.array([r['p'] for r in window])
             result.motion_mm = 1e3 * float(np.max(np.ptp(p, axis=0)))
+            result.robot_gap = float(np.max(np.diff(stamps[stamps >= t0])))
         rates = [v.pose_rate for v in self.viewer_statuses(t0 + 1.0, t1)]
         result.viewer_rate = float(np.median(rates)) if rates else None
         for down, up in outages:
