@@ -95,7 +95,7 @@ def _session(seconds: float, out_dir: Path, deadman, climb, Trigger) -> int:
     finally:
         stop_child(recorder, timeout=30.0)
     print(f'\nA {seconds:g} s session (teleop motion, then a climb step), recorded by rrps-record:')
-    _report_files(sorted(out_dir.glob('session_*.mcap')))
+    _report_files(sorted((out_dir / 'session').glob('session_*.mcap')))
     return 0
 
 
@@ -268,7 +268,7 @@ def main() -> int:
 
     first_on = next(i for i, (_, kind) in enumerate(plan) if kind == 'recorder')
     print(f'\nrecording of the first "recorder on" phase ({out_dir}):')
-    _report_files(sorted(out_dir.glob(f'phase{first_on}_*.mcap')))
+    _report_files(sorted((out_dir / f'phase{first_on}').glob('*.mcap')))
     return 0 if cpu_ok and p99_ok else 1
 
 

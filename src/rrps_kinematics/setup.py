@@ -7,6 +7,7 @@ package_name = 'rrps_kinematics'
 NODES = {
     'ik_node': ('rrps_kinematics.nodes.ik_node', 'IkNode'),
     'fk_node': ('rrps_kinematics.nodes.fk_node', 'FkNode'),
+    'robot_description_node': ('rrps_kinematics.nodes.robot_description_node', 'RobotDescriptionNode'),
 }
 
 setup(

@@ -8,6 +8,7 @@ NODES = {
     'recorder_node': ('rrps_recording.nodes.recorder_node', 'RecorderNode'),
     'replay_node': ('rrps_recording.nodes.replay_node', 'ReplayNode'),
     'markers_node': ('rrps_recording.nodes.markers_node', 'MarkersNode'),
+    'foxglove_node': ('rrps_recording.nodes.foxglove_node', 'FoxgloveNode'),
 }
 
 setup(
@@ -31,7 +32,7 @@ setup(
         'rrps_runtime',
         'rrps_kinematics',
     ],
-    extras_require={'test': ['pytest', 'hypothesis']},
+    extras_require={'test': ['pytest', 'hypothesis', 'rosbags', 'websockets']},
     zip_safe=True,
     maintainer='rrps maintainers',
     maintainer_email='maintainers@users.noreply.h-seed-0d31557d.example',

@@ -63,9 +63,9 @@ def install_base(tmp_path_factory) -> Path:
 def test_entry_points_are_declared():
     scripts = console_scripts('rrps_kinematics')
     assert scripts['rrps-kinematics'] == 'rrps_kinematics.cli:main'
-    assert {'ik_node', 'fk_node'} <= set(scripts)
+    assert {'ik_node', 'fk_node', 'robot_description_node'} <= set(scripts)
     nodes = {name: target for p in PACKAGES for name, target in entry_points(p, 'rrps.nodes').items()}
-    assert len(nodes) == 11
+    assert len(nodes) == 13
     for name, target in nodes.items():  # each node: one registry entry and its ros2 run script
         package = target.split('.')[0]
         assert console_scripts(package)[name] == target.split(':')[0] + ':main'
@@ -135,6 +135,10 @@ def test_installed_kinematics_command_starts_from_the_install_tree(install_base)
     out = _run_installed(install_base, f'{shlex.quote(str(exe))} info --robot master_robot')
     assert out.returncode == 0, out.stderr
     assert 'robot: master_robot' in out.stdout and 'within limits: yes' in out.stdout
+    out = _run_installed(install_base, f'{shlex.quote(str(exe))} urdf --robot master_robot')
+    assert out.returncode == 0 and '<robot name="master_robot">' in out.stdout, out.stderr
+    node = install_base / 'rrps_kinematics' / 'lib' / 'rrps_kinematics' / 'robot_description_node'
+    assert node.is_file() and os.access(node, os.X_OK)  # ros2 run rrps_kinematics robot_description_node
     where = _run_installed(install_base, 'python -c "import rrps_kinematics; print(rrps_kinematics.__file__)"')
     assert where.stdout.strip().startswith(str(install_base / 'rrps_kinematics')), where.stdout
 

@@ -10,7 +10,8 @@ The demo runs as the system would on a robot and an operator station, in four pr
 * the operator station, master, teleop and the viewer, in this process;
 * the observers (:func:`start_recorder`): the flight recorder (the last 60 s, written on a fault
   or on the viewer's "Save last 60 s", in ``--recordings``; ``--record`` also records the whole
-  session there) and ``markers_node`` (the robot for RViz2 and Foxglove).
+  session there), ``markers_node`` and ``robot_description_node`` (the robot for RViz2 and
+  Foxglove: markers, /tf, robot_description and joint_states).
 
 A robot process that dies is restarted (at most 3 times a minute); the children die with this
 process (a parent-death signal), and Ctrl-C or SIGTERM stops them all. The viewer's URL and
@@ -172,14 +173,14 @@ def start_robot_nodes(*, robot: str, namespace: str = NAMESPACE) -> subprocess.P
 
 
 #: The observers: the flight recorder and the robot's markers for RViz2 / Foxglove.
-OBSERVER_NODES = ('recorder_node', 'markers_node')
+OBSERVER_NODES = ('recorder_node', 'markers_node', 'robot_description_node')
 
 
 def start_recorder(*, robot: str, output_dir: str, record: bool = False,
                    namespace: str = NAMESPACE) -> subprocess.Popen:
     """The observers (:data:`OBSERVER_NODES`) in a process of their own, off the command path:
     the flight recorder (the last 60 s, written on a fault or on the viewer's "Save last 60 s";
-    with ``record`` the whole session too) and markers_node."""
+    with ``record`` the whole session too), markers_node and robot_description_node."""
     from rrps_bringup.params import params_file_arguments
     from rrps_runtime.supervision import OBSERVER_NICE, start_child
     return start_child([sys.executable, '-m', 'rrps_bringup.compose', *OBSERVER_NODES,
@@ -223,7 +224,8 @@ def _banner(viewer, driver_scheduling: str) -> str:
     return (f'\nrrps demo: the pole climber is live.\n'
             f'  viewer:         {viewer.url}\n'
             f'  operator token: {viewer.token}\n'
-            f'  robot for RViz2/Foxglove: {NAMESPACE}/robot/markers (MarkerArray, frame ring_a)\n'
+            f'  robot for RViz2/Foxglove: {NAMESPACE}/robot_description (RobotModel), '
+            f'{NAMESPACE}/robot/markers (MarkerArray), /tf; fixed frame ring_a\n'
             f'  scheduling:     {scheduling}\n'
             f'  (every browser is read-only until it enters the token; Ctrl-C stops everything)\n')
 

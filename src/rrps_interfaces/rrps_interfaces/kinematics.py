@@ -8,6 +8,8 @@ Topic names are relative (deployments put them under a namespace such as ``/rrps
     ACTUATORS_COMMAND  sensor_msgs/JointState     leg lengths [m], LEG_NAMES    command stream
     ACTUATORS_STATE    sensor_msgs/JointState     lengths, rates, forces        state stream
     POSE               geometry_msgs/PoseStamped  a_T_b from FK                 state stream
+    ROBOT_DESCRIPTION  std_msgs/String            the URDF                      latched (transient local)
+    JOINT_STATES       sensor_msgs/JointState     every URDF joint [rad, m]     state stream
 
 Pure Python, no ROS import.
 """
@@ -19,14 +21,17 @@ import math
 
 from rrps_interfaces.status import CommandAgeStatus, StatusValues
 
-__all__ = ['TARGET_POSE', 'TARGET_RINGS', 'ACTUATORS_COMMAND', 'ACTUATORS_STATE', 'POSE', 'IkStatus',
-           'FkStatus']
+__all__ = ['TARGET_POSE', 'TARGET_RINGS', 'ACTUATORS_COMMAND', 'ACTUATORS_STATE', 'POSE', 'ROBOT_DESCRIPTION',
+           'JOINT_STATES', 'IkStatus', 'FkStatus']
 
 TARGET_POSE = 'target_pose'
 TARGET_RINGS = 'target_rings'
 ACTUATORS_COMMAND = 'actuators/command'
 ACTUATORS_STATE = 'actuators/state'
 POSE = 'pose'
+#: The names robot_state_publisher reads and RViz2's RobotModel display takes by default.
+ROBOT_DESCRIPTION = 'robot_description'
+JOINT_STATES = 'joint_states'
 
 
 @dataclasses.dataclass(frozen=True)

@@ -8,6 +8,7 @@
         [--bounds xmin,xmax,ymin,ymax,zmin,zmax] [--roll a,b] [--pitch a,b] [--yaw a,b]
         [--angle-step d] [--singular-threshold t] [--csv out.csv] [--near-singular-csv f.csv]
         [--png out.png]
+    rrps-kinematics urdf  [--robot R] [--output FILE]
 
 ``--robot`` takes a shipped robot name (default ``pole_climber``) or a YAML path; ``--json``
 prints machine-readable output. Poses are a_T_b (ring_b in ring_a's frame), metres and ROS
@@ -22,6 +23,9 @@ range R = Rz(yaw) Ry(pitch) Rx(roll) R(quaternion) given by ``--roll/--pitch/--y
 condition number below ``--singular-threshold``) also go to a second CSV, by default next to the
 first with ``_near_singular`` added to its name. ``--png`` draws three orthogonal slices through
 the home position.
+
+``urdf`` (:mod:`rrps_description.urdf`): the robot's URDF, as robot_description_node publishes
+it, on stdout or to ``--output``.
 """
 
 from __future__ import annotations
@@ -53,6 +57,7 @@ from rrps_kinematics.errors import ComputationError
 from rrps_kinematics.forward import check_lengths, forward_kinematics
 from rrps_kinematics.inverse import inverse_kinematics
 from rrps_kinematics.limits import Margins, margins
+from rrps_kinematics.urdf_joints import robot_urdf
 from rrps_kinematics.workspace import (
     LIMIT_KINDS,
     NEAR_SINGULAR,
@@ -77,10 +82,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser = OneLineParser(
         prog=PROG,
         description='Kinematics of RRPS parallel climbing robots: robot summary, inverse and '
-                    'forward kinematics, all assembly modes, reachable workspace. Poses are ring_b '
+                    'forward kinematics, all assembly modes, reachable workspace, URDF. Poses are ring_b '
                     'in ring_a (a_T_b), SI units, quaternions (x, y, z, w).',
         epilog=f'shipped robots: {", ".join(shipped_robots())}')
-    sub = parser.add_subparsers(dest='command', metavar='{info,ik,fk,modes,workspace}',
+    sub = parser.add_subparsers(dest='command', metavar='{info,ik,fk,modes,workspace,urdf}',
                                 parser_class=OneLineParser)
     sub.required = True
 
@@ -127,6 +132,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help='write the near-singular points (default with --csv: its name + '
                         '_near_singular)')
     p.add_argument('--png', type=Path, metavar='PATH', help='draw three orthogonal slices')
+    p = sub.add_parser('urdf', help="the robot's URDF (robot_description)",
+                       description="the robot's URDF, as robot_description_node publishes it")
+    p.add_argument('--robot', default='pole_climber',
+                   help='shipped robot name or robot YAML path (default: pole_climber)')
+    p.add_argument('--output', type=Path, metavar='FILE', help='write it to FILE (default: stdout)')
     return parser
 
 
@@ -337,6 +347,17 @@ def _workspace(g: RobotGeometry, args: argparse.Namespace) -> tuple[dict, list[s
     return data, lines
 
 
+def _urdf(g: RobotGeometry, output: Path | None) -> list[str]:
+    text = robot_urdf(g)
+    if output is None:
+        return [text.rstrip('\n')]
+    try:
+        output.write_text(text)
+    except OSError as exc:
+        raise UsageError(f'{output}: cannot write: {exc.strerror}') from None
+    return [f'wrote {output}']
+
+
 def _checked(what: str, check, *args, **kwargs):
     """Validate a command-line input with the core's own check: its ValueError is a usage error."""
     try:
@@ -358,6 +379,8 @@ def run(argv: Sequence[str] | None = None) -> int:
     def body() -> list[str]:
         args = parser.parse_args(join_negative_vectors(argv, _VECTOR_OPTIONS))
         g = load_robot_or_usage_error(args.robot)
+        if args.command == 'urdf':
+            return _urdf(g, args.output)
         if args.command == 'info':
             data, lines = _info(g)
         elif args.command == 'ik':

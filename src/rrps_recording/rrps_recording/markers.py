@@ -1,12 +1,13 @@
 """The robot for RViz2 and Foxglove: marker geometry and the transform tree. Pure, no rclpy.
 
-Frames (README: the robot model): ``world`` -> ``ring_a`` (where odometry places the robot) ->
-``ring_b`` (``a_T_b``), and for each leg i two links: ``leg_i_base`` at the universal-joint
-centre on ring_a, z along the leg (the leg frame A_i of section 2.1), and ``leg_i_tip`` at the
-spherical-joint centre, ``length_i`` further along that z axis. :func:`robot_transforms` gives
-them as (parent, child, Pose); :func:`world_pose_of_ring_a` places ring_a in ``world`` from the
-odometry of the gripping ring. The recorder's ``/tf`` and markers_node's live ``/tf`` both come
-from these two.
+Frames: ``world`` -> ``ring_a`` (where odometry places the robot), then the robot's URDF tree
+(:mod:`rrps_description.urdf`: each leg's universal, prismatic and spherical joints, ring_b on
+leg 1's chain, grippers, tool) at the joint values of the pose a_T_b
+(:mod:`rrps_kinematics.urdf_joints`): the link names and transforms robot_state_publisher
+publishes from robot_description and joint_states. :func:`robot_transforms` gives them as
+(parent, child, Pose); :func:`world_pose_of_ring_a` places ring_a in ``world`` from the
+odometry of the gripping ring. The recorder's ``/tf`` and markers_node's live ``/tf`` and
+``/tf_static`` all come from these two.
 
 :func:`robot_markers` describes what ``visualization_msgs/MarkerArray`` draws, as
 :class:`MarkerSpec` values the node converts to messages: in frame ``ring_a`` both rings
@@ -25,15 +26,14 @@ import struct
 import numpy as np
 
 from rrps_description.geometry import RobotGeometry
-from rrps_description.names import RING_A_FRAME, RING_B_FRAME, WORLD_FRAME
+from rrps_description.names import RING_A_FRAME, WORLD_FRAME
 from rrps_description.pose import Pose
-from rrps_description.rotations import matrix_to_quat_xyzw
-from rrps_kinematics.inverse import inverse_kinematics
 from rrps_kinematics.scene import robot_figure, world_ring_poses
+from rrps_kinematics.urdf_joints import joint_values, robot_model
 from rrps_runtime.cdr import ENCAPSULATION, append_string, pad
 
-__all__ = ['MarkerSpec', 'robot_markers', 'robot_transforms', 'tf_message_cdr', 'structure_marker',
-           'leg_link_names', 'ring_radius', 'world_pose_of_ring_a']
+__all__ = ['MarkerSpec', 'robot_markers', 'robot_transforms', 'fixed_transforms', 'tf_message_cdr',
+           'structure_marker', 'ring_radius', 'world_pose_of_ring_a']
 
 _CIRCLE_POINTS = 48
 _RING_COLOUR = (0.47, 0.51, 0.59, 1.0)
@@ -70,27 +70,20 @@ def _circle(radius: float) -> np.ndarray:
     return np.stack([radius * np.cos(t), radius * np.sin(t), np.zeros_like(t)], axis=1)
 
 
-def leg_link_names(leg: int) -> tuple[str, str]:
-    """(base, tip) frame names of leg ``leg`` (1..6)."""
-    return f'leg_{leg}_base', f'leg_{leg}_tip'
+def robot_transforms(geometry: RobotGeometry, a_T_b: Pose, world_T_a: Pose | None = None,
+                     ring_angles: dict[str, float] | None = None, *,
+                     fixed: bool = True) -> list[tuple[str, str, Pose]]:
+    """The transform tree (parent, child, parent_T_child): world -> ring_a (when given), then
+    every joint of the URDF at a_T_b's joint values, as robot_state_publisher computes them;
+    the fixed joints too unless ``fixed`` is False (they are :func:`fixed_transforms`), a ring's
+    extra-DOF joint when ``ring_angles`` has its angle."""
+    out = [] if world_T_a is None else [(WORLD_FRAME, RING_A_FRAME, world_T_a)]
+    return out + robot_model(geometry).transforms(joint_values(geometry, a_T_b, ring_angles), fixed=fixed)
 
 
-def robot_transforms(geometry: RobotGeometry, a_T_b: Pose,
-                     world_T_a: Pose | None = None) -> list[tuple[str, str, Pose]]:
-    """The transform tree (parent, child, parent_T_child): world -> ring_a (when given),
-    ring_a -> ring_b, ring_a -> leg_i_base -> leg_i_tip."""
-    ik = inverse_kinematics(geometry, a_T_b.position, a_T_b.quaternion_xyzw)
-    out = []
-    if world_T_a is not None:
-        out.append((WORLD_FRAME, RING_A_FRAME, world_T_a))
-    out.append((RING_A_FRAME, RING_B_FRAME, a_T_b))
-    quaternions = matrix_to_quat_xyzw(np.asarray(ik.leg_frames))  # the six at once
-    lengths = np.asarray(ik.lengths)
-    for i in range(6):
-        base, tip = leg_link_names(i + 1)
-        out.append((RING_A_FRAME, base, Pose(geometry.ring_a_anchors[i], quaternions[i])))
-        out.append((base, tip, Pose((0.0, 0.0, float(lengths[i])))))
-    return out
+def fixed_transforms(geometry: RobotGeometry) -> list[tuple[str, str, Pose]]:
+    """The URDF's fixed joints (parent, child, parent_T_child): robot_state_publisher's /tf_static."""
+    return robot_model(geometry).transforms({})
 
 
 _STAMP = struct.Struct('<iI')

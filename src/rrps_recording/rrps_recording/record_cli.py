@@ -1,13 +1,15 @@
-"""rrps-record: record the rrps topics to MCAP (``ros2 bag record -s mcap`` for this stack).
+"""rrps-record: record the rrps topics to a bag folder (``ros2 bag record -s mcap`` for this stack).
 
-    rrps-record -o recordings                       # every topic under /rrps, /diagnostics, /tf
+    rrps-record -o recordings                       # every topic under /rrps, /diagnostics, /tf, /tf_static
     rrps-record -o recordings --max-size 500 --max-duration 600     # split files
     rrps-record -o recordings --flight-recorder-only                # only fault dumps
     rrps-record ... --ros-args -p buffer_seconds:=120.0             # any recorder_node parameter
 
 Runs :class:`rrps_recording.nodes.recorder_node.RecorderNode` (its docstring says what is
-recorded and how); Ctrl-C closes the current file. The files open in ``ros2 bag info`` /
-``ros2 bag play`` on a ROS 2 Jazzy install and in Foxglove.
+recorded and how): the bag folder ``<output>/<prefix>/`` holds ``metadata.yaml`` and the MCAP
+files. Ctrl-C closes the current file and completes ``metadata.yaml``. The folder opens in ``ros2
+bag info`` / ``ros2 bag play`` on a ROS 2 Jazzy install and in ``rrps-replay``; each MCAP file
+opens in Foxglove.
 """
 
 from __future__ import annotations
@@ -22,14 +24,15 @@ __all__ = ['main', 'parser']
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog='rrps-record',
-        description='Record every rrps topic, /diagnostics and /tf to MCAP files (ros2 profile: '
-                    'CDR messages, ros2msg schemas, offered QoS), with a flight recorder that '
-                    'writes the last seconds when a fault is reported.')
-    p.add_argument('-o', '--output', default='rrps_recordings', help='folder of the files')
-    p.add_argument('--prefix', default='', help='file name prefix (default rrps_<date>_<time>)')
+        description='Record every rrps topic, /diagnostics, /tf and /tf_static to a rosbag2 bag folder '
+                    '(metadata.yaml and MCAP files: CDR messages, ros2msg schemas, offered QoS), '
+                    'with a flight recorder that writes the last seconds when a fault is reported.')
+    p.add_argument('-o', '--output', default='rrps_recordings', help='folder of the bag folders')
+    p.add_argument('--prefix', default='',
+                   help='name of the bag folder in --output (default rrps_<date>_<time>; must not exist)')
     p.add_argument('--namespace', default='/rrps', help="the stack's namespace (default /rrps)")
     p.add_argument('--topics', nargs='+', default=None,
-                   help='topics or prefixes to record (default: the namespace, /diagnostics, /tf)')
+                   help='topics or prefixes to record (default: the namespace, /diagnostics, /tf, /tf_static)')
     p.add_argument('--max-size', type=float, default=0.0,
                    help='start a new file past this size [MiB] (0: no limit)')
     p.add_argument('--max-duration', type=float, default=0.0,

@@ -1,8 +1,8 @@
-"""rrps-replay: publish an MCAP recording again (``ros2 bag play`` for this stack).
+"""rrps-replay: publish a recording again (``ros2 bag play`` for this stack).
 
-    rrps-replay recordings/rrps_20250101_120000_0.mcap            # 1x, then waits (seek again)
-    rrps-replay session_0.mcap session_1.mcap --rate 4 --exit-at-end
-    rrps-replay flight_..._operator.mcap --paused --start 30      # the viewer's timeline drives it
+    rrps-replay recordings/rrps_20250101_120000                   # a bag folder, 1x, then waits
+    rrps-replay session/session_0.mcap session/session_1.mcap --rate 4 --exit-at-end
+    rrps-replay flight_..._operator --paused --start 30           # the viewer's timeline drives it
 
 The command streams (target_pose, actuators/command, teleop/enable, master/target_pose) are
 NOT published on their live names: they go under ``<namespace>/replay/`` so that a running
@@ -25,11 +25,13 @@ __all__ = ['main', 'parser']
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog='rrps-replay',
-        description='Replay MCAP recordings with their QoS at any rate, with pause and seek. '
+        description='Replay a bag folder or MCAP recordings with their QoS at any rate, with pause and seek. '
                     'Command topics (target_pose, actuators/command, teleop/enable, '
                     'master/target_pose) are remapped under <namespace>/replay/ unless '
                     '--allow-commands: a replay never moves a live robot by default.')
-    p.add_argument('files', nargs='+', help='MCAP file(s) of one recording (its splits)')
+    p.add_argument('files', nargs='+',
+                   help='a bag folder (rrps-record, ros2 bag record -s mcap) or MCAP file(s) of one '
+                        'recording')
     p.add_argument('--rate', type=float, default=1.0, help='speed (1.0 = as recorded)')
     p.add_argument('--start', type=float, default=0.0, help='start this far in [s]')
     p.add_argument('--paused', action='store_true', help='start paused')
@@ -50,9 +52,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     split = argv.index('--ros-args') if '--ros-args' in argv else len(argv)
     args = parser().parse_args(argv[:split])
-    missing = [f for f in args.files if not Path(f).is_file()]
+    from rrps_recording.storage.bag import is_bag
+    missing = [f for f in args.files if not (Path(f).is_file() or is_bag(f))]
     if missing:
-        print(f'error: no such file: {", ".join(missing)}', file=sys.stderr)
+        print(f'error: no such file or bag folder: {", ".join(missing)}', file=sys.stderr)
         return 2
     if not 0.01 <= args.rate <= 100.0 or args.start < 0:
         print('error: --rate must be 0.01..100 and --start >= 0', file=sys.stderr)

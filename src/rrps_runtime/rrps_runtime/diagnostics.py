@@ -1,4 +1,11 @@
-"""A node's status on /diagnostics, with its typed values (:class:`rrps_interfaces.status.StatusValues`)."""
+"""A node's status on /diagnostics, with its typed values (:class:`rrps_interfaces.status.StatusValues`).
+
+A status is named ``<node name>: <what>`` (diagnostic_updater's convention, which the analyzers
+of ``rrps_bringup/config/diagnostics/diagnostic_aggregator.yaml`` match), has one of the four
+standard levels (OK, WARN, ERROR, STALE) and a ``hardware_id``: the robot's name for a status
+about the robot (the robot computer's nodes and teleop), else the role of the host it runs on
+(:data:`OPERATOR_STATION`, :data:`OBSERVER`).
+"""
 
 from __future__ import annotations
 
@@ -11,13 +18,18 @@ from rclpy.node import Node
 from rrps_interfaces.status import DIAGNOSTICS, StatusValues, status_name
 from rrps_runtime.qos import STATE_QOS
 
-__all__ = ['OK', 'WARN', 'ERROR', 'STALE', 'Diagnostics']
+__all__ = ['OK', 'WARN', 'ERROR', 'STALE', 'LEVELS', 'OPERATOR_STATION', 'OBSERVER', 'Diagnostics']
 
 OK = DiagnosticStatus.OK
 WARN = DiagnosticStatus.WARN
 ERROR = DiagnosticStatus.ERROR
 STALE = DiagnosticStatus.STALE
-
+#: The standard levels, the only ones a status may have.
+LEVELS = (OK, WARN, ERROR, STALE)
+#: hardware_id of the operator station's nodes (master, viewer, the Foxglove bridge).
+OPERATOR_STATION = 'operator_station'
+#: hardware_id of the observers (recorder, replay).
+OBSERVER = 'observer'
 
 
 class Diagnostics:
@@ -26,7 +38,9 @@ class Diagnostics:
     ``'<namespace>/<node>: <name>'`` (:func:`rrps_interfaces.status.status_name`): several
     robots' nodes share /diagnostics."""
 
-    def __init__(self, node: Node, name: str, *, hardware_id: str = '', rate_hz: float = 2.0):
+    def __init__(self, node: Node, name: str, *, hardware_id: str, rate_hz: float = 2.0):
+        if not hardware_id:
+            raise ValueError(f'{node.get_name()}: a status needs a hardware_id (the robot or the host role)')
         self._node = node
         # the namespace in the name: several robots' nodes share /diagnostics
         self._name = status_name(node.get_namespace(), node.get_name(), name)
@@ -38,12 +52,24 @@ class Diagnostics:
         self.level = OK
         self.message = ''
 
+    @property
+    def name(self) -> str:
+        """The status's name, ``<node name>: <what>``."""
+        return self._name
+
+    @property
+    def hardware_id(self) -> str:
+        return self._hardware_id
+
     def report(self, level: bytes, message: str, values: StatusValues | dict | None = None, *,
                force: bool = False) -> None:
         """Publish a status now if it changed, if forced, or if the period has elapsed.
 
         ``values``: the node's typed status (:class:`rrps_interfaces.status.StatusValues`),
-        or a plain dict for values no other node reads."""
+        or a plain dict for values no other node reads. ValueError for a level that is not one
+        of :data:`LEVELS`."""
+        if level not in LEVELS:
+            raise ValueError(f'not a diagnostic level: {level!r} (OK, WARN, ERROR or STALE)')
         self.level, self.message = level, message
         now = self._node.get_clock().now()
         t = now.nanoseconds * 1e-9

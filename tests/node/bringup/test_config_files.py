@@ -25,7 +25,9 @@ CHANGED = {
     'driver_node': {'rate': 400.0, 'sensor_noise': 1e-6}, 'master_node': {'rate': 150.0},
     'teleop_node': {'translation_scale': 3.0}, 'climb_node': {'speed': 0.03},
     'viewer_node': {'render_rate': 30.0}, 'recorder_node': {'buffer_seconds': 30.0},
-    'replay_node': {'rate': 2.0}, 'markers_node': {'rate': 5.0}, 'link_relay_node': {'pose_rate': 25.0},
+    'replay_node': {'rate': 2.0}, 'markers_node': {'rate': 5.0}, 'foxglove_node': {'max_rate': 10.0},
+    'link_relay_node': {'pose_rate': 25.0},
+    'robot_description_node': {'rate': 10.0},
 }
 #: Declared but deliberately not in the files (rclpy's own, or robot-dependent defaults).
 NOT_IN_FILES = {'use_sim_time', 'start_type_description_service', 'singularity_halt'}
@@ -49,7 +51,7 @@ def _start(node_name, params_file, domain_id, tmp_path):
     from rrps_bringup.registry import node_class
     from rrps_recording.storage.mcap_files import TopicInfo, write_recording
     extra = []
-    if node_name == 'viewer_node':
+    if node_name in ('viewer_node', 'foxglove_node'):
         extra = ['-p', f'port:={_free_port()}']
     elif node_name == 'replay_node':
         path = write_recording(tmp_path / 'one.mcap', [TopicInfo('/x', 'std_msgs/msg/Bool')],

@@ -1,7 +1,8 @@
 """markers_node over ROS: the robot as a MarkerArray in ring_a, and in world once odometry
 places it; legs coloured as the viewer colours them; grippers and the target ghost. Live /tf:
-the transforms of robot_transforms (as the recorder writes them), the QoS of tf2_ros'
-TransformBroadcaster, the official Jazzy type hash; without tf2_msgs the markers only."""
+the transforms of robot_transforms (as the recorder writes them, the URDF's moving joints), the
+QoS of tf2_ros' TransformBroadcaster, the official Jazzy type hash; /tf_static latched with the
+URDF's fixed joints; without tf2_msgs the markers only."""
 
 from __future__ import annotations
 
@@ -131,21 +132,21 @@ def test_live_tf_agrees_with_robot_transforms(ros_context):
         [info] = probe.get_publishers_info_by_topic('/tf')
         probe.publisher(PoseStamped, 'pose').publish(
             pose_to_msg(a_T_b.position, a_T_b.quaternion_xyzw, frame_id='ring_a', stamp=stamp()))
-        # no odometry yet: ring_a -> ring_b and the legs, no world
+        # no odometry yet: the URDF's moving joints, no world
         assert wait_for(lambda: tf, timeout=10.0)
-        _assert_transforms(tf[-1], robot_transforms(geometry, a_T_b))
+        _assert_transforms(tf[-1], robot_transforms(geometry, a_T_b, fixed=False))
         probe.publisher(PoseStamped, 'odometry/ring_a').publish(
             pose_to_msg(world_T_a.position, world_T_a.quaternion_xyzw, frame_id='world',
                         stamp=stamp()))
         assert wait_for(lambda: ('world', 'ring_a') in _by_frames(tf[-1]), timeout=10.0)
-        _assert_transforms(tf[-1], robot_transforms(geometry, a_T_b, world_T_a))
+        _assert_transforms(tf[-1], robot_transforms(geometry, a_T_b, world_T_a, fixed=False))
         # ring_a open, ring_b grips: world -> ring_a through ring_b's odometry
         probe.publisher(PoseStamped, 'odometry/ring_b').publish(
             pose_to_msg(world_T_b.position, world_T_b.quaternion_xyzw, frame_id='world',
                         stamp=stamp()))
         probe.publisher(JointState, 'grippers/state').publish(
             joint_state_msg(stamp(), [0.0, 1.0], names=['ring_a', 'ring_b']))
-        expected = robot_transforms(geometry, a_T_b, world_T_b.compose(a_T_b.inverse()))
+        expected = robot_transforms(geometry, a_T_b, world_T_b.compose(a_T_b.inverse()), fixed=False)
         assert wait_for(lambda: _by_frames(tf[-1])[('world', 'ring_a')].transform.translation.z
                         == pytest.approx(expected[0][2].position[2], abs=1e-12), timeout=10.0)
         _assert_transforms(tf[-1], expected)
@@ -160,6 +161,50 @@ def test_live_tf_agrees_with_robot_transforms(ros_context):
     last = tf[-1].transforms[0].header.stamp
     assert 0.0 <= now - (last.sec + 1e-9 * last.nanosec) < 30.0
     assert node.tf_published >= 3
+
+
+def test_tf_static_is_latched_and_tf_turns_the_grippers_of_the_extra_ring_dof(ros_context):
+    """/tf_static: the URDF's fixed joints, for a subscriber that joins later (as tf2_ros'
+    StaticTransformBroadcaster); /tf: a ring's extra DOF once actuators/state measures it."""
+    _require_tf2_msgs()
+    from geometry_msgs.msg import PoseStamped
+    from rclpy.parameter import Parameter
+    from rclpy.qos import DurabilityPolicy
+    from sensor_msgs.msg import JointState
+    from tf2_msgs.msg import TFMessage
+
+    from rrps_description.geometry import load_robot
+    from rrps_description.pose import Pose
+    from rrps_recording.markers import fixed_transforms, robot_transforms
+    from rrps_recording.nodes.markers_node import MarkersNode
+    from rrps_runtime.messages import joint_state_msg, pose_to_msg
+    from rrps_runtime.qos import LATCHED_QOS
+
+    geometry = load_robot('frame_climber')
+    node = MarkersNode(context=ros_context, namespace=NS, parameter_overrides=[
+        Parameter('robot', value='frame_climber'), Parameter('tf_rate', value=50.0)])
+    probe = Probe(context=ros_context, namespace=NS)
+    static: list = []
+    probe.create_subscription(TFMessage, '/tf_static', static.append, LATCHED_QOS)  # joins late
+    tf = probe.collect(TFMessage, '/tf')
+    a_T_b = Pose(geometry.home_position, geometry.home_quaternion_xyzw)
+    stamp = probe.get_clock().now().to_msg
+    with Spinner(ros_context, [node, probe]):
+        assert wait_for(lambda: static and probe.count_subscribers(f'{NS}/actuators/state') > 0)
+        [info] = probe.get_publishers_info_by_topic('/tf_static')
+        probe.publisher(PoseStamped, 'pose').publish(
+            pose_to_msg(a_T_b.position, a_T_b.quaternion_xyzw, frame_id='ring_a', stamp=stamp()))
+        assert wait_for(lambda: tf)
+        assert ('ring_a', 'ring_a_gripper') not in _by_frames(tf[-1])  # not measured yet
+        probe.publisher(JointState, 'actuators/state').publish(joint_state_msg(
+            stamp(), [*geometry.home_lengths, 0.5, -0.25],
+            names=[f'leg_{i}' for i in range(1, 7)] + ['ring_a_rotation', 'ring_b_rotation']))
+        assert wait_for(lambda: ('ring_a', 'ring_a_gripper') in _by_frames(tf[-1]))
+        _assert_transforms(tf[-1], robot_transforms(
+            geometry, a_T_b, None, {'ring_a_rotation': 0.5, 'ring_b_rotation': -0.25}, fixed=False))
+    assert info.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
+    _assert_transforms(static[-1], fixed_transforms(geometry))
+    assert ('leg_1_tip', 'ring_b') in _by_frames(static[-1])
 
 
 def test_tf2_msgs_type_hash_is_the_official_jazzy_one(ros_context):

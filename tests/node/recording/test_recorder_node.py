@@ -59,7 +59,9 @@ def test_recording_topics_schemas_counts_values_qos_and_tf(ros_context, tmp_path
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Bool
 
+    from rrps_description.pose import Pose
     from rrps_runtime.messages import joint_state_msg
+    from rrps_testing.transform_tree import pose_in
     probe = Probe(context=ros_context, namespace=NS)
     pose_pub = probe.publisher(PoseStamped, 'pose')
     state_pub = probe.publisher(JointState, 'actuators/state')
@@ -87,7 +89,7 @@ def test_recording_topics_schemas_counts_values_qos_and_tf(ros_context, tmp_path
             time.sleep(0.004)
         assert wait_for(lambda: recorder.recording.messages >= 400, timeout=10.0)
         time.sleep(0.3)
-    summary, messages = _read(tmp_path / 'test_0.mcap')
+    summary, messages = _read(tmp_path / 'test' / 'test_0.mcap')
     channels = {c.topic: c for c in summary.channels.values()}
     schemas = {c.topic: summary.schemas[c.schema_id].name for c in summary.channels.values()}
     assert schemas[f'{NS}/pose'] == 'geometry_msgs/msg/PoseStamped'
@@ -122,7 +124,7 @@ def test_recording_topics_schemas_counts_values_qos_and_tf(ros_context, tmp_path
     enable_qos = yaml.safe_load(channels[f'{NS}/teleop/enable'].metadata['offered_qos_profiles'])
     assert enable_qos[0]['reliability'] == 'best_effort'
     assert channels[f'{NS}/pose'].metadata['topic_type_hash'].startswith('RIHS01_')
-    with open(tmp_path / 'test_0.mcap', 'rb') as stream:
+    with open(tmp_path / 'test' / 'test_0.mcap', 'rb') as stream:
         [bag] = [m for m in make_reader(stream).iter_metadata() if m.name == 'rosbag2']
     meta = yaml.safe_load(bag.metadata['serialized_metadata'])
     assert meta['version'] == 9 and meta['message_count'] == summary.statistics.message_count
@@ -131,22 +133,57 @@ def test_recording_topics_schemas_counts_values_qos_and_tf(ros_context, tmp_path
     assert tf
     last = {(x.header.frame_id, x.child_frame_id): x.transform for x in tf[-1].transforms}
     assert last[('world', 'ring_a')].translation.z == pytest.approx(1.5)
-    assert last[('ring_a', 'ring_b')].translation.z == pytest.approx(poses[-1].pose.position.z)
-    assert {('ring_a', f'leg_{i}_base') for i in range(1, 7)} <= set(last)
-    assert {(f'leg_{i}_base', f'leg_{i}_tip') for i in range(1, 7)} <= set(last)
-    # the recorder reports on /diagnostics (recorded too)
-    diag = [d for t, _, d, _ in messages if t == '/diagnostics']
-    assert any(source_node(s.name) == 'recorder_node' for a in diag for s in a.status)
+    # the URDF's tree, fixed joints included (any part of a recording shows the whole robot)
+    tree = [(parent, child, Pose([t.translation.x, t.translation.y, t.translation.z],
+                                 [t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w]))
+            for (parent, child), t in last.items()]
+    assert pose_in(tree, 'ring_b', 'ring_a').position[2] == pytest.approx(poses[-1].pose.position.z)
+    assert {('ring_a', f'leg_{i}_universal_cross') for i in range(1, 7)} <= set(last)
+    assert {(f'leg_{i}_spherical_x_link', f'leg_{i}_tip') for i in range(1, 7)} <= set(last)
+    assert ('leg_1_tip', 'ring_b') in last
+    # the recorder reports on /diagnostics (recorded too), with its host role as hardware_id
+    diag = [s for t, _, d, _ in messages if t == '/diagnostics' for s in d.status]
+    assert any(source_node(s.name) == 'recorder_node' and s.hardware_id == 'observer' for s in diag)
+    # the bag folder as rosbags (an independent rosbag2 reader) sees it
+    _check_bag_with_rosbags(tmp_path / 'test', summary, poses)
+
+
+def _check_bag_with_rosbags(folder: Path, summary, poses) -> None:
+    """metadata.yaml agrees with the MCAP summary; rosbags reads topics, types, counts, time
+    range, QoS and the published poses."""
+    from rosbags.rosbag2 import Reader
+    from rosbags.typesys import Stores, get_typestore
+
+    counts = summary.statistics.channel_message_counts
+    expected = {c.topic: (summary.schemas[c.schema_id].name, counts.get(cid, 0))
+                for cid, c in summary.channels.items()}
+    store = get_typestore(Stores.ROS2_JAZZY)
+    with Reader(folder) as reader:
+        assert reader.ros_distro == 'jazzy'
+        assert {c.topic: (c.msgtype, c.msgcount) for c in reader.connections} == expected
+        assert reader.message_count == summary.statistics.message_count
+        assert (reader.start_time, reader.end_time - 1) == (summary.statistics.message_start_time,
+                                                            summary.statistics.message_end_time)
+        qos = {c.topic: c.ext.offered_qos_profiles for c in reader.connections}
+        assert [q.reliability.name for q in qos[f'{NS}/teleop/enable']] == ['BEST_EFFORT']
+        assert [q.reliability.name for q in qos[f'{NS}/pose']] == ['RELIABLE']
+        pose_connection = [c for c in reader.connections if c.topic == f'{NS}/pose']
+        zs = [store.deserialize_cdr(data, c.msgtype).pose.position.z
+              for c, _, data in reader.messages(connections=pose_connection)]
+    assert zs == [p.pose.position.z for p in poses]
 
 
 def test_with_a_live_tf_the_recorder_writes_its_own_tf_only(ros_context, tmp_path):
-    """markers_node publishes live /tf: a recorder that writes /tf (tf_rate > 0) does not
-    subscribe to it (no duplicate /tf); one at tf_rate 0 records the live /tf, and both agree."""
+    """markers_node publishes live /tf and /tf_static: a recorder that writes /tf (tf_rate > 0)
+    subscribes to neither (no duplicate transforms); one at tf_rate 0 records both, and they agree
+    (the recorder's /tf also has the URDF's fixed joints, which markers_node puts on /tf_static)."""
     require(importlib.util.find_spec('tf2_msgs') is not None,
             'tf2_msgs is not installed (./rrps builds it when cmake and a C compiler are there)')
     from geometry_msgs.msg import PoseStamped
     from rclpy.parameter import Parameter
 
+    from rrps_description.geometry import load_robot
+    from rrps_recording.markers import fixed_transforms
     from rrps_recording.nodes.markers_node import MarkersNode
     from rrps_recording.nodes.recorder_node import RecorderNode
     probe = Probe(context=ros_context, namespace=NS)
@@ -165,29 +202,35 @@ def test_with_a_live_tf_the_recorder_writes_its_own_tf_only(ros_context, tmp_pat
                         and probe.count_subscribers(f'{NS}/odometry/ring_a') >= 3, timeout=10.0)
         odom_pub.publish(_pose(probe, 1.5, frame='world'))
         pose_pub.publish(_pose(probe, 0.42))
-        assert wait_for(lambda: '/tf' in live._raw_subscriptions, timeout=10.0)
+        assert wait_for(lambda: {'/tf', '/tf_static'} <= set(live._raw_subscriptions), timeout=10.0)
         seen = own.messages
         assert wait_for(lambda: own.messages > seen + 20 and markers.tf_published > 100,
                         timeout=20.0)
         subscribers = {i.node_name for i in probe.get_subscriptions_info_by_topic('/tf')}
-        assert '/tf' not in own._raw_subscriptions and '/tf' not in own.dropped_topics
+        for topic in ('/tf', '/tf_static'):
+            assert topic not in own._raw_subscriptions and topic not in own.dropped_topics
     assert subscribers == {'recorder_live'}
     tf = {}
     for name in ('own', 'live'):
-        summary, messages = _read(tmp_path / name / 'test_0.mcap')
+        summary, messages = _read(tmp_path / name / 'test' / 'test_0.mcap')
         [channel] = [c for c in summary.channels.values() if c.topic == '/tf']
         [offered] = yaml.safe_load(channel.metadata['offered_qos_profiles'])
         assert (offered['reliability'], offered['durability']) == ('reliable', 'volatile')
         tf[name] = [(t, d) for topic, _, d, t in messages if topic == '/tf']
+        static = [d for topic, _, d, _ in messages if topic == '/tf_static']
+    assert len(static) == 1  # latched: the one message markers_node sent before the recorder joined
     # own: the recorder's 10 Hz only, not the live 100 Hz as well
     span = (tf['own'][-1][0] - tf['own'][0][0]) * 1e-9
     assert len(tf['own']) <= 10.0 * span + 3
     assert len(tf['live']) > len(tf['own'])
     frames = [{(x.header.frame_id, x.child_frame_id): x.transform for x in d.transforms}
               for d in (tf['own'][-1][1], tf['live'][-1][1])]
-    assert frames[0].keys() == frames[1].keys() and ('world', 'ring_a') in frames[0]
-    for key, a in frames[0].items():
-        b = frames[1][key]
+    fixed = {(parent, child) for parent, child, _ in fixed_transforms(load_robot('pole_climber'))}
+    assert frames[0].keys() == frames[1].keys() | fixed and ('world', 'ring_a') in frames[1]
+    assert not frames[1].keys() & fixed
+    assert {(x.header.frame_id, x.child_frame_id) for x in static[0].transforms} == fixed
+    for key, b in frames[1].items():
+        a = frames[0][key]
         assert [a.translation.x, a.translation.y, a.translation.z, a.rotation.x, a.rotation.y,
                 a.rotation.z, a.rotation.w] == pytest.approx(
             [b.translation.x, b.translation.y, b.translation.z, b.rotation.x, b.rotation.y,
@@ -225,7 +268,7 @@ def test_a_recording_cut_by_a_crash_is_readable_up_to_the_crash(ros_context, ros
         if child.poll() is None:
             child.kill()
             child.wait()
-    path = tmp_path / 'crash_0.mcap'
+    path = tmp_path / 'crash' / 'crash_0.mcap'
     zs = []
     with open(path, 'rb') as stream:
         try:
@@ -238,6 +281,15 @@ def test_a_recording_cut_by_a_crash_is_readable_up_to_the_crash(ros_context, ros
     assert zs == list(range(len(zs)))  # what is there is whole and in order
     # lost: at most what came after the last flush (flush_period 0.2 s) and the last 0.1 s
     assert len(zs) >= sent - rate * 1.0, (len(zs), sent)
+    # the bag: metadata.yaml lists the files closed before the crash (none here); the cut
+    # file stays in the folder, and a replay of the folder reads it
+    from rrps_recording.storage.bag import bag_files
+    from rrps_recording.transport.replay import RecordingSet
+    meta = yaml.safe_load((tmp_path / 'crash' / 'metadata.yaml').read_text())
+    assert meta['rosbag2_bagfile_information']['relative_file_paths'] == []
+    assert bag_files(tmp_path / 'crash') == [path]
+    replayed = RecordingSet([tmp_path / 'crash']).messages(topics=[f'{NS}/pose'])
+    assert sum(1 for _ in replayed) == len(zs)
 
 
 def _trigger(client, node, timeout=10.0):
@@ -270,7 +322,7 @@ def test_flight_recorder_saves_on_request_and_on_faults(ros_context, tmp_path):
         return DiagnosticArray(status=[status])
 
     def dumps(kind):
-        return sorted(tmp_path.glob(f'flight_*_{kind}*.mcap'))
+        return sorted(tmp_path.glob(f'flight_*_{kind}*/*.mcap'))
 
     with Spinner(ros_context, [recorder, probe]):
         assert wait_for(lambda: f'{NS}/pose' in recorder._raw_subscriptions, timeout=10.0)
@@ -280,14 +332,17 @@ def test_flight_recorder_saves_on_request_and_on_faults(ros_context, tmp_path):
         response = _trigger(client, probe)
         assert response.success
         path = Path(response.message)
-        assert path.parent == tmp_path.resolve() and 'operator' in path.name
+        # the MCAP file of the bag folder <output_dir>/flight_<time>_operator/
+        assert path.parent.parent == tmp_path.resolve() and path.name == f'{path.parent.name}_0.mcap'
+        assert 'operator' in path.name
         assert wait_for(path.exists, timeout=20.0)
+        assert (path.parent / 'metadata.yaml').is_file()
         _, messages = _read(path)
         zs = [round((d.pose.position.z - 0.4) * 1e5) for t, _, d, _ in messages
               if t == f'{NS}/pose']
         assert zs and zs[-1] == 299 and zs == list(range(zs[0], 300))
         assert 50 <= len(zs) <= 200  # about the 1 s window, not the whole 3 s
-        assert not list(tmp_path.glob('test_*.mcap'))  # record:=false writes no recording
+        assert not list(tmp_path.glob('test*'))  # record:=false writes no recording
         # a gripper refusal (the driver's typed count goes up)
         diag_pub.publish(driver(0))
         assert wait_for(lambda: recorder._faults._refusals == 0, timeout=10.0)
@@ -330,8 +385,8 @@ def test_faults_trigger_a_dump_also_when_their_topics_are_not_recorded(ros_conte
             time.sleep(0.01)
         diag_pub.publish(DiagnosticArray(status=[DiagnosticStatus(
             level=DiagnosticStatus.ERROR, name='fk_node: forward kinematics')]))
-        assert wait_for(lambda: list(tmp_path.glob('flight_*_node_error*.mcap')), timeout=20.0)
+        assert wait_for(lambda: list(tmp_path.glob('flight_*_node_error*/*.mcap')), timeout=20.0)
         recorder.wait_for_dumps()
-    path, = tmp_path.glob('flight_*_node_error*.mcap')
+    path, = tmp_path.glob('flight_*_node_error*/*.mcap')
     _, messages = _read(path)
     assert {t for t, _, _, _ in messages} == {f'{NS}/pose'}

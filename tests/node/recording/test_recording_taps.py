@@ -270,7 +270,7 @@ def test_the_recorder_takes_a_tapped_topic_from_the_tap_and_another_publisher_fr
         stream(100, 200.0)
         time.sleep(0.5)  # the talker's last bundle
     recorder.destroy_node()
-    recorded = _recorded_positions(tmp_path / 'taps_0.mcap', topic)
+    recorded = _recorded_positions(tmp_path / 'taps' / 'taps_0.mcap', topic)
     assert sorted(v for v in recorded if v < 1000.0) == talker.sent  # each once, none lost
     assert sorted(v for v in recorded if v >= 1000.0) == tool_sent
     assert talker.tap.bundles_sent > 0
@@ -320,7 +320,7 @@ def test_without_taps_the_recorder_subscribes_to_every_topic(ros_context, tmp_pa
         time.sleep(0.5)
     recorder.destroy_node()
     assert not talker.tap.active  # nobody took the bundles
-    assert _recorded_positions(tmp_path / 'dds_0.mcap', topic) == talker.sent
+    assert _recorded_positions(tmp_path / 'dds' / 'dds_0.mcap', topic) == talker.sent
 
 
 @pytest.mark.ros
@@ -388,7 +388,7 @@ def test_a_malformed_bundle_is_counted_and_reported_and_recording_goes_on(ros_co
         assert reported().level == b'\x01'  # WARN
         time.sleep(0.3)
     recorder.destroy_node()
-    assert _recorded_positions(tmp_path / 'bad_0.mcap', topic) == talker.sent
+    assert _recorded_positions(tmp_path / 'bad' / 'bad_0.mcap', topic) == talker.sent
 
 
 @pytest.mark.ros

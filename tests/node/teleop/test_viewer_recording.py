@@ -75,9 +75,12 @@ def test_save_last_60_s_writes_the_flight_recorder_and_offers_the_file(ros_conte
         viewer.save_flight_recording(cid)
         assert wait_for(lambda: viewer.sent, timeout=30.0)
     [(to, name, content)] = viewer.sent
-    assert to == cid and name.startswith('flight_') and name.endswith('_operator.mcap')
-    assert (tmp_path / name).read_bytes() == content
-    with open(tmp_path / name, 'rb') as stream:
+    # the dump is a bag folder flight_<time>_operator/ of one file, which the browser gets
+    assert to == cid and name.startswith('flight_') and name.endswith('_operator_0.mcap')
+    bag = tmp_path / name.removesuffix('_0.mcap')
+    assert (bag / 'metadata.yaml').is_file()
+    assert (bag / name).read_bytes() == content
+    with open(bag / name, 'rb') as stream:
         reader = make_reader(stream, decoder_factories=[DecoderFactory()])
         zs = [d.pose.position.z for _, c, _, d in reader.iter_decoded_messages()
               if c.topic == f'{NS}/pose']

@@ -18,7 +18,8 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 from rrps_interfaces.recording import COMMAND_TOPICS, RecorderTrigger
-from rrps_recording.storage.mcap_files import McapRecording, RotatingRecording, TopicInfo, write_recording
+from rrps_recording.storage.bag import BagRecording
+from rrps_recording.storage.mcap_files import McapRecording, TopicInfo, write_recording
 from rrps_recording.storage.qos import (
     INFINITE_NS,
     QosSpec,
@@ -216,7 +217,7 @@ def test_recorder_and_replay_qos_follow_the_publishers():
 
 def test_rotation_by_duration_and_by_size_and_bag_metadata(tmp_path):
     topic = TopicInfo('/rrps/x', 'std_msgs/msg/Bool')
-    by_time = RotatingRecording(tmp_path / 'time', 'r', max_seconds=1.0)
+    by_time = BagRecording(tmp_path / 'time' / 'r', max_seconds=1.0)
     by_time.add_topic(topic)
     for i in range(30):  # 3 s of 10 Hz
         by_time.write('/rrps/x', 10**9 * 100 + i * 10**8, b'\x00\x01\x00\x00\x01')
@@ -224,8 +225,7 @@ def test_rotation_by_duration_and_by_size_and_bag_metadata(tmp_path):
     assert [p.name for p in by_time.files] == ['r_0.mcap', 'r_1.mcap', 'r_2.mcap']
     counts = [len(_decoded(p)) for p in by_time.files]
     assert counts == [10, 10, 10]
-    by_size = RotatingRecording(tmp_path / 'size', 'r', max_bytes=20_000, compression='none',
-                                chunk_size=4096)
+    by_size = BagRecording(tmp_path / 'size' / 'r', max_bytes=20_000, compression='none', chunk_size=4096)
     by_size.add_topic(topic)
     for i in range(3000):
         by_size.write('/rrps/x', i, b'\x00\x01\x00\x00' + bytes([i % 2]) + bytes(60))
@@ -238,7 +238,7 @@ def test_rotation_by_duration_and_by_size_and_bag_metadata(tmp_path):
     bag = yaml.safe_load(record.metadata['serialized_metadata'])
     assert bag['version'] == 9 and bag['storage_identifier'] == 'mcap'
     assert bag['ros_distro'] == 'jazzy' and bag['message_count'] == 10
-    assert bag['relative_file_paths'] == ['r_1.mcap']
+    assert bag['relative_file_paths'] == ['r_1.mcap']  # each file is a bag by itself too
     [entry] = bag['topics_with_message_count']
     assert entry['message_count'] == 10
     assert entry['topic_metadata']['type'] == 'std_msgs/msg/Bool'
@@ -356,31 +356,31 @@ def test_command_topics_are_remapped_unless_allowed():
 def test_transforms_chain_to_the_joint_centres_and_markers_use_the_viewer_colours():
     from rrps_description.geometry import load_robot
     from rrps_description.pose import Pose
+    from rrps_description.urdf import leg_chain
     from rrps_kinematics.inverse import inverse_kinematics
     from rrps_kinematics.scene import robot_figure
-    from rrps_recording.markers import robot_markers, robot_transforms
+    from rrps_recording.markers import fixed_transforms, robot_markers, robot_transforms
+    from rrps_testing.transform_tree import pose_in
 
     geom = load_robot('pole_climber')
     a_T_b = Pose([0.01, -0.005, 0.42], [math.sin(0.05), 0.0, 0.0, math.cos(0.05)])
     world_T_a = Pose([0.0, 0.0, 1.2], [0.0, 0.0, math.sin(0.3), math.cos(0.3)])
     tree = robot_transforms(geom, a_T_b, world_T_a)
-    poses = {child: (parent, pose) for parent, child, pose in tree}
-
-    def in_world(frame):
-        pose = Pose()
-        while frame != 'world':
-            parent, step = poses[frame]
-            pose = step.compose(pose)
-            frame = parent
-        return pose
+    moving = robot_transforms(geom, a_T_b, world_T_a, fixed=False)
+    # the fixed joints are robot_state_publisher's /tf_static: the whole tree is the two
+    assert sorted(tree, key=repr) == sorted(moving + fixed_transforms(geom), key=repr)
+    assert ('leg_1_tip', 'ring_b') in {(p, c) for p, c, _ in fixed_transforms(geom)}
 
     ik = inverse_kinematics(geom, a_T_b.position, a_T_b.quaternion_xyzw)
     for i in range(6):
-        tip = in_world(f'leg_{i + 1}_tip').position
-        base = in_world(f'leg_{i + 1}_base').position
+        chain = leg_chain(i + 1)
+        tip = pose_in(tree, chain.tip, 'world').position
+        base = pose_in(tree, chain.links[0], 'world').position
         np.testing.assert_allclose(tip, world_T_a.apply(ik.ring_b_anchors_in_a[i]), atol=1e-9)
         np.testing.assert_allclose(base, world_T_a.apply(geom.ring_a_anchors[i]), atol=1e-9)
-    np.testing.assert_allclose(in_world('ring_b').position, world_T_a.compose(a_T_b).position)
+        upper = pose_in(tree, chain.links[2], 'ring_a')  # at the S-joint, z along the leg
+        np.testing.assert_allclose(upper.rotation[:, 2], ik.unit_vectors[i], atol=1e-12)
+    np.testing.assert_allclose(pose_in(tree, 'ring_b', 'world').position, world_T_a.compose(a_T_b).position)
 
     markers = robot_markers(geom, a_T_b, grippers={'ring_a': True, 'ring_b': False},
                             target=a_T_b, world_T_a=world_T_a)

@@ -72,7 +72,7 @@ class FkNode(Node):
         self._tap = RecordingTap(self)
         self._pub = self._tap.create_publisher(PoseStamped, POSE, STATE_QOS)
         self.create_subscription(JointState, ACTUATORS_STATE, self._on_state, STATE_QOS)
-        self._diag = Diagnostics(self, 'forward kinematics')
+        self._diag = Diagnostics(self, 'forward kinematics', hardware_id=self.geometry.name)
         self.create_timer(0.5, self._report)
         self.add_post_set_parameters_callback(self._apply_parameters)
 

@@ -95,7 +95,7 @@ class IkNode(Node):
             self.create_subscription(JointState, TARGET_RINGS, self._on_rings, COMMAND_QOS)
         if self.limit_velocity:
             self.create_subscription(JointState, ACTUATORS_STATE, self._on_state, STATE_QOS)
-        self._diag = Diagnostics(self, 'inverse kinematics')
+        self._diag = Diagnostics(self, 'inverse kinematics', hardware_id=self.geometry.name)
         self.create_timer(0.5, self._report)
         self.add_post_set_parameters_callback(self._apply_parameters)
 

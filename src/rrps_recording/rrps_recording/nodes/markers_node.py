@@ -10,8 +10,11 @@ fixed frame ``ring_a`` (or ``world``). The recordings also carry ``/tf`` (record
 
 Live ``/tf`` (``tf2_msgs/msg/TFMessage``, the absolute topic, with the QoS of tf2_ros'
 TransformBroadcaster) at ``tf_rate`` Hz once a pose is known: ``world -> ring_a`` (once odometry
-places the robot), ``ring_a -> ring_b`` and the legs' links, computed as the recorder computes
-its ``/tf`` (:func:`rrps_recording.markers.robot_transforms`). tf2_msgs is not on PyPI:
+places the robot) and the URDF's moving joints at the pose's joint values (the extra ring DOF
+from ``actuators/state``), computed as the recorder computes its ``/tf``
+(:func:`rrps_recording.markers.robot_transforms`); the URDF's fixed joints once on
+``/tf_static`` (latched, as tf2_ros' StaticTransformBroadcaster): what robot_state_publisher
+publishes from robot_description and joint_states (robot_description_node). tf2_msgs is not on PyPI:
 ``./rrps`` builds it (tools/build_tf2_msgs.sh) when cmake and a C compiler are there; without
 it the node logs that live /tf is off and publishes the markers only.
 
@@ -37,18 +40,26 @@ from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
 from rrps_description.geometry import load_robot
+from rrps_description.names import RINGS, ring_joint
 from rrps_description.pose import Pose
 from rrps_interfaces.climb import odometry_topic
 from rrps_interfaces.driver import GRIPPERS_STATE, gripper_states
 from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE, TARGET_POSE
-from rrps_interfaces.recording import ROBOT_MARKERS, TF
-from rrps_recording.markers import MarkerSpec, robot_markers, robot_transforms, structure_marker, world_pose_of_ring_a
+from rrps_interfaces.recording import ROBOT_MARKERS, TF, TF_STATIC
+from rrps_recording.markers import (
+    MarkerSpec,
+    fixed_transforms,
+    robot_markers,
+    robot_transforms,
+    structure_marker,
+    world_pose_of_ring_a,
+)
 from rrps_recording.storage.qos import TF_QOS
 from rrps_runtime.messages import pose_from_msg
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
-from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, STATE_QOS
+from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, LATEST_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
 
 __all__ = ['MarkersNode', 'main', 'marker_msg', 'transform_msgs']
@@ -115,6 +126,7 @@ class MarkersNode(Node):
         super().__init__('markers_node', **kwargs)
         values = declare_parameters(self, PARAMETERS)
         self.geometry = load_robot(values['robot'])
+        self._ring_joints = {ring_joint(ring) for ring in RINGS if ring in self.geometry.extra_dof}
         structure, length = values['structure'], values['structure_length']
         self.structure_period = values['structure_period']
         tf_rate = values['tf_rate']
@@ -153,6 +165,9 @@ class MarkersNode(Node):
             else:
                 self._tf_type = TFMessage
                 self._tf_pub = self.create_publisher(TFMessage, TF, _TF_PUBLISHER_QOS)
+                self._tf_static_pub = self.create_publisher(TFMessage, TF_STATIC, LATCHED_QOS)
+                self._tf_static_pub.publish(TFMessage(transforms=transform_msgs(
+                    fixed_transforms(self.geometry), self.get_clock().now().to_msg())))
                 self.create_timer(1.0 / tf_rate, self._publish_tf)
 
     def _store(self, topic: str, msg) -> None:
@@ -195,13 +210,19 @@ class MarkersNode(Node):
                              grippers=grippers or {}, target=target, world_T_a=world_T_a)
 
     def transforms(self) -> list:
-        """The /tf transforms (parent, child, Pose) of the newest messages (none before a pose)."""
+        """The /tf transforms (parent, child, Pose) of the newest messages (none before a pose):
+        the moving ones (the fixed ones are on /tf_static)."""
         with self._lock:
             latest = dict(self._latest)
         if latest.get(POSE) is None:
             return []
         a_T_b, _, world_T_a = self._robot(latest)
-        return robot_transforms(self.geometry, a_T_b, world_T_a)
+        state = latest.get(ACTUATORS_STATE)
+        rings = {}
+        if state is not None and len(state.position) == len(state.name):
+            rings = {name: value for name, value in zip(state.name, state.position)
+                     if name in self._ring_joints and np.isfinite(value)}
+        return robot_transforms(self.geometry, a_T_b, world_T_a, rings, fixed=False)
 
     def _inputs(self) -> tuple:
         """What the markers are drawn from (the newest messages' values, not their stamps)."""
@@ -216,7 +237,8 @@ class MarkersNode(Node):
         state, grippers = latest.get(ACTUATORS_STATE), latest.get(GRIPPERS_STATE)
         return (pose(latest.get(POSE)), pose(latest.get(TARGET_POSE)),
                 pose(latest.get(odometry_topic('ring_a'))), pose(latest.get(odometry_topic('ring_b'))),
-                None if state is None else tuple(state.effort),
+                None if state is None else (tuple(state.effort), tuple(
+                    v for n, v in zip(state.name, state.position) if n in self._ring_joints)),
                 None if grippers is None else tuple(grippers.position))
 
     def _publish(self) -> None:

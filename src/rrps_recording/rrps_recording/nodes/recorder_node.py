@@ -1,12 +1,14 @@
-"""recorder_node: every rrps topic and /diagnostics to MCAP, and the flight recorder.
+"""recorder_node: every rrps topic and /diagnostics to a rosbag2 bag folder, and the flight recorder.
 
-Recording (``record``, default on): every topic of the node's namespace, ``/diagnostics`` and
-``/tf`` (or the names/prefixes of ``topics``) is found in the ROS graph every
+Recording (``record``, default on): every topic of the node's namespace, ``/diagnostics``,
+``/tf`` and ``/tf_static`` (or the names/prefixes of ``topics``) is found in the ROS graph every
 ``discovery_period`` s, so late publishers are recorded too, and subscribed to raw: the CDR
-bytes are written as received, never deserialised. Files are MCAP in the ``ros2`` profile
-(:mod:`rrps_recording.storage.mcap_files`): ``ros2msg`` schemas, ``cdr`` messages, the QoS each
-publisher offered as ``offered_qos_profiles``; zstd chunks flushed every ``flush_period`` s; a
-new file ``<output_dir>/<prefix>_<n>.mcap`` past ``max_file_size_mb`` or ``max_file_duration``.
+bytes are written as received, never deserialised. The recording is the bag folder
+``<output_dir>/<prefix>/`` (:mod:`rrps_recording.storage.bag`): ``metadata.yaml`` and MCAP files
+in the ``ros2`` profile (:mod:`rrps_recording.storage.mcap_files`): ``ros2msg`` schemas, ``cdr``
+messages, the QoS each publisher offered as ``offered_qos_profiles``; zstd chunks flushed every
+``flush_period`` s; a new file ``<prefix>_<n>.mcap`` past ``max_file_size_mb`` or
+``max_file_duration``. A folder that exists is refused (a bad ``prefix``).
 A topic is subscribed reliable only if every publisher offers reliable (rosbag2's rule).
 
 Recording taps (``use_taps``, default on): the stack's nodes send their high-rate publications
@@ -18,22 +20,23 @@ of one per message, which is what keeps the recorder's cost within its budget (R
 the two loses and doubles nothing (:class:`rrps_recording.transport.taps.TapRouter`). A tapped
 message is logged at its publish time plus the node's smallest bundle delay.
 
-The transforms ``world -> ring_a -> ring_b`` and each leg's links
-(:func:`rrps_recording.markers.robot_transforms`) are written to ``/tf`` as
+The transforms ``world -> ring_a`` and the URDF's, fixed joints included
+(:func:`rrps_recording.markers.robot_transforms`), are written to ``/tf`` as
 ``tf2_msgs/msg/TFMessage`` at ``tf_rate`` Hz from the newest ``pose``, ``odometry/*`` and
 ``grippers/state`` (:func:`rrps_recording.markers.tf_message_cdr`: tf2_msgs is not
-needed); a live ``/tf`` (markers_node's) is then not subscribed to, so the recording has no
-duplicate transforms. With
-``tf_rate`` 0 the live ``/tf`` is recorded like any topic (where tf2_msgs is installed).
+needed); the live ``/tf`` and ``/tf_static`` are then not subscribed to, so the recording has no
+duplicate transforms, and any part of it shows the whole robot. With ``tf_rate`` 0 the live
+``/tf`` and ``/tf_static`` are recorded like any topic (where tf2_msgs is installed).
 
 Flight recorder (``flight_recorder``, default on): the last ``buffer_seconds`` of the same
 messages in memory (:class:`rrps_recording.transport.ring.MessageRing`), written to
-``<output_dir>/flight_<time>_<trigger>.mcap`` ``post_trigger`` s after a fault
+the bag folder ``<output_dir>/flight_<time>_<trigger>/`` ``post_trigger`` s after a fault
 (:class:`rrps_recording.transport.triggers.FaultWatch`: a node's ERROR, a gripper refusal, a lost
 teleop or climb link; at most one every ``min_dump_interval`` s) and when the service
 ``flight_recorder/save`` (std_srvs/Trigger) is called (0.2 s later, so that the recording taps'
-last bundles are in); the answer's ``message`` is the path.
-The file is written to ``<path>.part`` and renamed when complete, so it exists only whole.
+last bundles are in); the answer's ``message`` is the path of its MCAP file
+(:class:`rrps_recording.transport.dumps.FlightDumps`: the folder is written as ``<folder>.part``
+and renamed when complete, so it exists only whole).
 
     recorder_node --ros-args -r __ns:=/rrps -p output_dir:=recordings
     rrps-record -o recordings --namespace /rrps          (the same, as a command)
@@ -41,7 +44,6 @@ The file is written to ``<path>.part`` and renamed when complete, so it exists o
 
 from __future__ import annotations
 
-import os
 import threading
 import time
 from pathlib import Path
@@ -49,7 +51,6 @@ from pathlib import Path
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
@@ -59,17 +60,28 @@ from rrps_description.pose import Pose
 from rrps_interfaces.climb import CLIMB_STATUS, odometry_topic
 from rrps_interfaces.driver import GRIPPERS_STATE, gripper_states
 from rrps_interfaces.kinematics import POSE
-from rrps_interfaces.recording import FLIGHT_RECORDER_SAVE, RECORDING_TAP, TF, RecorderStatus, RecorderTrigger
+from rrps_interfaces.recording import (
+    FLIGHT_RECORDER_SAVE,
+    RECORDING_TAP,
+    TF,
+    TF_STATIC,
+    RecorderStatus,
+    RecorderTrigger,
+)
 from rrps_interfaces.status import DIAGNOSTICS
 from rrps_interfaces.teleop import TELEOP_STATUS
 from rrps_recording.markers import robot_transforms, tf_message_cdr, world_pose_of_ring_a
-from rrps_recording.storage.mcap_files import COMPRESSIONS, RotatingRecording, TopicInfo, write_recording
-from rrps_recording.storage.qos import TF_QOS, QosSpec, request_for_offers
+from rrps_recording.nodes.topic_graph import offered, qos_spec, subscription_for, subscription_qos, type_hash_text
+from rrps_recording.storage.bag import BagRecording, free_name
+from rrps_recording.storage.bag_metadata import TopicInfo
+from rrps_recording.storage.mcap_files import COMPRESSIONS
+from rrps_recording.storage.qos import TF_QOS
 from rrps_recording.storage.schemas import message_class, message_schema
+from rrps_recording.transport.dumps import FlightDumps
 from rrps_recording.transport.ring import MessageRing
 from rrps_recording.transport.taps import TapRouter, fully_qualified_node
 from rrps_recording.transport.triggers import FaultWatch, StatusEvent
-from rrps_runtime.diagnostics import OK, WARN, Diagnostics
+from rrps_runtime.diagnostics import OBSERVER, OK, WARN, Diagnostics
 from rrps_runtime.messages import pose_from_msg
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
@@ -88,13 +100,14 @@ _IGNORED = ('/rosout', '/parameter_events')
 PARAMETERS = NodeParameters('recorder_node', 'rrps_recording', [
     ROBOT,
     Parameter('output_dir', 'rrps_recordings', 'folder of the recordings'),
-    Parameter('prefix', '', 'file name prefix (empty: rrps_<date>_<time>)'),
+    Parameter('prefix', '', 'bag folder name in output_dir, which must not exist (empty: rrps_<date>_<time>)'),
     Parameter('record', True, 'write every message to MCAP files'),
     Parameter('flight_recorder', True, 'keep the last buffer_seconds for fault dumps'),
     Parameter('buffer_seconds', 60.0, 'flight recorder window', unit='s', range=(1.0, 3600.0)),
     Parameter('buffer_max_mb', 512.0, 'flight recorder memory bound (of messages)', unit='MiB',
               range=(1.0, 65536.0)),
-    Parameter('topics', ('',), "topics or prefixes to record ('' = the node's namespace, /diagnostics and /tf)"),
+    Parameter('topics', ('',), "topics or prefixes to record ('' = the node's namespace, /diagnostics, /tf and "
+              '/tf_static)'),
     Parameter('discovery_period', 1.0, 'graph discovery period', unit='s', range=(0.05, 60.0)),
     Parameter('max_file_size_mb', 0.0, 'start a new file past this size; 0 = no limit', unit='MiB',
               range=(0.0, 1e6)),
@@ -111,32 +124,6 @@ PARAMETERS = NodeParameters('recorder_node', 'rrps_recording', [
               range=(0.0, 600.0)),
     Parameter('min_dump_interval', 10.0, 'at most one fault dump this often', unit='s', range=(0.0, 3600.0)),
 ])
-
-
-def qos_spec(profile) -> QosSpec:
-    """An rclpy QoSProfile as plain values."""
-    def ns(duration) -> int:
-        return int(duration.nanoseconds)
-    return QosSpec(history=int(profile.history), depth=int(profile.depth),
-                   reliability=int(profile.reliability), durability=int(profile.durability),
-                   deadline_ns=ns(profile.deadline), lifespan_ns=ns(profile.lifespan),
-                   liveliness=int(profile.liveliness),
-                   liveliness_lease_duration_ns=ns(profile.liveliness_lease_duration),
-                   avoid_ros_namespace_conventions=bool(profile.avoid_ros_namespace_conventions))
-
-
-def type_hash_text(type_hash) -> str:
-    """rclpy's TypeHash as rosbag2 writes it ('RIHS01_<hex>'; '' when unset)."""
-    if type_hash is None or getattr(type_hash, 'version', -1) != 1:
-        return ''
-    return f'RIHS{type_hash.version:02d}_{bytes(type_hash.value).hex()}'
-
-
-def subscription_qos(spec: QosSpec) -> QoSProfile:
-    """The rclpy QoSProfile of a subscription that requests ``spec`` (history keep-last)."""
-    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=spec.depth,
-                      reliability=ReliabilityPolicy(spec.reliability),
-                      durability=DurabilityPolicy(spec.durability))
 
 
 class RecorderNode(Node):
@@ -158,7 +145,7 @@ class RecorderNode(Node):
         tf_rate = values['tf_rate']
         self.post_trigger = values['post_trigger']
         self.min_dump_interval = values['min_dump_interval']
-        self.prefix = prefix or time.strftime('rrps_%Y%m%d_%H%M%S')
+        self.prefix = prefix or free_name(self.output_dir, time.strftime('rrps_%Y%m%d_%H%M%S'))
         self._lock = threading.Lock()
         self._topics: dict[str, TopicInfo] = {}
         self._raw_subscriptions: dict[str, object] = {}
@@ -173,27 +160,29 @@ class RecorderNode(Node):
         self._tf_inputs = {f'{ns}/{POSE}': POSE, f'{ns}/{GRIPPERS_STATE}': GRIPPERS_STATE,
                            f'{ns}/{odometry_topic("ring_a")}': 'ring_a',
                            f'{ns}/{odometry_topic("ring_b")}': 'ring_b'}
-        self.recording = (RotatingRecording(self.output_dir, self.prefix,
-                                            max_bytes=int(values['max_file_size_mb'] * 2**20),
-                                            max_seconds=values['max_file_duration'],
-                                            compression=values['compression'],
-                                            flush_period=values['flush_period'])
-                          if self.record else None)
+        try:
+            self.recording = (BagRecording(self.output_dir / self.prefix,
+                                           max_bytes=int(values['max_file_size_mb'] * 2**20),
+                                           max_seconds=values['max_file_duration'],
+                                           compression=values['compression'],
+                                           flush_period=values['flush_period'])
+                              if self.record else None)
+        except FileExistsError as exc:
+            raise ValueError(f'prefix: {exc}') from None
         self.ring = (MessageRing(buffer_seconds, max_bytes=int(values['buffer_max_mb'] * 2**20))
                      if self.flight_recorder else None)
         self.buffer_seconds = buffer_seconds
         self.messages = 0
-        self.dumps: list[Path] = []
+        self.dumps = FlightDumps(self.output_dir, self.get_logger().error)
         self.last_trigger: RecorderTrigger | None = None
         self._pending_dump: tuple[float, RecorderTrigger] | None = None
         self._last_dump_time = -1e18
-        self._writers: list[threading.Thread] = []
         self._faults = FaultWatch()
         self._writes_tf = tf_rate > 0.0
         if self._writes_tf:
             self._add_topic(TopicInfo(TF, TF_TYPE, (TF_QOS,)))
             self.create_timer(1.0 / tf_rate, self._write_tf)
-        self._diag = Diagnostics(self, 'recorder')
+        self._diag = Diagnostics(self, 'recorder', hardware_id=OBSERVER)
         # The fault triggers' topics (full name: event source, type): heard through their
         # recording subscription (_on_raw), or through one of their own when not recorded.
         self._triggers = {DIAGNOSTICS: (DIAGNOSTICS, DiagnosticArray),
@@ -222,7 +211,7 @@ class RecorderNode(Node):
         ns = self.get_namespace().rstrip('/')
         for entry in self.topics:
             if entry == '':
-                if name in (DIAGNOSTICS, TF) or (ns and name.startswith(ns + '/')) or not ns:
+                if name in (DIAGNOSTICS, TF, TF_STATIC) or (ns and name.startswith(ns + '/')) or not ns:
                     return True
             elif name == entry or name.startswith(entry.rstrip('/') + '/'):
                 return True
@@ -253,8 +242,8 @@ class RecorderNode(Node):
         for name, types in graph:
             if not self._selected(name) or self._is_tap(name, types):
                 continue
-            if name == TF and self._writes_tf:
-                continue  # written by this node from the robot's state
+            if name in (TF, TF_STATIC) and self._writes_tf:
+                continue  # written by this node from the robot's state (/tf: every joint)
             if len(types) != 1:
                 self.dropped_topics[name] = f'several types {types}'
                 continue
@@ -269,8 +258,7 @@ class RecorderNode(Node):
                 except (ImportError, AttributeError, ValueError, LookupError) as exc:
                     self.dropped_topics[name] = f'{type_name}: {exc}'
                     continue
-                offered = tuple(qos_spec(info.qos_profile) for info in infos)
-                self._add_topic(TopicInfo(name, type_name, offered,
+                self._add_topic(TopicInfo(name, type_name, offered(infos),
                                           type_hash_text(infos[0].topic_type_hash)))
                 self.dropped_topics.pop(name, None)
             tapped = self.use_taps and self._taps.covers(
@@ -284,7 +272,7 @@ class RecorderNode(Node):
                 self._raw_subscriptions[name] = self.create_subscription(
                     message_class(type_name), name,
                     lambda data, name=name: self._on_raw(name, data),
-                    subscription_qos(request_for_offers(topic.offered_qos, depth=self.depth)),
+                    subscription_for(topic.offered_qos, self.depth),
                     raw=True)
 
     @staticmethod
@@ -414,37 +402,17 @@ class RecorderNode(Node):
             self.dump(pending[1])
 
     def dump(self, trigger: RecorderTrigger, *, settle: float = 0.0) -> Path:
-        """Write the buffer (in a thread, ``settle`` s from now) to a new file; returns the path
-        it will have."""
+        """Write the buffer (in a thread, ``settle`` s from now) to a new bag folder; returns
+        the path its MCAP file will have."""
         if self.ring is None:
             raise RuntimeError('the flight recorder is off (flight_recorder:=false)')
         self._last_dump_time = time.monotonic()
         self.last_trigger = trigger
-        self.output_dir.mkdir(parents=True, exist_ok=True)
-        stamp = time.strftime('%Y%m%d_%H%M%S')
-        path = self.output_dir / f'flight_{stamp}_{trigger.value}.mcap'
-        n = 1
-        while path.exists() or path in self.dumps:
-            path = self.output_dir / f'flight_{stamp}_{trigger.value}_{n}.mcap'
-            n += 1
-        self.dumps.append(path)
 
-        def write() -> None:
-            time.sleep(settle)
-            messages = self.ring.snapshot()
+        def topics() -> list[TopicInfo]:
             with self._lock:
-                topics = list(self._topics.values())
-            part = path.with_name(path.name + '.part')
-            try:
-                write_recording(part, topics, messages)
-                os.replace(part, path)
-            except OSError as exc:
-                self.get_logger().error(f'flight recorder: cannot write {path}: {exc}')
-
-        thread = threading.Thread(target=write, name='flight-recorder-dump', daemon=True)
-        thread.start()
-        self._writers = [w for w in self._writers if w.is_alive()] + [thread]
-        return path
+                return list(self._topics.values())
+        return self.dumps.start(trigger.value, self.ring.snapshot, topics, settle=settle)
 
     def _on_save(self, request, response):
         try:
@@ -459,9 +427,7 @@ class RecorderNode(Node):
 
     def wait_for_dumps(self, timeout: float = 30.0) -> None:
         """Wait until every dump started so far is written (tests, shutdown)."""
-        deadline = time.monotonic() + timeout
-        for thread in list(self._writers):
-            thread.join(max(0.0, deadline - time.monotonic()))
+        self.dumps.wait(timeout)
 
     # --- status ------------------------------------------------------------------------------
 
@@ -474,7 +440,8 @@ class RecorderNode(Node):
             file=str(self.recording.path) if self.recording is not None else '',
             buffered_messages=len(self.ring) if self.ring is not None else 0,
             buffer_seconds=self.ring.span if self.ring is not None else 0.0,
-            dumps=len(self.dumps), last_dump=str(self.dumps[-1]) if self.dumps else '',
+            dumps=len(self.dumps.folders),
+            last_dump=str(self.dumps.folders[-1]) if self.dumps.folders else '',
             last_trigger=self.last_trigger, dropped_topics=tuple(sorted(self.dropped_topics)))
         level = WARN if self.dropped_topics or self.bad_bundles else OK
         message = (f'{len(self._topics)} topics ({len(self._taps.tapped_topics)} from taps), '

@@ -1,4 +1,6 @@
-"""replay_node: publishes an MCAP recording again, with its QoS, at any rate, with pause and seek.
+"""replay_node: publishes a recording again, with its QoS, at any rate, with pause and seek.
+
+A recording is a bag folder (``rrps-record``'s or ``ros2 bag record -s mcap``'s) or MCAP files.
 
 Every recorded topic is published on its recorded name (the CDR bytes as recorded, never
 re-encoded) with the reliability and durability its publishers offered
@@ -16,8 +18,8 @@ from the recording's start to jump there; the value stays as a record of the las
 ``replay/status`` (diagnostic_msgs/DiagnosticStatus, values :class:`ReplayStatus`) says where
 the replay is, at ``status_rate`` Hz: the viewer draws its timeline from it.
 
-    replay_node --ros-args -p files:=[session_0.mcap] -p rate:=2.0
-    rrps-replay session_0.mcap --rate 2.0               (the same, as a command)
+    replay_node --ros-args -p files:=[recordings/session] -p rate:=2.0
+    rrps-replay recordings/session --rate 2.0           (the same, as a command)
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ from rrps_interfaces.recording import REPLAY_PREFIX, REPLAY_STATUS, ReplayStatus
 from rrps_recording.storage.qos import offer_for_replay
 from rrps_recording.storage.schemas import message_class
 from rrps_recording.transport.replay import RecordingSet, ReplayClock, is_command_topic, replay_topic
-from rrps_runtime.diagnostics import OK, STALE, WARN, Diagnostics
+from rrps_runtime.diagnostics import OBSERVER, OK, STALE, WARN, Diagnostics
 from rrps_runtime.parameter_schema import NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
@@ -44,7 +46,7 @@ __all__ = ['ReplayNode', 'main']
 
 #: replay_node's parameters (descriptors, the shipped file and the docs' table come from here).
 PARAMETERS = NodeParameters('replay_node', 'rrps_recording', [
-    Parameter('files', ('',), 'MCAP file(s) of one recording'),
+    Parameter('files', ('',), 'a bag folder or the MCAP file(s) of one recording'),
     Parameter('rate', 1.0, 'replay speed (1.0 = as recorded)', range=(0.01, 100.0), dynamic=True),
     Parameter('paused', False, 'hold the replay where it is', dynamic=True),
     Parameter('seek', -1.0, 'set to a time from the start to jump there', unit='s', range=(-1.0, 1e9),
@@ -75,7 +77,7 @@ class ReplayNode(Node):
         self.exit_at_end = values['exit_at_end']
         files = [f for f in files if f]
         if not files:
-            raise ValueError('files: give the recording to replay (-p files:=[a.mcap])')
+            raise ValueError('files: give the recording to replay (-p files:=[bag_folder])')
         self.recording = RecordingSet(files)
         self.files = files
         self.clock = ReplayClock(self.recording.start_ns, self.recording.end_ns, rate=rate,
@@ -111,7 +113,7 @@ class ReplayNode(Node):
             self.get_logger().warning('allow_commands: the recorded command streams go to '
                                       'their live names; a driver listening will act on them')
         self._status_pub = self.create_publisher(DiagnosticStatus, REPLAY_STATUS, STATE_QOS)
-        self._diag = Diagnostics(self, 'replay', rate_hz=1.0)
+        self._diag = Diagnostics(self, 'replay', hardware_id=OBSERVER, rate_hz=1.0)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self.create_timer(1.0 / values['status_rate'], self._report)
         self._stop = threading.Event()
@@ -157,7 +159,8 @@ class ReplayNode(Node):
         level = STALE if status.finished else WARN if self.skipped else OK
         message = ('finished' if status.finished else 'paused' if status.paused
                    else f'replaying at {status.rate:g}x')
-        msg = DiagnosticStatus(level=level, name=f'{self.get_name()}: replay', message=message)
+        msg = DiagnosticStatus(level=level, name=f'{self.get_name()}: replay', message=message,
+                               hardware_id=OBSERVER)
         msg.values = [KeyValue(key=k, value=v) for k, v in status.to_values().items()]
         self._status_pub.publish(msg)
         self._diag.report(level, message, status)

@@ -1,4 +1,4 @@
-"""QoS profiles as rosbag2 (Jazzy) records them: the ``offered_qos_profiles`` channel metadata.
+"""QoS profiles as rosbag2 (Jazzy) records them: ``offered_qos_profiles`` of MCAP channels and bags.
 
 rosbag2 stores, per topic, the QoS every publisher offered, as a YAML sequence written by
 yaml-cpp with the policies' names (bag metadata version 9)::
@@ -14,7 +14,8 @@ yaml-cpp with the policies' names (bag metadata version 9)::
       avoid_ros_namespace_conventions: false
 
 :class:`QosSpec` holds one profile as plain values (the rmw enum numbers rclpy also uses);
-:func:`offered_qos_yaml` writes the list, :func:`parse_offered_qos` reads it back (names or the
+:func:`offered_qos_yaml` writes the list as a channel's text, :func:`offered_qos_profiles` as
+the nested sequence of a bag's ``metadata.yaml``, :func:`parse_offered_qos` reads it back (names or the
 numbers of older bags). :func:`request_for_offers` is the QoS a recorder requests so that it
 connects to every publisher (rosbag2's rule) and :func:`offer_for_replay` the QoS a replay
 offers. Pure Python, no rclpy import.
@@ -27,8 +28,8 @@ from typing import Iterable, Sequence
 
 import yaml
 
-__all__ = ['QosSpec', 'INFINITE_NS', 'TF_QOS', 'offered_qos_yaml', 'parse_offered_qos',
-           'request_for_offers', 'offer_for_replay']
+__all__ = ['QosSpec', 'INFINITE_NS', 'TF_QOS', 'offered_qos_yaml', 'offered_qos_profiles',
+           'parse_offered_qos', 'request_for_offers', 'offer_for_replay']
 
 #: rmw's RMW_DURATION_INFINITE [ns] (written as sec 9223372036, nsec 854775807).
 INFINITE_NS = 9223372036854775807
@@ -77,6 +78,23 @@ TF_QOS = QosSpec(depth=100)
 def _duration(ns: int) -> str:
     sec, nsec = divmod(int(ns), 1_000_000_000)
     return f'sec: {sec}\n    nsec: {nsec}'
+
+
+def _sec_nsec(ns: int) -> dict:
+    sec, nsec = divmod(int(ns), 1_000_000_000)
+    return {'sec': sec, 'nsec': nsec}
+
+
+def offered_qos_profiles(profiles: Sequence[QosSpec]) -> list[dict]:
+    """The profiles as the YAML sequence of a version-9 ``metadata.yaml`` (rosbag2's
+    ``convert<rclcpp::QoS>::encode``: policy names, durations as sec/nsec, in this key order)."""
+    return [{'history': _HISTORY[p.history], 'depth': int(p.depth),
+             'reliability': _RELIABILITY[p.reliability], 'durability': _DURABILITY[p.durability],
+             'deadline': _sec_nsec(p.deadline_ns), 'lifespan': _sec_nsec(p.lifespan_ns),
+             'liveliness': _LIVELINESS[p.liveliness],
+             'liveliness_lease_duration': _sec_nsec(p.liveliness_lease_duration_ns),
+             'avoid_ros_namespace_conventions': bool(p.avoid_ros_namespace_conventions)}
+            for p in profiles]
 
 
 def offered_qos_yaml(profiles: Sequence[QosSpec]) -> str:

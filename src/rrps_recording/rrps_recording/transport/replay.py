@@ -1,7 +1,8 @@
 """Replay of MCAP recordings: reading, timing (rate, pause, seek) and the safety remap. Pure.
 
-* :class:`RecordingSet` reads one or more MCAP files (the splits of one recording, in time
-  order) with the ``mcap`` library: the topics (type, schema, the offered QoS of each
+* :class:`RecordingSet` reads one recording: a bag folder (its files,
+  :func:`rrps_recording.storage.bag.bag_files`) or MCAP files (the splits of one recording, in
+  time order), with the ``mcap`` library: the topics (type, schema, the offered QoS of each
   channel's ``offered_qos_profiles``), the time span, and the messages from any time on (the
   chunk index makes a seek cheap). A file cut by a crash has no summary: it is scanned once and
   replayed up to its last complete chunk.
@@ -24,6 +25,7 @@ from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
 from rrps_interfaces.recording import COMMAND_TOPICS, REPLAY_PREFIX
+from rrps_recording.storage.bag import bag_files
 from rrps_recording.storage.qos import QosSpec, parse_offered_qos
 
 __all__ = ['RecordedTopic', 'RecordingSet', 'ReplayClock', 'replay_topic', 'is_command_topic']
@@ -128,7 +130,7 @@ class _File:
 
 
 class RecordingSet:
-    """One recording made of one or more MCAP files (see the module docstring)."""
+    """One recording: bag folders and MCAP files (see the module docstring)."""
 
     def __init__(self, paths: Sequence[str | os.PathLike]):
         if not paths:
@@ -136,9 +138,12 @@ class RecordingSet:
         files = []
         for p in paths:
             path = Path(p)
-            if not path.is_file():
+            if path.is_dir():
+                files += [_File(f) for f in bag_files(path)]
+            elif path.is_file():
+                files.append(_File(path))
+            else:
                 raise FileNotFoundError(f'no such recording: {path}')
-            files.append(_File(path))
         self.files = sorted((f for f in files if f.end_ns >= f.start_ns),
                             key=lambda f: f.start_ns)
         if not self.files:

@@ -101,7 +101,7 @@ class DriverNode(LifecycleNode):
             self.create_service(SetBool, gripper_service(ring),
                                 lambda request, response, ring=ring: self._on_gripper(ring, request, response))
         self.add_on_set_parameters_callback(self._on_set_parameters)
-        self._diag = Diagnostics(self, f'{self.mode.value} actuators')
+        self._diag = Diagnostics(self, f'{self.mode.value} actuators', hardware_id=g.name)
         self._tick_timer = self.create_timer(1.0 / self.rate, self._on_tick)
         self._resting = False
         self.create_timer(0.05, self._publish_grippers)

@@ -128,7 +128,7 @@ class ClimbNode(Node):
         self.create_service(Trigger, CLIMB_STEP_DOWN, lambda req, res: self._request(res, self.machine.step, -1))
         self.create_service(Trigger, CLIMB_RESUME, lambda req, res: self._request(res, self.machine.resume))
         self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, STATE_QOS)
-        self._diag = Diagnostics(self, 'climb')
+        self._diag = Diagnostics(self, 'climb', hardware_id=self.geometry.name)
         self.create_timer(config.period, self._on_tick)
         self.create_timer(0.5, lambda: self._publish_status(self.machine.report()))
 

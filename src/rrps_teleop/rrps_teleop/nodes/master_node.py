@@ -29,7 +29,7 @@ from rrps_description.pose import validate_pose
 from rrps_description.rotations import quat_multiply_xyzw, rotation_vector_to_quat_xyzw
 from rrps_interfaces.teleop import MASTER_FEEDBACK, MASTER_FRAME, MASTER_POSE, MASTER_STATE, MASTER_TARGET_POSE
 from rrps_kinematics import forward_kinematics
-from rrps_runtime.diagnostics import ERROR, OK, WARN, Diagnostics
+from rrps_runtime.diagnostics import ERROR, OK, OPERATOR_STATION, WARN, Diagnostics
 from rrps_runtime.messages import joint_state_msg, pose_from_msg, pose_to_msg
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
@@ -88,7 +88,7 @@ class MasterNode(Node):
         self._start = time.monotonic()
         self._last_tick: float | None = None
         self._status = (OK, 'holding the home pose')
-        self._diag = Diagnostics(self, 'master robot', hardware_id=self.geometry.name)
+        self._diag = Diagnostics(self, 'master robot', hardware_id=OPERATOR_STATION)
         self._tap = RecordingTap(self)
         self._state_pub = self._tap.create_publisher(JointState, MASTER_STATE, STATE_QOS)
         self._pose_pub = self._tap.create_publisher(PoseStamped, MASTER_POSE, STATE_QOS)
