@@ -78,9 +78,13 @@ def namespaced(topic: str, namespace: str) -> str:
 def robot_topic(topic: str, namespace: str = '', source: str = 'direct') -> str:
     """The name under which an operator station reads the robot topic ``topic`` of the robot in
     ``namespace``: ``robot_topic('pose', '/robot_2', 'link')`` is '/robot_2/link/pose';
-    '/diagnostics' read over the link is the robot's ``link/diagnostics``."""
+    '/diagnostics' read over the link is the robot's ``link/diagnostics``, read directly from a
+    robot in another namespace (a fleet's, whose statuses stay in its namespace:
+    ``-r /diagnostics:=diagnostics``) its ``diagnostics``."""
     if source not in SOURCES:
         raise ValueError(f'source must be one of {SOURCES}, got {source!r}')
+    if source == 'direct' and topic == '/diagnostics' and namespace:
+        return namespaced('diagnostics', namespace)
     if source == 'link':
         if topic not in LINK_TOPICS:
             raise ValueError(f'{topic!r} has no link topic; link topics: {", ".join(LINK_TOPICS)}')

@@ -15,7 +15,7 @@ import typing
 from typing import Any, ClassVar, Mapping
 
 __all__ = ['DIAGNOSTICS', 'ContractError', 'encode_value', 'decode_value', 'StatusValues', 'source_node',
-           'source_namespace', 'status_name', 'CommandAgeStatus']
+           'CommandAgeStatus']
 
 #: diagnostic_msgs/DiagnosticArray: every node's status (REP-107).
 DIAGNOSTICS = '/diagnostics'
@@ -108,22 +108,8 @@ class StatusValues:
 
 
 def source_node(status_name: str) -> str:
-    """The node that published a DiagnosticStatus (its name is ``'<namespace>/<node>: <what>'``,
-    the namespace without its leading slash, or ``'<node>: <what>'`` in the root namespace)."""
-    return status_name.split(':', 1)[0].strip().rsplit('/', 1)[-1]
-
-
-def source_namespace(status_name: str) -> str:
-    """The namespace of the node that published a DiagnosticStatus: '/rrps' for
-    ``'rrps/driver_node: driver'``, '/' for ``'driver_node: driver'``."""
-    path = status_name.split(':', 1)[0].strip()
-    return '/' + path.rsplit('/', 1)[0] if '/' in path else '/'
-
-
-def status_name(namespace: str, node: str, what: str) -> str:
-    """A node's DiagnosticStatus name: ``'rrps/driver_node: driver'`` in '/rrps'."""
-    ns = namespace.strip('/')
-    return f'{ns}/{node}: {what}' if ns else f'{node}: {what}'
+    """The node that published a DiagnosticStatus (its name is ``'<node>: <what>'``)."""
+    return status_name.split(':', 1)[0].strip()
 
 
 @dataclasses.dataclass(frozen=True)

@@ -15,7 +15,7 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 
-from rrps_interfaces.status import DIAGNOSTICS, StatusValues, status_name
+from rrps_interfaces.status import DIAGNOSTICS, StatusValues
 from rrps_runtime.qos import STATE_QOS
 
 __all__ = ['OK', 'WARN', 'ERROR', 'STALE', 'LEVELS', 'OPERATOR_STATION', 'OBSERVER', 'Diagnostics']
@@ -34,16 +34,13 @@ OBSERVER = 'observer'
 
 class Diagnostics:
     """Publishes one DiagnosticStatus of a node on /diagnostics, at most ``rate_hz`` per second
-    unless the level or message changes (so a rejection is reported at once). Its name is
-    ``'<namespace>/<node>: <name>'`` (:func:`rrps_interfaces.status.status_name`): several
-    robots' nodes share /diagnostics."""
+    unless the level or message changes (so a rejection is reported at once)."""
 
     def __init__(self, node: Node, name: str, *, hardware_id: str, rate_hz: float = 2.0):
         if not hardware_id:
             raise ValueError(f'{node.get_name()}: a status needs a hardware_id (the robot or the host role)')
         self._node = node
-        # the namespace in the name: several robots' nodes share /diagnostics
-        self._name = status_name(node.get_namespace(), node.get_name(), name)
+        self._name = f'{node.get_name()}: {name}'
         self._hardware_id = hardware_id
         self._period = 1.0 / rate_hz
         self._pub = node.create_publisher(DiagnosticArray, DIAGNOSTICS, STATE_QOS)

@@ -1,5 +1,5 @@
 """link_relay_node in-process: the robot's 500 Hz state leaves at the link profile's rates, a
-gripper change at once, and only its own robot's statuses of the listed nodes on link/diagnostics."""
+gripper change at once, and only the statuses of the robot's nodes on link/diagnostics."""
 
 from __future__ import annotations
 
@@ -51,12 +51,11 @@ def test_the_relay_sends_the_newest_state_at_the_profiles_rates(ros_context):
                     closed = 0.0
                     t_open = time.monotonic()
                 grippers_pub.publish(JointState(name=['ring_a', 'ring_b'], position=[1.0, closed]))
-            if sent % 250 == 0:  # statuses: this robot's driver and IK, another robot's, teleop's
+            if sent % 250 == 0:  # statuses: the robot's driver and IK, an operator station's teleop
                 diag_pub.publish(DiagnosticArray(status=[
-                    DiagnosticStatus(name='robot_1/driver_node: driver', message='active'),
-                    DiagnosticStatus(name='robot_1/ik_node: inverse kinematics', message='ok'),
-                    DiagnosticStatus(name='robot_2/driver_node: driver', message='active'),
-                    DiagnosticStatus(name='robot_1/teleop_node: teleop', message='engaged')]))
+                    DiagnosticStatus(name='driver_node: driver', message='active'),
+                    DiagnosticStatus(name='ik_node: inverse kinematics', message='ok'),
+                    DiagnosticStatus(name='teleop_node: teleop', message='engaged')]))
             time.sleep(max(t0 + sent * 0.002 - time.monotonic(), 0.0))
         time.sleep(0.3)
     assert sent >= 800
@@ -70,7 +69,7 @@ def test_the_relay_sends_the_newest_state_at_the_profiles_rates(ros_context):
     opened = [t for t, msg in grippers if msg.position[1] == 0.0]
     assert opened and opened[0] - t_open < 0.1
     assert 3 <= len(grippers) <= 8, len(grippers)
-    # only this robot's watched nodes: its driver and IK, not robot_2's driver nor teleop
+    # only the robot's nodes: its driver and IK, not the operator station's teleop
     names = {s.name for table in tables for s in table.status}
-    assert names == {'robot_1/driver_node: driver', 'robot_1/ik_node: inverse kinematics'}
+    assert names == {'driver_node: driver', 'ik_node: inverse kinematics'}
     relay.destroy_node()

@@ -7,7 +7,6 @@ import pytest
 
 from rrps_bringup.link_budget import ChangeGate, RateGate, StatusTable
 from rrps_interfaces.link import LINK_TOPICS, normalize_namespace, robot_topic
-from rrps_interfaces.status import source_namespace, source_node, status_name
 
 
 def _admitted(gate, times, keys=None) -> list[float]:
@@ -51,13 +50,13 @@ def test_a_gripper_change_goes_at_once_else_the_state_at_its_rate():
 def test_the_status_table_goes_out_on_a_change_at_most_every_min_interval_else_every_period():
     table = StatusTable(['driver_node', 'fk_node'], period=1.0, min_interval=0.1)
     assert not table.due(0.0)
-    assert not table.offer('teleop_node', 'rrps/teleop_node: teleop', (0, 'ok'), 'x')  # not watched
-    assert table.offer('driver_node', 'rrps/driver_node: driver', (0, 'ok'), 'd1')
+    assert not table.offer('teleop_node', 'teleop_node: teleop', (0, 'ok'), 'x')  # not watched
+    assert table.offer('driver_node', 'driver_node: driver', (0, 'ok'), 'd1')
     assert table.due(0.0) and table.take(0.0) == ['d1']
-    table.offer('driver_node', 'rrps/driver_node: driver', (0, 'ok'), 'd2')  # same level and message
+    table.offer('driver_node', 'driver_node: driver', (0, 'ok'), 'd2')  # same level and message
     assert not table.due(0.5) and table.due(1.0)
     assert table.take(1.0) == ['d2']
-    table.offer('fk_node', 'rrps/fk_node: fk', (2, 'failed'), 'f1')
+    table.offer('fk_node', 'fk_node: fk', (2, 'failed'), 'f1')
     assert not table.due(1.05) and table.due(1.1)
     assert table.take(1.1) == ['d2', 'f1']
     with pytest.raises(ValueError):
@@ -68,7 +67,8 @@ def test_robot_topics_directly_and_over_the_link_in_any_namespace():
     assert robot_topic('pose') == 'pose'
     assert robot_topic('pose', '/robot_2') == '/robot_2/pose'
     assert robot_topic('pose', '/robot_2', 'link') == '/robot_2/link/pose'
-    assert robot_topic('/diagnostics', '/robot_2') == '/diagnostics'
+    assert robot_topic('/diagnostics') == '/diagnostics'
+    assert robot_topic('/diagnostics', '/robot_2') == '/robot_2/diagnostics'  # a fleet's: its namespace
     assert robot_topic('/diagnostics', '/robot_2', 'link') == '/robot_2/link/diagnostics'
     assert robot_topic('actuators/state', '', 'link') == 'link/actuators/state'
     assert set(LINK_TOPICS) >= {'pose', 'actuators/state', 'grippers/state', '/diagnostics'}
@@ -80,14 +80,3 @@ def test_robot_topics_directly_and_over_the_link_in_any_namespace():
     for bad in ('robot_1', '/robot_1/', '/1robot', '/a//b', '/a b'):
         with pytest.raises(ValueError):
             normalize_namespace(bad)
-
-
-def test_a_status_names_its_node_and_namespace():
-    name = status_name('/robot_1', 'driver_node', 'driver')
-    assert name == 'robot_1/driver_node: driver'
-    assert (source_node(name), source_namespace(name)) == ('driver_node', '/robot_1')
-    root = status_name('/', 'driver_node', 'driver')
-    assert root == 'driver_node: driver'
-    assert (source_node(root), source_namespace(root)) == ('driver_node', '/')
-    deep = status_name('/site/robot_2', 'fk_node', 'forward kinematics: ok')
-    assert (source_node(deep), source_namespace(deep)) == ('fk_node', '/site/robot_2')

@@ -12,8 +12,10 @@ that only those cross the link and the 500 Hz streams stay on the robot host:
 * ``grippers/state`` -> ``link/grippers/state``: at once when a gripper changes, else at
   ``grippers_rate``; reliable, latched (:data:`rrps_runtime.qos.LINK_EVENT_QOS`);
 * ``/diagnostics`` -> ``link/diagnostics``: the newest status of each node of
-  ``diagnostics_nodes`` in the relay's namespace, as one DiagnosticArray, at once when a level
-  or message changes (at most every 0.1 s), else every ``diagnostics_period``; reliable, latched.
+  ``diagnostics_nodes`` (the robot's, not an operator station's in the same namespace), as one
+  DiagnosticArray, at once when a level or message changes (at most every 0.1 s), else every
+  ``diagnostics_period``; reliable, latched. (A fleet's robots keep their statuses in their
+  namespaces, ``-r /diagnostics:=diagnostics``, so that a relay hears only its own robot's.)
 
 A rate of 0 relays nothing of that stream. The gates are :mod:`rrps_bringup.link_budget`. Its own
 status (:class:`rrps_interfaces.link.LinkRelayStatus`) goes on /diagnostics every second.
@@ -35,7 +37,7 @@ from rrps_interfaces.climb import odometry_topic
 from rrps_interfaces.driver import GRIPPERS_STATE
 from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE, TARGET_POSE
 from rrps_interfaces.link import LINK_DIAGNOSTICS, LINK_TOPICS, LinkRelayStatus
-from rrps_interfaces.status import DIAGNOSTICS, source_namespace, source_node
+from rrps_interfaces.status import DIAGNOSTICS, source_node
 from rrps_runtime.diagnostics import OK, Diagnostics
 from rrps_runtime.parameter_schema import NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
@@ -92,7 +94,6 @@ class LinkRelayNode(Node):
         if self._grippers_gate.enabled:
             self._grippers_pub = self.create_publisher(JointState, LINK_TOPICS[GRIPPERS_STATE], LINK_EVENT_QOS)
             self.create_subscription(JointState, GRIPPERS_STATE, self._on_grippers, STATE_QOS)
-        self._namespace = self.get_namespace()
         self._statuses = StatusTable(values['diagnostics_nodes'], period=values['diagnostics_period'])
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, LINK_DIAGNOSTICS, LINK_EVENT_QOS)
         self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, STATE_QOS)
@@ -119,9 +120,7 @@ class LinkRelayNode(Node):
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         for status in msg.status:
-            if source_namespace(status.name) == self._namespace:
-                self._statuses.offer(source_node(status.name), status.name,
-                                     (bytes(status.level), status.message), status)
+            self._statuses.offer(source_node(status.name), status.name, (bytes(status.level), status.message), status)
 
     def _send_statuses(self) -> None:
         t = time.monotonic()

@@ -39,7 +39,7 @@ from rrps_interfaces.climb import (
 )
 from rrps_interfaces.driver import GRIPPERS_STATE, DriverStatus, gripper_service, gripper_states
 from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE, TARGET_POSE, TARGET_RINGS
-from rrps_interfaces.status import DIAGNOSTICS, source_namespace, source_node
+from rrps_interfaces.status import DIAGNOSTICS, source_node
 from rrps_interfaces.teleop import TELEOP_STATUS, TeleopStatus
 from rrps_runtime.diagnostics import ERROR, OK, WARN, Diagnostics
 from rrps_runtime.messages import joint_state_msg, pose_from_msg, pose_to_msg
@@ -168,9 +168,9 @@ class ClimbNode(Node):
             self.machine.on_grippers(state)
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
-        """The driver's lifecycle state, from its typed status (this robot's: its namespace)."""
+        """The driver's lifecycle state, from its typed status."""
         for status in msg.status:
-            if source_node(status.name) == 'driver_node' and source_namespace(status.name) == self.get_namespace():
+            if source_node(status.name) == 'driver_node':
                 try:
                     self.machine.on_driver_active(DriverStatus.from_key_values(status.values).active)
                 except ValueError as exc:

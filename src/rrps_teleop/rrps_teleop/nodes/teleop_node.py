@@ -56,7 +56,7 @@ from rrps_interfaces.climb import CLIMB_STATUS, ClimbState, ClimbStatus
 from rrps_interfaces.driver import DriverStatus
 from rrps_interfaces.kinematics import ACTUATORS_COMMAND, POSE, TARGET_POSE
 from rrps_interfaces.link import namespaced, normalize_namespace, robot_topic
-from rrps_interfaces.status import DIAGNOSTICS, source_namespace, source_node
+from rrps_interfaces.status import DIAGNOSTICS, source_node
 from rrps_interfaces.teleop import (
     MASTER_FEEDBACK,
     MASTER_POSE,
@@ -279,8 +279,7 @@ class TeleopNode(Node):
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         """The driver's lifecycle state, from its typed status: no engaging while inactive."""
         for status in msg.status:
-            if (source_node(status.name) == 'driver_node'
-                    and source_namespace(status.name) == self.robot_namespace):
+            if source_node(status.name) == 'driver_node':
                 try:
                     self.mapping.set_driver_active(DriverStatus.from_key_values(status.values).active)
                 except ValueError as exc:

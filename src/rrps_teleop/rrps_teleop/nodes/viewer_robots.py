@@ -23,7 +23,7 @@ from rrps_interfaces.climb import CLIMB_STATUS, odometry_topic
 from rrps_interfaces.driver import GRIPPERS_STATE
 from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE, TARGET_POSE
 from rrps_interfaces.link import namespaced, normalize_namespace, robot_topic
-from rrps_interfaces.status import DIAGNOSTICS, source_namespace, source_node
+from rrps_interfaces.status import DIAGNOSTICS, source_node
 from rrps_interfaces.teleop import TELEOP_STATUS
 from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, LINK_EVENT_QOS, LINK_STATE_QOS, STATE_QOS
 from rrps_teleop.viewer import status_text as panel
@@ -66,11 +66,11 @@ class ViewerRobots:
             node.create_subscription(JointState, robot_topic(GRIPPERS_STATE, robot, source),
                                      lambda msg, r=robot: self._store(r, GRIPPERS_STATE, msg),
                                      LINK_EVENT_QOS if link else STATE_QOS)
-            if link:  # each robot's own statuses, from its relay
-                node.create_subscription(DiagnosticArray, robot_topic(DIAGNOSTICS, robot, source),
-                                         self._on_diagnostics, LINK_EVENT_QOS)
-        if not link:  # every node's, on the one /diagnostics
-            node.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, STATE_QOS)
+            # its nodes' statuses: from its relay, from /diagnostics (one robot) or from its
+            # namespace (a fleet's robot: -r /diagnostics:=diagnostics)
+            node.create_subscription(DiagnosticArray, robot_topic(DIAGNOSTICS, robot, source),
+                                     lambda msg, r=robot: self._on_diagnostics(r, msg),
+                                     LINK_EVENT_QOS if link else STATE_QOS)
         self.selected = self.robots[0]
         self._drawn: list = []
         self.select(self.selected)
@@ -80,12 +80,10 @@ class ViewerRobots:
             self._latest[robot][key] = msg
             self._heard[robot] = time.monotonic()
 
-    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
-        by_namespace = {ns: r for r, ns in self._absolute.items()}
+    def _on_diagnostics(self, robot: str, msg: DiagnosticArray) -> None:
         for status in msg.status:
-            robot = by_namespace.get(source_namespace(status.name))
             key = _STATUS_NODES.get(source_node(status.name))
-            if robot is not None and key is not None:
+            if key is not None:
                 self._store(robot, key, status)
 
     def select(self, robot: str) -> None:
