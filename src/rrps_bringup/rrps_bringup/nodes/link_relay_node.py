@@ -32,6 +32,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from rrps_bringup.link_budget import ChangeGate, RateGate, StatusTable
+from rrps_description.geometry import load_robot
 from rrps_description.names import RINGS
 from rrps_interfaces.climb import odometry_topic
 from rrps_interfaces.driver import GRIPPERS_STATE
@@ -39,7 +40,7 @@ from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE, TARGET_POSE
 from rrps_interfaces.link import LINK_DIAGNOSTICS, LINK_TOPICS, LinkRelayStatus
 from rrps_interfaces.status import DIAGNOSTICS, source_node
 from rrps_runtime.diagnostics import OK, Diagnostics
-from rrps_runtime.parameter_schema import NodeParameters, Parameter
+from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, LINK_EVENT_QOS, LINK_STATE_QOS, STATE_QOS
@@ -49,6 +50,7 @@ __all__ = ['PARAMETERS', 'LinkRelayNode', 'main']
 _RATE = (0.0, 1000.0)
 #: link_relay_node's parameters: the link profile (the shipped file and the docs' table come from here).
 PARAMETERS = NodeParameters('link_relay_node', 'rrps_bringup', [
+    ROBOT,
     Parameter('pose_rate', 50.0, 'link/pose rate (teleop feedback and the viewer); 0: not relayed',
               unit='Hz', range=_RATE),
     Parameter('state_rate', 20.0, 'link/actuators/state rate (the viewer: legs, forces, plot); 0: not '
@@ -98,7 +100,7 @@ class LinkRelayNode(Node):
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, LINK_DIAGNOSTICS, LINK_EVENT_QOS)
         self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, STATE_QOS)
         self.create_timer(0.05, self._send_statuses)
-        self._diag = Diagnostics(self, 'link relay', rate_hz=1.0)
+        self._diag = Diagnostics(self, 'link relay', hardware_id=load_robot(values['robot']).name, rate_hz=1.0)
         self._window = (time.monotonic(), 0, {})
         self.create_timer(1.0, self._report)
 

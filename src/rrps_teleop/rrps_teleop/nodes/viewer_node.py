@@ -63,7 +63,7 @@ from rrps_interfaces.teleop import (
     ViewerStatus,
 )
 from rrps_kinematics.scene import Trail, robot_figure, world_ring_poses
-from rrps_runtime.diagnostics import OK, Diagnostics
+from rrps_runtime.diagnostics import OK, OPERATOR_STATION, Diagnostics
 from rrps_runtime.messages import lengths_from_joint_state, pose_from_msg, pose_to_msg, stamp_to_seconds
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
@@ -164,7 +164,7 @@ class ViewerNode(Node):
         self.requests = ViewerRequests(self, tell=lambda c, m, ok: self.viewer.tell(c, m, ok=ok),
                                        robot=self.robots.selected)
         self.requests.on_switch = self._switched
-        self._diag = Diagnostics(self, 'viewer', hardware_id=self.geometry.name, rate_hz=1.0)
+        self._diag = Diagnostics(self, 'viewer', hardware_id=OPERATOR_STATION, rate_hz=1.0)
         self.create_timer(1.0, self._report)
         self._round_trip_pub = self.create_publisher(Float64, OPERATOR_ROUND_TRIP, COMMAND_QOS)
         self.recording = ViewerRecording(  # "Save last 60 s", the replay timeline
