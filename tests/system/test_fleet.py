@@ -74,9 +74,6 @@ def test_one_operator_station_drives_three_robots_one_at_a_time(ros_domain_id, t
         assert wait(lambda: _engaged_on(fleet, r1, t0) and _moved(fleet, r1, t0) > 2e-3, DEADLINE), fleet.logs()
         jump, allowed = _clutch(fleet, r1, t0)
         assert jump <= allowed, (jump, allowed)
-        b0, t_b0 = fleet.bytes(), time.time()
-        time.sleep(4.0)
-        b1, t_b1 = fleet.bytes(), time.time()
 
         # 2. Switch to robot_2 with the deadman still held: the clutch releases, robot_1 gets no
         # more commands and holds, robot_2 does not move: the deadman must be pressed again.
@@ -106,6 +103,9 @@ def test_one_operator_station_drives_three_robots_one_at_a_time(ros_domain_id, t
             fleet.logs()
         jump, allowed = _clutch(fleet, r2, t_press)
         assert jump <= allowed, (jump, allowed)
+        b0, t_b0 = fleet.bytes(), time.time()  # discovery long settled
+        time.sleep(4.0)
+        b1, t_b1 = fleet.bytes(), time.time()
         t_end = time.time()
         fleet.operator.send({'deadman': False})
         for ns in (r1, r3):
@@ -113,9 +113,10 @@ def test_one_operator_station_drives_three_robots_one_at_a_time(ros_domain_id, t
         assert not fleet.robots[r3].records('actuators/command')
         rates = {ns: tuple(round(8e-3 * (b1[ns][i] - b0[ns][i]) / (t_b1 - t_b0)) for i in (0, 1)) for ns in b0}
         print(f'fleet of 3: up {up:.1f} s after the operator station started; link kbit/s '
-              f'(robot -> operator, back) while robot_1 was driven: {rates}')
-        # a robot that is not driven sends its summary only
-        assert all(rates[ns][0] < rates[r1][0] for ns in (r2, r3)), rates
+              f'(robot -> operator, back) while robot_2 was driven: {rates}')
+        # robot_2 sends its pose to teleop, robot_1 what the viewer draws (this test switched teleop
+        # alone, not the viewer as its Drive button does), robot_3 its summary only
+        assert rates[r3][0] < min(rates[r1][0], rates[r2][0]), rates
     finally:
         rig.close()
     assert rig.leftovers() == []
