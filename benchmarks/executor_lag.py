@@ -41,6 +41,7 @@ os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 50))
 
 
+from rrps_interfaces.status import source_node  # noqa: E402
 from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, OPERATOR_NICE, OPERATOR_RT_PRIORITY
 from rrps_testing.load import Load  # noqa: E402
 from rrps_testing.processes import cpu_seconds  # noqa: E402
@@ -92,7 +93,7 @@ class Observer:
     def _on_diagnostics(self, msg) -> None:
         with self.lock:
             for status in msg.status:
-                self.diagnostics[status.name.split(':')[0]] = {kv.key: kv.value for kv in status.values}
+                self.diagnostics[source_node(status.name)] = {kv.key: kv.value for kv in status.values}
 
     def _on_climb(self, msg) -> None:
         with self.lock:

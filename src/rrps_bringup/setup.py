@@ -3,6 +3,10 @@ from glob import glob
 from setuptools import find_packages, setup
 
 package_name = 'rrps_bringup'
+#: The nodes of this package: executable -> (module, node class) (as in rrps_teleop's setup.py).
+NODES = {
+    'link_relay_node': ('rrps_bringup.nodes.link_relay_node', 'LinkRelayNode'),
+}
 
 setup(
     name=package_name,
@@ -37,6 +41,7 @@ setup(
             'rrps-demo = rrps_bringup.demo:main',
             'rrps-compose = rrps_bringup.compose:main',
             'rrps-params = rrps_bringup.params:main',
-        ],
+        ] + [f'{node} = {module}:main' for node, (module, _) in NODES.items()],
+        'rrps.nodes': [f'{node} = {module}:{cls}' for node, (module, cls) in NODES.items()],
     },
 )

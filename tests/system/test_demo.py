@@ -130,7 +130,7 @@ def test_compose_names_its_nodes_and_refuses_unknown_ones():
     nodes = registered_nodes()
     assert set(nodes) == {'ik_node', 'fk_node', 'driver_node', 'master_node', 'teleop_node', 'climb_node',
                           'viewer_node', 'recorder_node', 'replay_node', 'markers_node', 'foxglove_node',
-                          'robot_description_node'}
+                          'robot_description_node', 'link_relay_node'}
     for name, node in nodes.items():
         assert node_class(name).__name__.endswith('Node')
         assert node.module.startswith(node.package + '.nodes.'), node  # each node in its package

@@ -65,7 +65,7 @@ def test_entry_points_are_declared():
     assert scripts['rrps-kinematics'] == 'rrps_kinematics.cli:main'
     assert {'ik_node', 'fk_node', 'robot_description_node'} <= set(scripts)
     nodes = {name: target for p in PACKAGES for name, target in entry_points(p, 'rrps.nodes').items()}
-    assert len(nodes) == 12
+    assert len(nodes) == 13
     for name, target in nodes.items():  # each node: one registry entry and its ros2 run script
         package = target.split('.')[0]
         assert console_scripts(package)[name] == target.split(':')[0] + ':main'

@@ -24,7 +24,7 @@ from rrps_interfaces.status import StatusValues
 
 __all__ = ['MASTER_TARGET_POSE', 'MASTER_STATE', 'MASTER_POSE', 'MASTER_FRAME', 'MASTER_FEEDBACK',
            'TELEOP_ENABLE', 'TELEOP_STATUS', 'OPERATOR_ROUND_TRIP', 'TeleopCode', 'DISENGAGED_CODES',
-           'TeleopStatus']
+           'TeleopStatus', 'ViewerStatus']
 
 MASTER_TARGET_POSE = 'master/target_pose'
 MASTER_STATE = 'master/actuators/state'
@@ -91,3 +91,21 @@ class TeleopStatus(StatusValues):
     margin_spherical: float | None = None
     margin_interference: float | None = None
     margin_conditioning: float | None = None
+    robot: str = ''                      # the namespace of the driven robot
+    slave_age_ms: float | None = None    # now minus the newest slave pose's stamp (synchronised clocks)
+
+
+@dataclasses.dataclass(frozen=True)
+class ViewerStatus(StatusValues):
+    """viewer_node's /diagnostics values: how many robots it lists and how many of them it heard
+    in the last 2 s, the one it draws (its namespace), the frames it drew and the drawn robot's
+    pose samples it received per second over the last second, that pose's age [ms] and the
+    browsers connected."""
+
+    robots: int = 1
+    heard: int = 0
+    drawn: str = ''
+    draw_rate: float = 0.0
+    pose_rate: float = 0.0
+    pose_age_ms: float | None = None
+    clients: int = 0

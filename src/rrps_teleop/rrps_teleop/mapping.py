@@ -125,6 +125,7 @@ class TeleopMapping:
         self.config = self._checked(config or TeleopConfig())
         self._enable_value = False
         self._enable_time = -math.inf
+        self._rearm = False  # the deadman must be released before it counts again
         self._master_pose: tuple[np.ndarray, np.ndarray] | None = None
         self._master_pose_time = -math.inf
         self._master_lengths: np.ndarray | None = None
@@ -178,9 +179,23 @@ class TeleopMapping:
         self.disengage()
 
     def on_enable(self, t: float, value: bool) -> None:
-        """A ``teleop/enable`` sample received at ``t``; ``false`` releases at once."""
-        self._enable_value = bool(value)
+        """A ``teleop/enable`` sample received at ``t``; ``false`` releases at once. After
+        :meth:`switch_slave` a deadman held through the switch counts only once released (a
+        ``false`` sample, or none for ``enable_timeout``)."""
+        if self._rearm and not (value and t - self._enable_time <= self.config.enable_timeout):
+            self._rearm = False
+        self._enable_value = bool(value) and not self._rearm
         self._enable_time = float(t)
+
+    def switch_slave(self) -> None:
+        """Another slave (a fleet's robot) is driven from now on: release the clutch, forget
+        the old slave's pose, driver and climb state, and re-arm the deadman."""
+        self.disengage()
+        self._slave_pose = self._slave_pose_time = None
+        self._driver_current = self._driver_active is None  # the new driver's status is awaited
+        self._climb_executing = False
+        self._enable_value = False
+        self._rearm = True
 
     def on_master_pose(self, t: float, position, quaternion_xyzw, stamp: float | None = None) -> None:
         """The master's pose (its FK, frame master_ring_a) received at ``t``; ValueError if malformed.
@@ -255,6 +270,8 @@ class TeleopMapping:
         c = self.config
         if self._climb_executing:
             return TeleopCode.CLIMB_EXECUTING, 'a climb step is executing'
+        if self._rearm:
+            return TeleopCode.DEADMAN_RELEASED, 'robot switched: release the deadman and press it again'
         if not self._enable_value:
             return TeleopCode.DEADMAN_RELEASED, 'teleop/enable is not true'
         if t - self._enable_time > c.enable_timeout:

@@ -15,6 +15,7 @@ import numpy as np
 
 from rrps_description.names import RING_A_FRAME
 from rrps_description.tool import TARGET_FRAMES
+from rrps_interfaces.link import SOURCES
 from rrps_interfaces.teleop import MASTER_FRAME
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 
@@ -31,6 +32,11 @@ PARAMETERS = NodeParameters('teleop_node', 'rrps_teleop', [
     ROBOT,
     Parameter('frame_id', RING_A_FRAME, 'frame of pose and target_pose'),
     Parameter('master_frame_id', MASTER_FRAME, 'frame of master/pose'),
+    Parameter('robot_topics', 'direct', "read the robot's state from its own topics (direct) or from its "
+              'link relay (link: link/pose, link/diagnostics; docs/deployment.md, field links)', choices=SOURCES),
+    Parameter('robot_namespace', '', "namespace of the driven robot's topics (pose, target_pose, "
+              "teleop/status, ...; empty: this node's own); a change switches robots: the clutch is "
+              'released and the deadman must be released and pressed again', dynamic=True),
     Parameter('control', 'message', 'run the control step on each master sample or on a timer',
               choices=CONTROL_TRIGGERS),
     Parameter('control_rate', 200.0, 'control rate in timer mode', unit='Hz', range=(1.0, 2000.0)),

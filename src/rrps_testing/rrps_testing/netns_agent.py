@@ -37,6 +37,10 @@ Commands, one JSON object per line on stdin, each answered by ``{"reply": id, ..
     {"id": 7, "round_trip": 0.4}          operator/round_trip_time 0.4 s at 4 Hz (what the
                                           viewer reports for its browser); null stops
     {"id": 5, "ping": true}               answered at once (the agent is alive and spinning)
+    {"id": 8, "parameter": {"node": "teleop_node", "name": "robot_namespace", "value": "/robot_2"}}
+                                          a string parameter of a node of this namespace, set
+                                          through its set_parameters_atomically (as the viewer
+                                          does): successful, reason
 
 Prints ``{"ready": true}`` once its subscriptions and publishers exist.
 """
@@ -56,6 +60,8 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState
+from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+from rcl_interfaces.srv import SetParametersAtomically
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -244,6 +250,16 @@ class Agent(Node):
             value = command['round_trip']
             self.round_trip = None if value is None else float(value)
             self._reply(command, ok=True)
+        elif 'parameter' in command:
+            p = command['parameter']
+            service = f"{p['node']}/set_parameters_atomically"
+            client = self._triggers.get(service)
+            if client is None:
+                client = self._triggers[service] = self.create_client(SetParametersAtomically, service)
+            value = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=str(p['value']))
+            self._call(command, client, SetParametersAtomically.Request(
+                parameters=[Parameter(name=p['name'], value=value)]),
+                lambda r: {'successful': r.result.successful, 'reason': r.result.reason})
         elif 'ping' in command:
             self._reply(command, ok=True)
         else:

@@ -321,11 +321,11 @@ class Rig:
     def python(self, host: str, name: str, args: Sequence[str], **kwargs) -> subprocess.Popen:
         return self.start(host, name, [sys.executable, *args], **kwargs)
 
-    def ros_args(self, params: dict | None = None) -> list[str]:
-        """``--ros-args`` under :data:`NAMESPACE`: ``{'rate': 100.0}`` for every node of the
+    def ros_args(self, params: dict | None = None, namespace: str = NAMESPACE) -> list[str]:
+        """``--ros-args`` under ``namespace``: ``{'rate': 100.0}`` for every node of the
         process, ``{'climb_node:speed': 0.03}`` for one node (a params file: rcl's
         ``-p node:name:=value`` does not match nodes in a namespace)."""
-        out = ['--ros-args', '-r', f'__ns:={NAMESPACE}']
+        out = ['--ros-args', '-r', f'__ns:={namespace}']
         per_node: dict[str, dict] = {}
         for key, value in (params or {}).items():
             if ':' in key:
@@ -340,7 +340,7 @@ class Rig:
             if self._params_dir is None:
                 self._params_dir = Path(tempfile.mkdtemp(prefix='rrps-rig-'))
             path = self._params_dir / f'params_{next(_counter)}.yaml'
-            path.write_text(yaml.safe_dump({f'{NAMESPACE}/{node}': {'ros__parameters': values}
+            path.write_text(yaml.safe_dump({f'{namespace}/{node}': {'ros__parameters': values}
                                             for node, values in per_node.items()}))
             out += ['--params-file', str(path)]
         return out
@@ -376,12 +376,14 @@ class Rig:
                                               *self.ros_args(params)])
 
     def agent(self, host: str, name: str | None = None, *, record: Iterable[str] = (),
-              timeout: float = 60.0) -> AgentHandle:
-        """A rrps_testing.netns_agent on ``host`` recording ``record``; waits until it is ready."""
+              timeout: float = 60.0, namespace: str = NAMESPACE, remaps: Iterable[str] = ()) -> AgentHandle:
+        """A rrps_testing.netns_agent on ``host`` (in ``namespace``, with ``remaps``) recording
+        ``record``; waits until it is ready."""
         name = name or f'{host}_agent'
+        remap_args = [arg for rule in remaps for arg in ('-r', rule)]
         process = self.python(host, name, ['-m', 'rrps_testing.netns_agent', '--name', name,
-                                           '--record', ','.join(record), *self.ros_args()],
-                              pipes=True)
+                                           '--record', ','.join(record), *self.ros_args(namespace=namespace),
+                                           *remap_args], pipes=True)
         handle = AgentHandle(name, process)
         self.agents[name] = handle
         if not handle.ready.wait(timeout):

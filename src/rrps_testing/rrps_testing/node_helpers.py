@@ -7,6 +7,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
 
 from rrps_description.rotations import quat_xyzw_to_matrix, rotation_angle_between
+from rrps_interfaces.status import source_node
 from rrps_runtime.messages import joint_state_msg, pose_from_msg, pose_to_msg
 
 
@@ -29,7 +30,7 @@ def command(node, lengths, *, age=0.0, names=None):
 
 def statuses(diagnostics: list[DiagnosticArray], node_name: str) -> list:
     """Every DiagnosticStatus received from ``node_name``."""
-    return [s for array in list(diagnostics) for s in array.status if s.name.startswith(f'{node_name}:')]
+    return [s for array in list(diagnostics) for s in array.status if source_node(s.name) == node_name]
 
 
 def said(diagnostics, node_name: str, text: str) -> bool:

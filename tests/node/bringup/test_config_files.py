@@ -26,6 +26,7 @@ CHANGED = {
     'teleop_node': {'translation_scale': 3.0}, 'climb_node': {'speed': 0.03},
     'viewer_node': {'render_rate': 30.0}, 'recorder_node': {'buffer_seconds': 30.0},
     'replay_node': {'rate': 2.0}, 'markers_node': {'rate': 5.0}, 'foxglove_node': {'max_rate': 10.0},
+    'link_relay_node': {'pose_rate': 25.0},
     'robot_description_node': {'rate': 10.0},
 }
 #: Declared but deliberately not in the files (rclpy's own, or robot-dependent defaults).

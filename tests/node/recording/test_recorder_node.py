@@ -18,6 +18,7 @@ import yaml
 from mcap.reader import NonSeekingReader, make_reader
 from mcap_ros2.decoder import DecoderFactory
 
+from rrps_interfaces.status import source_node
 from rrps_testing.ci import require
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
 
@@ -142,7 +143,7 @@ def test_recording_topics_schemas_counts_values_qos_and_tf(ros_context, tmp_path
     assert ('leg_1_tip', 'ring_b') in last
     # the recorder reports on /diagnostics (recorded too), with its host role as hardware_id
     diag = [s for t, _, d, _ in messages if t == '/diagnostics' for s in d.status]
-    assert any(s.name.startswith('recorder_node:') and s.hardware_id == 'observer' for s in diag)
+    assert any(source_node(s.name) == 'recorder_node' and s.hardware_id == 'observer' for s in diag)
     # the bag folder as rosbags (an independent rosbag2 reader) sees it
     _check_bag_with_rosbags(tmp_path / 'test', summary, poses)
 

@@ -13,6 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from rrps_interfaces.status import source_node
 from rrps_recording.transport.taps import OFFSET_WINDOW, TRANSITION_NS, TapRouter
 from rrps_runtime.recording_bundle import MAGIC, BundleWriter, decode_bundle
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
@@ -276,6 +277,30 @@ def test_the_recorder_takes_a_tapped_topic_from_the_tap_and_another_publisher_fr
 
 
 @pytest.mark.ros
+def test_a_recorder_takes_no_tap_of_another_namespace(ros_context, tmp_path):
+    """Another robot's nodes (a fleet on one network) keep their bundles: subscribing to them
+    would bring that robot's streams across the network to this one."""
+    from rclpy.parameter import Parameter
+
+    from rrps_recording.nodes.recorder_node import RecorderNode
+    talker = _TappedTalker(ros_context)  # in NS
+    recorder = RecorderNode(context=ros_context, namespace='/robot_2', parameter_overrides=[
+        Parameter('output_dir', value=str(tmp_path)), Parameter('prefix', value='other'),
+        Parameter('discovery_period', value=0.1), Parameter('record', value=False),
+        Parameter('flight_recorder', value=False), Parameter('tf_rate', value=0.0)])
+    with Spinner(ros_context, [talker.node, recorder]):
+        assert wait_for(lambda: f'{NS}/tapped_talker/recording_tap' in dict(recorder.get_topic_names_and_types()),
+                        10.0)
+        time.sleep(0.5)  # five discovery periods
+        for i in range(20):
+            talker.publish(float(i))
+            time.sleep(0.003)
+        time.sleep(0.3)
+    recorder.destroy_node()
+    assert not recorder._bundle_subscriptions and not talker.tap.active
+
+
+@pytest.mark.ros
 def test_without_taps_the_recorder_subscribes_to_every_topic(ros_context, tmp_path):
     from rclpy.parameter import Parameter
 
@@ -353,7 +378,7 @@ def test_a_malformed_bundle_is_counted_and_reported_and_recording_goes_on(ros_co
         def reported():
             for array in list(diagnostics):
                 for status in array.status:
-                    if status.name.startswith('recorder_node'):
+                    if source_node(status.name) == 'recorder_node':
                         values = RecorderStatus.from_values(
                             {kv.key: kv.value for kv in status.values})
                         if values.bad_bundles == 4:

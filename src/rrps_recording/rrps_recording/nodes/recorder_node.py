@@ -280,10 +280,11 @@ class RecorderNode(Node):
         return name.endswith('/' + RECORDING_TAP) and list(types) == [BUNDLE_TYPE]
 
     def _discover_taps(self, graph) -> None:
-        """Subscribe to every recording tap; forget the nodes whose tap is gone."""
+        """Subscribe to the recording taps of the recorded namespaces (never another robot's:
+        its streams would cross the network); forget the nodes whose tap is gone."""
         alive = set()
         for name, types in graph:
-            if not self._is_tap(name, types):
+            if not self._is_tap(name, types) or not self._selected(name):
                 continue
             infos = self.get_publishers_info_by_topic(name)
             alive.update(fully_qualified_node(i.node_namespace, i.node_name) for i in infos)

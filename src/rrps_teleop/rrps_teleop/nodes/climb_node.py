@@ -46,7 +46,7 @@ from rrps_runtime.messages import joint_state_msg, pose_from_msg, pose_to_msg
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
-from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, STATE_QOS
+from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, LINK_STATE_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
 from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_teleop.climbing.step_machine import ClimbOutput, ClimbStepMachine, ClimbTarget, StepConfig
@@ -120,7 +120,9 @@ class ClimbNode(Node):
                           for ring in RINGS}
         self.create_subscription(PoseStamped, POSE, self._on_pose, LATEST_QOS)
         self.create_subscription(JointState, GRIPPERS_STATE, self._on_grippers, STATE_QOS)
-        self.create_subscription(DiagnosticStatus, TELEOP_STATUS, self._on_teleop, STATE_QOS)
+        # the operator station's sign of life: the newest sample counts; a reliable reader would
+        # hold the later ones back until a lost one is resent (seconds on a lossy link)
+        self.create_subscription(DiagnosticStatus, TELEOP_STATUS, self._on_teleop, LINK_STATE_QOS)
         self._gripper_clients = {ring: self.create_client(SetBool, gripper_service(ring)) for ring in RINGS}
         self.create_service(Trigger, CLIMB_STEP_UP, lambda req, res: self._request(res, self.machine.step, +1))
         self.create_service(Trigger, CLIMB_STEP_DOWN, lambda req, res: self._request(res, self.machine.step, -1))

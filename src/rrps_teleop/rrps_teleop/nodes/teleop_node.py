@@ -8,6 +8,14 @@ Publishes ``target_pose`` (Cartesian mode, through ik_node's guards) or ``actuat
 (joint mode), and ``teleop/status`` (diagnostic_msgs/DiagnosticStatus: message = the status code
 name; values: :class:`rrps_interfaces.teleop.TeleopStatus`).
 
+The robot's topics (``pose``, ``climb/status``, the driver's status, ``target_pose``,
+``actuators/command``, ``teleop/status``) are those of the robot in ``robot_namespace`` (empty:
+this node's own namespace), its state read directly or, with ``robot_topics`` = link, from its
+link relay (``link/pose``, ``link/diagnostics``: :mod:`rrps_interfaces.link`). Setting
+``robot_namespace`` at run time switches robots (one operator station, several robots): the
+clutch releases, the old robot gets no more commands and holds, and the deadman counts again
+only once released (:meth:`rrps_teleop.mapping.TeleopMapping.switch_slave`).
+
 Liveness: the slave's ``pose`` older than ``state_timeout`` (0.2 s: the driver or the FK is
 gone), the driver not active (its typed status on /diagnostics) or the operator's round trip
 (``operator/round_trip_time``, measured by the viewer) above ``hold_latency`` disengage the
@@ -47,6 +55,7 @@ from rrps_description.geometry import load_robot
 from rrps_interfaces.climb import CLIMB_STATUS, ClimbState, ClimbStatus
 from rrps_interfaces.driver import DriverStatus
 from rrps_interfaces.kinematics import ACTUATORS_COMMAND, POSE, TARGET_POSE
+from rrps_interfaces.link import namespaced, normalize_namespace, robot_topic
 from rrps_interfaces.status import DIAGNOSTICS, source_node
 from rrps_interfaces.teleop import (
     MASTER_FEEDBACK,
@@ -68,7 +77,7 @@ from rrps_runtime.messages import (
 )
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
-from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, STATE_QOS
+from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, LINK_EVENT_QOS, LINK_STATE_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
 from rrps_teleop.fixture import FixtureConfig, fixture_wrench, master_wrench
 from rrps_teleop.mapping import TeleopConfig, TeleopMapping, TeleopOutput
@@ -115,16 +124,15 @@ class TeleopNode(Node):
         self._output = TeleopOutput(TeleopCode.DEADMAN_RELEASED, False, 'waiting for teleop/enable')
         self._diag = Diagnostics(self, 'teleop', hardware_id=self.geometry.name)
         self._tap = RecordingTap(self)
-        self._target_pub = self._tap.create_publisher(PoseStamped, TARGET_POSE, COMMAND_QOS)
-        self._command_pub = self._tap.create_publisher(JointState, ACTUATORS_COMMAND, COMMAND_QOS)
-        self._status_pub = self.create_publisher(DiagnosticStatus, TELEOP_STATUS, STATE_QOS)
+        self._robot_topics = values['robot_topics']
+        self._slave_stamp: float | None = None
+        self._robot_publishers: dict[str, tuple] = {}
+        self._robot_subscriptions: list = []
+        self._attach_robot(values['robot_namespace'])
         self._master_subscription = None
         self._subscribe_master_input()
         self.create_subscription(Bool, TELEOP_ENABLE, self._on_enable, COMMAND_QOS)
-        self.create_subscription(PoseStamped, POSE, self._on_slave_pose, LATEST_QOS)
-        self.create_subscription(DiagnosticStatus, CLIMB_STATUS, self._on_climb_status, STATE_QOS)
         self.create_subscription(Float64, OPERATOR_ROUND_TRIP, self._on_round_trip, COMMAND_QOS)
-        self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, STATE_QOS)
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self._feedback_pub = self._tap.create_publisher(WrenchStamped, MASTER_FEEDBACK, COMMAND_QOS)
@@ -138,6 +146,12 @@ class TeleopNode(Node):
 
     def _check_parameters(self, parameters) -> SetParametersResult:
         """Validate the whole new configuration (TeleopConfig raises ValueError with the reason)."""
+        for p in parameters:
+            if p.name == 'robot_namespace':
+                try:
+                    normalize_namespace(p.value)
+                except ValueError as exc:
+                    return SetParametersResult(successful=False, reason=str(exc))
         changes = {p.name: (list(p.value) if p.name == 'joint_scale' else p.value)
                    for p in parameters if p.name in CONFIG_PARAMETERS}
         if not changes:
@@ -149,6 +163,9 @@ class TeleopNode(Node):
         return SetParametersResult(successful=True)
 
     def _apply_parameters(self, parameters) -> None:
+        for p in parameters:
+            if p.name == 'robot_namespace':
+                self._switch_robot(p.value)
         if self._pending is not None and any(p.name in CONFIG_PARAMETERS for p in parameters):
             self.mapping.configure(self._pending)  # a clutch: the next engage re-indexes
             self._pending = None
@@ -157,6 +174,48 @@ class TeleopNode(Node):
                                    f'translation_scale {self.mapping.config.translation_scale:g}, '
                                    f'rotation_mode {self.mapping.config.rotation_mode} (clutch released)')
             self._publish_status(TeleopOutput(self._output.code, False, 'parameters changed: clutch released'))
+
+    # --- the driven robot ----------------------------------------------------------------
+
+    def _attach_robot(self, namespace: str) -> None:
+        """Read and command the robot whose topics are in ``namespace`` ('': this node's own):
+        its pose, climb status and driver status (direct or over its link relay), its
+        target_pose / actuators/command and teleop/status (the climb node's sign that the
+        operator station is there). Publishers are kept for a switch back."""
+        for subscription in self._robot_subscriptions:
+            self.destroy_subscription(subscription)
+        ns = normalize_namespace(namespace)
+        ns = '' if ns == self.get_namespace() else ns
+        #: the driven robot's namespace (absolute)
+        self.robot_namespace = ns or self.get_namespace()
+        if ns not in self._robot_publishers:
+            self._robot_publishers[ns] = (
+                self._tap.create_publisher(PoseStamped, namespaced(TARGET_POSE, ns), COMMAND_QOS),
+                self._tap.create_publisher(JointState, namespaced(ACTUATORS_COMMAND, ns), COMMAND_QOS),
+                self.create_publisher(DiagnosticStatus, namespaced(TELEOP_STATUS, ns), STATE_QOS))
+        self._target_pub, self._command_pub, self._status_pub = self._robot_publishers[ns]
+        link = self._robot_topics == 'link'
+        self._robot_subscriptions = [
+            self.create_subscription(PoseStamped, robot_topic(POSE, ns, self._robot_topics), self._on_slave_pose,
+                                     LINK_STATE_QOS if link else LATEST_QOS),
+            self.create_subscription(DiagnosticStatus, namespaced(CLIMB_STATUS, ns), self._on_climb_status,
+                                     STATE_QOS),
+            self.create_subscription(DiagnosticArray, robot_topic(DIAGNOSTICS, ns, self._robot_topics),
+                                     self._on_diagnostics, LINK_EVENT_QOS if link else STATE_QOS)]
+
+    def _switch_robot(self, namespace: str) -> None:
+        """Drive another robot: the clutch releases (the old robot holds: no more commands),
+        its last teleop/status says so, and the deadman must be released and pressed again."""
+        old = self.robot_namespace
+        self.mapping.switch_slave()
+        self._slave_stamp = None
+        self._publish_status(TeleopOutput(TeleopCode.DEADMAN_RELEASED, False, 'switched to another robot'),
+                             force=True)
+        self._attach_robot(namespace)
+        self.get_logger().info(f'driving the robot in {self.robot_namespace} (was {old}): clutch released, '
+                               'release the deadman and press it again')
+        self._publish_status(TeleopOutput(TeleopCode.DEADMAN_RELEASED, False,
+                                          'robot switched: release the deadman and press it again'), force=True)
 
     # --- inputs --------------------------------------------------------------------------
 
@@ -211,6 +270,8 @@ class TeleopNode(Node):
             self.mapping.on_slave_pose(*pose_from_msg(msg), t=time.monotonic())
         except ValueError as exc:
             self._reject(str(exc))
+            return
+        self._slave_stamp = stamp_to_seconds(msg.header.stamp)
 
     def _on_round_trip(self, msg: Float64) -> None:
         self.mapping.on_round_trip(time.monotonic(), msg.data)
@@ -277,13 +338,18 @@ class TeleopNode(Node):
         else:
             self._publish_status(self._output)
 
-    def _publish_status(self, out: TeleopOutput) -> None:
+    def _slave_age_ms(self) -> float | None:
+        if self._slave_stamp is None:
+            return None
+        return round(1e3 * (self.get_clock().now().nanoseconds * 1e-9 - self._slave_stamp), 2)
+
+    def _publish_status(self, out: TeleopOutput, *, force: bool = False) -> None:
         """teleop/status and /diagnostics: at once when the code or engagement changes (or a new
         rejection reason comes), else at status_rate."""
         self._output = out
         now = time.monotonic()
         key = (out.code, out.engaged, out.detail if out.code == TeleopCode.INVALID else '')
-        if key == self._last_status and now - self._last_status_time < self._status_period:
+        if not force and key == self._last_status and now - self._last_status_time < self._status_period:
             return
         self._last_status, self._last_status_time = key, now
         c = self.mapping.config
@@ -295,6 +361,7 @@ class TeleopNode(Node):
                               round_trip_time=self.mapping.round_trip(t),
                               speed_factor=self.mapping.speed_factor(t),
                               feedback_force=self._feedback[0], feedback_limit=self._feedback[1],
+                              robot=self.robot_namespace, slave_age_ms=self._slave_age_ms(),
                               **{f'margin_{k}': v for k, v in out.margins.items()})
         status = DiagnosticStatus(level=level, name=self.get_name(), message=out.code.name,
                                   hardware_id=self.geometry.name)

@@ -3,7 +3,13 @@
 Subscribes (relative names): ``actuators/state``, ``pose`` (FK a_T_b, frame ring_a), ``target_pose``
 (the commanded a_T_b, drawn as a ghost), ``master/pose`` (frame master_ring_a),
 ``grippers/state``, ``odometry/ring_a|ring_b`` (frame world), ``teleop/status``, ``climb/status``
-and ``/diagnostics`` (FK iterations of fk_node). Publishes ``teleop/enable`` (the deadman, true at
+and ``/diagnostics`` (FK iterations of fk_node). The robot's topics are read directly or, with
+``robot_topics`` = link, from its link relay; with ``robots`` (a fleet: their namespaces) the
+viewer lists every robot and draws the one the controlling operator chose to drive
+(``nodes/viewer_robots``): **Drive this robot** switches the teleop node's ``robot_namespace``,
+releases the clutch and the deadman, and the robot left holds. Its own status (frames drawn,
+the drawn robot's pose rate and age: :class:`rrps_interfaces.teleop.ViewerStatus`) goes on
+/diagnostics every second. Publishes ``teleop/enable`` (the deadman, true at
 ``enable_rate`` Hz while the operator holds it), ``master/target_pose`` (the gizmo) and
 ``operator/round_trip_time``. The operator's buttons call the climb, gripper, driver-lifecycle
 and teleop-parameter services (``viewer_requests``) and the recorder's (``viewer_recording``).
@@ -35,7 +41,6 @@ import threading
 import time
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
@@ -47,7 +52,7 @@ from rrps_description.structures import make_structure
 from rrps_interfaces.climb import CLIMB_STATUS, odometry_topic
 from rrps_interfaces.driver import GRIPPERS_STATE
 from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE, TARGET_POSE
-from rrps_interfaces.status import DIAGNOSTICS, source_node
+from rrps_interfaces.link import SOURCES
 from rrps_interfaces.teleop import (
     MASTER_FEEDBACK,
     MASTER_POSE,
@@ -55,15 +60,18 @@ from rrps_interfaces.teleop import (
     OPERATOR_ROUND_TRIP,
     TELEOP_ENABLE,
     TELEOP_STATUS,
+    ViewerStatus,
 )
 from rrps_kinematics.scene import Trail, robot_figure, world_ring_poses
+from rrps_runtime.diagnostics import OK, OPERATOR_STATION, Diagnostics
 from rrps_runtime.messages import lengths_from_joint_state, pose_from_msg, pose_to_msg, stamp_to_seconds
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
-from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, STATE_QOS
+from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS
 from rrps_teleop.nodes.viewer_recording import ViewerRecording
 from rrps_teleop.nodes.viewer_requests import OperatorRequest, ViewerRequests
+from rrps_teleop.nodes.viewer_robots import DRIVER, FK, ViewerRobots
 from rrps_teleop.viewer import Frame, ViewerServer, send_file
 from rrps_teleop.viewer import status_text as panel
 from rrps_teleop.viewer._workspace import WorkspaceView
@@ -91,6 +99,10 @@ PARAMETERS = NodeParameters('viewer_node', 'rrps_teleop', [
     Parameter('workspace_resolution', 0.02, 'grid of the reachable workspace drawn around the robot; 0: not '
               'drawn', unit='m', range=(0.0, 0.2)),
     Parameter('plot_window', 20.0, 'leg-length plot window', unit='s', range=(1.0, 600.0)),
+    Parameter('robot_topics', 'direct', "read the robots' state from their own topics (direct) or from their "
+              'link relays (link)', choices=SOURCES),
+    Parameter('robots', ('',), "the namespaces of the robots (a fleet's: /robot_1, ...; '': the viewer's own), "
+              'the first drawn at start', item_type=str),
 ])
 
 
@@ -132,8 +144,8 @@ class ViewerNode(Node):
         self._plot_time = -math.inf
         self._trails = {'ring_a': Trail(), 'ring_b': Trail()}
         self._odometry_rings = {odometry_topic(ring): ring for ring in self._trails}
-        self._fk_status: DiagnosticStatus | None = None
-        self._driver_status: DiagnosticStatus | None = None
+        self._pose_count = 0
+        self._report_window = (time.monotonic(), 0, 0)
         self._actions: queue.SimpleQueue = queue.SimpleQueue()
         self._master_target: Pose | None = None
         self._enable_was = False
@@ -145,21 +157,15 @@ class ViewerNode(Node):
 
         self._enable_pub = self.create_publisher(Bool, TELEOP_ENABLE, COMMAND_QOS)
         self._master_pub = self.create_publisher(PoseStamped, MASTER_TARGET_POSE, COMMAND_QOS)
-        self.create_subscription(JointState, ACTUATORS_STATE, self._on_state, LATEST_QOS)
-        for topic, qos in ((POSE, LATEST_QOS), (TARGET_POSE, COMMAND_QOS),
-                           (MASTER_POSE, LATEST_QOS), (odometry_topic('ring_a'), STATE_QOS),
-                           (odometry_topic('ring_b'), STATE_QOS)):
-            self.create_subscription(PoseStamped, topic,
-                                     lambda msg, topic=topic: self._store(topic, msg), qos)
+        self.create_subscription(PoseStamped, MASTER_POSE, lambda msg: self._store(MASTER_POSE, msg), LATEST_QOS)
         self.create_subscription(WrenchStamped, MASTER_FEEDBACK,
                                  lambda msg: self._store(MASTER_FEEDBACK, msg), COMMAND_QOS)
-        self.create_subscription(JointState, GRIPPERS_STATE,
-                                 lambda msg: self._store(GRIPPERS_STATE, msg), STATE_QOS)
-        for topic in (TELEOP_STATUS, CLIMB_STATUS):
-            self.create_subscription(DiagnosticStatus, topic,
-                                     lambda msg, topic=topic: self._store(topic, msg), STATE_QOS)
-        self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, STATE_QOS)
-        self.requests = ViewerRequests(self, tell=lambda c, m, ok: self.viewer.tell(c, m, ok=ok))
+        self.robots = ViewerRobots(self, values['robots'], values['robot_topics'], self._on_drawn)
+        self.requests = ViewerRequests(self, tell=lambda c, m, ok: self.viewer.tell(c, m, ok=ok),
+                                       robot=self.robots.selected)
+        self.requests.on_switch = self._switched
+        self._diag = Diagnostics(self, 'viewer', hardware_id=OPERATOR_STATION, rate_hz=1.0)
+        self.create_timer(1.0, self._report)
         self._round_trip_pub = self.create_publisher(Float64, OPERATOR_ROUND_TRIP, COMMAND_QOS)
         self.recording = ViewerRecording(  # "Save last 60 s", the replay timeline
             self, tell=lambda c, m, ok: self.viewer.tell(c, m, ok=ok),
@@ -171,7 +177,8 @@ class ViewerNode(Node):
             geometry=self.geometry, master_geometry=self.master_geometry,
             master_origin=self._master_origin,
             structure=_structure_mesh(structure, structure_length), rate=render_rate,
-            title=f'rrps · {self.geometry.name}')
+            title=f'rrps · {self.geometry.name}',
+            robots=[self.robots.name(r) for r in self.robots.robots] if len(self.robots.robots) > 1 else ())
         shown = '127.0.0.1' if host in ('0.0.0.0', '::', '') else host
         self.url = f'http://{shown}:{self.viewer.port}'
         self.get_logger().info(f'viewer at {self.url} (bound to {host}); operator token: {self.token}')
@@ -187,6 +194,15 @@ class ViewerNode(Node):
             if np.all(np.isfinite(position)):
                 with self._lock:
                     self._trails[ring].add(position)
+
+    def _on_drawn(self, topic: str, msg) -> None:
+        """A message of the drawn robot (``nodes/viewer_robots``)."""
+        if topic == ACTUATORS_STATE:
+            self._on_state(msg)
+            return
+        if topic == POSE:
+            self._pose_count += 1
+        self._store(topic, msg)
 
     def _on_state(self, msg: JointState) -> None:
         """Keep the newest actuators/state; it is read at the drawing rate (:meth:`_read_state`)."""
@@ -222,15 +238,39 @@ class ViewerNode(Node):
                     self._plot_l.popleft()
         return state
 
-    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
-        for status in msg.status:
-            node = source_node(status.name)
-            if node == 'fk_node':
-                with self._lock:
-                    self._fk_status = status
-            elif node == 'driver_node':
-                with self._lock:
-                    self._driver_status = status
+    def _switched(self, namespace: str) -> None:
+        """The teleop node drives the robot in ``namespace`` now: draw it, send its requests to
+        it, and release the clutch and the deadman (the operator engages again on purpose)."""
+        robot = next((r for r in self.robots.robots if self.robots.absolute(r) == namespace), None)
+        if robot is None or robot == self.robots.selected:
+            return
+        self.robots.select(robot)
+        self.requests.select(robot)
+        self.control.release_clutch()
+        with self._lock:
+            for key in (POSE, TARGET_POSE, ACTUATORS_STATE, *self._odometry_rings):
+                self._latest.pop(key, None)
+            self._trails = {ring: Trail() for ring in self._trails}
+            self._plot_t.clear()
+            self._plot_l.clear()
+        self.viewer.refresh_all()
+
+    def _report(self) -> None:
+        """ViewerStatus on /diagnostics: frames drawn and the drawn robot's pose rate and age."""
+        t0, frames0, poses0 = self._report_window
+        now = time.monotonic()
+        frames = self.viewer.frames_drawn
+        dt = max(now - t0, 1e-3)
+        self._report_window = (now, frames, self._pose_count)
+        with self._lock:
+            pose = self._latest.get(POSE)
+        age = (None if pose is None else
+               round(1e3 * (self.get_clock().now().nanoseconds * 1e-9 - stamp_to_seconds(pose.header.stamp)), 1))
+        self._diag.report(OK, f'drawing {self.robots.name(self.robots.selected)}', ViewerStatus(
+            robots=len(self.robots.robots), heard=self.robots.heard_count(2.0),
+            drawn=self.robots.absolute(self.robots.selected),
+            draw_rate=round((frames - frames0) / dt, 1), pose_rate=round((self._pose_count - poses0) / dt, 1),
+            pose_age_ms=age, clients=len(self.control.clients())))
 
     # --- the picture (drawing thread) ---------------------------------------------------------
 
@@ -250,8 +290,9 @@ class ViewerNode(Node):
             if now - self._plot_time >= PLOT_PERIOD and len(self._plot_t) >= 2:
                 plot, self._plot_time = (np.array(self._plot_t), np.array(self._plot_l)), now
             trails = {ring: trail.points for ring, trail in self._trails.items()}
-            fk_status = self._fk_status
-            latest['driver'] = self._driver_status
+        summary = self.robots.latest()
+        latest.update({key: summary.get(key) for key in (TELEOP_STATUS, CLIMB_STATUS, GRIPPERS_STATE)})
+        latest['driver'], fk_status = summary.get(DRIVER), summary.get(FK)
         grippers: dict[str, float | None] = {'ring_a': None, 'ring_b': None}
         gmsg = latest.get(GRIPPERS_STATE)
         if gmsg is not None:
@@ -361,6 +402,8 @@ class ViewerNode(Node):
         if latest.get(POSE) is not None:
             ages.append(f'FK pose {1e3 * (now - stamp_to_seconds(latest[POSE].header.stamp)):.1f} ms')
         lines.append('**Latency:** ' + (', '.join(ages) if ages else 'no data yet'))
+        if len(self.robots.robots) > 1:
+            lines += self.robots.panel_lines()
         controller = self.control.controller
         lines.append(f'**Operators:** {len(self.control.clients())} viewer(s); control: '
                      f'{"free" if controller is None else f"operator {controller}"}; '
@@ -368,6 +411,14 @@ class ViewerNode(Node):
         return '  \n'.join(lines)
 
     # --- operator actions (viser threads -> queue -> executor thread) ---------------------------
+
+    def select_robot(self, client_id: int, name: str) -> None:
+        """Drive the robot called ``name`` (a fleet): asks the teleop node to switch."""
+        robot = next((r for r in self.robots.robots if self.robots.name(r) == name), None)
+        if robot is None:
+            self.viewer.tell(client_id, f'unknown robot {name!r}', ok=False)
+            return
+        self._actions.put((OperatorRequest.ROBOT, client_id, self.robots.absolute(robot)))
 
     def step(self, client_id: int, direction: str) -> None:
         kind = OperatorRequest.STEP_UP if direction == 'up' else OperatorRequest.STEP_DOWN

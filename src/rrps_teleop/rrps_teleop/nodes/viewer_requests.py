@@ -7,7 +7,11 @@ without blocking; the answer is told to the browser that asked (``tell(client_id
 * ``GRIPPER``: ``grippers/ring_a|ring_b/set`` (std_srvs/SetBool, true = close);
 * ``DRIVER``: ``driver_node/change_state`` (lifecycle activate / deactivate);
 * ``MAPPING``: ``teleop_node/set_parameters_atomically``: mode, rotation and scale change
-  together or not at all, never half.
+  together or not at all, never half;
+* ``ROBOT``: the same service: ``robot_namespace``, the robot the master drives (a fleet).
+
+The climb, gripper and driver services are those of the selected robot (:meth:`select`: its
+namespace); the teleop node's is in the viewer's own namespace.
 
 Every method runs on the node's executor thread (the viewer queues browser requests).
 """
@@ -26,6 +30,7 @@ from std_srvs.srv import SetBool, Trigger
 from rrps_description.names import RINGS
 from rrps_interfaces.climb import CLIMB_RESUME, CLIMB_STEP_DOWN, CLIMB_STEP_UP
 from rrps_interfaces.driver import gripper_service
+from rrps_interfaces.link import namespaced
 
 __all__ = ['OperatorRequest', 'ViewerRequests', 'TELEOP_PARAMETERS', 'DRIVER_CHANGE_STATE']
 
@@ -44,6 +49,7 @@ class OperatorRequest(enum.Enum):
     GRIPPER = 'gripper'
     DRIVER = 'driver'
     MAPPING = 'mapping'
+    ROBOT = 'drive robot'
 
 
 def _string(name: str, value: str) -> Parameter:
@@ -59,21 +65,32 @@ def _double(name: str, value: float) -> Parameter:
 class ViewerRequests:
     """The service clients behind the operator's buttons (see the module docstring)."""
 
-    def __init__(self, node, *, tell: Callable[[int, str, bool], None]):
+    def __init__(self, node, *, tell: Callable[[int, str, bool], None], robot: str = ''):
+        self._node = node
         self._tell = tell
-        climb = {OperatorRequest.STEP_UP: CLIMB_STEP_UP, OperatorRequest.STEP_DOWN: CLIMB_STEP_DOWN,
-                 OperatorRequest.RESUME: CLIMB_RESUME}
-        self._climb = {kind: node.create_client(Trigger, name) for kind, name in climb.items()}
-        self._grippers = {ring: node.create_client(SetBool, gripper_service(ring)) for ring in RINGS}
-        self._driver = node.create_client(ChangeState, DRIVER_CHANGE_STATE)
         self._teleop = node.create_client(SetParametersAtomically, TELEOP_PARAMETERS)
+        self._robots: dict[str, dict] = {}
+        #: what the ROBOT request's answer does once teleop accepted the switch: ``on_switch(namespace)``
+        self.on_switch: Callable[[str], None] = lambda namespace: None
+        self.select(robot)
+
+    def select(self, robot: str) -> None:
+        """The climb, gripper and driver requests go to the robot in namespace ``robot`` ('':
+        the viewer's own) from now on (clients kept for a switch back)."""
+        if robot not in self._robots:
+            climb = {OperatorRequest.STEP_UP: CLIMB_STEP_UP, OperatorRequest.STEP_DOWN: CLIMB_STEP_DOWN,
+                     OperatorRequest.RESUME: CLIMB_RESUME}
+            node = self._node
+            self._robots[robot] = {
+                **{kind: node.create_client(Trigger, namespaced(name, robot)) for kind, name in climb.items()},
+                **{ring: node.create_client(SetBool, namespaced(gripper_service(ring), robot)) for ring in RINGS},
+                OperatorRequest.DRIVER: node.create_client(ChangeState, namespaced(DRIVER_CHANGE_STATE, robot))}
+        self._clients = self._robots[robot]
 
     def _client(self, kind: OperatorRequest, arg):
-        if kind in self._climb:
-            return self._climb[kind]
         if kind is OperatorRequest.GRIPPER:
-            return self._grippers[arg[0]]
-        return self._driver if kind is OperatorRequest.DRIVER else self._teleop
+            return self._clients[arg[0]]
+        return self._clients.get(kind, self._teleop)
 
     def ready(self, kind: OperatorRequest, ring: str = 'ring_a') -> bool:
         """Whether the service behind ``kind`` is up (``ring``: which gripper)."""
@@ -81,7 +98,8 @@ class ViewerRequests:
 
     def send(self, kind: OperatorRequest, client_id: int, arg=None) -> None:
         """Send one request: ``arg`` is (ring, close) for GRIPPER, active (bool) for DRIVER,
-        (mode, rotation_mode, scale) for MAPPING, nothing else for the climb requests."""
+        (mode, rotation_mode, scale) for MAPPING, the robot's namespace for ROBOT, nothing else
+        for the climb requests."""
         client = self._client(kind, arg)
         if kind is OperatorRequest.DRIVER:
             what = ('activate' if arg else 'deactivate') + ' driver'
@@ -90,6 +108,9 @@ class ViewerRequests:
         elif kind is OperatorRequest.GRIPPER:
             ring, close = arg
             request, what = SetBool.Request(data=close), f'{"close" if close else "open"} {ring}'
+        elif kind is OperatorRequest.ROBOT:
+            what = f'drive {arg or "this namespace"}'
+            request = SetParametersAtomically.Request(parameters=[_string('robot_namespace', arg)])
         elif kind is OperatorRequest.MAPPING:
             mode, rotation_mode, scale = arg
             what = f'mapping {mode}/{rotation_mode} ×{scale:g}'
@@ -102,17 +123,19 @@ class ViewerRequests:
             self._tell(client_id, f'{what}: service {client.srv_name} is not available', False)
             return
         client.call_async(request).add_done_callback(
-            lambda future: self._answer(kind, client_id, what, future.result()))
+            lambda future: self._answer(kind, client_id, what, future.result(), arg))
 
-    def _answer(self, kind: OperatorRequest, client_id: int, what: str, response) -> None:
+    def _answer(self, kind: OperatorRequest, client_id: int, what: str, response, arg) -> None:
         if response is None:
             self._tell(client_id, f'{what}: no response', False)
         elif kind is OperatorRequest.DRIVER:
             self._tell(client_id, f'{what}: ' + ('done' if response.success else
                                                  'refused (not possible from its state)'),
                        response.success)
-        elif kind is OperatorRequest.MAPPING:
+        elif kind in (OperatorRequest.MAPPING, OperatorRequest.ROBOT):
             result = response.result
+            if result.successful and kind is OperatorRequest.ROBOT:
+                self.on_switch(arg)
             self._tell(client_id, f'{what}: ' + ('applied' if result.successful
                                                  else f'refused: {result.reason}'),
                        result.successful)

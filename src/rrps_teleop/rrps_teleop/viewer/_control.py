@@ -152,6 +152,15 @@ class OperatorControl:
             self._changed()
             return ControlResult(True, 'clutch engaged' if engaged else 'clutch released')
 
+    def release_clutch(self) -> None:
+        """Release the clutch and the deadman, whoever controls (the robot driven changed: the
+        operator engages again on purpose)."""
+        with self._lock:
+            self._clutch_engaged = False
+            self._hold_until = -float('inf')
+            self._dragging = False
+            self._changed()
+
     def hold(self, client_id: int) -> bool:
         """A hold event of the hold-to-move button; refreshes the deadman for the controller."""
         with self._lock:

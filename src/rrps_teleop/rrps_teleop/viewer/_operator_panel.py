@@ -41,6 +41,8 @@ class OperatorActions(Protocol):
 
     def resume_climb(self, client_id: int) -> None: ...
 
+    def select_robot(self, client_id: int, name: str) -> None: ...
+
 
 class ClientControls:
     """The operator folder of one browser: token entry, control, teleop, climb, grippers.
@@ -76,6 +78,12 @@ class ClientControls:
                                         initial_value=4.0)
             self.apply = gui.add_button('Apply mapping')
         with gui.add_folder('Robot', order=2):
+            self.robot = self.drive = None
+            if server.robots:  # a fleet: which robot the master drives
+                self.robot = gui.add_dropdown('Robot', tuple(server.robots))
+                self.drive = gui.add_button('Drive this robot', icon=viser.Icon.STEERING_WHEEL,
+                                            hint='the master drives one robot at a time; the others hold. '
+                                                 'Engage the clutch and press the deadman again after a switch')
             self.activate = gui.add_button('Activate driver', icon=viser.Icon.PLAYER_PLAY,
                                            hint='the driver starts (and restarts) inactive: '
                                                 'nothing moves until it is activated')
@@ -130,6 +138,8 @@ class ClientControls:
         self.activate.on_click(controller_only(lambda: actions.set_driver_active(cid, True)))
         self.deactivate.on_click(controller_only(lambda: actions.set_driver_active(cid, False)))
         self.resume.on_click(controller_only(lambda: actions.resume_climb(cid)))
+        if self.drive is not None:
+            self.drive.on_click(controller_only(lambda: actions.select_robot(cid, str(self.robot.value))))
         self.step_up.on_click(controller_only(lambda: actions.step(cid, 'up')))
         self.step_down.on_click(controller_only(lambda: actions.step(cid, 'down')))
         for (ring, close), button in self.grip_buttons.items():
@@ -173,9 +183,9 @@ class ClientControls:
         self.hand.disabled = not (controlling and others)
         for handle in (self.clutch, self.deadman, self.mode, self.rotation, self.scale, self.apply,
                        self.activate, self.deactivate, self.step_up, self.step_down, self.resume,
-                       *self.grip_buttons.values()):
+                       *self.grip_buttons.values(), *(h for h in (self.robot, self.drive) if h is not None)):
             handle.disabled = not controlling
-        if not controlling and self.clutch.value:
+        if self.clutch.value and not (controlling and control.clutch_engaged):
             self.clutch.value = False
         self.recording.sync(controlling)
         if controlling and self.gizmo is None:

@@ -18,7 +18,7 @@ from __future__ import annotations
 import threading
 import time
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Callable, Sequence
 
 import numpy as np
 import viser
@@ -74,18 +74,20 @@ class ViewerServer:
     ``actions`` (an :class:`OperatorActions`), ``frame_source`` (returns the latest Frame),
     ``geometry`` and ``master_geometry`` (ring sizes), ``master_origin`` (world pose of the
     master's ring_a on its console), ``structure`` ((vertices, faces) of the climbed member in
-    the world frame, or None), ``rate`` [Hz] of the drawing thread.
+    the world frame, or None), ``rate`` [Hz] of the drawing thread, ``robots``: the names of a
+    fleet's robots the controller chooses from (empty: one robot).
     """
 
     def __init__(self, *, host: str, port: int, control: OperatorControl, actions: OperatorActions,
                  frame_source: Callable[[], Frame], geometry: RobotGeometry,
                  master_geometry: RobotGeometry | None, master_origin: Pose,
                  structure: tuple[np.ndarray, np.ndarray] | None = None, rate: float = 40.0,
-                 title: str = 'rrps viewer'):
+                 title: str = 'rrps viewer', robots: Sequence[str] = ()):
         if not rate > 0.0:
             raise ValueError(f'rate must be > 0 Hz, got {rate}')
         self.control = control
         self.actions = actions
+        self.robots = tuple(robots)
         self.master_origin = master_origin
         self._frame_source = frame_source
         self._period = 1.0 / rate

@@ -20,7 +20,7 @@ from rrps_interfaces.teleop import TeleopStatus
 
 __all__ = ['SLOW_ROUND_TRIP', 'HOLD_ROUND_TRIP', 'teleop_line', 'climb_line', 'driver_line',
            'round_trip_line', 'grippers_line', 'slave_lines', 'feedback_line', 'fk_line',
-           'translation_scale']
+           'translation_scale', 'driven_robot', 'robot_line']
 
 #: Round trips [s] above which the teleop node (defaults of its slow_latency, hold_latency)
 #: scales speeds down and holds the robot; the panel names them.
@@ -139,3 +139,26 @@ def translation_scale(teleop_status) -> float:
         return TeleopStatus.from_key_values(teleop_status.values).scale
     except ValueError:
         return DEFAULT_SCALE
+
+
+def driven_robot(teleop_status) -> tuple[str | None, bool]:
+    """The namespace of the robot the teleop node drives (None: not known) and whether its
+    clutch is engaged."""
+    if teleop_status is None:
+        return None, False
+    try:
+        t = TeleopStatus.from_key_values(teleop_status.values)
+    except ValueError:
+        return None, False
+    return t.robot or None, t.engaged
+
+
+def robot_line(name: str, *, selected: bool, driven: bool, engaged: bool, driver, climb,
+               grippers: dict[str, float | None], heard: float | None) -> str:
+    """One robot of a fleet: whether the master drives it, its driver, climb and grippers, and
+    how long ago [s] anything of it was heard."""
+    role = 'driven, engaged' if engaged else 'driven' if driven else 'holds'
+    age = 'never heard' if heard is None else f'heard {heard:.1f} s ago'
+    mark = '▶ ' if selected else ''
+    return (f'{mark}**{name}** ({role}): driver {driver_line(driver)}; climb {climb_line(climb)}; '
+            f'{grippers_line(grippers)}; {age}')

@@ -1,0 +1,75 @@
+"""link_relay_node in-process: the robot's 500 Hz state leaves at the link profile's rates, a
+gripper change at once, and only the statuses of the robot's nodes on link/diagnostics."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from rrps_testing.ros_harness import Probe, Spinner, wait_for
+
+pytestmark = pytest.mark.ros
+
+
+def test_the_relay_sends_the_newest_state_at_the_profiles_rates(ros_context):
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    from geometry_msgs.msg import PoseStamped
+    from rclpy.parameter import Parameter
+    from sensor_msgs.msg import JointState
+
+    from rrps_bringup.nodes.link_relay_node import LinkRelayNode
+    from rrps_runtime.qos import LINK_STATE_QOS, STATE_QOS
+
+    relay = LinkRelayNode(context=ros_context, namespace='/robot_1', parameter_overrides=[
+        Parameter('pose_rate', value=50.0), Parameter('state_rate', value=10.0),
+        Parameter('diagnostics_period', value=0.5)])
+    robot = Probe(context=ros_context, name='robot', namespace='/robot_1')
+    pose_pub = robot.publisher(PoseStamped, 'pose')
+    state_pub = robot.publisher(JointState, 'actuators/state')
+    grippers_pub = robot.publisher(JointState, 'grippers/state')
+    diag_pub = robot.create_publisher(DiagnosticArray, '/diagnostics', STATE_QOS)
+    poses = robot.collect(PoseStamped, 'link/pose', qos=LINK_STATE_QOS, stamped=True)
+    states = robot.collect(JointState, 'link/actuators/state', qos=LINK_STATE_QOS)
+    grippers = robot.collect(JointState, 'link/grippers/state', stamped=True)
+    tables = robot.collect(DiagnosticArray, 'link/diagnostics')
+    with Spinner(ros_context, [relay, robot]):
+        assert wait_for(lambda: pose_pub.get_subscription_count() and state_pub.get_subscription_count()
+                        and robot.count_subscribers('/robot_1/link/pose') >= 1, 10.0)
+        closed = 1.0
+        t0 = time.monotonic()
+        sent = 0
+        while time.monotonic() - t0 < 2.0:  # 2 s of a 500 Hz robot
+            sent += 1
+            pose = PoseStamped()
+            pose.header.frame_id = 'ring_a'
+            pose.pose.position.z = 0.4 + 1e-6 * sent
+            pose_pub.publish(pose)
+            state_pub.publish(JointState(name=['leg_1'], position=[0.4 + 1e-6 * sent]))
+            if sent % 25 == 0:  # the driver's 20 Hz grippers; ring_b opens once
+                if sent == 500:
+                    closed = 0.0
+                    t_open = time.monotonic()
+                grippers_pub.publish(JointState(name=['ring_a', 'ring_b'], position=[1.0, closed]))
+            if sent % 250 == 0:  # statuses: the robot's driver and IK, an operator station's teleop
+                diag_pub.publish(DiagnosticArray(status=[
+                    DiagnosticStatus(name='driver_node: driver', message='active'),
+                    DiagnosticStatus(name='ik_node: inverse kinematics', message='ok'),
+                    DiagnosticStatus(name='teleop_node: teleop', message='engaged')]))
+            time.sleep(max(t0 + sent * 0.002 - time.monotonic(), 0.0))
+        time.sleep(0.3)
+    assert sent >= 800
+    # about 50 and 10 a second (the relay's executor may lag a busy machine, never run ahead)
+    assert 60 <= len(poses) <= 102, len(poses)
+    assert 12 <= len(states) <= 21, len(states)
+    # the newest sample each time: increasing, never the same twice
+    z = [msg.pose.position.z for _, msg in poses]
+    assert z == sorted(set(z))
+    # the gripper's change went at once, between the 2 Hz repeats
+    opened = [t for t, msg in grippers if msg.position[1] == 0.0]
+    assert opened and opened[0] - t_open < 0.1
+    assert 3 <= len(grippers) <= 8, len(grippers)
+    # only the robot's nodes: its driver and IK, not the operator station's teleop
+    names = {s.name for table in tables for s in table.status}
+    assert names == {'driver_node: driver', 'ik_node: inverse kinematics'}
+    relay.destroy_node()
