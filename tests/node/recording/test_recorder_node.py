@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import re
 import secrets
 import signal
 import subprocess
@@ -46,6 +47,14 @@ def _recorder(context, tmp_path, **params):
                  'flush_period': 0.2, **params}
     return RecorderNode(context=context, namespace=NS, parameter_overrides=[
         Parameter(k, value=v) for k, v in overrides.items()])
+
+
+def _finished_dumps(folder: Path, kind: str) -> list[Path]:
+    """The MCAP files of the finished flight-recorder bag folders of ``kind`` (``flight_<time>_<kind>``
+    or ``..._<kind>_<n>``), never of a ``<folder>.part``, which may be renamed while it is listed."""
+    pattern = re.compile(rf'flight_.+_{kind}(_\d+)?')
+    return sorted(mcap for entry in folder.iterdir() if pattern.fullmatch(entry.name)
+                  for mcap in entry.glob('*.mcap'))
 
 
 def _pose(probe, z: float, frame='ring_a'):
@@ -322,7 +331,7 @@ def test_flight_recorder_saves_on_request_and_on_faults(ros_context, tmp_path):
         return DiagnosticArray(status=[status])
 
     def dumps(kind):
-        return sorted(tmp_path.glob(f'flight_*_{kind}*/*.mcap'))
+        return _finished_dumps(tmp_path, kind)
 
     with Spinner(ros_context, [recorder, probe]):
         assert wait_for(lambda: f'{NS}/pose' in recorder._raw_subscriptions)
@@ -385,8 +394,8 @@ def test_faults_trigger_a_dump_also_when_their_topics_are_not_recorded(ros_conte
             time.sleep(0.01)
         diag_pub.publish(DiagnosticArray(status=[DiagnosticStatus(
             level=DiagnosticStatus.ERROR, name='fk_node: forward kinematics')]))
-        assert wait_for(lambda: list(tmp_path.glob('flight_*_node_error*/*.mcap')))
+        assert wait_for(lambda: _finished_dumps(tmp_path, 'node_error'))
         recorder.wait_for_dumps()
-    path, = tmp_path.glob('flight_*_node_error*/*.mcap')
+    path, = _finished_dumps(tmp_path, 'node_error')
     _, messages = _read(path)
     assert {t for t, _, _, _ in messages} == {f'{NS}/pose'}
