@@ -352,6 +352,9 @@ def test_flight_recorder_saves_on_request_and_on_faults(ros_context, tmp_path):
         assert zs and zs[-1] == 299 and zs == list(range(zs[0], 300))
         assert 50 <= len(zs) <= 200  # about the 1 s window, not the whole 3 s
         assert not list(tmp_path.glob('test*'))  # record:=false writes no recording
+        # from here on the pose streams on, so that every fault's window holds poses however
+        # long the machine takes between one fault and the next
+        probe.create_timer(0.02, lambda: pose_pub.publish(_pose(probe, 0.5)))
         # a gripper refusal (the driver's typed count goes up)
         diag_pub.publish(driver(0))
         assert wait_for(lambda: recorder._faults._refusals == 0)
