@@ -224,10 +224,26 @@ class GaitPlanner:
         other_grips = {'a': (False, True), 'b': (True, False)}[ring]
         out = [self._phase(state, step, PhaseAction.RELEASE, f'ring_{ring}', *other_grips)]
         s0 = state.s_a if ring == 'a' else state.s_b
+        world_T_a, world_T_b, angles = self._move_poses(state, ring, target, step)
+        if ring == 'a':
+            state.s_a, state.theta_a = target, float(angles[-1, 0])
+        else:
+            state.s_b, state.theta_b = target, float(angles[-1, 1])
+        out.append(self._phase(state, step, PhaseAction.MOVE, f'ring_{ring}', *other_grips,
+                               world_T_a=world_T_a, world_T_b=world_T_b,
+                               s_range=(s0, target, state.s_a, state.s_b), ring_angles=angles))
+        out.append(self._phase(state, step, PhaseAction.GRIP, f'ring_{ring}', True, True))
+        return out
+
+    def _move_poses(self, state: _State, ring: str, target: float, step: int):
+        """The sampled world poses (world_T_a, world_T_b) (n, 4, 4) and extra-DOF angles (n, 2) of
+        ring ``ring`` moving from ``state`` to route position ``target`` (not checked)."""
+        s0 = state.s_a if ring == 'a' else state.s_b
         theta0 = state.theta_a if ring == 'a' else state.theta_b
         wa, wb = self._ring_matrices(state.s_a, state.s_b, state.theta_a, state.theta_b)
         pos, rot = self.structure.swing(s0, target, self.spacing)
-        frames = np.array([transform(p, R) for p, R in zip(pos, rot)])
+        frames = np.zeros((len(pos), 4, 4))
+        frames[:, :3, :3], frames[:, :3, 3], frames[:, 3, 3] = rot, pos, 1.0
         theta1 = theta0
         if self.dof:
             ma, mb = self._mount_matrices(theta0, theta0)
@@ -238,17 +254,11 @@ class GaitPlanner:
             world_T_a = frames @ invert(self._mount_matrices(thetas, state.theta_b)[0])
             world_T_b = np.broadcast_to(wb, world_T_a.shape)
             angles = np.column_stack([thetas, np.full_like(thetas, state.theta_b)])
-            state.s_a, state.theta_a = target, float(theta1)
         else:
             world_T_b = frames @ invert(self._mount_matrices(state.theta_a, thetas)[1])
             world_T_a = np.broadcast_to(wa, world_T_b.shape)
             angles = np.column_stack([np.full_like(thetas, state.theta_a), thetas])
-            state.s_b, state.theta_b = target, float(theta1)
-        out.append(self._phase(state, step, PhaseAction.MOVE, f'ring_{ring}', *other_grips,
-                               world_T_a=world_T_a, world_T_b=world_T_b,
-                               s_range=(s0, target, state.s_a, state.s_b), ring_angles=angles))
-        out.append(self._phase(state, step, PhaseAction.GRIP, f'ring_{ring}', True, True))
-        return out
+        return world_T_a, world_T_b, angles
 
     def _place(self, s: float, s0: float, partner: float, step: int, ring: str) -> float:
         """A grip position for a ring moving from ``s0`` towards ``s``: ``s`` itself if allowed,
@@ -340,6 +350,11 @@ class GaitPlanner:
             phases += self._move(state, 0, 'b', start + sep_lo)
         for k in range(1, steps + 1):
             phases += self._step(state, k, d, sep_lo, up)
+        return self._chain(phases, d, steps)
+
+    def _chain(self, phases: list[Phase], step_length: float, steps: int) -> ClimbPlan:
+        """The checked phases as a plan: the gripper interlock, then the rings' world poses
+        chained by the odometry."""
         check_interlock(phases)
         odo = None
         for ph in phases:
@@ -350,7 +365,7 @@ class GaitPlanner:
             else:
                 odo.update(ph.a_T_b, ph.gripper_a, ph.gripper_b, a_T_grip=ma, b_T_grip=mb)
             ph.world_T_a, ph.world_T_b = odo.world_T_a, odo.world_T_b
-        return ClimbPlan(robot=self.geometry.name, structure=self.structure.name, step_length=d,
+        return ClimbPlan(robot=self.geometry.name, structure=self.structure.name, step_length=step_length,
                          steps=steps, phases=phases)
 
 def plan_climb(geometry: RobotGeometry, structure: Structure, distance: float, steps: int | None = None,
