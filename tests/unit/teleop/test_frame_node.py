@@ -70,7 +70,7 @@ def _limits(g, frame, wa, wb):
     Aw = np.einsum('nij,kj->nki', wa[:, :3, :3], g.ring_a_anchors) + wa[:, None, :3, 3]
     Bw = np.einsum('nij,kj->nki', wb[:, :3, :3], g.ring_b_anchors) + wb[:, None, :3, 3]
     node = frame.nodes['J']
-    beam = np.inf
+    beam = post = np.inf
     for a, b in frame.beams:
         q0, q1 = frame.nodes[a], frame.nodes[b]
         if np.linalg.norm(q0 - node) > 1e-9:  # beams framing into the node: from the node out
@@ -80,8 +80,15 @@ def _limits(g, frame, wa, wb):
             d = _segment_distance(Aw[:, k], Bw[:, k], np.broadcast_to(q0, (len(p), 3)),
                                   np.broadcast_to(q1, (len(p), 3)))
             beam = np.minimum(beam, d)
+        if {a, b} in ({'base', 'J'}, {'J', 'top'}):
+            continue  # the climbed beams: ring_b's post stands over them a ring height off
+        # ring_b's gripper post: from ring_b down its stand-off (to ring_a's height over the face)
+        top = wb[:, :3, 3]
+        foot = top - g.home_position[2] * wb[:, :3, 2]
+        post = np.minimum(post, _segment_distance(top, foot, np.broadcast_to(q0, (len(p), 3)),
+                                                  np.broadcast_to(q1, (len(p), 3))))
     return {'length': length, 'universal': universal, 'spherical': spherical,
-            'inverse_condition': sv[:, -1] / sv[:, 0], 'leg_leg': pair, 'leg_beam': beam}
+            'inverse_condition': sv[:, -1] / sv[:, 0], 'leg_leg': pair, 'leg_beam': beam, 'post_beam': post}
 
 
 @pytest.mark.parametrize('deg, out_of_plane', JUNCTIONS)
@@ -99,7 +106,8 @@ def test_every_pose_keeps_every_limit_recomputed_from_eq_1(plans, deg, out_of_pl
         assert np.all(lim['spherical'] <= g.spherical_max_angle + 1e-9), where
         assert np.all(lim['leg_leg'] >= 2.0 * g.leg_radius - 1e-6), where
         assert np.all(lim['inverse_condition'] >= g.min_conditioning), where
-        assert np.all(lim["leg_beam"] >= g.leg_radius + math.sqrt(2.0) * frame.half_width - 1e-9), where
+        assert np.all(lim['leg_beam'] >= g.leg_radius + math.sqrt(2.0) * frame.half_width - 1e-9), where
+        assert np.all(lim['post_beam'] >= g.leg_radius + math.sqrt(2.0) * frame.half_width - 1e-9), where
 
 
 @pytest.mark.parametrize('deg, out_of_plane', JUNCTIONS)

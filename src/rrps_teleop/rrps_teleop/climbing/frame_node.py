@@ -12,10 +12,11 @@ The crossing, from ring_a and ring_b side by side before the node: release_b, mo
 node, grip_b, release_a, move_a, grip_a. It is searched over the gripped face (+n or -n), the
 stance before the node, both grip points past it and the lift of the open gripper's swing. Every
 sampled pose of every candidate is checked against stroke, joint cones, leg-leg interference and
-conditioning (eq. 1, ``rrps_kinematics.margins``), the legs' clearance to every beam at the node,
-the actuator forces and the gripping ring's holding in the world's gravity
-(``rrps_sim.loads.static_solution``). The feasible candidate whose smallest scaled margin is the
-largest is planned; when none is feasible, PlanError names the limit that blocks which phase.
+conditioning (eq. 1, ``rrps_kinematics.margins``), the clearance of the legs (and of ring_b's
+gripper post) to the beams at the node, the actuator forces and the gripping ring's holding in
+the world's gravity (``rrps_sim.loads.static_solution``). The feasible candidate whose smallest
+scaled margin is the largest (then whose sum of scaled margins is) is planned; when none is
+feasible, PlanError names the limit that blocks which phase.
 
 Pure NumPy; no ROS import.
 """
@@ -57,7 +58,8 @@ class BeamFace(Structure):
     """The route of a :class:`BeamFrame` with a bend, followed on the beams' face of outward normal
     ``side * n`` (n = beam 1 x beam 2): grip frames with z = that normal and x along the route,
     ``ring_height`` above the face; an open gripper lifts by ``lift``, moves while turning, sets
-    down. ``capsules``: the beams at the node, ``reach`` long, of the section's circumradius."""
+    down. ``capsules``: the beams at the node, ``reach`` long, of the section's circumradius;
+    ``obstacles``: those off the route (the route's beams lie a ring height below any gripper)."""
 
     kind = 'surface'
 
@@ -73,15 +75,19 @@ class BeamFace(Structure):
         self.normal = self.side * n / np.linalg.norm(n)
         self.offset = frame.half_width + float(ring_height)
         node = frame.grip_frame(self.junction)[0]
-        ends = []
+        route = {frozenset(pair) for pair in zip(frame.route[:-1], frame.route[1:])}
+        ends, crossing = [], []
         for a, b in frame.beams:  # from the node out, at most ``reach`` long
             p0, p1 = frame.nodes[a], frame.nodes[b]
             if np.linalg.norm(p1 - node) < np.linalg.norm(p0 - node):
                 p0, p1 = p1, p0
             ends.append((p0, p0 + (p1 - p0) * min(1.0, reach / np.linalg.norm(p1 - p0))))
+            crossing.append(frozenset((a, b)) not in route)
+        radius = math.sqrt(2.0) * frame.half_width
         #: the beams near the node as capsules: (starts (K, 3), ends (K, 3), radius [m])
-        self.capsules = (np.array([e[0] for e in ends]), np.array([e[1] for e in ends]),
-                         math.sqrt(2.0) * frame.half_width)
+        self.capsules = (np.array([e[0] for e in ends]), np.array([e[1] for e in ends]), radius)
+        #: the same for the beams framing into the node off the route (the gripper posts' obstacles)
+        self.obstacles = (self.capsules[0][crossing], self.capsules[1][crossing], radius)
 
     def grip_frame(self, s: float):
         p, R = self.frame.grip_frame(s)
@@ -180,7 +186,8 @@ class FrameNodePlanner(GaitPlanner):
         out = {k: np.min(np.asarray(getattr(m, k)), axis=1) for k in ('stroke', 'universal', 'spherical',
                                                                          'interference')}
         out['conditioning'] = np.asarray(m.conditioning, dtype=float)
-        out['clearance'] = np.min(self._clearance(world_T_a, world_T_b, (0.0, self.structure.length)), axis=1)
+        out['clearance'] = np.minimum(np.min(self._clearance(world_T_a, world_T_b, None), axis=1),
+                                      self._post_clearance(world_T_a, world_T_b))
         ring_T = world_T_a if support == 'ring_a' else world_T_b
         sol = static_solution(g, (path[:, :3, 3], q), support=support, gravity=self.gravity,
                               world_q_support=matrix_to_quat_xyzw(ring_T[0, :3, :3]))
@@ -200,6 +207,18 @@ class FrameNodePlanner(GaitPlanner):
         q0, q1, radius = self.structure.capsules
         d = segment_distances(A[:, :, None], B[:, :, None], q0[None, None], q1[None, None])
         return np.min(d, axis=-1) - radius - g.leg_radius
+
+    def _post_clearance(self, world_T_a, world_T_b):
+        """Distance of ring_b's gripper post (from ring_b down to ring_a's height above the face,
+        as thick as a leg) to every beam framing into the node, minus the beam's circumradius and
+        the post's radius, (n,). ring_a's gripper is ``ring_height`` tall, below its ring: the legs' check
+        covers it."""
+        q0, q1, radius = self.structure.obstacles
+        mb = self._mount_matrices(0.0, 0.0)[1]
+        top = world_T_b[:, :3, 3]
+        foot = top + np.einsum('nij,j->ni', world_T_b[:, :3, :3], mb[:3, 3])
+        d = segment_distances(top[:, None], foot[:, None], q0[None], q1[None])
+        return np.min(d, axis=-1) - radius - self.geometry.leg_radius
 
     def _holding(self, wrench: np.ndarray, support: str, theta: float) -> np.ndarray:
         """Holding margin of the gripping ring's clamp from the support wrench (the structure on
@@ -264,6 +283,7 @@ class FrameNodePlanner(GaitPlanner):
                 worst = min(LIMITS, key=lambda k: mins[k] / SCALES[k])
                 j = sl.start + int(np.argmax(ev['peak_force'][sl]))
                 results[i] = {'score': mins[worst] / SCALES[worst], 'limit': worst, 'margins': mins,
+                              'total': sum(min(mins[k] / SCALES[k], 10.0) for k in LIMITS),
                               'peak_force': (float(ev['peak_force'][j]), int(ev['force_leg'][j]) + 1)}
         return results
 
@@ -281,11 +301,13 @@ class FrameNodePlanner(GaitPlanner):
         stage_a = [dataclasses.replace(c, s_a=s_a) for c in ok_b for s_a in past]
         res_a = self._score(stage_a, 'a', batched)
         by_b = {c: r for c, r in zip(stage_b, res_b)}
-        best, best_score = None, -math.inf
-        for c, r in zip(stage_a, res_a):
-            score = min(r['score'], by_b[dataclasses.replace(c, s_a=math.nan)]['score'])
-            if r['score'] >= 0.0 and score > best_score:
-                best, best_score = (c, r), score
+        best, best_key = None, (-math.inf, -math.inf)
+        for c, r in zip(stage_a, res_a):  # the largest smallest margin, then the largest sum
+            rb = by_b[dataclasses.replace(c, s_a=math.nan)]
+            key = (min(r['score'], rb['score']), r['total'] + rb['total'])
+            if r['score'] >= 0.0 and key > best_key:
+                best, best_key = (c, r), key
+        best_score = best_key[0]
         if best is None:
             self._refuse('move_a', stage_a, res_a)
         c, r = best
