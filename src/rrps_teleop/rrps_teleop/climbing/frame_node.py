@@ -38,7 +38,7 @@ from rrps_kinematics import inverse_kinematics, margins
 from rrps_kinematics.limits import segment_distances
 from rrps_kinematics.odometry import invert
 from rrps_sim.loads import holding_margin, static_solution
-from rrps_teleop.climbing.gait import GaitPlanner, _State
+from rrps_teleop.climbing.gait import GaitPlanner, GaitState
 from rrps_teleop.climbing.plan import ClimbPlan, PlanError, PlanLimit
 
 __all__ = ['BeamFace', 'Candidate', 'Crossing', 'FrameNodePlanner', 'LIMITS', 'SCALES']
@@ -247,7 +247,7 @@ class FrameNodePlanner(GaitPlanner):
     def _motion(self, c: Candidate, ring: str):
         """(world_T_a, world_T_b, support, support's angle, ring angles) of the candidate's move."""
         self._use(c.side, c.lift)
-        state = _State(c.s_pre, c.s_pre, 0.0, 0.0)
+        state = GaitState(c.s_pre, c.s_pre, 0.0, 0.0)
         if ring == 'b':
             wa, wb, angles = self._move_poses(state, 'b', c.s_b, 1)
             return wa, wb, 'ring_a', 0.0, angles
@@ -362,7 +362,7 @@ class FrameNodePlanner(GaitPlanner):
             raise self.refusal
         c = self.crossing.candidate
         self._use(c.side, c.lift)
-        state = _State(c.s_pre, c.s_pre, 0.0, 0.0)
+        state = GaitState(c.s_pre, c.s_pre, 0.0, 0.0)
         phases = [self._phase(state, 0, PhaseAction.START, '', True, True)]
         phases += self._move(state, 1, 'b', c.s_b)
         phases += self._move(state, 1, 'a', c.s_a)
