@@ -1,5 +1,6 @@
 """The frame-node manoeuvre: every pose of every junction's plan against every limit, recomputed
-here from eq. 1 (leg vectors from the anchors), and the refusal without the extra ring DOF."""
+here from eq. 1 (leg vectors from the anchors), its loads against virtual work and the robot's
+balance, and the refusal without the extra ring DOF."""
 
 from __future__ import annotations
 
@@ -108,6 +109,77 @@ def test_every_pose_keeps_every_limit_recomputed_from_eq_1(plans, deg, out_of_pl
         assert np.all(lim['inverse_condition'] >= g.min_conditioning), where
         assert np.all(lim['leg_beam'] >= g.leg_radius + math.sqrt(2.0) * frame.half_width - 1e-9), where
         assert np.all(lim['post_beam'] >= g.leg_radius + math.sqrt(2.0) * frame.half_width - 1e-9), where
+
+
+def _rotate(R, v):
+    """exp([v]x) R (Rodrigues), v a rotation vector in the world."""
+    angle = np.linalg.norm(v)
+    if angle < 1e-15:
+        return R
+    k = v / angle
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return (np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K) @ R
+
+
+def _bodies(g, wa, wb):
+    """(masses (7+12,), centres of mass (19, 3)) of both rings and every leg's two links, world."""
+    A = wa[:3, :3] @ g.ring_a_anchors.T + wa[:3, 3:4]
+    B = wb[:3, :3] @ g.ring_b_anchors.T + wb[:3, 3:4]
+    u = (B - A) / np.linalg.norm(B - A, axis=0)
+    com = np.vstack([wa[:3, :3] @ g.ring_a_body.com + wa[:3, 3], wb[:3, :3] @ g.ring_b_body.com + wb[:3, 3],
+                     (A + g.lower_link.com_from_joint * u).T, (B - g.upper_link.com_from_joint * u).T])
+    mass = np.r_[g.ring_a_body.mass, g.ring_b_body.mass, [g.lower_link.mass] * 6, [g.upper_link.mass] * 6]
+    return mass, com
+
+
+def _virtual_work_forces(g, wa, wb, moving, gravity, h=1e-6):
+    """Actuator forces at rest from virtual work: sum F_i dl_i = dV for every small motion of the
+    moving ring (finite differences of the leg lengths of eq. 1 and of the potential energy)."""
+    def state(d):
+        T = (wa if moving == 'a' else wb).copy()
+        T[:3, :3], T[:3, 3] = _rotate(T[:3, :3], d[3:]), T[:3, 3] + d[:3]
+        a, b = (T, wb) if moving == 'a' else (wa, T)
+        legs = (b[:3, :3] @ g.ring_b_anchors.T + b[:3, 3:4]) - (a[:3, :3] @ g.ring_a_anchors.T + a[:3, 3:4])
+        mass, com = _bodies(g, a, b)
+        return np.linalg.norm(legs, axis=0), -np.sum(mass * (com @ gravity))
+    dl, dV = np.zeros((6, 6)), np.zeros(6)
+    for j in range(6):
+        e = np.zeros(6)
+        e[j] = h
+        (lp, vp), (lm, vm) = state(e), state(-e)
+        dl[:, j], dV[j] = (lp - lm) / (2 * h), (vp - vm) / (2 * h)
+    return np.linalg.solve(dl.T, dV)
+
+
+@pytest.mark.parametrize('deg, out_of_plane', JUNCTIONS)
+def test_forces_and_holding_against_virtual_work_and_the_robots_balance(plans, deg, out_of_plane):
+    """The planner's peak actuator force and smallest holding margin of each motion (from
+    rrps_sim's statics) against virtual work and the whole robot's balance, computed here."""
+    planner, plan = plans[deg, out_of_plane]
+    g, gravity = planner.geometry, np.array([0.0, 0.0, -9.81])
+    for ph in (p for p in plan.phases if p.phase.startswith('move')):
+        moving = ph.phase[-1]
+        wa_all, wb_all = _world_paths(ph)
+        peak, holding = 0.0, np.inf
+        for wa, wb in zip(wa_all, wb_all):
+            peak = max(peak, np.max(np.abs(_virtual_work_forces(g, wa, wb, moving, gravity))))
+            # the gripping ring's clamp holds the whole robot: force and moment at the clamped
+            # section (the beam's centreline under its gripper), along the beam / the face normal
+            T = wb if moving == 'a' else wa
+            grip = T[:3, 3] - (g.home_position[2] * T[:3, 2] if moving == 'a' else 0.0)
+            axis = T[:3, :3] @ np.array([math.cos(ph.ring_angles[0][0 if moving == 'b' else 1]),
+                                         math.sin(ph.ring_angles[0][0 if moving == 'b' else 1]), 0.0])
+            section = grip - (planner.frame.half_width + 0.1) * T[:3, 2]
+            mass, com = _bodies(g, wa, wb)
+            force = -np.sum(mass) * gravity
+            moment = -np.sum(np.cross(com - section, mass[:, None] * gravity), axis=0)
+            cap = g.holding['ring_a' if moving == 'b' else 'ring_b']
+            demand = math.hypot(force @ axis, (moment @ T[:3, 2]) / cap.radius)
+            holding = min(holding, 1.0 - demand / (cap.friction * cap.clamp_force))
+        found = planner.crossing
+        assert found.peak_force[ph.phase][0] == pytest.approx(peak, rel=1e-4), ph.phase
+        assert found.margins[ph.phase]['holding'] == pytest.approx(holding, abs=1e-6), ph.phase
+        assert peak < g.max_force and holding > 0.0
 
 
 @pytest.mark.parametrize('deg, out_of_plane', JUNCTIONS)
