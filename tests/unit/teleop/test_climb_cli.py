@@ -94,6 +94,7 @@ def test_too_long_step_is_refused(capsys):
     (['--structure', 'pole'], 'required'),
     (['--structure', 'pole', '--junction-deg', '90'], 'needs --structure frame'),
     (['--structure', 'frame', '--junction-deg', '120'], '1 .. 90 deg'),
+    (['--structure', 'frame', '--junction-deg', '60', '--distance', '1'], 'leave out --distance'),
     (['--structure', 'frame', '--distance', '1', '--out-of-plane'], 'needs --junction-deg'),
 ])
 def test_bad_arguments_exit_2_with_one_line(capsys, argv, needle):

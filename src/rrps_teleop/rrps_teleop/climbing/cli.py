@@ -89,6 +89,9 @@ def _plan(args, geometry):
     if args.junction_deg is not None:
         if args.structure != 'frame':
             raise UsageError('--junction-deg needs --structure frame')
+        if args.distance is not None or args.steps is not None or args.start is not None:
+            raise UsageError('--junction-deg plans the crossing from its searched stance: '
+                             'leave out --distance, --steps and --start')
         planner = FrameNodePlanner(geometry, args.junction_deg, args.out_of_plane,
                                    use_extra_dof=not args.no_extra_dof)
         return planner, planner.plan_crossing(), planner.structure

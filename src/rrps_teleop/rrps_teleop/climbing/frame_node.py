@@ -211,8 +211,8 @@ class FrameNodePlanner(GaitPlanner):
     def _post_clearance(self, world_T_a, world_T_b):
         """Distance of ring_b's gripper post (from ring_b down to ring_a's height above the face,
         as thick as a leg) to every beam framing into the node, minus the beam's circumradius and
-        the post's radius, (n,). ring_a's gripper is ``ring_height`` tall, below its ring: the legs' check
-        covers it."""
+        the post's radius, (n,). ring_a's gripper, ``ring_height`` tall below its ring, lies within
+        what the legs' check keeps clear."""
         q0, q1, radius = self.structure.obstacles
         mb = self._mount_matrices(0.0, 0.0)[1]
         top = world_T_b[:, :3, 3]
