@@ -163,6 +163,7 @@ class FrameNodePlanner(GaitPlanner):
             self._use(self.crossing.candidate.side, self.crossing.candidate.lift)
         except PlanError as exc:
             self.refusal = exc
+            self._use(1, _LIFTS[0])
 
     @property
     def title(self) -> str:
