@@ -158,6 +158,7 @@ class FrameNodePlanner(GaitPlanner):
         self.gravity = gravity
         self.crossing: Crossing | None = None
         self.refusal: PlanError | None = None
+        self._theta_b: dict = {}  # ring_b's angle after a candidate's move_b, during a search
         try:
             self.crossing = self.search(batched=batched)
             self._use(self.crossing.candidate.side, self.crossing.candidate.lift)
@@ -252,7 +253,10 @@ class FrameNodePlanner(GaitPlanner):
         if ring == 'b':
             wa, wb, angles = self._move_poses(state, 'b', c.s_b, 1)
             return wa, wb, 'ring_a', 0.0, angles
-        theta_b = float(self._move_poses(state, 'b', c.s_b, 1)[2][-1, 1])
+        key = (c.side, c.s_pre, c.s_b, c.lift)
+        if key not in self._theta_b:  # ring_b's angle after its move (the same for every s_a)
+            self._theta_b[key] = float(self._move_poses(state, 'b', c.s_b, 1)[2][-1, 1])
+        theta_b = self._theta_b[key]
         state.s_b, state.theta_b = c.s_b, theta_b
         wa, wb, angles = self._move_poses(state, 'a', c.s_a, 1)
         return wa, wb, 'ring_b', theta_b, angles
@@ -291,6 +295,7 @@ class FrameNodePlanner(GaitPlanner):
     def search(self, batched: bool = True) -> Crossing:
         """The best crossing (see the module docstring); PlanError naming the limit and the phase
         when no candidate keeps every limit."""
+        self._theta_b = {}
         firsts = [(side, s_pre, lift) for side in (1, -1) for s_pre in self._stance(side) for lift in _LIFTS]
         past = [self.faces[1].forbidden[0][1] + e for e in _PAST]
         stage_b = [Candidate(side, s_pre, s_b, math.nan, lift) for (side, s_pre, lift), s_b
