@@ -92,11 +92,34 @@ def test_too_long_step_is_refused(capsys):
     (['--structure', 'pole', '--distance', '-1'], 'leaves the pole'),
     (['--robot', 'no_such_robot', '--structure', 'pole', '--distance', '1'], 'unknown robot'),
     (['--structure', 'pole'], 'required'),
+    (['--structure', 'pole', '--junction-deg', '90'], 'needs --structure frame'),
+    (['--structure', 'frame', '--junction-deg', '120'], '1 .. 90 deg'),
+    (['--structure', 'frame', '--junction-deg', '60', '--distance', '1'], 'leave out --distance'),
+    (['--structure', 'frame', '--distance', '1', '--out-of-plane'], 'needs --junction-deg'),
 ])
 def test_bad_arguments_exit_2_with_one_line(capsys, argv, needle):
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert err.count('\n') == 1 and needle in err
+
+
+def test_frame_node_crossing_prints_its_phases_and_margins(tmp_path, capsys):
+    out = tmp_path / 'node.csv'
+    assert main(['--robot', 'frame_climber', '--structure', 'frame', '--junction-deg', '90',
+                 '--out-of-plane', '--csv', str(out)]) == 0
+    text = capsys.readouterr().out
+    assert '90 deg node out of plane, with the extra DOF' in text and 'candidates searched' in text
+    assert re.search(r'move_b .* leg_\d +\d\.\d{3}', text) and re.search(r'move_a .* leg_\d', text)
+    rows = _rows(out)
+    assert [r['phase'] for r in rows] == ['start', 'release_b', 'move_b', 'grip_b', 'release_a', 'move_a', 'grip_a']
+    assert abs(float(rows[-1]['theta_b'])) == pytest.approx(np.pi / 2)
+
+
+def test_frame_node_without_extra_dof_is_refused_naming_limit_and_phase(capsys):
+    assert main(['--robot', 'frame_climber', '--structure', 'frame', '--junction-deg', '90',
+                 '--no-extra-dof']) == 1
+    err = capsys.readouterr().err
+    assert 'refused' in err and 'phase move_b' in err and 'blocks the closest' in err
 
 
 def test_console_script(tmp_path):

@@ -2,6 +2,13 @@
 
     rrps-climb --robot pole_climber --structure {pole,palm_trunk,frame,facade} --distance 3.0
                [--steps N] [--start S] [--no-extra-dof] [--csv plan.csv]
+    rrps-climb --robot frame_climber --structure frame --junction-deg 90 [--out-of-plane]
+               [--no-extra-dof] [--csv plan.csv]
+
+With ``--junction-deg`` the frame's member leaves its node bent by that angle (in the column's
+web plane, or normal to it with ``--out-of-plane``) and the plan is the searched crossing of the
+node (``climbing.frame_node``): its phases are printed with their smallest margins, peak
+actuator force and holding margin.
 
 One CSV row per phase: ``step, phase, gripper_a, gripper_b`` (1 closed, 0 open), the route
 positions ``s_a, s_b``, the world poses of both rings (``a_x..a_qw``, ``b_x..b_qw``, from the
@@ -30,6 +37,7 @@ from rrps_kinematics.cli_support import (
     count,
     load_robot_or_usage_error,
 )
+from rrps_teleop.climbing.frame_node import FrameNodePlanner
 from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_teleop.climbing.plan import CSV_COLUMNS, PlanError
 
@@ -52,14 +60,67 @@ def build_parser() -> OneLineParser:
                       'interlock; write one CSV row per phase.')
     p.add_argument('--robot', default='pole_climber', help='shipped robot name or YAML path')
     p.add_argument('--structure', required=True, choices=sorted(STRUCTURES))
-    p.add_argument('--distance', required=True, type=_distance,
-                   help='route distance to climb [m] (negative: down)')
+    p.add_argument('--distance', type=_distance,
+                   help='route distance to climb [m] (negative: down); required without --junction-deg')
     p.add_argument('--steps', type=count, help='number of steps (default: as few as the reach allows)')
     p.add_argument('--start', type=float, help='route position of ring_a at the start [m]')
     p.add_argument('--no-extra-dof', action='store_true',
                    help='do not use the extra ring DOF (frame climber)')
+    p.add_argument('--junction-deg', type=_junction,
+                   help='frame only: plan the crossing of a node bent by this angle [deg] (1 .. 90)')
+    p.add_argument('--out-of-plane', action='store_true',
+                   help="with --junction-deg: the member bends normal to the column's web plane")
     p.add_argument('--csv', help='write the plan to this CSV file')
     return p
+
+
+def _junction(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'expected a number, got {text!r}')
+    if not (math.isfinite(value) and 1.0 <= value <= 90.0):
+        raise argparse.ArgumentTypeError(f'must be in 1 .. 90 deg, got {text!r}')
+    return value
+
+
+def _plan(args, geometry):
+    """(planner, plan, structure) for the parsed arguments."""
+    if args.junction_deg is not None:
+        if args.structure != 'frame':
+            raise UsageError('--junction-deg needs --structure frame')
+        if args.distance is not None or args.steps is not None or args.start is not None:
+            raise UsageError('--junction-deg plans the crossing from its searched stance: '
+                             'leave out --distance, --steps and --start')
+        planner = FrameNodePlanner(geometry, args.junction_deg, args.out_of_plane,
+                                   use_extra_dof=not args.no_extra_dof)
+        return planner, planner.plan_crossing(), planner.structure
+    if args.out_of_plane:
+        raise UsageError('--out-of-plane needs --junction-deg')
+    if args.distance is None:
+        raise UsageError('--distance is required (or --junction-deg with --structure frame)')
+    needed = abs(args.distance) + (args.start or 0.0) + 1.5 * geometry.max_length + 0.3
+    structure = make_structure(args.structure, needed)
+    planner = GaitPlanner(geometry, structure, use_extra_dof=not args.no_extra_dof)
+    return planner, planner.plan(args.distance, args.steps, start=args.start), structure
+
+
+def _print_crossing(planner: FrameNodePlanner, plan) -> None:
+    """The crossing's phases and margins, the searched loads of its motions."""
+    c = planner.crossing
+    print(f'{plan.robot}: {planner.title}: face {"+" if c.candidate.side > 0 else "-"}n, '
+          f'{c.evaluated} candidates searched, smallest scaled margin {c.score:.3f}')
+    print('  step phase       s_a [m] s_b [m] theta_a/b [deg] stroke  cones  interf. clear.  cond.  '
+          'peak force [N] holding')
+    for ph in plan.phases:
+        m = ph.min_margins
+        loads = ''
+        if ph.phase in c.margins:
+            force, leg = c.peak_force[ph.phase]
+            loads = f' {force:8.1f} leg_{leg} {c.margins[ph.phase]["holding"]:7.3f}'
+        print(f'  {ph.step:4d} {ph.phase:10s} {ph.s_a:7.3f} {ph.s_b:7.3f} {math.degrees(ph.theta_a):6.1f}/'
+              f'{math.degrees(ph.theta_b):6.1f}  {m["stroke"]:6.3f} {min(m["universal"], m["spherical"]):6.3f} '
+              f'{m["interference"]:7.3f} {m["clearance"]:6.3f} {m["conditioning"]:6.3f}{loads}')
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -67,11 +128,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         args = build_parser().parse_args(argv)
         geometry = load_robot_or_usage_error(args.robot)
-        needed = abs(args.distance) + (args.start or 0.0) + 1.5 * geometry.max_length + 0.3
-        structure = make_structure(args.structure, needed)
         try:
-            planner = GaitPlanner(geometry, structure, use_extra_dof=not args.no_extra_dof)
-            plan = planner.plan(args.distance, args.steps, start=args.start)
+            planner, plan, structure = _plan(args, geometry)
         except PlanError:
             raise
         except ValueError as exc:  # input the planner cannot use (off the structure, ...)
@@ -97,6 +155,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         except OSError as exc:
             print(f'{PROG}: error: cannot write {args.csv}: {exc.strerror}', file=sys.stderr)
             return EXIT_USAGE
+    if args.junction_deg is not None:
+        _print_crossing(planner, plan)
+        if args.csv:
+            print(f'  wrote {len(plan.phases)} rows to {args.csv}')
+        return 0
     last = plan.phases[-1]
     m = plan.min_margins
     print(f'{plan.robot} on {plan.structure} ({structure.length:.2f} m route): {plan.steps} steps of '

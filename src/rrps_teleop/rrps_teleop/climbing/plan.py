@@ -21,8 +21,8 @@ MARGIN_KINDS = ('stroke', 'universal', 'spherical', 'interference', 'conditionin
 
 class PlanLimit(str, enum.Enum):
     """What a refused plan breaks: a pose limit (:class:`rrps_kinematics.limits.LimitKind`), the
-    legs' clearance to the structure, the gripper interlock, the extra DOF's range, or no grip
-    position (a str: ``PlanLimit.STROKE == 'stroke'``)."""
+    legs' clearance to the structure, the gripper interlock, the extra DOF's range, no grip
+    position, an actuator's force or a gripper's holding capacity (a str: ``PlanLimit.STROKE == 'stroke'``)."""
 
     STROKE = 'stroke'
     UNIVERSAL = 'universal'
@@ -33,6 +33,8 @@ class PlanLimit(str, enum.Enum):
     INTERLOCK = 'interlock'
     EXTRA_DOF = 'extra_dof'
     GRIP = 'grip'
+    ACTUATOR_FORCE = 'actuator_force'
+    HOLDING = 'holding'
 
 CSV_COLUMNS = (['step', 'phase', 'gripper_a', 'gripper_b', 's_a', 's_b',
                 'a_x', 'a_y', 'a_z', 'a_qx', 'a_qy', 'a_qz', 'a_qw',
