@@ -134,6 +134,8 @@ def path_loads(geometry: RobotGeometry, t, positions, quaternions_xyzw, *, suppo
     if len(p) >= MIN_SAMPLES:
         t, p, q = check_trajectory(t, p, q)
         twist, twist_dot = trajectory_twists(t, p, q)
+    elif np.shape(t) != (len(p),):
+        raise ValueError(f't must have shape ({len(p)},), got {np.shape(t)}')
     else:
         twist = twist_dot = np.zeros((len(p), 6))
     pose = PlatformPose(geometry, p, q, world)

@@ -34,7 +34,7 @@ class PhasePath:
         angles = rotation_angle_between(self.path[:-1, :3, :3], self.path[1:, :3, :3])
         seg = np.linalg.norm(np.diff(p, axis=0), axis=1) + characteristic_length * angles
         self.times = np.concatenate([[0.0], np.cumsum(seg)]) / speed
-        self._quaternions = np.array([matrix_to_quat_xyzw(R) for R in self.path[:, :3, :3]])
+        self._quaternions = matrix_to_quat_xyzw(self.path[:, :3, :3])
 
     @property
     def duration(self) -> float:
