@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 
 from rrps_description.geometry import load_robot
-from rrps_description.loads import ToolWrench
+from rrps_description.loads import Payload, ToolWrench
 from rrps_description.robot_parts import LinkInertia
 from rrps_description.rotations import quat_xyzw_to_matrix, rotation_vector_to_matrix, rotation_vector_to_quat_xyzw
 from rrps_description.structures import make_structure
 from rrps_sim.loads import holding_margin
-from rrps_sim.path_loads import ACTUATOR_FORCE, HOLDING, first_violation, path_loads
 from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_teleop.climbing.load_check import LoadCheck
+from rrps_teleop.climbing.plan import PlanError, PlanLimit
 
 G_WORLD = np.array([0.0, 0.0, -9.81])
 LIGHT = LinkInertia(mass=1e-9, com_from_joint=0.1, inertia_transverse=1e-12, inertia_axial=1e-12)
@@ -136,3 +136,68 @@ def test_forces_and_reaction_match_virtual_work_along_a_real_plan(robot, structu
             assert loads.holding_margin[k] == pytest.approx(holding_margin(capacity, wrench), abs=1e-4)
             dynamic = max(dynamic, np.abs(f - _expected(geom, ph, check, k, moves=False)[0]).max() / scale)
     assert (dynamic > 0.01) == accelerates   # where the plan accelerates, its inertia counts
+
+
+def test_a_heavy_payload_is_refused_for_holding_at_the_first_release():
+    geom = load_robot('pole_climber').with_(payload=Payload(ring='ring_b', mass=200.0))
+    with pytest.raises(PlanError) as err:
+        GaitPlanner(geom, make_structure('pole', 3.0)).plan(0.5)
+    e = err.value
+    assert (e.limit, e.ring, e.legs, e.step, e.phase, e.pose, e.fraction) == (
+        PlanLimit.HOLDING, 'ring_a', (), 0, 'release_b', 0, 0.0)
+    assert str(e).startswith('holding, ring_a, step 0 release_b, pose 1/1')
+    # Here the whole robot and its payload hang on ring_a's friction clamp, at rest.
+    weight = 9.81 * geom.total_mass
+    capacity = geom.holding['ring_a']
+    assert e.margins['holding'] == pytest.approx(1.0 - weight / (capacity.friction * capacity.clamp_force), abs=0.01)
+    assert e.margins['holding'] < 0.0
+
+
+def test_a_weak_actuator_is_refused_where_its_force_first_exceeds_the_limit():
+    geom = load_robot('facade_climber')
+    plan = GaitPlanner(geom, make_structure('facade', 3.0)).plan(1.0)
+    peak = plan.peak_load.peak_force
+    weak = geom.with_(max_force=0.8 * peak)
+    with pytest.raises(PlanError) as err:
+        GaitPlanner(weak, make_structure('facade', 3.0)).plan(1.0)
+    e = err.value
+    assert e.limit is PlanLimit.ACTUATOR_FORCE and e.ring is None and len(e.legs) == 1
+    # The same phase of the passing plan: every phase before it stays within the weak limit,
+    # and at the reported pose the reported leg carries the largest force, above the limit.
+    check = LoadCheck()
+    index = next(i for i, ph in enumerate(plan.phases) if (ph.step, ph.phase) == (e.step, e.phase))
+    for ph in plan.phases[:index]:
+        if ph.loads is not None:
+            assert ph.loads.peak_force <= weak.max_force
+    ph = plan.phases[index]
+    loads, kept, fractions = check.phase_loads(geom, ph)
+    f = loads.actuator_forces[list(kept).index(e.pose)]
+    assert e.legs == (f'leg_{np.argmax(np.abs(f)) + 1}',) and np.abs(f).max() > weak.max_force
+    assert np.all(np.abs(loads.actuator_forces[:list(kept).index(e.pose)]) <= weak.max_force)
+    assert e.fraction == pytest.approx(fractions[list(kept).index(e.pose)])
+    assert str(e).startswith(f'actuator_force, {e.legs[0]}, step {e.step} {e.phase}, pose {e.pose + 1}/')
+
+
+def test_ordinary_climbs_of_the_shipped_robots_plan_with_their_load_figures():
+    for robot, structure, distance in (('pole_climber', 'pole', 0.5), ('facade_climber', 'facade', 1.0),
+                                       ('frame_climber', 'frame', 1.0)):
+        geom = load_robot(robot)
+        plan = GaitPlanner(geom, make_structure(structure, 3.0)).plan(distance)
+        held = [ph for ph in plan.phases if ph.gripper_a != ph.gripper_b]
+        assert held and all(ph.loads is not None for ph in held)
+        assert all(ph.loads is None for ph in plan.phases if ph.gripper_a == ph.gripper_b)
+        peak = plan.peak_load
+        assert 0.0 < peak.peak_force < geom.max_force and 0.0 < peak.holding_margin < 1.0
+        assert peak.peak_force == max(ph.loads.peak_force for ph in held)
+        rows = plan.rows()
+        assert max(r['peak_force'] for r in rows if not np.isnan(r['peak_force'])) == peak.peak_force
+        # Without the check the same plan comes out, without figures.
+        bare = GaitPlanner(geom, make_structure(structure, 3.0), loads=None).plan(distance)
+        assert bare.peak_load is None and len(bare.phases) == len(plan.phases)
+
+
+@pytest.mark.parametrize('kwargs', [{'speed': 0.0}, {'speed': float('nan')}, {'world_q_structure': (0, 0, 0, 2)},
+                                    {'gravity': (0.0, 9.81)}])
+def test_bad_load_check_settings_are_a_value_error(kwargs):
+    with pytest.raises(ValueError):
+        LoadCheck(**kwargs)
