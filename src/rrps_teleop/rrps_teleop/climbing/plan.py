@@ -14,7 +14,8 @@ import numpy as np
 from rrps_description.pose import Pose
 from rrps_interfaces.climb import PhaseAction
 
-__all__ = ['PlanError', 'PlanLimit', 'Phase', 'PhaseLoads', 'ClimbPlan', 'check_interlock', 'MARGIN_KINDS', 'CSV_COLUMNS']
+__all__ = ['PlanError', 'PlanLimit', 'Phase', 'PhaseLoads', 'ClimbPlan', 'check_interlock', 'MARGIN_KINDS',
+           'CSV_COLUMNS']
 
 MARGIN_KINDS = ('stroke', 'universal', 'spherical', 'interference', 'conditioning', 'clearance')
 
