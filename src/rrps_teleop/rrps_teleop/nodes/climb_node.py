@@ -49,6 +49,7 @@ from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, LINK_STATE_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
 from rrps_teleop.climbing.gait import GaitPlanner
+from rrps_teleop.climbing.load_check import LoadCheck
 from rrps_teleop.climbing.step_machine import ClimbOutput, ClimbStepMachine, ClimbTarget, StepConfig
 
 __all__ = ['PARAMETERS', 'ClimbNode', 'main']
@@ -93,7 +94,8 @@ class ClimbNode(Node):
         values = declare_parameters(self, PARAMETERS)
         self.geometry = load_robot(values['robot'])
         structure = make_structure(values['structure'], values['structure_length'] or None)
-        planner = GaitPlanner(self.geometry, structure, use_extra_dof=values['use_extra_dof'])
+        planner = GaitPlanner(self.geometry, structure, use_extra_dof=values['use_extra_dof'],
+                              loads=LoadCheck(speed=values['speed']))
         config = StepConfig(speed=values['speed'], period=1.0 / values['rate'],
                             **{k: values[k] for k in ('position_tolerance', 'orientation_tolerance',
                                                       'settle_timeout', 'settle_time', 'state_timeout',
