@@ -11,6 +11,7 @@ import pytest
 
 from rrps_description.geometry import load_robot
 from rrps_description.loads import Payload, ToolWrench
+from rrps_description.pose import Pose
 from rrps_description.robot_parts import LinkInertia
 from rrps_description.rotations import quat_xyzw_to_matrix, rotation_vector_to_matrix, rotation_vector_to_quat_xyzw
 from rrps_description.structures import make_structure
@@ -29,7 +30,7 @@ LEAN_30 = tuple(rotation_vector_to_quat_xyzw(np.array([np.radians(30.0), 0.0, 0.
 PLANS = [
     ('facade_climber', 'facade', 0.6, (0.0, 0.0, 0.0, 1.0), 0.1, None, True),
     ('pole_climber', 'palm_trunk', 0.6, LEAN_30, 1.0, ToolWrench(force=np.array([0.0, 0.0, 40.0])), True),
-    ('frame_climber', 'frame', 2.0, LEAN_30, 0.5, None, False),
+    ('frame_climber', 'frame', 1.0, LEAN_30, 0.5, None, False),
 ]
 
 
@@ -191,9 +192,9 @@ def test_ordinary_climbs_of_the_shipped_robots_plan_with_their_load_figures():
         assert peak.peak_force == max(ph.loads.peak_force for ph in held)
         rows = plan.rows()
         assert max(r['peak_force'] for r in rows if not np.isnan(r['peak_force'])) == peak.peak_force
-        # Without the check the same plan comes out, without figures.
-        bare = GaitPlanner(geom, make_structure(structure, 3.0), loads=None).plan(distance)
-        assert bare.peak_load is None and len(bare.phases) == len(plan.phases)
+    # Without the check the same plan comes out, without figures.
+    bare = GaitPlanner(geom, make_structure(structure, 3.0), loads=None).plan(distance)
+    assert bare.peak_load is None and len(bare.phases) == len(plan.phases)
 
 
 @pytest.mark.parametrize('kwargs', [{'speed': 0.0}, {'speed': float('nan')}, {'world_q_structure': (0, 0, 0, 2)},
@@ -201,3 +202,15 @@ def test_ordinary_climbs_of_the_shipped_robots_plan_with_their_load_figures():
 def test_bad_load_check_settings_are_a_value_error(kwargs):
     with pytest.raises(ValueError):
         LoadCheck(**kwargs)
+
+
+def test_bringing_ring_b_back_to_the_gait_is_load_checked_too():
+    geom = load_robot('pole_climber')
+    planner = GaitPlanner(geom, make_structure('pole', 3.0))
+    off = Pose(geom.home_position + [0.015, 0.0, 0.0], geom.home_quaternion_xyzw)
+    phases = planner.approach(off, 0.2, 0.2 + geom.home_position[2])
+    assert [ph.loads is not None for ph in phases] == [True, True, False]
+    heavy = GaitPlanner(geom.with_(payload=Payload(ring='ring_b', mass=200.0)), make_structure('pole', 3.0))
+    with pytest.raises(PlanError) as err:
+        heavy.approach(off, 0.2, 0.2 + geom.home_position[2])
+    assert (err.value.limit, err.value.ring, err.value.phase) == (PlanLimit.HOLDING, 'ring_a', 'release_b')
