@@ -7,11 +7,13 @@ For each shipped climbing robot on its structure, an ordinary climb is planned (
 of ``--repeat`` runs, ``time.process_time``):
 
 * ``plan, no loads``: ``GaitPlanner(..., loads=None)``, every kinematic limit checked;
-* ``plan + loads``: the default planner, which also runs ``rrps_sim.path_loads`` on every phase
-  one gripper holds (vectorised over each phase's samples);
+* ``plan + loads``: the default planner, which also checks the loads of every phase one
+  gripper holds (``rrps_teleop.climbing.load_check``: ``rrps_sim.path_loads.loads_at`` once for
+  all the samples of the phases one ring holds at one attitude); ``load check``: that check
+  alone;
 * baseline ``loads per pose``: the same loads, one pose at a time in a Python loop (the twist
   and its rate still differentiated once per phase), and the largest difference of its forces
-  from the vectorised ones.
+  from those of each phase computed alone (``LoadCheck.phase_loads``).
 
 Target: the vectorised load check at least 5x faster than the per-pose loop (MET/MISSED).
 """

@@ -34,7 +34,8 @@ from rrps_sim.reduced import PlatformPose, body_accelerations, body_velocities, 
 from rrps_sim.statics import solve_actuator_forces
 from rrps_sim.support import Support, support_of
 
-__all__ = ['PathLoads', 'LoadViolation', 'path_loads', 'first_violation', 'ACTUATOR_FORCE', 'HOLDING']
+__all__ = ['PathLoads', 'LoadViolation', 'path_twists', 'path_loads', 'loads_at', 'first_violation',
+           'ACTUATOR_FORCE', 'HOLDING']
 
 #: The two load limits a path can break.
 ACTUATOR_FORCE = 'actuator_force'
@@ -120,25 +121,46 @@ def _supporting_wrench(pose: PlatformPose, twist: np.ndarray, twist_dot: np.ndar
     return np.concatenate([force, moment], axis=-1)
 
 
+def path_twists(t, positions, quaternions_xyzw) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(positions (K, 3), unit sign-continuous quaternions (K, 4), twists (K, 6), their rates
+    (K, 6)) of K samples of a_T_b at times ``t``, differentiated from the samples
+    (:func:`rrps_sim.inverse_dynamics.trajectory_twists`); with fewer than MIN_SAMPLES samples
+    (a gripper phase: one pose) the robot is at rest. ValueError for invalid input."""
+    p = np.atleast_2d(np.asarray(positions, dtype=float))
+    q = np.atleast_2d(np.asarray(quaternions_xyzw, dtype=float))
+    if len(p) >= MIN_SAMPLES:
+        t, p, q = check_trajectory(t, p, q)
+        return (p, q, *trajectory_twists(t, p, q))
+    if np.shape(t) != (len(p),):
+        raise ValueError(f't must have shape ({len(p)},), got {np.shape(t)}')
+    return p, q, np.zeros((len(p), 6)), np.zeros((len(p), 6))
+
+
 def path_loads(geometry: RobotGeometry, t, positions, quaternions_xyzw, *, support='ring_a',
                world_q_support=None, gravity=None) -> PathLoads:
     """:class:`PathLoads` along K samples of a_T_b at times ``t`` (K,) [s] (positions (K, 3) [m],
     quaternions (K, 4) x, y, z, w) while ``support`` grips, turned by ``world_q_support`` in a
     world of ``gravity`` (:func:`rrps_sim.support.support_of`). The payload and tool wrench are
-    the geometry's. With fewer than MIN_SAMPLES samples (a gripper phase: one pose) the robot is
-    taken at rest. Raises ValueError for invalid input, SingularPoseError (a ValueError too) at a
-    singular pose."""
+    the geometry's. The motion is differentiated from the samples (:func:`path_twists`). Raises
+    ValueError for invalid input, SingularPoseError (a ValueError too) at a singular pose."""
+    return loads_at(geometry, *path_twists(t, positions, quaternions_xyzw), support=support,
+                    world_q_support=world_q_support, gravity=gravity)
+
+
+def loads_at(geometry: RobotGeometry, positions, quaternions_xyzw, twist, twist_dot, *, support='ring_a',
+             world_q_support=None, gravity=None) -> PathLoads:
+    """:class:`PathLoads` at N poses of a_T_b (positions (N, 3), quaternions (N, 4)) moving with
+    ring_b's twists and their rates (N, 6) (ring_a's frame, as in :mod:`rrps_sim.reduced`), e.g.
+    the samples of several paths held by one ring at one attitude, batched. Other arguments and
+    errors as :func:`path_loads`."""
     world = support_of(support, world_q_support, gravity)
     p = np.atleast_2d(np.asarray(positions, dtype=float))
-    q = np.atleast_2d(np.asarray(quaternions_xyzw, dtype=float))
-    if len(p) >= MIN_SAMPLES:
-        t, p, q = check_trajectory(t, p, q)
-        twist, twist_dot = trajectory_twists(t, p, q)
-    elif np.shape(t) != (len(p),):
-        raise ValueError(f't must have shape ({len(p)},), got {np.shape(t)}')
-    else:
-        twist = twist_dot = np.zeros((len(p), 6))
-    pose = PlatformPose(geometry, p, q, world)
+    twist, twist_dot = (np.asarray(x, dtype=float) for x in (twist, twist_dot))
+    if twist.shape != (len(p), 6) or twist_dot.shape != (len(p), 6):
+        raise ValueError(f'twist and twist_dot must have shape ({len(p)}, 6), got {twist.shape}, {twist_dot.shape}')
+    if not (np.all(np.isfinite(twist)) and np.all(np.isfinite(twist_dot))):
+        raise ValueError('twist and twist_dot must be finite')
+    pose = PlatformPose(geometry, p, quaternions_xyzw, world)
     forces = solve_actuator_forces(pose, generalized_forces(pose, twist, twist_dot))
     wrench = _supporting_wrench(pose, twist, twist_dot)
     capacity = geometry.holding.get(world.ring)

@@ -20,7 +20,7 @@ from rrps_description.rotations import (
     rotation_vector_to_quat_xyzw,
 )
 from rrps_sim.loads import holding_margin
-from rrps_sim.path_loads import ACTUATOR_FORCE, HOLDING, first_violation, path_loads
+from rrps_sim.path_loads import ACTUATOR_FORCE, HOLDING, first_violation, loads_at, path_loads
 
 G_WORLD = np.array([0.0, 0.0, -9.81])
 LIGHT = LinkInertia(mass=1e-9, com_from_joint=0.1, inertia_transverse=1e-12, inertia_axial=1e-12)
@@ -176,3 +176,11 @@ def test_bad_paths_are_a_value_error(t, p, q):
     geom = load_robot('pole_climber')
     with pytest.raises(ValueError):
         path_loads(geom, t, np.asarray(p) + geom.home_position, q)
+
+
+@pytest.mark.parametrize('twist', [np.zeros((2, 6)), np.full((3, 6), np.nan)])
+def test_bad_twists_are_a_value_error(twist):
+    geom = load_robot('pole_climber')
+    p, q = _samples(geom, 'ring_a', [0.0, 0.1, 0.2])
+    with pytest.raises(ValueError):
+        loads_at(geom, p, q, twist, np.zeros((3, 6)))

@@ -190,6 +190,12 @@ def test_ordinary_climbs_of_the_shipped_robots_plan_with_their_load_figures():
         peak = plan.peak_load
         assert 0.0 < peak.peak_force < geom.max_force and 0.0 < peak.holding_margin < 1.0
         assert peak.peak_force == max(ph.loads.peak_force for ph in held)
+        # The plan's phases are computed in batches (one per holding ring and attitude): each
+        # phase alone gives the same figures.
+        for ph in held[:6]:
+            alone = LoadCheck().phase_loads(geom, ph)[0]
+            assert ph.loads.peak_force == pytest.approx(alone.peak_force, rel=1e-9, abs=1e-9)
+            assert ph.loads.holding_margin == pytest.approx(alone.min_holding_margin, rel=1e-9, abs=1e-9)
         rows = plan.rows()
         assert max(r['peak_force'] for r in rows if not np.isnan(r['peak_force'])) == peak.peak_force
     # Without the check the same plan comes out, without figures.

@@ -15,13 +15,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from rrps_description.geometry import RobotGeometry
-from rrps_description.rotations import matrix_to_quat_xyzw, quat_multiply_xyzw
+from rrps_description.rotations import quat_multiply_xyzw
 from rrps_description.world import IDENTITY_QUATERNION, STANDARD_GRAVITY, Support
-from rrps_sim.path_loads import ACTUATOR_FORCE, LoadViolation, PathLoads, first_violation, path_loads
+from rrps_sim.path_loads import ACTUATOR_FORCE, LoadViolation, PathLoads, first_violation, loads_at, path_twists
 from rrps_teleop.climbing.phase_path import PhasePath
 from rrps_teleop.climbing.plan import Phase, PhaseLoads, PlanError, PlanLimit
 
@@ -46,37 +47,71 @@ class LoadCheck:
             raise ValueError(f'speed: must be a positive finite number [m/s], got {self.speed!r}')
         Support.of('ring_a', self.world_q_structure, self.gravity)   # ValueError if invalid
 
+    def _timed(self, geometry: RobotGeometry, ph: Phase) -> _Timed:
+        ring = 'ring_a' if ph.gripper_a else 'ring_b'
+        world_T_ring = ph.world_T_a if ring == 'ring_a' else ph.world_T_b
+        q = quat_multiply_xyzw(np.asarray(self.world_q_structure, dtype=float), world_T_ring.quaternion_xyzw)
+        timed = PhasePath(ph.path, ph.ring_angles, speed=self.speed,
+                          characteristic_length=geometry.characteristic_length)
+        t = timed.times
+        kept = np.flatnonzero(np.concatenate([[True], np.diff(t) > 1e-12]))
+        fractions = t[kept] / t[-1] if t[-1] > 0.0 else np.zeros(len(kept))
+        motion = path_twists(t[kept], ph.path[kept, :3, 3], timed.quaternions_xyzw[kept])
+        return _Timed(ring, q / np.linalg.norm(q), kept, fractions, motion)
+
+    def _loads(self, geometry: RobotGeometry, timed: list[_Timed]) -> list[PathLoads]:
+        """The loads of timed phases, one :func:`loads_at` for all the phases one ring holds at
+        one attitude (an attitude within 1e-9 counts as the same)."""
+        groups: dict[tuple, list[int]] = {}
+        for i, x in enumerate(timed):
+            groups.setdefault((x.ring, *np.round(x.world_q, 9)), []).append(i)
+        out: list[PathLoads | None] = [None] * len(timed)
+        for members in groups.values():
+            parts = [timed[i].motion for i in members]
+            loads = loads_at(geometry, *(np.concatenate(arrays) for arrays in zip(*parts)),
+                             support=timed[members[0]].ring, world_q_support=timed[members[0]].world_q,
+                             gravity=self.gravity)
+            ends = np.cumsum([len(m[0]) for m in parts])
+            for i, stop, n in zip(members, ends, (len(m[0]) for m in parts)):
+                cut = slice(stop - n, stop)
+                out[i] = PathLoads(loads.support, loads.actuator_forces[cut], loads.support_wrench[cut],
+                                   loads.holding_margin[cut])
+        return out
+
     def phase_loads(self, geometry: RobotGeometry, ph: Phase) -> tuple[PathLoads, np.ndarray, np.ndarray] | None:
         """The loads along a phase during which one gripper holds, the indices in the phase's
         path of their samples (repeated poses once) and their fractions of the phase's duration;
         None for a hand-over."""
         if ph.gripper_a == ph.gripper_b:
             return None
-        ring = 'ring_a' if ph.gripper_a else 'ring_b'
-        world_T_ring = ph.world_T_a if ring == 'ring_a' else ph.world_T_b
-        q = quat_multiply_xyzw(np.asarray(self.world_q_structure, dtype=float), world_T_ring.quaternion_xyzw)
-        t = PhasePath(ph.path, ph.ring_angles, speed=self.speed,
-                      characteristic_length=geometry.characteristic_length).times
-        kept = np.flatnonzero(np.concatenate([[True], np.diff(t) > 1e-12]))
-        path = ph.path[kept]
-        loads = path_loads(geometry, t[kept], path[:, :3, 3], matrix_to_quat_xyzw(path[:, :3, :3]),
-                           support=ring, world_q_support=q / np.linalg.norm(q), gravity=self.gravity)
-        return loads, kept, t[kept] / t[-1] if t[-1] > 0.0 else np.zeros(len(kept))
+        timed = self._timed(geometry, ph)
+        return self._loads(geometry, [timed])[0], timed.kept, timed.fractions
 
     def check(self, geometry: RobotGeometry, phases) -> None:
         """Check every phase in order and keep its :class:`PhaseLoads` on it (``Phase.loads``);
-        raises PlanError (limit ACTUATOR_FORCE or HOLDING) at the first one past a limit."""
-        for ph in phases:
-            checked = self.phase_loads(geometry, ph)
-            if checked is None:
-                continue
-            loads, kept, fractions = checked
+        raises PlanError (limit ACTUATOR_FORCE or HOLDING) at the first one past a limit. The
+        phases' samples are computed in batches (:meth:`_loads`)."""
+        held = [ph for ph in phases if ph.gripper_a != ph.gripper_b]
+        timed = [self._timed(geometry, ph) for ph in held]
+        for ph, x, loads in zip(held, timed, self._loads(geometry, timed)):
             violation = first_violation(geometry, loads)
             if violation is not None:
-                raise _refusal(geometry, ph, loads, int(kept[violation.sample]),
-                               float(fractions[violation.sample]), violation)
+                raise _refusal(geometry, ph, loads, int(x.kept[violation.sample]),
+                               float(x.fractions[violation.sample]), violation)
             ph.loads = PhaseLoads(peak_force=loads.peak_force, peak_leg=f'leg_{loads.peak_leg + 1}',
                                   holding_margin=loads.min_holding_margin, holding_ring=loads.support.ring)
+
+
+class _Timed(NamedTuple):
+    """A held phase timed: the holding ring, its attitude in the world, the indices of the kept
+    samples in the phase's path, their fractions of its duration, and (positions, quaternions,
+    twists, twist rates) at them (:func:`rrps_sim.path_loads.path_twists`)."""
+
+    ring: str
+    world_q: np.ndarray
+    kept: np.ndarray
+    fractions: np.ndarray
+    motion: tuple
 
 
 def _refusal(geometry: RobotGeometry, ph: Phase, loads: PathLoads, k: int, fraction: float,
