@@ -1,8 +1,9 @@
 """Loads as limits of a climbing plan: every phase during which one gripper holds (release and
-move of the other ring) is checked along its path with :func:`rrps_sim.path_loads.path_loads`,
-quasi-static plus the accelerations of the phase's timing law (:class:`PhasePath` at ``speed``),
-in the world gravity of the holding ring's attitude (the plan's odometry, the structure turned
-by ``world_q_structure`` in the world). A phase where an actuator force exceeds the robot's
+move of the other ring) is checked along its path with :mod:`rrps_sim.path_loads` (one batch
+for all the phases one ring holds at one attitude), quasi-static plus the accelerations of the
+phase's timing law (:class:`PhasePath` at ``speed``), in the world gravity of the holding
+ring's attitude (the plan's odometry, the structure turned by ``world_q_structure`` in the
+world). A phase where an actuator force exceeds the robot's
 ``max_force`` or the holding gripper's margin falls below zero is refused with a
 :class:`PlanError` naming the limit, the leg or ring, and where (step, phase, pose, fraction of
 the phase). Hand-over phases (both grippers closed) are not checked: the split of the load
@@ -48,6 +49,7 @@ class LoadCheck:
         Support.of('ring_a', self.world_q_structure, self.gravity)   # ValueError if invalid
 
     def _timed(self, geometry: RobotGeometry, ph: Phase) -> _Timed:
+        """A held phase timed at ``speed`` and differentiated."""
         ring = 'ring_a' if ph.gripper_a else 'ring_b'
         world_T_ring = ph.world_T_a if ring == 'ring_a' else ph.world_T_b
         q = quat_multiply_xyzw(np.asarray(self.world_q_structure, dtype=float), world_T_ring.quaternion_xyzw)
@@ -71,11 +73,10 @@ class LoadCheck:
             loads = loads_at(geometry, *(np.concatenate(arrays) for arrays in zip(*parts)),
                              support=timed[members[0]].ring, world_q_support=timed[members[0]].world_q,
                              gravity=self.gravity)
-            ends = np.cumsum([len(m[0]) for m in parts])
-            for i, stop, n in zip(members, ends, (len(m[0]) for m in parts)):
-                cut = slice(stop - n, stop)
-                out[i] = PathLoads(loads.support, loads.actuator_forces[cut], loads.support_wrench[cut],
-                                   loads.holding_margin[cut])
+            cuts = np.cumsum([len(m[0]) for m in parts])[:-1]
+            pieces = (np.split(a, cuts) for a in (loads.actuator_forces, loads.support_wrench, loads.holding_margin))
+            for i, *fields in zip(members, *pieces):
+                out[i] = PathLoads(loads.support, *fields)
         return out
 
     def phase_loads(self, geometry: RobotGeometry, ph: Phase) -> tuple[PathLoads, np.ndarray, np.ndarray] | None:
