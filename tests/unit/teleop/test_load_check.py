@@ -2,7 +2,9 @@
 points of real plans against computations written here from the robot description alone:
 virtual work with a finite-difference Jacobian of the leg lengths with respect to the moving
 ring's pose (from the anchors), the moving ring's accelerations differentiated here from the
-plan's samples, and the whole robot's momentum balance for the holding ring's reaction."""
+plan's samples, and the whole robot's momentum balance for the holding ring's reaction. Then
+the planner's refusals (holding, actuator force: the limit, the ring or leg, where) and the
+figures of plans that pass."""
 
 from __future__ import annotations
 
