@@ -152,7 +152,8 @@ class FrameNodePlanner(GaitPlanner):
             raise ValueError(f'junction_deg must be in 1 .. 90 deg, got {junction_deg!r}')
         self.frame = make_structure('frame', junction_deg=junction_deg, out_of_plane=out_of_plane)
         self.faces = {side: BeamFace(self.frame, side, ring_height=ring_height) for side in (1, -1)}
-        super().__init__(geometry, self.faces[1], use_extra_dof=use_extra_dof, spacing=spacing)
+        # forces and holding are searched at every pose below, with the beam-face clamp's model
+        super().__init__(geometry, self.faces[1], use_extra_dof=use_extra_dof, spacing=spacing, loads=None)
         self.dof = use_extra_dof and {'ring_a', 'ring_b'} <= set(geometry.extra_dof)
         self.junction_deg, self.out_of_plane = float(junction_deg), bool(out_of_plane)
         self.gravity = gravity

@@ -10,7 +10,9 @@ universal and spherical joint angles, leg-leg interference of all 15 pairs, cond
 legs' clearance to a tubular member's surface (its varying radius), and the gripper interlock
 (never both grippers open, a ring moves only while its own gripper is open and the other's
 closed). A plan that breaks a limit is refused with ``PlanError`` naming the limit, the legs and
-where (step, phase, sample).
+where (step, phase, sample). With a :class:`~rrps_teleop.climbing.load_check.LoadCheck` (the
+default) the planner also refuses a phase whose actuator forces or holding gripper's reaction
+exceed their limits anywhere along it.
 
 Robots with the extra ring DOF (frame climber, section 3.1 / Figure 9) turn the open ring's
 ring-to-gripper joint while it moves, so the gripper takes the orientation the next member's
@@ -37,6 +39,7 @@ from rrps_description.structures import Structure, interpolate_frames
 from rrps_interfaces.climb import PhaseAction
 from rrps_kinematics import inverse_kinematics, margins
 from rrps_kinematics.odometry import RingOdometry, invert, rot_z, transform
+from rrps_teleop.climbing.load_check import LoadCheck
 from rrps_teleop.climbing.plan import ClimbPlan, Phase, PlanError, PlanLimit, check_interlock
 
 __all__ = ['GaitPlanner', 'GaitState', 'plan_climb']
@@ -59,14 +62,16 @@ class GaitPlanner:
     so the legs are never twisted by a member's section orientation (off: the rings stay bolted
     to their grippers). ``step_fraction``: the default step is this fraction of the
     straight-member reach ``reach`` (the separations ring_b - ring_a within every limit).
+    ``loads``: how the loads are checked (None: not at all).
     """
 
     def __init__(self, geometry: RobotGeometry, structure: Structure, *, use_extra_dof: bool = True,
-                 spacing: float = 0.01, step_fraction: float = 0.7):
+                 spacing: float = 0.01, step_fraction: float = 0.7, loads: LoadCheck | None = LoadCheck()):
         if not (spacing > 0.0 and 0.0 < step_fraction <= 1.0):
             raise ValueError('spacing must be > 0 and 0 < step_fraction <= 1')
         self.geometry = geometry
         self.structure = structure
+        self.loads = loads
         self.spacing = float(spacing)
         self._last_mounts: tuple | None = None  # ((theta_a, theta_b), mounts): see mounts()
         self.surface = structure.kind == 'surface'
@@ -313,11 +318,16 @@ class GaitPlanner:
         path = np.array([transform(pi, Ri) for pi, Ri in zip(p, rot)])
         world_T_a = np.broadcast_to(wa, path.shape)
         world_T_b = wa @ path
-        return [self._phase(state, 0, PhaseAction.RELEASE, 'ring_b', True, False,
-                            world_T_a=world_T_a[:1], world_T_b=world_T_b[:1]),
-                self._phase(state, 0, PhaseAction.MOVE, 'ring_b', True, False,
-                            world_T_a=world_T_a, world_T_b=world_T_b),
-                self._phase(state, 0, PhaseAction.GRIP, 'ring_b', True, True)]
+        phases = [self._phase(state, 0, PhaseAction.RELEASE, 'ring_b', True, False,
+                              world_T_a=world_T_a[:1], world_T_b=world_T_b[:1]),
+                  self._phase(state, 0, PhaseAction.MOVE, 'ring_b', True, False,
+                              world_T_a=world_T_a, world_T_b=world_T_b),
+                  self._phase(state, 0, PhaseAction.GRIP, 'ring_b', True, True)]
+        for ph, wb in zip(phases, (world_T_b[0], world_T_b[-1], world_T_b[-1])):
+            ph.world_T_a, ph.world_T_b = Pose.from_matrix(wa), Pose.from_matrix(wb)
+        if self.loads is not None:
+            self.loads.check(self.geometry, phases)
+        return phases
 
 
     def plan(self, distance: float, steps: int | None = None, *, start: float | None = None,
@@ -367,14 +377,17 @@ class GaitPlanner:
             else:
                 odo.update(ph.a_T_b, ph.gripper_a, ph.gripper_b, a_T_grip=ma, b_T_grip=mb)
             ph.world_T_a, ph.world_T_b = odo.world_T_a, odo.world_T_b
+        if self.loads is not None:
+            self.loads.check(self.geometry, phases)
         return ClimbPlan(robot=self.geometry.name, structure=self.structure.name, step_length=step_length,
                          steps=steps, phases=phases)
+
 
 def plan_climb(geometry: RobotGeometry, structure: Structure, distance: float, steps: int | None = None,
                **kwargs) -> ClimbPlan:
     """Shortcut: ``GaitPlanner(geometry, structure, ...).plan(distance, steps, ...)``; planner
-    options (use_extra_dof, spacing, step_fraction) and plan options (start,
+    options (use_extra_dof, spacing, step_fraction, loads) and plan options (start,
     initial_separation) are both accepted."""
-    planner_keys = {'use_extra_dof', 'spacing', 'step_fraction'}
+    planner_keys = {'use_extra_dof', 'spacing', 'step_fraction', 'loads'}
     planner = GaitPlanner(geometry, structure, **{k: v for k, v in kwargs.items() if k in planner_keys})
     return planner.plan(distance, steps, **{k: v for k, v in kwargs.items() if k not in planner_keys})

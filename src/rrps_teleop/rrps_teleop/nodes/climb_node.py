@@ -51,6 +51,7 @@ from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, LINK_STATE_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
 from rrps_teleop.climbing.frame_node import FrameNodePlanner
 from rrps_teleop.climbing.gait import GaitPlanner
+from rrps_teleop.climbing.load_check import LoadCheck
 from rrps_teleop.climbing.step_machine import ClimbOutput, ClimbStepMachine, ClimbTarget, StepConfig
 
 __all__ = ['PARAMETERS', 'ClimbNode', 'main']
@@ -147,7 +148,8 @@ class ClimbNode(Node):
             if values['out_of_plane']:
                 raise ValueError('out_of_plane needs junction_deg > 0')
             structure = make_structure(values['structure'], values['structure_length'] or None)
-            return GaitPlanner(self.geometry, structure, use_extra_dof=values['use_extra_dof'])
+            return GaitPlanner(self.geometry, structure, use_extra_dof=values['use_extra_dof'],
+                               loads=LoadCheck(speed=values['speed']))
         if values['structure'] != 'frame':
             raise ValueError(f"junction_deg needs structure 'frame', got {values['structure']!r}")
         planner = FrameNodePlanner(self.geometry, values['junction_deg'], values['out_of_plane'],
