@@ -98,6 +98,8 @@ PARAMETERS = NodeParameters('viewer_node', 'rrps_teleop', [
     Parameter('structure_length', 3.0, 'length of the drawn structure', unit='m', range=(0.5, 100.0)),
     Parameter('workspace_resolution', 0.02, 'grid of the reachable workspace drawn around the robot; 0: not '
               'drawn', unit='m', range=(0.0, 0.2)),
+    Parameter('workspace_payload_max', 100.0, 'top of the payload slider of the load-feasible workspace '
+              '(a payload on ring_b, ring_a gripping); 0: no slider', unit='kg', range=(0.0, 1e4)),
     Parameter('plot_window', 20.0, 'leg-length plot window', unit='s', range=(1.0, 600.0)),
     Parameter('robot_topics', 'direct', "read the robots' state from their own topics (direct) or from their "
               'link relays (link)', choices=SOURCES),
@@ -122,8 +124,7 @@ class ViewerNode(Node):
         self.master_geometry = load_robot(master_name) if master_name else None
         host, port, token = values['host'], values['port'], values['token']
         render_rate, enable_rate = values['render_rate'], values['enable_rate']
-        deadman_timeout = values['deadman_timeout']
-        origin = values['master_origin']
+        deadman_timeout, origin = values['deadman_timeout'], values['master_origin']
         structure, structure_length = values['structure'], values['structure_length']
         resolution = values['workspace_resolution']
         self._plot_window = values['plot_window']
@@ -177,7 +178,7 @@ class ViewerNode(Node):
             geometry=self.geometry, master_geometry=self.master_geometry,
             master_origin=self._master_origin,
             structure=_structure_mesh(structure, structure_length), rate=render_rate,
-            title=f'rrps · {self.geometry.name}',
+            title=f'rrps · {self.geometry.name}', payload_max=values['workspace_payload_max'] if resolution else 0.0,
             robots=[self.robots.name(r) for r in self.robots.robots] if len(self.robots.robots) > 1 else ())
         shown = '127.0.0.1' if host in ('0.0.0.0', '::', '') else host
         self.url = f'http://{shown}:{self.viewer.port}'
@@ -352,7 +353,7 @@ class ViewerNode(Node):
         if self.workspace is None or frame.slave is None:
             return
         a_T_b = frame.slave.world_T_a.inverse() @ frame.slave.world_T_b
-        self.workspace.request(a_T_b.quaternion_xyzw)
+        self.workspace.request(a_T_b.quaternion_xyzw, frame.slave.world_T_a.quaternion_xyzw)
         frame.workspace = self.workspace.latest()
         master_msg = latest.get(MASTER_POSE)
         if frame.workspace is None or master_msg is None or self.master_geometry is None:
@@ -389,9 +390,7 @@ class ViewerNode(Node):
         ws = frame.workspace
         if ws is not None and frame.slave is not None:
             a_T_b = frame.slave.world_T_a.inverse() @ frame.slave.world_T_b
-            lines.append(f'**Workspace:** {ws.workspace.volume * 1e3:.1f} L at this orientation '
-                         f'({ws.workspace.spacing * 1e3:.0f} mm grid); ring_b '
-                         f'{ws.distance(a_T_b.position) * 1e3:.0f} mm inside its boundary')
+            lines.append(f'**Workspace:** {ws.describe(a_T_b.position)}')
         if fk_status is not None:
             lines.append(f'**FK:** {panel.fk_line(fk_status)}')
         now = self.get_clock().now().nanoseconds * 1e-9
@@ -432,6 +431,10 @@ class ViewerNode(Node):
 
     def set_driver_active(self, client_id: int, active: bool) -> None:
         self._actions.put((OperatorRequest.DRIVER, client_id, active))
+
+    def set_workspace_payload(self, client_id: int, mass: float) -> None:
+        if self.workspace is not None:  # the drawn load-feasible workspace: the viewer's own
+            self.workspace.set_payload(mass)
 
     def resume_climb(self, client_id: int) -> None:
         self._actions.put((OperatorRequest.RESUME, client_id, None))

@@ -43,6 +43,8 @@ class OperatorActions(Protocol):
 
     def select_robot(self, client_id: int, name: str) -> None: ...
 
+    def set_workspace_payload(self, client_id: int, mass: float) -> None: ...
+
 
 class ClientControls:
     """The operator folder of one browser: token entry, control, teleop, climb, grippers.
@@ -77,6 +79,10 @@ class ClientControls:
             self.scale = gui.add_slider('Translation scale', min=0.5, max=8.0, step=0.5,
                                         initial_value=4.0)
             self.apply = gui.add_button('Apply mapping')
+            self.payload = None if not server.payload_max > 0.0 else gui.add_slider(
+                'Payload [kg]', min=0.0, max=server.payload_max, step=server.payload_max / 50.0, initial_value=0.0,
+                hint='a payload on ring_b: the workspace drawn is where the robot also holds it '
+                     '(actuator forces, gripper holding)')
         with gui.add_folder('Robot', order=2):
             self.robot = self.drive = None
             if server.robots:  # a fleet: which robot the master drives
@@ -138,6 +144,8 @@ class ClientControls:
         self.activate.on_click(controller_only(lambda: actions.set_driver_active(cid, True)))
         self.deactivate.on_click(controller_only(lambda: actions.set_driver_active(cid, False)))
         self.resume.on_click(controller_only(lambda: actions.resume_climb(cid)))
+        if self.payload is not None:
+            self.payload.on_update(controller_only(lambda: actions.set_workspace_payload(cid, float(self.payload.value))))
         if self.drive is not None:
             self.drive.on_click(controller_only(lambda: actions.select_robot(cid, str(self.robot.value))))
         self.step_up.on_click(controller_only(lambda: actions.step(cid, 'up')))
@@ -183,7 +191,8 @@ class ClientControls:
         self.hand.disabled = not (controlling and others)
         for handle in (self.clutch, self.deadman, self.mode, self.rotation, self.scale, self.apply,
                        self.activate, self.deactivate, self.step_up, self.step_down, self.resume,
-                       *self.grip_buttons.values(), *(h for h in (self.robot, self.drive) if h is not None)):
+                       *self.grip_buttons.values(),
+                       *(h for h in (self.robot, self.drive, self.payload) if h is not None)):
             handle.disabled = not controlling
         if self.clutch.value and not (controlling and control.clutch_engaged):
             self.clutch.value = False
