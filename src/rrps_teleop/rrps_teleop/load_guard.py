@@ -29,12 +29,12 @@ from rrps_interfaces.teleop import TeleopCode
 from rrps_kinematics import forward_kinematics
 from rrps_kinematics.backend import use_numba
 from rrps_kinematics.errors import SingularPoseError
-from rrps_kinematics.limits import pose_margins
+from rrps_kinematics.limits import limit_arrays, pose_margins
 from rrps_sim.compiled_statics import pose_statics, statics_arrays
 from rrps_sim.loads import static_solution
 from rrps_sim.support import Support
+from rrps_teleop.command_layout import COMMAND_SIZE, STEP_ACCEPTED, STEP_FK_FAILED
 from rrps_teleop.guards import GuardedCommand, pose_step, refusal
-from rrps_teleop.command_layout import STEP_ACCEPTED
 from rrps_teleop.teleop_config import TeleopConfig
 
 __all__ = ['LoadMargins', 'LoadGuard']
@@ -64,7 +64,11 @@ class LoadGuard:
     def __init__(self, slave: RobotGeometry, support: Support | None = None, *, backend: str = 'auto'):
         self.slave = slave
         self.support = Support.of() if support is None else support
-        self._arrays = statics_arrays(slave, self.support) if use_numba(backend) else None
+        compiled = use_numba(backend)
+        self._arrays = statics_arrays(slave, self.support) if compiled else None
+        #: the compiled guards (:mod:`.compiled_guards`) scale a step with numba
+        self._kernels = _compiled_guards() if compiled else None
+        self._limits = limit_arrays(slave)
         self._forces, self._wrench = np.empty(6), np.empty(6)
         self._cached: tuple[GuardedCommand, LoadMargins] | None = None
 
@@ -110,10 +114,9 @@ class LoadGuard:
                 if f < factor:
                     factor, slowed = f, (slow if f > 0.0 else stop)
         if factor < 1.0:
-            cand = self._scaled(prev, cand, factor, joint)
-            if cand is None:
+            outcome, cand = self._scaled(prev, cand, factor, joint, halt)
+            if outcome == STEP_FK_FAILED:
                 return None, TeleopCode.INVALID, 'FK of the load-guarded leg lengths did not converge: holding'
-            outcome = refusal(prev, cand, 0, halt)[0]
             if outcome != STEP_ACCEPTED:
                 return None, slowed, 'a load-guarded step would break a kinematic margin: holding'
             m1 = self.margins(cand)
@@ -126,19 +129,31 @@ class LoadGuard:
                 f"holding margin of {self.support.ring}'s gripper {m1.holding:.4g} would be negative: holding")
         return cand, slowed, ''
 
-    def _scaled(self, prev: GuardedCommand, cand: GuardedCommand, factor: float,
-                joint: bool) -> GuardedCommand | None:
-        """The command a ``factor`` of the way from ``prev`` to ``cand``: along the leg lengths
-        (an FK warm-started at prev) or along the pose (straight line, constant-axis rotation)."""
+    def _scaled(self, prev: GuardedCommand, cand: GuardedCommand, factor: float, joint: bool,
+                halt: float) -> tuple[int, GuardedCommand]:
+        """(STEP_*, the command a ``factor`` of the way from ``prev`` to ``cand``): along the leg
+        lengths (an FK warm-started at prev) or along the pose (straight line, constant-axis
+        rotation); refused when it breaks or worsens a kinematic margin."""
         g = self.slave
+        if self._kernels is not None:
+            out = np.empty(COMMAND_SIZE)
+            outcome = self._kernels.scaled_step(self._limits, 1.0 / g.characteristic_length, prev.buffer,
+                                                cand.buffer, factor, joint, halt, out)
+            return outcome, GuardedCommand(out, g.min_conditioning)
         if joint:
             lengths = prev.lengths + factor * (cand.lengths - prev.lengths)
-            fk = forward_kinematics(g, lengths, prev.position, prev.quaternion)
+            fk = forward_kinematics(g, lengths, prev.position, prev.quaternion, backend='numpy')
             if not fk.converged:
-                return None
+                return STEP_FK_FAILED, prev
             p, q = fk.position, fk.quaternion_xyzw
         else:
             p, q = pose_step(prev.position, prev.quaternion, cand.position, cand.quaternion, factor)
             lengths = None
-        m = pose_margins(g, p, q)
-        return GuardedCommand.at(p, q, m.lengths if lengths is None else lengths, m, g.min_conditioning)
+        m = pose_margins(g, p, q, backend='numpy')
+        scaled = GuardedCommand.at(p, q, m.lengths if lengths is None else lengths, m, g.min_conditioning)
+        return refusal(prev, scaled, 0, halt)[0], scaled
+
+
+def _compiled_guards():
+    from rrps_teleop import compiled_guards
+    return compiled_guards

@@ -13,6 +13,7 @@ from rrps_description.pose import Pose
 from rrps_description.rotations import rotation_vector_to_quat_xyzw
 from rrps_description.world import Support
 from rrps_interfaces.teleop import TeleopCode
+from rrps_kinematics import inverse_kinematics
 from rrps_sim.loads import static_solution
 from rrps_teleop.load_guard import LoadGuard
 from rrps_teleop.mapping import TeleopConfig, TeleopMapping
@@ -133,3 +134,35 @@ def test_the_compiled_and_the_numpy_load_margins_agree_with_the_statics():
             np.testing.assert_allclose(m.forces, sol.actuator_forces, rtol=1e-9, atol=1e-9)
             assert m.force == pytest.approx(1.0 - np.abs(sol.actuator_forces).max() / geom.max_force, abs=1e-12)
             assert m.holding == pytest.approx(float(sol.holding_margin), abs=1e-12)
+
+
+def _drive_joint(geom, direction, backend, steps=STEPS):
+    """A joint-mode session: the master's leg lengths follow the slave's IK along ``direction``
+    (0.05 m/s at the slave), scaled by 1/4; returns the outputs and the commanded lengths."""
+    config = TeleopConfig(mode='joint')
+    mapping = TeleopMapping(geom, config, backend=backend, support=WALL)
+    mapping.on_slave_pose(geom.home_position, geom.home_quaternion_xyzw)
+    outs, lengths = [], []
+    for k in range(steps):
+        t = k * DT
+        p = geom.home_position + direction * config.max_linear_speed * t
+        mapping.on_enable(t, True)
+        mapping.on_master_lengths(t, inverse_kinematics(geom, p, geom.home_quaternion_xyzw).lengths / 4.0)
+        out = mapping.step(t)
+        outs.append(out)
+        if out.has_command:
+            lengths.append(out.lengths)
+            mapping.on_slave_pose(out.position, out.quaternion_xyzw)
+    return outs, np.array(lengths)
+
+
+def test_both_backends_guard_alike_in_cartesian_and_joint_mode():
+    geom, towards = _near_holding_limit(0.05)
+    runs = {b: _drive(geom, towards, b, steps=120) for b in ('numba', 'numpy')}
+    np.testing.assert_allclose(runs['numba'][1], runs['numpy'][1], atol=1e-9)
+    assert [o.code for o in runs['numba'][0]] == [o.code for o in runs['numpy'][0]]
+    joint = {b: _drive_joint(geom, towards, b, steps=120) for b in ('numba', 'numpy')}
+    codes = [o.code for o in joint['numba'][0]]
+    assert TeleopCode.DECELERATE_FOR_HOLDING in codes and codes == [o.code for o in joint['numpy'][0]]
+    np.testing.assert_allclose(joint['numba'][1], joint['numpy'][1], atol=1e-9)
+    assert min(o.margins['holding'] for o in joint['numba'][0][1:]) >= 0.0
