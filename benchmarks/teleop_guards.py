@@ -87,7 +87,8 @@ def main(argv=None) -> int:
             codes[r] |= seen
     print(f'rrps teleop guard cost: Python {platform.python_version()}, {os.cpu_count()} CPUs, load average '
           f'{os.getloadavg()[0]:.1f}, {args.rounds} x {args.steps} steps of 5 ms each')
-    header = f'{"scenario":13s} {"backend":8s} {"load guards":12s} {"p50 [us]":>9s} {"p99 [us]":>9s} {"x off":>6s}  codes'
+    header = (f'{"scenario":13s} {"backend":8s} {"load guards":12s} {"p50 [us]":>9s} {"p99 [us]":>9s} '
+              f'{"x off":>6s}  codes')
     print(header)
     print('-' * (len(header) + 40))
     verdict = True

@@ -79,10 +79,7 @@ class ClientControls:
             self.scale = gui.add_slider('Translation scale', min=0.5, max=8.0, step=0.5,
                                         initial_value=4.0)
             self.apply = gui.add_button('Apply mapping')
-            self.payload = None if not server.payload_max > 0.0 else gui.add_slider(
-                'Payload [kg]', min=0.0, max=server.payload_max, step=server.payload_max / 50.0, initial_value=0.0,
-                hint='a payload on ring_b: the workspace drawn is where the robot also holds it '
-                     '(actuator forces, gripper holding)')
+            self.payload = self._payload_slider(gui)
         with gui.add_folder('Robot', order=2):
             self.robot = self.drive = None
             if server.robots:  # a fleet: which robot the master drives
@@ -144,8 +141,7 @@ class ClientControls:
         self.activate.on_click(controller_only(lambda: actions.set_driver_active(cid, True)))
         self.deactivate.on_click(controller_only(lambda: actions.set_driver_active(cid, False)))
         self.resume.on_click(controller_only(lambda: actions.resume_climb(cid)))
-        if self.payload is not None:
-            self.payload.on_update(controller_only(lambda: actions.set_workspace_payload(cid, float(self.payload.value))))
+        self._wire_payload(controller_only)
         if self.drive is not None:
             self.drive.on_click(controller_only(lambda: actions.select_robot(cid, str(self.robot.value))))
         self.step_up.on_click(controller_only(lambda: actions.step(cid, 'up')))
@@ -153,6 +149,21 @@ class ClientControls:
         for (ring, close), button in self.grip_buttons.items():
             button.on_click(controller_only(
                 lambda ring=ring, close=close: actions.set_gripper(cid, ring, close)))
+
+    def _payload_slider(self, gui):
+        """The slider of the payload [kg] on ring_b of the drawn load-feasible workspace (None
+        when the viewer has none)."""
+        top = self.server.payload_max
+        if not top > 0.0:
+            return None
+        return gui.add_slider('Payload [kg]', min=0.0, max=top, step=top / 50.0, initial_value=0.0,
+                              hint='a payload on ring_b: the workspace drawn is where the robot also holds it '
+                                   '(actuator forces, gripper holding)')
+
+    def _wire_payload(self, controller_only) -> None:
+        if self.payload is not None:
+            self.payload.on_update(controller_only(
+                lambda: self.server.actions.set_workspace_payload(self.client_id, float(self.payload.value))))
 
     def _hand_over(self) -> ControlResult:
         text = str(self.hand_to.value)
