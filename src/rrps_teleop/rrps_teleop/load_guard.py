@@ -92,6 +92,12 @@ class LoadGuard:
         leg = int(np.argmax(np.abs(forces)))
         return LoadMargins(1.0 - abs(float(forces[leg])) / self.slave.max_force, holding, forces, leg)
 
+    def warm_up(self, command: GuardedCommand, halt: float) -> None:
+        """Load (or compile) the kernels now, for the argument types of a real step."""
+        self.margins_at(command.position, command.quaternion)
+        if self._kernels is not None:
+            self._scaled(command, command, 0.5, False, halt)
+
     def margins(self, command: GuardedCommand) -> LoadMargins:
         """:meth:`margins_at` the command's pose (the last command's are kept)."""
         if self._cached is None or self._cached[0] is not command:

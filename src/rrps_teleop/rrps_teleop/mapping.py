@@ -166,7 +166,7 @@ class TeleopMapping:
         p, q = np.array(g.home_position, dtype=float), np.array(g.home_quaternion_xyzw, dtype=float)
         m = pose_margins(g, p, q)
         home = GuardedCommand.at(p, q, m.lengths, m, g.min_conditioning)
-        self.loads.margins_at(p, q)
+        self.loads.warm_up(home, self._halt)
         c = self.config
         self._kernels.mapped_pose(p, q, p.copy(), q.copy(), p.copy(), q.copy(), c.translation_scale,
                                   False, np.empty(3), np.empty(4))
