@@ -34,9 +34,9 @@ state to command, see benchmarks/teleop_latency.py) or on a timer at ``control_r
 watchdog releases the clutch when the deadman or the master data lapse, so the slave holds within
 one watchdog period of the timeout even when no master message arrives at all. ``mode``,
 ``translation_scale``, ``rotation_mode``, ``joint_scale`` and the guard parameters are settable
-at run time (validated; any change is a clutch). The load guards (``load_guards``, on by default) take the
-robot at rest on ``support`` turned by ``world_q_support`` in the world, with a point-mass
-payload (``payload_mass`` on ``payload_ring`` at ``payload_com``; unset: the robot's own).
+at run time (validated; any change is a clutch). The load guards (``load_guards``, on by
+default) take the robot at rest on ``support`` turned by ``world_q_support`` in the world, with a
+point-mass payload (``payload_mass`` on ``payload_ring`` at ``payload_com``; unset: the robot's).
 """
 
 from __future__ import annotations
