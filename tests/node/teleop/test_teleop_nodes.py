@@ -345,6 +345,29 @@ def test_guards_stop_an_unreachable_request_and_let_it_come_back(ros_context):
     assert top[2] - SLAVE.home_position[2] > 0.1  # it went as far as the stroke allows
 
 
+
+def test_the_load_guards_slow_a_motion_towards_slipping_and_let_it_come_back(ros_context):
+    """On a wall with a 120 kg payload, moving ring_b sideways turns the weight's moment about
+    ring_a's clamp up: the teleop slows down (DECELERATE_FOR_HOLDING) and stops short of a holding
+    margin of zero, then follows back at once."""
+    rig = Rig(ros_context, master=dict(trajectory='none', max_linear_speed=0.1),
+              teleop=dict(max_linear_speed=0.2, payload_mass=120.0,
+                          world_q_support=[0.70710678, 0.0, 0.0, 0.70710678]))
+    side = MASTER.home_position + [0.03, 0.0, 0.0]   # 0.12 m for the slave: beyond slipping
+    with rig.spin(ros_context):
+        assert wait_for(lambda: rig.poses and rig.master_poses)
+        rig.engage()
+        rig.handle = (side, MASTER.home_quaternion_xyzw)
+        assert wait_for(lambda: rig.code() == 'DECELERATE_FOR_HOLDING'), rig.values()
+        held = pose_from_msg(rig.wait_at_rest()[1])[0]
+        values = rig.values()
+        rig.handle = (MASTER.home_position, MASTER.home_quaternion_xyzw)
+        assert wait_for(lambda: pose_from_msg(rig.poses[-1][1])[0][0] < held[0] - 0.01)
+    assert 0.0 <= float(values['margin_holding']) < 0.1
+    assert float(values['margin_force']) > 0.0
+    assert 0.02 < held[0] - SLAVE.home_position[0] < 0.12
+
+
 def _ping_pong_run(ros_context, mode):
     """The probe is the master: one sample, wait for teleop_node's output and the slave command,
     next. Returns (master L published, L of teleop_node's first output after each sample,
