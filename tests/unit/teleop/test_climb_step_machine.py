@@ -19,7 +19,8 @@ from rrps_description.pose import Pose, pose_error
 from rrps_description.structures import pole
 from rrps_interfaces.climb import ClimbState, PauseReason, PhaseAction
 from rrps_teleop.climbing.gait import GaitPlanner
-from rrps_teleop.climbing.step_machine import ClimbStepMachine, GripperRequest, StepConfig
+from rrps_teleop.climbing.step_io import GripperRequest, StepConfig
+from rrps_teleop.climbing.step_machine import ClimbStepMachine
 
 POLE = load_robot('pole_climber')
 PLANNER = GaitPlanner(POLE, pole(3.0))
