@@ -420,6 +420,18 @@ def _deactivate(rig):
     rig.driver_active = False
 
 
+def _engage_for_a_moment(rig):
+    rig.engaged = True
+    rig.tick()
+    rig.engaged = False
+
+
+def _deactivate_for_a_moment(rig):
+    rig.driver_active = False
+    rig.tick()
+    rig.driver_active = True
+
+
 def _move(rig):
     rig.pose = Pose(HOME.position + [0.004, 0.0, 0.0], HOME.quaternion_xyzw)
 
@@ -429,7 +441,9 @@ def _open(rig):
 
 
 @pytest.mark.parametrize('change, refusal', [(_engage, StepRefusal.TELEOP_ENGAGED),
+                                             (_engage_for_a_moment, StepRefusal.TELEOP_ENGAGED),
                                              (_deactivate, StepRefusal.DRIVER_CHANGED),
+                                             (_deactivate_for_a_moment, StepRefusal.DRIVER_CHANGED),
                                              (_move, StepRefusal.ROBOT_MOVED),
                                              (_open, StepRefusal.ROBOT_MOVED)])
 def test_a_step_accepted_by_its_preview_starts_only_if_nothing_changed(change, refusal):

@@ -110,6 +110,7 @@ class ClimbStepMachine:
         self.grippers: dict[str, bool] | None = None
         self.driver_active: bool | None = None
         self.teleop_engaged = False
+        self.engagements = self.driver_changes = 0  # teleop engaged / driver state changed, counted
         self.measured_angles: np.ndarray | None = None
         self.odometry: RingOdometry | None = None
         self._phases: list[Phase] = []
@@ -162,10 +163,12 @@ class ClimbStepMachine:
         its status was unreadable, the last value stands)."""
         self.watch.received('teleop/status')
         if engaged is not None:
+            self.engagements += bool(engaged) and not self.teleop_engaged
             self.teleop_engaged = bool(engaged)
 
     def on_driver_active(self, active: bool) -> None:
         """The driver's lifecycle state (from its status)."""
+        self.driver_changes += self.driver_active is not None and bool(active) != self.driver_active
         self.driver_active = bool(active)
 
     def on_ring_angles(self, theta_a: float, theta_b: float) -> None:
@@ -221,7 +224,8 @@ class ClimbStepMachine:
         detail = f'{plan.steps} step(s) of {plan.step_length:.3f} m, {len(plan.phases)} phases'
         self.plan_refused, self.refusal = False, None
         if self.preview:
-            self._pending = (phases, detail, StepSnapshot(self.pose, dict(self.grippers), self.driver_active))
+            self._pending = (phases, detail, StepSnapshot(self.pose, dict(self.grippers), self.engagements,
+                                                          self.driver_changes))
             self.detail = f'previewing {detail}'
             out.preview = phases
             self._report(force=True)
@@ -244,8 +248,8 @@ class ClimbStepMachine:
             self._refuse(kind, f'preview refused the step: {preview.detail}')
             return out
         c = self.config
-        changed = snapshot.changed(pose=self.pose, grippers=self.grippers, driver_active=self.driver_active,
-                                   teleop_engaged=self.teleop_engaged,
+        changed = snapshot.changed(pose=self.pose, grippers=self.grippers, engagements=self.engagements,
+                                   driver_changes=self.driver_changes,
                                    hold_reason=self.watch.hold_reason(driver_active=self.driver_active),
                                    position_tolerance=c.position_tolerance,
                                    orientation_tolerance=c.orientation_tolerance)

@@ -84,20 +84,22 @@ def run_preview(geometry: RobotGeometry, phases: Sequence[Phase], *, speed: floa
 
 @dataclass(frozen=True)
 class StepSnapshot:
-    """What a step was planned from: the measured pose, the gripper states and the driver's
-    state when it was requested."""
+    """What a step was planned from: the measured pose and the gripper states when it was
+    requested, and how many times teleoperation had engaged and the driver changed state."""
 
     pose: Pose
     grippers: dict
-    driver_active: bool | None
+    engagements: int
+    driver_changes: int
 
-    def changed(self, *, pose: Pose | None, grippers: dict | None, driver_active: bool | None,
-                teleop_engaged: bool, hold_reason: PauseReason | None, position_tolerance: float,
+    def changed(self, *, pose: Pose | None, grippers: dict | None, engagements: int, driver_changes: int,
+                hold_reason: PauseReason | None, position_tolerance: float,
                 orientation_tolerance: float) -> tuple[StepRefusal, str] | None:
-        """Why the step may no longer start as planned (None: nothing changed)."""
-        if teleop_engaged:
+        """Why the step may no longer start as planned (None: nothing changed). Teleoperation
+        that engaged, or a driver that changed state, even for a moment, counts."""
+        if engagements != self.engagements:
             return StepRefusal.TELEOP_ENGAGED, 'teleoperation engaged while the step was previewed'
-        if driver_active != self.driver_active or hold_reason is PauseReason.DRIVER_INACTIVE:
+        if driver_changes != self.driver_changes or hold_reason is PauseReason.DRIVER_INACTIVE:
             return StepRefusal.DRIVER_CHANGED, 'the driver changed state while the step was previewed'
         if hold_reason is not None:
             return StepRefusal.ROBOT_MOVED, f'{hold_reason.value} while the step was previewed'

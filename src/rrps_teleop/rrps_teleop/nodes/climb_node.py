@@ -127,8 +127,6 @@ class ClimbNode(Node):
         self._pose_msg: PoseStamped | None = None
         self._odometry = None  # (world_T_a, world_T_b, stamp) not yet published
         self._gripper_call = None  # (GripperRequest, Future) awaiting the driver's answer
-        self._log = {logging.INFO: self.get_logger().info, logging.WARNING: self.get_logger().warning,
-                     logging.ERROR: self.get_logger().error}
 
         self._tap = RecordingTap(self)
         self._target_pub = self._tap.create_publisher(PoseStamped, TARGET_POSE, COMMAND_QOS)
@@ -262,7 +260,13 @@ class ClimbNode(Node):
     def _carry_out(self, out: ClimbOutput) -> None:
         """Log, command, request and report what the machine asked for."""
         for level, text in out.log:
-            self._log[level](text)
+            # one call site per severity: rclpy refuses a site whose severity changes
+            if level >= logging.ERROR:
+                self.get_logger().error(text)
+            elif level >= logging.WARNING:
+                self.get_logger().warning(text)
+            else:
+                self.get_logger().info(text)
         if out.target is not None:
             self._publish_target(out.target)
         if out.gripper is not None:
