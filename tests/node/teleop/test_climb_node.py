@@ -172,14 +172,15 @@ def test_step_services_teleop_refusal_and_plan_refusal(ros_context):
         station['status'] = _teleop_status(TeleopCode.DEADMAN_RELEASED, engaged=False)
         assert wait_for(lambda: _call(probe, up).success)
         # the step is previewed (IDLE) before it executes
-        assert wait_for(lambda: status and ClimbStatus.from_key_values(status[-1].values).state is ClimbState.EXECUTING)
+        assert wait_for(lambda: status and ClimbStatus.from_key_values(status[-1].values).state is ClimbState.EXECUTING), \
+            _values(status[-1])['detail']
         busy = _call(probe, up)
         assert not busy.success and 'executing' in busy.message
-        assert wait_for(lambda: _idle_after(status, 1))
+        assert wait_for(lambda: _idle_after(status, 1)), _values(status[-1])['detail']
         z_up = pose_from_msg(_at_rest_after(probe, odo_a, odo_b)[0])[0][2]
         assert z_up == pytest.approx(0.26, abs=3 * TOL)
         assert _call(probe, down).success
-        assert wait_for(lambda: _idle_after(status, 2))
+        assert wait_for(lambda: _idle_after(status, 2)), _values(status[-1])['detail']
         assert pose_from_msg(_at_rest_after(probe, odo_a, odo_b)[0])[0][2] == pytest.approx(0.2, abs=6 * TOL)
     assert not any(s.message == 'error' for s in status)
 
