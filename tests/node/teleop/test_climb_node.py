@@ -172,7 +172,8 @@ def test_step_services_teleop_refusal_and_plan_refusal(ros_context):
         station['status'] = _teleop_status(TeleopCode.DEADMAN_RELEASED, engaged=False)
         assert wait_for(lambda: _call(probe, up).success)
         # the step is previewed (IDLE) before it executes
-        assert wait_for(lambda: status and ClimbStatus.from_key_values(status[-1].values).state is ClimbState.EXECUTING), \
+        executing = ClimbState.EXECUTING
+        assert wait_for(lambda: status and ClimbStatus.from_key_values(status[-1].values).state is executing), \
             _values(status[-1])['detail']
         busy = _call(probe, up)
         assert not busy.success and 'executing' in busy.message
