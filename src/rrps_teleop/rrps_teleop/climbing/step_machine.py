@@ -249,8 +249,7 @@ class ClimbStepMachine:
             return out
         c = self.config
         changed = snapshot.changed(pose=self.pose, grippers=self.grippers, engagements=self.engagements,
-                                   driver_changes=self.driver_changes,
-                                   hold_reason=self.watch.hold_reason(driver_active=self.driver_active),
+                                   driver_changes=self.driver_changes, driver_active=self.driver_active,
                                    position_tolerance=c.position_tolerance,
                                    orientation_tolerance=c.orientation_tolerance)
         if changed is not None:

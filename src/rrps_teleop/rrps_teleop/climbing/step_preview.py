@@ -18,7 +18,7 @@ import numpy as np
 
 from rrps_description.geometry import RobotGeometry
 from rrps_description.pose import Pose, pose_error
-from rrps_interfaces.climb import ClimbPreview, PauseReason, PhaseAction, StepRefusal
+from rrps_interfaces.climb import ClimbPreview, PhaseAction, StepRefusal
 from rrps_sim.preview import Drives, PreviewError, PreviewMotion, preview_step
 from rrps_teleop.climbing.phase_path import PhasePath
 from rrps_teleop.climbing.plan import Phase
@@ -93,16 +93,15 @@ class StepSnapshot:
     driver_changes: int
 
     def changed(self, *, pose: Pose | None, grippers: dict | None, engagements: int, driver_changes: int,
-                hold_reason: PauseReason | None, position_tolerance: float,
+                driver_active: bool | None, position_tolerance: float,
                 orientation_tolerance: float) -> tuple[StepRefusal, str] | None:
         """Why the step may no longer start as planned (None: nothing changed). Teleoperation
-        that engaged, or a driver that changed state, even for a moment, counts."""
+        that engaged, or a driver that changed state, even for a moment, counts. (Inputs that
+        went stale meanwhile pause the step once it executes, as at any time.)"""
         if engagements != self.engagements:
             return StepRefusal.TELEOP_ENGAGED, 'teleoperation engaged while the step was previewed'
-        if driver_changes != self.driver_changes or hold_reason is PauseReason.DRIVER_INACTIVE:
+        if driver_changes != self.driver_changes or driver_active is False:
             return StepRefusal.DRIVER_CHANGED, 'the driver changed state while the step was previewed'
-        if hold_reason is not None:
-            return StepRefusal.ROBOT_MOVED, f'{hold_reason.value} while the step was previewed'
         if grippers != self.grippers:
             return StepRefusal.ROBOT_MOVED, 'the grippers changed while the step was previewed'
         dp, da = pose_error(pose, self.pose)
