@@ -17,10 +17,9 @@ import numpy as np
 
 from rrps_kinematics.backend import jit
 from rrps_kinematics.multibody import rotation_into
-from rrps_sim.dynamics.bundles import workspace
 from rrps_sim.dynamics.constraints import angular_velocity
-from rrps_sim.dynamics.integrators import _step
-from rrps_sim.dynamics.kernels import _leg_length_rate
+from rrps_sim.dynamics.integrators import step
+from rrps_sim.dynamics.kernels import leg_length_rate
 
 __all__ = ['DriveLoop', 'driven_run']
 
@@ -52,7 +51,6 @@ def driven_run(q, v, work, commands, period, t0, steps, dt, drive, reference, fe
 
     Returns (status, work, steps done): status 0, or the failure code of the step that failed
     (the state is then that before it)."""
-    ws = workspace(buffer)
     Ab = np.empty((3, 3))
     last = commands.shape[0] - 1
     decay = math.exp(-dt / drive.time_constant) if drive.time_constant > 0.0 else 0.0
@@ -67,13 +65,13 @@ def driven_run(q, v, work, commands, period, t0, steps, dt, drive, reference, fe
             delta = min(max(target + (x - target) * decay - x, -reach), reach)
             reference[k] = x + delta
             reference[6 + k] = delta / dt
-            length, rate = _leg_length_rate(q, v, k, params.joints, Ab, wb)
+            length, rate = leg_length_rate(q, v, k, params.joints, Ab, wb)
             f = (feedforward[k] + drive.kp * (reference[k] - length)
                  + drive.kd * (reference[6 + k] - rate))
             peak[k] = max(peak[k], abs(f))
             forces[k] = min(max(f, -drive.max_force), drive.max_force)
-        status, work, _, _ = _step(q, v, work, forces, dt, method, alpha, beta, correction_tolerance,
-                                   newton_tolerance, max_iterations, params, ws)
+        status, work, _, _ = step(q, v, work, forces, dt, method, alpha, beta, correction_tolerance,
+                                  newton_tolerance, max_iterations, params, buffer)
         if status != 0:
             return status, work, i
     return 0, work, steps
