@@ -160,7 +160,7 @@ def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa
         {'page': 2, 'text': True},
         {'page': 2, 'click': 'Close ring_b', 'expect': 'close ring_b:'},
         {'page': 2, 'sync': 'before climb'},
-        {'page': 2, 'click': 'Climb one step up', 'expect': 'climb step up: started'},
+        {'page': 2, 'click': 'Climb one step up', 'expect': 'climb step up: previewing'},
         {'page': 2, 'sync': 'climbing'},
     ]
     robot_nodes = [h for name, h in viewer.viewer.nodes.items() if name.startswith('/robot/')]

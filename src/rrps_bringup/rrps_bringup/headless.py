@@ -42,6 +42,8 @@ MAX_RESUMES = 5
 #: Deadline [s] of each thing the script waits for (it ends as soon as it happened): generous,
 #: so that a machine slowed by other jobs delays the session rather than failing it.
 WAIT = 30.0
+#: longest wait [s] for a requested climbing step to start: its preview runs first
+PREVIEW_WAIT = 120.0
 
 
 class DemoScript(Node):
@@ -209,7 +211,16 @@ class DemoScript(Node):
             status = self._climb_state()
             return None if status is None else status.state
 
-        seen_executing = self._wait(lambda: state() is ClimbState.EXECUTING, WAIT, stop)
+        def started_or_refused() -> bool:   # a step is previewed (IDLE) before it executes
+            status = self._climb_state()
+            return status is not None and (status.state is not ClimbState.IDLE
+                                           or (status.refusal is not None and not status.previewing))
+
+        seen_executing = self._wait(started_or_refused, PREVIEW_WAIT, stop) and state() is not ClimbState.IDLE
+        if not seen_executing:
+            final = self._climb_state()
+            self._say(f'climb step did not start: {final.detail if final is not None else "no climb status"}')
+            return checks + [('climb step started after its preview', False)]
         t0 = time.monotonic()
         pauses = []
         while True:

@@ -3,6 +3,7 @@
 Topics and services (relative names)::
 
     CLIMB_STATUS         diagnostic_msgs/DiagnosticStatus  values: ClimbStatus
+    CLIMB_PREVIEW        diagnostic_msgs/DiagnosticStatus  values: ClimbPreview (latched: the last)
     CLIMB_STEP_UP, CLIMB_STEP_DOWN, CLIMB_RESUME  std_srvs/Trigger
     odometry_topic(ring) geometry_msgs/PoseStamped  the ring's pose in frame world
 
@@ -17,10 +18,12 @@ import enum
 from rrps_description.names import RINGS
 from rrps_interfaces.status import StatusValues
 
-__all__ = ['CLIMB_STATUS', 'CLIMB_STEP_UP', 'CLIMB_STEP_DOWN', 'CLIMB_RESUME', 'odometry_topic', 'ClimbState',
-           'PauseReason', 'PhaseAction', 'ClimbStatus']
+__all__ = ['CLIMB_STATUS', 'CLIMB_PREVIEW', 'CLIMB_STEP_UP', 'CLIMB_STEP_DOWN', 'CLIMB_RESUME', 'odometry_topic',
+           'ClimbState', 'PauseReason', 'PhaseAction', 'PreviewLimit', 'StepRefusal', 'ClimbStatus',
+           'ClimbPreview']
 
 CLIMB_STATUS = 'climb/status'
+CLIMB_PREVIEW = 'climb/preview'
 CLIMB_STEP_UP = 'climb/step_up'
 CLIMB_STEP_DOWN = 'climb/step_down'
 CLIMB_RESUME = 'climb/resume'
@@ -59,10 +62,30 @@ class PhaseAction(enum.Enum):
     GRIP = 'grip'        # close the ring's gripper
 
 
+class PreviewLimit(enum.Enum):
+    """The load limit a step's preview breaks."""
+
+    ACTUATOR_FORCE = 'actuator force'  # a drive is asked for more than the robot's max_force
+    HOLDING = 'holding'                # a gripper's holding margin falls below its bound
+
+
+class StepRefusal(enum.Enum):
+    """Why a requested step did not start."""
+
+    PLAN = 'plan'                          # the planner refused it (a pose limit on the way)
+    PREVIEW_LIMIT = 'preview limit'        # its preview breaks a load limit (PreviewLimit)
+    PREVIEW_FAILED = 'preview failed'      # the dynamics could not simulate it
+    TELEOP_ENGAGED = 'teleop engaged'      # teleoperation engaged while it was previewed
+    DRIVER_CHANGED = 'driver changed'      # the driver's state changed while it was previewed
+    ROBOT_MOVED = 'robot moved'            # the pose or the grippers changed while it was previewed
+
+
 @dataclasses.dataclass(frozen=True)
 class ClimbStatus(StatusValues):
     """climb/status values: the state, where the step is (``step``, the phase's ``action`` and
-    ``ring``), the rings' route positions [m] and the reason in words (``detail``)."""
+    ``ring``), the rings' route positions [m] and the reason in words (``detail``).
+    ``previewing``: a requested step is being previewed (the state stays IDLE until it starts);
+    ``refusal``: why the last requested step did not start (None: it started, or none asked)."""
 
     state: ClimbState
     pause_reason: PauseReason | None = None
@@ -74,6 +97,8 @@ class ClimbStatus(StatusValues):
     s_b: float = 0.0
     steps_done: int = 0
     detail: str = ''
+    previewing: bool = False
+    refusal: StepRefusal | None = None
 
     @property
     def phase(self) -> str:
@@ -81,3 +106,26 @@ class ClimbStatus(StatusValues):
         if self.action is None:
             return ''
         return self.action.value if not self.ring else f'{self.action.value}_{self.ring[-1]}'
+
+
+@dataclasses.dataclass(frozen=True)
+class ClimbPreview(StatusValues):
+    """climb/preview values: the dynamics' preview of the last requested step. ``peak_force``
+    [N] on ``peak_leg`` (1..6) against ``max_force``; the largest wrench of the structure on a
+    supporting ring, ``peak_reaction_force`` [N] and ``peak_reaction_moment`` [N m]; the
+    smallest holding margin ``min_margin`` (1 - utilisation; NaN: no capacity given) of
+    ``min_margin_ring``; ``limit`` broken (None: accepted); ``simulated`` [s] of robot time in
+    ``wall`` [s]; ``detail`` in words."""
+
+    accepted: bool
+    peak_force: float = 0.0
+    peak_leg: int = 0
+    max_force: float = 0.0
+    peak_reaction_force: float = 0.0
+    peak_reaction_moment: float = 0.0
+    min_margin: float = float('nan')
+    min_margin_ring: str = ''
+    limit: PreviewLimit | None = None
+    simulated: float = 0.0
+    wall: float = 0.0
+    detail: str = ''

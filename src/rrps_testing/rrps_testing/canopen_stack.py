@@ -215,7 +215,13 @@ def climb_state(stack: Stack) -> ClimbStatus | None:
 
 
 def finish_step(stack: Stack, resumes: int = 10) -> None:
-    """Resume the step (paused by a fault, or by a late state on a busy machine) until it ends idle."""
+    """Wait for the requested step to start (it stays IDLE while it is previewed), then resume it
+    (paused by a fault, or by a late state on a busy machine) until it ends idle."""
+    def started() -> bool:
+        s = climb_state(stack)
+        return s is not None and (s.state is not ClimbState.IDLE or (s.refusal is not None and not s.previewing))
+    assert wait_for(started, timeout=120), climb_state(stack)
+    assert climb_state(stack).refusal is None, climb_state(stack)
     for _ in range(resumes):
         assert wait_for(lambda: climb_state(stack).state in (ClimbState.PAUSED, ClimbState.IDLE, ClimbState.FAILED),
                         timeout=120), climb_state(stack)

@@ -21,7 +21,7 @@ from std_srvs.srv import Trigger
 from rrps_description.geometry import load_robot
 from rrps_description.pose import Pose
 from rrps_description.structures import make_structure
-from rrps_interfaces.climb import ClimbStatus
+from rrps_interfaces.climb import ClimbPreview, ClimbState, ClimbStatus, PreviewLimit, StepRefusal
 from rrps_interfaces.teleop import TeleopCode, TeleopStatus
 from rrps_kinematics import inverse_kinematics
 from rrps_kinematics.nodes.fk_node import FkNode
@@ -96,6 +96,7 @@ def test_scripted_climb_ends_where_the_plan_says(ros_context):
     odo_a = probe.collect(PoseStamped, 'odometry/ring_a')
     odo_b = probe.collect(PoseStamped, 'odometry/ring_b')
     poses = probe.collect(PoseStamped, 'pose')
+    previews = probe.collect(DiagnosticStatus, 'climb/preview')
     nodes = _stack(ros_context, auto_steps=steps)
     with Spinner(ros_context, nodes + [probe]):
         assert wait_for(lambda: _idle_after(status, steps)), \
@@ -104,6 +105,11 @@ def test_scripted_climb_ends_where_the_plan_says(ros_context):
     assert not any(s.message == 'error' for s in status)
     phases = [ClimbStatus.from_key_values(s.values).phase for s in status if s.message == 'executing']
     assert {'release_b', 'move_b', 'grip_b', 'release_a', 'move_a', 'grip_a'} <= set(phases)
+    # the climb was previewed once, accepted, before it executed
+    assert len(previews) == 1 and ClimbStatus.from_key_values(status[0].values).previewing
+    preview = ClimbPreview.from_key_values(previews[0].values)
+    assert preview.accepted and 0.0 < preview.peak_force < nodes[0].geometry.max_force
+    assert 0.0 < preview.min_margin < 1.0 and preview.simulated > 2 * steps * 0.06 / 0.05
 
     # The interlock in the observed gripper stream: never both open; ring_a opened once per step.
     closed = np.array([[p > 0.5 for p in dict(zip(m.name, m.position)).values()] for m in grippers])
@@ -165,13 +171,17 @@ def test_step_services_teleop_refusal_and_plan_refusal(ros_context):
         assert not reply.success and 'teleoperation' in reply.message
         station['status'] = _teleop_status(TeleopCode.DEADMAN_RELEASED, engaged=False)
         assert wait_for(lambda: _call(probe, up).success)
+        # the step is previewed (IDLE) before it executes
+        executing = ClimbState.EXECUTING
+        assert wait_for(lambda: status and ClimbStatus.from_key_values(status[-1].values).state is executing), \
+            _values(status[-1])['detail']
         busy = _call(probe, up)
         assert not busy.success and 'executing' in busy.message
-        assert wait_for(lambda: _idle_after(status, 1))
+        assert wait_for(lambda: _idle_after(status, 1)), _values(status[-1])['detail']
         z_up = pose_from_msg(_at_rest_after(probe, odo_a, odo_b)[0])[0][2]
         assert z_up == pytest.approx(0.26, abs=3 * TOL)
         assert _call(probe, down).success
-        assert wait_for(lambda: _idle_after(status, 2))
+        assert wait_for(lambda: _idle_after(status, 2)), _values(status[-1])['detail']
         assert pose_from_msg(_at_rest_after(probe, odo_a, odo_b)[0])[0][2] == pytest.approx(0.2, abs=6 * TOL)
     assert not any(s.message == 'error' for s in status)
 
@@ -211,3 +221,29 @@ def test_a_robot_moved_off_the_gait_is_brought_back_first(ros_context):
     p, _ = pose_from_msg(final_pose)
     assert np.linalg.norm(p - plan.phases[-1].a_T_b.position) <= TOL
     assert pose_from_msg(final_a)[0][2] == pytest.approx(0.24, abs=4 * TOL)
+
+
+def test_a_step_whose_preview_breaks_a_limit_is_refused_and_the_robot_holds(ros_context):
+    """A holding margin of 0.99 asked of the preview: every step breaks it, and none starts."""
+    probe = Probe(context=ros_context)
+    status = probe.collect(DiagnosticStatus, 'climb/status')
+    previews = probe.collect(DiagnosticStatus, 'climb/preview')
+    grippers = probe.collect(JointState, 'grippers/state')
+    odo_a = probe.collect(PoseStamped, 'odometry/ring_a')
+    up = probe.create_client(Trigger, 'climb/step_up')
+    with Spinner(ros_context, _stack(ros_context, preview_min_margin=0.99) + [probe]):
+        assert wait_for(lambda: odo_a)
+        reply = _call(probe, up)
+        assert wait_for(lambda: any(_values(s)['refusal'] == 'PREVIEW_LIMIT' for s in status))
+        assert wait_for(lambda: previews)
+        z = pose_from_msg(odo_a[-1])[0][2]
+    assert reply.success and reply.message.startswith('previewing 1 step(s)')
+    preview = ClimbPreview.from_key_values(previews[-1].values)
+    assert not preview.accepted and preview.limit is PreviewLimit.HOLDING and preview.min_margin < 0.99
+    assert previews[-1].level == DiagnosticStatus.WARN
+    states = [ClimbStatus.from_key_values(s.values) for s in status]
+    assert any(s.previewing for s in states) and all(s.state is ClimbState.IDLE for s in states)
+    assert states[-1].refusal is StepRefusal.PREVIEW_LIMIT and 'holding: ' in states[-1].detail
+    assert status[-1].level == DiagnosticStatus.WARN
+    assert all(min(m.position) > 0.5 for m in grippers)                  # no gripper opened
+    assert z == pytest.approx(0.2, abs=1e-6)

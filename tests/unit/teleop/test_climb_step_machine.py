@@ -1,5 +1,5 @@
 """ClimbStepMachine without ROS: a whole step, the interlock, the release gate, pauses and resumes,
-failures and refusals, and what the machine outputs at each point.
+failures and refusals, the preview before a step starts, and what the machine outputs at each point.
 
 The rig around the machine stands for the rest of the system: a robot that reaches every target
 at once (its measured pose is the last target), a driver that answers a gripper request at the
@@ -17,9 +17,10 @@ import pytest
 from rrps_description.geometry import load_robot
 from rrps_description.pose import Pose, pose_error
 from rrps_description.structures import pole
-from rrps_interfaces.climb import ClimbState, PauseReason, PhaseAction
+from rrps_interfaces.climb import ClimbPreview, ClimbState, PauseReason, PhaseAction, PreviewLimit, StepRefusal
 from rrps_teleop.climbing.gait import GaitPlanner
-from rrps_teleop.climbing.step_machine import ClimbStepMachine, GripperRequest, StepConfig
+from rrps_teleop.climbing.step_io import GripperRequest, StepConfig
+from rrps_teleop.climbing.step_machine import ClimbStepMachine
 
 POLE = load_robot('pole_climber')
 PLANNER = GaitPlanner(POLE, pole(3.0))
@@ -34,11 +35,12 @@ EXECUTING, PAUSED, IDLE, FAILED = ClimbState.EXECUTING, ClimbState.PAUSED, Climb
 class Rig:
     """The machine in a simulated system (see the module docstring)."""
 
-    def __init__(self, *, pose: Pose = HOME, step_length: float = STEP, auto_steps: int = 0, **config):
+    def __init__(self, *, pose: Pose = HOME, step_length: float = STEP, auto_steps: int = 0,
+                 preview: bool = False, **config):
         self.t = 100.0
         config = {'speed': SPEED, 'period': DT, **config}
         self.machine = ClimbStepMachine(PLANNER, StepConfig(**config), start=START, step_length=step_length,
-                                        auto_steps=auto_steps, clock=lambda: self.t)
+                                        auto_steps=auto_steps, clock=lambda: self.t, preview=preview)
         self.pose = pose
         self.grippers = {'ring_a': True, 'ring_b': True}
         self.state = self.operator = self.driver_active = self.track = self.switch = True
@@ -366,3 +368,91 @@ def test_bad_settings_are_refused():
         ClimbStepMachine(PLANNER, start=2.99)
     with pytest.raises(ValueError, match='auto_steps'):
         ClimbStepMachine(PLANNER, auto_steps=-1)
+
+
+ACCEPTED = ClimbPreview(accepted=True, peak_force=50.0, peak_leg=2, max_force=2000.0,
+                        detail='peak force 50.0 N (leg_2)')
+
+
+def _previewing() -> tuple[Rig, object]:
+    rig = Rig(preview=True)
+    rig.tick()
+    return rig, rig.call(rig.machine.step, +1)
+
+
+def test_a_previewed_step_stays_idle_until_its_preview_accepts_it():
+    rig, out = _previewing()
+    assert out.reply[0] and out.reply[1].startswith('previewing 1 step(s) of 0.060 m')
+    assert [p.phase for p in out.preview][-6:] == ['release_b', 'move_b', 'grip_b', 'release_a', 'move_a', 'grip_a']
+    assert out.status.state is IDLE and out.status.previewing and out.status.refusal is None
+    assert all(o.target is None and o.gripper is None for o in [rig.tick() for _ in range(5)])
+    assert rig.call(rig.machine.step, +1).reply == (False, 'refused: a step is being previewed')
+    started = rig.call(rig.machine.on_preview, ACCEPTED)
+    assert started.status.state is EXECUTING and not started.status.previewing
+    assert started.log == [(logging.INFO, 'started: 1 step(s) of 0.060 m, 10 phases (preview: peak force 50.0 N '
+                                          '(leg_2))')]
+    rig.run_until(lambda s: s.state is IDLE)
+    assert rig.machine.steps_done == 1
+    assert rig.call(rig.machine.on_preview, ACCEPTED).status is None     # nothing previewed: ignored
+
+
+def test_a_step_whose_preview_breaks_a_limit_or_fails_is_refused():
+    rig, _ = _previewing()
+    broken = ClimbPreview(accepted=False, peak_force=2500.0, peak_leg=4, max_force=2000.0,
+                          limit=PreviewLimit.ACTUATOR_FORCE,
+                          detail='actuator force: leg_4 needs 2500.0 N > 2000 N at step 1 move_b, t=1.00 s')
+    out = rig.call(rig.machine.on_preview, broken)
+    assert out.status.state is IDLE and not out.status.previewing
+    assert out.status.refusal is StepRefusal.PREVIEW_LIMIT and 'leg_4 needs 2500.0 N' in out.status.detail
+    assert out.log == [(logging.WARNING, out.status.detail)] and rig.machine.plan_refused
+    assert all(o.target is None and o.gripper is None for o in [rig.tick() for _ in range(5)])
+    again = rig.call(rig.machine.step, +1)                                # a new request is previewed
+    assert again.reply[0] and again.status.previewing and again.status.refusal is None
+    failed = rig.call(rig.machine.on_preview, ClimbPreview(accepted=False, detail='preview failed: singular'))
+    assert failed.status.refusal is StepRefusal.PREVIEW_FAILED and failed.status.state is IDLE
+
+
+def _engage(rig):
+    rig.engaged = True
+
+
+def _deactivate(rig):
+    rig.driver_active = False
+
+
+def _engage_for_a_moment(rig):
+    rig.engaged = True
+    rig.tick()
+    rig.engaged = False
+
+
+def _deactivate_for_a_moment(rig):
+    rig.driver_active = False
+    rig.tick()
+    rig.driver_active = True
+
+
+def _move(rig):
+    rig.pose = Pose(HOME.position + [0.004, 0.0, 0.0], HOME.quaternion_xyzw)
+
+
+def _open(rig):
+    rig.grippers['ring_b'] = False
+
+
+@pytest.mark.parametrize('change, refusal', [(_engage, StepRefusal.TELEOP_ENGAGED),
+                                             (_engage_for_a_moment, StepRefusal.TELEOP_ENGAGED),
+                                             (_deactivate, StepRefusal.DRIVER_CHANGED),
+                                             (_deactivate_for_a_moment, StepRefusal.DRIVER_CHANGED),
+                                             (_move, StepRefusal.ROBOT_MOVED),
+                                             (_open, StepRefusal.ROBOT_MOVED)])
+def test_a_step_accepted_by_its_preview_starts_only_if_nothing_changed(change, refusal):
+    rig, _ = _previewing()
+    rig.tick()
+    change(rig)
+    rig.tick()
+    out = rig.call(rig.machine.on_preview, ACCEPTED)
+    assert out.status.state is IDLE and out.status.refusal is refusal
+    assert out.status.detail.startswith('step refused: ') and 'while the step was previewed' in out.status.detail
+    assert out.log == [(logging.WARNING, out.status.detail)]
+    assert all(o.target is None and o.gripper is None for o in [rig.tick() for _ in range(5)])

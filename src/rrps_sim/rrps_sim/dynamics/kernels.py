@@ -45,8 +45,8 @@ from rrps_sim.dynamics.constraints import (
     ring_b_grounded_residual,
 )
 
-__all__ = ['accelerations', 'actuator_power', 'applied_forces', 'drift_and_norm', 'lu_solve', 'multipliers',
-           'observe', 'observe_into', 'reactions_into']
+__all__ = ['accelerations', 'actuator_power', 'applied_forces', 'drift_and_norm', 'leg_length_rate', 'lu_solve',
+           'multipliers', 'observe', 'observe_into', 'reactions_into']
 
 
 @jit(fastmath=True)
@@ -349,7 +349,7 @@ def reactions_into(q, v, forces, params, ws, out, row):
 
 
 @jit
-def _leg_length_rate(q, v, k, joints, Ab, wb):
+def leg_length_rate(q, v, k, joints, Ab, wb):
     """Actuator k's length and rate from the hub's state: S_k = r_h + A_h s'_k, L = |S_k - a_k|
     (the hub's joint centre to the ground's)."""
     a, sb = joints.a, joints.sb
@@ -366,7 +366,7 @@ def actuator_power(q, v, forces, joints, Ab):
     wb = angular_velocity(Ab, v, 0)
     power = 0.0
     for k in range(6):
-        power += forces[k] * _leg_length_rate(q, v, k, joints, Ab, wb)[1]
+        power += forces[k] * leg_length_rate(q, v, k, joints, Ab, wb)[1]
     return power
 
 
@@ -409,7 +409,7 @@ def observe_into(q, v, params, ws, out, row):
     rotation_into(q, 3, Ab)
     wb = angular_velocity(Ab, v, 0)
     for k in range(6):
-        L, Ld = _leg_length_rate(q, v, k, params.joints, Ab, wb)
+        L, Ld = leg_length_rate(q, v, k, params.joints, Ab, wb)
         out.lengths[row, k] = L
         out.length_rates[row, k] = Ld
     out.constraint_drift[row] = drift

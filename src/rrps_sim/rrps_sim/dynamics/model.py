@@ -20,6 +20,7 @@ from rrps_kinematics.errors import ConvergenceError, SingularPoseError
 from rrps_kinematics.multibody import MultibodyModel
 from rrps_sim.dynamics.bundles import DynamicsParameters, Observation, Observations, Reactions, new_workspace, workspace
 from rrps_sim.dynamics.constraints import leg_blocks
+from rrps_sim.dynamics.driven import DriveLoop, driven_run
 from rrps_sim.dynamics.flops import step_flops
 from rrps_sim.dynamics.frames import grounded_coordinates, supported_pose
 from rrps_sim.dynamics.integrators import METHODS, NOT_CONVERGED, run, step
@@ -228,6 +229,23 @@ class MultibodyDynamics:
         self.last_step_flops = int(flops[-1])
         ends = np.minimum(np.arange(rows) * output_every, steps)
         return RunRecord(t0 + ends * dt, observed, work, flops, seconds, recorded if reactions else None)
+
+    def run_driven(self, commands: np.ndarray, period: float, t0: float, steps: int, dt: float,
+                   drive: DriveLoop, reference: np.ndarray, feedforward, forces: np.ndarray,
+                   peak: np.ndarray) -> None:
+        """``steps`` steps of ``dt`` [s] with the legs driven by ``drive`` toward the commanded
+        lengths ``commands`` (n, 6) [m], one every ``period`` [s] from the motion's time ``t0``
+        [s], compiled as one loop (:func:`.driven.driven_run`: ``reference`` (12,), ``forces``
+        and ``peak`` (6,) updated in place; ``feedforward`` (6,) [N]). Raises as :meth:`step`."""
+        ff, dt = _checked(feedforward, dt)
+        status, self.actuator_work, done = driven_run(
+            self._q, self._v, self.actuator_work, commands, float(period), float(t0), int(steps), dt,
+            drive, reference, ff, forces, peak, self._method, self.alpha, self.beta,
+            self.correction_tolerance, self.newton_tolerance, self.max_newton_iterations,
+            self._params, self._buffer)
+        self.time += done * dt
+        self._obs = None
+        self._raise_for(status)
 
     def _raise_for(self, status: int) -> None:
         """The exception of a failed step's status code (nothing for 0)."""

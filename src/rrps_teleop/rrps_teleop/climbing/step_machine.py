@@ -13,6 +13,13 @@ Each phase passes through stages, once per tick:
   link lost before the release holds it);
 * ``done``: on to the next phase; after the last one the climb is idle.
 
+With ``preview``, a planned step is first simulated on the dynamics (the caller runs
+:func:`.step_preview.run_preview` on ``ClimbOutput.preview`` and hands the result to
+:meth:`ClimbStepMachine.on_preview`); meanwhile the climb stays IDLE, ``previewing``. A step whose
+preview breaks a limit is refused; one it accepts starts only if nothing changed meanwhile
+(:class:`.step_preview.StepSnapshot`), else it is refused with a typed
+:class:`~rrps_interfaces.climb.StepRefusal`.
+
 A step **pauses** (:class:`~rrps_interfaces.climb.PauseReason`) when an input is lost
 (:class:`.climb_watch.InputWatch`: robot state, operator link, driver inactive): it sends no
 target and switches no gripper until :meth:`ClimbStepMachine.resume` is called once the cause
@@ -31,20 +38,28 @@ import logging
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import NamedTuple
 
 import numpy as np
 
 from rrps_description.pose import Pose, pose_error
-from rrps_interfaces.climb import CLIMB_RESUME, ClimbState, ClimbStatus, PauseReason, PhaseAction
+from rrps_interfaces.climb import (
+    CLIMB_RESUME,
+    ClimbPreview,
+    ClimbState,
+    ClimbStatus,
+    PauseReason,
+    PhaseAction,
+    StepRefusal,
+)
 from rrps_kinematics.odometry import RingOdometry
 from rrps_teleop.climbing.climb_watch import InputWatch
 from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_teleop.climbing.phase_path import PhasePath
 from rrps_teleop.climbing.plan import Phase, PlanError
+from rrps_teleop.climbing.step_io import ClimbOutput, ClimbTarget, GripperRequest, StepConfig
+from rrps_teleop.climbing.step_preview import StepSnapshot
 
-__all__ = ['StepConfig', 'ClimbTarget', 'GripperRequest', 'ClimbOutput', 'ClimbStepMachine']
+__all__ = ['ClimbStepMachine']
 
 IDLE, EXECUTING, PAUSED, FAILED = (ClimbState.IDLE, ClimbState.EXECUTING, ClimbState.PAUSED,
                                    ClimbState.FAILED)
@@ -53,71 +68,18 @@ IDLE, EXECUTING, PAUSED, FAILED = (ClimbState.IDLE, ClimbState.EXECUTING, ClimbS
 RESUME_TOLERANCE_FACTOR = 10.0
 
 
-@dataclass(frozen=True)
-class StepConfig:
-    """How steps are executed (SI units); validated on construction (ValueError)."""
-
-    speed: float = 0.02                  # of the moving gripper along its path [m/s]
-    period: float = 0.02                 # between ticks [s]
-    position_tolerance: float = 0.001    # arrival [m]
-    orientation_tolerance: float = 0.01  # arrival [rad]
-    settle_timeout: float = 5.0          # longest wait for an arrival or a gripper switch [s]
-    settle_time: float = 0.1             # stay arrived this long before a gripper switches [s]
-    state_timeout: float = 0.2           # pause when the robot's state is older [s]
-    operator_timeout: float = 0.5        # pause when the operator station is silent this long [s]
-
-    def __post_init__(self) -> None:
-        for name in ('speed', 'period', 'position_tolerance', 'orientation_tolerance', 'settle_timeout',
-                     'state_timeout', 'operator_timeout'):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0.0):
-                raise ValueError(f'{name} must be finite and > 0, got {value!r}')
-        if not (math.isfinite(self.settle_time) and self.settle_time >= 0.0):
-            raise ValueError(f'settle_time must be finite and >= 0, got {self.settle_time!r}')
-
-
-class ClimbTarget(NamedTuple):
-    """A command: ring_b's pose in ring_a and the extra-DOF angles (theta_a, theta_b) [rad]."""
-
-    a_T_b: Pose
-    ring_angles: np.ndarray
-
-
-@dataclass(frozen=True, eq=False)
-class GripperRequest:
-    """Ask the driver to close (or open) ``ring``'s gripper; answer it with
-    :meth:`ClimbStepMachine.on_gripper_answer` (matched by identity)."""
-
-    ring: str
-    close: bool
-
-
-@dataclass
-class ClimbOutput:
-    """What one call of the machine asks for: a target to command, a gripper request, a status
-    to report now, the rings' world poses (world_T_a, world_T_b) chained from a new pose, the
-    reply to a request (accepted, message) and lines to log ((logging level, text))."""
-
-    target: ClimbTarget | None = None
-    gripper: GripperRequest | None = None
-    status: ClimbStatus | None = None
-    odometry: tuple[Pose, Pose] | None = None
-    reply: tuple[bool, str] | None = None
-    log: list[tuple[int, str]] = field(default_factory=list)
-
-
 class ClimbStepMachine:
     """Executes climbs of ``planner``'s robot on its structure (see the module docstring).
 
     ``start``: route position [m] of ring_a's gripper (None: the lowest that fits);
     ``step_length`` [m] of step_up/step_down (None: the planner's default); ``auto_steps`` > 0
     climbs that many steps up once the pose and the gripper states are known. ``clock``: the
-    receipt clock of the input watch [s].
+    receipt clock of the input watch [s]. ``preview``: each step is previewed before it starts.
     """
 
     def __init__(self, planner: GaitPlanner, config: StepConfig | None = None, *,
                  start: float | None = None, step_length: float | None = None, auto_steps: int = 0,
-                 clock: Callable[[], float] = time.monotonic):
+                 clock: Callable[[], float] = time.monotonic, preview: bool = False):
         self.planner = planner
         self.config = config or StepConfig()
         self.structure = planner.structure
@@ -140,11 +102,15 @@ class ClimbStepMachine:
         self.pause_reason: PauseReason | None = None
         self.detail = 'waiting for pose and grippers/state'
         self.plan_refused = False
+        self.refusal: StepRefusal | None = None
+        self.preview = bool(preview)
+        self._pending: tuple[list[Phase], str, StepSnapshot] | None = None  # being previewed
         self.steps_done = 0
         self.pose: Pose | None = None
         self.grippers: dict[str, bool] | None = None
         self.driver_active: bool | None = None
         self.teleop_engaged = False
+        self.engagements = self.driver_changes = 0  # teleop engaged / driver state changed, counted
         self.measured_angles: np.ndarray | None = None
         self.odometry: RingOdometry | None = None
         self._phases: list[Phase] = []
@@ -197,10 +163,12 @@ class ClimbStepMachine:
         its status was unreadable, the last value stands)."""
         self.watch.received('teleop/status')
         if engaged is not None:
+            self.engagements += bool(engaged) and not self.teleop_engaged
             self.teleop_engaged = bool(engaged)
 
     def on_driver_active(self, active: bool) -> None:
         """The driver's lifecycle state (from its status)."""
+        self.driver_changes += self.driver_active is not None and bool(active) != self.driver_active
         self.driver_active = bool(active)
 
     def on_ring_angles(self, theta_a: float, theta_b: float) -> None:
@@ -242,7 +210,7 @@ class ClimbStepMachine:
             plan = self.planner.plan(distance, steps, start=self.s_a,
                                      initial_separation=self.s_b - self.s_a, initial_theta=self.theta)
         except (PlanError, ValueError) as exc:
-            self._refuse_plan(f'plan refused: {exc}')
+            self._refuse(StepRefusal.PLAN, f'plan refused: {exc}')
             out.reply = (False, f'refused: {exc}')
             return out
         phases = plan.phases
@@ -250,17 +218,53 @@ class ClimbStepMachine:
             try:  # moved off the gait (teleoperation): ring_b first re-grips where the plan starts
                 phases = self.planner.approach(self.pose, self.s_a, self.s_b, self.theta, self.theta) + phases
             except PlanError as exc:
-                self._refuse_plan(f'plan refused: cannot bring ring_b back to the gait: {exc}')
+                self._refuse(StepRefusal.PLAN, f'plan refused: cannot bring ring_b back to the gait: {exc}')
                 out.reply = (False, f'refused: {self.detail}')
                 return out
+        detail = f'{plan.steps} step(s) of {plan.step_length:.3f} m, {len(plan.phases)} phases'
+        self.plan_refused, self.refusal = False, None
+        if self.preview:
+            self._pending = (phases, detail, StepSnapshot(self.pose, dict(self.grippers), self.engagements,
+                                                          self.driver_changes))
+            self.detail = f'previewing {detail}'
+            out.preview = phases
+            self._report(force=True)
+            out.reply = (True, self.detail)
+            return out
+        self._execute(phases, detail, now)
+        out.reply = (True, f'started: {self.detail}')
+        return out
+
+    def on_preview(self, preview: ClimbPreview, now: float) -> ClimbOutput:
+        """The preview of the step being previewed, at time ``now`` [s]: start it if the preview
+        accepts it and nothing changed meanwhile, else refuse it (logged, in the status)."""
+        out = self._begin()
+        if self._pending is None:
+            return out
+        phases, detail, snapshot = self._pending
+        self._pending = None
+        if not preview.accepted:
+            kind = StepRefusal.PREVIEW_LIMIT if preview.limit is not None else StepRefusal.PREVIEW_FAILED
+            self._refuse(kind, f'preview refused the step: {preview.detail}')
+            return out
+        c = self.config
+        changed = snapshot.changed(pose=self.pose, grippers=self.grippers, engagements=self.engagements,
+                                   driver_changes=self.driver_changes, driver_active=self.driver_active,
+                                   position_tolerance=c.position_tolerance,
+                                   orientation_tolerance=c.orientation_tolerance)
+        if changed is not None:
+            self._refuse(changed[0], f'step refused: {changed[1]}')
+            return out
+        self._execute(phases, detail, now)
+        out.log.append((logging.INFO, f'started: {self.detail} (preview: {preview.detail})'))
+        return out
+
+    def _execute(self, phases: list[Phase], detail: str, now: float) -> None:
         self._phases, self._index = phases, 0
         self._enter_phase(now)
         self.mode = EXECUTING
-        self.detail = f'{plan.steps} step(s) of {plan.step_length:.3f} m, {len(plan.phases)} phases'
-        self.plan_refused = False
+        self.detail = detail
         self._report(force=True)
-        out.reply = (True, f'started: {self.detail}')
-        return out
 
     def resume(self, now: float) -> ClimbOutput:
         """Resume a paused step at time ``now`` [s] once the cause of the pause is gone and the
@@ -306,7 +310,8 @@ class ClimbStepMachine:
                            step=ph.step if ph else self.steps_done,
                            action=ph.action if ph else None, ring=ph.ring if ph else '',
                            structure=self.structure.name, s_a=self.s_a, s_b=self.s_b,
-                           steps_done=self.steps_done, detail=self.detail)
+                           steps_done=self.steps_done, detail=self.detail,
+                           previewing=self._pending is not None, refusal=self.refusal)
 
     def report(self) -> ClimbStatus:
         """The status to report periodically (what changes after it is reported again at once)."""
@@ -322,7 +327,8 @@ class ClimbStepMachine:
 
     @staticmethod
     def _status_key(status: ClimbStatus) -> tuple:
-        return status.state, status.pause_reason, status.action, status.ring, status.step
+        return (status.state, status.pause_reason, status.action, status.ring, status.step,
+                status.previewing, status.refusal)
 
     def _report(self, force: bool = False) -> None:
         """Report the status now when forced or when the state or phase changed."""
@@ -336,6 +342,8 @@ class ClimbStepMachine:
         """Why a climb cannot start now ('' when it can)."""
         if self.mode is EXECUTING:
             return 'a climb is executing'
+        if self._pending is not None:
+            return 'a step is being previewed'
         if self.mode is PAUSED:
             return f'a climb is paused ({self.pause_reason.value}): resume it'
         if self.mode is FAILED:
@@ -349,8 +357,8 @@ class ClimbStepMachine:
             return f'{reason.value} ({self.watch.ages()})'
         return ''
 
-    def _refuse_plan(self, detail: str) -> None:
-        self.detail, self.plan_refused = detail, True
+    def _refuse(self, refusal: StepRefusal, detail: str) -> None:
+        self.detail, self.plan_refused, self.refusal = detail, True, refusal
         self._out.log.append((logging.WARNING, detail))
         self._report(force=True)
 

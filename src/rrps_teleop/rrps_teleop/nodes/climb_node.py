@@ -12,12 +12,19 @@ and ``odometry/ring_a|ring_b`` (frame ``world``, stamped with the pose they were
 
 Services ``climb/step_up``, ``climb/step_down`` and ``climb/resume`` (std_srvs/Trigger);
 ``auto_steps`` > 0 climbs that many steps up once the robot's state is known.
+
+With ``preview`` (default), each planned step is first simulated on the dynamics in a worker
+thread (:func:`rrps_teleop.climbing.step_preview.run_preview`; the node keeps serving), its
+peaks published on ``climb/preview`` (values :class:`~rrps_interfaces.climb.ClimbPreview`,
+latched); the machine then starts or refuses it.
 """
 
 from __future__ import annotations
 
 import logging
 import math
+import threading
+from concurrent.futures import Future, ThreadPoolExecutor
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
@@ -30,10 +37,12 @@ from rrps_description.names import RING_A_FRAME, RINGS, WORLD_FRAME, ring_joint
 from rrps_description.pose import QUATERNION_TOLERANCE, InvalidPose, Pose
 from rrps_description.structures import STRUCTURES, make_structure
 from rrps_interfaces.climb import (
+    CLIMB_PREVIEW,
     CLIMB_RESUME,
     CLIMB_STATUS,
     CLIMB_STEP_DOWN,
     CLIMB_STEP_UP,
+    ClimbPreview,
     ClimbState,
     ClimbStatus,
     odometry_topic,
@@ -47,12 +56,14 @@ from rrps_runtime.messages import joint_state_msg, pose_from_msg, pose_to_msg
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
-from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, LINK_STATE_QOS, STATE_QOS
+from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, LATEST_QOS, LINK_STATE_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
 from rrps_teleop.climbing.frame_node import FrameNodePlanner
 from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_teleop.climbing.load_check import LoadCheck
-from rrps_teleop.climbing.step_machine import ClimbOutput, ClimbStepMachine, ClimbTarget, StepConfig
+from rrps_teleop.climbing.step_io import ClimbOutput, ClimbTarget, StepConfig
+from rrps_teleop.climbing.step_machine import ClimbStepMachine
+from rrps_teleop.climbing.step_preview import PreviewConfig, run_preview
 
 __all__ = ['PARAMETERS', 'ClimbNode', 'main']
 
@@ -87,6 +98,11 @@ PARAMETERS = NodeParameters('climb_node', 'rrps_teleop', [
               'splice, the inchworm gait); start defaults to the searched stance before the node', unit='deg',
               range=(0.0, 90.0)),
     Parameter('out_of_plane', False, "frame with junction_deg: the member bends normal to the column's web plane"),
+    Parameter('preview', True, 'simulate each step on the dynamics before it executes; refuse it if it '
+              'breaks a force or holding limit'),
+    Parameter('gravity', (0.0, 0.0, -9.81), "the world's gravity in the structure's frame (the preview's)",
+              unit='m/s^2', item_type=float),
+    Parameter('preview_min_margin', 0.0, 'smallest holding margin a preview accepts', range=(-1.0, 1.0)),
 ])
 
 LEVELS = {ClimbState.IDLE: OK, ClimbState.EXECUTING: OK, ClimbState.PAUSED: ERROR, ClimbState.FAILED: ERROR}
@@ -109,12 +125,17 @@ class ClimbNode(Node):
                                                       'operator_timeout')})
         self.machine = ClimbStepMachine(planner, config, start=start,
                                         step_length=values['step_length'] or None,
-                                        auto_steps=values['auto_steps'])
+                                        auto_steps=values['auto_steps'], preview=values['preview'])
+        if len(values['gravity']) != 3:
+            raise ValueError(f"gravity: expected 3 numbers [m/s^2], got {values['gravity']}")
+        self._preview_config = PreviewConfig(gravity=tuple(values['gravity']),
+                                             min_margin=values['preview_min_margin'])
+        self._preview_worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix='climb_preview')
+        self._preview_job: Future | None = None
+        self._closing = threading.Event()
         self._pose_msg: PoseStamped | None = None
         self._odometry = None  # (world_T_a, world_T_b, stamp) not yet published
         self._gripper_call = None  # (GripperRequest, Future) awaiting the driver's answer
-        self._log = {logging.INFO: self.get_logger().info, logging.WARNING: self.get_logger().warning,
-                     logging.ERROR: self.get_logger().error}
 
         self._tap = RecordingTap(self)
         self._target_pub = self._tap.create_publisher(PoseStamped, TARGET_POSE, COMMAND_QOS)
@@ -125,6 +146,7 @@ class ClimbNode(Node):
         if self._ring_joints:
             self.create_subscription(JointState, ACTUATORS_STATE, self._on_state, LATEST_QOS)
         self._status_pub = self.create_publisher(DiagnosticStatus, CLIMB_STATUS, STATE_QOS)
+        self._preview_pub = self.create_publisher(DiagnosticStatus, CLIMB_PREVIEW, LATCHED_QOS)
         self._odo_pubs = {ring: self._tap.create_publisher(PoseStamped, odometry_topic(ring), STATE_QOS)
                           for ring in RINGS}
         self.create_subscription(PoseStamped, POSE, self._on_pose, LATEST_QOS)
@@ -240,7 +262,24 @@ class ClimbNode(Node):
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
 
+    def _take_preview(self) -> None:
+        """Publish a finished preview and hand it to the machine."""
+        if self._preview_job is None or not self._preview_job.done():
+            return
+        job, self._preview_job = self._preview_job, None
+        try:
+            preview = job.result()
+        except Exception as exc:  # noqa: BLE001 - a preview that raised refuses its step, logged
+            preview = ClimbPreview(accepted=False, max_force=float(self.geometry.max_force),
+                                   detail=f'preview failed: {type(exc).__name__}: {exc}')
+        msg = DiagnosticStatus(level=OK if preview.accepted else WARN, name=f'{self.get_name()}: preview',
+                               message=preview.detail, hardware_id=self.geometry.name)
+        msg.values = [KeyValue(key=k, value=v) for k, v in preview.to_values().items()]
+        self._preview_pub.publish(msg)
+        self._carry_out(self.machine.on_preview(preview, self._now()))
+
     def _on_tick(self) -> None:
+        self._take_preview()
         self._answer_gripper()
         self._take_pose()
         self._publish_odometry()
@@ -251,12 +290,23 @@ class ClimbNode(Node):
     def _carry_out(self, out: ClimbOutput) -> None:
         """Log, command, request and report what the machine asked for."""
         for level, text in out.log:
-            self._log[level](text)
+            # one call site per severity: rclpy refuses a site whose severity changes
+            if level >= logging.ERROR:
+                self.get_logger().error(text)
+            elif level >= logging.WARNING:
+                self.get_logger().warning(text)
+            else:
+                self.get_logger().info(text)
         if out.target is not None:
             self._publish_target(out.target)
         if out.gripper is not None:
             request = SetBool.Request(data=out.gripper.close)
             self._gripper_call = (out.gripper, self._gripper_clients[out.gripper.ring].call_async(request))
+        if out.preview is not None:
+            c = self.machine.config
+            self._preview_job = self._preview_worker.submit(
+                run_preview, self.geometry, out.preview, speed=c.speed, period=c.period,
+                config=self._preview_config, cancelled=self._closing.is_set)
         if out.status is not None:
             self._publish_status(out.status)
 
@@ -286,6 +336,12 @@ class ClimbNode(Node):
         msg.values = [KeyValue(key=k, value=v) for k, v in status.to_values().items()]
         self._status_pub.publish(msg)
         self._diag.report(level, f'{status.state.value}: {status.detail}', status)
+
+
+    def destroy_node(self) -> None:
+        self._closing.set()
+        self._preview_worker.shutdown(wait=True, cancel_futures=True)
+        super().destroy_node()
 
 
 def main(args=None) -> None:

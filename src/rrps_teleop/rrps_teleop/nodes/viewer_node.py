@@ -47,7 +47,7 @@ from std_msgs.msg import Bool, Float64
 from rrps_description.geometry import load_robot
 from rrps_description.pose import Pose
 from rrps_description.structures import make_structure
-from rrps_interfaces.climb import CLIMB_STATUS, odometry_topic
+from rrps_interfaces.climb import CLIMB_PREVIEW, CLIMB_STATUS, odometry_topic
 from rrps_interfaces.driver import GRIPPERS_STATE
 from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE, TARGET_POSE
 from rrps_interfaces.link import SOURCES
@@ -293,7 +293,7 @@ class ViewerNode(Node):
                 plot, self._plot_time = (np.array(self._plot_t), np.array(self._plot_l)), now
             trails = {ring: trail.points for ring, trail in self._trails.items()}
         summary = self.robots.latest()
-        latest.update({key: summary.get(key) for key in (TELEOP_STATUS, CLIMB_STATUS, GRIPPERS_STATE)})
+        latest.update({key: summary.get(key) for key in (TELEOP_STATUS, CLIMB_STATUS, CLIMB_PREVIEW, GRIPPERS_STATE)})
         latest['driver'], fk_status = summary.get(DRIVER), summary.get(FK)
         grippers: dict[str, float | None] = {'ring_a': None, 'ring_b': None}
         gmsg = latest.get(GRIPPERS_STATE)
@@ -369,6 +369,7 @@ class ViewerNode(Node):
         lines = [f'**Driver:** {panel.driver_line(latest.get("driver"))}',
                  f'**Teleop:** {panel.teleop_line(teleop)}',
                  f'**Climb:** {panel.climb_line(latest.get(CLIMB_STATUS))}',
+                 f'**Preview:** {panel.preview_line(latest.get(CLIMB_PREVIEW))}',
                  f'**Round trip:** {panel.round_trip_line(self.round_trip())}',
                  f'**Grippers:** {panel.grippers_line(frame.grippers)}']
         if frame.slave is not None:

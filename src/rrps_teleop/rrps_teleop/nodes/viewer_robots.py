@@ -1,7 +1,7 @@
 """The robots a viewer shows: one, or each robot of a fleet, and the one it draws.
 
 Of every robot (a namespace: '' is the viewer's own) the viewer reads its summary: ``climb/status``,
-``teleop/status`` (the teleop node publishes it in the namespace of the robot it drives),
+``climb/preview``, ``teleop/status`` (the teleop node publishes it in the namespace of the robot it drives),
 ``grippers/state`` and the driver's and FK's statuses. Of the selected robot it also reads what
 it draws: ``pose``, ``actuators/state``, ``target_pose`` and ``odometry/ring_a|ring_b``. With
 ``source`` = 'link' the state comes from each robot's link relay (:mod:`rrps_interfaces.link`),
@@ -19,13 +19,13 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import JointState
 
-from rrps_interfaces.climb import CLIMB_STATUS, odometry_topic
+from rrps_interfaces.climb import CLIMB_PREVIEW, CLIMB_STATUS, odometry_topic
 from rrps_interfaces.driver import GRIPPERS_STATE
 from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE, TARGET_POSE
 from rrps_interfaces.link import namespaced, normalize_namespace, robot_topic
 from rrps_interfaces.status import DIAGNOSTICS, source_node
 from rrps_interfaces.teleop import TELEOP_STATUS
-from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, LINK_EVENT_QOS, LINK_STATE_QOS, STATE_QOS
+from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, LATEST_QOS, LINK_EVENT_QOS, LINK_STATE_QOS, STATE_QOS
 from rrps_teleop.viewer import status_text as panel
 
 __all__ = ['ViewerRobots', 'DRIVER', 'FK']
@@ -60,6 +60,7 @@ class ViewerRobots:
         link = source == 'link'
         for robot in self.robots:
             for topic, kind, qos in ((CLIMB_STATUS, DiagnosticStatus, STATE_QOS),
+                                     (CLIMB_PREVIEW, DiagnosticStatus, LATCHED_QOS),
                                      (TELEOP_STATUS, DiagnosticStatus, STATE_QOS)):
                 node.create_subscription(kind, namespaced(topic, robot),
                                          lambda msg, r=robot, k=topic: self._store(r, k, msg), qos)

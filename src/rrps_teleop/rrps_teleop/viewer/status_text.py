@@ -1,7 +1,7 @@
 """The viewer's status panel: the operator's text, rendered from typed statuses only.
 
 Every line is read from a contract of :mod:`rrps_interfaces.teleop` (``TeleopStatus``,
-``ClimbStatus``), :mod:`rrps_interfaces.driver` (``DriverStatus``) or
+``ClimbStatus``, ``ClimbPreview``), :mod:`rrps_interfaces.driver` (``DriverStatus``) or
 :mod:`rrps_interfaces.kinematics` (``FkStatus``), never from another node's message text (the
 FK status message is shown as it is, for people). A status is anything with ``level`` and
 ``values`` (a ``diagnostic_msgs/DiagnosticStatus``); pure Python, no rclpy, no viser.
@@ -13,12 +13,12 @@ import math
 
 import numpy as np
 
-from rrps_interfaces.climb import ClimbStatus
+from rrps_interfaces.climb import ClimbPreview, ClimbStatus
 from rrps_interfaces.driver import DriverStatus
 from rrps_interfaces.kinematics import FkStatus
 from rrps_interfaces.teleop import TeleopStatus
 
-__all__ = ['SLOW_ROUND_TRIP', 'HOLD_ROUND_TRIP', 'teleop_line', 'climb_line', 'driver_line',
+__all__ = ['SLOW_ROUND_TRIP', 'HOLD_ROUND_TRIP', 'teleop_line', 'climb_line', 'preview_line', 'driver_line',
            'round_trip_line', 'grippers_line', 'slave_lines', 'feedback_line', 'fk_line',
            'translation_scale', 'driven_robot', 'robot_line']
 
@@ -60,7 +60,29 @@ def climb_line(status) -> str:
         return f'unreadable ({exc})'
     where = f', step {c.step}, phase {c.phase}' if c.action is not None else ''
     paused = f': {c.pause_reason.value}, press Resume climb' if c.pause_reason is not None else ''
+    if c.previewing:
+        paused = ': previewing the step'
+    elif c.refusal is not None and c.state.value == 'idle':
+        paused = f': step refused ({c.refusal.value})'
     return f'{c.state.value}{paused} ({_level(status)}{where})'
+
+
+def preview_line(status) -> str:
+    """climb/preview: the last step's predicted peak actuator force, gripper reaction and
+    smallest holding margin, and whether the preview accepted it."""
+    if status is None:
+        return '—'
+    try:
+        p = ClimbPreview.from_key_values(status.values)
+    except ValueError as exc:
+        return f'unreadable ({exc})'
+    if p.peak_leg == 0:
+        return p.detail or ('accepted' if p.accepted else 'refused')
+    verdict = 'accepted' if p.accepted else f'REFUSED ({p.limit.value if p.limit else "failed"})'
+    margin = '—' if math.isnan(p.min_margin) else f'{p.min_margin:.2f} ({p.min_margin_ring})'
+    return (f'{verdict}: peak force {p.peak_force:.0f} N (leg_{p.peak_leg}, max {p.max_force:.0f} N), '
+            f'gripper reaction {p.peak_reaction_force:.0f} N / {p.peak_reaction_moment:.0f} N m, '
+            f'holding margin {margin}')
 
 
 def driver_line(status) -> str:

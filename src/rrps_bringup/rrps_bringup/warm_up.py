@@ -1,0 +1,58 @@
+"""Compile the numba kernels once, at install (``./rrps install`` runs ``python -m rrps_bringup.warm_up``).
+
+The kernels are compiled on their first call and cached on disk (``cache=True``, stamped with the
+sources of every kernel: :func:`rrps_kinematics.backend.jit`). Without this, the first climbing
+step's preview (the dynamics), the first FK and the teleop guards would each wait for numba to
+compile them in a running node. This runs each of them once, with the argument types the stack
+uses: IK and FK, the limits of one pose, the teleop guards and a short preview on either ring.
+Nothing is compiled when numba is off (``RRPS_NUMBA=0``) or missing.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+
+from rrps_description.geometry import load_robot
+from rrps_kinematics.backend import numba_enabled
+
+__all__ = ['warm_up', 'main']
+
+#: The robot whose calls compile the kernels (every robot has the same argument types).
+ROBOT = 'pole_climber'
+
+
+def warm_up(robot: str = ROBOT) -> float:
+    """Run every compiled kernel once; returns the seconds it took (0 when numba is off)."""
+    if not numba_enabled():
+        return 0.0
+    from rrps_kinematics import forward_kinematics
+    from rrps_kinematics.limits import pose_margins
+    from rrps_sim.preview import PreviewMotion, preview_step
+    from rrps_teleop.mapping import TeleopMapping
+
+    start = time.perf_counter()
+    g = load_robot(robot)
+    p, q = np.array(g.home_position, dtype=float), np.array(g.home_quaternion_xyzw, dtype=float)
+    forward_kinematics(g, g.home_lengths)
+    pose_margins(g, p, q)
+    TeleopMapping(g)                      # compiles the guards' kernels on construction
+    path = p + np.outer(np.linspace(0.0, 0.002, 3), [0.0, 0.0, 1.0])
+    motions = [PreviewMotion(f'warm-up on {ring}', ring, np.array([0.0, 0.0, 0.0, 1.0]), path,
+                             np.tile(q, (3, 1)), 0.01) for ring in ('ring_a', 'ring_b')]
+    preview_step(g, motions, settle=0.0)
+    return time.perf_counter() - start
+
+
+def main() -> None:
+    seconds = warm_up()
+    if seconds:
+        print(f'rrps: numba kernels compiled (or loaded from the cache) in {seconds:.1f} s', file=sys.stderr)
+    else:
+        print('rrps: numba is off: no kernels to compile', file=sys.stderr)
+
+
+if __name__ == '__main__':
+    main()
