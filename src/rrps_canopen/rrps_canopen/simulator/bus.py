@@ -7,8 +7,8 @@ their TPDOs. Legs in position mode move as ``rrps_sim``'s kinematic actuators (l
 stroke limits: the simulated backend's model); a master's legs in torque mode are masses held by
 the operator's hand (a spring-damper to where the hand is), pushed by the drives' forces, whose
 work on them is summed (the energy the master puts into the operator). :meth:`SimulatedBus.control`
-takes a test's requests (faults, the bus's loss, a stuck clamp sensor, the hand) and reports the
-devices. Pure Python (canopen, python-can), no ROS import.
+takes a test's requests (faults, the bus's loss, a bus-off error frame, a stuck clamp sensor, the
+hand) and reports the devices. Pure Python (canopen, python-can), no ROS import.
 """
 
 from __future__ import annotations
@@ -18,8 +18,10 @@ import threading
 import time
 from collections import deque
 
+import can
 import numpy as np
 
+from rrps_canopen.drive_set import CAN_ERR_BUSOFF
 from rrps_canopen.network import open_network, resolve_eds
 from rrps_canopen.simulator.drive import SimulatedDrive
 from rrps_canopen.simulator.io import Clamp, SimulatedIoModule
@@ -165,7 +167,8 @@ class SimulatedBus:
     def control(self, request: dict) -> dict:
         """One request: ``{'cmd': 'status'}``, ``{'cmd': 'fault', 'drive': 'leg_3', 'kind': k}``
         (k one of :data:`FAULTS`), ``{'cmd': 'restore', 'drive': ...}`` (a silent drive answers
-        again), ``{'cmd': 'bus', 'up': bool}``, ``{'cmd': 'sensor', 'ring': r, 'stuck': bool|None}``,
+        again), ``{'cmd': 'bus', 'up': bool}``, ``{'cmd': 'bus_off'}`` (the error frame a CAN
+        controller reports its bus-off with), ``{'cmd': 'sensor', 'ring': r, 'stuck': bool|None}``,
         ``{'cmd': 'hand', 'lengths': [...]}``, ``{'cmd': 'trace', 'on': bool}``, ``{'cmd': 'syncs'}``."""
         cmd = request.get('cmd')
         with self.lock:
@@ -178,9 +181,13 @@ class SimulatedBus:
                 return {'ok': True}
             if cmd == 'bus':
                 return self._bus(bool(request['up']))
+            if cmd == 'bus_off':
+                self.network.bus.send(can.Message(arbitration_id=CAN_ERR_BUSOFF, is_error_frame=True,
+                                                  is_extended_id=False, dlc=8, data=bytes(8)))
+                return {'ok': True, 'time': time.monotonic()}
             if cmd == 'sensor':
                 self.clamps[request['ring']].stuck_sensor = request.get('stuck')
-                return {'ok': True}
+                return {'ok': True, 'time': time.monotonic()}
             if cmd == 'hand':
                 self.hand.hand = np.array(request['lengths'], dtype=float)
                 return {'ok': True}
