@@ -2,7 +2,8 @@
 
 :class:`SimulatedBus` puts a :class:`~rrps_canopen.simulator.drive.SimulatedDrive` per leg (and
 the grippers' CiA 401 module, when the robot has one) on the bus of the robot YAML's ``bus``
-section. On each SYNC every device takes its RPDOs, the axes move, the devices sense them and send
+section. On each SYNC every device sends its heartbeat if it is due
+(:mod:`rrps_canopen.simulator.heartbeat`), takes its RPDOs, the axes move, the devices sense them and send
 their TPDOs. Legs in position mode move as ``rrps_sim``'s kinematic actuators (lag, speed and
 stroke limits: the simulated backend's model); a master's legs in torque mode are masses held by
 the operator's hand (a spring-damper to where the hand is), pushed by the drives' forces, whose
@@ -24,6 +25,7 @@ import numpy as np
 from rrps_canopen.drive_set import CAN_ERR_BUSOFF
 from rrps_canopen.network import open_network, resolve_eds
 from rrps_canopen.simulator.drive import SimulatedDrive
+from rrps_canopen.simulator.heartbeat import HeartbeatProducer
 from rrps_canopen.simulator.io import Clamp, SimulatedIoModule
 from rrps_description.geometry import RobotGeometry
 from rrps_description.names import RINGS
@@ -74,6 +76,7 @@ class SimulatedBus:
         stroke = (geometry.min_length, geometry.max_length)
         self.lock = threading.Lock()
         self.network = open_network(bus)
+        self.heartbeats = HeartbeatProducer(self.network)
         self.drives = [SimulatedDrive(self.network, d, resolve_eds(d.eds, bus.base_dir), stroke, float(x))
                        for d, x in zip(bus.drives, x0)]
         self.legs = KinematicActuators(*stroke, geometry.max_speed, time_constant, x0)
@@ -94,6 +97,7 @@ class SimulatedBus:
             d.node.nmt.stop_heartbeat()
         if self.module is not None:
             self.module.node.nmt.stop_heartbeat()
+        self.heartbeats.close()
         self.network.disconnect()
 
     # --- one SYNC ---
@@ -104,6 +108,7 @@ class SimulatedBus:
             if self.down:
                 return
             self.syncs.append(now)
+            self.heartbeats.send_due(now)  # a late heartbeat before any PDO, as a drive's own MCU sends it
             dt = 0.0 if self._last is None else min(now - self._last, MAX_STEP * 10)
             self._last = now
             devices = [*self.drives, *([self.module] if self.module else [])]
