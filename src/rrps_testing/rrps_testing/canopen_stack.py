@@ -3,13 +3,15 @@ CANopen driver as processes of their own (real CANopen traffic on a loopback bus
 own), IK, FK, climbing, master and teleop in the test's process, and the operator's probe.
 
 :func:`canopen_stack` yields a :class:`Stack`, :func:`activated_driver` only the simulator, the
-driver and the probe (a :class:`DriverRig`); :func:`fault_episode` injects one fault in either and measures what the robot did about it, from the drives' side (the simulator's trace of every
-SYNC: targets and positions) and from the operator's (driver_node's /diagnostics).
+driver and the probe (a :class:`DriverRig`); :func:`fault_episode` injects one fault in either and
+measures what the robot did about it, from the drives' side (the simulator's trace of every SYNC:
+targets and positions) and from the operator's (driver_node's /diagnostics).
 """
 
 from __future__ import annotations
 
 import contextlib
+import os
 import threading
 import time
 from dataclasses import dataclass
@@ -23,7 +25,7 @@ from std_srvs.srv import Trigger
 from rrps_interfaces.climb import CLIMB_RESUME, CLIMB_STATUS, ClimbState, ClimbStatus
 from rrps_interfaces.kinematics import POSE
 from rrps_interfaces.teleop import TELEOP_ENABLE, TELEOP_STATUS, TeleopStatus
-from rrps_runtime.supervision import stop_children
+from rrps_runtime.supervision import OPERATOR_NICE, OPERATOR_RT_PRIORITY, raise_priority, stop_children
 from rrps_testing.canopen_rig import DriveSim, driver_process
 from rrps_testing.driver_probe import DriverProbe
 from rrps_testing.ros_harness import Spinner, wait_for
@@ -110,8 +112,10 @@ def canopen_stack(context, domain_id: int, *, robot: str = 'pole_climber', hardw
                 if deadman.is_set():
                     enable.publish(Bool(data=True))
         thread = threading.Thread(target=hold, daemon=True)
-        with Spinner(context, [*nodes.values(), probe]):
-            thread.start()
+        with contextlib.ExitStack() as running:
+            with operator_priority():
+                running.enter_context(Spinner(context, [*nodes.values(), probe]))
+                thread.start()
             try:
                 assert wait_for(lambda: poses), (driver.poll(), probe.latest())
                 wait_active(probe, driver)
@@ -119,6 +123,19 @@ def canopen_stack(context, domain_id: int, *, robot: str = 'pole_climber', hardw
             finally:
                 stop.set()
                 thread.join()
+
+
+@contextlib.contextmanager
+def operator_priority():
+    """Threads started inside run as the demo runs the operator station (SCHED_RR at
+    OPERATOR_RT_PRIORITY where permitted, below the driver and the simulator), not at the test
+    process' priority; the calling thread then returns to its own."""
+    nice = os.getpriority(os.PRIO_PROCESS, 0)
+    raise_priority(OPERATOR_NICE, realtime=OPERATOR_RT_PRIORITY)
+    try:
+        yield
+    finally:
+        raise_priority(nice)
 
 
 def hold_time(trace: list, t_inject: float) -> tuple[float, float]:
@@ -158,7 +175,8 @@ REPORTED = {'current': ('emergency', False), 'fault_bit': ('drive_fault', False)
             'reboot': ('rebooted', False), 'bus': ('bus_lost', True), 'bus_off': ('bus_lost', True)}
 
 
-def fault_episode(stack: DriverRig, kind: str, drive: str, *, window: float = 0.5, deadline: float = 60.0) -> FaultEpisode:
+def fault_episode(stack: DriverRig, kind: str, drive: str, *, window: float = 0.5,
+                  deadline: float = 60.0) -> FaultEpisode:
     """Inject ``kind`` (a key of :data:`REPORTED`) in ``drive`` now, wait for driver_node's
     report, watch the drives ``window`` s more, bring the link back (silent drive, bus), reset
     the faults and activate again."""

@@ -48,7 +48,8 @@ def test_canopen_nmt_heartbeat_goes_through_the_producer_and_follows_the_state()
         net.add_node(node)
         node.nmt.send_command(0x80)     # PRE-OPERATIONAL
         node.sdo[0x1017].raw = 20       # heartbeat producer time [ms]
-        assert [(f.msg.arbitration_id, bytes(f.msg.data), f.period) for f in producer.frames] == [(0x703, b'\x7f', 0.02)]
+        frames = [(f.msg.arbitration_id, bytes(f.msg.data), f.period) for f in producer.frames]
+        assert frames == [(0x703, b'\x7f', 0.02)]
         node.nmt.send_command(0x01)     # OPERATIONAL: the heartbeat carries the new state
         assert bytes(producer.frames[0].msg.data) == b'\x05'
         assert wait_until(lambda: any(m.arbitration_id == 0x703 and m.data == b'\x05' for m in net.bus.sent))
