@@ -262,12 +262,15 @@ def climb_state(stack: Stack) -> ClimbStatus | None:
 
 
 def finish_step(stack: Stack, resumes: int = 10) -> None:
-    """Resume the step (paused by a fault, or by a late state on a busy machine) until it ends idle."""
+    """Resume the step (paused by a fault, or by a late state on a busy machine) until it ends
+    idle. After each resume, the next climb/status published after it tells the state (the step
+    may pause again before a poll would see it run)."""
     for _ in range(resumes):
         assert wait_for(lambda: climb_state(stack).state in (ClimbState.PAUSED, ClimbState.IDLE, ClimbState.FAILED),
                         timeout=120), climb_state(stack)
         if climb_state(stack).state is not ClimbState.PAUSED:
             break
         assert wait_for(lambda: call(stack, CLIMB_RESUME)[0], period=0.5), (climb_state(stack), stack.probe.latest())
-        assert wait_for(lambda: climb_state(stack).state is not ClimbState.PAUSED), climb_state(stack)
+        resumed = time.monotonic()
+        assert wait_for(lambda: stack.climb_status[-1][0] > resumed), climb_state(stack)
     assert climb_state(stack).state is ClimbState.IDLE, climb_state(stack)
