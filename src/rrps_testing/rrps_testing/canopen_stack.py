@@ -261,7 +261,7 @@ def climb_state(stack: Stack) -> ClimbStatus | None:
     return ClimbStatus.from_key_values(stack.climb_status[-1][1].values) if stack.climb_status else None
 
 
-def finish_step(stack: Stack, resumes: int = 10) -> None:
+def finish_step(stack: Stack, resumes: int = 30) -> None:
     """Resume the step (paused by a fault, or by a late state on a busy machine) until it ends
     idle. After each resume, the next climb/status published after it tells the state (the step
     may pause again before a poll would see it run)."""
