@@ -25,7 +25,9 @@ __all__ = ['free_port', 'DriveSim', 'driver_process', 'can_env']
 #: [s] how long a request to the simulator may take on a busy machine.
 ANSWER_TIMEOUT = 30.0
 #: SCHED_RR priority of the drive simulator: above the robot's command path, as real drives are
-#: hardware of their own that the driver's computer cannot starve.
+#: hardware of their own that the driver's computer cannot starve. The kernel's RT bandwidth limit
+#: still stops it for about 50 ms at times; its heartbeats stay ahead of its PDOs then
+#: (rrps_canopen.simulator.heartbeat; docs/measurements.md: CANopen).
 SIM_RT_PRIORITY = CONTROL_RT_PRIORITY + 10
 
 

@@ -2,14 +2,16 @@
 CANopen driver as processes of their own (real CANopen traffic on a loopback bus of the test's
 own), IK, FK, climbing, master and teleop in the test's process, and the operator's probe.
 
-:func:`canopen_stack` yields a :class:`Stack`; :func:`fault_episode` injects one fault in a drive
-and measures what the robot did about it, from the drives' side (the simulator's trace of every
-SYNC: targets and positions) and from the operator's (driver_node's /diagnostics).
+:func:`canopen_stack` yields a :class:`Stack`, :func:`activated_driver` only the simulator, the
+driver and the probe (a :class:`DriverRig`); :func:`fault_episode` injects one fault in either and
+measures what the robot did about it, from the drives' side (the simulator's trace of every SYNC:
+targets and positions) and from the operator's (driver_node's /diagnostics).
 """
 
 from __future__ import annotations
 
 import contextlib
+import os
 import threading
 import time
 from dataclasses import dataclass
@@ -23,29 +25,70 @@ from std_srvs.srv import Trigger
 from rrps_interfaces.climb import CLIMB_RESUME, CLIMB_STATUS, ClimbState, ClimbStatus
 from rrps_interfaces.kinematics import POSE
 from rrps_interfaces.teleop import TELEOP_ENABLE, TELEOP_STATUS, TeleopStatus
-from rrps_runtime.supervision import stop_children
+from rrps_runtime.supervision import OPERATOR_NICE, OPERATOR_RT_PRIORITY, raise_priority, stop_children
 from rrps_testing.canopen_rig import DriveSim, driver_process
 from rrps_testing.driver_probe import DriverProbe
 from rrps_testing.ros_harness import Spinner, wait_for
 
-__all__ = ['Stack', 'canopen_stack', 'FaultEpisode', 'fault_episode', 'hold_time', 'teleop_status', 'engage',
-           'call', 'climb_state', 'finish_step']
+__all__ = ['DriverRig', 'Stack', 'driver_processes', 'activated_driver', 'canopen_stack', 'FaultEpisode',
+           'fault_episode', 'hold_time', 'teleop_status', 'engage', 'call', 'climb_state', 'finish_step']
 
 NAMESPACE = '/rrps_canopen'
 
 
 @dataclass
-class Stack:
-    """What a test drives: the simulator, the driver process, the in-process nodes, the probe."""
+class DriverRig:
+    """The simulator, the driver process (activated) and the operator's probe."""
 
     sim: DriveSim
     driver: object
-    nodes: dict
     probe: DriverProbe
+
+
+@dataclass
+class Stack(DriverRig):
+    """What a test drives: the simulator, the driver process, the in-process nodes, the probe."""
+
+    nodes: dict
     poses: list
     teleop_status: list
     climb_status: list
     deadman: threading.Event
+
+
+@contextlib.contextmanager
+def driver_processes(domain_id: int, *, robot: str = 'pole_climber', hardware: str = 'canopen',
+                     driver_params: tuple[str, ...] = ()):
+    """The drive simulator (``hardware='canopen'``) and driver_node (``auto_activate``) as processes
+    of their own; yields (sim or None, driver). Stops both; the driver must end cleanly."""
+    sim = DriveSim(robot) if hardware == 'canopen' else None
+    processes = []
+    try:
+        processes.append(driver_process(sim.port if sim is not None else 0, 'auto_activate:=true', *driver_params,
+                                        robot=robot, namespace=NAMESPACE, domain_id=domain_id, hardware=hardware))
+        yield sim, processes[0]
+    finally:
+        codes = stop_children(processes)
+        if sim is not None:
+            sim.stop()
+    failed = [p for p, code in zip(processes, codes) if code != 0]
+    assert not failed, failed[0].stderr.read()[-3000:]
+
+
+def wait_active(probe: DriverProbe, driver) -> None:
+    """Until driver_node reports itself active (auto_activate)."""
+    assert wait_for(lambda: probe.latest() and probe.latest()[3].active), (driver.poll(), probe.latest())
+
+
+@contextlib.contextmanager
+def activated_driver(context, domain_id: int, *, robot: str = 'pole_climber', driver_params: tuple[str, ...] = ()):
+    """The simulated drives and the CANopen driver, activated, with the operator's probe: a
+    :class:`DriverRig` (faults of the bus and of the grippers need no kinematics)."""
+    with driver_processes(domain_id, robot=robot, driver_params=driver_params) as (sim, driver):
+        probe = DriverProbe(context=context, namespace=NAMESPACE)
+        with Spinner(context, [probe]):
+            wait_active(probe, driver)
+            yield DriverRig(sim, driver, probe)
 
 
 @contextlib.contextmanager
@@ -54,15 +97,7 @@ def canopen_stack(context, domain_id: int, *, robot: str = 'pole_climber', hardw
     """The stack (see the module docstring); ``hardware='simulated'`` runs the simulated driver
     process instead, for comparisons. The deadman is held (20 Hz) while ``stack.deadman`` is set."""
     from rrps_bringup.demo import build_stack
-    sim = DriveSim(robot) if hardware == 'canopen' else None
-    processes = []
-    try:
-        params = ('auto_activate:=true', *driver_params)
-        if sim is not None:
-            processes.append(driver_process(sim.port, *params, robot=robot, namespace=NAMESPACE, domain_id=domain_id))
-        else:
-            processes.append(driver_process(0, *params, robot=robot, namespace=NAMESPACE, domain_id=domain_id,
-                                            hardware='simulated'))
+    with driver_processes(domain_id, robot=robot, hardware=hardware, driver_params=driver_params) as (sim, driver):
         nodes = build_stack(context, robot=robot, host='127.0.0.1', port=0, token='', viewer=False, climb=True,
                             driver=False, kinematics=True, namespace=NAMESPACE)
         probe = DriverProbe(context=context, namespace=NAMESPACE)
@@ -77,22 +112,30 @@ def canopen_stack(context, domain_id: int, *, robot: str = 'pole_climber', hardw
                 if deadman.is_set():
                     enable.publish(Bool(data=True))
         thread = threading.Thread(target=hold, daemon=True)
-        with Spinner(context, [*nodes.values(), probe]):
-            thread.start()
+        with contextlib.ExitStack() as running:
+            with operator_priority():
+                running.enter_context(Spinner(context, [*nodes.values(), probe]))
+                thread.start()
             try:
-                stack = Stack(sim, processes[0], nodes, probe, poses, teleop_status, climb_status, deadman)
-                assert wait_for(lambda: poses and probe.latest() and probe.latest()[3].active), \
-                    (processes[0].poll(), probe.latest())
-                yield stack
+                assert wait_for(lambda: poses), (driver.poll(), probe.latest())
+                wait_active(probe, driver)
+                yield Stack(sim, driver, probe, nodes, poses, teleop_status, climb_status, deadman)
             finally:
                 stop.set()
                 thread.join()
+
+
+@contextlib.contextmanager
+def operator_priority():
+    """Threads started inside run as the demo runs the operator station (SCHED_RR at
+    OPERATOR_RT_PRIORITY where permitted, below the driver and the simulator), not at the test
+    process' priority; the calling thread then returns to its own."""
+    nice = os.getpriority(os.PRIO_PROCESS, 0)
+    raise_priority(OPERATOR_NICE, realtime=OPERATOR_RT_PRIORITY)
+    try:
+        yield
     finally:
-        codes = stop_children(processes)
-        if sim is not None:
-            sim.stop()
-    failed = [p for p, code in zip(processes, codes) if code != 0]
-    assert not failed, failed[0].stderr.read()[-3000:]
+        raise_priority(nice)
 
 
 def hold_time(trace: list, t_inject: float) -> tuple[float, float]:
@@ -129,17 +172,21 @@ class FaultEpisode:
 #: What each simulator fault is reported as: (DriverStatus fault kind, all drives?).
 REPORTED = {'current': ('emergency', False), 'fault_bit': ('drive_fault', False),
             'blocked': ('following_error', False), 'silent': ('lost_heartbeat', False),
-            'reboot': ('rebooted', False), 'bus': ('bus_lost', True)}
+            'reboot': ('rebooted', False), 'bus': ('bus_lost', True), 'bus_off': ('bus_lost', True)}
 
 
-def fault_episode(stack: Stack, kind: str, drive: str, *, window: float = 0.5, deadline: float = 60.0) -> FaultEpisode:
+def fault_episode(stack: DriverRig, kind: str, drive: str, *, window: float = 0.5,
+                  deadline: float = 60.0) -> FaultEpisode:
     """Inject ``kind`` (a key of :data:`REPORTED`) in ``drive`` now, wait for driver_node's
     report, watch the drives ``window`` s more, bring the link back (silent drive, bus), reset
     the faults and activate again."""
     sim, probe = stack.sim, stack.probe
     outputs0 = sim.status().get('io', {}).get('outputs')
     sim.ask(cmd='trace', on=True)
-    t_inject = sim.ask(cmd='bus', up=False)['time'] if kind == 'bus' else sim.fault(drive, kind)
+    if kind in ('bus', 'bus_off'):
+        t_inject = sim.ask(cmd='bus', up=False)['time'] if kind == 'bus' else sim.ask(cmd='bus_off')['time']
+    else:
+        t_inject = sim.fault(drive, kind)
     expected, everyone = REPORTED[kind]
     wanted = {f'leg_{i}:{expected}' for i in range(1, 7)} if everyone else {f'{drive}:{expected}'}
 
@@ -214,9 +261,11 @@ def climb_state(stack: Stack) -> ClimbStatus | None:
     return ClimbStatus.from_key_values(stack.climb_status[-1][1].values) if stack.climb_status else None
 
 
-def finish_step(stack: Stack, resumes: int = 10) -> None:
+def finish_step(stack: Stack, resumes: int = 30) -> None:
     """Wait for the requested step to start (it stays IDLE while it is previewed), then resume it
-    (paused by a fault, or by a late state on a busy machine) until it ends idle."""
+    (paused by a fault, or by a late state on a busy machine) until it ends idle. After each
+    resume, the next climb/status published after it tells the state (the step may pause again
+    before a poll would see it run)."""
     def started() -> bool:
         s = climb_state(stack)
         return s is not None and (s.state is not ClimbState.IDLE or (s.refusal is not None and not s.previewing))
@@ -228,5 +277,6 @@ def finish_step(stack: Stack, resumes: int = 10) -> None:
         if climb_state(stack).state is not ClimbState.PAUSED:
             break
         assert wait_for(lambda: call(stack, CLIMB_RESUME)[0], period=0.5), (climb_state(stack), stack.probe.latest())
-        assert wait_for(lambda: climb_state(stack).state is not ClimbState.PAUSED), climb_state(stack)
+        resumed = time.monotonic()
+        assert wait_for(lambda: stack.climb_status[-1][0] > resumed), climb_state(stack)
     assert climb_state(stack).state is ClimbState.IDLE, climb_state(stack)

@@ -2,13 +2,14 @@
 
 :class:`SimulatedBus` puts a :class:`~rrps_canopen.simulator.drive.SimulatedDrive` per leg (and
 the grippers' CiA 401 module, when the robot has one) on the bus of the robot YAML's ``bus``
-section. On each SYNC every device takes its RPDOs, the axes move, the devices sense them and send
+section. On each SYNC every device sends its heartbeat if it is due
+(:mod:`rrps_canopen.simulator.heartbeat`), takes its RPDOs, the axes move, the devices sense them and send
 their TPDOs. Legs in position mode move as ``rrps_sim``'s kinematic actuators (lag, speed and
 stroke limits: the simulated backend's model); a master's legs in torque mode are masses held by
 the operator's hand (a spring-damper to where the hand is), pushed by the drives' forces, whose
 work on them is summed (the energy the master puts into the operator). :meth:`SimulatedBus.control`
-takes a test's requests (faults, the bus's loss, a stuck clamp sensor, the hand) and reports the
-devices. Pure Python (canopen, python-can), no ROS import.
+takes a test's requests (faults, the bus's loss, a bus-off error frame, a stuck clamp sensor, the
+hand) and reports the devices. Pure Python (canopen, python-can), no ROS import.
 """
 
 from __future__ import annotations
@@ -18,10 +19,13 @@ import threading
 import time
 from collections import deque
 
+import can
 import numpy as np
 
+from rrps_canopen.drive_set import CAN_ERR_BUSOFF
 from rrps_canopen.network import open_network, resolve_eds
 from rrps_canopen.simulator.drive import SimulatedDrive
+from rrps_canopen.simulator.heartbeat import HeartbeatProducer
 from rrps_canopen.simulator.io import Clamp, SimulatedIoModule
 from rrps_description.geometry import RobotGeometry
 from rrps_description.names import RINGS
@@ -72,6 +76,7 @@ class SimulatedBus:
         stroke = (geometry.min_length, geometry.max_length)
         self.lock = threading.Lock()
         self.network = open_network(bus)
+        self.heartbeats = HeartbeatProducer(self.network)
         self.drives = [SimulatedDrive(self.network, d, resolve_eds(d.eds, bus.base_dir), stroke, float(x))
                        for d, x in zip(bus.drives, x0)]
         self.legs = KinematicActuators(*stroke, geometry.max_speed, time_constant, x0)
@@ -92,6 +97,7 @@ class SimulatedBus:
             d.node.nmt.stop_heartbeat()
         if self.module is not None:
             self.module.node.nmt.stop_heartbeat()
+        self.heartbeats.close()
         self.network.disconnect()
 
     # --- one SYNC ---
@@ -102,6 +108,7 @@ class SimulatedBus:
             if self.down:
                 return
             self.syncs.append(now)
+            self.heartbeats.send_due(now)  # a late heartbeat before any PDO, as a drive's own MCU sends it
             dt = 0.0 if self._last is None else min(now - self._last, MAX_STEP * 10)
             self._last = now
             devices = [*self.drives, *([self.module] if self.module else [])]
@@ -165,7 +172,8 @@ class SimulatedBus:
     def control(self, request: dict) -> dict:
         """One request: ``{'cmd': 'status'}``, ``{'cmd': 'fault', 'drive': 'leg_3', 'kind': k}``
         (k one of :data:`FAULTS`), ``{'cmd': 'restore', 'drive': ...}`` (a silent drive answers
-        again), ``{'cmd': 'bus', 'up': bool}``, ``{'cmd': 'sensor', 'ring': r, 'stuck': bool|None}``,
+        again), ``{'cmd': 'bus', 'up': bool}``, ``{'cmd': 'bus_off'}`` (the error frame a CAN
+        controller reports its bus-off with), ``{'cmd': 'sensor', 'ring': r, 'stuck': bool|None}``,
         ``{'cmd': 'hand', 'lengths': [...]}``, ``{'cmd': 'trace', 'on': bool}``, ``{'cmd': 'syncs'}``."""
         cmd = request.get('cmd')
         with self.lock:
@@ -178,9 +186,13 @@ class SimulatedBus:
                 return {'ok': True}
             if cmd == 'bus':
                 return self._bus(bool(request['up']))
+            if cmd == 'bus_off':
+                self.network.bus.send(can.Message(arbitration_id=CAN_ERR_BUSOFF, is_error_frame=True,
+                                                  is_extended_id=False, dlc=8, data=bytes(8)))
+                return {'ok': True, 'time': time.monotonic()}
             if cmd == 'sensor':
                 self.clamps[request['ring']].stuck_sensor = request.get('stuck')
-                return {'ok': True}
+                return {'ok': True, 'time': time.monotonic()}
             if cmd == 'hand':
                 self.hand.hand = np.array(request['lengths'], dtype=float)
                 return {'ok': True}
