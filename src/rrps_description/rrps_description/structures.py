@@ -357,12 +357,17 @@ class Facade(Structure):
 
 # --- the shipped structures ---------------------------------------------------------------
 
-def pole(length: float = 3.0, radius: float = 0.1) -> Tube:
-    """A straight vertical pole (or pipe, cable) of constant radius, foot at the origin."""
+def pole(length: float = 3.0, radius: float = 0.1, lean_deg: float = 0.0) -> Tube:
+    """A straight pole (or pipe, cable) of constant radius, foot at the origin: vertical, or
+    leaning ``lean_deg`` from the vertical about the world x axis (its top toward -y), so that
+    its grip frames are the vertical pole's turned by that angle about x."""
     if not (length > 0.0 and radius > 0.0):
         raise ValueError('pole: length and radius must be > 0')
+    if not (math.isfinite(lean_deg) and abs(lean_deg) < 90.0):
+        raise ValueError(f'pole: lean_deg must be within (-90, 90), got {lean_deg}')
+    lean = math.radians(lean_deg)
     z = np.linspace(0.0, length, 5)
-    return Tube(np.c_[np.zeros(5), np.zeros(5), z], np.full(5, radius), name='pole')
+    return Tube(np.c_[np.zeros(5), -math.sin(lean) * z, math.cos(lean) * z], np.full(5, radius), name='pole')
 
 
 def palm_trunk(length: float = 3.0, radius: float = 0.15, radius_variation: float = 0.2,
@@ -408,14 +413,19 @@ def facade(length: float = 4.0) -> Facade:
 STRUCTURES = {'pole': pole, 'palm_trunk': palm_trunk, 'frame': structural_frame, 'facade': facade}
 
 
-def make_structure(name: str, length: float | None = None) -> Structure:
-    """A shipped structure by name, at least ``length`` [m] long along its route."""
+def make_structure(name: str, length: float | None = None, *, lean_deg: float = 0.0) -> Structure:
+    """A shipped structure by name, at least ``length`` [m] long along its route; the pole
+    leaning ``lean_deg`` (:func:`pole`; the other structures stand as shipped)."""
     if name not in STRUCTURES:
         raise ValueError(f'unknown structure {name!r}: one of {sorted(STRUCTURES)}')
+    if name == 'pole':
+        return pole(max(3.0, length or 0.0), lean_deg=lean_deg)
+    if lean_deg:
+        raise ValueError(f'lean_deg applies to the pole only, not to the {name}')
     if name == 'frame':
         if length is None or length <= 4.0:
             return structural_frame()
         return structural_frame(column=2.0, rafter=length - 2.0)
     if name == 'palm_trunk':
         return palm_trunk(max(3.0, length or 0.0))
-    return STRUCTURES[name](max(3.0 if name == 'pole' else 4.0, length or 0.0))
+    return STRUCTURES[name](max(4.0, length or 0.0))

@@ -78,6 +78,8 @@ PARAMETERS = NodeParameters('markers_node', 'rrps_recording', [
     Parameter('rate', 10.0, 'robot/markers rate', unit='Hz', range=(0.1, 100.0)),
     Parameter('structure', 'pole', 'structure to draw in world (pole, palm_trunk, frame, facade; empty: none)'),
     Parameter('structure_length', 3.0, 'drawn structure length', unit='m', range=(0.5, 100.0)),
+    Parameter('structure_lean_deg', 0.0, 'the drawn pole leans this much from the vertical about the world x axis',
+              unit='deg', range=(-80.0, 80.0)),
     Parameter('structure_period', 1.0, 'the structure is re-sent this often', unit='s', range=(0.1, 60.0)),
     Parameter('tf_rate', 30.0, 'live /tf rate (needs tf2_msgs); 0 = off', unit='Hz', range=(0.0, 1000.0)),
 ])
@@ -133,7 +135,7 @@ class MarkersNode(Node):
         self._structure = None
         if structure:  # static: its message is built once (thousands of points)
             from rrps_description.structures import make_structure
-            vertices, faces = make_structure(structure, length).mesh()
+            vertices, faces = make_structure(structure, length, lean_deg=values['structure_lean_deg']).mesh()
             self._structure = marker_msg(structure_marker(vertices, faces),
                                          self.get_clock().now().to_msg())
         self._lock = threading.Lock()

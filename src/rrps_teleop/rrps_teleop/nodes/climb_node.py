@@ -59,6 +59,8 @@ PARAMETERS = NodeParameters('climb_node', 'rrps_teleop', [
     Parameter('structure', 'pole', 'climbed structure', choices=tuple(sorted(STRUCTURES))),
     Parameter('structure_length', 0.0, 'route length of the structure; 0 = its shipped length', unit='m',
               range=(0.0, 1000.0)),
+    Parameter('structure_lean_deg', 0.0, 'the pole leans this much from the vertical about the world x axis',
+              unit='deg', range=(-80.0, 80.0)),
     Parameter('start', -1.0, "route position of ring_a's gripper at start; negative = the lowest that fits",
               unit='m', range=(-1.0, 1000.0)),
     Parameter('step_length', 0.0, "length of one step; 0 = the planner's default for the robot", unit='m',
@@ -92,7 +94,8 @@ class ClimbNode(Node):
         super().__init__('climb_node', **kwargs)
         values = declare_parameters(self, PARAMETERS)
         self.geometry = load_robot(values['robot'])
-        structure = make_structure(values['structure'], values['structure_length'] or None)
+        structure = make_structure(values['structure'], values['structure_length'] or None,
+                                   lean_deg=values['structure_lean_deg'])
         planner = GaitPlanner(self.geometry, structure, use_extra_dof=values['use_extra_dof'])
         config = StepConfig(speed=values['speed'], period=1.0 / values['rate'],
                             **{k: values[k] for k in ('position_tolerance', 'orientation_tolerance',

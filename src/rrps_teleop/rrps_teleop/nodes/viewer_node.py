@@ -96,6 +96,8 @@ PARAMETERS = NodeParameters('viewer_node', 'rrps_teleop', [
     Parameter('master_origin', (0.0, -0.9, 0.0), 'world position of the master robot console', unit='m'),
     Parameter('structure', 'pole', 'structure to draw (pole, palm_trunk, frame, facade; empty: none)'),
     Parameter('structure_length', 3.0, 'length of the drawn structure', unit='m', range=(0.5, 100.0)),
+    Parameter('structure_lean_deg', 0.0, 'the drawn pole leans this much from the vertical about the world x axis',
+              unit='deg', range=(-80.0, 80.0)),
     Parameter('workspace_resolution', 0.02, 'grid of the reachable workspace drawn around the robot; 0: not '
               'drawn', unit='m', range=(0.0, 0.2)),
     Parameter('plot_window', 20.0, 'leg-length plot window', unit='s', range=(1.0, 600.0)),
@@ -106,9 +108,9 @@ PARAMETERS = NodeParameters('viewer_node', 'rrps_teleop', [
 ])
 
 
-def _structure_mesh(name: str, length: float):
+def _structure_mesh(name: str, length: float, lean_deg: float = 0.0):
     """(vertices, faces) of the climbed member to draw (``rrps_description.structures``), or None."""
-    return make_structure(name, length).mesh() if name else None
+    return make_structure(name, length, lean_deg=lean_deg).mesh() if name else None
 
 
 class ViewerNode(Node):
@@ -176,7 +178,7 @@ class ViewerNode(Node):
             host=host, port=port, control=self.control, actions=self, frame_source=self.frame,
             geometry=self.geometry, master_geometry=self.master_geometry,
             master_origin=self._master_origin,
-            structure=_structure_mesh(structure, structure_length), rate=render_rate,
+            structure=_structure_mesh(structure, structure_length, values['structure_lean_deg']), rate=render_rate,
             title=f'rrps · {self.geometry.name}',
             robots=[self.robots.name(r) for r in self.robots.robots] if len(self.robots.robots) > 1 else ())
         shown = '127.0.0.1' if host in ('0.0.0.0', '::', '') else host
