@@ -103,3 +103,74 @@ def test_a_headless_scenario_teleoperates_the_robot_in_its_world(ros_domain_id, 
     assert peak < limit
     # the peak over a motion of millimetres from the start pose: the start's statics, give or take
     assert 0.8 * start < peak < 1.25 * start, (peak, start)
+
+
+def _pole_axis(marker) -> np.ndarray:
+    """The drawn pole's axis: the principal direction of its mesh's vertices, pointing up."""
+    points = np.array([[p.x, p.y, p.z] for p in marker.points])
+    axis = np.linalg.svd(points - points.mean(axis=0), full_matrices=False)[2][0]
+    return axis if axis[2] > 0.0 else -axis
+
+
+@pytest.mark.slow
+def test_the_viewer_scenario_draws_the_pole_leaning_with_the_robot_on_it(ros_context, ros_domain_id):
+    """Without --headless: the viewer, the markers (RViz2) and the climb node's odometry all place the
+    robot on the pole leaning 30 deg; the banner names the scenario."""
+    from geometry_msgs.msg import PoseStamped
+    from rcl_interfaces.srv import GetParameters
+    from visualization_msgs.msg import MarkerArray
+
+    from rrps_testing.ros_harness import Probe, Spinner, wait_for
+
+    command = [str(DEMO)] if DEMO.exists() else [sys.executable, '-m', 'rrps_bringup.demo']
+    env = {**os.environ, 'ROS_DOMAIN_ID': str(ros_domain_id), 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
+           'PYTHONUNBUFFERED': '1'}
+    proc = subprocess.Popen([*command, '--scenario', 'pole_leaning', '--port', str(_free_port())], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        lines = []
+        for line in proc.stdout:  # until the banner (or the demo ended)
+            lines.append(line)
+            if 'is live' in line:
+                break
+        assert 'rrps demo: scenario pole_leaning' in ''.join(lines), ''.join(lines)[-3000:]
+        probe = Probe(context=ros_context, namespace='/rrps')
+        arrays = probe.collect(MarkerArray, 'robot/markers')
+        odometry = probe.collect(PoseStamped, 'odometry/ring_a')
+        viewer = probe.create_client(GetParameters, '/rrps/viewer_node/get_parameters')
+
+        def structure():
+            return next((m for a in list(arrays) for m in a.markers if m.ns == 'structure'), None)
+        with Spinner(ros_context, [probe]):
+            assert wait_for(lambda: structure() is not None and odometry, timeout=120.0)
+            assert viewer.wait_for_service(timeout_sec=60.0)
+            future = viewer.call_async(GetParameters.Request(names=['structure', 'structure_lean_deg']))
+            assert wait_for(future.done)
+        drawn = [v.string_value or v.double_value for v in future.result().values]
+        assert drawn == ['pole', 30.0]
+        trunk = rotation_x(math.radians(30.0)) @ [0.0, 0.0, 1.0]
+        np.testing.assert_allclose(_pole_axis(structure()), trunk, atol=1e-3)
+        q = odometry[-1].pose.orientation
+        np.testing.assert_allclose(quaternion_matrix([q.x, q.y, q.z, q.w])[:, 2], trunk, atol=1e-6)
+        probe.destroy_node()
+    finally:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGINT)
+            try:
+                proc.wait(timeout=60)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+
+
+@pytest.mark.parametrize('args, message', [
+    (['--scenario', 'bridge'], "unknown scenario 'bridge': one of facade_wall, pole_leaning"),
+    (['--scenario', 'facade_wall', '--robot', 'pole_climber'],
+     '--scenario facade_wall runs the facade_climber, not --robot pole_climber'),
+])
+def test_a_bad_scenario_is_refused_with_one_line(ros_domain_id, args, message):
+    command = [str(DEMO)] if DEMO.exists() else [sys.executable, '-m', 'rrps_bringup.demo']
+    proc = subprocess.run([*command, *args], env={**os.environ, 'ROS_DOMAIN_ID': str(ros_domain_id)},
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and message in proc.stderr, proc.stderr
+    assert 'Traceback' not in proc.stderr
