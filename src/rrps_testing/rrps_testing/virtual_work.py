@@ -1,11 +1,11 @@
 """An independent statics for tests: leg forces by virtual work, from the anchors alone (eq. 1).
 
-At rest with ring_a gripping, the actuators' virtual work balances the change of potential
-energy: J^T f = dU/dx, with x = (p, a small rotation vector of ring_b in ring_a), J = dL/dx the
-leg lengths' Jacobian and U the potential energy of ring_b (its body, with a point payload at
-``payload_com``) and of each leg's two links (their coms on the leg axis, the lower link's
-``com_from_joint`` from the universal joint, the upper's from the spherical joint). Both by
-central differences; nothing of rrps_kinematics or rrps_sim is used::
+At rest with one ring gripping, the actuators' virtual work balances the change of potential
+energy: J^T f = dU/dx, with x = (p, a small rotation vector) of the moving ring in the supporting
+ring's frame, J = dL/dx the leg lengths' Jacobian and U the potential energy of the moving ring
+(its body, with a point payload) and of each leg's two links (their coms on the leg axis, the
+lower link's ``com_from_joint`` from the universal joint, the upper's from the spherical joint).
+Both by central differences; nothing of rrps_kinematics or rrps_sim is used::
 
     forces = virtual_work_forces(geometry, position, R, gravity_in_a, payload_mass=15.0)
 """
@@ -43,16 +43,25 @@ def quaternion_matrix(q) -> np.ndarray:
                      [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
-def virtual_work_forces(geometry, position, rotation, gravity, *, payload_mass: float = 0.0,
-                        payload_com=(0.0, 0.0, 0.0), legs: bool = True, step: float = 1e-6) -> np.ndarray:
-    """Leg forces [N] (6,) (+ pushing the rings apart) holding ring_b at ``position`` (3,) and
-    ``rotation`` (3, 3) in ring_a's frame, ring_a gripping, ``gravity`` (3,) [m/s²] in ring_a's
-    frame; ``legs=False``: massless legs."""
-    A, B = geometry.ring_a_anchors, geometry.ring_b_anchors
-    body = geometry.ring_b_body
-    lo, up = geometry.lower_link, geometry.upper_link
+def virtual_work_forces(geometry, position, rotation, gravity, *, support: str = 'ring_a',
+                        payload_mass: float = 0.0, payload_ring: str = 'ring_b', payload_com=(0.0, 0.0, 0.0),
+                        legs: bool = True, step: float = 1e-6) -> np.ndarray:
+    """Leg forces [N] (6,) (+ pushing the rings apart) holding the robot at rest at a_T_b =
+    (``position`` (3,), ``rotation`` (3, 3)) with the ``support`` ring gripping, ``gravity`` (3,)
+    [m/s²] in the supporting ring's frame; a point ``payload_mass`` [kg] at ``payload_com`` in
+    ``payload_ring``'s frame (on the supporting ring it loads the gripper, not the legs);
+    ``legs=False``: massless legs."""
+    fixed_b = support == 'ring_b'
+    F, M = (geometry.ring_b_anchors, geometry.ring_a_anchors) if fixed_b else (
+        geometry.ring_a_anchors, geometry.ring_b_anchors)
+    body = geometry.ring_a_body if fixed_b else geometry.ring_b_body
+    at_fixed, at_moving = (geometry.upper_link, geometry.lower_link) if fixed_b else (
+        geometry.lower_link, geometry.upper_link)
+    moving_payload = payload_mass if payload_ring != support else 0.0
     g = np.asarray(gravity, dtype=float)
-    p0, R0 = np.asarray(position, dtype=float), np.asarray(rotation, dtype=float)
+    p_ab, R_ab = np.asarray(position, dtype=float), np.asarray(rotation, dtype=float)
+    # the moving ring's pose in the supporting ring's frame
+    p0, R0 = (-R_ab.T @ p_ab, R_ab.T) if fixed_b else (p_ab, R_ab)
     c_payload = np.asarray(payload_com, dtype=float)
 
     def pose(x):
@@ -60,16 +69,16 @@ def virtual_work_forces(geometry, position, rotation, gravity, *, payload_mass: 
 
     def lengths(x):
         p, R = pose(x)
-        return np.linalg.norm(p + B @ R.T - A, axis=1)
+        return np.linalg.norm(p + M @ R.T - F, axis=1)
 
     def energy(x):
         p, R = pose(x)
-        tips = p + B @ R.T
-        u = (tips - A) / np.linalg.norm(tips - A, axis=1)[:, None]
-        weighted = body.mass * (p + R @ body.com) + payload_mass * (p + R @ c_payload)
+        tips = p + M @ R.T
+        u = (tips - F) / np.linalg.norm(tips - F, axis=1)[:, None]
+        weighted = body.mass * (p + R @ body.com) + moving_payload * (p + R @ c_payload)
         if legs:
-            weighted = weighted + (lo.mass * (A + lo.com_from_joint * u)
-                                   + up.mass * (tips - up.com_from_joint * u)).sum(axis=0)
+            weighted = weighted + (at_fixed.mass * (F + at_fixed.com_from_joint * u)
+                                   + at_moving.mass * (tips - at_moving.com_from_joint * u)).sum(axis=0)
         return -float(g @ weighted)
 
     J, dU = np.zeros((6, 6)), np.zeros(6)

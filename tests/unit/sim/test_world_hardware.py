@@ -27,13 +27,19 @@ def _robot(geometry, **parameters) -> SimulatedRobot:
 
 def test_virtual_work_here_balances_a_weight_on_massless_legs():
     """The independent statics on a case with a known answer: the legs' pull on ring_b balances
-    the weight of ring_b and its payload along every axis."""
+    the weight of ring_b and its payload along every axis; with ring_b gripping, the same forces
+    hold ring_a in the gravity of ring_b's frame turned (the leg forces do not care which end is fixed)."""
     g = load_robot('pole_climber')
     R = quaternion_matrix(g.home_quaternion_xyzw)
     forces = virtual_work_forces(g, g.home_position, R, [0.0, -9.81, 0.0], payload_mass=10.0, legs=False)
     tips = g.home_position + g.ring_b_anchors @ R.T
     u = (tips - g.ring_a_anchors) / np.linalg.norm(tips - g.ring_a_anchors, axis=1)[:, None]
     np.testing.assert_allclose((u * forces[:, None]).sum(axis=0), [0.0, (g.ring_b_body.mass + 10.0) * 9.81, 0.0],
+                               atol=1e-4)
+    # ring_a hung from ring_b: the legs' push on ring_a, -sum(f u), balances its weight
+    up_b = R.T @ [0.0, 0.0, -9.81]  # gravity along ring_a's -z, seen in ring_b's frame
+    flipped = virtual_work_forces(g, g.home_position, R, up_b, support='ring_b', legs=False)
+    np.testing.assert_allclose(-(u * flipped[:, None]).sum(axis=0), [0.0, 0.0, g.ring_a_body.mass * 9.81],
                                atol=1e-4)
 
 
@@ -60,6 +66,11 @@ def test_the_support_is_handed_over_with_the_grippers():
     world_R_b = quaternion_matrix(WALL_Q) @ quaternion_matrix(g.home_quaternion_xyzw)
     np.testing.assert_allclose(quat_xyzw_to_matrix(sim.support.world_q_support), world_R_b, atol=1e-9)
     np.testing.assert_allclose(sim.support.gravity_in_support, world_R_b.T @ [0.0, 0.0, -9.81], atol=1e-9)
+    # its efforts: ring_a, the legs and nothing else hang from ring_b now (virtual work, ring_b fixed)
+    sim.write(0.0, 1.0, None)  # past the efforts' refresh period
+    expected = virtual_work_forces(g, g.home_position, quaternion_matrix(g.home_quaternion_xyzw),
+                                   world_R_b.T @ [0.0, 0.0, -9.81], support='ring_b')
+    np.testing.assert_allclose(sim.read(1.0, 0.01).efforts, expected, rtol=1e-5, atol=1e-3)
     assert sim.set_gripper('ring_a', True).ok
     assert sim.support.ring == 'ring_a'
     np.testing.assert_allclose(quat_xyzw_to_matrix(sim.support.world_q_support), quaternion_matrix(WALL_Q),
