@@ -30,7 +30,9 @@ __all__ = ['Scenario', 'SCENARIOS', 'scenario', 'ros_arguments']
 class Scenario:
     """One demo scenario (see the module docstring). ``handle_step`` [m]: the master handle's
     displacement in the master's ring_a frame (the robot's ring_b follows it, scaled, in ring_a's
-    frame); ``motion``: that motion in words. ``payload_com`` in the ``payload_ring``'s frame [m]."""
+    frame); ``motion``: that motion in words. ``payload_com`` in the ``payload_ring``'s frame [m].
+    ``node_parameters``: further (name, value) pairs for the nodes that declare them (e.g. a
+    structure's own parameters of the climb node)."""
 
     name: str
     robot: str
@@ -42,6 +44,7 @@ class Scenario:
     payload_mass: float = 0.0
     payload_ring: str = 'ring_b'
     payload_com: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    node_parameters: tuple[tuple[str, object], ...] = ()
 
     def structure_model(self) -> Structure:
         return make_structure(self.structure, lean_deg=self.lean_deg)
@@ -67,6 +70,7 @@ class Scenario:
             'payload_mass': float(self.payload_mass),
             'payload_ring': self.payload_ring,
             'payload_com': tuple(float(v) for v in self.payload_com),
+            **dict(self.node_parameters),
         }
 
     def parameters(self, node: str, schema) -> dict[str, object]:

@@ -1,5 +1,6 @@
 """The demo scenarios: each names a robot and structure that exist, places ring_a in the world as the
-climb node's odometry does, and gives each node only the parameters it declares."""
+climb node's odometry does, and gives a node only the parameters its schema declares (the shipped
+nodes' schemas: tests/node/bringup/test_scenario_parameters.py)."""
 
 from __future__ import annotations
 
@@ -8,10 +9,10 @@ import math
 import numpy as np
 import pytest
 
-from rrps_bringup.registry import registered_nodes
-from rrps_bringup.scenarios import SCENARIOS, ros_arguments, scenario
+from rrps_bringup.scenarios import SCENARIOS, Scenario, ros_arguments, scenario
 from rrps_description.geometry import load_robot
 from rrps_description.rotations import quat_xyzw_to_matrix
+from rrps_runtime.parameter_schema import NodeParameters, Parameter
 from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_testing.virtual_work import rotation_x
 
@@ -39,21 +40,14 @@ def test_gravity_of_the_wall_and_of_the_leaning_trunk():
     np.testing.assert_allclose(scenario('pole_leaning').gravity_in_g(), [0.0, -0.5, -math.sqrt(3) / 2], atol=1e-9)
 
 
-def test_each_node_gets_the_parameters_it_declares_and_no_others():
-    nodes = registered_nodes()
-    s = scenario('pole_leaning')
-    driver = s.parameters('driver_node', nodes['driver_node'].parameters())
-    assert driver['payload_mass'] == 40.0 and len(driver['world_q_support']) == 4
-    assert 'structure' not in driver
-    for node in ('climb_node', 'viewer_node', 'markers_node'):
-        params = s.parameters(node, nodes[node].parameters())
-        assert params['structure'] == 'pole' and params['structure_lean_deg'] == 30.0, node
-        assert 'world_q_support' not in params and 'payload_mass' not in params, node
-    assert s.parameters('ik_node', nodes['ik_node'].parameters()) == {'robot': 'pole_climber'}
-    for name, node in nodes.items():  # every value passes the node's own schema
-        schema = node.parameters()
-        for key, value in s.parameters(name, schema).items():
-            schema[key].check(value)
+def test_a_node_gets_the_parameters_its_schema_declares_and_no_others():
+    schema = NodeParameters('some_node', 'rrps_teleop', [
+        Parameter('structure', 'pole', 'climbed structure'), Parameter('speed', 0.02, 'speed', unit='m/s')])
+    row = Scenario('frame_node', robot='frame_climber', structure='frame', summary='across a node',
+                   motion='ring_b along the column', handle_step=(0.0, 0.0, 0.004), payload_mass=5.0,
+                   node_parameters=(('speed', 0.08),))
+    assert row.parameters('some_node', schema) == {'structure': 'frame', 'speed': 0.08}
+    assert row.parameters('unknown_node', None) == {}
 
 
 def test_ros_arguments_and_unknown_names():
