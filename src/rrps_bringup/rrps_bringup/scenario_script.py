@@ -29,7 +29,7 @@ from rrps_bringup.operator import WAIT, Check, ScriptedOperator, print_summary
 from rrps_bringup.scenarios import Scenario
 from rrps_description.geometry import load_robot
 from rrps_description.loads import Payload
-from rrps_description.names import LEG_NAMES
+from rrps_description.names import LEG_NAMES, RINGS
 from rrps_description.rotations import quat_xyzw_to_matrix
 from rrps_description.world import STANDARD_GRAVITY
 from rrps_interfaces.climb import odometry_topic
@@ -72,7 +72,7 @@ class ScenarioScript(ScriptedOperator):
         self.create_subscription(JointState, ACTUATORS_STATE, self._on_state, STATE_QOS)
         self.create_subscription(JointState, GRIPPERS_STATE, lambda m: self._store(GRIPPERS_STATE, m), STATE_QOS)
         self.create_subscription(PoseStamped, POSE, self._on_pose, STATE_QOS)
-        self._grippers = {ring: self.create_client(SetBool, gripper_service(ring)) for ring in ('ring_b',)}
+        self._grippers = {ring: self.create_client(SetBool, gripper_service(ring)) for ring in RINGS}
 
     # --- what the robot says --------------------------------------------------------------
 
@@ -142,7 +142,8 @@ class ScenarioScript(ScriptedOperator):
         self._say(f'{ring} gripper {"close" if close else "open"} -> '
                   f'{response.message if response is not None else "no answer"!r}')
         if response is None or not response.success:
-            self._halts['gripper refused'] = self._halts.get('gripper refused', 0) + 1
+            with self._lock:
+                self._halts['gripper refused'] = self._halts.get('gripper refused', 0) + 1
             return False
         return self._wait(lambda: (self._closed() or {}).get(ring) is close, WAIT, stop)
 
