@@ -52,8 +52,9 @@ def pytest_addoption(parser):
 
 @pytest.fixture(scope='session', autouse=True)
 def machine_load(request):
-    """With ``--load``, the load of rrps_testing.load around the whole session."""
-    if not request.config.getoption('--load'):
+    """With ``--load``, the load of rrps_testing.load around the whole session (started once:
+    by the first pytest-xdist worker, or by the one process of ``-n 0``)."""
+    if not request.config.getoption('--load') or os.environ.get('PYTEST_XDIST_WORKER', 'gw0') != 'gw0':
         yield None
         return
     from rrps_testing.load import Load
@@ -155,3 +156,51 @@ def playwright_dir() -> str:
                        stdout=subprocess.DEVNULL, timeout=300)
     return BROWSER_DIR
 
+
+
+# Two pytest-xdist workers (./rrps test). The system tests (processes, network namespaces, the
+# CANopen bus, timing under load) run one after another on one worker, the browser test on the
+# other beside the unit and node tests, which run at a lower priority than both.
+SERIAL_LEVELS = ('tests/system/', 'tests/browser/')
+#: Run last on their worker: the CANopen tests starve under a concurrent browser.
+LAST = ('tests/system/test_canopen',)
+
+
+def _level(nodeid: str) -> str | None:
+    return next((level for level in SERIAL_LEVELS if nodeid.startswith(level)), None)
+
+
+def pytest_collection_modifyitems(config, items):
+    """Browser first, then the system tests with the CANopen ones last, then everything else."""
+    def rank(item):
+        nodeid = item.nodeid
+        if nodeid.startswith('tests/browser/'):
+            return 0
+        if nodeid.startswith('tests/system/'):
+            return 2 if nodeid.startswith(LAST) else 1
+        return 3
+    items.sort(key=rank)  # stable: each file keeps its order
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    """xdist's load-scope scheduling with our scopes: each serial level is one scope (one worker,
+    in order), every other test its own scope (spread over the workers)."""
+    from xdist.scheduler import LoadScopeScheduling
+
+    class LevelScheduling(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return _level(nodeid) or nodeid
+
+    return LevelScheduling(config, log)
+
+
+def pytest_runtest_setup(item):
+    """Under xdist, the tests beside the serial levels run at nice 10 (their children too)."""
+    if 'PYTEST_XDIST_WORKER' not in os.environ:
+        return
+    niceness = 0 if _level(item.nodeid) else 10
+    try:
+        os.setpriority(os.PRIO_PROCESS, 0, niceness)
+    except OSError:  # lowering it back needs root; then the worker simply stays at 10
+        pass

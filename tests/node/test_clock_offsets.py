@@ -19,7 +19,7 @@ from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_runtime.qos import COMMAND_QOS
 from rrps_sim.nodes.driver_node import DriverNode
 from rrps_testing.node_helpers import command, said, target
-from rrps_testing.ros_harness import Probe, Spinner, wait_for
+from rrps_testing.ros_harness import Probe, Spinner, settled, wait_for
 
 pytestmark = pytest.mark.ros
 
@@ -42,7 +42,7 @@ def test_ik_node_follows_a_sender_with_an_offset_clock_and_refuses_its_late_targ
                         DEADLINE, period=0.02), 'a fresh stream from the offset clock was never acted on'
         np.testing.assert_allclose(commands[-1][1].position,
                                    inverse_kinematics(POLE, p, [0, 0, 0, 1]).lengths, atol=1e-12)
-        accepted = node.accepted
+        accepted = settled(lambda: node.accepted)  # the stream's queued commands taken
         late = p + [0.0, 0.0, 0.005]
         targets.publish(target(probe, late, age=-offset + 0.3))  # 0.3 s late by the sender's clock
         assert wait_for(lambda: said(diagnostics, 'ik_node', 'stale'), DEADLINE)
@@ -66,7 +66,7 @@ def test_driver_follows_a_sender_with_an_offset_clock_and_refuses_its_late_comma
         assert wait_for(lambda: (pub.publish(command(probe, goal, age=-offset)), node.accepted)[1],
                         DEADLINE, period=0.02)
         np.testing.assert_allclose(node.reference, goal)
-        accepted = node.accepted
+        accepted = settled(lambda: node.accepted)  # the stream's queued commands taken
         pub.publish(command(probe, goal + 0.003, age=-offset + 0.3))
         assert wait_for(lambda: said(diagnostics, 'driver_node', 'stale'), DEADLINE)
         assert node.accepted == accepted

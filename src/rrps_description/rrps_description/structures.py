@@ -48,6 +48,7 @@ __all__ = [
     'structural_frame',
     'facade',
     'make_structure',
+    'structure_from_parameters',
     'interpolate_frames',
 ]
 
@@ -385,19 +386,24 @@ def palm_trunk(length: float = 3.0, radius: float = 0.15, radius_variation: floa
 
 
 def structural_frame(column: float = 2.0, rafter: float = 2.0, bend_deg: float = 0.0,
-                     junction_twist_deg: float = 90.0, node_clearance: float = 0.1) -> BeamFrame:
+                     junction_twist_deg: float = 90.0, node_clearance: float = 0.1,
+                     out_of_plane: bool = False) -> BeamFrame:
     """A frame node the robot must pass (Figure 8): a column up to node ``J``, then a member
-    leaving J (bent by ``bend_deg`` in the plane of the column's web, x-z; straight on by
-    default: a column splice) whose section is turned by ``junction_twist_deg`` about its axis,
-    and two horizontal beams framing into J (drawn, not climbed). A gripper past J must grip
-    turned by that angle; grippers keep ``node_clearance`` off J."""
+    leaving J (bent by ``bend_deg`` in the plane of the column's web, x-z, or with
+    ``out_of_plane`` normal to it, y-z; straight on by default: a column splice) whose section is
+    turned by ``junction_twist_deg`` about its axis, and two horizontal beams framing into J
+    (drawn, not climbed): one in the bend's plane opposite the member, one normal to that plane.
+    A gripper past J must grip turned by that angle; grippers keep ``node_clearance`` off J."""
     b = math.radians(bend_deg)
+    bend = np.array([0.0, 1.0, 0.0]) if out_of_plane else np.array([1.0, 0.0, 0.0])
+    across = np.array([1.0, 0.0, 0.0]) if out_of_plane else np.array([0.0, 1.0, 0.0])
+    J = np.array([0.0, 0.0, column])
     nodes = {
         'base': (0.0, 0.0, 0.0),
-        'J': (0.0, 0.0, column),
-        'top': (rafter * math.sin(b), 0.0, column + rafter * math.cos(b)),
-        'east': (-1.5, 0.0, column),
-        'north': (0.0, 1.5, column),
+        'J': tuple(J),
+        'top': tuple(J + rafter * (math.sin(b) * bend + math.cos(b) * np.array([0.0, 0.0, 1.0]))),
+        'east': tuple(J - 1.5 * bend),
+        'north': tuple(J + 1.5 * across * (-1.0 if out_of_plane else 1.0)),
     }
     beams = [('base', 'J'), ('J', 'top'), ('J', 'east'), ('J', 'north')]
     return BeamFrame(nodes, beams, ['base', 'J', 'top'], junction_twist_deg=junction_twist_deg,
@@ -413,9 +419,12 @@ def facade(length: float = 4.0) -> Facade:
 STRUCTURES = {'pole': pole, 'palm_trunk': palm_trunk, 'frame': structural_frame, 'facade': facade}
 
 
-def make_structure(name: str, length: float | None = None, *, lean_deg: float = 0.0) -> Structure:
+def make_structure(name: str, length: float | None = None, *, lean_deg: float = 0.0, junction_deg: float = 0.0,
+                   out_of_plane: bool = False) -> Structure:
     """A shipped structure by name, at least ``length`` [m] long along its route; the pole
-    leaning ``lean_deg`` (:func:`pole`; the other structures stand as shipped)."""
+    leaning ``lean_deg`` (:func:`pole`); a frame's member leaves its node bent by ``junction_deg``
+    (in the column's web plane, or normal to it with ``out_of_plane``; its section then not
+    turned). The other structures stand as shipped."""
     if name not in STRUCTURES:
         raise ValueError(f'unknown structure {name!r}: one of {sorted(STRUCTURES)}')
     if name == 'pole':
@@ -423,9 +432,21 @@ def make_structure(name: str, length: float | None = None, *, lean_deg: float = 
     if lean_deg:
         raise ValueError(f'lean_deg applies to the pole only, not to the {name}')
     if name == 'frame':
-        if length is None or length <= 4.0:
-            return structural_frame()
-        return structural_frame(column=2.0, rafter=length - 2.0)
+        if not 0.0 <= junction_deg <= 90.0:
+            raise ValueError(f'junction_deg must be in 0 .. 90 deg, got {junction_deg!r}')
+        bent = {} if junction_deg == 0.0 else {'bend_deg': junction_deg, 'junction_twist_deg': 0.0,
+                                                'out_of_plane': out_of_plane}
+        rafter = 2.0 if length is None or length <= 4.0 else length - 2.0
+        return structural_frame(column=2.0, rafter=rafter, **bent)
     if name == 'palm_trunk':
         return palm_trunk(max(3.0, length or 0.0))
     return STRUCTURES[name](max(4.0, length or 0.0))
+
+
+def structure_from_parameters(values) -> Structure:
+    """The structure that a node's parameters ``values`` describe: ``structure`` (a name),
+    ``structure_length`` (0: the shipped length), ``structure_lean_deg``, ``junction_deg`` and
+    ``out_of_plane`` (those the node declares; :func:`make_structure`)."""
+    return make_structure(values['structure'], values.get('structure_length') or None,
+                          lean_deg=values.get('structure_lean_deg', 0.0), junction_deg=values.get('junction_deg', 0.0),
+                          out_of_plane=values.get('out_of_plane', False))

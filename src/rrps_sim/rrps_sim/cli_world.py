@@ -26,11 +26,12 @@ from rrps_kinematics.cli_support import UsageError, vector
 from rrps_sim.loads import StaticSolution
 from rrps_sim.support import Support, support_of
 
-__all__ = ['WORLD_VECTOR_OPTIONS', 'REACTION_COLUMNS', 'add_world_options', 'world_of', 'with_loads',
+__all__ = ['WORLD_VECTOR_OPTIONS', 'LOAD_VECTOR_OPTIONS', 'REACTION_COLUMNS', 'add_world_options',
+           'add_load_options', 'world_of', 'with_loads',
            'statics_lines', 'statics_json', 'reaction_rows']
 
-WORLD_VECTOR_OPTIONS = ('--support-quaternion', '--gravity', '--payload-com', '--tool-force',
-                        '--tool-torque')
+LOAD_VECTOR_OPTIONS = ('--payload-com', '--tool-force', '--tool-torque')
+WORLD_VECTOR_OPTIONS = ('--support-quaternion', '--gravity') + LOAD_VECTOR_OPTIONS
 #: The simulate CSV's columns with --reactions: each leg's universal- and spherical-joint
 #: reaction [N] and the support's force [N] and moment [N m], in the supporting ring's frame.
 REACTION_COLUMNS = ([f'U{i}{a}' for i in range(1, 7) for a in 'xyz']
@@ -46,6 +47,11 @@ def add_world_options(p) -> None:
                    help="the supporting ring's attitude in the world (default identity)")
     p.add_argument('--gravity', type=vector(3), metavar='GX,GY,GZ',
                    help="the world's gravity [m/s^2] (default 0,0,-9.81)")
+    add_load_options(p)
+
+
+def add_load_options(p) -> None:
+    """The payload and tool-wrench options (module docstring), read by :func:`with_loads`."""
     p.add_argument('--payload-mass', type=float, metavar='KG', help='a point-mass payload [kg]')
     p.add_argument('--payload-com', type=vector(3), metavar='X,Y,Z',
                    help="the payload's com in its ring's frame [m] (default 0,0,0)")

@@ -24,6 +24,10 @@ def require(condition: bool, reason: str) -> None:
 
 
 def next_domain_id() -> int:
-    """A ROS domain id private to one test (1..100): spread by pid so that concurrent test
-    runs do not meet."""
-    return 1 + (os.getpid() * 7 + next(_domain_ids)) % 100
+    """A ROS domain id private to one test (1..100): each pytest-xdist worker has its own share
+    of the range, and within it ids are spread by pid so that concurrent test runs rarely meet."""
+    worker = os.environ.get('PYTEST_XDIST_WORKER', '')
+    workers = int(os.environ.get('PYTEST_XDIST_WORKER_COUNT', '1') or 1)
+    index = int(worker[2:]) if worker.startswith('gw') and worker[2:].isdigit() else 0
+    share = max(1, 100 // max(1, workers))
+    return 1 + index * share + (os.getpid() * 7 + next(_domain_ids)) % share

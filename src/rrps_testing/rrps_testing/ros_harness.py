@@ -59,6 +59,21 @@ def wait_for(predicate: Callable[[], object], timeout: float = DEADLINE, period:
     return bool(predicate())
 
 
+def settled(value: Callable[[], object], quiet: float = 0.5, timeout: float = DEADLINE) -> object:
+    """``value()`` once it has not changed for ``quiet`` s (messages still queued when a stream
+    stopped are taken first), or its value at ``timeout``."""
+    deadline = time.monotonic() + timeout
+    last, since = value(), time.monotonic()
+    while time.monotonic() < deadline:
+        time.sleep(0.02)
+        now = value()
+        if now != last:
+            last, since = now, time.monotonic()
+        elif time.monotonic() - since >= quiet:
+            break
+    return last
+
+
 class Spinner:
     """Spin ``nodes`` in a background thread (EventsExecutor by default); destroy them on exit."""
 

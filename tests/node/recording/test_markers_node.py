@@ -242,3 +242,21 @@ def test_without_tf2_msgs_or_at_tf_rate_0_only_the_markers(ros_context, monkeypa
         assert wait_for(lambda: arrays)
         assert probe.get_publishers_info_by_topic('/tf') == []
     assert off.tf_published == 0 and missing.tf_published == 0
+
+
+def test_the_frame_is_drawn_with_its_member_bent_at_the_node(ros_context):
+    from rclpy.parameter import Parameter
+
+    from rrps_description.structures import make_structure
+    from rrps_recording.nodes.markers_node import MarkersNode
+
+    node = MarkersNode(context=ros_context, namespace=f'{NS}/frame', parameter_overrides=[
+        Parameter('structure', value='frame'), Parameter('junction_deg', value=90.0),
+        Parameter('out_of_plane', value=True), Parameter('tf_rate', value=0.0)])
+    try:
+        points = np.array([[p.x, p.y, p.z] for p in node._structure.points])
+    finally:
+        node.destroy_node()
+    top = make_structure('frame', junction_deg=90.0, out_of_plane=True).nodes['top']
+    assert np.allclose(top, [0.0, 2.0, 2.0])                 # the member leaves the node along y
+    assert np.min(np.linalg.norm(points - top, axis=1)) < 0.1  # and is drawn

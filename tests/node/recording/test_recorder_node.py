@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import re
 import secrets
 import signal
 import subprocess
@@ -46,6 +47,14 @@ def _recorder(context, tmp_path, **params):
                  'flush_period': 0.2, **params}
     return RecorderNode(context=context, namespace=NS, parameter_overrides=[
         Parameter(k, value=v) for k, v in overrides.items()])
+
+
+def _finished_dumps(folder: Path, kind: str) -> list[Path]:
+    """The MCAP files of the finished flight-recorder bag folders of ``kind`` (``flight_<time>_<kind>``
+    or ``..._<kind>_<n>``), never of a ``<folder>.part``, which may be renamed while it is listed."""
+    pattern = re.compile(rf'flight_.+_{kind}(_\d+)?')
+    return sorted(mcap for entry in folder.iterdir() if pattern.fullmatch(entry.name)
+                  for mcap in entry.glob('*.mcap'))
 
 
 def _pose(probe, z: float, frame='ring_a'):
@@ -322,7 +331,7 @@ def test_flight_recorder_saves_on_request_and_on_faults(ros_context, tmp_path):
         return DiagnosticArray(status=[status])
 
     def dumps(kind):
-        return sorted(tmp_path.glob(f'flight_*_{kind}*/*.mcap'))
+        return _finished_dumps(tmp_path, kind)
 
     with Spinner(ros_context, [recorder, probe]):
         assert wait_for(lambda: f'{NS}/pose' in recorder._raw_subscriptions)
@@ -343,6 +352,9 @@ def test_flight_recorder_saves_on_request_and_on_faults(ros_context, tmp_path):
         assert zs and zs[-1] == 299 and zs == list(range(zs[0], 300))
         assert 50 <= len(zs) <= 200  # about the 1 s window, not the whole 3 s
         assert not list(tmp_path.glob('test*'))  # record:=false writes no recording
+        # from here on the pose streams on, so that every fault's window holds poses however
+        # long the machine takes between one fault and the next
+        probe.create_timer(0.02, lambda: pose_pub.publish(_pose(probe, 0.5)))
         # a gripper refusal (the driver's typed count goes up)
         diag_pub.publish(driver(0))
         assert wait_for(lambda: recorder._faults._refusals == 0)
@@ -385,8 +397,8 @@ def test_faults_trigger_a_dump_also_when_their_topics_are_not_recorded(ros_conte
             time.sleep(0.01)
         diag_pub.publish(DiagnosticArray(status=[DiagnosticStatus(
             level=DiagnosticStatus.ERROR, name='fk_node: forward kinematics')]))
-        assert wait_for(lambda: list(tmp_path.glob('flight_*_node_error*/*.mcap')))
+        assert wait_for(lambda: _finished_dumps(tmp_path, 'node_error'))
         recorder.wait_for_dumps()
-    path, = tmp_path.glob('flight_*_node_error*/*.mcap')
+    path, = _finished_dumps(tmp_path, 'node_error')
     _, messages = _read(path)
     assert {t for t, _, _, _ in messages} == {f'{NS}/pose'}

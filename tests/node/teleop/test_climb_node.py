@@ -204,6 +204,8 @@ def test_a_robot_moved_off_the_gait_is_brought_back_first(ros_context):
         assert wait_for(lambda: _idle_after(status, 1)), status[-1:]
         final_a, _, final_pose = _at_rest_after(probe, odo_a, odo_b, poses)
     phases = [ClimbStatus.from_key_values(s.values).phase for s in status if s.message == 'executing']
+    # the status is republished while a phase lasts: the order of the phases, each once
+    phases = [phase for i, phase in enumerate(phases) if i == 0 or phase != phases[i - 1]]
     assert phases[:2] == ['release_b', 'move_b']
     plan = GaitPlanner(g, make_structure('pole')).plan(0.04, 1, start=0.2)
     p, _ = pose_from_msg(final_pose)

@@ -1,6 +1,7 @@
 """Climbing over ROS on the palm trunk and on the structural frame, as for the pole.
 
-On the frame the climb node commands the extra ring DOF (paper section 3.1, Figure 9): the
+With ``junction_deg`` the climb node crosses the frame's node bent by that angle
+(``climbing.frame_node``). On the frame the climb node commands the extra ring DOF (paper section 3.1, Figure 9): the
 ring angles go through the IK node (``target_rings``) to the driver as the named joints
 ``ring_a_rotation`` / ``ring_b_rotation`` of ``actuators/command`` and come back in
 ``actuators/state``; the odometry uses the measured angles.
@@ -24,6 +25,7 @@ from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_runtime.messages import pose_from_msg
 from rrps_runtime.qos import COMMAND_QOS
 from rrps_sim.nodes.driver_node import DriverNode
+from rrps_teleop.climbing.frame_node import FrameNodePlanner
 from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_teleop.nodes.climb_node import ClimbNode
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
@@ -34,14 +36,15 @@ MAX_RESUMES = 5
 TOL = 1e-3
 
 
-def _climb(ros_context, robot: str, structure: str, start: float):
+def _climb(ros_context, robot: str, structure: str, start: float, **extra):
     robot_param = Parameter('robot', value=robot)
     driver = DriverNode(context=ros_context, parameter_overrides=[
         robot_param, Parameter('rate', value=100.0), Parameter('auto_activate', value=True),
         Parameter('ring_rotation_speed', value=3.0)])
     climb = ClimbNode(context=ros_context, parameter_overrides=[
         robot_param, Parameter('structure', value=structure), Parameter('start', value=start),
-        Parameter('speed', value=0.08), Parameter('auto_steps', value=1)])
+        Parameter('speed', value=0.08), Parameter('auto_steps', value=1),
+        *[Parameter(k, value=v) for k, v in extra.items()]])
     nodes = [driver, IkNode(context=ros_context, parameter_overrides=[robot_param]),
              FkNode(context=ros_context, parameter_overrides=[robot_param]), climb]
     probe = Probe(context=ros_context)
@@ -105,3 +108,17 @@ def test_the_frame_climber_turns_its_ring_over_ros_at_a_junction(ros_context):
     assert climb.measured_angles[1] == pytest.approx(theta_b, abs=1e-3)    # the odometry reads it
     pb = pose_from_msg(logs['odo_b'][-1])[0]
     assert np.linalg.norm(pb - plan.phases[-1].world_T_b.position) < 4 * TOL
+
+
+def test_the_frame_climber_crosses_a_90_deg_node_over_ros(ros_context):
+    climb, logs = _climb(ros_context, 'frame_climber', 'frame', start=-1.0, junction_deg=90.0)
+    plan = FrameNodePlanner(load_robot('frame_climber'), 90.0).plan_crossing()
+    end = plan.phases[-1]
+    assert (climb.s_a, climb.machine.s_b) == pytest.approx((end.s_a, end.s_b))  # past the node
+    measured = dict(zip(logs['states'][-1].name, logs['states'][-1].position))
+    for ring, theta in (('ring_a', end.theta_a), ('ring_b', end.theta_b)):
+        assert abs(theta) == pytest.approx(np.pi / 2)                   # both grippers turned 90 deg
+        assert measured[f'{ring}_rotation'] == pytest.approx(theta, abs=1e-3)
+    pa, pb = pose_from_msg(logs['odo_a'][-1])[0], pose_from_msg(logs['odo_b'][-1])[0]
+    assert np.linalg.norm(pa - end.world_T_a.position) < 4 * TOL    # on the second beam, as planned
+    assert np.linalg.norm(pb - end.world_T_b.position) < 4 * TOL

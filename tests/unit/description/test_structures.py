@@ -73,6 +73,21 @@ def test_frame_junction_turns_the_section_and_is_forbidden():
     assert np.degrees(np.arccos(R[2, 2])) == pytest.approx(30.0)
 
 
+@pytest.mark.parametrize('out_of_plane', [False, True])
+def test_a_frame_node_bends_its_member_in_the_web_plane_or_normal_to_it(out_of_plane):
+    f = make_structure('frame', junction_deg=90.0, out_of_plane=out_of_plane)
+    _, R0 = f.grip_frame(1.0)
+    _, R1 = f.grip_frame(3.0)
+    bend = [0.0, 1.0, 0.0] if out_of_plane else [1.0, 0.0, 0.0]
+    assert np.allclose(R0[:, 2], [0.0, 0.0, 1.0]) and np.allclose(R1[:, 2], bend)
+    assert f.junctions == (pytest.approx(2.0),)
+    off = [np.cross(R1[:, 2], f.nodes[k] - f.nodes['J']) for k in ('east', 'north')]
+    assert np.allclose(off[0], 0.0)                                   # in the bend's plane, opposite
+    assert abs(np.dot(f.nodes['north'] - f.nodes['J'], np.cross(R0[:, 2], R1[:, 2]))) == pytest.approx(1.5)
+    with pytest.raises(ValueError, match='junction_deg'):
+        make_structure('frame', junction_deg=120.0)
+
+
 def test_frame_swing_interpolates_across_the_junction():
     f = structural_frame()
     pos, rot = f.swing(1.8, 2.2)

@@ -22,6 +22,7 @@ from rrps_description.rotations import rotation_vector_to_quat_xyzw
 from rrps_kinematics import inverse_kinematics, margins
 from rrps_kinematics.backend import use_numba
 from rrps_kinematics.commands import InvalidTarget, limit_velocity, pose_limits, validate_target
+from rrps_testing.ci import require
 
 
 @pytest.fixture(scope='module')
@@ -91,8 +92,7 @@ def test_compiled_pose_limits_match_the_reference_margins(robot, dp, rv):
 
 
 def test_the_warm_up_compiles_the_signature_targets_use():
-    if not use_numba('auto'):
-        pytest.skip('numba is not in use')
+    require(use_numba('auto'), 'numba is not in use')
     from rrps_kinematics.compiled_limits import pose_margins
     g = load_robot('pole_climber')
     assert not g.home_quaternion_xyzw.flags.writeable  # the case this guards against

@@ -8,7 +8,9 @@ from hypothesis import strategies as st
 from rrps_description.geometry import RobotGeometry, load_robot
 from rrps_description.rotations import quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
 from rrps_kinematics import PAIRS, check_pose, inverse_kinematics, margins
+from rrps_kinematics.backend import use_numba
 from rrps_kinematics.limits import segment_distances
+from rrps_testing.ci import require
 
 POLE = load_robot('pole_climber')
 
@@ -179,7 +181,8 @@ def test_nearly_antiparallel_segments_that_share_an_endpoint_touch(tilt):
     p0, p1 = np.zeros(3), np.array([0.0, 0.0, 1.0])
     q0, q1 = p1.copy(), np.array([0.0, tilt, 0.0])
     assert segment_distances(p0, p1, q0, q1) == 0.0
-    compiled = pytest.importorskip('rrps_kinematics.compiled_limits')
+    require(use_numba('auto'), 'numba is not in use')
+    from rrps_kinematics import compiled_limits as compiled
     assert compiled.segment_distance(p0, p1, q0, q1) == 0.0
     assert compiled.segment_distance(p0, p1, q0 + [1e-3, 0, 0], q1) == pytest.approx(
         segment_distances(p0, p1, q0 + [1e-3, 0, 0], q1), abs=1e-15)

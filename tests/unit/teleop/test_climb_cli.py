@@ -84,19 +84,72 @@ def test_too_long_step_is_refused(capsys):
     assert 'stroke' in err and 'leg_1' in err
 
 
+def test_a_heavy_payload_is_refused_for_holding(capsys):
+    assert main(['--structure', 'pole', '--distance', '0.5', '--payload-mass', '200']) == 1
+    err = capsys.readouterr().err
+    assert err.startswith('rrps-climb: refused: holding, ring_a, step 0 release_b, pose 1/1'), err
+    there = dict((k, float(v)) for k, v in re.findall(r'(\w+) (-?\d+\.\d+)', err.split('[margins there:')[1]))
+    assert there['holding'] < 0.0 < there['actuator_force']
+
+
+def test_a_climb_prints_and_writes_its_load_figures(tmp_path, capsys):
+    out = tmp_path / 'plan.csv'
+    assert main(['--structure', 'pole', '--distance', '0.5', '--payload-mass', '40', '--payload-com', '0.1,0,0',
+                 '--structure-quaternion', '0.25881905,0,0,0.96592583', '--speed', '0.03',
+                 '--csv', str(out)]) == 0
+    summary = capsys.readouterr().out
+    found = re.search(r'loads \(payload 40\.0 kg on ring_b\): peak actuator force (\d+\.\d) N \(leg_\d; '
+                      r'limit 2000 N\), smallest holding margin (\d\.\d+) \(ring_[ab]\)', summary)
+    assert found, summary
+    rows = _rows(out)
+    peaks = [float(r['peak_force']) for r in rows if r['peak_force'] != 'nan']
+    margins = [float(r['holding_margin']) for r in rows if r['holding_margin'] != 'nan']
+    assert max(peaks) == pytest.approx(float(found[1]), abs=0.05)
+    assert min(margins) == pytest.approx(float(found[2]), abs=1e-3)
+    assert all(r['peak_force'] == 'nan' for r in rows if r['gripper_a'] == r['gripper_b'] == '1')
+
+
 @pytest.mark.parametrize('argv,needle', [
     (['--structure', 'tower', '--distance', '1'], 'invalid choice'),
+    (['--structure', 'pole', '--distance', '0.5', '--payload-com', '0.1,0,0'], 'need --payload-mass'),
+    (['--structure', 'pole', '--distance', '0.5', '--payload-mass', '-3'], 'payload.mass'),
+    (['--structure', 'pole', '--distance', '0.5', '--speed', '0'], 'must be a positive number'),
+    (['--structure', 'pole', '--distance', '0.5', '--structure-quaternion', '0,0,0,2'], '--structure-quaternion'),
+    (['--structure', 'pole', '--distance', '0.5', '--gravity', '-9.81,0'], 'expected 3 numbers'),
     (['--structure', 'pole', '--distance', 'abc'], 'expected a number'),
     (['--structure', 'pole', '--distance', '0'], 'non-zero'),
     (['--structure', 'pole', '--distance', '1', '--steps', '0'], 'must be >= 1'),
     (['--structure', 'pole', '--distance', '-1'], 'leaves the pole'),
     (['--robot', 'no_such_robot', '--structure', 'pole', '--distance', '1'], 'unknown robot'),
     (['--structure', 'pole'], 'required'),
+    (['--structure', 'pole', '--junction-deg', '90'], 'needs --structure frame'),
+    (['--structure', 'frame', '--junction-deg', '120'], '1 .. 90 deg'),
+    (['--structure', 'frame', '--junction-deg', '60', '--distance', '1'], 'leave out --distance'),
+    (['--structure', 'frame', '--distance', '1', '--out-of-plane'], 'needs --junction-deg'),
 ])
 def test_bad_arguments_exit_2_with_one_line(capsys, argv, needle):
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert err.count('\n') == 1 and needle in err
+
+
+def test_frame_node_crossing_prints_its_phases_and_margins(tmp_path, capsys):
+    out = tmp_path / 'node.csv'
+    assert main(['--robot', 'frame_climber', '--structure', 'frame', '--junction-deg', '90',
+                 '--out-of-plane', '--csv', str(out)]) == 0
+    text = capsys.readouterr().out
+    assert '90 deg node out of plane, with the extra DOF' in text and 'candidates searched' in text
+    assert re.search(r'move_b .* leg_\d +\d\.\d{3}', text) and re.search(r'move_a .* leg_\d', text)
+    rows = _rows(out)
+    assert [r['phase'] for r in rows] == ['start', 'release_b', 'move_b', 'grip_b', 'release_a', 'move_a', 'grip_a']
+    assert abs(float(rows[-1]['theta_b'])) == pytest.approx(np.pi / 2)
+
+
+def test_frame_node_without_extra_dof_is_refused_naming_limit_and_phase(capsys):
+    assert main(['--robot', 'frame_climber', '--structure', 'frame', '--junction-deg', '90',
+                 '--no-extra-dof']) == 1
+    err = capsys.readouterr().err
+    assert 'refused' in err and 'phase move_b' in err and 'blocks the closest' in err
 
 
 def test_console_script(tmp_path):

@@ -14,6 +14,7 @@ from rrps_kinematics import check_pose, inverse_kinematics, margins
 from rrps_kinematics.backend import use_numba
 from rrps_teleop.mapping import TeleopConfig, TeleopMapping, validate_scale
 from rrps_teleop.master import MasterModel, scripted_pose
+from rrps_testing.ci import require
 
 SLAVE = load_robot('pole_climber')
 MASTER = load_robot('master_robot')
@@ -458,8 +459,7 @@ def test_the_warm_up_loads_every_guard_kernel_a_session_calls(mode, rotation):
     """A mapping loads its compiled guards when it is built, for the argument types of its
     steps: the first engaged step must not stall teleop_node's executor while numba loads or
     compiles (0.1-0.2 s, more than master_timeout: the slave would see its master go stale)."""
-    if not use_numba('auto'):
-        pytest.skip('numba is not in use')
+    require(use_numba('auto'), 'numba is not in use')
     from rrps_teleop import compiled_guards
     kernels = (compiled_guards.guarded_joint_step, compiled_guards.guarded_cartesian_step,
                compiled_guards.mapped_pose)

@@ -10,7 +10,9 @@ universal and spherical joint angles, leg-leg interference of all 15 pairs, cond
 legs' clearance to a tubular member's surface (its varying radius), and the gripper interlock
 (never both grippers open, a ring moves only while its own gripper is open and the other's
 closed). A plan that breaks a limit is refused with ``PlanError`` naming the limit, the legs and
-where (step, phase, sample).
+where (step, phase, sample). With a :class:`~rrps_teleop.climbing.load_check.LoadCheck` (the
+default) the planner also refuses a phase whose actuator forces or holding gripper's reaction
+exceed their limits anywhere along it.
 
 Robots with the extra ring DOF (frame climber, section 3.1 / Figure 9) turn the open ring's
 ring-to-gripper joint while it moves, so the gripper takes the orientation the next member's
@@ -37,12 +39,15 @@ from rrps_description.structures import Structure, interpolate_frames
 from rrps_interfaces.climb import PhaseAction
 from rrps_kinematics import inverse_kinematics, margins
 from rrps_kinematics.odometry import RingOdometry, invert, rot_z, transform
+from rrps_teleop.climbing.load_check import LoadCheck
 from rrps_teleop.climbing.plan import ClimbPlan, Phase, PlanError, PlanLimit, check_interlock
 
-__all__ = ['GaitPlanner', 'plan_climb']
+__all__ = ['GaitPlanner', 'GaitState', 'plan_climb']
 
 @dataclass
-class _State:
+class GaitState:
+    """Where the rings grip while a plan is built: route positions [m], extra-DOF angles [rad]."""
+
     s_a: float
     s_b: float
     theta_a: float
@@ -57,14 +62,16 @@ class GaitPlanner:
     so the legs are never twisted by a member's section orientation (off: the rings stay bolted
     to their grippers). ``step_fraction``: the default step is this fraction of the
     straight-member reach ``reach`` (the separations ring_b - ring_a within every limit).
+    ``loads``: how the loads are checked (None: not at all).
     """
 
     def __init__(self, geometry: RobotGeometry, structure: Structure, *, use_extra_dof: bool = True,
-                 spacing: float = 0.01, step_fraction: float = 0.7):
+                 spacing: float = 0.01, step_fraction: float = 0.7, loads: LoadCheck | None = LoadCheck()):
         if not (spacing > 0.0 and 0.0 < step_fraction <= 1.0):
             raise ValueError('spacing must be > 0 and 0 < step_fraction <= 1')
         self.geometry = geometry
         self.structure = structure
+        self.loads = loads
         self.spacing = float(spacing)
         self._last_mounts: tuple | None = None  # ((theta_a, theta_b), mounts): see mounts()
         self.surface = structure.kind == 'surface'
@@ -186,7 +193,7 @@ class GaitPlanner:
 
     # --- phases ---------------------------------------------------------------------------------
 
-    def _phase(self, state: _State, step: int, action: PhaseAction, ring: str, grip_a: bool,
+    def _phase(self, state: GaitState, step: int, action: PhaseAction, ring: str, grip_a: bool,
                grip_b: bool, world_T_a=None, world_T_b=None, s_range=None,
                ring_angles=None) -> Phase:
         if world_T_a is None:
@@ -215,7 +222,7 @@ class GaitPlanner:
                         f'outside [{dof.min_angle:.3f}, {dof.max_angle:.3f}] rad', limit=PlanLimit.EXTRA_DOF,
                         step=step, phase=f'move_{ring}')
 
-    def _move(self, state: _State, step: int, ring: str, target: float) -> list[Phase]:
+    def _move(self, state: GaitState, step: int, ring: str, target: float) -> list[Phase]:
         """release, move along the structure, grip: one ring to route position ``target``.
 
         With the extra ring DOF the open ring's joint turns during the motion so that the ring
@@ -224,10 +231,26 @@ class GaitPlanner:
         other_grips = {'a': (False, True), 'b': (True, False)}[ring]
         out = [self._phase(state, step, PhaseAction.RELEASE, f'ring_{ring}', *other_grips)]
         s0 = state.s_a if ring == 'a' else state.s_b
+        world_T_a, world_T_b, angles = self._move_poses(state, ring, target, step)
+        if ring == 'a':
+            state.s_a, state.theta_a = target, float(angles[-1, 0])
+        else:
+            state.s_b, state.theta_b = target, float(angles[-1, 1])
+        out.append(self._phase(state, step, PhaseAction.MOVE, f'ring_{ring}', *other_grips,
+                               world_T_a=world_T_a, world_T_b=world_T_b,
+                               s_range=(s0, target, state.s_a, state.s_b), ring_angles=angles))
+        out.append(self._phase(state, step, PhaseAction.GRIP, f'ring_{ring}', True, True))
+        return out
+
+    def _move_poses(self, state: GaitState, ring: str, target: float, step: int):
+        """The sampled world poses (world_T_a, world_T_b) (n, 4, 4) and extra-DOF angles (n, 2) of
+        ring ``ring`` moving from ``state`` to route position ``target`` (not checked)."""
+        s0 = state.s_a if ring == 'a' else state.s_b
         theta0 = state.theta_a if ring == 'a' else state.theta_b
         wa, wb = self._ring_matrices(state.s_a, state.s_b, state.theta_a, state.theta_b)
         pos, rot = self.structure.swing(s0, target, self.spacing)
-        frames = np.array([transform(p, R) for p, R in zip(pos, rot)])
+        frames = np.zeros((len(pos), 4, 4))
+        frames[:, :3, :3], frames[:, :3, 3], frames[:, 3, 3] = rot, pos, 1.0
         theta1 = theta0
         if self.dof:
             ma, mb = self._mount_matrices(theta0, theta0)
@@ -238,17 +261,11 @@ class GaitPlanner:
             world_T_a = frames @ invert(self._mount_matrices(thetas, state.theta_b)[0])
             world_T_b = np.broadcast_to(wb, world_T_a.shape)
             angles = np.column_stack([thetas, np.full_like(thetas, state.theta_b)])
-            state.s_a, state.theta_a = target, float(theta1)
         else:
             world_T_b = frames @ invert(self._mount_matrices(state.theta_a, thetas)[1])
             world_T_a = np.broadcast_to(wa, world_T_b.shape)
             angles = np.column_stack([np.full_like(thetas, state.theta_a), thetas])
-            state.s_b, state.theta_b = target, float(theta1)
-        out.append(self._phase(state, step, PhaseAction.MOVE, f'ring_{ring}', *other_grips,
-                               world_T_a=world_T_a, world_T_b=world_T_b,
-                               s_range=(s0, target, state.s_a, state.s_b), ring_angles=angles))
-        out.append(self._phase(state, step, PhaseAction.GRIP, f'ring_{ring}', True, True))
-        return out
+        return world_T_a, world_T_b, angles
 
     def _place(self, s: float, s0: float, partner: float, step: int, ring: str) -> float:
         """A grip position for a ring moving from ``s0`` towards ``s``: ``s`` itself if allowed,
@@ -268,7 +285,7 @@ class GaitPlanner:
                         f'outside the junction zones within reach', limit=PlanLimit.GRIP, step=step,
                         phase=f'move_{ring}')
 
-    def _step(self, state: _State, step: int, d: float, sep_lo: float, up: bool) -> list[Phase]:
+    def _step(self, state: GaitState, step: int, d: float, sep_lo: float, up: bool) -> list[Phase]:
         """The leading ring moves by ``d`` (or to a junction zone's edge), the trailing ring
         follows to the contracted separation ``sep_lo`` behind it; to the closest separation
         of the reach (plus 15 % of its range) when the leader's next step must jump a zone."""
@@ -290,7 +307,7 @@ class GaitPlanner:
         position ``s_b`` while ring_a grips at ``s_a``: release_b, move_b (straight line and
         slerp, every sample checked), grip_b. For a robot that was moved off the gait (by
         teleoperation) before a climb starts. Raises PlanError like ``plan``."""
-        state = _State(s_a, s_b, theta_a, theta_b)
+        state = GaitState(s_a, s_b, theta_a, theta_b)
         wa, wb = self._ring_matrices(s_a, s_b, theta_a, theta_b)
         target = invert(wa) @ wb
         a_T_b = a_T_b.matrix
@@ -301,11 +318,16 @@ class GaitPlanner:
         path = np.array([transform(pi, Ri) for pi, Ri in zip(p, rot)])
         world_T_a = np.broadcast_to(wa, path.shape)
         world_T_b = wa @ path
-        return [self._phase(state, 0, PhaseAction.RELEASE, 'ring_b', True, False,
-                            world_T_a=world_T_a[:1], world_T_b=world_T_b[:1]),
-                self._phase(state, 0, PhaseAction.MOVE, 'ring_b', True, False,
-                            world_T_a=world_T_a, world_T_b=world_T_b),
-                self._phase(state, 0, PhaseAction.GRIP, 'ring_b', True, True)]
+        phases = [self._phase(state, 0, PhaseAction.RELEASE, 'ring_b', True, False,
+                              world_T_a=world_T_a[:1], world_T_b=world_T_b[:1]),
+                  self._phase(state, 0, PhaseAction.MOVE, 'ring_b', True, False,
+                              world_T_a=world_T_a, world_T_b=world_T_b),
+                  self._phase(state, 0, PhaseAction.GRIP, 'ring_b', True, True)]
+        for ph, wb in zip(phases, (world_T_b[0], world_T_b[-1], world_T_b[-1])):
+            ph.world_T_a, ph.world_T_b = Pose.from_matrix(wa), Pose.from_matrix(wb)
+        if self.loads is not None:
+            self.loads.check(self.geometry, phases)
+        return phases
 
 
     def plan(self, distance: float, steps: int | None = None, *, start: float | None = None,
@@ -334,12 +356,17 @@ class GaitPlanner:
         if bottom < -1e-9 or top > self.structure.length + 1e-9:
             raise ValueError(f'a climb of {distance:.3f} m from s={start:.3f} m leaves the '
                              f'{self.structure.name} (route 0 .. {self.structure.length:.3f} m)')
-        state = _State(start, self.structure.check_s(start + sep0), initial_theta, initial_theta)
+        state = GaitState(start, self.structure.check_s(start + sep0), initial_theta, initial_theta)
         phases = [self._phase(state, 0, PhaseAction.START, '', True, True)]
         if abs(sep0 - sep_lo) > 1e-9:
             phases += self._move(state, 0, 'b', start + sep_lo)
         for k in range(1, steps + 1):
             phases += self._step(state, k, d, sep_lo, up)
+        return self._chain(phases, d, steps)
+
+    def _chain(self, phases: list[Phase], step_length: float, steps: int) -> ClimbPlan:
+        """The checked phases as a plan: the gripper interlock, then the rings' world poses
+        chained by the odometry."""
         check_interlock(phases)
         odo = None
         for ph in phases:
@@ -350,14 +377,17 @@ class GaitPlanner:
             else:
                 odo.update(ph.a_T_b, ph.gripper_a, ph.gripper_b, a_T_grip=ma, b_T_grip=mb)
             ph.world_T_a, ph.world_T_b = odo.world_T_a, odo.world_T_b
-        return ClimbPlan(robot=self.geometry.name, structure=self.structure.name, step_length=d,
+        if self.loads is not None:
+            self.loads.check(self.geometry, phases)
+        return ClimbPlan(robot=self.geometry.name, structure=self.structure.name, step_length=step_length,
                          steps=steps, phases=phases)
+
 
 def plan_climb(geometry: RobotGeometry, structure: Structure, distance: float, steps: int | None = None,
                **kwargs) -> ClimbPlan:
     """Shortcut: ``GaitPlanner(geometry, structure, ...).plan(distance, steps, ...)``; planner
-    options (use_extra_dof, spacing, step_fraction) and plan options (start,
+    options (use_extra_dof, spacing, step_fraction, loads) and plan options (start,
     initial_separation) are both accepted."""
-    planner_keys = {'use_extra_dof', 'spacing', 'step_fraction'}
+    planner_keys = {'use_extra_dof', 'spacing', 'step_fraction', 'loads'}
     planner = GaitPlanner(geometry, structure, **{k: v for k, v in kwargs.items() if k in planner_keys})
     return planner.plan(distance, steps, **{k: v for k, v in kwargs.items() if k not in planner_keys})

@@ -34,7 +34,8 @@ class PhasePath:
         angles = rotation_angle_between(self.path[:-1, :3, :3], self.path[1:, :3, :3])
         seg = np.linalg.norm(np.diff(p, axis=0), axis=1) + characteristic_length * angles
         self.times = np.concatenate([[0.0], np.cumsum(seg)]) / speed
-        self._quaternions = np.array([matrix_to_quat_xyzw(R) for R in self.path[:, :3, :3]])
+        #: the samples' rotations as quaternions (n, 4), x, y, z, w
+        self.quaternions_xyzw = matrix_to_quat_xyzw(self.path[:, :3, :3])
 
     @property
     def duration(self) -> float:
@@ -49,6 +50,6 @@ class PhasePath:
         k = max(int(np.searchsorted(times, t, side='right')) - 1, 0)
         w = (t - times[k]) / max(times[k + 1] - times[k], 1e-12)
         p = (1 - w) * self.path[k, :3, 3] + w * self.path[k + 1, :3, 3]
-        q0, q1 = self._quaternions[k], self._quaternions[k + 1]
+        q0, q1 = self.quaternions_xyzw[k], self.quaternions_xyzw[k + 1]
         q1 = q1 if q0 @ q1 >= 0 else -q1
         return Pose(p, (1 - w) * q0 + w * q1), (1 - w) * self.ring_angles[k] + w * self.ring_angles[k + 1]

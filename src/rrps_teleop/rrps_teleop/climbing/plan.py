@@ -14,15 +14,17 @@ import numpy as np
 from rrps_description.pose import Pose
 from rrps_interfaces.climb import PhaseAction
 
-__all__ = ['PlanError', 'PlanLimit', 'Phase', 'ClimbPlan', 'check_interlock', 'MARGIN_KINDS', 'CSV_COLUMNS']
+__all__ = ['PlanError', 'PlanLimit', 'Phase', 'PhaseLoads', 'ClimbPlan', 'check_interlock', 'MARGIN_KINDS',
+           'CSV_COLUMNS']
 
 MARGIN_KINDS = ('stroke', 'universal', 'spherical', 'interference', 'conditioning', 'clearance')
 
 
 class PlanLimit(str, enum.Enum):
     """What a refused plan breaks: a pose limit (:class:`rrps_kinematics.limits.LimitKind`), the
-    legs' clearance to the structure, the gripper interlock, the extra DOF's range, or no grip
-    position (a str: ``PlanLimit.STROKE == 'stroke'``)."""
+    legs' clearance to the structure, the gripper interlock, the extra DOF's range, no grip
+    position, an actuator's force limit or the holding gripper's capacity
+    (:mod:`rrps_teleop.climbing.load_check`) (a str: ``PlanLimit.STROKE == 'stroke'``)."""
 
     STROKE = 'stroke'
     UNIVERSAL = 'universal'
@@ -33,27 +35,48 @@ class PlanLimit(str, enum.Enum):
     INTERLOCK = 'interlock'
     EXTRA_DOF = 'extra_dof'
     GRIP = 'grip'
+    ACTUATOR_FORCE = 'actuator_force'
+    HOLDING = 'holding'
+
 
 CSV_COLUMNS = (['step', 'phase', 'gripper_a', 'gripper_b', 's_a', 's_b',
                 'a_x', 'a_y', 'a_z', 'a_qx', 'a_qy', 'a_qz', 'a_qw',
                 'b_x', 'b_y', 'b_z', 'b_qx', 'b_qy', 'b_qz', 'b_qw',
                 'px', 'py', 'pz', 'qx', 'qy', 'qz', 'qw', 'theta_a', 'theta_b']
-               + [f'L{i}' for i in range(1, 7)] + [f'margin_{k}' for k in MARGIN_KINDS])
+               + [f'L{i}' for i in range(1, 7)] + [f'margin_{k}' for k in MARGIN_KINDS]
+               + ['peak_force', 'holding_margin'])
 
 
 class PlanError(ValueError):
     """A plan that breaks a limit. ``limit``: a :class:`PlanLimit`; ``legs``: leg names involved;
-    ``step``, ``phase``: where; ``margins``: the smallest margin of each kind at the first pose
-    that breaks a limit (empty for non-pose limits)."""
+    ``ring``: the holding ring (HOLDING); ``step``, ``phase``, ``pose`` (index in the phase's
+    path) and ``fraction`` (of the phase's duration): where; ``margins``: the smallest margin of
+    each kind at the first pose that breaks a limit (empty for non-pose limits)."""
 
-    def __init__(self, message: str, *, limit: PlanLimit, legs=(), step: int | None = None,
-                 phase: str | None = None, margins: dict | None = None):
+    def __init__(self, message: str, *, limit: PlanLimit, legs=(), ring: str | None = None,
+                 step: int | None = None, phase: str | None = None, pose: int | None = None,
+                 fraction: float | None = None, margins: dict | None = None):
         super().__init__(message)
         self.margins = dict(margins or {})
         self.limit = PlanLimit(limit)
         self.legs = tuple(legs)
+        self.ring = ring
         self.step = step
         self.phase = phase
+        self.pose = pose
+        self.fraction = fraction
+
+
+@dataclass(frozen=True)
+class PhaseLoads:
+    """The loads over a phase during which one gripper holds (:mod:`.load_check`): the largest
+    |actuator force| ``peak_force`` [N] and its leg ``peak_leg``, the smallest
+    ``holding_margin`` (1 - utilisation; NaN without a capacity) of ``holding_ring``."""
+
+    peak_force: float
+    peak_leg: str
+    holding_margin: float
+    holding_ring: str
 
 
 @dataclass
@@ -84,6 +107,8 @@ class Phase:
     world_T_b: Pose = field(default_factory=Pose)
     #: the extra-DOF angles (theta_a, theta_b) [rad] at each sample of ``path`` (n, 2)
     ring_angles: np.ndarray | None = None
+    #: the loads over the phase when they were checked and one gripper holds
+    loads: PhaseLoads | None = None
 
     def __post_init__(self) -> None:
         if self.ring_angles is None:
@@ -106,7 +131,9 @@ class Phase:
                   *self.world_T_a.position, *self.world_T_a.quaternion_xyzw,
                   *self.world_T_b.position, *self.world_T_b.quaternion_xyzw,
                   *a_T_b.position, *a_T_b.quaternion_xyzw, self.theta_a, self.theta_b, *self.lengths,
-                  *(self.min_margins[k] for k in MARGIN_KINDS)]
+                  *(self.min_margins[k] for k in MARGIN_KINDS),
+                  *((math.nan, math.nan) if self.loads is None
+                    else (self.loads.peak_force, self.loads.holding_margin))]
         return dict(zip(CSV_COLUMNS, values))
 
 
@@ -125,6 +152,20 @@ class ClimbPlan:
         return {k: float(np.nanmin([p.min_margins[k] for p in self.phases]))
                 if not all(np.isnan(p.min_margins[k]) for p in self.phases) else math.nan
                 for k in MARGIN_KINDS}
+
+    @property
+    def peak_load(self) -> PhaseLoads | None:
+        """The largest actuator force and the smallest holding margin over the checked phases
+        (``holding_ring``: the ring at that margin); None when no phase was load-checked."""
+        checked = [p.loads for p in self.phases if p.loads is not None]
+        if not checked:
+            return None
+        peak = max(checked, key=lambda x: x.peak_force)
+        held = [x for x in checked if not math.isnan(x.holding_margin)]
+        low = min(held, key=lambda x: x.holding_margin) if held else peak
+        return PhaseLoads(peak_force=peak.peak_force, peak_leg=peak.peak_leg,
+                          holding_margin=low.holding_margin if held else math.nan,
+                          holding_ring=low.holding_ring)
 
     @property
     def climbed(self) -> float:

@@ -1,4 +1,5 @@
-"""climb_node: executes inchworm gait steps (``rrps_teleop.climbing.gait``) on the robot over ROS.
+"""climb_node: executes inchworm gait steps (``rrps_teleop.climbing.gait``) on the robot over ROS;
+with ``junction_deg`` on a frame, the crossing of its node (``rrps_teleop.climbing.frame_node``).
 
 The step machine is :class:`rrps_teleop.climbing.step_machine.ClimbStepMachine` (phases, arrival,
 the gripper interlock and release gate, pauses on lost inputs, failures, odometry). This node
@@ -27,7 +28,7 @@ from std_srvs.srv import SetBool, Trigger
 from rrps_description.geometry import load_robot
 from rrps_description.names import RING_A_FRAME, RINGS, WORLD_FRAME, ring_joint
 from rrps_description.pose import QUATERNION_TOLERANCE, InvalidPose, Pose
-from rrps_description.structures import STRUCTURES, make_structure
+from rrps_description.structures import STRUCTURES, structure_from_parameters
 from rrps_interfaces.climb import (
     CLIMB_RESUME,
     CLIMB_STATUS,
@@ -48,7 +49,9 @@ from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, LINK_STATE_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
+from rrps_teleop.climbing.frame_node import FrameNodePlanner
 from rrps_teleop.climbing.gait import GaitPlanner
+from rrps_teleop.climbing.load_check import LoadCheck
 from rrps_teleop.climbing.step_machine import ClimbOutput, ClimbStepMachine, ClimbTarget, StepConfig
 
 __all__ = ['PARAMETERS', 'ClimbNode', 'main']
@@ -82,6 +85,10 @@ PARAMETERS = NodeParameters('climb_node', 'rrps_teleop', [
               'pause when the operator station (its teleop/status, once seen) is silent this long', unit='s',
               range=(0.05, 60.0)),
     Parameter('use_extra_dof', True, 'use the extra ring DOF where the robot has one'),
+    Parameter('junction_deg', 0.0, 'frame: cross its node, the member bent by this angle (0 = a straight '
+              'splice, the inchworm gait); start defaults to the searched stance before the node', unit='deg',
+              range=(0.0, 90.0)),
+    Parameter('out_of_plane', False, "frame with junction_deg: the member bends normal to the column's web plane"),
 ])
 
 LEVELS = {ClimbState.IDLE: OK, ClimbState.EXECUTING: OK, ClimbState.PAUSED: ERROR, ClimbState.FAILED: ERROR}
@@ -94,14 +101,15 @@ class ClimbNode(Node):
         super().__init__('climb_node', **kwargs)
         values = declare_parameters(self, PARAMETERS)
         self.geometry = load_robot(values['robot'])
-        structure = make_structure(values['structure'], values['structure_length'] or None,
-                                   lean_deg=values['structure_lean_deg'])
-        planner = GaitPlanner(self.geometry, structure, use_extra_dof=values['use_extra_dof'])
+        planner = self._planner(values)
+        start = values['start'] if values['start'] >= 0.0 else None
+        if isinstance(planner, FrameNodePlanner) and planner.crossing is not None and start is None:
+            start = planner.crossing.candidate.s_pre
         config = StepConfig(speed=values['speed'], period=1.0 / values['rate'],
                             **{k: values[k] for k in ('position_tolerance', 'orientation_tolerance',
                                                       'settle_timeout', 'settle_time', 'state_timeout',
                                                       'operator_timeout')})
-        self.machine = ClimbStepMachine(planner, config, start=values['start'] if values['start'] >= 0.0 else None,
+        self.machine = ClimbStepMachine(planner, config, start=start,
                                         step_length=values['step_length'] or None,
                                         auto_steps=values['auto_steps'])
         self._pose_msg: PoseStamped | None = None
@@ -134,6 +142,27 @@ class ClimbNode(Node):
         self._diag = Diagnostics(self, 'climb', hardware_id=self.geometry.name)
         self.create_timer(config.period, self._on_tick)
         self.create_timer(0.5, lambda: self._publish_status(self.machine.report()))
+
+    def _planner(self, values: dict) -> GaitPlanner:
+        """The inchworm gait on the structure, or with ``junction_deg`` the frame-node crossing
+        (its search's refusal is logged; every step then refuses it)."""
+        if values['junction_deg'] <= 0.0:
+            if values['out_of_plane']:
+                raise ValueError('out_of_plane needs junction_deg > 0')
+            structure = structure_from_parameters(values)
+            return GaitPlanner(self.geometry, structure, use_extra_dof=values['use_extra_dof'],
+                               loads=LoadCheck(speed=values['speed']))
+        if values['structure'] != 'frame':
+            raise ValueError(f"junction_deg needs structure 'frame', got {values['structure']!r}")
+        planner = FrameNodePlanner(self.geometry, values['junction_deg'], values['out_of_plane'],
+                                   use_extra_dof=values['use_extra_dof'])
+        if planner.refusal is not None:
+            self.get_logger().error(f'frame node refused: {planner.refusal}')
+        else:
+            c = planner.crossing
+            self.get_logger().info(f'{planner.title}: crossing from s={c.candidate.s_pre:.3f} m '
+                                   f'(score {c.score:.3f}, {c.evaluated} candidates)')
+        return planner
 
     # --- the machine's state, for tests and tools ------------------------------------------------
 
