@@ -61,6 +61,10 @@ class TeleopCode(enum.IntEnum):
     LINK_LATENCY = 107                # the operator's round trip is above hold_latency
     DRIVER_INACTIVE = 108             # the robot's driver is not active (activate it first)
     LATENCY_SLOWED = 109              # engaged, slowed down: round trip above slow_latency
+    DECELERATE_FOR_FORCE = 110        # approaching an actuator's force limit (max_force)
+    HALT_FOR_FORCE = 111              # at or beyond it: motion towards it holds
+    DECELERATE_FOR_HOLDING = 112      # the supporting gripper approaching its holding capacity
+    HALT_FOR_HOLDING = 113            # at a holding margin of zero: motion towards it holds
 
 
 #: Codes under which the mapping is not engaged (no command is produced: the slave holds).
@@ -91,6 +95,8 @@ class TeleopStatus(StatusValues):
     margin_spherical: float | None = None
     margin_interference: float | None = None
     margin_conditioning: float | None = None
+    margin_force: float | None = None    # 1 - max |f_i| / max_force at the command (load guards)
+    margin_holding: float | None = None  # 1 - the supporting gripper's utilisation there
     robot: str = ''                      # the namespace of the driven robot
     slave_age_ms: float | None = None    # now minus the newest slave pose's stamp (synchronised clocks)
 

@@ -20,6 +20,7 @@ from rrps_kinematics.limits import Margins, PoseMargins, pose_margins
 __all__ = [
     'RobotFigure',
     'robot_figure',
+    'FigureCache',
     'world_ring_poses',
     'leg_margin_fractions',
     'margin_colours',
@@ -140,6 +141,25 @@ def robot_figure(geometry: RobotGeometry, *, a_T_b: Pose, world_T_a: Pose,
     return RobotFigure(world_T_a=world_T_a, world_T_b=world_T_b,
                        leg_points=np.stack([starts, ends], axis=1), margins=m,
                        fractions=fractions, leg_colours=margin_colours(fractions['leg']))
+
+
+class FigureCache:
+    """:func:`robot_figure` per key (slave, master), recomputed only when its inputs changed: a
+    still robot costs nothing."""
+
+    def __init__(self):
+        self._cached: dict[str, tuple] = {}
+
+    def __call__(self, key: str, geometry: RobotGeometry, a_T_b: Pose, world_T_a: Pose,
+                 efforts: np.ndarray | None = None) -> RobotFigure:
+        inputs = (a_T_b.position.tobytes(), a_T_b.quaternion_xyzw.tobytes(),
+                  world_T_a.position.tobytes(), world_T_a.quaternion_xyzw.tobytes(),
+                  None if efforts is None else np.asarray(efforts).tobytes())
+        cached = self._cached.get(key)
+        if cached is None or cached[0] != inputs:
+            cached = (inputs, robot_figure(geometry, a_T_b=a_T_b, world_T_a=world_T_a, efforts=efforts))
+            self._cached[key] = cached
+        return cached[1]
 
 
 class Trail:

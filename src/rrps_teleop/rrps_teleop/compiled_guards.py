@@ -46,7 +46,7 @@ from rrps_teleop.command_layout import (
     UNIVERSAL,
 )
 
-__all__ = ['evaluate_pose', 'guarded_joint_step', 'guarded_cartesian_step', 'mapped_pose']
+__all__ = ['evaluate_pose', 'guarded_joint_step', 'guarded_cartesian_step', 'mapped_pose', 'scaled_step']
 
 #: FK of the candidate lengths: the defaults of :func:`rrps_kinematics.forward_kinematics`.
 FK_TOLERANCE = 1e-12
@@ -217,6 +217,37 @@ def _pose_step(g, prev, p1, rv, fraction, out):
 
 
 @jit
+def _rotation_vector(prev, q1):
+    """The rotation from prev's orientation to q1 as a rotation vector (angle in [0, pi])."""
+    x, y, z, w = _multiply(q1[0], q1[1], q1[2], q1[3], -prev[QUATERNION], -prev[QUATERNION + 1],
+                           -prev[QUATERNION + 2], prev[QUATERNION + 3])
+    if w < 0.0:
+        x, y, z, w = -x, -y, -z, -w
+    s = math.sqrt(x * x + y * y + z * z)
+    k = 2.0 / max(w, 1e-300) if s < 1e-9 else 2.0 * math.atan2(s, w) / s
+    rv = np.empty(3)
+    rv[0], rv[1], rv[2] = x * k, y * k, z * k
+    return rv
+
+
+@jit
+def scaled_step(g, inv_scale, prev, cand, factor, joint, halt, out):
+    """out <- the command a ``factor`` of the way from command ``prev`` to command ``cand``:
+    along the leg lengths (``joint``) or the pose, as the guarded steps scale theirs (the load
+    guards' slow-down). Returns STEP_ACCEPTED, STEP_REFUSED (it breaks or worsens a kinematic
+    margin) or STEP_FK_FAILED."""
+    if joint:
+        lengths = np.empty(6)
+        for i in range(6):
+            lengths[i] = prev[LENGTHS + i] + factor * (cand[LENGTHS + i] - prev[LENGTHS + i])
+        if not _evaluate_lengths(g, inv_scale, prev, lengths, out):
+            return STEP_FK_FAILED
+    else:
+        _pose_step(g, prev, cand[0:3], _rotation_vector(prev, cand[QUATERNION:QUATERNION + 4]), factor, out)
+    return STEP_REFUSED if _refusal(prev, out, halt)[0] >= 0 else STEP_ACCEPTED
+
+
+@jit
 def guarded_cartesian_step(g, prev, p1, q1, max_linear_step, max_angular_step, max_leg_step,
                            leg_iterations, slowdown, halt, collision_slowdown, out):
     """Cartesian mode: the step from command ``prev`` towards pose (p1, q1), guarded, into ``out``.
@@ -231,15 +262,7 @@ def guarded_cartesian_step(g, prev, p1, q1, max_linear_step, max_angular_step, m
                 max_angular_step / dth if dth > 0.0 else math.inf)
     if bound < 1.0 - SPEED_TOLERANCE:
         fraction, limit = bound, LIMIT_SPEED
-    # the rotation from prev to q1 as a rotation vector (angle in [0, pi])
-    x, y, z, w = _multiply(q1[0], q1[1], q1[2], q1[3], -prev[QUATERNION], -prev[QUATERNION + 1],
-                           -prev[QUATERNION + 2], prev[QUATERNION + 3])
-    if w < 0.0:
-        x, y, z, w = -x, -y, -z, -w
-    s = math.sqrt(x * x + y * y + z * z)
-    k = 2.0 / max(w, 1e-300) if s < 1e-9 else 2.0 * math.atan2(s, w) / s
-    rv = np.empty(3)
-    rv[0], rv[1], rv[2] = x * k, y * k, z * k
+    rv = _rotation_vector(prev, q1)
     _pose_step(g, prev, p1, rv, fraction, out)
     for _ in range(leg_iterations):  # lengths are nearly linear in the fraction: 1-2 passes
         leg_step = 0.0

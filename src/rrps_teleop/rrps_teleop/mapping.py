@@ -33,7 +33,9 @@ Guards, applied to the step from the last command towards the mapped target:
    full speed);
 3. halt: a step is refused if it makes any stroke, joint-angle, interference or conditioning
    margin negative or, where already negative, smaller (so a motion that increases the margin
-   is always allowed).
+   is always allowed);
+4. loads (``load_guards``, on by default): the same slow-down and halt at the actuator force
+   limit and at a holding margin of zero of the supporting gripper (:mod:`rrps_teleop.load_guard`).
 
 With numba, a whole guarded step (FK, margins, bands, refusal) runs as one compiled kernel of
 :mod:`rrps_teleop.compiled_guards`; the NumPy implementation below is the reference and the
@@ -67,6 +69,7 @@ from rrps_teleop.command_layout import (
     STEP_UNCHANGED,
 )
 from rrps_teleop.guards import CHECK_STARTS, LEG_SPEED_ITERATIONS, GuardedCommand, ReferenceGuards
+from rrps_teleop.load_guard import LoadGuard, LoadMargins
 from rrps_teleop.teleop_config import MODES, ROTATION_MODES, TeleopConfig, validate_scale
 
 __all__ = [
@@ -86,6 +89,7 @@ class TeleopOutput:
     engaged: bool
     detail: str = ''
     command: GuardedCommand | None = None
+    loads: LoadMargins | None = None
 
     @property
     def has_command(self) -> bool:
@@ -105,19 +109,25 @@ class TeleopOutput:
 
     @property
     def margins(self) -> dict[str, float]:
-        """Smallest margin of each kind at the command ({} without one)."""
-        return {} if self.command is None else self.command.margins.minimum
+        """Smallest margin of each kind at the command ({} without one), the load margins too."""
+        if self.command is None:
+            return {}
+        loads = {} if self.loads is None else {k: float(v) for k, v in zip(('force', 'holding'), self.loads[:2])
+                                               if math.isfinite(v)}
+        return {**self.command.margins.minimum, **loads}
 
 
 class TeleopMapping:
     """The teleop state machine: feed it samples (with their receive time, s) and call :meth:`step`.
 
-    ``backend``: 'auto' (the compiled guards when numba is available), 'numba' or 'numpy'.
+    ``backend``: 'auto' (the compiled guards when numba is available), 'numba' or 'numpy';
+    ``support``: the gripping ring and its attitude, for the load guards (default ring_a upright).
     """
 
     def __init__(self, slave: RobotGeometry, config: TeleopConfig | None = None, *,
-                 backend: str = 'auto'):
+                 backend: str = 'auto', support=None):
         self.slave = slave
+        self.loads = LoadGuard(slave, support, backend=backend)
         #: the compiled guards (:mod:`.compiled_guards`) with numba, else the NumPy reference
         self._kernels = _compiled_guards() if use_numba(backend) else None
         self._reference = ReferenceGuards(slave)
@@ -156,6 +166,7 @@ class TeleopMapping:
         p, q = np.array(g.home_position, dtype=float), np.array(g.home_quaternion_xyzw, dtype=float)
         m = pose_margins(g, p, q)
         home = GuardedCommand.at(p, q, m.lengths, m, g.min_conditioning)
+        self.loads.warm_up(home, self._halt)
         c = self.config
         self._kernels.mapped_pose(p, q, p.copy(), q.copy(), p.copy(), q.copy(), c.translation_scale,
                                   False, np.empty(3), np.empty(4))
@@ -322,7 +333,8 @@ class TeleopMapping:
             code, detail = self._joint_step(dt)
         if factor < 1.0 and code in (TeleopCode.NO_WARNING, TeleopCode.SPEED_LIMITED):
             code, detail = TeleopCode.LATENCY_SLOWED, f'speeds x {factor:.2f} for the link latency'
-        return TeleopOutput(code, True, detail, self._command)
+        loads = self.loads.margins(self._command) if self.config.load_guards else None
+        return TeleopOutput(code, True, detail, self._command, loads)
 
     def _time_budget(self, t: float) -> float:
         """dt [s] of this step for the speed limits: the time since the last step, or the time
@@ -449,8 +461,14 @@ class TeleopMapping:
             else:
                 value = cand.buffer[CHECK_STARTS[check] + index]
             return halt_code, f'{name} margin {float(value):.4g} would be negative: holding'
+        code = _LIMIT_CODES[limit]
+        if self.config.load_guards:
+            cand, code, detail = self.loads.step(self._command, cand, code, self.config, self._halt,
+                                                 joint=self.config.mode == 'joint')
+            if cand is None:
+                return code, detail
         self._command = cand
-        return _LIMIT_CODES[limit], ''
+        return code, ''
 
 #: Name and halt code of each check (CHECK_* order).
 _CHECKS = (('stroke', TeleopCode.JOINT_BOUND), ('universal joint', TeleopCode.JOINT_BOUND),

@@ -13,8 +13,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from rrps_description.names import RING_A_FRAME
+from rrps_description.names import RING_A_FRAME, RINGS
 from rrps_description.tool import TARGET_FRAMES
+from rrps_description.world import IDENTITY_QUATERNION
 from rrps_interfaces.link import SOURCES
 from rrps_interfaces.teleop import MASTER_FRAME
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
@@ -76,6 +77,20 @@ PARAMETERS = NodeParameters('teleop_node', 'rrps_teleop', [
               'hold_latency)', unit='s', range=(0.001, 5.0), dynamic=True),
     Parameter('hold_latency', 0.3, "the operator's round trip above which the robot holds", unit='s',
               range=(0.001, 5.0), dynamic=True),
+    Parameter('load_guards', True, 'slow down near and halt at the actuator force limit and a holding margin of '
+              "zero (the statics of the robot at rest on its supporting ring, with its payload)", dynamic=True),
+    Parameter('force_slowdown', 0.1, 'force margin 1 - max|f_i| / max_force below which motion towards the limit '
+              'slows down', range=(1e-4, 1.0), dynamic=True),
+    Parameter('holding_slowdown', 0.1, "holding margin (1 - the supporting gripper's utilisation) below which "
+              'motion towards zero slows down', range=(1e-4, 1.0), dynamic=True),
+    Parameter('support', 'ring_a', 'the ring gripping the structure while teleoperated (the support of the '
+              'load guards)', choices=RINGS),
+    Parameter('world_q_support', IDENTITY_QUATERNION, "the supporting ring's attitude in the world "
+              '(x, y, z, w; gravity is (0, 0, -9.81) m/s^2 there)'),
+    Parameter('payload_mass', None, 'a point-mass payload for the load guards', unit='kg', range=(0.0, 1e5),
+              type=float, unset_note="the robot's payload (none unless its YAML gives one)"),
+    Parameter('payload_com', (0.0, 0.0, 0.0), "the payload's centre of mass in its ring's frame", unit='m'),
+    Parameter('payload_ring', 'ring_b', 'the ring carrying the payload', choices=RINGS),
     Parameter('control_frame', 'ring_b', "the frame the master moves in cartesian mode: ring_b's origin or "
               'the tool-centre point (translations move the tool tip, rotations turn about it)',
               choices=TARGET_FRAMES, dynamic=True),
@@ -122,6 +137,9 @@ class TeleopConfig:
     slow_latency: float = _default('slow_latency')
     hold_latency: float = _default('hold_latency')
     control_frame: str = _default('control_frame')
+    load_guards: bool = _default('load_guards')
+    force_slowdown: float = _default('force_slowdown')
+    holding_slowdown: float = _default('holding_slowdown')
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -138,7 +156,7 @@ class TeleopConfig:
         object.__setattr__(self, 'joint_scale', tuple(validate_scale(v, 'joint_scale') for v in a))
         for name in ('enable_timeout', 'master_timeout', 'max_linear_speed', 'max_angular_speed',
                      'singularity_slowdown', 'collision_slowdown', 'align_tolerance', 'max_period',
-                     'state_timeout', 'slow_latency', 'hold_latency'):
+                     'state_timeout', 'slow_latency', 'hold_latency', 'force_slowdown', 'holding_slowdown'):
             validate_scale(getattr(self, name), name)
         if not self.slow_latency < self.hold_latency:
             raise ValueError(f'slow_latency must be < hold_latency, got {self.slow_latency!r}, '

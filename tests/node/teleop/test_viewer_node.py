@@ -211,3 +211,43 @@ def test_the_picture_places_the_robot_by_its_gripping_ring(ros_context, viewer):
         assert wait_for(lambda: 'Conditioning' in viewer.frame().panel)  # 4 Hz text
         assert 'Margins' in viewer.frame().panel
         assert len(frame.trails['ring_a']) == 1 and len(frame.trails['ring_b']) == 1
+
+
+def test_the_payload_slider_shrinks_the_drawn_workspace_to_the_load_feasible_one(ros_context, viewer):
+    from geometry_msgs.msg import PoseStamped
+    from sensor_msgs.msg import JointState
+
+    from rrps_description.rotations import rotation_vector_to_quat_xyzw
+    from rrps_runtime.messages import pose_to_msg
+    g = viewer.geometry
+    probe = Probe(context=ros_context)
+    pose_pub, odom_pub = probe.publisher(PoseStamped, 'pose'), probe.publisher(PoseStamped, 'odometry/ring_a')
+    grippers_pub = probe.publisher(JointState, 'grippers/state')
+    on_wall = rotation_vector_to_quat_xyzw(np.array([np.pi / 2, 0.0, 0.0]))   # ring_a grips a wall
+    stamp = lambda: viewer.get_clock().now().to_msg()  # noqa: E731
+
+    def send() -> None:
+        pose_pub.publish(pose_to_msg(g.home_position, g.home_quaternion_xyzw, frame_id='ring_a', stamp=stamp()))
+        odom_pub.publish(pose_to_msg([0.0, 0.0, 1.0], on_wall, frame_id='world', stamp=stamp()))
+        grippers_pub.publish(JointState(name=['ring_a', 'ring_b'], position=[1.0, 0.0]))
+
+    def snapshot(payload: float):
+        found = []
+
+        def drawn() -> bool:
+            send()
+            ws = viewer.frame().workspace
+            found[:] = [ws] if ws is not None and ws.payload == payload else []
+            return bool(found)
+        assert wait_for(drawn, timeout=60.0, period=0.05)
+        return found[0]
+
+    with Spinner(ros_context, [viewer, probe]):
+        unloaded = snapshot(0.0)
+        assert unloaded.workspace.volume == pytest.approx(unloaded.reachable_volume)
+        cid = _operator(viewer.control)
+        viewer.set_workspace_payload(cid, 40.0)
+        loaded = snapshot(40.0)
+        assert 0.0 < loaded.workspace.volume < 0.8 * unloaded.workspace.volume
+        assert loaded.reachable_volume == pytest.approx(unloaded.reachable_volume)
+        assert wait_for(lambda: 'load-feasible with 40 kg payload' in viewer.frame().panel)

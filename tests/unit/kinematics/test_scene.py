@@ -14,6 +14,7 @@ from rrps_kinematics import inverse_kinematics
 from rrps_kinematics.limits import margins
 from rrps_kinematics.scene import (
     WARN_FRACTION,
+    FigureCache,
     Trail,
     leg_margin_fractions,
     margin_colours,
@@ -263,3 +264,18 @@ def test_token_must_be_usable():
         OperatorControl(token='abc')
     with pytest.raises(ValueError, match='deadman'):
         OperatorControl(token='abcdef', deadman_timeout=0.0)
+
+
+def test_the_figure_cache_recomputes_only_when_its_inputs_change():
+    g = load_robot('pole_climber')
+    q = np.array([0.0, 0.0, 0.0, 1.0])
+    ground = Pose(np.zeros(3), q)
+    up = g.home_position + [0.0, 0.0, 0.01]
+    cache = FigureCache()
+    first = cache('slave', g, Pose(g.home_position, q), ground)
+    assert cache('slave', g, Pose(g.home_position.copy(), q.copy()), ground) is first   # equal inputs
+    moved = cache('slave', g, Pose(up, q), ground)
+    assert moved is not first
+    np.testing.assert_allclose(moved.lengths, inverse_kinematics(g, up, q).lengths, atol=1e-12)
+    assert cache('master', g, Pose(up, q), ground) is not moved                       # one entry per key
+    assert cache('slave', g, Pose(up, q), ground, np.ones(6)) is not moved            # efforts count

@@ -8,6 +8,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+import pytest
 
 from rrps_description.geometry import load_robot
 from rrps_description.rotations import rotation_angle_between, rotation_vector_to_quat_xyzw
@@ -73,3 +74,20 @@ def test_a_new_orientation_recomputes_a_small_change_does_not_and_the_newest_win
     # the workspace at a yaw of 0.3 rad is that orientation's, not home's
     expected = reachable_workspace(POLE, turns[-1], resolution=0.03)
     assert np.array_equal(last.workspace.labels, expected.labels)
+
+
+def test_a_payload_recomputes_the_load_feasible_workspace_within_the_reachable_one():
+    on_wall = rotation_vector_to_quat_xyzw(np.array([np.pi / 2, 0.0, 0.0]))
+    view = WorkspaceView(POLE, resolution=0.03)
+    view.request(POLE.home_quaternion_xyzw, on_wall)
+    unloaded = _wait_for_version(view, 1)
+    view.request(POLE.home_quaternion_xyzw, on_wall)          # the same request: no recomputation
+    view.set_payload(40.0)
+    loaded = _wait_for_version(view, 2)
+    assert loaded.version == 2 and loaded.payload == 40.0 and unloaded.payload == 0.0
+    inside = loaded.workspace.labels != UNREACHABLE
+    assert not np.any(inside & (unloaded.workspace.labels == UNREACHABLE))
+    assert 0.0 < loaded.workspace.volume < unloaded.workspace.volume <= loaded.reachable_volume
+    assert 'load-feasible with 40 kg payload' in loaded.describe(POLE.home_position)
+    with pytest.raises(ValueError, match='payload'):
+        view.set_payload(-1.0)

@@ -34,7 +34,9 @@ state to command, see benchmarks/teleop_latency.py) or on a timer at ``control_r
 watchdog releases the clutch when the deadman or the master data lapse, so the slave holds within
 one watchdog period of the timeout even when no master message arrives at all. ``mode``,
 ``translation_scale``, ``rotation_mode``, ``joint_scale`` and the guard parameters are settable
-at run time (validated; any change is a clutch).
+at run time (validated; any change is a clutch). The load guards (``load_guards``, on by
+default) take the robot at rest on ``support`` turned by ``world_q_support`` in the world, with a
+point-mass payload (``payload_mass`` on ``payload_ring`` at ``payload_com``; unset: the robot's).
 """
 
 from __future__ import annotations
@@ -52,6 +54,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64
 
 from rrps_description.geometry import load_robot
+from rrps_description.loads import Payload
+from rrps_description.world import Support
 from rrps_interfaces.climb import CLIMB_STATUS, ClimbState, ClimbStatus
 from rrps_interfaces.driver import DriverStatus
 from rrps_interfaces.kinematics import ACTUATORS_COMMAND, POSE, TARGET_POSE
@@ -90,7 +94,8 @@ WATCHDOG_PERIOD = 0.02
 CONFIG_PARAMETERS = ('mode', 'translation_scale', 'rotation_mode', 'joint_scale', 'enable_timeout',
                      'master_timeout', 'max_linear_speed', 'max_angular_speed', 'singularity_slowdown',
                      'singularity_halt', 'collision_slowdown', 'align_tolerance', 'state_timeout',
-                     'slow_latency', 'hold_latency', 'control_frame')
+                     'slow_latency', 'hold_latency', 'control_frame', 'load_guards', 'force_slowdown',
+                     'holding_slowdown')
 _LEVELS = {
     TeleopCode.NO_WARNING: OK, TeleopCode.SPEED_LIMITED: OK, TeleopCode.DEADMAN_RELEASED: OK,
     TeleopCode.CLIMB_EXECUTING: OK, TeleopCode.MASTER_STALE: STALE,
@@ -107,6 +112,9 @@ class TeleopNode(Node):
         super().__init__('teleop_node', **kwargs)
         values = declare_parameters(self, PARAMETERS)  # the schema: rrps_teleop.teleop_config
         self.geometry = load_robot(values['robot'])
+        if values['payload_mass'] is not None:  # the load guards' payload (else the robot's own)
+            self.geometry = self.geometry.with_(payload=Payload(
+                ring=values['payload_ring'], mass=values['payload_mass'], com=np.array(values['payload_com'])))
         self.frame_id = values['frame_id']
         self.master_frame_id = values['master_frame_id']
         self.control = values['control']
@@ -116,7 +124,8 @@ class TeleopNode(Node):
         if config['singularity_halt'] is None:  # unset: the robot's, which the parameter then shows
             config['singularity_halt'] = float(self.geometry.min_conditioning)
             self.set_parameters([Parameter('singularity_halt', value=config['singularity_halt'])])
-        self.mapping = TeleopMapping(self.geometry, TeleopConfig(**config))
+        self.mapping = TeleopMapping(self.geometry, TeleopConfig(**config),
+                                     support=Support.of(values['support'], values['world_q_support']))
         self._pending: TeleopConfig | None = None
         self._last_status: tuple | None = None
         self._last_status_time = -math.inf

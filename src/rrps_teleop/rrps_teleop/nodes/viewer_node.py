@@ -24,11 +24,9 @@ Safety: the server binds ``host`` (default 127.0.0.1); every browser is read-onl
 ``token`` (generated with ``secrets`` and printed when empty); one operator at a time; a
 disconnected operator loses control, the deadman stops and the teleop mapping holds the robot.
 
-Deadman semantics (documented for operators): ``teleop/enable`` is true while the controlling
-operator has "Engage (clutch)" ticked AND either presses and holds the "Hold to move" button
-(the browser sends hold events at 20 Hz; the deadman expires ``deadman_timeout`` s after the last
-one) or is dragging the master's gizmo with the mouse (grabbing the handle is holding it).
-Releasing either one stops the stream; a few ``false`` samples follow, then silence (stale).
+Deadman (README, "Driving the robot from the browser"): ``teleop/enable`` is true while the controlling operator
+has "Engage (clutch)" ticked and holds "Hold to move" (20 Hz hold events, expiring after
+``deadman_timeout``) or drags the master's gizmo; releasing stops the stream.
 """
 
 from __future__ import annotations
@@ -62,7 +60,7 @@ from rrps_interfaces.teleop import (
     TELEOP_STATUS,
     ViewerStatus,
 )
-from rrps_kinematics.scene import Trail, robot_figure, world_ring_poses
+from rrps_kinematics.scene import FigureCache, Trail, world_ring_poses
 from rrps_runtime.diagnostics import OK, OPERATOR_STATION, Diagnostics
 from rrps_runtime.messages import lengths_from_joint_state, pose_from_msg, pose_to_msg, stamp_to_seconds
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
@@ -101,6 +99,8 @@ PARAMETERS = NodeParameters('viewer_node', 'rrps_teleop', [
     Parameter('out_of_plane', False, "frame: the member bends normal to the column's web plane"),
     Parameter('workspace_resolution', 0.02, 'grid of the reachable workspace drawn around the robot; 0: not '
               'drawn', unit='m', range=(0.0, 0.2)),
+    Parameter('workspace_payload_max', 100.0, 'top of the payload slider of the load-feasible workspace '
+              '(a payload on ring_b, ring_a gripping); 0: no slider', unit='kg', range=(0.0, 1e4)),
     Parameter('plot_window', 20.0, 'leg-length plot window', unit='s', range=(1.0, 600.0)),
     Parameter('robot_topics', 'direct', "read the robots' state from their own topics (direct) or from their "
               'link relays (link)', choices=SOURCES),
@@ -120,8 +120,7 @@ class ViewerNode(Node):
         self.master_geometry = load_robot(master_name) if master_name else None
         host, port, token = values['host'], values['port'], values['token']
         render_rate, enable_rate = values['render_rate'], values['enable_rate']
-        deadman_timeout = values['deadman_timeout']
-        origin = values['master_origin']
+        deadman_timeout, origin = values['deadman_timeout'], values['master_origin']
         resolution = values['workspace_resolution']
         self._plot_window = values['plot_window']
         if len(origin) != 3 or not all(math.isfinite(v) for v in origin):
@@ -148,7 +147,7 @@ class ViewerNode(Node):
         self._enable_was = False
         self._false_left = 0
         self._master_origin = Pose(np.asarray(origin, dtype=float))
-        self._figures: dict[str, tuple] = {}
+        self._figure = FigureCache()
         self._panel_text, self._panel_time = '', -1.0
         self._state_read: tuple = (None, None)
 
@@ -174,7 +173,7 @@ class ViewerNode(Node):
             geometry=self.geometry, master_geometry=self.master_geometry,
             master_origin=self._master_origin,
             structure=structure_from_parameters(values).mesh() if values['structure'] else None, rate=render_rate,
-            title=f'rrps · {self.geometry.name}',
+            title=f'rrps · {self.geometry.name}', payload_max=values['workspace_payload_max'] if resolution else 0.0,
             robots=[self.robots.name(r) for r in self.robots.robots] if len(self.robots.robots) > 1 else ())
         shown = '127.0.0.1' if host in ('0.0.0.0', '::', '') else host
         self.url = f'http://{shown}:{self.viewer.port}'
@@ -349,7 +348,7 @@ class ViewerNode(Node):
         if self.workspace is None or frame.slave is None:
             return
         a_T_b = frame.slave.world_T_a.inverse() @ frame.slave.world_T_b
-        self.workspace.request(a_T_b.quaternion_xyzw)
+        self.workspace.request(a_T_b.quaternion_xyzw, frame.slave.world_T_a.quaternion_xyzw)
         frame.workspace = self.workspace.latest()
         master_msg = latest.get(MASTER_POSE)
         if frame.workspace is None or master_msg is None or self.master_geometry is None:
@@ -357,18 +356,6 @@ class ViewerNode(Node):
         scale = panel.translation_scale(latest.get(TELEOP_STATUS))
         pm, _ = pose_from_msg(master_msg)
         frame.master_workspace = (pm - a_T_b.position / scale, scale)
-
-    def _figure(self, key: str, geometry, a_T_b: Pose, world_T_a: Pose, efforts):
-        """robot_figure, recomputed only when its inputs changed (a still robot costs nothing)."""
-        inputs = (a_T_b.position.tobytes(), a_T_b.quaternion_xyzw.tobytes(),
-                  world_T_a.position.tobytes(), world_T_a.quaternion_xyzw.tobytes(),
-                  None if efforts is None else np.asarray(efforts).tobytes())
-        cached = self._figures.get(key)
-        if cached is None or cached[0] != inputs:
-            cached = (inputs, robot_figure(geometry, a_T_b=a_T_b, world_T_a=world_T_a,
-                                           efforts=efforts))
-            self._figures[key] = cached
-        return cached[1]
 
     def _panel(self, latest: dict, frame: Frame, fk_status) -> str:
         """The status panel (markdown), from the typed statuses (viewer/status_text)."""
@@ -386,9 +373,7 @@ class ViewerNode(Node):
         ws = frame.workspace
         if ws is not None and frame.slave is not None:
             a_T_b = frame.slave.world_T_a.inverse() @ frame.slave.world_T_b
-            lines.append(f'**Workspace:** {ws.workspace.volume * 1e3:.1f} L at this orientation '
-                         f'({ws.workspace.spacing * 1e3:.0f} mm grid); ring_b '
-                         f'{ws.distance(a_T_b.position) * 1e3:.0f} mm inside its boundary')
+            lines.append(f'**Workspace:** {ws.describe(a_T_b.position)}')
         if fk_status is not None:
             lines.append(f'**FK:** {panel.fk_line(fk_status)}')
         now = self.get_clock().now().nanoseconds * 1e-9
@@ -429,6 +414,10 @@ class ViewerNode(Node):
 
     def set_driver_active(self, client_id: int, active: bool) -> None:
         self._actions.put((OperatorRequest.DRIVER, client_id, active))
+
+    def set_workspace_payload(self, client_id: int, mass: float) -> None:
+        if self.workspace is not None:  # the drawn load-feasible workspace: the viewer's own
+            self.workspace.set_payload(mass)
 
     def resume_climb(self, client_id: int) -> None:
         self._actions.put((OperatorRequest.RESUME, client_id, None))

@@ -43,6 +43,8 @@ class OperatorActions(Protocol):
 
     def select_robot(self, client_id: int, name: str) -> None: ...
 
+    def set_workspace_payload(self, client_id: int, mass: float) -> None: ...
+
 
 class ClientControls:
     """The operator folder of one browser: token entry, control, teleop, climb, grippers.
@@ -77,6 +79,7 @@ class ClientControls:
             self.scale = gui.add_slider('Translation scale', min=0.5, max=8.0, step=0.5,
                                         initial_value=4.0)
             self.apply = gui.add_button('Apply mapping')
+            self.payload = self._payload_slider(gui)
         with gui.add_folder('Robot', order=2):
             self.robot = self.drive = None
             if server.robots:  # a fleet: which robot the master drives
@@ -138,6 +141,7 @@ class ClientControls:
         self.activate.on_click(controller_only(lambda: actions.set_driver_active(cid, True)))
         self.deactivate.on_click(controller_only(lambda: actions.set_driver_active(cid, False)))
         self.resume.on_click(controller_only(lambda: actions.resume_climb(cid)))
+        self._wire_payload(controller_only)
         if self.drive is not None:
             self.drive.on_click(controller_only(lambda: actions.select_robot(cid, str(self.robot.value))))
         self.step_up.on_click(controller_only(lambda: actions.step(cid, 'up')))
@@ -145,6 +149,21 @@ class ClientControls:
         for (ring, close), button in self.grip_buttons.items():
             button.on_click(controller_only(
                 lambda ring=ring, close=close: actions.set_gripper(cid, ring, close)))
+
+    def _payload_slider(self, gui):
+        """The slider of the payload [kg] on ring_b of the drawn load-feasible workspace (None
+        when the viewer has none)."""
+        top = self.server.payload_max
+        if not top > 0.0:
+            return None
+        return gui.add_slider('Payload [kg]', min=0.0, max=top, step=top / 50.0, initial_value=0.0,
+                              hint='a payload on ring_b: the workspace drawn is where the robot also holds it '
+                                   '(actuator forces, gripper holding)')
+
+    def _wire_payload(self, controller_only) -> None:
+        if self.payload is not None:
+            self.payload.on_update(controller_only(
+                lambda: self.server.actions.set_workspace_payload(self.client_id, float(self.payload.value))))
 
     def _hand_over(self) -> ControlResult:
         text = str(self.hand_to.value)
@@ -183,7 +202,8 @@ class ClientControls:
         self.hand.disabled = not (controlling and others)
         for handle in (self.clutch, self.deadman, self.mode, self.rotation, self.scale, self.apply,
                        self.activate, self.deactivate, self.step_up, self.step_down, self.resume,
-                       *self.grip_buttons.values(), *(h for h in (self.robot, self.drive) if h is not None)):
+                       *self.grip_buttons.values(),
+                       *(h for h in (self.robot, self.drive, self.payload) if h is not None)):
             handle.disabled = not controlling
         if self.clutch.value and not (controlling and control.clutch_engaged):
             self.clutch.value = False

@@ -75,19 +75,21 @@ class ViewerServer:
     ``geometry`` and ``master_geometry`` (ring sizes), ``master_origin`` (world pose of the
     master's ring_a on its console), ``structure`` ((vertices, faces) of the climbed member in
     the world frame, or None), ``rate`` [Hz] of the drawing thread, ``robots``: the names of a
-    fleet's robots the controller chooses from (empty: one robot).
+    fleet's robots the controller chooses from (empty: one robot), ``payload_max`` [kg]: the top
+    of the controller's payload slider of the load-feasible workspace (0: no slider).
     """
 
     def __init__(self, *, host: str, port: int, control: OperatorControl, actions: OperatorActions,
                  frame_source: Callable[[], Frame], geometry: RobotGeometry,
                  master_geometry: RobotGeometry | None, master_origin: Pose,
                  structure: tuple[np.ndarray, np.ndarray] | None = None, rate: float = 40.0,
-                 title: str = 'rrps viewer', robots: Sequence[str] = ()):
+                 title: str = 'rrps viewer', robots: Sequence[str] = (), payload_max: float = 0.0):
         if not rate > 0.0:
             raise ValueError(f'rate must be > 0 Hz, got {rate}')
         self.control = control
         self.actions = actions
         self.robots = tuple(robots)
+        self.payload_max = float(payload_max)
         self.master_origin = master_origin
         self._frame_source = frame_source
         self._period = 1.0 / rate
