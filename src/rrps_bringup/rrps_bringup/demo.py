@@ -28,6 +28,12 @@ master, a deadman stream engages the mapping, the slave follows; releasing the d
 robot) and a scripted climb (one step up through ``climb/step_up``), prints what happened and
 exits 0 on success, 1 on failure: a smoke test for CI and users.
 
+``--scenario NAME`` (:mod:`rrps_bringup.scenarios`) puts a robot on its structure in the world
+with a payload: every node gets the scenario's parameters it declares (the driver's
+``world_q_support`` and payload, the structure and its lean for the climb node, the viewer and
+the markers). With ``--headless`` the scripted operator of the scenario
+(:mod:`rrps_bringup.scenario_script`) teleoperates it and prints the loads it saw.
+
 DDS stays on this machine: ``ROS_AUTOMATIC_DISCOVERY_RANGE`` defaults to LOCALHOST.
 """
 
@@ -42,6 +48,9 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Mapping
+
+from rrps_bringup.scenarios import SCENARIOS, ros_arguments, scenario
 
 __all__ = ['main', 'build_stack', 'start_driver', 'start_robot_nodes', 'start_recorder',
            'ROBOT_NODES', 'OPERATOR_NODES', 'OBSERVER_NODES']
@@ -63,8 +72,11 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument('--port', type=int, default=8080, help='viewer port (default 8080)')
     p.add_argument('--token', default='',
                    help='operator token (default: a random one, printed at start-up)')
-    p.add_argument('--robot', default='pole_climber',
-                   help='shipped robot name or robot YAML path (default pole_climber)')
+    p.add_argument('--robot', default=None,
+                   help="shipped robot name or robot YAML path (default pole_climber, or the scenario's)")
+    p.add_argument('--scenario', default=None,
+                   help='a robot on its structure in the world with a payload: '
+                        f'{" | ".join(SCENARIOS)} (with --headless: a scripted load scenario)')
     p.add_argument('--headless', action='store_true',
                    help='no browser: run a scripted teleop session and a climb step, then exit '
                         '(0 = success)')
@@ -81,14 +93,15 @@ def _parser() -> argparse.ArgumentParser:
 def build_stack(context, *, robot: str, host: str, port: int, token: str,
                 viewer: bool = True, climb: bool = True, driver: bool = True,
                 kinematics: bool = True, driver_rate: float = 500.0,
-                namespace: str = NAMESPACE) -> dict:
+                namespace: str = NAMESPACE, parameters: Mapping[str, Mapping] | None = None) -> dict:
     """Create nodes of the demo on ``context`` under ``namespace``; returns name -> node.
 
     Every node by default (one process, as the tests use it). ``viewer=False`` / ``climb=False``
     / ``driver=False`` / ``kinematics=False`` leave out the viewer / climbing node / simulated
     driver / IK and FK nodes (the demo runs the driver and the robot's nodes in processes of
     their own: :func:`start_driver`, :func:`start_robot_nodes`); ``driver_rate`` is the
-    simulated driver's actuators/state rate [Hz].
+    simulated driver's actuators/state rate [Hz]. ``parameters``: node name -> {name: value}
+    that node gets on top (a scenario's, :func:`scenario_parameters`).
     Each node reads its parameter file first (:func:`rrps_bringup.params.parameter_overrides`).
 
     Raises ValueError / RobotDescriptionError with a clear message for bad arguments.
@@ -127,13 +140,38 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
     nodes: dict = {}
     try:
         for name, cls, overrides in plan:
+            extra = [Parameter(k, value=list(v) if isinstance(v, tuple) else v)
+                     for k, v in (parameters or {}).get(name, {}).items()]
             nodes[name] = cls(context=context, namespace=namespace,
-                              parameter_overrides=_with_file(name, overrides))
+                              parameter_overrides=_with_file(name, overrides + extra))
     except BaseException:
         for node in nodes.values():
             node.destroy_node()
         raise
     return nodes
+
+
+def scenario_parameters(name: str | None, *nodes: str) -> dict[str, dict]:
+    """{node: the parameters of scenario ``name`` that the node declares} (robot apart: the demo
+    passes it to every node); empty without a scenario."""
+    if name is None:
+        return {}
+    from rrps_bringup.registry import registered_nodes
+    registry, chosen = registered_nodes(), scenario(name)
+    out = {}
+    for node in nodes:
+        params = chosen.parameters(node, registry[node].parameters() if node in registry else None)
+        params.pop('robot', None)
+        out[node] = params
+    return out
+
+
+def _process_arguments(parameters: Mapping[str, Mapping], *nodes: str) -> list[str]:
+    """``-p`` arguments of the nodes of one process (rcl gives them to each of its nodes)."""
+    merged: dict = {}
+    for node in nodes:
+        merged.update(parameters.get(node, {}))
+    return ros_arguments(merged)
 
 
 def _with_file(node: str, overrides: list) -> list:
@@ -144,7 +182,8 @@ def _with_file(node: str, overrides: list) -> list:
 
 
 def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
-                 state_file: str = '', activate: bool = False, hardware: str = 'simulated') -> subprocess.Popen:
+                 state_file: str = '', activate: bool = False, hardware: str = 'simulated',
+                 parameters: Mapping[str, Mapping] | None = None) -> subprocess.Popen:
     """The simulated hardware (driver_node) in a process of its own, as a real robot's driver.
 
     Its 500 Hz loop has an interpreter and a core to itself. It keeps the robot's physical
@@ -154,7 +193,8 @@ def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
     """
     from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child
     return start_child(driver_command(robot=robot, rate=rate, namespace=namespace, state_file=state_file,
-                                      activate=activate, hardware=hardware), nice=CONTROL_NICE,
+                                      activate=activate, hardware=hardware, parameters=parameters),
+                       nice=CONTROL_NICE,
                        realtime=CONTROL_RT_PRIORITY)
 
 
@@ -167,23 +207,28 @@ def start_drives(*, robot: str) -> subprocess.Popen:
 
 
 def driver_command(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
-                   state_file: str = '', activate: bool = False, hardware: str = 'simulated') -> list[str]:
-    """The command line of :func:`start_driver` (no state file: the parameter's default)."""
+                   state_file: str = '', activate: bool = False, hardware: str = 'simulated',
+                   parameters: Mapping[str, Mapping] | None = None) -> list[str]:
+    """The command line of :func:`start_driver` (no state file: the parameter's default;
+    ``parameters``: a scenario's, :func:`scenario_parameters`)."""
     from rrps_bringup.params import params_file_arguments
     return [sys.executable, '-m', 'rrps_sim.nodes.driver_node', '--ros-args',
             *params_file_arguments('driver_node'), '-r', f'__ns:={namespace}',
             '-p', f'robot:={robot}', '-p', f'rate:={float(rate)}', '-p', f'hardware:={hardware}',
             *(['-p', f'state_file:={state_file}'] if state_file else []),
-            '-p', f'auto_activate:={str(activate).lower()}']
+            '-p', f'auto_activate:={str(activate).lower()}',
+            *_process_arguments(parameters or {}, 'driver_node')]
 
 
-def start_robot_nodes(*, robot: str, namespace: str = NAMESPACE) -> subprocess.Popen:
+def start_robot_nodes(*, robot: str, namespace: str = NAMESPACE,
+                      parameters: Mapping[str, Mapping] | None = None) -> subprocess.Popen:
     """The robot computer's nodes (:data:`ROBOT_NODES`) composed in one process of their own."""
     from rrps_bringup.params import params_file_arguments
     from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child
     return start_child([sys.executable, '-m', 'rrps_bringup.compose', *ROBOT_NODES, '--ros-args',
                         *params_file_arguments(*ROBOT_NODES),
-                        '-r', f'__ns:={namespace}', '-p', f'robot:={robot}'], nice=CONTROL_NICE,
+                        '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
+                        *_process_arguments(parameters or {}, *ROBOT_NODES)], nice=CONTROL_NICE,
                        realtime=CONTROL_RT_PRIORITY)
 
 
@@ -192,7 +237,7 @@ OBSERVER_NODES = ('recorder_node', 'markers_node', 'robot_description_node')
 
 
 def start_recorder(*, robot: str, output_dir: str, record: bool = False,
-                   namespace: str = NAMESPACE) -> subprocess.Popen:
+                   namespace: str = NAMESPACE, parameters: Mapping[str, Mapping] | None = None) -> subprocess.Popen:
     """The observers (:data:`OBSERVER_NODES`) in a process of their own, off the command path:
     the flight recorder (the last 60 s, written on a fault or on the viewer's "Save last 60 s";
     with ``record`` the whole session too), markers_node and robot_description_node."""
@@ -202,7 +247,8 @@ def start_recorder(*, robot: str, output_dir: str, record: bool = False,
                         '--ros-args', *params_file_arguments(*OBSERVER_NODES),
                         '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
                         '-p', f'output_dir:={output_dir}',
-                        '-p', f'record:={"true" if record else "false"}'], nice=OBSERVER_NICE)
+                        '-p', f'record:={"true" if record else "false"}',
+                        *_process_arguments(parameters or {}, *OBSERVER_NODES)], nice=OBSERVER_NICE)
 
 
 def wait_for_robot(executor, context, node, children: list[subprocess.Popen],
@@ -230,13 +276,13 @@ def wait_for_robot(executor, context, node, children: list[subprocess.Popen],
     return False
 
 
-def _banner(viewer, driver_scheduling: str) -> str:
+def _banner(viewer, driver_scheduling: str, what: str) -> str:
     from rrps_runtime.supervision import CONTROL_RT_PRIORITY
     wanted = f'SCHED_RR {CONTROL_RT_PRIORITY}'
     scheduling = (f'driver and robot nodes at {driver_scheduling}' if driver_scheduling == wanted else
                   f'driver and robot nodes at {driver_scheduling}, not {wanted} (run as root or '
                   'grant CAP_SYS_NICE to give the robot\'s command path real-time priority)')
-    return (f'\nrrps demo: the pole climber is live.\n'
+    return (f'\nrrps demo: {what} is live.\n'
             f'  viewer:         {viewer.url}\n'
             f'  operator token: {viewer.token}\n'
             f'  robot for RViz2/Foxglove: {NAMESPACE}/robot_description (RobotModel), '
@@ -250,6 +296,14 @@ def _argument_error(args) -> str | None:
         return f'--port must be 1..65535, got {args.port}'
     if args.token and len(args.token) < 8:
         return '--token must have at least 8 characters'
+    if args.scenario is not None:
+        if args.scenario not in SCENARIOS:
+            return f'unknown scenario {args.scenario!r}: one of {", ".join(SCENARIOS)}'
+        robot = SCENARIOS[args.scenario].robot
+        if args.robot not in (None, robot):
+            return f'--scenario {args.scenario} runs the {robot}, not --robot {args.robot}'
+        args.robot = robot
+    args.robot = args.robot or 'pole_climber'
     return None
 
 
@@ -261,6 +315,7 @@ def _start_robot(args, run_dir: str):
     from rrps_runtime.supervision import Respawner
 
     state_file = os.path.join(run_dir, f'{args.robot}-hardware.json')
+    params = scenario_parameters(args.scenario, 'driver_node', *ROBOT_NODES, *OBSERVER_NODES)
     drives = {}
     if args.hardware == 'canopen':  # the drives first: the driver configures them at its start
         from rrps_canopen.loopback_bus import free_port
@@ -269,10 +324,10 @@ def _start_robot(args, run_dir: str):
     return Respawner({
         **drives,
         'driver': lambda first: start_driver(robot=args.robot, state_file=state_file, activate=first,
-                                             hardware=args.hardware),
-        'robot nodes': lambda first: start_robot_nodes(robot=args.robot),
+                                             hardware=args.hardware, parameters=params),
+        'robot nodes': lambda first: start_robot_nodes(robot=args.robot, parameters=params),
         'observer': lambda first: start_recorder(robot=args.robot, output_dir=args.recordings,
-                                                 record=args.record),
+                                                 record=args.record, parameters=params),
     })
 
 
@@ -306,6 +361,17 @@ def _run_script(script, executor, context, robot, stop: threading.Event, viewer)
         spinner.join()
     failed = [c for c in robot.children.values() if c.poll() is not None]
     return 0 if ok and not failed else 1
+
+
+def _script(args, context):
+    """The scripted operator of ``--headless`` (the scenario's with ``--scenario``), or None."""
+    if not args.headless:
+        return None
+    if args.scenario is not None:
+        from rrps_bringup.scenario_script import ScenarioScript
+        return ScenarioScript(scenario(args.scenario), context=context, namespace=NAMESPACE)
+    from rrps_bringup.headless import DemoScript
+    return DemoScript(context=context, namespace=NAMESPACE)
 
 
 def main(argv=None) -> int:
@@ -347,15 +413,13 @@ def main(argv=None) -> int:
         try:
             nodes = build_stack(context, robot=args.robot, host=args.host, port=args.port,
                                 token=args.token, viewer=True, driver=False, kinematics=False,
-                                climb=False)
+                                climb=False, parameters=scenario_parameters(args.scenario, *OPERATOR_NODES))
         except (RobotDescriptionError, ValueError) as exc:
             print(f'error: {exc}', file=sys.stderr)
             return 2
         robot = _start_robot(args, run_dir)
-        script = None
-        if args.headless:
-            from rrps_bringup.headless import DemoScript
-            script = DemoScript(context=context, namespace=NAMESPACE)
+        script = _script(args, context)
+        if script is not None:
             nodes['demo_script'] = script
         executor = make_executor(context, 'events')
         for node in nodes.values():
@@ -368,7 +432,9 @@ def main(argv=None) -> int:
                 status = 1
             return status
         if script is None:
-            print(_banner(nodes['viewer_node'], scheduling_of(robot.children['driver'].pid)), flush=True)
+            what = (f'scenario {args.scenario} ({SCENARIOS[args.scenario].summary})' if args.scenario
+                    else f'the {args.robot.replace("_", " ")}')
+            print(_banner(nodes['viewer_node'], scheduling_of(robot.children['driver'].pid), what), flush=True)
             _serve(executor, context, robot, stop)
         else:
             status = _run_script(script, executor, context, robot, stop, nodes['viewer_node'])

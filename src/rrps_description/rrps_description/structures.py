@@ -48,6 +48,7 @@ __all__ = [
     'structural_frame',
     'facade',
     'make_structure',
+    'structure_from_parameters',
     'interpolate_frames',
 ]
 
@@ -357,12 +358,17 @@ class Facade(Structure):
 
 # --- the shipped structures ---------------------------------------------------------------
 
-def pole(length: float = 3.0, radius: float = 0.1) -> Tube:
-    """A straight vertical pole (or pipe, cable) of constant radius, foot at the origin."""
+def pole(length: float = 3.0, radius: float = 0.1, lean_deg: float = 0.0) -> Tube:
+    """A straight pole (or pipe, cable) of constant radius, foot at the origin: vertical, or
+    leaning ``lean_deg`` from the vertical about the world x axis (its top toward -y), so that
+    its grip frames are the vertical pole's turned by that angle about x."""
     if not (length > 0.0 and radius > 0.0):
         raise ValueError('pole: length and radius must be > 0')
+    if not (math.isfinite(lean_deg) and abs(lean_deg) < 90.0):
+        raise ValueError(f'pole: lean_deg must be within (-90, 90), got {lean_deg}')
+    lean = math.radians(lean_deg)
     z = np.linspace(0.0, length, 5)
-    return Tube(np.c_[np.zeros(5), np.zeros(5), z], np.full(5, radius), name='pole')
+    return Tube(np.c_[np.zeros(5), -math.sin(lean) * z, math.cos(lean) * z], np.full(5, radius), name='pole')
 
 
 def palm_trunk(length: float = 3.0, radius: float = 0.15, radius_variation: float = 0.2,
@@ -413,13 +419,18 @@ def facade(length: float = 4.0) -> Facade:
 STRUCTURES = {'pole': pole, 'palm_trunk': palm_trunk, 'frame': structural_frame, 'facade': facade}
 
 
-def make_structure(name: str, length: float | None = None, *, junction_deg: float = 0.0,
+def make_structure(name: str, length: float | None = None, *, lean_deg: float = 0.0, junction_deg: float = 0.0,
                    out_of_plane: bool = False) -> Structure:
-    """A shipped structure by name, at least ``length`` [m] long along its route; a frame's
-    member leaves its node bent by ``junction_deg`` (in the column's web plane, or normal to it
-    with ``out_of_plane``; its section then not turned)."""
+    """A shipped structure by name, at least ``length`` [m] long along its route; the pole
+    leaning ``lean_deg`` (:func:`pole`); a frame's member leaves its node bent by ``junction_deg``
+    (in the column's web plane, or normal to it with ``out_of_plane``; its section then not
+    turned). The other structures stand as shipped."""
     if name not in STRUCTURES:
         raise ValueError(f'unknown structure {name!r}: one of {sorted(STRUCTURES)}')
+    if name == 'pole':
+        return pole(max(3.0, length or 0.0), lean_deg=lean_deg)
+    if lean_deg:
+        raise ValueError(f'lean_deg applies to the pole only, not to the {name}')
     if name == 'frame':
         if not 0.0 <= junction_deg <= 90.0:
             raise ValueError(f'junction_deg must be in 0 .. 90 deg, got {junction_deg!r}')
@@ -429,4 +440,13 @@ def make_structure(name: str, length: float | None = None, *, junction_deg: floa
         return structural_frame(column=2.0, rafter=rafter, **bent)
     if name == 'palm_trunk':
         return palm_trunk(max(3.0, length or 0.0))
-    return STRUCTURES[name](max(3.0 if name == 'pole' else 4.0, length or 0.0))
+    return STRUCTURES[name](max(4.0, length or 0.0))
+
+
+def structure_from_parameters(values) -> Structure:
+    """The structure that a node's parameters ``values`` describe: ``structure`` (a name),
+    ``structure_length`` (0: the shipped length), ``structure_lean_deg``, ``junction_deg`` and
+    ``out_of_plane`` (those the node declares; :func:`make_structure`)."""
+    return make_structure(values['structure'], values.get('structure_length') or None,
+                          lean_deg=values.get('structure_lean_deg', 0.0), junction_deg=values.get('junction_deg', 0.0),
+                          out_of_plane=values.get('out_of_plane', False))

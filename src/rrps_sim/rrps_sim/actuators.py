@@ -9,6 +9,9 @@ Pure NumPy, no ROS import. Both models take a reference (commanded lengths [m]) 
     dyn.step(reference, dt)                 # multibody dynamics with a PD force loop per leg
 
 Position-controlled actuators report the quasi-static forces of :class:`QuasiStaticEfforts`.
+Both compute in the world gravity of the supporting ring's attitude (``support``, a
+:class:`~rrps_description.world.Support`; default ring_a upright) and follow a gripper change
+with ``set_support(ring)`` (:func:`handed_over`).
 
 Fault injection: ``stuck`` (per axis: the actuator ignores commands and keeps its length) on
 both models, and :class:`SensorFaults` (Gaussian noise on the measured lengths, dropped
@@ -22,11 +25,24 @@ import math
 import numpy as np
 
 from rrps_description.geometry import RobotGeometry
+from rrps_description.rotations import quat_conjugate_xyzw, quat_multiply_xyzw
+from rrps_description.world import Support
 from rrps_kinematics.forward import forward_kinematics
 from rrps_sim.dynamics import MultibodyDynamics
 from rrps_sim.statics import holding_forces
 
-__all__ = ['KinematicActuators', 'DynamicActuators', 'QuasiStaticEfforts', 'SensorFaults']
+__all__ = ['KinematicActuators', 'DynamicActuators', 'QuasiStaticEfforts', 'SensorFaults', 'handed_over']
+
+
+def handed_over(support: Support, a_q_b, ring: str) -> Support:
+    """The support once ``ring`` alone grips, the robot at a_T_b's rotation ``a_q_b`` (x, y, z, w):
+    ring_b's world attitude is world_q_a a_q_b, ring_a's world_q_b conj(a_q_b); the world's
+    gravity stays. The same support when ``ring`` already grips."""
+    if ring == support.ring:
+        return support
+    q_ab = np.asarray(a_q_b, dtype=float)
+    turn = q_ab if ring == 'ring_b' else quat_conjugate_xyzw(q_ab)
+    return Support.of(ring, quat_multiply_xyzw(support.world_q_support, turn), support.gravity)
 
 
 def _vector(value, n: int, name: str) -> np.ndarray:
@@ -102,7 +118,8 @@ class DynamicActuators:
 
     def __init__(self, geometry: RobotGeometry, initial_lengths, *, kp: float = 1.0e5,
                  kd: float = 1.0e3, time_constant: float = 0.0, max_speed: float | None = None,
-                 max_step: float = 1e-3, feedforward_period: float = 0.02, method: str = 'hybrid'):
+                 max_step: float = 1e-3, feedforward_period: float = 0.02, method: str = 'hybrid',
+                 support: Support | None = None):
         for name, value in (('kp', kp), ('kd', kd)):
             if not (math.isfinite(value) and value >= 0.0):
                 raise ValueError(f'{name} must be finite and >= 0, got {value}')
@@ -115,7 +132,7 @@ class DynamicActuators:
         fk = forward_kinematics(geometry, L0)
         if not fk.converged:
             raise ValueError(f'initial lengths {L0} do not assemble near the home pose')
-        self.dynamics = MultibodyDynamics(geometry, method)
+        self.dynamics = MultibodyDynamics(geometry, method, support=support or Support.of())
         self.dynamics.reset(fk.position, fk.quaternion_xyzw)
         self.reference = KinematicActuators(
             geometry.min_length, geometry.max_length,
@@ -147,9 +164,21 @@ class DynamicActuators:
     def efforts(self) -> np.ndarray:
         return self.forces.copy()
 
+    @property
+    def support(self) -> Support:
+        return self.dynamics.support
+
+    def set_support(self, ring: str) -> None:
+        """``ring`` alone grips now: ground it in the dynamics (:func:`handed_over`)."""
+        support = handed_over(self.support, self.dynamics.quaternion_xyzw, ring)
+        if support is not self.support:
+            self.dynamics.set_support(support)
+            self._feedforward = self._holding_forces(self._feedforward)
+
     def _holding_forces(self, fallback: np.ndarray) -> np.ndarray:
         try:
-            return holding_forces(self.geometry, self.dynamics.position, self.dynamics.quaternion_xyzw)
+            return holding_forces(self.geometry, self.dynamics.position, self.dynamics.quaternion_xyzw,
+                                  support=self.support)
         except ValueError:  # singular pose: keep the previous feed-forward
             return fallback
 
@@ -187,10 +216,12 @@ class QuasiStaticEfforts:
     fails or the Jacobian is singular keeps the previous efforts.
     """
 
-    def __init__(self, geometry: RobotGeometry, initial_lengths, *, period: float = 0.2):
+    def __init__(self, geometry: RobotGeometry, initial_lengths, *, period: float = 0.2,
+                 support: Support | None = None):
         if not (math.isfinite(period) and period >= 0.0):
             raise ValueError(f'period must be finite and >= 0, got {period}')
         self.geometry = geometry
+        self.support = support or Support.of()
         self.period = float(period)
         self._position = geometry.home_position
         self._quaternion = geometry.home_quaternion_xyzw
@@ -204,9 +235,17 @@ class QuasiStaticEfforts:
             return
         self._position, self._quaternion = fk.position, fk.quaternion_xyzw
         try:
-            self.efforts = holding_forces(self.geometry, fk.position, fk.quaternion_xyzw)
+            self.efforts = holding_forces(self.geometry, fk.position, fk.quaternion_xyzw, support=self.support)
         except ValueError:
             pass
+
+    def set_support(self, ring: str) -> None:
+        """``ring`` alone grips now (:func:`handed_over` at the last refreshed pose); the efforts
+        are solved again at once."""
+        support = handed_over(self.support, self._quaternion, ring)
+        if support is not self.support:
+            self.support = support
+            self._since = self.period
 
     def update(self, lengths, dt: float) -> np.ndarray:
         """Advance the refresh clock by ``dt`` s; re-solve when ``period`` has passed."""

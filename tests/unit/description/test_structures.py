@@ -127,6 +127,26 @@ def test_make_structure_is_long_enough():
         make_structure('tower')
 
 
+def test_a_leaning_pole_turns_its_grip_frames_about_x():
+    """A pole leaning 30 deg: each grip frame is the vertical pole's turned by 30 deg about the
+    world x axis (built here from the angle), its centreline on the turned z axis."""
+    lean = np.radians(30.0)
+    turn = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(lean), -np.sin(lean)], [0.0, np.sin(lean), np.cos(lean)]])
+    tilted, upright = make_structure('pole', lean_deg=30.0), pole()
+    for s in (0.0, 0.7, 2.5):
+        p, R = tilted.grip_frame(s)
+        p0, R0 = upright.grip_frame(s)
+        np.testing.assert_allclose(p, turn @ p0, atol=1e-9)
+        np.testing.assert_allclose(R, turn @ R0, atol=1e-9)
+    # gravity seen from a grip frame: (0, -sin 30, -cos 30) g
+    np.testing.assert_allclose(tilted.grip_frame(1.0)[1].T @ [0.0, 0.0, -1.0], [0.0, -0.5, -np.sqrt(3) / 2],
+                               atol=1e-9)
+    with pytest.raises(ValueError, match='pole only'):
+        make_structure('facade', lean_deg=10.0)
+    with pytest.raises(ValueError, match='lean_deg'):
+        pole(lean_deg=95.0)
+
+
 def test_bad_input_is_refused():
     with pytest.raises(ValueError, match='points'):
         Tube([[0.0, 0.0, 0.0]], [0.1])

@@ -78,6 +78,8 @@ PARAMETERS = NodeParameters('markers_node', 'rrps_recording', [
     Parameter('rate', 10.0, 'robot/markers rate', unit='Hz', range=(0.1, 100.0)),
     Parameter('structure', 'pole', 'structure to draw in world (pole, palm_trunk, frame, facade; empty: none)'),
     Parameter('structure_length', 3.0, 'drawn structure length', unit='m', range=(0.5, 100.0)),
+    Parameter('structure_lean_deg', 0.0, 'the drawn pole leans this much from the vertical about the world x axis',
+              unit='deg', range=(-80.0, 80.0)),
     Parameter('junction_deg', 0.0, 'frame: its member bent by this angle at the node', unit='deg', range=(0.0, 90.0)),
     Parameter('out_of_plane', False, "frame: the member bends normal to the column's web plane"),
     Parameter('structure_period', 1.0, 'the structure is re-sent this often', unit='s', range=(0.1, 60.0)),
@@ -129,14 +131,13 @@ class MarkersNode(Node):
         values = declare_parameters(self, PARAMETERS)
         self.geometry = load_robot(values['robot'])
         self._ring_joints = {ring_joint(ring) for ring in RINGS if ring in self.geometry.extra_dof}
-        structure, length = values['structure'], values['structure_length']
+        structure = values['structure']
         self.structure_period = values['structure_period']
         tf_rate = values['tf_rate']
         self._structure = None
         if structure:  # static: its message is built once (thousands of points)
-            from rrps_description.structures import make_structure
-            vertices, faces = make_structure(structure, length, junction_deg=values['junction_deg'],
-                                             out_of_plane=values['out_of_plane']).mesh()
+            from rrps_description.structures import structure_from_parameters
+            vertices, faces = structure_from_parameters(values).mesh()
             self._structure = marker_msg(structure_marker(vertices, faces),
                                          self.get_clock().now().to_msg())
         self._lock = threading.Lock()

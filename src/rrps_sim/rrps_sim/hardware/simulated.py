@@ -5,6 +5,10 @@ speed and stroke limits; efforts = the quasi-static holding forces of the pose, 
 5 Hz) and ``dynamic`` (:class:`rrps_sim.actuators.DynamicActuators`: the multibody dynamics of
 eqs. 19-20 with a PD force loop per leg, efforts = forces [N]). ``write`` advances the
 simulation by its ``period``; ``read`` measures it (with :class:`rrps_sim.actuators.SensorFaults`).
+Efforts and dynamics are in the world's gravity: ring_a's attitude in the world while it grips
+(``world_q_support``, from the structure's grip frame), handed over to ring_b while ring_b alone
+grips (and back); ``payload_mass`` > 0 puts a point-mass payload on a ring in place of the
+robot's own.
 
 The simulated robot outlives its driver as a real one would: cleanup and configure keep it
 where it is, and with ``state_file`` its physical state (lengths, ring angles, grippers) is
@@ -22,7 +26,9 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from rrps_description.loads import Payload
 from rrps_description.names import LEG_NAMES, RINGS
+from rrps_description.world import IDENTITY_QUATERNION, Support
 from rrps_interfaces.driver import ActuatorMode
 from rrps_runtime.parameter_schema import Parameter
 from rrps_sim.actuators import DynamicActuators, KinematicActuators, QuasiStaticEfforts, SensorFaults
@@ -82,6 +88,12 @@ class SimulatedRobot(SystemInterface):
         Parameter('fault_seed', 0, 'seed of the fault injection', range=(0, 2**31 - 1)),
         Parameter('state_file', '', "file that keeps the robot's physical state across driver restarts "
                   '(lengths, ring angles, grippers); empty: none'),
+        Parameter('world_q_support', IDENTITY_QUATERNION, "ring_a's attitude in the world while it grips "
+                  '(x, y, z, w): the gravity of efforts and dynamics; handed over at each grip change'),
+        Parameter('payload_mass', 0.0, "a point-mass payload replacing the robot description's; 0: the "
+                  "description's", unit='kg', range=(0.0, 10000.0)),
+        Parameter('payload_ring', 'ring_b', 'the ring carrying payload_mass', choices=RINGS),
+        Parameter('payload_com', (0.0, 0.0, 0.0), "payload_mass's centre of mass in its ring's frame", unit='m'),
     )
 
     def __init__(self):
@@ -119,6 +131,12 @@ class SimulatedRobot(SystemInterface):
         for p in self.PARAMETERS:
             if values[p.name] is not None:
                 p.check(values[p.name])
+        if values['payload_mass'] > 0.0:
+            com = np.asarray(values['payload_com'], dtype=float)
+            if com.shape != (3,) or not np.all(np.isfinite(com)):
+                raise ValueError(f"payload_com must be 3 finite numbers [m], got {values['payload_com']}")
+            g = g.with_(payload=Payload(ring=values['payload_ring'], mass=values['payload_mass'], com=com))
+        support = Support.of('ring_a', values['world_q_support'])  # ValueError naming it if not unit
         self.geometry, self.mode = g, ActuatorMode(values['mode'])
         self.ring_joints = ring_joints(g)
         # a StateFileError (a ValueError) when the file cannot be trusted
@@ -133,10 +151,11 @@ class SimulatedRobot(SystemInterface):
         tau = values['time_constant']
         if self.mode is ActuatorMode.DYNAMIC:
             self.actuators = DynamicActuators(g, lengths0, kp=values['kp'], kd=values['kd'], time_constant=tau,
-                                              max_speed=max_speed, max_step=values['dynamics_step'])
+                                              max_speed=max_speed, max_step=values['dynamics_step'],
+                                              support=support)
         else:
             self.actuators = KinematicActuators(g.min_length, g.max_length, max_speed, tau, lengths0)
-            self.static_efforts = QuasiStaticEfforts(g, lengths0)
+            self.static_efforts = QuasiStaticEfforts(g, lengths0, support=support)
         if self.ring_joints:
             dofs = [g.extra_dof[ring] for ring in RINGS if ring in g.extra_dof]
             lo, hi = np.array([d.min_angle for d in dofs]), np.array([d.max_angle for d in dofs])
@@ -145,7 +164,18 @@ class SimulatedRobot(SystemInterface):
         self.sensors = SensorFaults(values['sensor_noise'], values['drop_probability'], values['fault_seed'])
         self._set_stuck(values['stuck_legs'] or ())
         self.grippers = Grippers(g.grippers, None if saved is None else saved.grippers)
+        self._follow_grip()
         self._hold()
+
+    @property
+    def support(self) -> Support:
+        """The gripping ring and its attitude in the world, as the efforts and dynamics use it."""
+        return (self.actuators if self.mode is ActuatorMode.DYNAMIC else self.static_efforts).support
+
+    def _follow_grip(self) -> None:
+        """ring_b supports while it alone grips, ring_a otherwise (both closed: ring_a, as at start)."""
+        ring = 'ring_b' if not self.grippers.closed['ring_a'] else 'ring_a'
+        (self.actuators if self.mode is ActuatorMode.DYNAMIC else self.static_efforts).set_support(ring)
 
     def on_activate(self) -> Transition:
         if self.actuators is None:
@@ -275,6 +305,7 @@ class SimulatedRobot(SystemInterface):
         before = dict(self.grippers.closed)
         accepted, message = self.grippers.set(ring, close=close)
         if self.grippers.closed != before:
+            self._follow_grip()
             self._save(0.0, force=True)
         return Result(ReturnType.OK if accepted else ReturnType.ERROR, message)
 

@@ -35,7 +35,7 @@ from std_srvs.srv import SetBool, Trigger
 from rrps_description.geometry import load_robot
 from rrps_description.names import RING_A_FRAME, RINGS, WORLD_FRAME, ring_joint
 from rrps_description.pose import QUATERNION_TOLERANCE, InvalidPose, Pose
-from rrps_description.structures import STRUCTURES, make_structure
+from rrps_description.structures import STRUCTURES, structure_from_parameters
 from rrps_interfaces.climb import (
     CLIMB_PREVIEW,
     CLIMB_RESUME,
@@ -73,6 +73,8 @@ PARAMETERS = NodeParameters('climb_node', 'rrps_teleop', [
     Parameter('structure', 'pole', 'climbed structure', choices=tuple(sorted(STRUCTURES))),
     Parameter('structure_length', 0.0, 'route length of the structure; 0 = its shipped length', unit='m',
               range=(0.0, 1000.0)),
+    Parameter('structure_lean_deg', 0.0, 'the pole leans this much from the vertical about the world x axis',
+              unit='deg', range=(-80.0, 80.0)),
     Parameter('start', -1.0, "route position of ring_a's gripper at start; negative = the lowest that fits",
               unit='m', range=(-1.0, 1000.0)),
     Parameter('step_length', 0.0, "length of one step; 0 = the planner's default for the robot", unit='m',
@@ -169,7 +171,7 @@ class ClimbNode(Node):
         if values['junction_deg'] <= 0.0:
             if values['out_of_plane']:
                 raise ValueError('out_of_plane needs junction_deg > 0')
-            structure = make_structure(values['structure'], values['structure_length'] or None)
+            structure = structure_from_parameters(values)
             return GaitPlanner(self.geometry, structure, use_extra_dof=values['use_extra_dof'],
                                loads=LoadCheck(speed=values['speed']))
         if values['structure'] != 'frame':

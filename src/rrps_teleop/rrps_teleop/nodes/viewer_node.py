@@ -46,7 +46,7 @@ from std_msgs.msg import Bool, Float64
 
 from rrps_description.geometry import load_robot
 from rrps_description.pose import Pose
-from rrps_description.structures import make_structure
+from rrps_description.structures import structure_from_parameters
 from rrps_interfaces.climb import CLIMB_PREVIEW, CLIMB_STATUS, odometry_topic
 from rrps_interfaces.driver import GRIPPERS_STATE
 from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE, TARGET_POSE
@@ -94,6 +94,7 @@ PARAMETERS = NodeParameters('viewer_node', 'rrps_teleop', [
     Parameter('master_origin', (0.0, -0.9, 0.0), 'world position of the master robot console', unit='m'),
     Parameter('structure', 'pole', 'structure to draw (pole, palm_trunk, frame, facade; empty: none)'),
     Parameter('structure_length', 3.0, 'length of the drawn structure', unit='m', range=(0.5, 100.0)),
+    Parameter('structure_lean_deg', 0.0, "the drawn pole's lean from the vertical", unit='deg', range=(-80.0, 80.0)),
     Parameter('junction_deg', 0.0, "frame: its member bent by this angle at the node", unit='deg', range=(0.0, 90.0)),
     Parameter('out_of_plane', False, "frame: the member bends normal to the column's web plane"),
     Parameter('workspace_resolution', 0.02, 'grid of the reachable workspace drawn around the robot; 0: not '
@@ -108,11 +109,6 @@ PARAMETERS = NodeParameters('viewer_node', 'rrps_teleop', [
 ])
 
 
-def _structure_mesh(name: str, length: float, **bend):
-    """(vertices, faces) of the climbed member to draw (``rrps_description.structures``), or None."""
-    return make_structure(name, length, **bend).mesh() if name else None
-
-
 class ViewerNode(Node):
     """The web viewer and remote-operator console; see the module docstring."""
 
@@ -125,7 +121,6 @@ class ViewerNode(Node):
         host, port, token = values['host'], values['port'], values['token']
         render_rate, enable_rate = values['render_rate'], values['enable_rate']
         deadman_timeout, origin = values['deadman_timeout'], values['master_origin']
-        structure, structure_length = values['structure'], values['structure_length']
         resolution = values['workspace_resolution']
         self._plot_window = values['plot_window']
         if len(origin) != 3 or not all(math.isfinite(v) for v in origin):
@@ -177,8 +172,7 @@ class ViewerNode(Node):
             host=host, port=port, control=self.control, actions=self, frame_source=self.frame,
             geometry=self.geometry, master_geometry=self.master_geometry,
             master_origin=self._master_origin,
-            structure=_structure_mesh(structure, structure_length, junction_deg=values['junction_deg'],
-                                      out_of_plane=values['out_of_plane']), rate=render_rate,
+            structure=structure_from_parameters(values).mesh() if values['structure'] else None, rate=render_rate,
             title=f'rrps · {self.geometry.name}', payload_max=values['workspace_payload_max'] if resolution else 0.0,
             robots=[self.robots.name(r) for r in self.robots.robots] if len(self.robots.robots) > 1 else ())
         shown = '127.0.0.1' if host in ('0.0.0.0', '::', '') else host

@@ -1,0 +1,117 @@
+"""Demo scenarios: a robot on its structure in the world, a payload, and what the operator does.
+
+A scenario is one table row (:data:`SCENARIOS`): the robot, the structure and its attitude in
+the world (the facade stands vertical; the pole leans ``lean_deg`` about the world x axis), the
+payload, and the scripted operator's motion (a master handle displacement while the deadman is
+held). From it come the parameters of every node that declares them (:meth:`Scenario.parameters`:
+the driver's ``world_q_support`` and payload, the climb node's, viewer's and markers' structure),
+so the driver, the climb node's odometry and the viewer agree on where gravity points::
+
+    rrps-demo --scenario facade_wall                # in the browser viewer
+    rrps-demo --headless --scenario pole_leaning    # scripted operator over ROS, a result block
+
+Pure data and small helpers; no ROS import.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rrps_description.rotations import matrix_to_quat_xyzw
+from rrps_description.structures import Structure, make_structure
+from rrps_description.world import STANDARD_GRAVITY, Support
+
+__all__ = ['Scenario', 'SCENARIOS', 'scenario', 'ros_arguments']
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One demo scenario (see the module docstring). ``handle_step`` [m]: the master handle's
+    displacement in the master's ring_a frame (the robot's ring_b follows it, scaled, in ring_a's
+    frame); ``motion``: that motion in words. ``payload_com`` in the ``payload_ring``'s frame [m].
+    ``node_parameters``: further (name, value) pairs for the nodes that declare them (e.g. a
+    structure's own parameters of the climb node)."""
+
+    name: str
+    robot: str
+    structure: str
+    summary: str
+    motion: str
+    handle_step: tuple[float, float, float]
+    lean_deg: float = 0.0
+    payload_mass: float = 0.0
+    payload_ring: str = 'ring_b'
+    payload_com: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    node_parameters: tuple[tuple[str, object], ...] = ()
+
+    def structure_model(self) -> Structure:
+        return make_structure(self.structure, lean_deg=self.lean_deg)
+
+    def support(self) -> Support:
+        """ring_a gripping at the start: its attitude in the world is its gripper's grip frame
+        on the structure (the extra ring DOF at zero: ring and gripper frames coincide)."""
+        _, rotation = self.structure_model().grip_frame(0.0)
+        return Support.of('ring_a', matrix_to_quat_xyzw(rotation), STANDARD_GRAVITY)
+
+    def gravity_in_g(self) -> np.ndarray:
+        """Gravity in the supporting ring's frame, in units of g."""
+        support = self.support()
+        return support.gravity_in_support / np.linalg.norm(support.gravity)
+
+    def world_parameters(self) -> dict[str, object]:
+        """Every parameter the scenario sets, by name (each node takes those it declares)."""
+        return {
+            'robot': self.robot,
+            'structure': self.structure,
+            'structure_lean_deg': float(self.lean_deg),
+            'world_q_support': tuple(float(v) for v in self.support().world_q_support),
+            'payload_mass': float(self.payload_mass),
+            'payload_ring': self.payload_ring,
+            'payload_com': tuple(float(v) for v in self.payload_com),
+            **dict(self.node_parameters),
+        }
+
+    def parameters(self, node: str, schema) -> dict[str, object]:
+        """The scenario's parameters that ``node``'s parameter ``schema`` (a NodeParameters)
+        declares; nothing else (a node without the payload parameters does not get them)."""
+        declared = {p.name for p in schema} if schema is not None else set()
+        return {name: value for name, value in self.world_parameters().items() if name in declared}
+
+
+#: The scenarios by name. A new one is a row here (its structure a name of
+#: ``rrps_description.structures.STRUCTURES``).
+SCENARIOS = {s.name: s for s in (
+    Scenario('facade_wall', robot='facade_climber', structure='facade',
+             summary='the facade climber on its vertical wall, 15 kg on ring_b',
+             motion='ring_b out from the wall', handle_step=(0.0, 0.0, 0.004), payload_mass=15.0),
+    Scenario('pole_leaning', robot='pole_climber', structure='pole', lean_deg=30.0,
+             summary='the pole climber on a trunk leaning 30 deg, 40 kg on ring_b',
+             motion='ring_b up the trunk', handle_step=(0.0, 0.0, 0.004), payload_mass=40.0),
+)}
+
+
+def scenario(name: str) -> Scenario:
+    """The scenario ``name``; ValueError naming the known ones."""
+    if name not in SCENARIOS:
+        raise ValueError(f'unknown scenario {name!r}: one of {", ".join(SCENARIOS)}')
+    return SCENARIOS[name]
+
+
+def _ros_value(value) -> str:
+    if isinstance(value, bool):
+        return 'true' if value else 'false'
+    if isinstance(value, float):
+        return repr(value)
+    if isinstance(value, (tuple, list)):
+        return '[' + ', '.join(_ros_value(v) for v in value) + ']'
+    return str(value)
+
+
+def ros_arguments(parameters: dict[str, object]) -> list[str]:
+    """``-p name:=value`` pairs (after ``--ros-args``) of ``parameters``."""
+    out: list[str] = []
+    for name, value in parameters.items():
+        out += ['-p', f'{name}:={_ros_value(value)}']
+    return out

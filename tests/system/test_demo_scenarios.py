@@ -1,0 +1,192 @@
+"""rrps-demo --headless --scenario: the facade climber on its wall and the pole climber on a leaning
+trunk, teleoperated over ROS by the scripted operator, checked against physics computed here.
+
+The gravity each run prints (from the supporting ring's world attitude, over ROS) is compared with
+the structure's attitude built here from its description (a vertical wall whose outward normal is
+-y; a trunk leaning 30 deg about x), and its peak actuator force with the statics of the robot's
+start pose by virtual work: the potential energy of ring_b, its payload and the legs' links, with
+a finite-difference Jacobian of the leg lengths, both from the anchors (eq. 1;
+:mod:`rrps_testing.virtual_work`).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import signal
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rrps_description.geometry import load_robot
+from rrps_testing.virtual_work import quaternion_matrix, rotation_x, virtual_work_forces
+
+pytestmark = [pytest.mark.ros]
+
+DEMO = Path(sys.executable).parent / 'rrps-demo'
+G = 9.81
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(('127.0.0.1', 0))
+        return s.getsockname()[1]
+
+
+#: ring_a's attitude in the world, from the structure: on the facade its z is the wall's outward
+#: normal (-y) and its x the traverse (+x); on the pole the ring's frame is the upright one turned
+#: 30 deg about x with the trunk.
+WALL = np.column_stack([[1.0, 0.0, 0.0], np.cross([0.0, -1.0, 0.0], [1.0, 0.0, 0.0]), [0.0, -1.0, 0.0]])
+SCENARIOS = {
+    'facade_wall': ('facade_climber', WALL, 15.0),
+    'pole_leaning': ('pole_climber', rotation_x(math.radians(30.0)), 40.0),
+}
+
+
+def _run(ros_domain_id: int, name: str) -> str:
+    command = [str(DEMO)] if DEMO.exists() else [sys.executable, '-m', 'rrps_bringup.demo']
+    env = {**os.environ, 'ROS_DOMAIN_ID': str(ros_domain_id), 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
+           'PYTHONUNBUFFERED': '1'}
+    proc = subprocess.Popen([*command, '--headless', '--scenario', name, '--port', str(_free_port())],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        out, _ = proc.communicate(timeout=600)  # a loaded machine: generous; no timing is checked
+    finally:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGINT)
+            try:
+                proc.wait(timeout=60)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+    assert proc.returncode == 0, out[-4000:]
+    return out
+
+
+@pytest.fixture(autouse=True)
+def _in_tmp_path(tmp_path, monkeypatch):
+    """The demo writes its flight recordings to ./rrps_recordings: keep them out of the tree."""
+    monkeypatch.chdir(tmp_path)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('name', sorted(SCENARIOS))
+def test_a_headless_scenario_teleoperates_the_robot_in_its_world(ros_domain_id, name):
+    robot, world_R_a, payload = SCENARIOS[name]
+    out = _run(ros_domain_id, name)
+    assert '[FAIL]' not in out, out[-4000:]
+    for line in ("[PASS] ring_b's gripper opened", '[PASS] deadman held: teleop engaged',
+                 '[PASS] slave followed the master', '[PASS] deadman released', '[PASS] viewer drew',
+                 "[PASS] the driver's efforts at rest match the statics"):
+        assert line in out, out[-4000:]
+    assert 'support ring: ring_a' in out, out[-4000:]
+
+    printed = re.search(r"gravity in the supporting ring's frame: \(([^)]*)\) g", out)
+    gravity = np.array([float(v) for v in printed.group(1).split(',')])
+    expected = world_R_a.T @ np.array([0.0, 0.0, -1.0])
+    np.testing.assert_allclose(gravity, expected, atol=2e-3)
+    np.testing.assert_allclose(expected, {'facade_wall': [0.0, -1.0, 0.0],
+                                          'pole_leaning': [0.0, -0.5, -math.sqrt(3) / 2]}[name], atol=1e-12)
+
+    peak, limit = (float(v) for v in re.search(r'peak actuator force: ([\d.]+) N \(leg_\d\), max ([\d.]+) N',
+                                               out).groups())
+    g = load_robot(robot)
+    start_forces = virtual_work_forces(g, g.home_position, quaternion_matrix(g.home_quaternion_xyzw),
+                                       world_R_a.T @ [0.0, 0.0, -G], payload_mass=payload)
+    start = float(np.max(np.abs(start_forces)))
+    assert limit == load_robot(robot).max_force
+    assert peak < limit
+    # the peak over a motion of millimetres from the start pose: the start's statics, give or take
+    assert 0.8 * start < peak < 1.25 * start, (peak, start)
+
+
+def _structure_directions(marker) -> np.ndarray:
+    """The principal directions (rows, longest first) of the drawn structure's vertices."""
+    points = np.array([[p.x, p.y, p.z] for p in marker.points])
+    return np.linalg.svd(points - points.mean(axis=0), full_matrices=False)[2]
+
+
+def _same_line(a, b) -> bool:
+    return abs(abs(float(np.dot(a, b))) - 1.0) < 1e-6
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('name', sorted(SCENARIOS))
+def test_the_viewer_scenario_draws_the_structure_as_it_stands_with_the_robot_on_it(ros_context, ros_domain_id,
+                                                                                 name):
+    """Without --headless: the viewer, the markers (RViz2) and the climb node's odometry place the
+    robot on the vertical wall (its normal horizontal, -y) or on the pole leaning 30 deg; the
+    banner names the scenario."""
+    from geometry_msgs.msg import PoseStamped
+    from rcl_interfaces.srv import GetParameters
+    from visualization_msgs.msg import MarkerArray
+
+    from rrps_testing.ros_harness import Probe, Spinner, wait_for
+
+    command = [str(DEMO)] if DEMO.exists() else [sys.executable, '-m', 'rrps_bringup.demo']
+    env = {**os.environ, 'ROS_DOMAIN_ID': str(ros_domain_id), 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
+           'PYTHONUNBUFFERED': '1'}
+    proc = subprocess.Popen([*command, '--scenario', name, '--port', str(_free_port())], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        lines = []
+        for line in proc.stdout:  # until the banner (or the demo ended)
+            lines.append(line)
+            if 'is live' in line:
+                break
+        assert f'rrps demo: scenario {name}' in ''.join(lines), ''.join(lines)[-3000:]
+        probe = Probe(context=ros_context, namespace='/rrps')
+        arrays = probe.collect(MarkerArray, 'robot/markers')
+        odometry = probe.collect(PoseStamped, 'odometry/ring_a')
+        viewer = probe.create_client(GetParameters, '/rrps/viewer_node/get_parameters')
+
+        def structure():
+            return next((m for a in list(arrays) for m in a.markers if m.ns == 'structure'), None)
+        with Spinner(ros_context, [probe]):
+            # the observers' process (markers) runs niced: at a load average of 20 it started minutes late
+            assert wait_for(lambda: structure() is not None and odometry, timeout=600.0), (
+                f'structure drawn: {structure() is not None}, odometry: {len(odometry)}, '
+                f'marker arrays: {len(arrays)}')
+            assert viewer.wait_for_service(timeout_sec=60.0)
+            future = viewer.call_async(GetParameters.Request(names=['structure', 'structure_lean_deg']))
+            assert wait_for(future.done)
+        probe.destroy_node()
+    finally:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGINT)
+            try:
+                proc.wait(timeout=60)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+    drawn = [v.string_value or v.double_value for v in future.result().values]
+    directions = _structure_directions(structure())
+    q = odometry[-1].pose.orientation
+    ring_a_z = quaternion_matrix([q.x, q.y, q.z, q.w])[:, 2]
+    if name == 'facade_wall':  # a plane: its normal is the least spread direction, horizontal
+        assert drawn == ['facade', 0.0]
+        assert _same_line(directions[2], [0.0, -1.0, 0.0])
+        np.testing.assert_allclose(ring_a_z, [0.0, -1.0, 0.0], atol=1e-6)  # ring_a's axis out of the wall
+    else:  # a pole: its axis is the most spread direction, leaning 30 deg about x
+        trunk = rotation_x(math.radians(30.0)) @ [0.0, 0.0, 1.0]
+        assert drawn == ['pole', 30.0]
+        assert _same_line(directions[0], trunk)
+        np.testing.assert_allclose(ring_a_z, trunk, atol=1e-6)  # ring_a's axis along the trunk
+
+
+@pytest.mark.parametrize('args, message', [
+    (['--scenario', 'bridge'], "unknown scenario 'bridge': one of facade_wall, pole_leaning"),
+    (['--scenario', 'facade_wall', '--robot', 'pole_climber'],
+     '--scenario facade_wall runs the facade_climber, not --robot pole_climber'),
+])
+def test_a_bad_scenario_is_refused_with_one_line(ros_domain_id, args, message):
+    command = [str(DEMO)] if DEMO.exists() else [sys.executable, '-m', 'rrps_bringup.demo']
+    proc = subprocess.run([*command, *args], env={**os.environ, 'ROS_DOMAIN_ID': str(ros_domain_id)},
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and message in proc.stderr, proc.stderr
+    assert 'Traceback' not in proc.stderr
