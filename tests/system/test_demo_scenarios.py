@@ -1,12 +1,15 @@
 """rrps-demo --headless --scenario: the facade climber on its wall and the pole climber on a leaning
-trunk, teleoperated over ROS by the scripted operator, checked against physics computed here.
+trunk, teleoperated over ROS by the scripted operator, and the frame climber across a 90 deg node,
+one climbing step over ROS, checked against physics and plans computed here.
 
 The gravity each run prints (from the supporting ring's world attitude, over ROS) is compared with
 the structure's attitude built here from its description (a vertical wall whose outward normal is
 -y; a trunk leaning 30 deg about x), and its peak actuator force with the statics of the robot's
 start pose by virtual work: the potential energy of ring_b, its payload and the legs' links, with
 a finite-difference Jacobian of the leg lengths, both from the anchors (eq. 1;
-:mod:`rrps_testing.virtual_work`).
+:mod:`rrps_testing.virtual_work`). The frame node's gravity comes from the beam face built here
+(the column vertical, the bend in its web plane: the face normal is +-y, the route up the column),
+its end poses from the crossing planned here (``FrameNodePlanner``).
 """
 
 from __future__ import annotations
@@ -46,9 +49,15 @@ SCENARIOS = {
     'facade_wall': ('facade_climber', WALL, 15.0),
     'pole_leaning': ('pole_climber', rotation_x(math.radians(30.0)), 40.0),
 }
+TELEOP_SCENARIOS = sorted(SCENARIOS)
+#: the frame node: ring_a on the column's face, x up the column, z the face normal (-y: the face
+#: the planner chooses, docs/frame_node.md)
+FACE = np.column_stack([[0.0, 0.0, 1.0], np.cross([0.0, -1.0, 0.0], [0.0, 0.0, 1.0]), [0.0, -1.0, 0.0]])
+SCENARIOS['frame_node'] = ('frame_climber', FACE, 0.0)
 
 
 def _run(ros_domain_id: int, name: str) -> str:
+    """The headless scenario's output (its exit status 0)."""
     command = [str(DEMO)] if DEMO.exists() else [sys.executable, '-m', 'rrps_bringup.demo']
     env = {**os.environ, 'ROS_DOMAIN_ID': str(ros_domain_id), 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
            'PYTHONUNBUFFERED': '1'}
@@ -74,8 +83,13 @@ def _in_tmp_path(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
 
 
+def _gravity(out: str) -> np.ndarray:
+    printed = re.search(r"gravity in the supporting ring's frame: \(([^)]*)\) g", out)
+    return np.array([float(v) for v in printed.group(1).split(',')])
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize('name', sorted(SCENARIOS))
+@pytest.mark.parametrize('name', TELEOP_SCENARIOS)
 def test_a_headless_scenario_teleoperates_the_robot_in_its_world(ros_domain_id, name):
     robot, world_R_a, payload = SCENARIOS[name]
     out = _run(ros_domain_id, name)
@@ -86,8 +100,7 @@ def test_a_headless_scenario_teleoperates_the_robot_in_its_world(ros_domain_id, 
         assert line in out, out[-4000:]
     assert 'support ring: ring_a' in out, out[-4000:]
 
-    printed = re.search(r"gravity in the supporting ring's frame: \(([^)]*)\) g", out)
-    gravity = np.array([float(v) for v in printed.group(1).split(',')])
+    gravity = _gravity(out)
     expected = world_R_a.T @ np.array([0.0, 0.0, -1.0])
     np.testing.assert_allclose(gravity, expected, atol=2e-3)
     np.testing.assert_allclose(expected, {'facade_wall': [0.0, -1.0, 0.0],
@@ -103,6 +116,34 @@ def test_a_headless_scenario_teleoperates_the_robot_in_its_world(ros_domain_id, 
     assert peak < limit
     # the peak over a motion of millimetres from the start pose: the start's statics, give or take
     assert 0.8 * start < peak < 1.25 * start, (peak, start)
+
+
+@pytest.mark.slow
+def test_the_headless_frame_node_scenario_crosses_the_node_in_one_step(ros_domain_id):
+    """One step up across the 90 deg node, previewed, resumed if a late state paused it: both
+    rings end where the crossing planned here ends, on the second beam."""
+    from rrps_teleop.climbing.frame_node import FrameNodePlanner
+
+    out = _run(ros_domain_id, 'frame_node')
+    assert '[FAIL]' not in out, out[-4000:]
+    for line in ('[PASS] climb step up accepted', '[PASS] step accepted by its preview',
+                 '[PASS] step ended IDLE with steps_done 1', '[PASS] both rings past the node',
+                 '[PASS] smallest holding margin', '[PASS] viewer drew'):
+        assert line in out, out[-4000:]
+    expected = FACE.T @ np.array([0.0, 0.0, -1.0])   # gravity along -x: down the column
+    np.testing.assert_allclose(expected, [-1.0, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(_gravity(out), expected, atol=2e-3)
+
+    end = FrameNodePlanner(load_robot('frame_climber'), 90.0).plan_crossing().phases[-1]
+    for ring, planned in (('ring_a', end.world_T_a.position), ('ring_b', end.world_T_b.position)):
+        printed = re.search(ring + r' end: \(([^)]*)\) m', out)
+        position = np.array([float(v) for v in printed.group(1).split(',')])
+        np.testing.assert_allclose(position, planned, atol=4e-3)
+        # on the second beam: level with the node (z = 2.0 m), out along x past its 0.1 m zone
+        assert abs(position[2] - 2.0) < 1e-2 and position[0] > 0.1 - 4e-3, (ring, position)
+    peak, limit = (float(v) for v in re.search(r'peak actuator force: ([\d.]+) N \(leg_\d\), max ([\d.]+) N',
+                                               out).groups())
+    assert limit == load_robot('frame_climber').max_force and 0.0 < peak < limit
 
 
 def _structure_directions(marker) -> np.ndarray:

@@ -32,7 +32,8 @@ exits 0 on success, 1 on failure: a smoke test for CI and users.
 with a payload: every node gets the scenario's parameters it declares (the driver's
 ``world_q_support`` and payload, the structure and its lean for the climb node, the viewer and
 the markers). With ``--headless`` the scripted operator of the scenario
-(:mod:`rrps_bringup.scenario_script`) teleoperates it and prints the loads it saw.
+(:mod:`rrps_bringup.scenario_script`) teleoperates it and prints the loads it saw; on a frame node
+(:mod:`rrps_bringup.frame_script`) it climbs one step across the node.
 
 DDS stays on this machine: ``ROS_AUTOMATIC_DISCOVERY_RANGE`` defaults to LOCALHOST.
 """
@@ -367,6 +368,9 @@ def _script(args, context):
     """The scripted operator of ``--headless`` (the scenario's with ``--scenario``), or None."""
     if not args.headless:
         return None
+    if args.scenario is not None and scenario(args.scenario).junction_deg > 0.0:
+        from rrps_bringup.frame_script import FrameScript
+        return FrameScript(scenario(args.scenario), context=context, namespace=NAMESPACE)
     if args.scenario is not None:
         from rrps_bringup.scenario_script import ScenarioScript
         return ScenarioScript(scenario(args.scenario), context=context, namespace=NAMESPACE)

@@ -4,8 +4,16 @@ It uses the operator's topics: ``master/target_pose`` (the handle), ``teleop/ena
 deadman, published while held); it reads the robot's answer on ``pose``, ``master/pose``,
 ``teleop/status``, ``climb/status`` and ``odometry/*``. :class:`ScriptedOperator` is the node
 the headless demo (:mod:`rrps_bringup.headless`) and the scenarios
-(:mod:`rrps_bringup.scenario_script`) build on; :meth:`ScriptedOperator.teleop_session` engages,
-moves the handle, and releases the deadman, checking that the robot followed and then held.
+(:mod:`rrps_bringup.scenario_script`, :mod:`rrps_bringup.frame_script`) build on;
+:meth:`ScriptedOperator.teleop_session` engages, moves the handle, and releases the deadman,
+checking that the robot followed and then held; :meth:`ScriptedOperator.climb_step` requests one
+climbing step up (``climb/step_up``), waits for its preview and its execution, and resumes it
+when it paused.
+
+Like a person, it resumes a climbing step that paused (the robot's state or the operator link
+was late: the step holds, see ``PauseReason``) once the step accepts the resume, at most
+:data:`MAX_RESUMES` times, and says so: on a machine too busy to keep the state fresh the
+summary shows the pauses rather than hiding them.
 """
 
 from __future__ import annotations
@@ -18,8 +26,18 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from std_msgs.msg import Bool
+from std_srvs.srv import Trigger
 
-from rrps_interfaces.climb import CLIMB_STATUS, ClimbStatus, odometry_topic
+from rrps_interfaces.climb import (
+    CLIMB_PREVIEW,
+    CLIMB_RESUME,
+    CLIMB_STATUS,
+    CLIMB_STEP_UP,
+    ClimbPreview,
+    ClimbState,
+    ClimbStatus,
+    odometry_topic,
+)
 from rrps_interfaces.kinematics import POSE
 from rrps_interfaces.teleop import (
     MASTER_FRAME,
@@ -30,13 +48,18 @@ from rrps_interfaces.teleop import (
     TeleopStatus,
 )
 from rrps_runtime.messages import pose_from_msg, pose_to_msg
-from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
+from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, STATE_QOS
 
-__all__ = ['ScriptedOperator', 'Check', 'WAIT', 'print_summary']
+__all__ = ['ScriptedOperator', 'Check', 'WAIT', 'MAX_RESUMES', 'PREVIEW_WAIT', 'print_summary']
 
 #: Deadline [s] of each thing the script waits for (it ends as soon as it happened): generous,
 #: so that a machine slowed by other jobs delays the session rather than failing it.
 WAIT = 30.0
+
+#: Most resumes of a paused climbing step the scripted operator makes.
+MAX_RESUMES = 5
+#: Longest wait [s] for a requested climbing step to start: its preview runs first.
+PREVIEW_WAIT = 120.0
 
 #: One check of a scripted session: (what, passed).
 Check = tuple[str, bool]
@@ -63,7 +86,11 @@ class ScriptedOperator(Node):
         for topic in (TELEOP_STATUS, CLIMB_STATUS):
             self.create_subscription(DiagnosticStatus, topic,
                                      lambda m, topic=topic: self._store(topic, m), STATE_QOS)
+        self.create_subscription(DiagnosticStatus, CLIMB_PREVIEW,
+                                 lambda m: self._store(CLIMB_PREVIEW, m), LATCHED_QOS)
         self._enable = self.create_publisher(Bool, TELEOP_ENABLE, COMMAND_QOS)
+        self._step_up = self.create_client(Trigger, CLIMB_STEP_UP)
+        self._resume = self.create_client(Trigger, CLIMB_RESUME)
         self._handle = self.create_publisher(PoseStamped, MASTER_TARGET_POSE, COMMAND_QOS)
 
     def _store(self, topic: str, msg) -> None:
@@ -109,6 +136,10 @@ class ScriptedOperator(Node):
     def _climb_state(self) -> ClimbStatus | None:
         msg = self._get(CLIMB_STATUS)
         return None if msg is None else ClimbStatus.from_key_values(msg.values)
+
+    def _climb_preview(self) -> ClimbPreview | None:
+        msg = self._get(CLIMB_PREVIEW)
+        return None if msg is None else ClimbPreview.from_key_values(msg.values)
 
     def _engaged(self) -> bool | None:
         status = self._teleop()
@@ -193,3 +224,64 @@ class ScriptedOperator(Node):
                        f'the robot holds (drift {drift * 1e3:.2f} mm)', released and drift < 1e-3))
         self._say(f'deadman released, teleop status {code!r}, drift {drift * 1e3:.2f} mm in 0.5 s')
         return checks
+
+    def climb_step(self, stop: threading.Event) -> tuple[list[Check], ClimbStatus | None]:
+        """Request one climbing step up, wait for its preview (up to :data:`PREVIEW_WAIT`) and
+        its execution, resuming a pause at most :data:`MAX_RESUMES` times. Returns the checks and
+        the climb status the step ended in (None: it did not start)."""
+        if not self._step_up.wait_for_service(timeout_sec=WAIT):
+            return [('climb/step_up service available', False)], None
+        future = self._step_up.call_async(Trigger.Request())
+        got = self._wait(future.done, WAIT, stop)
+        response = future.result() if got else None
+        accepted = response is not None and response.success
+        self._say(f'climb/step_up -> {response.message if response is not None else "no answer"!r}')
+        checks = [('climb step up accepted', accepted)]
+        if not accepted:
+            return checks, None
+
+        def state() -> ClimbState | None:
+            status = self._climb_state()
+            return None if status is None else status.state
+
+        def started_or_refused() -> bool:   # a step is previewed (IDLE) before it executes
+            status = self._climb_state()
+            return status is not None and (status.state is not ClimbState.IDLE
+                                           or (status.refusal is not None and not status.previewing))
+
+        seen_executing = self._wait(started_or_refused, PREVIEW_WAIT, stop) and state() is not ClimbState.IDLE
+        if not seen_executing:
+            final = self._climb_state()
+            self._say(f'climb step did not start: {final.detail if final is not None else "no climb status"}')
+            return checks + [('climb step started after its preview', False)], None
+        t0 = time.monotonic()
+        pauses = []
+        while True:
+            done = self._wait(lambda: state() in (ClimbState.IDLE, ClimbState.FAILED, ClimbState.PAUSED),
+                              120.0, stop)
+            final = self._climb_state()
+            if not done or final.state is not ClimbState.PAUSED or len(pauses) >= MAX_RESUMES:
+                break
+            pauses.append(final.pause_reason.value)
+            self._say(f'climb paused ({final.detail}); resuming')
+            if not self._resume_climb(stop):
+                break
+        self._say(f'climb finished in {time.monotonic() - t0:.1f} s: {final.state.value}, '
+                  f'{final.detail}')
+        resumed = f' after {len(pauses)} resume(s) ({", ".join(pauses)})' if pauses else ''
+        checks.append((f'climb step executed and ended idle{resumed}',
+                       seen_executing and done and final.state is ClimbState.IDLE))
+        return checks, final
+
+    def _resume_climb(self, stop: threading.Event) -> bool:
+        """Call ``climb/resume`` until the step accepts it (it refuses while the cause lasts);
+        True once it executes again."""
+        def accepted() -> bool:
+            future = self._resume.call_async(Trigger.Request())
+            if not self._wait(future.done, WAIT, stop):
+                return False
+            return bool(future.result() is not None and future.result().success)
+        if not (self._resume.wait_for_service(timeout_sec=WAIT) and self._wait(accepted, WAIT, stop)):
+            return False
+        status = self._climb_state  # the step says it executes again (its status after the resume)
+        return self._wait(lambda: status() is not None and status().state is not ClimbState.PAUSED, WAIT, stop)
