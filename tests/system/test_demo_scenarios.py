@@ -161,8 +161,8 @@ def _same_line(a, b) -> bool:
 def test_the_viewer_scenario_draws_the_structure_as_it_stands_with_the_robot_on_it(ros_context, ros_domain_id,
                                                                                  name):
     """Without --headless: the viewer, the markers (RViz2) and the climb node's odometry place the
-    robot on the vertical wall (its normal horizontal, -y) or on the pole leaning 30 deg; the
-    banner names the scenario."""
+    robot on the vertical wall (its normal horizontal, -y), on the pole leaning 30 deg, or on the
+    face of the frame bent 90 deg at its node; the banner names the scenario."""
     from geometry_msgs.msg import PoseStamped
     from rcl_interfaces.srv import GetParameters
     from visualization_msgs.msg import MarkerArray
@@ -194,7 +194,8 @@ def test_the_viewer_scenario_draws_the_structure_as_it_stands_with_the_robot_on_
                 f'structure drawn: {structure() is not None}, odometry: {len(odometry)}, '
                 f'marker arrays: {len(arrays)}')
             assert viewer.wait_for_service(timeout_sec=60.0)
-            future = viewer.call_async(GetParameters.Request(names=['structure', 'structure_lean_deg']))
+            future = viewer.call_async(GetParameters.Request(names=['structure', 'structure_lean_deg',
+                                                                    'junction_deg']))
             assert wait_for(future.done)
         probe.destroy_node()
     finally:
@@ -209,19 +210,26 @@ def test_the_viewer_scenario_draws_the_structure_as_it_stands_with_the_robot_on_
     directions = _structure_directions(structure())
     q = odometry[-1].pose.orientation
     ring_a_z = quaternion_matrix([q.x, q.y, q.z, q.w])[:, 2]
-    if name == 'facade_wall':  # a plane: its normal is the least spread direction, horizontal
-        assert drawn == ['facade', 0.0]
+    if name == 'frame_node':  # the column up to the node at z = 2 m, the member bent out along +x
+        points = np.array([[p.x, p.y, p.z] for p in structure().points])
+        assert drawn == ['frame', 0.0, 90.0]
+        assert points[:, 2].max() < 2.0 + 0.1   # nothing of the column goes on above the node
+        assert points[:, 0].max() > 1.9         # the second beam: 2 m out along x, level with the node
+        np.testing.assert_allclose(ring_a_z, [0.0, -1.0, 0.0], atol=1e-6)  # ring_a's axis: the face normal
+        np.testing.assert_allclose(quaternion_matrix([q.x, q.y, q.z, q.w]), FACE, atol=1e-6)
+    elif name == 'facade_wall':  # a plane: its normal is the least spread direction, horizontal
+        assert drawn == ['facade', 0.0, 0.0]
         assert _same_line(directions[2], [0.0, -1.0, 0.0])
         np.testing.assert_allclose(ring_a_z, [0.0, -1.0, 0.0], atol=1e-6)  # ring_a's axis out of the wall
     else:  # a pole: its axis is the most spread direction, leaning 30 deg about x
         trunk = rotation_x(math.radians(30.0)) @ [0.0, 0.0, 1.0]
-        assert drawn == ['pole', 30.0]
+        assert drawn == ['pole', 30.0, 0.0]
         assert _same_line(directions[0], trunk)
         np.testing.assert_allclose(ring_a_z, trunk, atol=1e-6)  # ring_a's axis along the trunk
 
 
 @pytest.mark.parametrize('args, message', [
-    (['--scenario', 'bridge'], "unknown scenario 'bridge': one of facade_wall, pole_leaning"),
+    (['--scenario', 'bridge'], "unknown scenario 'bridge': one of facade_wall, pole_leaning, frame_node"),
     (['--scenario', 'facade_wall', '--robot', 'pole_climber'],
      '--scenario facade_wall runs the facade_climber, not --robot pole_climber'),
 ])
