@@ -13,6 +13,7 @@ from rrps_bringup.scenarios import SCENARIOS, Scenario, ros_arguments, scenario
 from rrps_description.geometry import load_robot
 from rrps_description.rotations import quat_xyzw_to_matrix
 from rrps_runtime.parameter_schema import NodeParameters, Parameter
+from rrps_teleop.climbing.frame_node import FrameNodePlanner
 from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_testing.virtual_work import rotation_x
 
@@ -20,10 +21,16 @@ from rrps_testing.virtual_work import rotation_x
 @pytest.mark.parametrize('name', sorted(SCENARIOS))
 def test_the_support_attitude_is_the_climb_nodes_odometry_of_ring_a(name):
     """The driver's world_q_support and the climb planner's world pose of ring_a (what the climb
-    node publishes on odometry/ring_a and the viewer draws) are one attitude."""
+    node publishes on odometry/ring_a and the viewer draws) are one attitude; on a frame node,
+    ring_a's at the crossing's start, both grippers side by side on the searched face."""
     s = scenario(name)
-    planner = GaitPlanner(load_robot(s.robot), s.structure_model())
-    world_T_a, _ = planner.world_rings(0.5, 0.5 + planner.sep_home, 0.0, 0.0)
+    if s.junction_deg > 0.0:
+        planner = FrameNodePlanner(load_robot(s.robot), s.junction_deg)
+        start = planner.crossing.candidate.s_pre
+        world_T_a, _ = planner.world_rings(start, start, 0.0, 0.0)
+    else:
+        planner = GaitPlanner(load_robot(s.robot), s.structure_model())
+        world_T_a, _ = planner.world_rings(0.5, 0.5 + planner.sep_home, 0.0, 0.0)
     np.testing.assert_allclose(quat_xyzw_to_matrix(s.support().world_q_support),
                                quat_xyzw_to_matrix(world_T_a.quaternion_xyzw), atol=1e-9)
 
@@ -38,6 +45,17 @@ def test_gravity_of_the_wall_and_of_the_leaning_trunk():
     trunk = rotation_x(math.radians(30.0))
     np.testing.assert_allclose(scenario('pole_leaning').gravity_in_g(), trunk.T @ down, atol=1e-9)
     np.testing.assert_allclose(scenario('pole_leaning').gravity_in_g(), [0.0, -0.5, -math.sqrt(3) / 2], atol=1e-9)
+
+
+def test_gravity_on_the_face_of_the_bent_frame():
+    """Built here: the column stands vertical; ring_a's x runs up it and its z is the face normal
+    -y (normal to both beams of the 90 deg bend in the x-z plane): gravity runs down ring_a's x."""
+    face = np.column_stack([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+    np.testing.assert_allclose(np.linalg.det(face), 1.0)
+    np.testing.assert_allclose(scenario('frame_node').gravity_in_g(), face.T @ [0.0, 0.0, -1.0], atol=1e-9)
+    assert scenario('frame_node').world_parameters()['junction_deg'] == 90.0
+    with pytest.raises(ValueError, match='crosses no frame node'):
+        scenario('facade_wall').crossing()
 
 
 def test_a_node_gets_the_parameters_its_schema_declares_and_no_others():
