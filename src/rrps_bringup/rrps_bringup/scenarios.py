@@ -4,9 +4,10 @@ A scenario is one table row (:data:`SCENARIOS`): the robot, the structure and it
 the world (the facade stands vertical; the pole leans ``lean_deg`` about the world x axis; the
 frame's column stands vertical, its member bent by ``junction_deg`` at the node), the payload, and
 the scripted operator's motion (a master handle displacement while the deadman is held, or with
-``junction_deg`` one climbing step across the frame's node). From it come the parameters of every node that declares them (:meth:`Scenario.parameters`:
-the driver's ``world_q_support`` and payload, the climb node's, viewer's and markers' structure),
-so the driver, the climb node's odometry and the viewer agree on where gravity points::
+``junction_deg`` one climbing step across the frame's node). From it come the parameters of
+every node that declares them (:meth:`Scenario.parameters`: the driver's ``world_q_support`` and
+payload, the climb node's, viewer's and markers' structure), so the driver, the climb node's
+odometry and the viewer agree on where gravity points::
 
     rrps-demo --scenario facade_wall                # in the browser viewer
     rrps-demo --headless --scenario pole_leaning    # scripted operator over ROS, a result block
@@ -22,9 +23,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rrps_description.geometry import load_robot
 from rrps_description.rotations import matrix_to_quat_xyzw
 from rrps_description.structures import Structure, make_structure
-from rrps_description.geometry import load_robot
 from rrps_description.world import STANDARD_GRAVITY, Support
 from rrps_teleop.climbing.frame_node import FrameNodePlanner
 
