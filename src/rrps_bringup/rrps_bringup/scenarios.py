@@ -34,9 +34,9 @@ __all__ = ['Scenario', 'SCENARIOS', 'scenario', 'ros_arguments']
 
 @dataclass(frozen=True)
 class Scenario:
-    """One demo scenario (see the module docstring). ``handle_step`` [m]: the master handle's
-    displacement in the master's ring_a frame (the robot's ring_b follows it, scaled, in ring_a's
-    frame); ``motion``: that motion in words. ``payload_com`` in the ``payload_ring``'s frame [m].
+    """One demo scenario (see the module docstring). ``handle_step`` [m], in a teleoperated one:
+    the master handle's displacement in the master's ring_a frame (the robot's ring_b follows it,
+    scaled, in ring_a's frame); ``motion``: that motion in words. ``payload_com`` in the ``payload_ring``'s frame [m].
     ``junction_deg`` > 0: the frame bent by that angle at its node, and the operator climbs one
     step across it (:meth:`crossing`) instead of teleoperating. ``node_parameters``: further
     (name, value) pairs for the nodes that declare them."""
@@ -46,7 +46,7 @@ class Scenario:
     structure: str
     summary: str
     motion: str
-    handle_step: tuple[float, float, float]
+    handle_step: tuple[float, float, float] | None = None
     lean_deg: float = 0.0
     payload_mass: float = 0.0
     payload_ring: str = 'ring_b'
@@ -113,7 +113,7 @@ SCENARIOS = {s.name: s for s in (
              motion='ring_b up the trunk', handle_step=(0.0, 0.0, 0.004), payload_mass=40.0),
     Scenario('frame_node', robot='frame_climber', structure='frame', junction_deg=90.0,
              summary='the frame climber across the node of a frame bent 90 deg, its own loads',
-             motion='one climbing step up across the node', handle_step=(0.0, 0.0, 0.0)),
+             motion='one climbing step up across the node'),
 )}
 
 
