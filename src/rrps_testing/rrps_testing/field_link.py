@@ -285,12 +285,23 @@ class FieldSession:
             return 'REFUSED', 0
         before = len(outages)
         pauses: list[str] = []
+
+        def started() -> bool:  # the step stays IDLE while its preview runs
+            rows = self.robot.records('climb/status', t_call)
+            last = climb(rows[-1]) if rows else None
+            return last is not None and (last.state is not ClimbState.IDLE
+                                         or (last.refusal is not None and not last.previewing))
+        if not wait(started, DEADLINE, period=0.2):
+            return 'NOT STARTED', 0
+        first_status = climb(self.robot.records('climb/status', t_call)[-1])
+        if first_status.state is ClimbState.IDLE:
+            return f'REFUSED ({first_status.refusal.name})', 0
         next_outage = time.time() + (2.0 if profile.outage else math.inf)  # during the first motion
         deadline = time.time() + DEADLINE
         while time.time() < deadline:
             rows = self.robot.records('climb/status', t_call)
             state = climb(rows[-1]).state if rows else None
-            if state in (ClimbState.IDLE, ClimbState.FAILED) and rows and time.time() - t_call > 1.0:
+            if state in (ClimbState.IDLE, ClimbState.FAILED):
                 break
             if state is ClimbState.PAUSED:
                 reason = climb(rows[-1]).pause_reason
