@@ -158,9 +158,10 @@ def playwright_dir() -> str:
 
 
 
-# Two pytest-xdist workers (./rrps test). The system tests (processes, network namespaces, the
-# CANopen bus, timing under load) run one after another on one worker, the browser test on the
-# other beside the unit and node tests, which run at a lower priority than both.
+# Two pytest-xdist workers (./rrps test). The browser test and then the system tests (processes,
+# network namespaces, the CANopen bus, timing under load) run one after another on one worker;
+# the unit and node tests on the other, at a lower priority. (Beside the system tests, the
+# browser test drew the robot's workspace with half its pixels, in two full runs of two.)
 SERIAL_LEVELS = ('tests/system/', 'tests/browser/')
 #: Run last on their worker: the CANopen tests starve under a concurrent browser.
 LAST = ('tests/system/test_canopen',)
@@ -184,13 +185,13 @@ def pytest_collection_modifyitems(config, items):
 
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_make_scheduler(config, log):
-    """xdist's load-scope scheduling with our scopes: each serial level is one scope (one worker,
-    in order), every other test its own scope (spread over the workers)."""
+    """xdist's load-scope scheduling with our scopes: the serial levels are one scope (one worker,
+    in order: browser, system), every other test its own scope (spread over the workers)."""
     from xdist.scheduler import LoadScopeScheduling
 
     class LevelScheduling(LoadScopeScheduling):
         def _split_scope(self, nodeid: str) -> str:
-            return _level(nodeid) or nodeid
+            return 'serial' if _level(nodeid) else nodeid
 
     return LevelScheduling(config, log)
 
