@@ -19,7 +19,12 @@ The multibody model is imported on first use (it compiles with numba).
 """
 
 from rrps_kinematics.assembly import AssemblyModes, assembly_modes
-from rrps_kinematics.forward import ForwardKinematicsResult, ForwardSolver, compiled_backend_available, forward_kinematics
+from rrps_kinematics.forward import (
+    ForwardKinematicsResult,
+    ForwardSolver,
+    compiled_backend_available,
+    forward_kinematics,
+)
 from rrps_kinematics.inverse import InverseKinematicsResult, inverse_kinematics, leg_lengths
 from rrps_kinematics.jacobian import inverse_jacobian, leg_forces, leg_rates, platform_wrench
 from rrps_kinematics.limits import PAIRS, Margins, check_pose, margins

@@ -26,8 +26,8 @@ from rrps_kinematics.newton_settings import MAX_HALVINGS, MAX_ROTATION_STEP, PIV
 __all__ = ['ik_lengths_batch', 'ik_lengths_parallel', 'fk_single', 'fk_solve', 'fk_batch',
            'fk_batch_parallel', 'quat_to_matrix']
 
-_jit = numba.njit(cache=True, fastmath=False, nogil=True)
-_parallel_jit = numba.njit(cache=True, fastmath=False, nogil=True, parallel=True)
+_jit = numba.njit(cache=True, fastmath=False, nogil=True, error_model='numpy')
+_parallel_jit = numba.njit(cache=True, fastmath=False, nogil=True, parallel=True, error_model='numpy')
 
 
 @_jit

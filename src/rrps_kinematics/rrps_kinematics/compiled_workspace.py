@@ -26,7 +26,7 @@ _STROKE, _UNIVERSAL, _SPHERICAL, _INTERFERENCE, _CONDITIONING = (
     LIMIT_KINDS.index(k) for k in ('stroke', 'universal', 'spherical', 'interference', 'conditioning'))
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model='numpy')
 def inverse_condition(J):
     """sigma_min / sigma_max of J (6, 6), 0 when sigma_max is 0, by one-sided Jacobi (Hestenes):
     plane rotations of J's columns until they are orthogonal, the singular values then being
@@ -67,7 +67,7 @@ def inverse_condition(J):
     return math.sqrt(smallest / largest) if largest > 0.0 else 0.0
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model='numpy')
 def _classify_pose(g, p, q, R, b_in_a, u, lengths, J):
     """(first limit broken or WITHIN_LIMITS, inverse condition number) of the pose (p, q).
 
@@ -105,7 +105,7 @@ def _classify_pose(g, p, q, R, b_in_a, u, lengths, J):
     return WITHIN_LIMITS, inv_cond
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model='numpy')
 def _classify_slice(g, x, ys, zs, Q, status, inverse_condition):
     """The points (x, ys[j], zs[k]) of one grid slice: status and inverse_condition (J, K)."""
     p = np.empty(3)
@@ -130,7 +130,7 @@ def _classify_slice(g, x, ys, zs, Q, status, inverse_condition):
             inverse_condition[j, k] = worst if code == WITHIN_LIMITS else math.nan
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model='numpy')
 def classify_grid(g, xs, ys, zs, Q, status, inverse_condition):
     """Classify the grid positions (xs[i], ys[j], zs[k]) over the orientations Q (K, 4), in place.
 
@@ -142,7 +142,7 @@ def classify_grid(g, xs, ys, zs, Q, status, inverse_condition):
         _classify_slice(g, xs[i], ys, zs, Q, status[i], inverse_condition[i])
 
 
-@numba.njit(cache=True, nogil=True, parallel=True)
+@numba.njit(cache=True, nogil=True, parallel=True, error_model='numpy')
 def classify_grid_parallel(g, xs, ys, zs, Q, status, inverse_condition, threads):
     """:func:`classify_grid` on numba's ``threads`` threads, slice by slice of x: the same
     numbers. The threads take interleaved slices (thread t: i = t, t + T, ...), so that each gets

@@ -8,14 +8,18 @@ the step is damped (rotation <= pi/2, halved until the residual decreases), whic
 same solver usable for multi-start searches (:mod:`.assembly`).
 
 Two backends compute the same iterates: a numba-compiled one (:mod:`.compiled`, the default
-when numba is importable and ``RRPS_NUMBA`` is not ``0``) and the vectorised NumPy reference.
+when numba is importable and ``RRPS_NUMBA`` is not ``0``) and the vectorised NumPy reference,
+whose single solves run on plain floats (:mod:`.forward_scalar`). Long compiled batches run on
+every thread (the same numbers as the serial kernel). A stream of solves for one robot (the FK
+node's tracker) goes through one :class:`ForwardSolver`: its settings checked once, each solve one
+call of a kernel that checks the input itself.
 """
 
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 

@@ -13,6 +13,8 @@ than ``max_jump`` (translation plus rotation times the characteristic length) is
 continuation: the lengths are walked from the last accepted ones in ``continuation_steps``
 equal steps, each solve seeded by the previous one, which follows the current assembly branch;
 if the walk fails, the estimate is refused. A refused update keeps the last good estimate.
+The solver settings (``tolerance``, ``max_iterations``) are checked when set, not per update
+(a :class:`rrps_kinematics.forward.ForwardSolver`).
 """
 
 from __future__ import annotations
