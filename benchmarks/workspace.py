@@ -14,7 +14,7 @@ cones, interference, conditioning). Rows:
   ``limits.margins(inverse_kinematics(...))`` per point, timed on ``--loop-sample`` random grid
   points and EXTRAPOLATED to the whole grid (labelled as such).
 
-Target (issue 29, this 2-core machine): the 1,000,000-point grid (the default) with every limit
+Target (this 2-core machine): the 1,000,000-point grid (the default) with every limit
 in <= 0.5 s (both cores).
 
 Then the volumes of the shipped robots at their home orientation (constant-orientation
@@ -66,7 +66,7 @@ def loop_labels(g, points: np.ndarray, q: np.ndarray) -> np.ndarray:
     return out
 
 
-#: Seconds for the 1,000,000-point grid with every limit (issue 29).
+#: Seconds for the 1,000,000-point grid with every limit (the target).
 GRID_TARGET = 0.5
 
 
