@@ -15,7 +15,8 @@ import math
 import numba
 import numpy as np
 
-from rrps_kinematics.compiled_limits import pose_in_ring_a, scaled_inverse_jacobian, segment_distance, vector_angle
+from rrps_kinematics.compiled import quat_to_matrix
+from rrps_kinematics.compiled_limits import scaled_inverse_jacobian, segment_distance, vector_angle
 from rrps_kinematics.limits import LIMIT_KINDS
 
 __all__ = ['classify_grid', 'classify_grid_parallel', 'inverse_condition', 'WITHIN_LIMITS']
@@ -68,17 +69,26 @@ def inverse_condition(J):
 
 
 @numba.njit(cache=True, nogil=True, error_model='numpy')
-def _classify_pose(g, p, q, R, b_in_a, u, lengths, J):
+def _classify_pose(g, p, q, R, b_in_a, u, lengths, J):  # noqa: C901 - a compiled kernel: flat loops for numba
     """(first limit broken or WITHIN_LIMITS, inverse condition number) of the pose (p, q).
 
     ``g``: :class:`rrps_kinematics.limits.LimitArrays`; a NaN margin counts as broken.
     """
     A, B, axes_a, axes_b, limits = (g.ring_a_anchors, g.ring_b_anchors, g.ring_a_joint_axes,
                                     g.ring_b_joint_axes, g.limits)
-    pose_in_ring_a(A, B, p, q, R, b_in_a, u, lengths)
-    for i in range(6):
+    quat_to_matrix(q, R)
+    for i in range(6):  # compiled_limits.pose_in_ring_a, leg by leg: out at the first stroke broken
+        s = 0.0
+        for k in range(3):
+            b_in_a[i, k] = p[k] + R[k, 0] * B[i, 0] + R[k, 1] * B[i, 1] + R[k, 2] * B[i, 2]
+            d = b_in_a[i, k] - A[i, k]
+            u[i, k] = d
+            s += d * d
+        lengths[i] = math.sqrt(s)
         if not (lengths[i] - limits[0] >= 0.0 and limits[1] - lengths[i] >= 0.0):
             return _STROKE, math.nan
+        for k in range(3):
+            u[i, k] /= lengths[i]
     for i in range(6):
         if not (limits[2] - vector_angle(u[i, 0], u[i, 1], u[i, 2],
                                    axes_a[i, 0], axes_a[i, 1], axes_a[i, 2]) >= 0.0):
