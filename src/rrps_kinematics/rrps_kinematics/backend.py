@@ -117,16 +117,18 @@ def use_numba(backend: str) -> bool:
 
 
 def run_parallel(kernel, *args) -> bool:
-    """Run a ``parallel=True`` kernel, its last argument the number of numba's threads
-    (``NUMBA_NUM_THREADS``, by default the cores), unless another thread of this process is
-    running one (numba's workqueue threading layer aborts the process on concurrent parallel
-    launches) or there is one thread only. True when it ran; False means: call the serial
-    kernel instead (the parallel kernels give the same numbers)."""
-    threads = _numba.get_num_threads()
-    if threads < 2 or not _parallel.acquire(blocking=False):
+    """Run a ``parallel=True`` kernel on numba's threads (``NUMBA_NUM_THREADS``, by default the
+    cores), unless there is one thread only or another thread of this process is running one
+    (numba's workqueue threading layer aborts the process on concurrent parallel launches).
+    The threads take the kernel's tasks one at a time (chunk size 1: on a shared machine a
+    thread that loses its core does not hold up the others' share). True when it ran; False
+    means: call the serial kernel instead (the parallel kernels give the same numbers)."""
+    if _numba.get_num_threads() < 2 or not _parallel.acquire(blocking=False):
         return False
+    chunksize = _numba.set_parallel_chunksize(1)
     try:
-        kernel(*args, threads)
+        kernel(*args)
     finally:
+        _numba.set_parallel_chunksize(chunksize)
         _parallel.release()
     return True

@@ -27,6 +27,8 @@ __all__ = ['ik_lengths_batch', 'ik_lengths_parallel', 'fk_single', 'fk_solve', '
            'fk_batch_parallel', 'quat_to_matrix']
 
 _jit = numba.njit(cache=True, fastmath=False, nogil=True, error_model='numpy')
+#: Rows per task of the parallel batch kernels (the threads take the next task when done).
+PARALLEL_ROWS = 256
 _parallel_jit = numba.njit(cache=True, fastmath=False, nogil=True, parallel=True, error_model='numpy')
 
 
@@ -60,13 +62,12 @@ def ik_lengths_batch(A, B, P, Q, out):
 
 
 @_parallel_jit
-def ik_lengths_parallel(A, B, P, Q, out, threads):
-    """:func:`ik_lengths_batch` in contiguous runs of rows (8 per thread) on numba's ``threads``
-    threads: the same numbers."""
+def ik_lengths_parallel(A, B, P, Q, out):
+    """:func:`ik_lengths_batch` in runs of ``PARALLEL_ROWS`` rows on numba's threads: the same
+    numbers."""
     n = P.shape[0]
-    chunks = min(n, 8 * threads)
-    for c in numba.prange(chunks):
-        start, stop = c * n // chunks, (c + 1) * n // chunks
+    for c in numba.prange((n + PARALLEL_ROWS - 1) // PARALLEL_ROWS):
+        start, stop = c * PARALLEL_ROWS, min(n, (c + 1) * PARALLEL_ROWS)
         ik_lengths_batch(A, B, P[start:stop], Q[start:stop], out[start:stop])
 
 
@@ -268,12 +269,11 @@ def fk_batch(A, B, L, P, Q, inv_scale, tolerance, max_iterations, converged, ite
 
 @_parallel_jit
 def fk_batch_parallel(A, B, L, P, Q, inv_scale, tolerance, max_iterations, converged, iterations,
-                      residual, singular, threads):
-    """:func:`fk_batch` in contiguous runs of rows (8 per thread) on numba's ``threads`` threads,
-    each run solved by the serial kernel: the same numbers bit for bit."""
+                      residual, singular):
+    """:func:`fk_batch` in runs of ``PARALLEL_ROWS`` rows on numba's threads, each run solved by
+    the serial kernel: the same numbers bit for bit."""
     n = L.shape[0]
-    chunks = min(n, 8 * threads)
-    for c in numba.prange(chunks):
-        a, b = c * n // chunks, (c + 1) * n // chunks
+    for c in numba.prange((n + PARALLEL_ROWS - 1) // PARALLEL_ROWS):
+        a, b = c * PARALLEL_ROWS, min(n, (c + 1) * PARALLEL_ROWS)
         fk_batch(A, B, L[a:b], P[a:b], Q[a:b], inv_scale, tolerance, max_iterations, converged[a:b],
                  iterations[a:b], residual[a:b], singular[a:b])

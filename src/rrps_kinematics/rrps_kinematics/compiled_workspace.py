@@ -153,12 +153,7 @@ def classify_grid(g, xs, ys, zs, Q, status, inverse_condition):
 
 
 @numba.njit(cache=True, nogil=True, parallel=True, error_model='numpy')
-def classify_grid_parallel(g, xs, ys, zs, Q, status, inverse_condition, threads):
-    """:func:`classify_grid` on numba's ``threads`` threads, slice by slice of x: the same
-    numbers. The threads take interleaved slices (thread t: i = t, t + T, ...), so that each gets
-    its share of the expensive points inside the workspace."""
-    n = xs.shape[0]
-    order = np.argsort(np.arange(n) % threads, kind='mergesort')
-    for c in numba.prange(n):
-        i = order[c]
+def classify_grid_parallel(g, xs, ys, zs, Q, status, inverse_condition):
+    """:func:`classify_grid` on numba's threads, one slice of x per task: the same numbers."""
+    for i in numba.prange(xs.shape[0]):
         _classify_slice(g, xs[i], ys, zs, Q, status[i], inverse_condition[i])
