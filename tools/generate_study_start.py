@@ -53,7 +53,7 @@ def generic_system(rng):
 def _track(X, P0, P1, gamma, chart):
     n = len(X)
     status, reached, steps = np.zeros(n, dtype=np.int64), np.zeros(n), np.zeros(n, dtype=np.int64)
-    track_all(X, P0, P1, gamma, chart, 1e-9, 0.05, 20000, 1e-10, status, reached, steps)
+    track_all(X, P0, P1, gamma, chart, 1e-9, 0.05, 20000, 1e-10, 0.0, status, reached, steps)
     return status == TRACKED
 
 

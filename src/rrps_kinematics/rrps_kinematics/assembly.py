@@ -9,6 +9,7 @@ solution of the robot's system is the end of one of the 40 paths, so when all 40
 to the end the result is complete (``certified``; docs/assembly_modes.md). The real endpoints
 are polished by Newton (:func:`.forward_kinematics`) and verified by inverse kinematics. When a
 path fails, the multi-start search below runs too and its modes are added (not certified).
+The tracker needs numba: without it (``RRPS_NUMBA=0``) the multi-start runs instead.
 
 ``'multistart'``: damped Newton (:func:`.forward_kinematics`) from a fixed low-discrepancy
 seed set, de-duplicated, each survivor verified by inverse kinematics.
@@ -29,6 +30,7 @@ import numpy as np
 
 from rrps_description.geometry import RobotGeometry
 from rrps_description.rotations import quat_xyzw_to_matrix, rotation_angle_between
+from rrps_kinematics.backend import numba_enabled
 from rrps_kinematics.forward import check_lengths, forward_kinematics
 from rrps_kinematics.inverse import inverse_kinematics
 
@@ -108,7 +110,7 @@ def assembly_modes(geometry: RobotGeometry, lengths, *, method: str = 'continuat
         raise ValueError(f'method must be one of {METHODS}, got {method!r}')
     if int(n_seeds) != n_seeds or n_seeds < 1:
         raise ValueError(f'n_seeds must be a positive integer, got {n_seeds!r}')
-    if method == 'multistart':
+    if method == 'multistart' or not numba_enabled():
         P, Q, res, hits = _multistart(geometry, L, int(n_seeds), tolerance, backend)
         return _modes(geometry, L, P, Q, res, hits, tolerance, seeds=int(n_seeds), method=method)
     from rrps_kinematics.homotopy_run import real_endpoints  # compiles with numba on first use
@@ -162,5 +164,6 @@ def _modes(geometry, L, P, Q, res, hits_in, tolerance, **flags) -> AssemblyModes
     home_R = quat_xyzw_to_matrix(geometry.home_quaternion_xyzw)
     distance = (np.linalg.norm(positions - geometry.home_position, axis=1) / scale
                 + rotation_angle_between(home_R, quat_xyzw_to_matrix(quats)))
-    order = np.argsort(distance, kind='stable')
+    # Mirror-image modes lie at the same distance: ties broken by position, whatever the method.
+    order = np.lexsort((positions[:, 2], positions[:, 1], positions[:, 0], np.round(distance, 9)))
     return AssemblyModes(positions[order], quats[order], residuals[order], hits[order], **flags)

@@ -22,14 +22,15 @@ import numpy as np
 from rrps_kinematics.backend import jit
 
 __all__ = ['study_system', 'track', 'track_all', 'newton_polish',
-           'TRACKED', 'FAILED_STEP', 'FAILED_STEPS', 'DIVERGED', 'DIVERGED_RATIO', 'DIVERGED_FROM']
+           'TRACKED', 'FAILED_STEP', 'FAILED_STEPS', 'DIVERGED', 'DIVERGED_FROM']
 
 #: Path status codes of :func:`track`: reached t = 1; the step size fell below ``min_step``;
 #: more than ``max_steps`` steps; went to e.e = 0 (the pose r = g e* / e.e to infinity).
 TRACKED, FAILED_STEP, FAILED_STEPS, DIVERGED = 0, 1, 2, 3
-#: A path with |e.e| / |x|^2 below DIVERGED_RATIO at t >= DIVERGED_FROM is stopped as DIVERGED
-#: (a real pose has |e.e| / |x|^2 = 1 / (1 + |r|^2) with |r| at most a few characteristic lengths).
-DIVERGED_RATIO, DIVERGED_FROM = 1e-8, 0.99
+#: A path with |e.e| / |x|^2 below ``diverged_ratio`` at t >= DIVERGED_FROM is stopped as DIVERGED.
+DIVERGED_FROM = 0.99
+#: Chord (fixed-Jacobian) Newton iterations of the corrector.
+CORRECTOR_ITERATIONS = 6
 
 
 @jit
@@ -84,33 +85,78 @@ def study_system(x, P, dP, chart, F, J, Ft, K, dK, u):
 
 
 @jit
-def _solve(J, rhs, out):
-    """out <- J^-1 rhs by Gaussian elimination with partial pivoting (J, rhs overwritten);
+def _residual(x, P, chart, F, K):
+    """F <- F(x; P) only (the corrector's chord iterations)."""
+    ee = x[0] * x[0] + x[1] * x[1] + x[2] * x[2] + x[3] * x[3]
+    for i in range(6):
+        _k_matrix(P[i, 0], P[i, 1], P[i, 2], P[i, 3], P[i, 4], P[i, 5], K)
+        f = 0.0j
+        for r in range(4):
+            ur = x[4 + r]
+            for k in range(4):
+                ur += K[r, k] * x[k]
+            f += ur * ur
+        F[i] = f - P[i, 6] * ee
+    F[6] = x[0] * x[4] + x[1] * x[5] + x[2] * x[6] + x[3] * x[7]
+    F[7] = -1.0
+    for k in range(8):
+        F[7] += chart[k] * x[k]
+
+
+@jit
+def _lu(J, piv):
+    """In-place LU factorisation of J (n, n) with partial pivoting (row swaps into piv);
     returns False when a pivot is zero."""
-    n = rhs.shape[0]
+    n = J.shape[0]
     for col in range(n):
-        piv = col
-        best = abs(J[col, col])
-        for r in range(col + 1, n):
-            if abs(J[r, col]) > best:
-                best, piv = abs(J[r, col]), r
+        best, p = -1.0, col
+        for r in range(col, n):
+            v = J[r, col].real * J[r, col].real + J[r, col].imag * J[r, col].imag
+            if v > best:
+                best, p = v, r
         if best == 0.0:
             return False
-        if piv != col:
+        piv[col] = p
+        if p != col:
             for k in range(n):
-                J[col, k], J[piv, k] = J[piv, k], J[col, k]
-            rhs[col], rhs[piv] = rhs[piv], rhs[col]
+                J[col, k], J[p, k] = J[p, k], J[col, k]
+        inv = 1.0 / J[col, col]
         for r in range(col + 1, n):
-            f = J[r, col] / J[col, col]
-            if f != 0.0:
-                for k in range(col, n):
-                    J[r, k] -= f * J[col, k]
-                rhs[r] -= f * rhs[col]
+            f = J[r, col] * inv
+            J[r, col] = f
+            for k in range(col + 1, n):
+                J[r, k] -= f * J[col, k]
+    return True
+
+
+@jit
+def _lu_solve(J, piv, rhs, out):
+    """out <- J^-1 rhs from the factors of :func:`_lu` (rhs kept)."""
+    n = rhs.shape[0]
+    for k in range(n):
+        out[k] = rhs[k]
+    for k in range(n):
+        p = piv[k]
+        if p != k:
+            out[k], out[p] = out[p], out[k]
+    for r in range(n):
+        s = out[r]
+        for k in range(r):
+            s -= J[r, k] * out[k]
+        out[r] = s
     for r in range(n - 1, -1, -1):
-        s = rhs[r]
+        s = out[r]
         for k in range(r + 1, n):
             s -= J[r, k] * out[k]
         out[r] = s / J[r, r]
+
+
+@jit
+def _solve(J, rhs, out, piv):
+    """out <- J^-1 rhs (J overwritten by its factors); False at a zero pivot."""
+    if not _lu(J, piv):
+        return False
+    _lu_solve(J, piv, rhs, out)
     return True
 
 
@@ -127,12 +173,12 @@ def _params_at(P0, P1, gamma, t, P, dP):
 
 
 @jit
-def _velocity(x, P, dP, chart, F, J, Ft, K, dK, u, out):
+def _velocity(x, P, dP, chart, F, J, Ft, K, dK, u, piv, out):
     """out <- dx/dt = -F_x^-1 F_t; False at a singular Jacobian."""
     study_system(x, P, dP, chart, F, J, Ft, K, dK, u)
     for k in range(8):
         Ft[k] = -Ft[k]
-    return _solve(J, Ft, out)
+    return _solve(J, Ft, out, piv)
 
 
 @jit
@@ -155,10 +201,11 @@ def newton_polish(x, P, chart, iterations, tolerance):
     K = np.zeros((4, 4), dtype=np.complex128)
     dK = np.zeros((4, 4), dtype=np.complex128)
     u = np.zeros(4, dtype=np.complex128)
+    piv = np.zeros(8, dtype=np.int64)
     size = np.inf
     for _ in range(iterations):
         study_system(x, P, zero, chart, F, J, Ft, K, dK, u)
-        if not _solve(J, F, dx):
+        if not _solve(J, F, dx, piv):
             return np.inf
         for k in range(8):
             x[k] -= dx[k]
@@ -169,10 +216,11 @@ def newton_polish(x, P, chart, iterations, tolerance):
 
 
 @jit
-def track(x, P0, P1, gamma, chart, min_step, max_step, max_steps, tolerance):  # noqa: C901 - flat kernel
+def track(x, P0, P1, gamma, chart, min_step, max_step, max_steps, tolerance, diverged_ratio):  # noqa: C901 - flat kernel
     """Follow the solution x of F(.; P0) = 0 (in place) to F(.; P1) = 0; returns (status, t
-    reached, steps). Corrector: up to 3 Newton steps to |dx| <= tolerance (1 + |x|), the
-    first at most 0.1 (1 + |x|) (a larger one means the predictor left the path's basin)."""
+    reached, steps). Corrector: up to CORRECTOR_ITERATIONS chord Newton steps to |dx| <= tolerance (1 + |x|), the
+    first at most 0.1 (1 + |x|) (a larger one means the predictor left the path's basin); the
+    Jacobian is factored once per corrector (chord iterations)."""
     F = np.zeros(8, dtype=np.complex128)
     Ft = np.zeros(8, dtype=np.complex128)
     J = np.zeros((8, 8), dtype=np.complex128)
@@ -188,6 +236,7 @@ def track(x, P0, P1, gamma, chart, min_step, max_step, max_steps, tolerance):  #
     K = np.zeros((4, 4), dtype=np.complex128)
     dK = np.zeros((4, 4), dtype=np.complex128)
     u = np.zeros(4, dtype=np.complex128)
+    piv = np.zeros(8, dtype=np.int64)
     t = 0.0
     h = max_step / 4.0
     accepted = 0
@@ -199,7 +248,7 @@ def track(x, P0, P1, gamma, chart, min_step, max_step, max_steps, tolerance):  #
             return FAILED_STEP, t, steps
         if t >= DIVERGED_FROM:
             ee = x[0] * x[0] + x[1] * x[1] + x[2] * x[2] + x[3] * x[3]
-            if abs(ee) < DIVERGED_RATIO * _norm(x) ** 2:
+            if abs(ee) < diverged_ratio * _norm(x) ** 2:
                 return DIVERGED, t, steps
         steps += 1
         last = h >= 1.0 - t
@@ -207,26 +256,30 @@ def track(x, P0, P1, gamma, chart, min_step, max_step, max_steps, tolerance):  #
             h = 1.0 - t
         ok = True
         _params_at(P0, P1, gamma, t, P, dP)
-        ok = ok and _velocity(x, P, dP, chart, F, J, Ft, K, dK, u, k1)
+        ok = ok and _velocity(x, P, dP, chart, F, J, Ft, K, dK, u, piv, k1)
         for k in range(8):
             y[k] = x[k] + 0.5 * h * k1[k]
         _params_at(P0, P1, gamma, t + 0.5 * h, P, dP)
-        ok = ok and _velocity(y, P, dP, chart, F, J, Ft, K, dK, u, k2)
+        ok = ok and _velocity(y, P, dP, chart, F, J, Ft, K, dK, u, piv, k2)
         for k in range(8):
             y[k] = x[k] + 0.5 * h * k2[k]
-        ok = ok and _velocity(y, P, dP, chart, F, J, Ft, K, dK, u, k3)
+        ok = ok and _velocity(y, P, dP, chart, F, J, Ft, K, dK, u, piv, k3)
         for k in range(8):
             y[k] = x[k] + h * k3[k]
         _params_at(P0, P1, gamma, t + h, P, dP)
-        ok = ok and _velocity(y, P, dP, chart, F, J, Ft, K, dK, u, k4)
+        ok = ok and _velocity(y, P, dP, chart, F, J, Ft, K, dK, u, piv, k4)
         if ok:
             for k in range(8):
                 y[k] = x[k] + h / 6.0 * (k1[k] + 2.0 * k2[k] + 2.0 * k3[k] + k4[k])
             converged = False
-            for it in range(3):
-                study_system(y, P, zero, chart, F, J, Ft, K, dK, u)
-                if not _solve(J, F, dx):
+            study_system(y, P, zero, chart, F, J, Ft, K, dK, u)
+            factored = _lu(J, piv)
+            for it in range(CORRECTOR_ITERATIONS):
+                if not factored:
                     break
+                if it > 0:
+                    _residual(y, P, chart, F, K)
+                _lu_solve(J, piv, F, dx)
                 for k in range(8):
                     y[k] -= dx[k]
                 size, scale = _norm(dx), 1.0 + _norm(y)
@@ -251,12 +304,13 @@ def track(x, P0, P1, gamma, chart, min_step, max_step, max_steps, tolerance):  #
 
 
 @jit
-def track_all(X, P0, P1, gamma, chart, min_step, max_step, max_steps, tolerance, status, reached, steps):
+def track_all(X, P0, P1, gamma, chart, min_step, max_step, max_steps, tolerance, diverged_ratio, status, reached,
+              steps):
     """:func:`track` for every row of X (n, 8) in place, then 3 Newton steps at P1 on each
     tracked endpoint; per-path status, t reached and step count into the output arrays."""
     for n in range(X.shape[0]):
         x = X[n]
-        s, t, k = track(x, P0, P1, gamma, chart, min_step, max_step, max_steps, tolerance)
+        s, t, k = track(x, P0, P1, gamma, chart, min_step, max_step, max_steps, tolerance, diverged_ratio)
         status[n], reached[n], steps[n] = s, t, k
         if s == TRACKED:
             newton_polish(x, P1, chart, 3, 1e-15)

@@ -15,14 +15,18 @@ import numpy as np
 
 from rrps_description.geometry import RobotGeometry
 from rrps_kinematics import study_start
-from rrps_kinematics.homotopy import DIVERGED, TRACKED, track_all
+from rrps_kinematics.homotopy import DIVERGED, FAILED_STEP, TRACKED, track_all
 
-__all__ = ['Endpoints', 'IMAG_TOLERANCE', 'PATHS', 'end_points', 'real_endpoints', 'study_parameters']
+__all__ = ['Endpoints', 'IMAG_TOLERANCE', 'PATHS', 'SHARED_END', 'end_points', 'real_endpoints', 'study_parameters']
 
 PATHS = len(study_start.SOLUTIONS)
 IMAG_TOLERANCE = 1e-7
 #: Tracker settings: smallest and largest step in t, most steps per path, corrector tolerance.
-MIN_STEP, MAX_STEP, MAX_STEPS, TOLERANCE = 1e-9, 0.1, 5000, 1e-10
+MIN_STEP, MAX_STEP, MAX_STEPS, TOLERANCE = 1e-9, 0.2, 5000, 1e-10
+#: Status of paths whose endpoints coincide (relative distance <= SAME_END): counted as failed.
+SHARED_END, SAME_END = 4, 1e-8
+#: How far below the least |e.e| / |x|^2 of a real pose a path counts as diverged (:func:`end_points`).
+DIVERGED_MARGIN = 1e-6
 
 
 @dataclass(frozen=True)
@@ -59,13 +63,20 @@ def study_parameters(geometry: RobotGeometry, lengths: np.ndarray) -> np.ndarray
 
 
 def end_points(P1: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Track the 40 shipped solutions to the system of parameters P1: (ends (40, 8), status, steps)."""
+    """Track the 40 shipped solutions to the system of parameters P1: (ends (40, 8), status, steps).
+
+    A path is stopped as diverged below |e.e| / |x|^2 = DIVERGED_MARGIN / (1 + R^2), R = max_i
+    |a_i| + |b_i| + L_i: every real pose has |r| <= R, so |e.e| / |x|^2 = 1 / (1 + |r|^2) >= 1 / (1 + R^2).
+    """
+    radius = np.max(np.linalg.norm(P1[:, :3], axis=1)
+                    + np.linalg.norm(P1[:, 3:6], axis=1) + np.sqrt(np.abs(P1[:, 6])))
     X = study_start.SOLUTIONS.copy()
     status = np.zeros(PATHS, dtype=np.int64)
     reached = np.zeros(PATHS)
     steps = np.zeros(PATHS, dtype=np.int64)
     track_all(X, study_start.PARAMETERS, np.ascontiguousarray(P1, dtype=np.complex128), study_start.GAMMA,
-              study_start.CHART, MIN_STEP, MAX_STEP, MAX_STEPS, TOLERANCE, status, reached, steps)
+              study_start.CHART, MIN_STEP, MAX_STEP, MAX_STEPS, TOLERANCE, DIVERGED_MARGIN / (1.0 + radius ** 2),
+              status, reached, steps)
     return X, status, steps
 
 
@@ -73,6 +84,13 @@ def real_endpoints(geometry: RobotGeometry, lengths: np.ndarray) -> Endpoints:
     """The real poses at the ends of the 40 paths for ``lengths`` (6,) (checked by the caller)."""
     X, status, steps = end_points(study_parameters(geometry, lengths))
     ok = (status == TRACKED) & np.all(np.isfinite(X), axis=1)
+    status[(status == TRACKED) & ~ok] = FAILED_STEP
+    # Two paths ending at one point: a jump between paths, or a singular (multiple) solution.
+    ends = X[ok]
+    distance = np.linalg.norm(ends[:, None, :] - ends[None, :, :], axis=2)
+    np.fill_diagonal(distance, np.inf)
+    shared = np.min(distance, axis=1, initial=np.inf) <= SAME_END * (1.0 + np.linalg.norm(ends, axis=1))
+    status[np.flatnonzero(ok)[shared]] = SHARED_END
     Y = X[ok]
     ee = np.sum(Y[:, :4] ** 2, axis=1)
     Y = Y / np.sqrt(ee)[:, None]
