@@ -34,9 +34,11 @@ from rrps_kinematics.backend import numba_enabled
 from rrps_kinematics.forward import check_lengths, forward_kinematics
 from rrps_kinematics.inverse import inverse_kinematics
 
-__all__ = ['AssemblyModes', 'METHODS', 'assembly_modes', 'halton', 'seed_poses']
+__all__ = ['AssemblyModes', 'METHODS', 'PATHS', 'assembly_modes', 'halton', 'seed_poses']
 
 METHODS = ('continuation', 'multistart')
+#: Homotopy paths: the generic number of complex FK solutions (:mod:`.study_start`).
+PATHS = 40
 
 _PRIMES = (2, 3, 5, 7, 11, 13)
 
