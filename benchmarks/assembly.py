@@ -9,7 +9,7 @@ its home lengths and at lengths changed by a few percent. For each: the continua
 (``assembly_modes(method='continuation')``, median wall and CPU time over ``--repeats`` calls),
 the baseline multi-start search (``method='multistart'``, 20000 seeds, median over
 ``--baseline-repeats``), whether both found the same set of modes (to 1e-9), and the paths'
-record. Target (issue 29, this 2-core machine): every real mode in <= 50 ms (wall, median),
+record. Target (this 2-core machine): every real mode in <= 50 ms (wall, median),
 certified (all 40 paths tracked).
 """
 

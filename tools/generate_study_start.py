@@ -91,9 +91,10 @@ def monodromy(seed: int, quiet_loops: int = 5, max_loops: int = 60):
 
 
 def _format(name: str, array: np.ndarray) -> str:
-    rows = [', '.join(f'{complex(v)!r}' for v in row) for row in array.reshape(len(array), -1)]
-    shape = array.shape
-    return f'{name} = np.array([\n' + ''.join(f'    [{r}],\n' for r in rows) + f']).reshape{shape}\n'
+    """``NAME = np.array([...])`` with two complex numbers a line (lines under 120 characters)."""
+    values = [f'{complex(v)!r}' for v in array.ravel()]
+    lines = [', '.join(values[k:k + 2]) for k in range(0, len(values), 2)]
+    return f'{name} = np.array([\n' + ''.join(f'    {line},\n' for line in lines) + f']).reshape{array.shape}\n'
 
 
 def write(path: Path, seed: int) -> None:
@@ -103,7 +104,7 @@ def write(path: Path, seed: int) -> None:
             '(40, 8) and the gamma of the parameter homotopy (:mod:`.homotopy`). Do not edit."""\n\n'
             'import numpy as np\n\n'
             f'SEED = {seed}\nGAMMA = {gamma!r}\n'
-            + _format('CHART', chart[None, :]).replace('reshape(1, 8)', 'reshape(8)')
+            + _format('CHART', chart)
             + _format('PARAMETERS', P) + _format('SOLUTIONS', X))
     path.write_text(text)
     print(f'wrote {path}')
