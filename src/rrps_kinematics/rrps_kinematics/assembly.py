@@ -7,8 +7,9 @@ can be real (Dietmaier 1998). :func:`assembly_modes` finds the real ones by one 
 the 40 solutions of a generic complex system shipped in :mod:`.study_start`; every isolated
 solution of the robot's system is the end of one of the 40 paths, so when all 40 are tracked
 to the end the result is complete (``certified``; docs/assembly_modes.md). The real endpoints
-are polished by Newton (:func:`.forward_kinematics`) and verified by inverse kinematics. When a
-path fails, the multi-start search below runs too and its modes are added (not certified).
+are polished by Newton (:func:`.forward_kinematics`) and verified by inverse kinematics. A path
+that fails makes the 40 be tracked again with another gamma (up to three); when one still fails,
+the multi-start search below runs too and its modes are added (not certified).
 The tracker needs numba: without it (``RRPS_NUMBA=0``) the multi-start runs instead.
 
 ``'multistart'``: damped Newton (:func:`.forward_kinematics`) from a fixed low-discrepancy

@@ -17,7 +17,7 @@ from rrps_description.geometry import RobotGeometry
 from rrps_kinematics import study_start
 from rrps_kinematics.homotopy import DIVERGED, FAILED_STEP, TRACKED, track_all
 
-__all__ = ['Endpoints', 'IMAG_TOLERANCE', 'PATHS', 'SHARED_END', 'end_points', 'real_endpoints', 'study_parameters']
+__all__ = ['Endpoints', 'GAMMAS', 'IMAG_TOLERANCE', 'PATHS', 'SHARED_END', 'end_points', 'real_endpoints', 'study_parameters']
 
 PATHS = len(study_start.SOLUTIONS)
 IMAG_TOLERANCE = 1e-7
@@ -27,6 +27,10 @@ MIN_STEP, MAX_STEP, MAX_STEPS, TOLERANCE = 1e-9, 0.2, 5000, 1e-10
 SHARED_END, SAME_END = 4, 1e-8
 #: How far below the least |e.e| / |x|^2 of a real pose a path counts as diverged (:func:`end_points`).
 DIVERGED_MARGIN = 1e-6
+#: The gamma of the homotopy, then two others (fixed, arbitrary) tried when a path fails: a path
+#: that passes close to a point where solutions meet or leave to e.e = 0 fails for one gamma
+#: (about one robot in ten), and the whole homotopy is then tracked again with the next.
+GAMMAS = (study_start.GAMMA, 0.6 + 0.8j, -0.3 + 0.95j)
 
 
 @dataclass(frozen=True)
@@ -34,13 +38,15 @@ class Endpoints:
     """Real poses at the paths' ends ((M, 3) [m], (M, 4) xyzw with w >= 0) and the paths' record:
     ``status`` (40,) (a :mod:`.homotopy` status code), ``steps`` (40,), ``failed`` the number of
     paths that neither reached t = 1 nor diverged, ``diverged`` those that went to e.e = 0
-    (no pose), ``ends`` (40, 8) the complex endpoints (or where a path stopped)."""
+    (no pose), ``ends`` (40, 8) the complex endpoints (or where a path stopped), ``attempts`` the
+    number of gammas tried (the record is that of the last)."""
 
     positions: np.ndarray
     quaternions_xyzw: np.ndarray
     status: np.ndarray
     steps: np.ndarray
     ends: np.ndarray
+    attempts: int
 
     @property
     def failed(self) -> int:
@@ -62,8 +68,10 @@ def study_parameters(geometry: RobotGeometry, lengths: np.ndarray) -> np.ndarray
     return P
 
 
-def end_points(P1: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Track the 40 shipped solutions to the system of parameters P1: (ends (40, 8), status, steps).
+def end_points(P1: np.ndarray, gamma: complex) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Track the 40 shipped solutions to the system of parameters P1 with ``gamma``: (ends (40, 8),
+    status, steps); two paths ending at one point are both SHARED_END (a jump between paths, or
+    a singular solution).
 
     A path is stopped as diverged below |e.e| / |x|^2 = DIVERGED_MARGIN / (1 + R^2), R = max_i
     |a_i| + |b_i| + L_i: every real pose has |r| <= R, so |e.e| / |x|^2 = 1 / (1 + |r|^2) >= 1 / (1 + R^2).
@@ -74,24 +82,27 @@ def end_points(P1: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     status = np.zeros(PATHS, dtype=np.int64)
     reached = np.zeros(PATHS)
     steps = np.zeros(PATHS, dtype=np.int64)
-    track_all(X, study_start.PARAMETERS, np.ascontiguousarray(P1, dtype=np.complex128), study_start.GAMMA,
-              study_start.CHART, MIN_STEP, MAX_STEP, MAX_STEPS, TOLERANCE, DIVERGED_MARGIN / (1.0 + radius ** 2),
+    track_all(X, study_start.PARAMETERS, np.ascontiguousarray(P1, dtype=np.complex128), gamma, study_start.CHART, MIN_STEP, MAX_STEP, MAX_STEPS, TOLERANCE, DIVERGED_MARGIN / (1.0 + radius ** 2),
               status, reached, steps)
-    return X, status, steps
-
-
-def real_endpoints(geometry: RobotGeometry, lengths: np.ndarray) -> Endpoints:
-    """The real poses at the ends of the 40 paths for ``lengths`` (6,) (checked by the caller)."""
-    X, status, steps = end_points(study_parameters(geometry, lengths))
     ok = (status == TRACKED) & np.all(np.isfinite(X), axis=1)
     status[(status == TRACKED) & ~ok] = FAILED_STEP
-    # Two paths ending at one point: a jump between paths, or a singular (multiple) solution.
     ends = X[ok]
     distance = np.linalg.norm(ends[:, None, :] - ends[None, :, :], axis=2)
     np.fill_diagonal(distance, np.inf)
     shared = np.min(distance, axis=1, initial=np.inf) <= SAME_END * (1.0 + np.linalg.norm(ends, axis=1))
     status[np.flatnonzero(ok)[shared]] = SHARED_END
-    Y = X[ok]
+    return X, status, steps
+
+
+def real_endpoints(geometry: RobotGeometry, lengths: np.ndarray) -> Endpoints:
+    """The real poses at the ends of the 40 paths for ``lengths`` (6,) (checked by the caller):
+    tracked with each of GAMMAS in turn until no path fails."""
+    P1 = study_parameters(geometry, lengths)
+    for attempt, gamma in enumerate(GAMMAS, 1):
+        X, status, steps = end_points(P1, gamma)
+        if not np.any((status != TRACKED) & (status != DIVERGED)):
+            break
+    Y = X[status == TRACKED]
     ee = np.sum(Y[:, :4] ** 2, axis=1)
     Y = Y / np.sqrt(ee)[:, None]
     real = np.max(np.abs(Y.imag), axis=1) <= IMAG_TOLERANCE * np.linalg.norm(Y, axis=1)
@@ -102,7 +113,7 @@ def real_endpoints(geometry: RobotGeometry, lengths: np.ndarray) -> Endpoints:
     q = np.concatenate([e[:, 1:], e[:, :1]], axis=1)
     q /= np.linalg.norm(q, axis=1, keepdims=True)
     q *= np.where(q[:, 3:] < 0.0, -1.0, 1.0)
-    return Endpoints(r, q, status, steps, X)
+    return Endpoints(r, q, status, steps, X, attempt)
 
 
 def _vector_product(p: np.ndarray, q: np.ndarray) -> np.ndarray:

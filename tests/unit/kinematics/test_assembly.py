@@ -95,6 +95,37 @@ def test_shipped_robots_continuation_matches_multistart(robot):
         _same_set(modes, assembly_modes(g, L, method='multistart', n_seeds=6000), 1e-9)
 
 
+def test_random_robots_continuation_matches_multistart():
+    """Random anchors (every other robot with planar rings) and the lengths of a random pose:
+    certified (a second or third gamma may be needed), and the same set as the multi-start."""
+    _continuation_required()
+    rng = np.random.default_rng(1)
+    for k in range(4):
+        A, B = rng.uniform(-1, 1, (6, 3)), rng.uniform(-0.7, 0.7, (6, 3))
+        if k % 2:
+            A[:, 2] = B[:, 2] = 0.0
+        q = rng.normal(size=4)
+        p = rng.uniform(-0.5, 0.5, 3) + [0.0, 0.0, 1.0]
+        L = np.linalg.norm(p + B @ quat_xyzw_to_matrix(q / np.linalg.norm(q)).T - A, axis=1)
+        g = RobotGeometry(ring_a_anchors=A, ring_b_anchors=B, name=f'random_{k}')
+        modes = assembly_modes(g, L)
+        assert modes.certified and modes.method == 'continuation'
+        _same_set(modes, assembly_modes(g, L, method='multistart'), 1e-9)
+
+
+def test_failed_paths_bring_in_the_multistart(monkeypatch):
+    """Paths that cannot end (here: at most 3 steps each) make the result uncertified and add
+    the multi-start's modes."""
+    _continuation_required()
+    from rrps_kinematics import homotopy_run
+    monkeypatch.setattr(homotopy_run, 'MAX_STEPS', 3)
+    g = load_robot('pole_climber')
+    modes = assembly_modes(g, g.home_lengths, n_seeds=4000)
+    assert not modes.certified and modes.paths_failed == 40 and modes.method == 'continuation+multistart'
+    assert modes.seeds == 4000
+    _same_set(modes, assembly_modes(g, g.home_lengths, method='multistart', n_seeds=4000), 1e-12)
+
+
 def test_home_pose_is_the_first_mode_and_planar_rings_mirror():
     g = load_robot('pole_climber')
     modes = assembly_modes(g, g.home_lengths, n_seeds=4000)
