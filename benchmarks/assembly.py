@@ -81,7 +81,8 @@ def main(argv=None) -> int:
           f'load average {os.getloadavg()[0]:.1f}, {args.repeats} continuation / {args.baseline_repeats} '
           'multi-start calls per case')
     header = (f'{"case":34s} {"modes":>5s} {"cert.":>5s} {"div.":>4s} {"steps":>5s} {"cont. ms":>9s} '
-              f'{"CPU ms":>7s} {"tries":>5s} {"multi ms":>9s} {"speed-up":>8s} {"same set":>8s}  target <= {TARGET_MS:.0f} ms')
+              f'{"CPU ms":>7s} {"tries":>5s} {"multi ms":>9s} {"speed-up":>8s} {"same set":>8s}  '
+              f'target <= {TARGET_MS:.0f} ms')
     print(header)
     print('-' * len(header))
     results = []

@@ -79,8 +79,9 @@ class AssemblyModes:
     check max |l - L| [m], ``hits`` (M,) how many seeds or paths converged to each, ``seeds``
     the number of multi-start seeds tried (0 when none ran). ``method``: 'continuation',
     'multistart' or 'continuation+multistart' (a failed path brought in the fallback).
-    ``certified``: all 40 homotopy paths were tracked to their end, so no real mode is missing.
-    ``paths_failed``: homotopy paths that did not reach their end.
+    ``certified``: with one gamma, every one of the 40 homotopy paths was tracked to its end (or
+    to e.e = 0, no pose), so no real mode is missing. ``paths_failed``: paths that did neither,
+    with the last gamma tried (0 when certified).
     """
 
     positions: np.ndarray

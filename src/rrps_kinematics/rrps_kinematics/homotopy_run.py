@@ -17,7 +17,8 @@ from rrps_description.geometry import RobotGeometry
 from rrps_kinematics import study_start
 from rrps_kinematics.homotopy import DIVERGED, FAILED_STEP, TRACKED, track_all
 
-__all__ = ['Endpoints', 'GAMMAS', 'IMAG_TOLERANCE', 'PATHS', 'SHARED_END', 'end_points', 'real_endpoints', 'study_parameters']
+__all__ = ['Endpoints', 'GAMMAS', 'IMAG_TOLERANCE', 'PATHS', 'SHARED_END', 'end_points', 'real_endpoints',
+           'study_parameters']
 
 PATHS = len(study_start.SOLUTIONS)
 IMAG_TOLERANCE = 1e-7
@@ -82,8 +83,8 @@ def end_points(P1: np.ndarray, gamma: complex) -> tuple[np.ndarray, np.ndarray, 
     status = np.zeros(PATHS, dtype=np.int64)
     reached = np.zeros(PATHS)
     steps = np.zeros(PATHS, dtype=np.int64)
-    track_all(X, study_start.PARAMETERS, np.ascontiguousarray(P1, dtype=np.complex128), gamma, study_start.CHART, MIN_STEP, MAX_STEP, MAX_STEPS, TOLERANCE, DIVERGED_MARGIN / (1.0 + radius ** 2),
-              status, reached, steps)
+    track_all(X, study_start.PARAMETERS, np.ascontiguousarray(P1, dtype=np.complex128), gamma, study_start.CHART,
+              MIN_STEP, MAX_STEP, MAX_STEPS, TOLERANCE, DIVERGED_MARGIN / (1.0 + radius ** 2), status, reached, steps)
     ok = (status == TRACKED) & np.all(np.isfinite(X), axis=1)
     status[(status == TRACKED) & ~ok] = FAILED_STEP
     ends = X[ok]
