@@ -243,7 +243,7 @@ def _modes(g: RobotGeometry, lengths: np.ndarray, method: str) -> tuple[dict, li
             'modes': [{'position': p.tolist(), 'quaternion_xyzw': q.tolist(), 'residual': float(r),
                        'within_limits': bool(k)}
                       for p, q, r, k in zip(modes.positions, modes.quaternions_xyzw, modes.residuals, ok)]}
-    how = (f'by continuation, certified complete (all {PATHS} paths tracked)' if modes.certified
+    how = (f'by continuation, certified complete (all {PATHS} paths ended)' if modes.certified
            else f'by {modes.method}' + (f' ({modes.seeds} seeds)' if modes.seeds else '')
            + (f', NOT certified: {modes.paths_failed} of {PATHS} paths failed' if modes.paths_failed else ''))
     lines = [f'robot: {g.name}', f'{len(modes)} real assembly modes {how}, nearest to home first',

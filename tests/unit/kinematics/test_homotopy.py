@@ -121,3 +121,12 @@ def test_a_real_pose_solves_the_robots_study_system():
     x = np.concatenate([e, _qmul(np.r_[0.0, r / s], e)])
     chart = np.r_[1.0, np.zeros(7)] / e[0]
     assert np.max(np.abs(_system(x, study_parameters(g, L), chart))) < 1e-12
+
+
+def test_one_compiled_signature_serves_every_caller(H, S):
+    """The warm-up's call (assembly_modes) compiles what the tests and the generator call too."""
+    from rrps_kinematics import assembly_modes
+    g = load_robot('pole_climber')
+    assembly_modes(g, g.home_lengths)
+    _run(H, S.SOLUTIONS[:2].copy(), S.PARAMETERS, S.PARAMETERS * 1.01, 0.6 + 0.8j, S.CHART)
+    assert len(H.track_all.signatures) == 1

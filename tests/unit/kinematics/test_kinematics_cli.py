@@ -98,7 +98,7 @@ def test_modes_lists_every_assembly_mode(capsys):
     assert code == 0 and f'{data["count"]} real assembly modes' in out
     if numba_enabled():
         assert data['method'] == 'continuation' and data['certified'] is True and data['paths_failed'] == 0
-        assert 'certified complete (all 40 paths tracked)' in out
+        assert 'certified complete (all 40 paths ended)' in out
     multistart = _json(capsys, 'modes', '--lengths', lengths, '--method', 'multistart')
     assert multistart['method'] == 'multistart' and multistart['certified'] is False
     assert multistart['count'] == data['count'] and multistart['seeds'] == 20000
