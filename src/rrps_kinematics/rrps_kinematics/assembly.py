@@ -10,7 +10,8 @@ to the end the result is complete (``certified``; docs/assembly_modes.md). The r
 are polished by Newton (:func:`.forward_kinematics`) and verified by inverse kinematics. A path
 that fails makes the 40 be tracked again with another gamma (up to three); when one still fails,
 the multi-start search below runs too and its modes are added (not certified).
-The tracker needs numba: without it (``RRPS_NUMBA=0``) the multi-start runs instead.
+The tracker is compiled by numba: without it (``RRPS_NUMBA=0``, or ``backend='numpy'``) the
+multi-start runs instead (``method`` of the result says which ran).
 
 ``'multistart'``: damped Newton (:func:`.forward_kinematics`) from a fixed low-discrepancy
 seed set, de-duplicated, each survivor verified by inverse kinematics.
@@ -31,7 +32,7 @@ import numpy as np
 
 from rrps_description.geometry import RobotGeometry
 from rrps_description.rotations import quat_xyzw_to_matrix, rotation_angle_between
-from rrps_kinematics.backend import numba_enabled
+from rrps_kinematics.backend import use_numba
 from rrps_kinematics.forward import check_lengths, forward_kinematics
 from rrps_kinematics.inverse import inverse_kinematics
 
@@ -114,9 +115,9 @@ def assembly_modes(geometry: RobotGeometry, lengths, *, method: str = 'continuat
         raise ValueError(f'method must be one of {METHODS}, got {method!r}')
     if int(n_seeds) != n_seeds or n_seeds < 1:
         raise ValueError(f'n_seeds must be a positive integer, got {n_seeds!r}')
-    if method == 'multistart' or not numba_enabled():
+    if method == 'multistart' or not use_numba(backend):
         P, Q, res, hits = _multistart(geometry, L, int(n_seeds), tolerance, backend)
-        return _modes(geometry, L, P, Q, res, hits, tolerance, seeds=int(n_seeds), method=method)
+        return _modes(geometry, L, P, Q, res, hits, tolerance, seeds=int(n_seeds), method='multistart')
     from rrps_kinematics.homotopy_run import real_endpoints  # compiles with numba on first use
     ends = real_endpoints(geometry, L)
     fk = forward_kinematics(geometry, np.broadcast_to(L, (len(ends.positions), 6)), ends.positions,

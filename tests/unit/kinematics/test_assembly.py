@@ -113,6 +113,13 @@ def test_random_robots_continuation_matches_multistart():
         _same_set(modes, assembly_modes(g, L, method='multistart'), 1e-9)
 
 
+def test_without_numba_the_multistart_runs():
+    g = load_robot('master_robot')
+    modes = assembly_modes(g, g.home_lengths, n_seeds=1500, backend='numpy')
+    assert modes.method == 'multistart' and not modes.certified and modes.seeds == 1500
+    _same_set(modes, assembly_modes(g, g.home_lengths, method='multistart', n_seeds=1500, backend='numpy'), 0.0)
+
+
 def test_failed_paths_bring_in_the_multistart(monkeypatch):
     """Paths that cannot end (here: at most 3 steps each) make the result uncertified and add
     the multi-start's modes."""
