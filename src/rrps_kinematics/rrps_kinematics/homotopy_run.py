@@ -23,7 +23,7 @@ __all__ = ['Endpoints', 'GAMMAS', 'IMAG_TOLERANCE', 'PATHS', 'SHARED_END', 'end_
 PATHS = len(study_start.SOLUTIONS)
 IMAG_TOLERANCE = 1e-7
 #: Tracker settings: smallest and largest step in t, most steps per path, corrector tolerance.
-MIN_STEP, MAX_STEP, MAX_STEPS, TOLERANCE = 1e-9, 0.2, 5000, 1e-10
+MIN_STEP, MAX_STEP, MAX_STEPS, TOLERANCE = 1e-9, 0.2, 1000, 1e-10
 #: Status of paths whose endpoints coincide (relative distance <= SAME_END): counted as failed.
 SHARED_END, SAME_END = 4, 1e-8
 #: How far below the least |e.e| / |x|^2 of a real pose a path counts as diverged (:func:`end_points`).
