@@ -4,7 +4,8 @@ The kernels are compiled on their first call and cached on disk (``cache=True``,
 sources of every kernel: :func:`rrps_kinematics.backend.jit`). Without this, the first climbing
 step's preview (the dynamics), the first FK and the teleop guards would each wait for numba to
 compile them in a running node. This runs each of them once, with the argument types the stack
-uses: IK and FK, the limits of one pose, the teleop guards and a short preview on either ring.
+uses: IK and FK, the limits of one pose, the assembly modes' path tracker, the teleop guards and a
+short preview on either ring.
 Nothing is compiled when numba is off (``RRPS_NUMBA=0``) or missing.
 """
 
@@ -28,7 +29,7 @@ def warm_up(robot: str = ROBOT) -> float:
     """Run every compiled kernel once; returns the seconds it took (0 when numba is off)."""
     if not numba_enabled():
         return 0.0
-    from rrps_kinematics import forward_kinematics
+    from rrps_kinematics import assembly_modes, forward_kinematics
     from rrps_kinematics.limits import pose_margins
     from rrps_sim.preview import PreviewMotion, preview_step
     from rrps_teleop.mapping import TeleopMapping
@@ -37,6 +38,7 @@ def warm_up(robot: str = ROBOT) -> float:
     g = load_robot(robot)
     p, q = np.array(g.home_position, dtype=float), np.array(g.home_quaternion_xyzw, dtype=float)
     forward_kinematics(g, g.home_lengths)
+    assembly_modes(g, g.home_lengths)     # the homotopy kernels and the batch FK that polishes
     pose_margins(g, p, q)
     TeleopMapping(g)                      # compiles the guards' kernels on construction
     path = p + np.outer(np.linspace(0.0, 0.002, 3), [0.0, 0.0, 1.0])
