@@ -26,7 +26,6 @@ import argparse
 import asyncio
 import os
 import secrets
-import signal
 import socket
 import subprocess
 import sys
@@ -35,7 +34,7 @@ import time
 
 import numpy as np
 
-from rrps_testing.processes import cpu_seconds  # noqa: E402
+from rrps_testing.processes import cpu_seconds, interrupt  # noqa: E402
 
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 80))
@@ -239,12 +238,7 @@ def main() -> int:
         if busy is not None:
             busy.kill()
             busy.wait()
-        demo.send_signal(signal.SIGINT)
-        try:
-            demo.wait(timeout=15.0)
-        except subprocess.TimeoutExpired:
-            demo.kill()
-            demo.wait()
+        interrupt(demo, timeout=15.0)
 
     base, loaded = _periods(recorded, t0, t1), _periods(recorded, t2, t3)
     print(f'\nViewer load: demo stack (driver 500 Hz) with {args.clients} websocket viewers, '

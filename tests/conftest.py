@@ -160,8 +160,7 @@ def playwright_dir() -> str:
 
 # Two pytest-xdist workers (./rrps test). The browser test and then the system tests (processes,
 # network namespaces, the CANopen bus, timing under load) run one after another on one worker;
-# the unit and node tests on the other, at a lower priority. (Beside the system tests, the
-# browser test drew the robot's workspace with half its pixels, in two full runs of two.)
+# the unit and node tests on the other, at a lower priority.
 SERIAL_LEVELS = ('tests/system/', 'tests/browser/')
 #: Run last on their worker: the CANopen tests starve under a concurrent browser.
 LAST = ('tests/system/test_canopen',)

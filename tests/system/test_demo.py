@@ -23,6 +23,7 @@ from rrps_runtime.supervision import (
     process_alive,
     scheduling_of,
 )
+from rrps_testing.processes import interrupt
 
 pytestmark = [pytest.mark.ros]
 
@@ -50,16 +51,6 @@ def _command() -> list[str]:
     return [str(DEMO)] if DEMO.exists() else [sys.executable, '-m', 'rrps_bringup.demo']
 
 
-def _stop(proc: subprocess.Popen) -> None:
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGINT)
-        try:
-            proc.wait(timeout=60)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize('hardware', ['simulated', 'canopen'])
 def test_headless_demo_runs_a_teleop_session_and_a_climb(ros_domain_id, hardware):
@@ -70,7 +61,7 @@ def test_headless_demo_runs_a_teleop_session_and_a_climb(ros_domain_id, hardware
     try:
         out, _ = proc.communicate(timeout=480)
     finally:
-        _stop(proc)
+        interrupt(proc)
     assert proc.returncode == 0, out[-3000:]
     for line in ('[PASS] deadman held: teleop engaged', '[PASS] slave followed the master',
                  '[PASS] deadman released: disengaged', '[PASS] climb step executed and ended idle',
@@ -102,7 +93,7 @@ def test_demo_prints_url_and_token_serves_the_viewer_and_stops_on_ctrl_c(ros_dom
         proc.send_signal(signal.SIGINT)
         out, _ = proc.communicate(timeout=60)  # returns as soon as it stopped
     finally:
-        _stop(proc)
+        interrupt(proc)
     assert proc.returncode == 0, out[-2000:]
     assert 'rrps demo: stopping' in out
     assert 'Traceback' not in out, out[-2000:]
@@ -172,7 +163,7 @@ def test_a_killed_demo_takes_its_robot_processes_with_it_and_ctrl_c_stops_it_fas
                 time.sleep(0.05)
             assert not any(process_alive(c) for c in children), f'{how}: a child outlived the demo'
         finally:
-            _stop(proc)
+            interrupt(proc)
 
 
 @pytest.mark.parametrize('state_file', ['', '/tmp/rrps-driver-state.json'])

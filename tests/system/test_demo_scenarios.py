@@ -17,7 +17,6 @@ from __future__ import annotations
 import math
 import os
 import re
-import signal
 import socket
 import subprocess
 import sys
@@ -27,6 +26,7 @@ import numpy as np
 import pytest
 
 from rrps_description.geometry import load_robot
+from rrps_testing.processes import interrupt
 from rrps_testing.virtual_work import quaternion_matrix, rotation_x, virtual_work_forces
 
 pytestmark = [pytest.mark.ros]
@@ -66,13 +66,7 @@ def _run(ros_domain_id: int, name: str) -> str:
     try:
         out, _ = proc.communicate(timeout=600)  # a loaded machine: generous; no timing is checked
     finally:
-        if proc.poll() is None:
-            proc.send_signal(signal.SIGINT)
-            try:
-                proc.wait(timeout=60)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
+        interrupt(proc)
     assert proc.returncode == 0, out[-4000:]
     return out
 
@@ -199,13 +193,7 @@ def test_the_viewer_scenario_draws_the_structure_as_it_stands_with_the_robot_on_
             assert wait_for(future.done)
         probe.destroy_node()
     finally:
-        if proc.poll() is None:
-            proc.send_signal(signal.SIGINT)
-            try:
-                proc.wait(timeout=60)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
+        interrupt(proc)
     drawn = [v.string_value or v.double_value for v in future.result().values]
     directions = _structure_directions(structure())
     q = odometry[-1].pose.orientation

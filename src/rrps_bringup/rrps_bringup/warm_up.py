@@ -5,7 +5,8 @@ sources of every kernel: :func:`rrps_kinematics.backend.jit`). Without this, the
 step's preview (the dynamics), the first FK and the teleop guards would each wait for numba to
 compile them in a running node. This runs each of them once, with the argument types the stack
 uses: IK and FK (single, and batches serial and on every thread), the reachable workspace
-(serial and parallel), the limits of one pose, the teleop guards and a short preview on either ring.
+(serial and parallel), the limits of one pose, the assembly modes' path tracker, the teleop guards
+and a short preview on either ring.
 Nothing is compiled when numba is off (``RRPS_NUMBA=0``) or missing.
 """
 
@@ -29,7 +30,7 @@ def warm_up(robot: str = ROBOT) -> float:
     """Run every compiled kernel once; returns the seconds it took (0 when numba is off)."""
     if not numba_enabled():
         return 0.0
-    from rrps_kinematics import forward_kinematics, leg_lengths
+    from rrps_kinematics import assembly_modes, forward_kinematics, leg_lengths
     from rrps_kinematics.backend import PARALLEL_BATCH
     from rrps_kinematics.limits import pose_margins
     from rrps_kinematics.workspace import reachable_workspace
@@ -46,6 +47,7 @@ def warm_up(robot: str = ROBOT) -> float:
     stroke = g.max_length - g.min_length
     for resolution in (stroke, stroke / 10):
         reachable_workspace(g, resolution=resolution)
+    assembly_modes(g, g.home_lengths)     # the homotopy kernels and the batch FK that polishes
     pose_margins(g, p, q)
     TeleopMapping(g)                      # compiles the guards' kernels on construction
     path = p + np.outer(np.linspace(0.0, 0.002, 3), [0.0, 0.0, 1.0])

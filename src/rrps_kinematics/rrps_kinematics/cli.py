@@ -3,7 +3,7 @@
     rrps-kinematics info  [--robot R]
     rrps-kinematics ik    [--robot R] --position x,y,z [--quaternion qx,qy,qz,qw]
     rrps-kinematics fk    [--robot R] --lengths l1,...,l6 [--seed x,y,z,qx,qy,qz,qw]
-    rrps-kinematics modes [--robot R] --lengths l1,...,l6
+    rrps-kinematics modes [--robot R] --lengths l1,...,l6 [--method continuation|multistart]
     rrps-kinematics workspace [--robot R] [--quaternion qx,qy,qz,qw] [--resolution h]
         [--bounds xmin,xmax,ymin,ymax,zmin,zmax] [--roll a,b] [--pitch a,b] [--yaw a,b]
         [--angle-step d] [--singular-threshold t] [--csv out.csv] [--near-singular-csv f.csv]
@@ -24,6 +24,10 @@ condition number below ``--singular-threshold``) also go to a second CSV, by def
 first with ``_near_singular`` added to its name. ``--png`` draws three orthogonal slices through
 the home position.
 
+``modes`` (:mod:`rrps_kinematics.assembly`): every real pose for the lengths, by continuation
+(default; the output says whether all 40 paths were tracked, i.e. the list is certified
+complete) or by the multi-start search.
+
 ``urdf`` (:mod:`rrps_description.urdf`): the robot's URDF, as robot_description_node publishes
 it, on stdout or to ``--output``.
 """
@@ -41,7 +45,7 @@ import numpy as np
 
 from rrps_description.geometry import RobotGeometry, shipped_robots
 from rrps_description.pose import validate_pose
-from rrps_kinematics.assembly import assembly_modes
+from rrps_kinematics.assembly import METHODS, PATHS, assembly_modes
 from rrps_kinematics.cli_support import (
     EXIT_FAILED,
     EXIT_OK,
@@ -110,6 +114,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = add('modes', 'all assembly modes: every real pose for six leg lengths')
     p.add_argument('--lengths', type=vector(6), required=True, metavar='L1,...,L6',
                    help='actuator lengths [m]')
+    p.add_argument('--method', choices=METHODS, default=METHODS[0],
+                   help='continuation (default: 40 homotopy paths, certified when all end) or multistart')
     p = add('workspace', 'reachable workspace: the ring_b positions within every limit, on a grid')
     p.add_argument('--quaternion', type=vector(4), metavar='QX,QY,QZ,QW',
                    help='ring_b orientation in ring_a (default: the home orientation)')
@@ -228,15 +234,19 @@ def _fk(g: RobotGeometry, lengths: np.ndarray, seed: np.ndarray | None) -> tuple
     return data, lines + _margin_lines(m)
 
 
-def _modes(g: RobotGeometry, lengths: np.ndarray) -> tuple[dict, list[str]]:
-    modes = assembly_modes(g, lengths)
+def _modes(g: RobotGeometry, lengths: np.ndarray, method: str) -> tuple[dict, list[str]]:
+    modes = assembly_modes(g, lengths, method=method)
     ok = (margins(g, inverse_kinematics(g, modes.positions, modes.quaternions_xyzw)).ok
           if len(modes) else np.zeros(0, dtype=bool))
-    data = {'count': len(modes), 'seeds': modes.seeds,
+    data = {'count': len(modes), 'seeds': modes.seeds, 'method': modes.method, 'certified': modes.certified,
+            'paths_failed': modes.paths_failed,
             'modes': [{'position': p.tolist(), 'quaternion_xyzw': q.tolist(), 'residual': float(r),
                        'within_limits': bool(k)}
                       for p, q, r, k in zip(modes.positions, modes.quaternions_xyzw, modes.residuals, ok)]}
-    lines = [f'robot: {g.name}', f'{len(modes)} real assembly modes ({modes.seeds} seeds), nearest to home first',
+    how = (f'by continuation, certified complete (all {PATHS} paths ended)' if modes.certified
+           else f'by {modes.method}' + (f' ({modes.seeds} seeds)' if modes.seeds else '')
+           + (f', NOT certified: {modes.paths_failed} of {PATHS} paths failed' if modes.paths_failed else ''))
+    lines = [f'robot: {g.name}', f'{len(modes)} real assembly modes {how}, nearest to home first',
              '  #  position [m]                        quaternion (x, y, z, w)                 in limits']
     for k, (p, q) in enumerate(zip(modes.positions, modes.quaternions_xyzw)):
         lines.append(f'{k + 1:3d}  {_fmt(p, 5):34s}  {_fmt(q, 5):40s} {"yes" if ok[k] else "no"}')
@@ -396,7 +406,7 @@ def run(argv: Sequence[str] | None = None) -> int:
             data, lines = _workspace(g, args)
         else:
             data, lines = _checked('--lengths', _modes, g,
-                                   _checked('--lengths', check_lengths, args.lengths))
+                                   _checked('--lengths', check_lengths, args.lengths), args.method)
         return [json.dumps(data, indent=2)] if args.json else lines
 
     status = run_command(PROG, body)

@@ -91,6 +91,17 @@ def _cross(a0, a1, a2, b0, b1, b2):
 
 
 @jit
+def _add_force(wrench, point, f0, f1, f2):
+    """wrench (force, moment about the origin) += the force f applied at ``point``."""
+    m = _cross(point[0], point[1], point[2], f0, f1, f2)
+    for k in range(3):
+        wrench[3 + k] += m[k]
+    wrench[0] += f0
+    wrench[1] += f1
+    wrench[2] += f2
+
+
+@jit
 def _solve_transposed(J, load, f):
     """f <- the solution of J^T f = load (Gaussian elimination, partial pivoting); False when a
     pivot is below PIVOT_TOLERANCE of the largest entry (a singular pose)."""
@@ -229,14 +240,8 @@ def pose_statics(s, p, q, forces, wrench):  # noqa: C901 - a compiled kernel: fl
     if support == 0:                   # ring_a's balance: the universal joints f u - w', its weight
         m = bodies[0, 0]
         for i in range(6):
-            r0, r1, r2 = (forces[i] * u[i, 0] - wa[i, 0], forces[i] * u[i, 1] - wa[i, 1],
-                          forces[i] * u[i, 2] - wa[i, 2])
-            mi = _cross(A[i, 0], A[i, 1], A[i, 2], r0, r1, r2)
-            wrench[0] += r0
-            wrench[1] += r1
-            wrench[2] += r2
-            for k in range(3):
-                wrench[3 + k] += mi[k]
+            _add_force(wrench, A[i], forces[i] * u[i, 0] - wa[i, 0], forces[i] * u[i, 1] - wa[i, 1],
+                       forces[i] * u[i, 2] - wa[i, 2])
         mg = _cross(bodies[0, 1], bodies[0, 2], bodies[0, 3], gs[0], gs[1], gs[2])
         for k in range(3):
             wrench[k] -= m * gs[k]
@@ -247,15 +252,9 @@ def pose_statics(s, p, q, forces, wrench):  # noqa: C901 - a compiled kernel: fl
             ra = np.empty(3)
             for k in range(3):
                 ra[k] = -(forces[i] * u[i, k] + wb[i, k])
-            r0 = R[0, 0] * ra[0] + R[1, 0] * ra[1] + R[2, 0] * ra[2]
-            r1 = R[0, 1] * ra[0] + R[1, 1] * ra[1] + R[2, 1] * ra[2]
-            r2 = R[0, 2] * ra[0] + R[1, 2] * ra[1] + R[2, 2] * ra[2]
-            mi = _cross(B[i, 0], B[i, 1], B[i, 2], r0, r1, r2)
-            wrench[0] += r0
-            wrench[1] += r1
-            wrench[2] += r2
-            for k in range(3):
-                wrench[3 + k] += mi[k]
+            _add_force(wrench, B[i], R[0, 0] * ra[0] + R[1, 0] * ra[1] + R[2, 0] * ra[2],
+                       R[0, 1] * ra[0] + R[1, 1] * ra[1] + R[2, 1] * ra[2],
+                       R[0, 2] * ra[0] + R[1, 2] * ra[1] + R[2, 2] * ra[2])
         mg = _cross(bodies[1, 1], bodies[1, 2], bodies[1, 3], gs[0], gs[1], gs[2])
         tm = _cross(tool[0], tool[1], tool[2], fb[0], fb[1], fb[2])
         for k in range(3):

@@ -1,4 +1,4 @@
-"""Helpers shared by the benchmarks that start the installed nodes."""
+"""Helpers shared by the benchmarks and tests that start the installed nodes."""
 
 from __future__ import annotations
 
@@ -32,6 +32,18 @@ def wait_until(predicate, timeout: float) -> bool:
             return True
         time.sleep(0.01)
     return False
+
+
+def interrupt(process: subprocess.Popen, timeout: float = 60.0) -> None:
+    """Ctrl-C ``process`` if it still runs (SIGINT, as an operator stops the demo); kill it if it
+    has not stopped after ``timeout`` s."""
+    if process.poll() is None:
+        process.send_signal(signal.SIGINT)
+        try:
+            process.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
 
 
 def stop_processes(processes, timeout: float = 5.0) -> None:

@@ -1,4 +1,5 @@
-"""An independent statics for tests: leg forces by virtual work, from the anchors alone (eq. 1).
+"""An independent statics and dynamics for tests: leg forces by virtual work, from the anchors
+alone (eq. 1).
 
 At rest with one ring gripping, the actuators' virtual work balances the change of potential
 energy: J^T f = dU/dx, with x = (p, a small rotation vector) of the moving ring in the supporting
@@ -8,6 +9,9 @@ lower link's ``com_from_joint`` from the universal joint, the upper's from the s
 Both by central differences; nothing of rrps_kinematics or rrps_sim is used::
 
     forces = virtual_work_forces(geometry, position, R, gravity_in_a, payload_mass=15.0)
+
+In motion (massless legs), :func:`moving_ring_dynamics` balances the moving ring's Newton-Euler
+equations by the legs' virtual work and gives the holding ring's reaction by momentum balance.
 """
 
 from __future__ import annotations
@@ -16,7 +20,7 @@ import math
 
 import numpy as np
 
-__all__ = ['virtual_work_forces', 'rotation_x', 'rotation_vector_matrix', 'quaternion_matrix']
+__all__ = ['virtual_work_forces', 'moving_ring_dynamics', 'rotation_x', 'rotation_vector_matrix', 'quaternion_matrix']
 
 
 def rotation_x(angle: float) -> np.ndarray:
@@ -88,3 +92,43 @@ def virtual_work_forces(geometry, position, rotation, gravity, *, support: str =
         J[:, k] = (lengths(e) - lengths(-e)) / (2 * step)
         dU[k] = (energy(e) - energy(-e)) / (2 * step)
     return np.linalg.solve(J.T, dU)
+
+
+def moving_ring_dynamics(geometry, support: str, gravity, R, p, omega, alpha, a_com,
+                         *, step: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+    """(actuator forces (6,), the structure's wrench (force, moment about the origin) on the
+    holding ``support`` ring (6,)) with massless legs, the moving ring at (``R``, ``p``) in the
+    holding ring's frame, turning at ``omega`` with ``alpha``, its com accelerating at ``a_com``,
+    ``gravity`` in that frame: Newton-Euler of the moving ring balanced by the legs through virtual
+    work (J^T f, J = dL/dx by central differences), and the whole robot's momentum balance about
+    the holding ring's origin. The description's tool wrench acts on ring_b."""
+    moving, held = ((geometry.ring_b_body, geometry.ring_a_body) if support == 'ring_a'
+                    else (geometry.ring_a_body, geometry.ring_b_body))
+    local, fixed = ((geometry.ring_b_anchors, geometry.ring_a_anchors) if support == 'ring_a'
+                    else (geometry.ring_a_anchors, geometry.ring_b_anchors))
+    g = np.asarray(gravity, dtype=float)
+    c = p + R @ moving.com
+    inertia = R @ moving.inertia @ R.T
+    tool_f = tool_t = tcp = np.zeros(3)
+    tool_on_moving = support == 'ring_a'
+    if geometry.tool_wrench is not None:
+        R_tool = quaternion_matrix(geometry.tool.quaternion_xyzw)
+        R_b, p_b = (R, p) if tool_on_moving else (np.eye(3), np.zeros(3))
+        tool_f, tool_t = R_b @ R_tool @ geometry.tool_wrench.force, R_b @ R_tool @ geometry.tool_wrench.torque
+        tcp = R_b @ geometry.tool.position + p_b
+
+    def lengths(x):                                  # com moved by x[:3], turned by x[3:] about it
+        Rx = rotation_vector_matrix(x[3:]) @ R
+        return np.linalg.norm(c + x[:3] + (local - moving.com) @ Rx.T - fixed, axis=1)
+
+    J = np.column_stack([(lengths(step * e) - lengths(-step * e)) / (2 * step) for e in np.eye(6)])
+    force = moving.mass * (a_com - g)
+    moment = inertia @ alpha + np.cross(omega, inertia @ omega)
+    F_s = force - held.mass * g
+    M_s = np.cross(c, force) + moment - np.cross(held.com, held.mass * g)
+    if geometry.tool_wrench is not None:
+        F_s, M_s = F_s - tool_f, M_s - np.cross(tcp, tool_f) - tool_t
+        if tool_on_moving:
+            force, moment = force - tool_f, moment - np.cross(tcp - c, tool_f) - tool_t
+    f = np.linalg.solve(J.T, np.concatenate([force, moment]))
+    return f, np.concatenate([F_s, M_s])

@@ -10,6 +10,7 @@ import yaml
 
 from rrps_description.geometry import load_robot, robot_path
 from rrps_kinematics import forward_kinematics, inverse_kinematics
+from rrps_kinematics.backend import numba_enabled
 from rrps_kinematics.cli import run
 from rrps_testing.ci import require
 
@@ -95,6 +96,12 @@ def test_modes_lists_every_assembly_mode(capsys):
         np.testing.assert_allclose(L, g.home_lengths, atol=1e-9)
     code, out, _ = _run(capsys, 'modes', '--lengths', lengths)
     assert code == 0 and f'{data["count"]} real assembly modes' in out
+    if numba_enabled():
+        assert data['method'] == 'continuation' and data['certified'] is True and data['paths_failed'] == 0
+        assert 'certified complete (all 40 paths ended)' in out
+    multistart = _json(capsys, 'modes', '--lengths', lengths, '--method', 'multistart')
+    assert multistart['method'] == 'multistart' and multistart['certified'] is False
+    assert multistart['count'] == data['count'] and multistart['seeds'] == 20000
 
 
 def test_robot_yaml_path(capsys, tmp_path):
@@ -114,6 +121,7 @@ def test_robot_yaml_path(capsys, tmp_path):
     (['fk', '--lengths', '1,a,3,4,5,6'], "expected 6 comma-separated numbers, got '1,a,3,4,5,6'"),
     (['fk', '--lengths', '0.4,0.4,0.4,0.4,0.4,0.4', '--seed', '0,0,0.4'], 'expected 7 numbers'),
     (['modes', '--lengths', '0.4,0.4,0.4,0.4,0.4,-0.4'], 'lengths must be positive'),
+    (['modes', '--lengths', '0.4,0.4,0.4,0.4,0.4,0.4', '--method', 'guess'], "invalid choice: 'guess'"),
     (['info', '--robot', 'spider'], "unknown robot 'spider'"),
     (['info', '--bogus'], 'unrecognized arguments: --bogus'),
 ])

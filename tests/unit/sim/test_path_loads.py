@@ -21,6 +21,7 @@ from rrps_description.rotations import (
 )
 from rrps_sim.loads import holding_margin
 from rrps_sim.path_loads import ACTUATOR_FORCE, HOLDING, first_violation, loads_at, path_loads
+from rrps_testing.virtual_work import moving_ring_dynamics
 
 G_WORLD = np.array([0.0, 0.0, -9.81])
 LIGHT = LinkInertia(mass=1e-9, com_from_joint=0.1, inertia_transverse=1e-12, inertia_axial=1e-12)
@@ -62,31 +63,13 @@ def _samples(geom, support, t):
 
 
 def _newton_euler(geom, support, world_q, t):
-    """Forces (6,) and the structure's wrench on the holding ring (6,) at time t, massless legs:
-    virtual work on the moving ring, and the two rings' momentum balance about the holding
-    ring's origin (the tool wrench of the description, none here)."""
-    g = quat_xyzw_to_matrix(world_q).T @ G_WORLD
-    moving, held = ((geom.ring_b_body, geom.ring_a_body) if support == 'ring_a'
-                    else (geom.ring_a_body, geom.ring_b_body))
-    local, fixed = ((geom.ring_b_anchors, geom.ring_a_anchors) if support == 'ring_a'
-                    else (geom.ring_a_anchors, geom.ring_b_anchors))
+    """Forces (6,) and the structure's wrench on the holding ring (6,) at time t, massless legs
+    (rrps_testing.virtual_work: virtual work and momentum balance)."""
+    moving = geom.ring_b_body if support == 'ring_a' else geom.ring_a_body
     R, p, v, a, omega, alpha = _motion(geom, support, t)
-    c = p + R @ moving.com
-    a_c = a + np.cross(alpha, R @ moving.com) + np.cross(omega, np.cross(omega, R @ moving.com))
-    inertia = R @ moving.inertia @ R.T
-
-    def lengths(x):                                  # com moved by x[:3], turned by x[3:] about it
-        Rx = rotation_vector_to_matrix(x[3:]) @ R
-        return np.linalg.norm(c + x[:3] + (local - moving.com) @ Rx.T - fixed, axis=1)
-
-    h = 1e-6
-    J = np.column_stack([(lengths(h * e) - lengths(-h * e)) / (2 * h) for e in np.eye(6)])
-    force = moving.mass * (a_c - g)
-    moment = inertia @ alpha + np.cross(omega, inertia @ omega)
-    f = np.linalg.solve(J.T, np.concatenate([force, moment]))
-    F_s = force - held.mass * g
-    M_s = np.cross(c, force) + moment - np.cross(held.com, held.mass * g)
-    return f, np.concatenate([F_s, M_s])
+    com = R @ moving.com
+    a_c = a + np.cross(alpha, com) + np.cross(omega, np.cross(omega, com))
+    return moving_ring_dynamics(geom, support, quat_xyzw_to_matrix(world_q).T @ G_WORLD, R, p, omega, alpha, a_c)
 
 
 @pytest.mark.parametrize('robot,support,world_q', CASES)

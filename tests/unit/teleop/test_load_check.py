@@ -15,12 +15,13 @@ from rrps_description.geometry import load_robot
 from rrps_description.loads import Payload, ToolWrench
 from rrps_description.pose import Pose
 from rrps_description.robot_parts import LinkInertia
-from rrps_description.rotations import quat_xyzw_to_matrix, rotation_vector_to_matrix, rotation_vector_to_quat_xyzw
+from rrps_description.rotations import quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
 from rrps_description.structures import make_structure
 from rrps_sim.loads import holding_margin
 from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_teleop.climbing.load_check import LoadCheck
 from rrps_teleop.climbing.plan import PlanError, PlanLimit
+from rrps_testing.virtual_work import moving_ring_dynamics
 
 G_WORLD = np.array([0.0, 0.0, -9.81])
 LIGHT = LinkInertia(mass=1e-9, com_from_joint=0.1, inertia_transverse=1e-12, inertia_axial=1e-12)
@@ -74,7 +75,6 @@ def _expected(geom, ph, check, k, moves=True):
     world_T_s = ph.world_T_a if support == 'ring_a' else ph.world_T_b
     g = (quat_xyzw_to_matrix(np.asarray(check.world_q_structure)) @ world_T_s.rotation).T @ G_WORLD
     moving = geom.ring_b_body if support == 'ring_a' else geom.ring_a_body
-    held = geom.ring_a_body if support == 'ring_a' else geom.ring_b_body
     t = _times(ph.path, check.speed, geom.characteristic_length)
     R, p = T[k, :3, :3], T[k, :3, 3]
     dR, ddR = _derivatives(t, T[:, :3, :3], k)
@@ -82,42 +82,9 @@ def _expected(geom, ph, check, k, moves=True):
     if not moves:
         dR, ddR, ddp = 0.0 * dR, 0.0 * ddR, 0.0 * ddp
     W = dR @ R.T
-    omega = np.array([W[2, 1], W[0, 2], W[1, 0]])
     A = ddR @ R.T - W @ W
-    alpha = np.array([A[2, 1], A[0, 2], A[1, 0]])
-    c = p + R @ moving.com
-    a_c = ddp + ddR @ moving.com
-    inertia = R @ moving.inertia @ R.T
-    # The tool wrench acts on ring_b: on the moving ring when ring_a holds, else on the held one.
-    tool_f = tool_t = np.zeros(3)
-    tool_on_moving = support == 'ring_a'
-    if geom.tool_wrench is not None:
-        R_tool = quat_xyzw_to_matrix(geom.tool.quaternion_xyzw)
-        R_b, p_b = (R, p) if tool_on_moving else (np.eye(3), np.zeros(3))
-        tool_f, tool_t = R_b @ R_tool @ geom.tool_wrench.force, R_b @ R_tool @ geom.tool_wrench.torque
-        tcp = R_b @ geom.tool.position + p_b
-    # Virtual work: the Jacobian of the six leg lengths w.r.t. (com translation, small rotation).
-    fixed = geom.ring_a_anchors if support == 'ring_a' else geom.ring_b_anchors
-    local = geom.ring_b_anchors if support == 'ring_a' else geom.ring_a_anchors
-
-    def lengths(x):
-        Rx = rotation_vector_to_matrix(x[3:]) @ R
-        return np.linalg.norm(c + x[:3] + (local - moving.com) @ Rx.T - fixed, axis=1)
-
-    h = 1e-6
-    J = np.column_stack([(lengths(h * e) - lengths(-h * e)) / (2 * h) for e in np.eye(6)])
-    force = moving.mass * (a_c - g)
-    moment = inertia @ alpha + np.cross(omega, inertia @ omega)
-    if tool_on_moving and geom.tool_wrench is not None:
-        force, moment = force - tool_f, moment - np.cross(tcp - c, tool_f) - tool_t
-    f = np.linalg.solve(J.T, np.concatenate([force, moment]))
-    # The whole robot's momentum balance about the holding ring's origin.
-    F_s = moving.mass * (a_c - g) - held.mass * g
-    M_s = (np.cross(c, moving.mass * (a_c - g)) + inertia @ alpha + np.cross(omega, inertia @ omega)
-           - np.cross(held.com, held.mass * g))
-    if geom.tool_wrench is not None:
-        F_s, M_s = F_s - tool_f, M_s - np.cross(tcp, tool_f) - tool_t
-    return f, np.concatenate([F_s, M_s])
+    return moving_ring_dynamics(geom, support, g, R, p, np.array([W[2, 1], W[0, 2], W[1, 0]]),
+                                np.array([A[2, 1], A[0, 2], A[1, 0]]), ddp + ddR @ moving.com)
 
 
 @pytest.mark.parametrize('robot,structure,distance,world_q,speed,tool,accelerates', PLANS)

@@ -1,12 +1,21 @@
-"""The viewer's climb and preview lines (viewer/status_text) from the typed climb/status and
-climb/preview values: a step being previewed, a refused one and what its preview predicted."""
+"""The viewer's status lines (viewer/status_text) from the typed statuses: a step being previewed,
+a refused one, what its preview predicted, and a status that never came or does not parse."""
 
 from __future__ import annotations
 
 from types import SimpleNamespace
 
 from rrps_interfaces.climb import ClimbPreview, ClimbState, ClimbStatus, PreviewLimit, StepRefusal
-from rrps_teleop.viewer.status_text import climb_line, preview_line
+from rrps_teleop.viewer.status_text import (
+    DEFAULT_SCALE,
+    climb_line,
+    driven_robot,
+    driver_line,
+    feedback_line,
+    preview_line,
+    teleop_line,
+    translation_scale,
+)
 
 
 def _status(values, level=0):
@@ -32,3 +41,17 @@ def test_the_preview_line_gives_the_peak_force_the_gripper_reaction_and_the_marg
     assert preview_line(_status(failed)) == 'preview failed: singular'
     assert preview_line(None) == '—'
     assert preview_line(SimpleNamespace(level=0, values=[])).startswith('unreadable')
+
+
+def test_every_line_says_when_no_status_came_or_it_does_not_parse():
+    unreadable = SimpleNamespace(level=0, values=[SimpleNamespace(key=k, value='not a value') for k in (
+        'code', 'state', 'mode', 'active', 'accepted', 'engaged')])
+    for line in (teleop_line, climb_line, preview_line):
+        assert line(None) == '—'
+        assert line(unreadable).startswith('unreadable ('), line
+    assert driver_line(None) == 'not heard yet'
+    assert driver_line(unreadable).startswith('unreadable (')
+    for status in (None, unreadable):
+        assert feedback_line(status) is None
+        assert translation_scale(status) == DEFAULT_SCALE
+        assert driven_robot(status) == (None, False)

@@ -38,26 +38,31 @@ def _level(status) -> str:
     return _LEVEL_NAMES.get(level, str(level))
 
 
+def _typed(status, contract):
+    """(the status' typed values by ``contract.from_key_values``, None), or (None, why there are
+    none: '—' when no status came, 'unreadable (...)' when it does not parse)."""
+    if status is None:
+        return None, '—'
+    try:
+        return contract.from_key_values(status.values), None
+    except ValueError as exc:
+        return None, f'unreadable ({exc})'
+
+
 def teleop_line(status) -> str:
     """teleop/status: code, level, mapping and whether the clutch is engaged."""
-    if status is None:
-        return '—'
-    try:
-        t = TeleopStatus.from_key_values(status.values)
-    except ValueError as exc:
-        return f'unreadable ({exc})'
+    t, why = _typed(status, TeleopStatus)
+    if t is None:
+        return why
     return (f'{t.code.name} ({_level(status)}, mode {t.mode}, scale {t.scale:g}, '
             f'engaged {"yes" if t.engaged else "no"})')
 
 
 def climb_line(status) -> str:
     """climb/status: state, the pause reason and where the climb is."""
-    if status is None:
-        return '—'
-    try:
-        c = ClimbStatus.from_key_values(status.values)
-    except ValueError as exc:
-        return f'unreadable ({exc})'
+    c, why = _typed(status, ClimbStatus)
+    if c is None:
+        return why
     where = f', step {c.step}, phase {c.phase}' if c.action is not None else ''
     paused = f': {c.pause_reason.value}, press Resume climb' if c.pause_reason is not None else ''
     if c.previewing:
@@ -70,12 +75,9 @@ def climb_line(status) -> str:
 def preview_line(status) -> str:
     """climb/preview: the last step's predicted peak actuator force, gripper reaction and
     smallest holding margin, and whether the preview accepted it."""
-    if status is None:
-        return '—'
-    try:
-        p = ClimbPreview.from_key_values(status.values)
-    except ValueError as exc:
-        return f'unreadable ({exc})'
+    p, why = _typed(status, ClimbPreview)
+    if p is None:
+        return why
     if p.peak_leg == 0:
         return p.detail or ('accepted' if p.accepted else 'refused')
     verdict = 'accepted' if p.accepted else f'REFUSED ({p.limit.value if p.limit else "failed"})'
@@ -87,12 +89,9 @@ def preview_line(status) -> str:
 
 def driver_line(status) -> str:
     """The driver's lifecycle state (from its /diagnostics status)."""
-    if status is None:
-        return 'not heard yet'
-    try:
-        d = DriverStatus.from_key_values(status.values)
-    except ValueError as exc:
-        return f'unreadable ({exc})'
+    d, why = _typed(status, DriverStatus)
+    if d is None:
+        return 'not heard yet' if status is None else why
     return ('active' if d.active else 'INACTIVE: press Activate driver') + f' ({d.mode.value})'
 
 
@@ -133,11 +132,8 @@ def slave_lines(figure, *, min_conditioning: float) -> list[str]:
 
 def feedback_line(teleop_status) -> str | None:
     """The force the limits push back on the master with (None: no teleop status)."""
-    if teleop_status is None:
-        return None
-    try:
-        t = TeleopStatus.from_key_values(teleop_status.values)
-    except ValueError:
+    t, _ = _typed(teleop_status, TeleopStatus)
+    if t is None:
         return None
     if t.feedback_force > 0.0 and t.feedback_limit:
         return f'{t.feedback_force:.1f} N, {t.feedback_limit} limit near'
@@ -155,22 +151,15 @@ def fk_line(fk_status) -> str:
 
 def translation_scale(teleop_status) -> float:
     """The teleop mapping's translation scale (its default until teleop/status says)."""
-    if teleop_status is None:
-        return DEFAULT_SCALE
-    try:
-        return TeleopStatus.from_key_values(teleop_status.values).scale
-    except ValueError:
-        return DEFAULT_SCALE
+    t, _ = _typed(teleop_status, TeleopStatus)
+    return DEFAULT_SCALE if t is None else t.scale
 
 
 def driven_robot(teleop_status) -> tuple[str | None, bool]:
     """The namespace of the robot the teleop node drives (None: not known) and whether its
     clutch is engaged."""
-    if teleop_status is None:
-        return None, False
-    try:
-        t = TeleopStatus.from_key_values(teleop_status.values)
-    except ValueError:
+    t, _ = _typed(teleop_status, TeleopStatus)
+    if t is None:
         return None, False
     return t.robot or None, t.engaged
 
