@@ -4,8 +4,9 @@ The kernels are compiled on their first call and cached on disk (``cache=True``,
 sources of every kernel: :func:`rrps_kinematics.backend.jit`). Without this, the first climbing
 step's preview (the dynamics), the first FK and the teleop guards would each wait for numba to
 compile them in a running node. This runs each of them once, with the argument types the stack
-uses: IK and FK, the limits of one pose, the assembly modes' path tracker, the teleop guards and a
-short preview on either ring.
+uses: IK and FK (single, and batches serial and on every thread), the reachable workspace
+(serial and parallel), the limits of one pose, the assembly modes' path tracker, the teleop guards
+and a short preview on either ring.
 Nothing is compiled when numba is off (``RRPS_NUMBA=0``) or missing.
 """
 
@@ -29,8 +30,10 @@ def warm_up(robot: str = ROBOT) -> float:
     """Run every compiled kernel once; returns the seconds it took (0 when numba is off)."""
     if not numba_enabled():
         return 0.0
-    from rrps_kinematics import assembly_modes, forward_kinematics
+    from rrps_kinematics import assembly_modes, forward_kinematics, leg_lengths
+    from rrps_kinematics.backend import PARALLEL_BATCH
     from rrps_kinematics.limits import pose_margins
+    from rrps_kinematics.workspace import reachable_workspace
     from rrps_sim.preview import PreviewMotion, preview_step
     from rrps_teleop.mapping import TeleopMapping
 
@@ -38,6 +41,12 @@ def warm_up(robot: str = ROBOT) -> float:
     g = load_robot(robot)
     p, q = np.array(g.home_position, dtype=float), np.array(g.home_quaternion_xyzw, dtype=float)
     forward_kinematics(g, g.home_lengths)
+    for n in (2, PARALLEL_BATCH):         # the serial and the parallel batch kernels
+        forward_kinematics(g, np.tile(g.home_lengths, (n, 1)))
+        leg_lengths(g, np.tile(p, (n, 1)), np.tile(q, (n, 1)))
+    stroke = g.max_length - g.min_length
+    for resolution in (stroke, stroke / 10):
+        reachable_workspace(g, resolution=resolution)
     assembly_modes(g, g.home_lengths)     # the homotopy kernels and the batch FK that polishes
     pose_margins(g, p, q)
     TeleopMapping(g)                      # compiles the guards' kernels on construction

@@ -8,6 +8,7 @@ Pure Python/NumPy (no ROS import outside ``rrps_kinematics.nodes``); robots come
     geom = load_robot('pole_climber')                          # or a robot YAML path
     ik = inverse_kinematics(geom, position, quaternion_xyzw)   # single pose or (N,3), (N,4)
     fk = forward_kinematics(geom, lengths, seed_position, seed_quaternion_xyzw)
+    solve = ForwardSolver(geom); fk = solve(lengths, fk.position, fk.quaternion_xyzw)  # a stream
     m = margins(geom, ik); m.ok, m.violations()                 # limits as signed margins
     ok, reason, m = check_pose(geom, position, quaternion_xyzw)
     modes = assembly_modes(geom, lengths)                        # every real FK solution
@@ -18,7 +19,12 @@ The multibody model is imported on first use (it compiles with numba).
 """
 
 from rrps_kinematics.assembly import AssemblyModes, assembly_modes
-from rrps_kinematics.forward import ForwardKinematicsResult, compiled_backend_available, forward_kinematics
+from rrps_kinematics.forward import (
+    ForwardKinematicsResult,
+    ForwardSolver,
+    compiled_backend_available,
+    forward_kinematics,
+)
 from rrps_kinematics.inverse import InverseKinematicsResult, inverse_kinematics, leg_lengths
 from rrps_kinematics.jacobian import inverse_jacobian, leg_forces, leg_rates, platform_wrench
 from rrps_kinematics.limits import PAIRS, Margins, check_pose, margins
@@ -36,6 +42,7 @@ def __getattr__(name: str):
 __all__ = [
     'AssemblyModes',
     'ForwardKinematicsResult',
+    'ForwardSolver',
     'InverseKinematicsResult',
     'Margins',
     'MultibodyDKResult',

@@ -19,10 +19,11 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import os
+import threading
 from pathlib import Path
 
-__all__ = ['BACKENDS', 'compiled_backend_available', 'jit', 'kernel_sources_stamp', 'kernels',
-           'numba_enabled', 'use_numba']
+__all__ = ['BACKENDS', 'PARALLEL_BATCH', 'compiled_backend_available', 'jit', 'kernel_sources_stamp', 'kernels',
+           'numba_enabled', 'run_parallel', 'use_numba']
 
 BACKENDS = ('auto', 'numba', 'numpy')
 #: Packages whose modules may hold :func:`jit` kernels.
@@ -30,6 +31,9 @@ KERNEL_PACKAGES = ('rrps_kinematics', 'rrps_sim', 'rrps_teleop')
 _compiled = None
 _numba = None
 _stamp = None
+_parallel = threading.Lock()
+#: Batches at least this long go to the parallel kernels (for shorter ones the launch costs more).
+PARALLEL_BATCH = 512
 
 
 def numba_enabled() -> bool:
@@ -110,3 +114,21 @@ def use_numba(backend: str) -> bool:
     if backend == 'numba' and not available:
         raise ValueError('backend "numba" requested but numba is not available (or RRPS_NUMBA=0)')
     return available
+
+
+def run_parallel(kernel, *args) -> bool:
+    """Run a ``parallel=True`` kernel on numba's threads (``NUMBA_NUM_THREADS``, by default the
+    cores), unless there is one thread only or another thread of this process is running one
+    (numba's workqueue threading layer aborts the process on concurrent parallel launches).
+    The threads take the kernel's tasks one at a time (chunk size 1: on a shared machine a
+    thread that loses its core does not hold up the others' share). True when it ran; False
+    means: call the serial kernel instead (the parallel kernels give the same numbers)."""
+    if _numba.get_num_threads() < 2 or not _parallel.acquire(blocking=False):
+        return False
+    chunksize = _numba.set_parallel_chunksize(1)
+    try:
+        kernel(*args)
+    finally:
+        _numba.set_parallel_chunksize(chunksize)
+        _parallel.release()
+    return True

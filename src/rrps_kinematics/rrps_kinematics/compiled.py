@@ -23,9 +23,13 @@ import numpy as np
 
 from rrps_kinematics.newton_settings import MAX_HALVINGS, MAX_ROTATION_STEP, PIVOT_TOLERANCE
 
-__all__ = ['ik_lengths_batch', 'fk_single', 'fk_batch', 'quat_to_matrix']
+__all__ = ['ik_lengths_batch', 'ik_lengths_parallel', 'fk_single', 'fk_solve', 'fk_batch',
+           'fk_batch_parallel', 'quat_to_matrix']
 
-_jit = numba.njit(cache=True, fastmath=False, nogil=True)
+_jit = numba.njit(cache=True, fastmath=False, nogil=True, error_model='numpy')
+#: Rows per task of the parallel batch kernels (the threads take the next task when done).
+PARALLEL_ROWS = 256
+_parallel_jit = numba.njit(cache=True, fastmath=False, nogil=True, parallel=True, error_model='numpy')
 
 
 @_jit
@@ -55,6 +59,16 @@ def ik_lengths_batch(A, B, P, Q, out):
                 d = P[n, k] + R[k, 0] * B[i, 0] + R[k, 1] * B[i, 1] + R[k, 2] * B[i, 2] - A[i, k]
                 s += d * d
             out[n, i] = math.sqrt(s)
+
+
+@_parallel_jit
+def ik_lengths_parallel(A, B, P, Q, out):
+    """:func:`ik_lengths_batch` in runs of ``PARALLEL_ROWS`` rows on numba's threads: the same
+    numbers."""
+    n = P.shape[0]
+    for c in numba.prange((n + PARALLEL_ROWS - 1) // PARALLEL_ROWS):
+        start, stop = c * PARALLEL_ROWS, min(n, (c + 1) * PARALLEL_ROWS)
+        ik_lengths_batch(A, B, P[start:stop], Q[start:stop], out[start:stop])
 
 
 @_jit
@@ -193,6 +207,44 @@ def fk_single(A, B, L, p, q, inv_scale, tolerance, max_iterations):
                np.empty((6, 7)), np.empty(6))
 
 
+#: The one signature of :func:`fk_solve`: writable C-contiguous float64 vectors (others raise
+#: TypeError instead of compiling a new specialisation in a real-time loop).
+_FK_SOLVE_SIGNATURE = ('(float64[:, ::1], float64[:, ::1], float64[::1], float64[::1], float64[::1], '
+                       'float64, float64, int64)')
+
+
+@numba.njit(_FK_SOLVE_SIGNATURE, cache=True, nogil=True)
+def fk_solve(A, B, L, seed_p, seed_q, inv_scale, tolerance, max_iterations):
+    """One FK solve from the seed (p (3,), q (4,), left unchanged), its input checked here:
+    returns (ok, p, q, converged, iterations, residual, singular); ok is False (and the rest
+    meaningless) for a wrong shape, NaN/inf in the lengths or the seed, or a zero quaternion,
+    which the caller reports. q is normalised on entry and has w >= 0 on return."""
+    p = np.empty(3)
+    q = np.empty(4)
+    if L.shape[0] != 6 or seed_p.shape[0] != 3 or seed_q.shape[0] != 4:
+        return False, p, q, False, 0, math.inf, False
+    finite = 0.0
+    for i in range(6):
+        finite += 0.0 * L[i]  # NaN or inf anywhere makes it NaN
+    norm2 = 0.0
+    for k in range(4):
+        q[k] = seed_q[k]
+        norm2 += q[k] * q[k]
+    for k in range(3):
+        p[k] = seed_p[k]
+        finite += 0.0 * p[k]
+    norm = math.sqrt(norm2)
+    if not (finite == 0.0 and math.isfinite(norm) and norm >= 1e-12):
+        return False, p, q, False, 0, math.inf, False
+    for k in range(4):
+        q[k] /= norm
+    c, it, res, sing = fk_single(A, B, L, p, q, inv_scale, tolerance, max_iterations)
+    if q[3] < 0.0:
+        for k in range(4):
+            q[k] = -q[k]
+    return True, p, q, c, it, res, sing
+
+
 @_jit
 def fk_batch(A, B, L, P, Q, inv_scale, tolerance, max_iterations, converged, iterations, residual,
              singular):
@@ -213,3 +265,15 @@ def fk_batch(A, B, L, P, Q, inv_scale, tolerance, max_iterations, converged, ite
         iterations[n] = it
         residual[n] = res
         singular[n] = sing
+
+
+@_parallel_jit
+def fk_batch_parallel(A, B, L, P, Q, inv_scale, tolerance, max_iterations, converged, iterations,
+                      residual, singular):
+    """:func:`fk_batch` in runs of ``PARALLEL_ROWS`` rows on numba's threads, each run solved by
+    the serial kernel: the same numbers bit for bit."""
+    n = L.shape[0]
+    for c in numba.prange((n + PARALLEL_ROWS - 1) // PARALLEL_ROWS):
+        a, b = c * PARALLEL_ROWS, min(n, (c + 1) * PARALLEL_ROWS)
+        fk_batch(A, B, L[a:b], P[a:b], Q[a:b], inv_scale, tolerance, max_iterations, converged[a:b],
+                 iterations[a:b], residual[a:b], singular[a:b])

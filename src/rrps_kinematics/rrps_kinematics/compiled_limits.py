@@ -57,15 +57,16 @@ def _clip01(x):
 
 @_jit
 def segment_distance(p0, p1, q0, q1):
-    """Closest distance of segments p0->p1 and q0->q1; the branches of limits.segment_distances."""
-    d1 = p1 - p0
-    d2 = q1 - q0
-    r = p0 - q0
-    a = d1 @ d1
-    e = d2 @ d2
-    b = d1 @ d2
-    c = d1 @ r
-    f = d2 @ r
+    """Closest distance of segments p0->p1 and q0->q1; the branches of limits.segment_distances
+    (on scalars: no temporary arrays)."""
+    d10, d11, d12 = p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]
+    d20, d21, d22 = q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]
+    r0, r1, r2 = p0[0] - q0[0], p0[1] - q0[1], p0[2] - q0[2]
+    a = d10 * d10 + d11 * d11 + d12 * d12
+    e = d20 * d20 + d21 * d21 + d22 * d22
+    b = d10 * d20 + d11 * d21 + d12 * d22
+    c = d10 * r0 + d11 * r1 + d12 * r2
+    f = d20 * r0 + d21 * r1 + d22 * r2
     tiny = 1e-30
     a_pt = a <= tiny
     e_pt = e <= tiny
@@ -86,21 +87,28 @@ def segment_distance(p0, p1, q0, q1):
     if a_pt:
         s = 0.0
         t = 0.0 if e_pt else _clip01(f / e_safe)
-    g = (p0 + s * d1) - (q0 + t * d2)
-    distance = math.sqrt(g @ g)
+    g0 = (p0[0] + s * d10) - (q0[0] + t * d20)
+    g1 = (p0[1] + s * d11) - (q0[1] + t * d21)
+    g2 = (p0[2] + s * d12) - (q0[2] + t * d22)
+    distance = math.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
     if parallel:  # the minimum is attained at an endpoint (s = 0 above is only near it)
-        distance = min(distance, _point_segment_distance(p0, q0, d2, e_safe),
-                       _point_segment_distance(p1, q0, d2, e_safe),
-                       _point_segment_distance(q0, p0, d1, a_safe),
-                       _point_segment_distance(q1, p0, d1, a_safe))
+        distance = min(distance,
+                       _point_segment_distance(p0[0], p0[1], p0[2], q0, d20, d21, d22, e_safe),
+                       _point_segment_distance(p1[0], p1[1], p1[2], q0, d20, d21, d22, e_safe),
+                       _point_segment_distance(q0[0], q0[1], q0[2], p0, d10, d11, d12, a_safe),
+                       _point_segment_distance(q1[0], q1[1], q1[2], p0, d10, d11, d12, a_safe))
     return distance
 
 
 @_jit
-def _point_segment_distance(x, q0, d, dd):
+def _point_segment_distance(x0, x1, x2, q0, d0, d1, d2, dd):
     """Distance from point x to segment q0 -> q0 + d (dd = d.d, 1 for a point segment)."""
-    g = x - (q0 + _clip01(((x - q0) @ d) / dd) * d)
-    return math.sqrt(g @ g)
+    w0, w1, w2 = x0 - q0[0], x1 - q0[1], x2 - q0[2]
+    s = _clip01((w0 * d0 + w1 * d1 + w2 * d2) / dd)
+    g0 = x0 - (q0[0] + s * d0)
+    g1 = x1 - (q0[1] + s * d1)
+    g2 = x2 - (q0[2] + s * d2)
+    return math.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
 
 
 @_jit

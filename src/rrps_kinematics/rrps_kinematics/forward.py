@@ -8,33 +8,39 @@ the step is damped (rotation <= pi/2, halved until the residual decreases), whic
 same solver usable for multi-start searches (:mod:`.assembly`).
 
 Two backends compute the same iterates: a numba-compiled one (:mod:`.compiled`, the default
-when numba is importable and ``RRPS_NUMBA`` is not ``0``) and the vectorised NumPy reference.
+when numba is importable and ``RRPS_NUMBA`` is not ``0``) and the vectorised NumPy reference,
+whose single solves run on plain floats (:mod:`.forward_scalar`). Long compiled batches run on
+every thread (the same numbers as the serial kernel). A stream of solves for one robot (the FK
+node's tracker) goes through one :class:`ForwardSolver`: its settings checked once, each solve one
+call of a kernel that checks the input itself.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 
 from rrps_description.geometry import RobotGeometry
 from rrps_description.rotations import cross, quat_multiply_xyzw, quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
-from rrps_kinematics.backend import compiled_backend_available, kernels, use_numba
+from rrps_kinematics.backend import PARALLEL_BATCH, compiled_backend_available, kernels, run_parallel, use_numba
+from rrps_kinematics.forward_scalar import fk_python
 from rrps_kinematics.inverse import pose_arrays
 from rrps_kinematics.newton_settings import MAX_HALVINGS, MAX_ROTATION_STEP, PIVOT_TOLERANCE
 
-__all__ = ['ForwardKinematicsResult', 'check_lengths', 'forward_kinematics',
+__all__ = ['ForwardKinematicsResult', 'ForwardSolver', 'check_lengths', 'forward_kinematics',
            'compiled_backend_available']
 
 
-@dataclass(frozen=True)
-class ForwardKinematicsResult:
+class ForwardKinematicsResult(NamedTuple):
     """Pose of ring_b in ring_a (single, or leading N for batches) and how it was found.
 
     ``converged``: max |l - L| fell below the tolerance. ``singular``: the Jacobian was singular
     at an iterate (the solve stopped there). ``residual``: max |l - L| [m] at the returned pose.
-    ``iterations``: Newton steps taken. The returned quaternion has w >= 0.
+    ``iterations``: Newton steps taken. The returned quaternion has w >= 0. (A NamedTuple: it
+    costs a fraction of a microsecond to build, a real part of a warm solve.)
     """
 
     position: np.ndarray
@@ -77,64 +83,123 @@ def forward_kinematics(geometry: RobotGeometry, lengths, seed_position=None,
     Without a seed the home pose is used; seeds broadcast against the batch of lengths.
     Never raises on non-convergence or singularity: the result says so. Raises ValueError for
     NaN/inf or wrongly shaped input. ``backend``: 'auto' (numba when available), 'numba', 'numpy'.
+    A loop of solves for one robot is cheaper through one :class:`ForwardSolver`.
     """
-    L = check_lengths(lengths)
-    _check_limits(tolerance, max_iterations)
-    numba_path = use_numba(backend)
-    batch = L.shape[:-1]
-    if seed_position is None:
-        seed_position = geometry.home_position
-    if seed_quaternion_xyzw is None:
-        seed_quaternion_xyzw = geometry.home_quaternion_xyzw
-    seed_p = np.asarray(seed_position, dtype=float)
-    seed_q = np.asarray(seed_quaternion_xyzw, dtype=float)
-    if not batch and seed_p.shape == (3,) and seed_q.shape == (4,) and numba_path:
-        return _single_numba(geometry, L, seed_p, seed_q, tolerance, int(max_iterations))
-    try:
-        seed_p = np.broadcast_to(seed_p, batch + (3,))
-        seed_q = np.broadcast_to(seed_q, batch + (4,))
-    except ValueError:
-        raise ValueError(f'seed shapes {seed_p.shape}, {seed_q.shape} do not match lengths '
-                         f'{L.shape}') from None
-    p, q = pose_arrays(seed_p, seed_q)
-    P = np.array(p.reshape(-1, 3), dtype=float, order='C')
-    Q = np.array(q.reshape(-1, 4), dtype=float, order='C')
-    Lf = np.ascontiguousarray(L.reshape(-1, 6))
-    n = Lf.shape[0]
-    if numba_path:
-        converged = np.zeros(n, dtype=np.bool_)
-        iterations = np.zeros(n, dtype=np.int64)
-        residual = np.zeros(n)
-        singular = np.zeros(n, dtype=np.bool_)
-        kernels().fk_batch(geometry.ring_a_anchors, geometry.ring_b_anchors, Lf, P, Q,
-                                    1.0 / geometry.characteristic_length, float(tolerance),
-                                    int(max_iterations), converged, iterations, residual, singular)
-    else:
-        converged, iterations, residual, singular = _newton_numpy(
-            geometry, Lf, P, Q, float(tolerance), int(max_iterations))
-    Q = np.where(Q[:, 3:4] < 0.0, -Q, Q)
-    if not batch:
-        return ForwardKinematicsResult(P[0], Q[0], bool(converged[0]), int(iterations[0]),
-                                       float(residual[0]), bool(singular[0]))
-    return ForwardKinematicsResult(P.reshape(batch + (3,)), Q.reshape(batch + (4,)),
-                                   converged.reshape(batch), iterations.reshape(batch),
-                                   residual.reshape(batch), singular.reshape(batch))
+    key = (id(geometry), tolerance, max_iterations, backend)
+    entry = _solvers.get(key)
+    if entry is None or entry.geometry is not geometry:
+        entry = ForwardSolver(geometry, tolerance=tolerance, max_iterations=max_iterations, backend=backend)
+        if len(_solvers) >= 64:
+            _solvers.clear()
+        _solvers[key] = entry
+    return entry(lengths, seed_position, seed_quaternion_xyzw)
 
 
-def _single_numba(geometry, L, seed_p, seed_q, tolerance, max_iterations):
-    """The warm-started single solve with as little Python around the kernel as possible."""
-    p = seed_p.copy()
-    q = seed_q.copy()
-    norm = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-    if not (math.isfinite(norm) and norm > 1e-12) or not np.isfinite(p).all():
-        pose_arrays(p, q)  # raises the same ValueError as every other path
-    q /= norm
-    c, it, res, sing = kernels().fk_single(
-        geometry.ring_a_anchors, geometry.ring_b_anchors, np.ascontiguousarray(L), p, q,
-        1.0 / geometry.characteristic_length, float(tolerance), max_iterations)
-    if q[3] < 0.0:
-        q = -q
-    return ForwardKinematicsResult(p, q, c, it, res, sing)
+_ARRAY = np.ndarray
+#: The solvers of recent forward_kinematics calls, by geometry object and settings.
+_solvers: dict[tuple, 'ForwardSolver'] = {}
+
+
+class ForwardSolver:
+    """Forward kinematics of one robot with fixed settings, checked once: for a stream of solves
+    (the FK node's tracker, simulations). ``solver(lengths, seed_position, seed_quaternion_xyzw)``
+    is :func:`forward_kinematics` with these settings.
+
+    A single solve whose arguments are already float arrays goes straight into the compiled
+    kernel, which checks them (shapes, finite lengths and seed, non-zero quaternion) itself;
+    anything it refuses is converted and checked in Python, which raises the ValueError.
+    """
+
+    def __init__(self, geometry: RobotGeometry, *, tolerance: float = 1e-12, max_iterations: int = 30,
+                 backend: str = 'auto'):
+        _check_limits(tolerance, max_iterations)
+        self.geometry = geometry
+        self.tolerance = float(tolerance)
+        self.max_iterations = int(max_iterations)
+        self.numba = use_numba(backend)
+        self._A, self._B = (np.array(a, dtype=float, order='C') for a in (geometry.ring_a_anchors,
+                                                                           geometry.ring_b_anchors))
+        self._inv_scale = 1.0 / geometry.characteristic_length
+        self._kernel = kernels().fk_solve if self.numba else None
+
+    @cached_property
+    def _home(self) -> tuple[np.ndarray, np.ndarray]:
+        return (np.array(self.geometry.home_position, dtype=float),
+                np.array(self.geometry.home_quaternion_xyzw, dtype=float))
+
+    def __call__(self, lengths, seed_position=None, seed_quaternion_xyzw=None) -> ForwardKinematicsResult:
+        p = self._home[0] if seed_position is None else seed_position
+        q = self._home[1] if seed_quaternion_xyzw is None else seed_quaternion_xyzw
+        if self._kernel is not None and type(lengths) is _ARRAY and type(p) is _ARRAY and type(q) is _ARRAY:
+            try:
+                ok, p2, q2, c, it, res, sing = self._kernel(self._A, self._B, lengths, p, q, self._inv_scale,
+                                                            self.tolerance, self.max_iterations)
+            except TypeError:  # not writable C-contiguous float64 vectors
+                ok = False
+            if ok:
+                return ForwardKinematicsResult(p2, q2, c, it, res, sing)
+        return self._solve(check_lengths(lengths), p, q)
+
+    def _solve(self, L, seed_p, seed_q) -> ForwardKinematicsResult:
+        batch = L.shape[:-1]
+        seed_p = np.asarray(seed_p, dtype=float)
+        seed_q = np.asarray(seed_q, dtype=float)
+        if not batch and seed_p.shape == (3,) and seed_q.shape == (4,):
+            return self._single(L, *pose_arrays(seed_p, seed_q))
+        try:
+            seed_p = np.broadcast_to(seed_p, batch + (3,))
+            seed_q = np.broadcast_to(seed_q, batch + (4,))
+        except ValueError:
+            raise ValueError(f'seed shapes {seed_p.shape}, {seed_q.shape} do not match lengths '
+                             f'{L.shape}') from None
+        p, q = pose_arrays(seed_p, seed_q)
+        P = np.array(p.reshape(-1, 3), dtype=float, order='C')
+        Q = np.array(q.reshape(-1, 4), dtype=float, order='C')
+        Lf = np.ascontiguousarray(L.reshape(-1, 6))
+        if self.numba:
+            converged, iterations, residual, singular = _batch_numba(
+                self._A, self._B, Lf, P, Q, self._inv_scale, self.tolerance, self.max_iterations)
+        else:
+            converged, iterations, residual, singular = _newton_numpy(
+                self.geometry, Lf, P, Q, self.tolerance, self.max_iterations)
+        Q = np.where(Q[:, 3:4] < 0.0, -Q, Q)
+        return ForwardKinematicsResult(P.reshape(batch + (3,)), Q.reshape(batch + (4,)),
+                                       converged.reshape(batch), iterations.reshape(batch),
+                                       residual.reshape(batch), singular.reshape(batch))
+
+    def _single(self, L, p, q) -> ForwardKinematicsResult:
+        """A single solve of checked input (p, unit q)."""
+        if self.numba:
+            _, p, q, c, it, res, sing = kernels().fk_solve(
+                self._A, self._B, np.array(L), np.array(p), np.array(q), self._inv_scale, self.tolerance,
+                self.max_iterations)
+            return ForwardKinematicsResult(p, q, c, it, res, sing)
+        p, q, c, it, res, sing = fk_python(self._A_rows, self._B_rows, L.tolist(), p.tolist(), q.tolist(),
+                                           self._inv_scale, self.tolerance, self.max_iterations)
+        q = np.array(q)
+        return ForwardKinematicsResult(np.array(p), -q if q[3] < 0.0 else q, c, it, res, sing)
+
+    @cached_property
+    def _A_rows(self) -> list:
+        return self._A.tolist()
+
+    @cached_property
+    def _B_rows(self) -> list:
+        return self._B.tolist()
+
+
+def _batch_numba(A, B, L, P, Q, inv_scale, tolerance, max_iterations):
+    """The compiled batch, in place on P, Q: on every thread when long enough and no other
+    thread runs a parallel kernel, else serially (the same numbers either way)."""
+    n = L.shape[0]
+    converged = np.zeros(n, dtype=np.bool_)
+    iterations = np.zeros(n, dtype=np.int64)
+    residual = np.zeros(n)
+    singular = np.zeros(n, dtype=np.bool_)
+    args = (A, B, L, P, Q, inv_scale, tolerance, max_iterations, converged, iterations, residual, singular)
+    if not (n >= PARALLEL_BATCH and run_parallel(kernels().fk_batch_parallel, *args)):
+        kernels().fk_batch(*args)
+    return converged, iterations, residual, singular
 
 
 def _residual_numpy(geometry, L, P, Q):

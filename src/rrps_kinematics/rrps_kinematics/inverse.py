@@ -16,7 +16,7 @@ import numpy as np
 
 from rrps_description.geometry import RobotGeometry
 from rrps_description.rotations import cross, matrix_to_euler313, matrix_to_euler_parameters, quat_xyzw_to_matrix
-from rrps_kinematics.backend import kernels, use_numba
+from rrps_kinematics.backend import PARALLEL_BATCH, kernels, run_parallel, use_numba
 
 __all__ = [
     'InverseKinematicsResult',
@@ -198,5 +198,8 @@ def leg_lengths(geometry: RobotGeometry, position, quaternion_xyzw, *, backend: 
     P = np.ascontiguousarray(p.reshape(-1, 3))
     Q = np.ascontiguousarray(q.reshape(-1, 4))
     out = np.empty((P.shape[0], 6))
-    kernels().ik_lengths_batch(geometry.ring_a_anchors, geometry.ring_b_anchors, P, Q, out)
+    args = (np.ascontiguousarray(geometry.ring_a_anchors), np.ascontiguousarray(geometry.ring_b_anchors),
+            P, Q, out)
+    if not (P.shape[0] >= PARALLEL_BATCH and run_parallel(kernels().ik_lengths_parallel, *args)):
+        kernels().ik_lengths_batch(*args)
     return out.reshape(p.shape[:-1] + (6,))

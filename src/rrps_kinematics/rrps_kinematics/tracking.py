@@ -13,6 +13,8 @@ than ``max_jump`` (translation plus rotation times the characteristic length) is
 continuation: the lengths are walked from the last accepted ones in ``continuation_steps``
 equal steps, each solve seeded by the previous one, which follows the current assembly branch;
 if the walk fails, the estimate is refused. A refused update keeps the last good estimate.
+The solver settings (``tolerance``, ``max_iterations``) are checked when set, not per update
+(a :class:`rrps_kinematics.forward.ForwardSolver`).
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ import numpy as np
 
 from rrps_description.geometry import RobotGeometry
 from rrps_kinematics.backend import use_numba
-from rrps_kinematics.forward import ForwardKinematicsResult, forward_kinematics
+from rrps_kinematics.forward import ForwardKinematicsResult, ForwardSolver
 from rrps_kinematics.inverse import inverse_kinematics
 from rrps_kinematics.jacobian import inverse_jacobian
 from rrps_kinematics.limits import limit_arrays
@@ -55,9 +57,24 @@ class PoseTracker:
         self.geometry = geometry
         self.max_jump = float(max_jump)
         self.continuation_steps = int(continuation_steps)
-        self.tolerance = tolerance
-        self.max_iterations = max_iterations
+        self._solver = ForwardSolver(geometry, tolerance=tolerance, max_iterations=max_iterations)
         self.reset(geometry.home_position, geometry.home_quaternion_xyzw)
+
+    @property
+    def tolerance(self) -> float:
+        return self._solver.tolerance
+
+    @tolerance.setter
+    def tolerance(self, value: float) -> None:
+        self._solver = ForwardSolver(self.geometry, tolerance=value, max_iterations=self.max_iterations)
+
+    @property
+    def max_iterations(self) -> int:
+        return self._solver.max_iterations
+
+    @max_iterations.setter
+    def max_iterations(self, value: int) -> None:
+        self._solver = ForwardSolver(self.geometry, tolerance=self.tolerance, max_iterations=value)
 
     def reset(self, position, quaternion_xyzw) -> None:
         """Start again from a known pose (its lengths and assembly mode become the reference)."""
@@ -86,8 +103,7 @@ class PoseTracker:
                 + self.geometry.characteristic_length * float(angle))
 
     def _solve(self, lengths, position, quaternion_xyzw) -> ForwardKinematicsResult:
-        return forward_kinematics(self.geometry, lengths, position, quaternion_xyzw,
-                                  tolerance=self.tolerance, max_iterations=self.max_iterations)
+        return self._solver(lengths, position, quaternion_xyzw)
 
     def _failed(self, fk: ForwardKinematicsResult) -> str:
         if fk.converged and not fk.singular:

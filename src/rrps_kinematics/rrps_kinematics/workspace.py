@@ -48,7 +48,7 @@ from scipy import ndimage
 
 from rrps_description.geometry import RobotGeometry
 from rrps_description.rotations import quat_multiply_xyzw, quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
-from rrps_kinematics.backend import use_numba
+from rrps_kinematics.backend import PARALLEL_BATCH, run_parallel, use_numba
 from rrps_kinematics.inverse import inverse_kinematics
 from rrps_kinematics.limits import LIMIT_KINDS, limit_arrays, margins
 
@@ -282,12 +282,14 @@ def _classify_numpy(geometry: RobotGeometry, axes, Q: np.ndarray) -> tuple[np.nd
 
 
 def _classify_numba(geometry: RobotGeometry, axes, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    from rrps_kinematics.compiled_workspace import classify_grid
+    from rrps_kinematics.compiled_workspace import classify_grid, classify_grid_parallel
     shape = tuple(len(a) for a in axes)
     status = np.empty(shape, dtype=np.int8)
     inv_cond = np.empty(shape)
-    classify_grid(limit_arrays(geometry), *(np.ascontiguousarray(a) for a in axes),
-                  np.ascontiguousarray(Q), status, inv_cond)
+    args = (limit_arrays(geometry), *(np.ascontiguousarray(a) for a in axes), np.ascontiguousarray(Q),
+            status, inv_cond)
+    if not (status.size * len(Q) >= PARALLEL_BATCH and run_parallel(classify_grid_parallel, *args)):
+        classify_grid(*args)
     return status, inv_cond
 
 

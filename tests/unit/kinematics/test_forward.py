@@ -195,3 +195,78 @@ def test_overflowing_seed_is_reported_not_raised(backend):
     g = ROBOTS['pole_climber']
     fk = forward_kinematics(g, g.home_lengths, [1e300, 0.0, 0.0], backend=backend)
     assert not fk.converged and fk.residual == np.inf and fk.iterations == 0
+
+
+def _serial_batches(monkeypatch):
+    """Below PARALLEL_BATCH every batch kernel runs serially: the reference of the parallel ones."""
+    for module in ('forward', 'inverse', 'workspace'):
+        monkeypatch.setattr(f'rrps_kinematics.{module}.PARALLEL_BATCH', 10 ** 12)
+
+
+def test_parallel_batches_equal_the_serial_kernels_bit_for_bit(monkeypatch):
+    require(compiled_backend_available(), 'numba not available')
+    from rrps_kinematics import leg_lengths
+    from rrps_kinematics.backend import PARALLEL_BATCH
+    g = ROBOTS['pole_climber']
+    P, Q, L = _workspace_sample(g, 3 * PARALLEL_BATCH, 7, within_limits=False)
+    L = np.vstack([L, np.random.default_rng(8).uniform(0.2, 3.0, (40, 6)) * g.home_lengths])
+    seeds_p = np.resize(P + 0.01, (len(L), 3))
+    assert len(L) >= PARALLEL_BATCH
+    parallel = forward_kinematics(g, L, seeds_p, g.home_quaternion_xyzw)
+    lengths = leg_lengths(g, P, Q)
+    _serial_batches(monkeypatch)
+    serial = forward_kinematics(g, L, seeds_p, g.home_quaternion_xyzw)
+    assert np.any(serial.converged) and np.any(~serial.converged)
+    for a, b in zip(parallel, serial):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(lengths, leg_lengths(g, P, Q))
+
+
+@pytest.mark.parametrize('name', sorted(ROBOTS))
+def test_numpy_single_solve_follows_the_compiled_iterates(name):
+    """The plain-float single solve of the NumPy fallback takes the compiled kernel's steps."""
+    require(compiled_backend_available(), 'numba not available')
+    g = ROBOTS[name]
+    P, Q, L = _workspace_sample(g, 60, 9, within_limits=False)
+    L = np.vstack([L, np.random.default_rng(10).uniform(0.2, 3.0, (10, 6)) * g.home_lengths])
+    for k, lengths in enumerate(L):
+        a = forward_kinematics(g, lengths, backend='numpy')
+        b = forward_kinematics(g, lengths, backend='numba')
+        assert (a.converged, a.iterations, a.singular) == (b.converged, b.iterations, b.singular)
+        if a.converged:
+            np.testing.assert_allclose(a.position, b.position, atol=1e-14)
+            np.testing.assert_allclose(a.quaternion_xyzw, b.quaternion_xyzw, atol=1e-14)
+
+
+@pytest.mark.parametrize('backend', BACKENDS)
+def test_forward_solver_takes_any_array_like_input(backend):
+    """The stream solver's fast path refuses nothing a user may pass: other dtypes, strided or
+    read-only arrays and lists give the same pose; bad values raise as forward_kinematics."""
+    from rrps_kinematics import ForwardSolver
+    g = ROBOTS['frame_climber']
+    p = g.home_position + [0.01, -0.02, 0.015]
+    q = rotation_vector_to_quat_xyzw([0.05, -0.03, 0.08])
+    L = inverse_kinematics(g, p, q).lengths
+    solver = ForwardSolver(g, backend=backend)
+    reference = solver(L, g.home_position, g.home_quaternion_xyzw)
+    _same_pose(reference, p, q)
+    frozen = L.copy()
+    frozen.flags.writeable = False
+    strided = np.repeat(L, 2)[::2]
+    for lengths in (list(L), frozen, strided, L.astype(np.longdouble), L.reshape(1, 6)[0]):
+        fk = solver(lengths, list(g.home_position), np.asarray(g.home_quaternion_xyzw) * 3.0)
+        np.testing.assert_allclose(fk.position, reference.position, atol=1e-12)
+    assert solver(L).iterations == reference.iterations  # the home seed by default
+    for bad, message in (([0.4] * 5, 'lengths must have shape'), (np.full(6, np.nan), 'NaN'),
+                         (np.arange(12.0).reshape(2, 6), None)):
+        if message is None:
+            assert solver(bad).position.shape == (2, 3)   # a batch, not an error
+            continue
+        with pytest.raises(ValueError, match=message):
+            solver(np.asarray(bad, dtype=float))
+    with pytest.raises(ValueError, match='NaN or infinite'):
+        solver(L, np.array([0.0, np.inf, 0.0]))
+    with pytest.raises(ValueError, match='zero norm'):
+        solver(L, None, np.zeros(4))
+    with pytest.raises(ValueError, match='tolerance'):
+        ForwardSolver(g, tolerance=-1.0)

@@ -74,3 +74,16 @@ def test_jacobian_sign_backends_agree(monkeypatch):
     monkeypatch.setattr('rrps_kinematics.tracking.use_numba', lambda backend: False)
     assert [tracker.jacobian_sign(p, q) for p, q in poses] == compiled
     assert {-1.0, 1.0} <= set(compiled)
+
+
+def test_solver_settings_are_checked_when_set():
+    tracker = PoseTracker(POLE, tolerance=1e-10, max_iterations=5)
+    assert (tracker.tolerance, tracker.max_iterations) == (1e-10, 5)
+    tracker.max_iterations = 0
+    update = tracker.update(POLE.home_lengths * 1.001)
+    assert not update.accepted and update.fk.iterations == 0
+    tracker.max_iterations = 30
+    assert tracker.update(POLE.home_lengths * 1.001).accepted
+    with pytest.raises(ValueError, match='tolerance'):
+        tracker.tolerance = float('nan')
+    assert tracker.tolerance == 1e-10

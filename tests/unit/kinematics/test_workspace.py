@@ -356,3 +356,28 @@ def test_cli_bad_arguments_give_one_line_and_status_2(capsys, argv, message):
     assert code == 2 and out == ''
     assert len(err.strip().splitlines()) == 1
     assert err.startswith('rrps-kinematics: error: ') and message in err
+
+
+def test_parallel_kernel_equals_the_serial_one(monkeypatch):
+    require(compiled_backend_available(), 'numba is not available')
+    ranged = orientation_range(LOOSE.home_quaternion_xyzw, roll=(-0.2, 0.2), step=0.2)
+    parallel = reachable_workspace(LOOSE, ranged, resolution=0.02)
+    assert parallel.labels.size >= 512 and parallel.counts['near_singular'] > 0
+    monkeypatch.setattr('rrps_kinematics.workspace.PARALLEL_BATCH', 10 ** 12)
+    serial = reachable_workspace(LOOSE, ranged, resolution=0.02)
+    np.testing.assert_array_equal(parallel.labels, serial.labels)
+    assert parallel.excluded_by == serial.excluded_by
+
+
+def test_jacobi_inverse_condition_equals_the_svd():
+    require(compiled_backend_available(), 'numba is not available')
+    from rrps_kinematics.compiled_workspace import inverse_condition
+    rng = np.random.default_rng(11)
+    for k in range(300):
+        J = rng.normal(size=(6, 6)) * rng.uniform(1e-3, 1e3, 6)   # columns of different scales
+        if k % 3 == 0:
+            J[:, 5] = J[:, 4] + 1e-4 * rng.normal(size=6)           # nearly singular
+        sv = np.linalg.svd(J, compute_uv=False)
+        assert inverse_condition(J.copy()) == pytest.approx(sv[5] / sv[0], rel=1e-9)
+    assert inverse_condition(np.zeros((6, 6))) == 0.0
+    assert inverse_condition(np.diag([1.0, 2.0, 3.0, 4.0, 5.0, 0.5])) == pytest.approx(0.1, rel=1e-15)
