@@ -1,0 +1,245 @@
+"""Rows of float64 values as CSV text, each value as Python's ``repr`` writes it (the shortest
+decimal that reads back to the same double), in one compiled pass.
+
+The digits are Ryu's (U. Adams, "Ryū: fast float-to-string conversion", PLDI 2018): the shortest
+decimal inside the interval that rounds to the double, from 128-bit products with tables of
+powers of 5. The layout is repr's: positional for 1e-4 <= |x| < 1e16 (``0.001``, ``12.0``),
+else ``d.ddde±XX`` (``1e-05``, ``1.5e+16``); ``nan``, ``inf``, ``-0.0``. Without numba
+(``RRPS_NUMBA=0``) the same text comes from Python's repr itself.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rrps_kinematics.backend import jit, numba_enabled
+
+__all__ = ['csv_rows']
+
+_BITCOUNT = 125          # Ryu's DOUBLE_POW5_BITCOUNT = DOUBLE_POW5_INV_BITCOUNT
+_U0, _U1, _U2, _U5, _U10 = (np.uint64(v) for v in (0, 1, 2, 5, 10))
+_U32, _U52, _U63, _U64 = (np.uint64(v) for v in (32, 52, 63, 64))
+_MASK32 = np.uint64(0xFFFFFFFF)
+_MANTISSA = np.uint64((1 << 52) - 1)
+_HIDDEN = np.uint64(1 << 52)
+_EXPONENT = np.uint64(0x7FF)
+_MAX_CHARS = 25          # the longest repr of a double, '-2.2250738585072014e-308', and a comma
+
+
+def _tables() -> tuple[np.ndarray, np.ndarray]:
+    """Ryu's DOUBLE_POW5_INV_SPLIT (floor(2^j / 5^i) + 1) and DOUBLE_POW5_SPLIT (5^i in 125
+    bits) as (low, high) 64-bit words, computed exactly with Python integers."""
+    inverse, power = np.empty((342, 2), np.uint64), np.empty((326, 2), np.uint64)
+    low = (1 << 64) - 1
+    for i in range(342):
+        p = 5 ** i
+        v = (1 << (p.bit_length() - 1 + _BITCOUNT)) // p + 1
+        inverse[i] = v & low, v >> 64
+    for i in range(326):
+        p = 5 ** i
+        n = p.bit_length()
+        v = p >> (n - _BITCOUNT) if n >= _BITCOUNT else p << (_BITCOUNT - n)
+        power[i] = v & low, v >> 64
+    return inverse, power
+
+
+_POW5_INV, _POW5 = _tables()
+
+
+@jit
+def _umul128(a, b):
+    """The 128-bit product of two uint64: (low, high)."""
+    a_lo, a_hi = a & _MASK32, a >> _U32
+    b_lo, b_hi = b & _MASK32, b >> _U32
+    p00, p01, p10, p11 = a_lo * b_lo, a_lo * b_hi, a_hi * b_lo, a_hi * b_hi
+    mid = (p00 >> _U32) + (p01 & _MASK32) + (p10 & _MASK32)
+    return (p00 & _MASK32) | (mid << _U32), p11 + (p01 >> _U32) + (p10 >> _U32) + (mid >> _U32)
+
+
+@jit
+def _mul_shift(m, low, high, j):
+    """floor(m * (high 2^64 + low) / 2^j), 64 < j < 128."""
+    high0 = _umul128(m, low)[1]
+    low1, high1 = _umul128(m, high)
+    s = high0 + low1
+    if s < high0:
+        high1 += _U1
+    d = np.uint64(j - 64)
+    return (s >> d) | (high1 << (_U64 - d))
+
+
+@jit
+def _pow5_factor(v):
+    count = 0
+    while v % _U5 == _U0:
+        v //= _U5
+        count += 1
+    return count
+
+
+@jit
+def _shortest(bits):
+    """The shortest decimal of a finite nonzero double's magnitude: (digits, exponent), value =
+    digits * 10^exponent (Ryu's d2d)."""
+    mantissa = bits & _MANTISSA
+    exponent = np.int64((bits >> _U52) & _EXPONENT)
+    if exponent == 0:
+        e2 = 1 - 1023 - 52 - 2
+        m2 = mantissa
+    else:
+        e2 = exponent - 1023 - 52 - 2
+        m2 = _HIDDEN | mantissa
+    accept = (m2 & _U1) == _U0
+    mv = m2 << _U2
+    mm_shift = _U1 if (mantissa != _U0 or exponent <= 1) else _U0
+    vm_zeros = False
+    vr_zeros = False
+    if e2 >= 0:
+        q = ((e2 * 78913) >> 18) - (1 if e2 > 3 else 0)
+        e10 = q
+        i = -e2 + q + _BITCOUNT + ((q * 1217359) >> 19)
+        low, high = _POW5_INV[q, 0], _POW5_INV[q, 1]
+        vr = _mul_shift(mv, low, high, i)
+        vp = _mul_shift(mv + _U2, low, high, i)
+        vm = _mul_shift(mv - _U1 - mm_shift, low, high, i)
+        if q <= 21:
+            if mv % _U5 == _U0:
+                vr_zeros = _pow5_factor(mv) >= q
+            elif accept:
+                vm_zeros = _pow5_factor(mv - _U1 - mm_shift) >= q
+            elif _pow5_factor(mv + _U2) >= q:
+                vp -= _U1
+    else:
+        q = ((-e2 * 732923) >> 20) - (1 if -e2 > 1 else 0)
+        e10 = q + e2
+        i = -e2 - q
+        j = q - (((i * 1217359) >> 19) + 1 - _BITCOUNT)
+        low, high = _POW5[i, 0], _POW5[i, 1]
+        vr = _mul_shift(mv, low, high, j)
+        vp = _mul_shift(mv + _U2, low, high, j)
+        vm = _mul_shift(mv - _U1 - mm_shift, low, high, j)
+        if q <= 1:
+            vr_zeros = True
+            if accept:
+                vm_zeros = mm_shift == _U1
+            else:
+                vp -= _U1
+        elif q < 63:
+            vr_zeros = (mv & ((_U1 << np.uint64(q)) - _U1)) == _U0
+    removed = 0
+    last = _U0
+    while vp // _U10 > vm // _U10:
+        vm_zeros = vm_zeros and vm % _U10 == _U0
+        vr_zeros = vr_zeros and last == _U0
+        last = vr % _U10
+        vr, vp, vm = vr // _U10, vp // _U10, vm // _U10
+        removed += 1
+    if vm_zeros:
+        while vm % _U10 == _U0:
+            vr_zeros = vr_zeros and last == _U0
+            last = vr % _U10
+            vr, vp, vm = vr // _U10, vp // _U10, vm // _U10
+            removed += 1
+    if vr_zeros and last == _U5 and vr % _U2 == _U0:
+        last = np.uint64(4)      # round half to even
+    if (vr == vm and (not accept or not vm_zeros)) or last >= _U5:
+        vr += _U1
+    return vr, e10 + removed
+
+
+@jit
+def _put(out, n, text):
+    for k in range(len(text)):
+        out[n + k] = text[k]
+    return n + len(text)
+
+
+@jit
+def _write(bits, digits, out, n):
+    """One value as repr writes it, at out[n:]; returns the end."""
+    exponent = (bits >> _U52) & _EXPONENT
+    mantissa = bits & _MANTISSA
+    if exponent == _EXPONENT and mantissa != _U0:
+        return _put(out, n, b'nan')
+    if bits >> _U63:
+        out[n] = 45                                     # '-'
+        n += 1
+    if exponent == _EXPONENT:
+        return _put(out, n, b'inf')
+    if exponent == _U0 and mantissa == _U0:
+        return _put(out, n, b'0.0')
+    value, e10 = _shortest(bits)
+    size = 0
+    while value:
+        digits[size] = np.int64(value % _U10)
+        value //= _U10
+        size += 1
+    point = size + e10                                  # value = 0.d1d2...d_size * 10^point
+    if point <= -4 or point > 16:
+        out[n] = 48 + digits[size - 1]
+        n += 1
+        if size > 1:
+            out[n] = 46                                 # '.'
+            n += 1
+            for k in range(size - 2, -1, -1):
+                out[n] = 48 + digits[k]
+                n += 1
+        out[n] = 101                                    # 'e'
+        out[n + 1] = 43 if point > 0 else 45            # '+', '-'
+        e = abs(point - 1)
+        if e >= 100:
+            out[n + 2] = 48 + e // 100
+            n += 1
+        out[n + 2] = 48 + (e // 10) % 10
+        out[n + 3] = 48 + e % 10
+        return n + 4
+    if point <= 0:
+        out[n] = 48
+        out[n + 1] = 46
+        n += 2
+        for _ in range(-point):
+            out[n] = 48
+            n += 1
+    for k in range(size - 1, -1, -1):
+        if size - 1 - k == point and point > 0:
+            out[n] = 46
+            n += 1
+        out[n] = 48 + digits[k]
+        n += 1
+    if point >= size:
+        for _ in range(point - size):
+            out[n] = 48
+            n += 1
+        out[n] = 46
+        out[n + 1] = 48
+        n += 2
+    return n
+
+
+@jit
+def _rows_text(bits, out):
+    digits = np.empty(20, np.int64)
+    n = 0
+    for r in range(bits.shape[0]):
+        for c in range(bits.shape[1]):
+            if c:
+                out[n] = 44                             # ','
+                n += 1
+            n = _write(bits[r, c], digits, out, n)
+        out[n] = 13                                     # '\r\n', as csv.writer ends a row
+        out[n + 1] = 10
+        n += 2
+    return n
+
+
+def csv_rows(rows: np.ndarray) -> bytes:
+    """The CSV text (ASCII, rows ended by CRLF as :class:`csv.writer` ends them) of a 2-D array
+    of values, each written as ``repr(float(value))``."""
+    rows = np.ascontiguousarray(rows, dtype=np.float64)
+    if rows.ndim != 2:
+        raise ValueError(f'rows must be a 2-D array, got shape {rows.shape}')
+    if not numba_enabled():
+        line = ','.join(['%r'] * rows.shape[1]) + '\r\n'
+        return ((line * rows.shape[0]) % tuple(rows.ravel().tolist())).encode('ascii')
+    out = np.empty(rows.size * _MAX_CHARS + 2 * rows.shape[0], np.uint8)
+    return out[:_rows_text(rows.view(np.uint64), out)].tobytes()
