@@ -60,6 +60,7 @@ from rrps_sim.cli_world import (
 )
 from rrps_sim.dynamics import METHODS, MultibodyDynamics, SimulationResult, simulate
 from rrps_sim.figures import figure6, figure7, format_vector, plot_simulation
+from rrps_sim.float_text import csv_rows
 
 PROG = 'rrps-dynamics'
 _VECTOR_OPTIONS = ('--position', '--quaternion', '--forces') + WORLD_VECTOR_OPTIONS
@@ -179,11 +180,10 @@ def _writing(path: Path):
 
 
 def _write_csv(path: Path, header: Sequence[str], rows: np.ndarray) -> None:
-    with _writing(path), open(path, 'w', newline='') as fh:
-        w = csv.writer(fh)
-        w.writerow(header)
-        for row in rows:
-            w.writerow([repr(float(x)) for x in row])
+    """A header row, then each value as ``repr(float(value))`` (reads back exactly), rows ended
+    by CRLF as :class:`csv.writer` ends them; written at once."""
+    with _writing(path), open(path, 'wb') as fh:
+        fh.write((','.join(header) + '\r\n').encode('ascii') + csv_rows(rows))
 
 
 def _read_trajectory(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
@@ -235,8 +235,9 @@ def _simulate(g: RobotGeometry, args) -> list[str]:
     if args.dt > args.duration:
         raise UsageError(f'--dt ({args.dt}) must not exceed --duration ({args.duration})')
     world = world_of(args)
-    dyn = MultibodyDynamics(g, args.method, support=world)
-    forces = dyn.holding_forces(position, quat) if isinstance(args.forces, str) else args.forces
+    forces = args.forces
+    if isinstance(forces, str):
+        forces = MultibodyDynamics(g, args.method, support=world).holding_forces(position, quat)
     t0 = time.perf_counter()
     res = simulate(g, position, quat, forces, duration=args.duration, dt=args.dt,
                    method=args.method, output_every=args.output_every,
