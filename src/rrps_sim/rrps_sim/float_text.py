@@ -17,12 +17,14 @@ from rrps_kinematics.backend import jit, numba_enabled
 __all__ = ['csv_rows']
 
 _BITCOUNT = 125          # Ryu's DOUBLE_POW5_BITCOUNT = DOUBLE_POW5_INV_BITCOUNT
-_U0, _U1, _U2, _U5, _U10 = (np.uint64(v) for v in (0, 1, 2, 5, 10))
+_U0, _U1, _U2, _U5, _U10, _U100 = (np.uint64(v) for v in (0, 1, 2, 5, 10, 100))
 _U32, _U52, _U63, _U64 = (np.uint64(v) for v in (32, 52, 63, 64))
 _MASK32 = np.uint64(0xFFFFFFFF)
 _MANTISSA = np.uint64((1 << 52) - 1)
 _HIDDEN = np.uint64(1 << 52)
 _EXPONENT = np.uint64(0x7FF)
+_POW10 = np.array([10**k for k in range(17)], np.uint64)
+_PAIRS = np.frombuffer(''.join(f'{k:02d}' for k in range(100)).encode('ascii'), np.uint8).copy()
 _MAX_CHARS = 25          # the longest repr of a double, '-2.2250738585072014e-308', and a comma
 
 
@@ -155,7 +157,24 @@ def _put(out, n, text):
 
 
 @jit
-def _write(bits, digits, out, n):
+def _put_digits(out, end, value):
+    """The decimal digits of value ending at out[end - 1], two at a time."""
+    while value >= _U100:
+        pair = 2 * np.int64(value % _U100)
+        value //= _U100
+        out[end - 1] = _PAIRS[pair + 1]
+        out[end - 2] = _PAIRS[pair]
+        end -= 2
+    if value >= _U10:
+        pair = 2 * np.int64(value)
+        out[end - 1] = _PAIRS[pair + 1]
+        out[end - 2] = _PAIRS[pair]
+    else:
+        out[end - 1] = 48 + np.int64(value)
+
+
+@jit
+def _write(bits, out, n):
     """One value as repr writes it, at out[n:]; returns the end."""
     exponent = (bits >> _U52) & _EXPONENT
     mantissa = bits & _MANTISSA
@@ -169,21 +188,19 @@ def _write(bits, digits, out, n):
     if exponent == _U0 and mantissa == _U0:
         return _put(out, n, b'0.0')
     value, e10 = _shortest(bits)
-    size = 0
-    while value:
-        digits[size] = np.int64(value % _U10)
-        value //= _U10
-        size += 1
+    size = 17
+    while size > 1 and value < _POW10[size - 1]:
+        size -= 1
     point = size + e10                                  # value = 0.d1d2...d_size * 10^point
-    if point <= -4 or point > 16:
-        out[n] = 48 + digits[size - 1]
-        n += 1
+    if point <= -4 or point > 16:                       # d.ddde-XX, d.ddde+XX
         if size > 1:
-            out[n] = 46                                 # '.'
+            _put_digits(out, n + 1 + size, value)
+            out[n] = out[n + 1]
+            out[n + 1] = 46                             # '.'
+            n += 1 + size
+        else:
+            out[n] = 48 + np.int64(value)
             n += 1
-            for k in range(size - 2, -1, -1):
-                out[n] = 48 + digits[k]
-                n += 1
         out[n] = 101                                    # 'e'
         out[n + 1] = 43 if point > 0 else 45            # '+', '-'
         e = abs(point - 1)
@@ -193,39 +210,49 @@ def _write(bits, digits, out, n):
         out[n + 2] = 48 + (e // 10) % 10
         out[n + 3] = 48 + e % 10
         return n + 4
-    if point <= 0:
+    if point <= 0:                                      # 0.000ddd
         out[n] = 48
         out[n + 1] = 46
-        n += 2
-        for _ in range(-point):
-            out[n] = 48
-            n += 1
-    for k in range(size - 1, -1, -1):
-        if size - 1 - k == point and point > 0:
-            out[n] = 46
-            n += 1
-        out[n] = 48 + digits[k]
-        n += 1
-    if point >= size:
-        for _ in range(point - size):
-            out[n] = 48
-            n += 1
-        out[n] = 46
-        out[n + 1] = 48
-        n += 2
-    return n
+        for k in range(n + 2, n + 2 - point):
+            out[k] = 48
+        n += 2 - point
+        _put_digits(out, n + size, value)
+        return n + size
+    if point < size:                                    # ddd.ddd
+        _put_digits(out, n + 1 + size, value)
+        for k in range(n, n + point):
+            out[k] = out[k + 1]
+        out[n + point] = 46
+        return n + 1 + size
+    _put_digits(out, n + size, value)                   # ddd000.0
+    for k in range(n + size, n + point):
+        out[k] = 48
+    out[n + point] = 46
+    out[n + point + 1] = 48
+    return n + point + 2
 
 
 @jit
 def _rows_text(bits, out):
-    digits = np.empty(20, np.int64)
+    """The rows at out[0:]; returns the end. A value equal to the one above it (a constant
+    column) is copied from the row above."""
+    columns = bits.shape[1]
+    above = np.empty(columns, np.int64)                 # where each column's text starts
+    width = np.zeros(columns, np.int64)                 # and its length (0: no row above)
     n = 0
     for r in range(bits.shape[0]):
-        for c in range(bits.shape[1]):
+        for c in range(columns):
             if c:
                 out[n] = 44                             # ','
                 n += 1
-            n = _write(bits[r, c], digits, out, n)
+            start = n
+            if width[c] and bits[r, c] == bits[r - 1, c]:
+                for k in range(width[c]):
+                    out[n + k] = out[above[c] + k]
+                n += width[c]
+            else:
+                n = _write(bits[r, c], out, n)
+            above[c], width[c] = start, n - start
         out[n] = 13                                     # '\r\n', as csv.writer ends a row
         out[n + 1] = 10
         n += 2

@@ -39,6 +39,13 @@ def test_random_doubles_are_written_as_repr_writes_them(kind):
     np.testing.assert_array_equal(back, rows)
 
 
+def test_repeated_values_are_copied_from_the_row_above_exactly():
+    rows = np.tile(np.array(EDGES[:12]), (5, 1))
+    rows[2, 3] = 0.25
+    rows[3:, 5] = -1.5e-300
+    assert csv_rows(rows).decode('ascii') == expected(rows)
+
+
 def test_a_non_table_is_rejected():
     with pytest.raises(ValueError, match='2-D'):
         csv_rows(np.zeros(3))
