@@ -59,15 +59,48 @@ def _umul128(a, b):
 
 
 @jit
-def _mul_shift(m, low, high, j):
-    """floor(m * (high 2^64 + low) / 2^j), 64 < j < 128."""
-    high0 = _umul128(m, low)[1]
-    low1, high1 = _umul128(m, high)
-    s = high0 + low1
-    if s < high0:
-        high1 += _U1
-    d = np.uint64(j - 64)
-    return (s >> d) | (high1 << (_U64 - d))
+def _shift(mid, high, d):
+    """(high 2^64 + mid) >> d, 0 < d < 64."""
+    d = np.uint64(d)
+    return (mid >> d) | (high << (_U64 - d))
+
+
+@jit
+def _mul_shift_all(m2, low, high, j, mm_shift):
+    """floor(x (high 2^64 + low) / 2^j) for x = 4 m2 (vr), 4 m2 + 2 (vp) and 4 m2 - 1 -
+    mm_shift (vm), from the one product 2 m2 (high 2^64 + low) (Ryu's mulShiftAll64)."""
+    m = m2 << _U1
+    lo, tmp = _umul128(m, low)
+    mid_lo, hi = _umul128(m, high)
+    mid = tmp + mid_lo
+    if mid < tmp:
+        hi += _U1
+    lo2 = lo + low
+    mid2 = mid + high
+    if lo2 < lo:
+        mid2 += _U1
+    hi2 = hi + _U1 if mid2 < mid else hi
+    vp = _shift(mid2, hi2, j - 65)
+    if mm_shift == _U1:
+        lo3 = lo - low
+        mid3 = mid - high
+        if lo3 > lo:
+            mid3 -= _U1
+        hi3 = hi - _U1 if mid3 > mid else hi
+        vm = _shift(mid3, hi3, j - 65)
+    else:
+        lo3 = lo + lo
+        mid3 = mid + mid
+        if lo3 < lo:
+            mid3 += _U1
+        hi3 = hi + hi + _U1 if mid3 < mid else hi + hi
+        lo4 = lo3 - low
+        mid4 = mid3 - high
+        if lo4 > lo3:
+            mid4 -= _U1
+        hi4 = hi3 - _U1 if mid4 > mid3 else hi3
+        vm = _shift(mid4, hi4, j - 64)
+    return _shift(mid, hi, j - 65), vp, vm
 
 
 @jit
@@ -101,9 +134,7 @@ def _shortest(bits):
         e10 = q
         i = -e2 + q + _BITCOUNT + ((q * 1217359) >> 19)
         low, high = _POW5_INV[q, 0], _POW5_INV[q, 1]
-        vr = _mul_shift(mv, low, high, i)
-        vp = _mul_shift(mv + _U2, low, high, i)
-        vm = _mul_shift(mv - _U1 - mm_shift, low, high, i)
+        vr, vp, vm = _mul_shift_all(m2, low, high, i, mm_shift)
         if q <= 21:
             if mv % _U5 == _U0:
                 vr_zeros = _pow5_factor(mv) >= q
@@ -117,9 +148,7 @@ def _shortest(bits):
         i = -e2 - q
         j = q - (((i * 1217359) >> 19) + 1 - _BITCOUNT)
         low, high = _POW5[i, 0], _POW5[i, 1]
-        vr = _mul_shift(mv, low, high, j)
-        vp = _mul_shift(mv + _U2, low, high, j)
-        vm = _mul_shift(mv - _U1 - mm_shift, low, high, j)
+        vr, vp, vm = _mul_shift_all(m2, low, high, j, mm_shift)
         if q <= 1:
             vr_zeros = True
             if accept:
