@@ -183,7 +183,8 @@ def _write_csv(path: Path, header: Sequence[str], rows: np.ndarray) -> None:
     """A header row, then each value as ``repr(float(value))`` (reads back exactly), rows ended
     by CRLF as :class:`csv.writer` ends them; written at once."""
     with _writing(path), open(path, 'wb') as fh:
-        fh.write((','.join(header) + '\r\n').encode('ascii') + csv_rows(rows))
+        fh.write((','.join(header) + '\r\n').encode('ascii'))
+        fh.write(csv_rows(rows))
 
 
 def _read_trajectory(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:

@@ -17,7 +17,7 @@ from rrps_kinematics.backend import jit, numba_enabled
 __all__ = ['csv_rows']
 
 _BITCOUNT = 125          # Ryu's DOUBLE_POW5_BITCOUNT = DOUBLE_POW5_INV_BITCOUNT
-_U0, _U1, _U2, _U5, _U10, _U100 = (np.uint64(v) for v in (0, 1, 2, 5, 10, 100))
+_U0, _U1, _U2, _U5, _U10, _U50, _U100, _U1E8 = (np.uint64(v) for v in (0, 1, 2, 5, 10, 50, 100, 10**8))
 _U32, _U52, _U63, _U64 = (np.uint64(v) for v in (32, 52, 63, 64))
 _MASK32 = np.uint64(0xFFFFFFFF)
 _MANTISSA = np.uint64((1 << 52) - 1)
@@ -158,6 +158,19 @@ def _shortest(bits):
         elif q < 63:
             vr_zeros = (mv & ((_U1 << np.uint64(q)) - _U1)) == _U0
     removed = 0
+    if not (vm_zeros or vr_zeros):                      # the common case (~99 %)
+        round_up = False
+        if vp // _U100 > vm // _U100:
+            round_up = vr % _U100 >= _U50
+            vr, vp, vm = vr // _U100, vp // _U100, vm // _U100
+            removed = 2
+        while vp // _U10 > vm // _U10:
+            round_up = vr % _U10 >= _U5
+            vr, vp, vm = vr // _U10, vp // _U10, vm // _U10
+            removed += 1
+        if vr == vm or round_up:
+            vr += _U1
+        return vr, e10 + removed
     last = _U0
     while vp // _U10 > vm // _U10:
         vm_zeros = vm_zeros and vm % _U10 == _U0
@@ -187,19 +200,28 @@ def _put(out, n, text):
 
 @jit
 def _put_digits(out, end, value):
-    """The decimal digits of value ending at out[end - 1], two at a time."""
-    while value >= _U100:
-        pair = 2 * np.int64(value % _U100)
-        value //= _U100
+    """The decimal digits of value ending at out[end - 1]: 8 at a time, then two at a time."""
+    while value >= _U1E8:
+        chunk = np.int64(value % _U1E8)
+        value //= _U1E8
+        for _ in range(4):
+            pair = 2 * (chunk % 100)
+            chunk //= 100
+            out[end - 1] = _PAIRS[pair + 1]
+            out[end - 2] = _PAIRS[pair]
+            end -= 2
+    small = np.int64(value)
+    while small >= 100:
+        pair = 2 * (small % 100)
+        small //= 100
         out[end - 1] = _PAIRS[pair + 1]
         out[end - 2] = _PAIRS[pair]
         end -= 2
-    if value >= _U10:
-        pair = 2 * np.int64(value)
-        out[end - 1] = _PAIRS[pair + 1]
-        out[end - 2] = _PAIRS[pair]
+    if small >= 10:
+        out[end - 1] = _PAIRS[2 * small + 1]
+        out[end - 2] = _PAIRS[2 * small]
     else:
-        out[end - 1] = 48 + np.int64(value)
+        out[end - 1] = 48 + small
 
 
 @jit
