@@ -13,10 +13,12 @@ payload and the tool wrench (:mod:`rrps_sim.cli_world`); the default is ring_a g
 ``--robot`` takes a shipped robot name (default ``pole_climber``) or a YAML path; the pose
 defaults to the robot's home pose. Poses are a_T_b (ring_b in ring_a's frame), SI units, ROS
 (x, y, z, w) quaternions; forces are positive when they push the rings apart. Long runs show
-their progress on stderr. The ``inverse`` trajectory is a CSV with a header row: columns
-t,x,y,z,qx,qy,qz,qw (a_T_b at time t), optionally ring_b's velocity vx,vy,vz,wx,wy,wz (origin
-velocity [m/s] and angular velocity [rad/s], ring_a's frame) and acceleration
-ax,ay,az,dwx,dwy,dwz (their rates); what is missing is differentiated from the samples.
+their progress on stderr. The CSVs written have a header row and each value as Python's ``repr``
+writes it (the shortest decimal that reads back to the same double). The ``inverse`` trajectory
+is a CSV with a header row: columns t,x,y,z,qx,qy,qz,qw (a_T_b at time t), optionally ring_b's
+velocity vx,vy,vz,wx,wy,wz (origin velocity [m/s] and angular velocity [rad/s], ring_a's frame)
+and acceleration ax,ay,az,dwx,dwy,dwz (their rates); what is missing is differentiated from the
+samples.
 Exit status (one error line on stderr unless 0):
 
 * 0 done;
