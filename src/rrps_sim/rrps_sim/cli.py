@@ -62,7 +62,7 @@ from rrps_sim.cli_world import (
 )
 from rrps_sim.dynamics import METHODS, MultibodyDynamics, SimulationResult, simulate
 from rrps_sim.figures import figure6, figure7, format_vector, plot_simulation
-from rrps_sim.float_text import csv_rows
+from rrps_sim.float_text import write_rows
 
 PROG = 'rrps-dynamics'
 _VECTOR_OPTIONS = ('--position', '--quaternion', '--forces') + WORLD_VECTOR_OPTIONS
@@ -183,10 +183,10 @@ def _writing(path: Path):
 
 def _write_csv(path: Path, header: Sequence[str], rows: np.ndarray) -> None:
     """A header row, then each value as ``repr(float(value))`` (reads back exactly), rows ended
-    by CRLF as :class:`csv.writer` ends them; written at once."""
+    by CRLF as :class:`csv.writer` ends them; the text compiled a chunk of rows at a time."""
     with _writing(path), open(path, 'wb') as fh:
         fh.write((','.join(header) + '\r\n').encode('ascii'))
-        fh.write(csv_rows(rows))
+        write_rows(fh, rows)
 
 
 def _read_trajectory(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:

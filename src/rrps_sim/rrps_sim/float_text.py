@@ -10,11 +10,13 @@ else ``d.ddde±XX`` (``1e-05``, ``1.5e+16``); ``nan``, ``inf``, ``-0.0``. Withou
 
 from __future__ import annotations
 
+from typing import BinaryIO
+
 import numpy as np
 
 from rrps_kinematics.backend import jit, numba_enabled
 
-__all__ = ['csv_rows']
+__all__ = ['CHUNK_ROWS', 'csv_rows', 'write_rows']
 
 _BITCOUNT = 125          # Ryu's DOUBLE_POW5_BITCOUNT = DOUBLE_POW5_INV_BITCOUNT
 _U0, _U1, _U2, _U5, _U10, _U50, _U100, _U1E8 = (np.uint64(v) for v in (0, 1, 2, 5, 10, 50, 100, 10**8))
@@ -25,6 +27,8 @@ _HIDDEN = np.uint64(1 << 52)
 _EXPONENT = np.uint64(0x7FF)
 _POW10 = np.array([10**k for k in range(17)], np.uint64)
 _PAIRS = np.frombuffer(''.join(f'{k:02d}' for k in range(100)).encode('ascii'), np.uint8).copy()
+#: Rows formatted at a time by :func:`write_rows` (about 600 kB of text for the simulate CSV).
+CHUNK_ROWS = 1000
 _MAX_CHARS = 25          # the longest repr of a double, '-2.2250738585072014e-308', and a comma
 
 
@@ -310,14 +314,32 @@ def _rows_text(bits, out):
     return n
 
 
+def write_rows(fh: BinaryIO, rows: np.ndarray, chunk: int = CHUNK_ROWS) -> None:
+    """Write :func:`csv_rows` of ``rows`` to a binary file, ``chunk`` rows at a time through one
+    buffer (it stays in the cache; no copy of the whole text)."""
+    rows = _table(rows)
+    if not numba_enabled():
+        fh.write(csv_rows(rows))
+        return
+    bits = rows.view(np.uint64)
+    out = np.empty(min(chunk, len(rows)) * (rows.shape[1] * _MAX_CHARS + 2), np.uint8)
+    for start in range(0, len(rows), chunk):
+        fh.write(out[:_rows_text(bits[start:start + chunk], out)])
+
+
 def csv_rows(rows: np.ndarray) -> bytes:
     """The CSV text (ASCII, rows ended by CRLF as :class:`csv.writer` ends them) of a 2-D array
     of values, each written as ``repr(float(value))``."""
-    rows = np.ascontiguousarray(rows, dtype=np.float64)
-    if rows.ndim != 2:
-        raise ValueError(f'rows must be a 2-D array, got shape {rows.shape}')
+    rows = _table(rows)
     if not numba_enabled():
         line = ','.join(['%r'] * rows.shape[1]) + '\r\n'
         return ((line * rows.shape[0]) % tuple(rows.ravel().tolist())).encode('ascii')
     out = np.empty(rows.size * _MAX_CHARS + 2 * rows.shape[0], np.uint8)
     return out[:_rows_text(rows.view(np.uint64), out)].tobytes()
+
+
+def _table(rows) -> np.ndarray:
+    rows = np.ascontiguousarray(rows, dtype=np.float64)
+    if rows.ndim != 2:
+        raise ValueError(f'rows must be a 2-D array, got shape {rows.shape}')
+    return rows

@@ -1,10 +1,12 @@
 """rrps_sim.float_text: the compiled CSV text is Python's repr of every double, checked value by
 value against repr itself on random bit patterns and the edge cases of the layout."""
 
+import io
+
 import numpy as np
 import pytest
 
-from rrps_sim.float_text import csv_rows
+from rrps_sim.float_text import csv_rows, write_rows
 
 EDGES = [0.0, -0.0, np.nan, -np.nan, np.inf, -np.inf, 5e-324, -5e-324, 2.2250738585072014e-308,
          2.225073858507201e-308, 1.7976931348623157e308, 1e16, 9999999999999998.0, 1e15, 1e-4,
@@ -44,6 +46,14 @@ def test_repeated_values_are_copied_from_the_row_above_exactly():
     rows[2, 3] = 0.25
     rows[3:, 5] = -1.5e-300
     assert csv_rows(rows).decode('ascii') == expected(rows)
+
+
+def test_written_in_chunks_is_the_same_text():
+    rows = np.tile(np.array(EDGES[:12]), (7, 1))
+    rows[::3, 4] = 0.125
+    fh = io.BytesIO()
+    write_rows(fh, rows, chunk=3)
+    assert fh.getvalue() == csv_rows(rows) == expected(rows).encode('ascii')
 
 
 def test_a_non_table_is_rejected():
