@@ -155,9 +155,10 @@ def main(argv=None) -> int:
     for duration in durations:
         for every in (1, 10):
             ratio = ratios[duration, every, 'command line']
+            own = cpu[duration, every, 'command line'] - cpu[duration, every, 'library']
             print(f'whole {duration:g} s run, output every {every}: command line / library '
                   f'{ratio:.3f} (within 10 %: {"MET" if ratio <= TARGET else "MISSED"}; the '
-                  f'command line\'s own cost {1e3 * (cpu[duration, every, "command line"] - cpu[duration, every, "library"]):.1f} ms)')
+                  f'command line\'s own cost {1e3 * own:.1f} ms)')
     print('(own cost: what the command line adds to the library call: once per invocation the '
           'arguments, the robot YAML, the progress batches, the CSV file and the summary; per '
           'written row its CSV text)')

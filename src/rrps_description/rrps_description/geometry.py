@@ -53,7 +53,7 @@ __all__ = [
 ]
 
 GRIPPER_KINDS = ('clamp', 'hook', 'suction', 'none')
-#: libyaml's safe loader where PyYAML was built with it (the same data, 9x faster).
+#: libyaml's safe loader where PyYAML has it (the same data, faster), else PyYAML's own.
 _YAML_LOADER = getattr(yaml, 'CSafeLoader', yaml.SafeLoader)
 
 #: Why a robot description may not give gravity, and what to do instead.

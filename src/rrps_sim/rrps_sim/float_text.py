@@ -1,11 +1,12 @@
 """Rows of float64 values as CSV text, each value as Python's ``repr`` writes it (the shortest
-decimal that reads back to the same double), in one compiled pass.
+decimal that reads back to the same double), compiled.
 
 The digits are Ryu's (U. Adams, "Ryū: fast float-to-string conversion", PLDI 2018): the shortest
 decimal inside the interval that rounds to the double, from 128-bit products with tables of
 powers of 5. The layout is repr's: positional for 1e-4 <= |x| < 1e16 (``0.001``, ``12.0``),
 else ``d.ddde±XX`` (``1e-05``, ``1.5e+16``); ``nan``, ``inf``, ``-0.0``. Without numba
-(``RRPS_NUMBA=0``) the same text comes from Python's repr itself.
+(``RRPS_NUMBA=0``) the same text comes from Python's repr itself (the kernels rely on numba's
+wrapping uint64 arithmetic).
 """
 
 from __future__ import annotations
@@ -117,9 +118,10 @@ def _pow5_factor(v):
 
 
 @jit
-def _shortest(bits):
-    """The shortest decimal of a finite nonzero double's magnitude: (digits, exponent), value =
-    digits * 10^exponent (Ryu's d2d)."""
+def _interval(bits):
+    """Ryu's steps 1-3 for a finite nonzero double: the decimal interval (vr, vp, vm) * 10^e10
+    of the values that round to it, whether vm and vr drop only zeros when shortened, and
+    whether the interval's bounds are inside (an even mantissa)."""
     mantissa = bits & _MANTISSA
     exponent = np.int64((bits >> _U52) & _EXPONENT)
     if exponent == 0:
@@ -161,6 +163,14 @@ def _shortest(bits):
                 vp -= _U1
         elif q < 63:
             vr_zeros = (mv & ((_U1 << np.uint64(q)) - _U1)) == _U0
+    return vr, vp, vm, e10, vm_zeros, vr_zeros, accept
+
+
+@jit
+def _shortest(bits):
+    """The shortest decimal of a finite nonzero double's magnitude: (digits, exponent), value =
+    digits * 10^exponent (Ryu's d2d, step 4)."""
+    vr, vp, vm, e10, vm_zeros, vr_zeros, accept = _interval(bits)
     removed = 0
     if not (vm_zeros or vr_zeros):                      # the common case (~99 %)
         round_up = False
