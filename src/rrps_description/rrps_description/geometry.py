@@ -53,6 +53,8 @@ __all__ = [
 ]
 
 GRIPPER_KINDS = ('clamp', 'hook', 'suction', 'none')
+#: libyaml's safe loader where PyYAML has it (the same data, faster), else PyYAML's own.
+_YAML_LOADER = getattr(yaml, 'CSafeLoader', yaml.SafeLoader)
 
 #: Why a robot description may not give gravity, and what to do instead.
 GRAVITY_MIGRATION = (
@@ -374,7 +376,7 @@ class RobotGeometry:
         except OSError as exc:
             raise RobotDescriptionError(f'{path}: cannot read: {exc.strerror}') from None
         try:
-            data = yaml.safe_load(text)
+            data = yaml.load(text, Loader=_YAML_LOADER)
         except yaml.YAMLError as exc:
             raise RobotDescriptionError(f'{path}: invalid YAML: {exc}') from None
         return cls.from_dict(data, source=str(path))

@@ -13,10 +13,12 @@ payload and the tool wrench (:mod:`rrps_sim.cli_world`); the default is ring_a g
 ``--robot`` takes a shipped robot name (default ``pole_climber``) or a YAML path; the pose
 defaults to the robot's home pose. Poses are a_T_b (ring_b in ring_a's frame), SI units, ROS
 (x, y, z, w) quaternions; forces are positive when they push the rings apart. Long runs show
-their progress on stderr. The ``inverse`` trajectory is a CSV with a header row: columns
-t,x,y,z,qx,qy,qz,qw (a_T_b at time t), optionally ring_b's velocity vx,vy,vz,wx,wy,wz (origin
-velocity [m/s] and angular velocity [rad/s], ring_a's frame) and acceleration
-ax,ay,az,dwx,dwy,dwz (their rates); what is missing is differentiated from the samples.
+their progress on stderr. The CSVs written have a header row and each value as Python's ``repr``
+writes it (the shortest decimal that reads back to the same double). The ``inverse`` trajectory
+is a CSV with a header row: columns t,x,y,z,qx,qy,qz,qw (a_T_b at time t), optionally ring_b's
+velocity vx,vy,vz,wx,wy,wz (origin velocity [m/s] and angular velocity [rad/s], ring_a's frame)
+and acceleration ax,ay,az,dwx,dwy,dwz (their rates); what is missing is differentiated from the
+samples.
 Exit status (one error line on stderr unless 0):
 
 * 0 done;
@@ -60,6 +62,7 @@ from rrps_sim.cli_world import (
 )
 from rrps_sim.dynamics import METHODS, MultibodyDynamics, SimulationResult, simulate
 from rrps_sim.figures import figure6, figure7, format_vector, plot_simulation
+from rrps_sim.float_text import write_rows
 
 PROG = 'rrps-dynamics'
 _VECTOR_OPTIONS = ('--position', '--quaternion', '--forces') + WORLD_VECTOR_OPTIONS
@@ -179,11 +182,11 @@ def _writing(path: Path):
 
 
 def _write_csv(path: Path, header: Sequence[str], rows: np.ndarray) -> None:
-    with _writing(path), open(path, 'w', newline='') as fh:
-        w = csv.writer(fh)
-        w.writerow(header)
-        for row in rows:
-            w.writerow([repr(float(x)) for x in row])
+    """A header row, then each value as ``repr(float(value))`` (reads back exactly), rows ended
+    by CRLF as :class:`csv.writer` ends them; the text compiled a chunk of rows at a time."""
+    with _writing(path), open(path, 'wb') as fh:
+        fh.write((','.join(header) + '\r\n').encode('ascii'))
+        write_rows(fh, rows)
 
 
 def _read_trajectory(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
@@ -235,8 +238,9 @@ def _simulate(g: RobotGeometry, args) -> list[str]:
     if args.dt > args.duration:
         raise UsageError(f'--dt ({args.dt}) must not exceed --duration ({args.duration})')
     world = world_of(args)
-    dyn = MultibodyDynamics(g, args.method, support=world)
-    forces = dyn.holding_forces(position, quat) if isinstance(args.forces, str) else args.forces
+    forces = args.forces
+    if isinstance(forces, str):
+        forces = MultibodyDynamics(g, args.method, support=world).holding_forces(position, quat)
     t0 = time.perf_counter()
     res = simulate(g, position, quat, forces, duration=args.duration, dt=args.dt,
                    method=args.method, output_every=args.output_every,

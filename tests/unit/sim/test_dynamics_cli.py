@@ -68,6 +68,30 @@ def test_simulate_hold_keeps_the_pose(tmp_path, capsys):
     np.testing.assert_allclose(data[:, 1:4], np.tile(POSITION, (3, 1)), atol=1e-12)
 
 
+@pytest.mark.parametrize('every', [1, 7])
+def test_simulate_csv_is_the_library_run_to_the_last_bit(tmp_path, every):
+    """Every value as repr writes the library's (it reads back exactly), CRLF rows as before,
+    rows at t = 0, every N-th step and the last (50 steps: 51 rows, or 0, 7, ..., 49, 50)."""
+    forces = MultibodyDynamics(GEOM).holding_forces(POSITION, QUAT) + [2.0, -1.0, 0.5, 1.0, -2.0, 0.0]
+    out = tmp_path / 'run.csv'
+    assert run(['simulate', '--position', POS_ARG, '--quaternion', QUAT_ARG,
+                '--forces', ','.join(map(repr, forces.tolist())), '--duration', '0.05', '--dt', '0.001',
+                '--output-every', str(every), '--csv', str(out)]) == 0
+    ref = simulate(GEOM, POSITION, QUAT / np.linalg.norm(QUAT), forces, duration=0.05, dt=0.001,
+                   output_every=every)
+    lines = out.read_bytes().decode('ascii').split('\r\n')
+    assert lines[0] == ','.join(SIMULATION_COLUMNS) and lines[-1] == ''
+    rows = [line.split(',') for line in lines[1:-1]]
+    assert len(rows) == 1 + -(-50 // every) == len(ref.t)
+    timed = SIMULATION_COLUMNS.index('step_seconds')     # the wall time differs from run to run
+    for row, expected in zip(rows, cli.simulation_rows(ref).tolist()):
+        assert len(row) == len(SIMULATION_COLUMNS)
+        assert row[:timed] == [repr(v) for v in expected[:timed]]
+        assert repr(float(row[timed])) == row[timed]
+    assert float(rows[-1][0]) == ref.t[-1] == pytest.approx(0.05)
+    assert float(rows[-2][0]) == pytest.approx(0.049)
+
+
 def test_statics_prints_the_six_holding_forces(capsys):
     assert run(['statics', '--position', POS_ARG, '--quaternion', QUAT_ARG]) == 0
     lines = capsys.readouterr().out.strip().splitlines()
