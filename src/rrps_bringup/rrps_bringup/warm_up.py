@@ -12,6 +12,7 @@ Nothing is compiled when numba is off (``RRPS_NUMBA=0``) or missing.
 
 from __future__ import annotations
 
+import multiprocessing
 import sys
 import time
 
@@ -27,18 +28,30 @@ ROBOT = 'pole_climber'
 
 
 def warm_up(robot: str = ROBOT) -> float:
-    """Run every compiled kernel once; returns the seconds it took (0 when numba is off)."""
+    """Run every compiled kernel once; returns the seconds it took (0 when numba is off). The
+    dynamics' and the guards' kernels compile in a second process meanwhile (both cores)."""
     if not numba_enabled():
         return 0.0
+    start = time.perf_counter()
+    other = multiprocessing.get_context('spawn').Process(target=_dynamics_kernels, args=(robot,),
+                                                         name='rrps-warm-up')
+    other.start()
+    try:
+        _kinematics_kernels(robot)
+    finally:
+        other.join()
+    if other.exitcode != 0:
+        raise RuntimeError(f'the warm-up of the dynamics kernels failed (exit code {other.exitcode})')
+    return time.perf_counter() - start
+
+
+def _kinematics_kernels(robot: str) -> None:
+    """IK, FK (single; batches serial and parallel), the workspace, the limits, assembly modes."""
     from rrps_kinematics import assembly_modes, forward_kinematics, leg_lengths
     from rrps_kinematics.backend import PARALLEL_BATCH
     from rrps_kinematics.limits import pose_margins
     from rrps_kinematics.workspace import reachable_workspace
-    from rrps_sim.float_text import csv_rows
-    from rrps_sim.preview import PreviewMotion, preview_step
-    from rrps_teleop.mapping import TeleopMapping
 
-    start = time.perf_counter()
     g = load_robot(robot)
     p, q = np.array(g.home_position, dtype=float), np.array(g.home_quaternion_xyzw, dtype=float)
     forward_kinematics(g, g.home_lengths)
@@ -50,13 +63,22 @@ def warm_up(robot: str = ROBOT) -> float:
         reachable_workspace(g, resolution=resolution)
     assembly_modes(g, g.home_lengths)     # the homotopy kernels and the batch FK that polishes
     pose_margins(g, p, q)
+
+
+def _dynamics_kernels(robot: str) -> None:
+    """The teleop guards, a short preview on either ring, the CSV text of rrps-dynamics."""
+    from rrps_sim.float_text import csv_rows
+    from rrps_sim.preview import PreviewMotion, preview_step
+    from rrps_teleop.mapping import TeleopMapping
+
+    g = load_robot(robot)
+    p, q = np.array(g.home_position, dtype=float), np.array(g.home_quaternion_xyzw, dtype=float)
     TeleopMapping(g)                      # compiles the guards' kernels on construction
     path = p + np.outer(np.linspace(0.0, 0.002, 3), [0.0, 0.0, 1.0])
     motions = [PreviewMotion(f'warm-up on {ring}', ring, np.array([0.0, 0.0, 0.0, 1.0]), path,
                              np.tile(q, (3, 1)), 0.01) for ring in ('ring_a', 'ring_b')]
     preview_step(g, motions, settle=0.0)
     csv_rows(np.zeros((1, 1)))
-    return time.perf_counter() - start
 
 
 def main() -> None:
