@@ -110,6 +110,17 @@ class Result:
                 and self.outage_gripper_switches == 0 and self.climb.startswith('IDLE'))
 
 
+def _outage(link: LinkShaping, length: float) -> tuple[float, float]:
+    """Take the link down for ``length`` s; (down, up): both times within the outage (the link
+    comes back during ``link.outage(False)``, and a command sent then may cross it at once)."""
+    link.outage(True)
+    down = time.time()
+    time.sleep(length)
+    up = time.time()
+    link.outage(False)
+    return down, up
+
+
 class FieldSession:
     """The README's two-host split on ``rig`` in ``pattern`` (module docstring).
 
@@ -212,11 +223,7 @@ class FieldSession:
             time.sleep(min(period - length, max(end - time.time(), 0.0)))
             if time.time() + length > end:
                 break
-            link.outage(True)
-            down = time.time()
-            time.sleep(length)
-            link.outage(False)
-            outages.append((down, time.time()))
+            outages.append(_outage(link, length))
         return outages
 
     def _judge_teleop(self, result: Result, t0: float, t1: float, outages: list[tuple[float, float]]) -> None:
@@ -308,11 +315,7 @@ class FieldSession:
                 pauses.append(reason.name if reason else '?')
                 self.operator.call('climb/resume', timeout=10.0)
             if time.time() >= next_outage:
-                link.outage(True)
-                down = time.time()
-                time.sleep(profile.outage[1])
-                link.outage(False)
-                outages.append((down, time.time()))
+                outages.append(_outage(link, profile.outage[1]))
                 next_outage = time.time() + profile.outage[0] - profile.outage[1]
             time.sleep(0.2)
         rows = self.robot.records('climb/status', t_call)
