@@ -208,23 +208,27 @@ class TeleopMapping:
         self._enable_value = False
         self._rearm = True
 
-    def on_master_pose(self, t: float, position, quaternion_xyzw, stamp: float | None = None) -> None:
+    def on_master_pose(self, t: float, position, quaternion_xyzw, stamp: float | None = None,
+                       age: float = 0.0) -> None:
         """The master's pose (its FK, frame master_ring_a) received at ``t``; ValueError if malformed.
 
-        ``stamp``: when the master sampled it (its header), used only for the step's time budget.
+        ``stamp``: when the master sampled it (its header), for the step's time budget. ``age``:
+        how old the sample was on receipt (the receiver's clock minus its stamp) [s]; a sample
+        delivered late is as fresh as when it was taken, so it cannot extend ``master_timeout``.
         """
         self._master_pose = validate_pose(position, quaternion_xyzw, what='master pose')
-        self._master_pose_time = float(t)
+        self._master_pose_time = _taken_at(t, age)
         if self.config.mode == 'cartesian':
             self._sample_stamp = stamp
 
-    def on_master_lengths(self, t: float, lengths, stamp: float | None = None) -> None:
-        """The master's leg lengths (encoders) received at ``t``; ValueError if malformed."""
+    def on_master_lengths(self, t: float, lengths, stamp: float | None = None, age: float = 0.0) -> None:
+        """The master's leg lengths (encoders) received at ``t``, ``age`` old (as for
+        :meth:`on_master_pose`); ValueError if malformed."""
         L = np.array(lengths, dtype=float)
         if L.shape != (6,) or not (L.min() > 0.0 and L.max() < math.inf):  # NaN fails both
             raise ValueError(f'master lengths must be 6 finite positive values, got {lengths!r}')
         self._master_lengths = L
-        self._master_lengths_time = float(t)
+        self._master_lengths_time = _taken_at(t, age)
         if self.config.mode == 'joint':
             self._sample_stamp = stamp
 
@@ -290,7 +294,7 @@ class TeleopMapping:
         age = t - (self._master_pose_time if c.mode == 'cartesian' else self._master_lengths_time)
         if age > c.master_timeout:
             what = 'master/pose' if c.mode == 'cartesian' else 'master/actuators/state'
-            return TeleopCode.MASTER_STALE, f'no {what} for {age:.3g} s (timeout {c.master_timeout:g} s)'
+            return TeleopCode.MASTER_STALE, f'no {what} newer than {age:.3g} s (timeout {c.master_timeout:g} s)'
         if self._slave_pose is None:
             return TeleopCode.WAITING_FOR_SLAVE_POSE, 'no slave pose yet'
         if self._slave_pose_time is not None and t - self._slave_pose_time > c.state_timeout:
@@ -483,3 +487,9 @@ _LIMIT_CODES = (TeleopCode.NO_WARNING, TeleopCode.SPEED_LIMITED,
 def _compiled_guards():
     from rrps_teleop import compiled_guards
     return compiled_guards
+
+
+def _taken_at(t: float, age: float) -> float:
+    """When a sample received at ``t`` was taken, ``age`` earlier (a negative or NaN age, from
+    a clock ahead of ours, counts as none)."""
+    return float(t) - (float(age) if age > 0.0 else 0.0)

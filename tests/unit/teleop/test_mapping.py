@@ -172,6 +172,29 @@ def test_master_dropout_holds_after_the_master_timeout():
     assert outs[-1].code == TeleopCode.MASTER_STALE and 'master/pose' in outs[-1].detail
 
 
+@pytest.mark.parametrize('mode', ['cartesian', 'joint'])
+def test_a_master_sample_delivered_late_counts_from_when_it_was_taken(mode):
+    # A transport stall delivers a sample 0.3 s after it was taken (its stamp): with
+    # master_timeout 0.1 s it is stale on arrival, so it neither engages nor drives.
+    m = TeleopMapping(SLAVE, TeleopConfig(mode=mode, master_timeout=0.1))
+    m.on_slave_pose(SLAVE.home_position, SLAVE.home_quaternion_xyzw)
+    m.on_enable(1.0, True)
+
+    def receive(t, age):
+        m.on_master_pose(t, MASTER.home_position, MASTER.home_quaternion_xyzw, stamp=t - age, age=age)
+        m.on_master_lengths(t, MASTER.home_lengths, stamp=t - age, age=age)
+    receive(1.0, 0.3)
+    out = m.step(1.0)
+    assert out.code == TeleopCode.MASTER_STALE and not out.has_command, out
+    assert ' newer than 0.3 s ' in out.detail, out.detail
+    receive(1.05, 0.05)  # on time: engaged, and the timeout runs from its stamp (1.0 s)
+    assert m.step(1.05).has_command
+    assert m.step(1.099).has_command and not m.step(1.101).has_command
+    m.on_enable(1.2, True)
+    receive(1.2, -0.5)  # stamped by a clock ahead of ours: as fresh as its receipt, no fresher
+    assert m.step(1.25).has_command and not m.step(1.301).has_command
+
+
 def test_no_engage_without_a_slave_pose_or_during_a_climb_step():
     m = TeleopMapping(SLAVE)
     m.on_enable(0.0, True)

@@ -32,7 +32,9 @@ master yields to it.
 Control runs on every master sample (``control`` = message, the default: one callback from master
 state to command, see benchmarks/teleop_latency.py) or on a timer at ``control_rate`` Hz. A 50 Hz
 watchdog releases the clutch when the deadman or the master data lapse, so the slave holds within
-one watchdog period of the timeout even when no master message arrives at all. ``mode``,
+one watchdog period of the timeout even when no master message arrives at all; a master sample
+counts from its stamp, so one delivered late cannot extend the timeout (the master and this node
+share a clock: one host, or clocks kept in step by NTP or PTP). ``mode``,
 ``translation_scale``, ``rotation_mode``, ``joint_scale`` and the guard parameters are settable
 at run time (validated; any change is a clutch). The load guards (``load_guards``, on by
 default) take the robot at rest on ``support`` turned by ``world_q_support`` in the world, with a
@@ -248,18 +250,23 @@ class TeleopNode(Node):
             self._reject(f'master/pose frame_id {msg.header.frame_id!r} is not {self.master_frame_id!r}')
             return
         try:
-            self.mapping.on_master_pose(time.monotonic(), *pose_from_msg(msg),
-                                        stamp=stamp_to_seconds(msg.header.stamp) or None)
+            self.mapping.on_master_pose(time.monotonic(), *pose_from_msg(msg), **self._sample_time(msg))
         except ValueError as exc:
             self._reject(str(exc))
             return
         if self.control == 'message' and self.mapping.config.mode == 'cartesian':
             self._control()
 
+    def _sample_time(self, msg) -> dict:
+        """A master sample's stamp and its age on receipt (none without a stamp)."""
+        stamp = stamp_to_seconds(msg.header.stamp)
+        if not stamp:
+            return {'stamp': None}
+        return {'stamp': stamp, 'age': self.get_clock().now().nanoseconds * 1e-9 - stamp}
+
     def _on_master_state(self, msg: JointState) -> None:
         try:
-            self.mapping.on_master_lengths(time.monotonic(), lengths_from_joint_state(msg),
-                                           stamp=stamp_to_seconds(msg.header.stamp) or None)
+            self.mapping.on_master_lengths(time.monotonic(), lengths_from_joint_state(msg), **self._sample_time(msg))
         except ValueError as exc:
             self._reject(f'master/actuators/state: {exc}')
             return
