@@ -6,7 +6,8 @@ Every topic of the node's namespace, ``/diagnostics``, ``/tf``, ``/tf_static`` a
 ``ros2msg`` schema the recorder writes (:func:`rrps_recording.storage.schemas.message_schema`)
 and the CDR bytes as received (raw subscriptions, nothing deserialised), with the QoS that
 hears every publisher (rosbag2's rule: a latched ``robot_description`` arrives to a late bridge
-too; its newest message is sent again to each client that subscribes to it). Each topic is
+too; its newest message is sent again when a client subscribes to it, to every client then
+subscribed, so a client that subscribes as it arrives may get it twice). Each topic is
 sent at most ``max_rate`` times a second, the newest message
 (:class:`rrps_recording.transport.throttle.Throttle`), except the ``unthrottled`` ones
 (``/diagnostics``: several nodes share it; ``robot_description``). The recording taps' bundles
