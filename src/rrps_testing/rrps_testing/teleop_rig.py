@@ -8,6 +8,7 @@ import threading
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
+from rclpy.duration import Duration
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool
@@ -128,9 +129,10 @@ class Rig:
         actuators/command (carrying its target's stamp, or teleop_node's own in joint mode)."""
         return max(header_time(m) for m in list(self.targets) + list(self.commands))
 
-    def publish_master(self, position, quaternion):
-        """Stand in for the master robot: one encoder sample and its pose."""
-        stamp = self.probe.get_clock().now().to_msg()
+    def publish_master(self, position, quaternion, delay: float = 0.0):
+        """Stand in for the master robot: one encoder sample and its pose, stamped ``delay`` s
+        before now (a sample that the transport held back)."""
+        stamp = (self.probe.get_clock().now() - Duration(seconds=delay)).to_msg()
         lengths = inverse_kinematics(MASTER, position, quaternion).lengths
         self.master_state_pub.publish(joint_state_msg(stamp, lengths))
         self.master_pose_pub.publish(pose_to_msg(position, quaternion, frame_id='master_ring_a', stamp=stamp))

@@ -321,6 +321,41 @@ def test_master_dropout_holds_the_slave_within_0_1_s(ros_context, control):
     assert last - t_drop < bound, last - t_drop
 
 
+@pytest.mark.parametrize('mode', ['cartesian', 'joint'])
+def test_a_master_stream_delivered_late_holds_the_slave_and_says_why(ros_context, mode):
+    # The master goes on at 100 Hz, but its samples arrive 0.3 s after they were taken (a
+    # stalled transport): older than master_timeout (0.1 s) on arrival, so none drives the slave.
+    rig = Rig(ros_context, teleop=dict(mode=mode, master_timeout=0.1))
+    delay = threading.Event()
+    with rig.spin(ros_context):
+        assert wait_for(lambda: rig.poses)
+        t0 = time.monotonic()
+        rig.enable = True
+
+        def sample():
+            p, q = scripted_pose('circle', time.monotonic() - t0, MASTER.home_position,
+                                 MASTER.home_quaternion_xyzw, amplitude=0.006, period=2.0)
+            rig.publish_master(p, q, delay=0.3 if delay.is_set() else 0.0)
+        rig.probe.create_timer(0.01, sample)
+        assert wait_for(lambda: rig.status and rig.values()['engaged'] == 'true')
+        outputs = rig.targets if mode == 'cartesian' else rig.commands
+        assert wait_for(lambda: len(outputs) > 20), rig.code()  # the slave is driven
+        t_switch = rig.probe.now()
+        delay.set()
+        assert wait_for(lambda: any(c == 'MASTER_STALE' for _, c, _ in rig.statuses_after(t_switch))), rig.code()
+        assert wait_for(lambda: rig.status[-1][0] > t_switch + 0.6)
+        late = [v['detail'] for _, c, v in rig.statuses_after(t_switch) if c == 'INVALID']
+        last = rig.last_command_stamp()
+        delay.clear()  # on time again: the deadman still held, it engages again (a clutch)
+        t_back = rig.probe.now()
+        assert wait_for(lambda: any(v['engaged'] == 'true' for _, _, v in rig.statuses_after(t_back))), rig.code()
+    # Held: no command from a sample taken more than master_timeout before (the last on-time
+    # sample was sent just before the switch; a timer step and a status period of slack).
+    assert last - t_switch < 0.1 + 0.05, last - t_switch
+    topic = 'master/pose' if mode == 'cartesian' else 'master/actuators/state'
+    assert late and all(d.startswith(f'{topic}: command is stale: 0.3') for d in late), late[:3]
+
+
 def test_guards_stop_an_unreachable_request_and_let_it_come_back(ros_context):
     rig = Rig(ros_context, master=dict(trajectory='none', max_linear_speed=0.1),
               teleop=dict(translation_scale=8.0, max_linear_speed=0.2))

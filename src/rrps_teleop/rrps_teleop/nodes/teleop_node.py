@@ -32,9 +32,10 @@ master yields to it.
 Control runs on every master sample (``control`` = message, the default: one callback from master
 state to command, see benchmarks/teleop_latency.py) or on a timer at ``control_rate`` Hz. A 50 Hz
 watchdog releases the clutch when the deadman or the master data lapse, so the slave holds within
-one watchdog period of the timeout even when no master message arrives at all; a master sample
-counts from its stamp, so one delivered late cannot extend the timeout (the master and this node
-share a clock: one host, or clocks kept in step by NTP or PTP). ``mode``,
+one watchdog period of the timeout even when no master message arrives at all. A stamped master
+sample counts from its stamp (:class:`rrps_runtime.freshness.CommandFreshness`, also when the
+master's clock is not this node's): one delivered later than ``master_timeout`` is refused, so a
+stalled delivery cannot extend the timeout. ``mode``,
 ``translation_scale``, ``rotation_mode``, ``joint_scale`` and the guard parameters are settable
 at run time (validated; any change is a clutch). The load guards (``load_guards``, on by
 default) take the robot at rest on ``support`` turned by ``world_q_support`` in the world, with a
@@ -74,6 +75,7 @@ from rrps_interfaces.teleop import (
     TeleopStatus,
 )
 from rrps_runtime.diagnostics import ERROR, OK, STALE, WARN, Diagnostics
+from rrps_runtime.freshness import CommandFreshness
 from rrps_runtime.messages import (
     joint_state_msg,
     lengths_from_joint_state,
@@ -181,6 +183,7 @@ class TeleopNode(Node):
             self.mapping.configure(self._pending)  # a clutch: the next engage re-indexes
             self._pending = None
             self._subscribe_master_input()
+            self._master_freshness.timeout = self.mapping.config.master_timeout
             self.get_logger().info(f'teleop parameters changed: mode {self.mapping.config.mode}, '
                                    f'translation_scale {self.mapping.config.translation_scale:g}, '
                                    f'rotation_mode {self.mapping.config.rotation_mode} (clutch released)')
@@ -241,6 +244,7 @@ class TeleopNode(Node):
             if self._master_subscription.topic_name == self.resolve_topic_name(topic):
                 return
             self.destroy_subscription(self._master_subscription)
+        self._master_freshness = CommandFreshness(self.mapping.config.master_timeout)  # a new stream
         self._master_subscription = (
             self.create_subscription(PoseStamped, topic, self._on_master_pose, STATE_QOS) if cartesian
             else self.create_subscription(JointState, topic, self._on_master_state, STATE_QOS))
@@ -252,17 +256,18 @@ class TeleopNode(Node):
         try:
             self.mapping.on_master_pose(time.monotonic(), *pose_from_msg(msg), **self._sample_time(msg))
         except ValueError as exc:
-            self._reject(str(exc))
+            self._reject(f'master/pose: {exc}')
             return
         if self.control == 'message' and self.mapping.config.mode == 'cartesian':
             self._control()
 
     def _sample_time(self, msg) -> dict:
-        """A master sample's stamp and its age on receipt (none without a stamp)."""
+        """A master sample's stamp and its age on receipt (an unstamped one counts from its
+        receipt); StaleCommand when it came later than ``master_timeout``."""
         stamp = stamp_to_seconds(msg.header.stamp)
         if not stamp:
             return {'stamp': None}
-        return {'stamp': stamp, 'age': self.get_clock().now().nanoseconds * 1e-9 - stamp}
+        return {'stamp': stamp, 'age': self._master_freshness.check(stamp, self.get_clock().now().nanoseconds * 1e-9)}
 
     def _on_master_state(self, msg: JointState) -> None:
         try:
