@@ -36,6 +36,10 @@ CAN_ERR_BUSOFF = 0x40
 #: The drives count as alive while one of them was heard this many periods ago (at least
 #: ALIVE_MIN s): a drive's lost heartbeat is then its own, not the bus'.
 ALIVE_PERIODS, ALIVE_MIN = 5, 0.01
+#: A cycle this fraction of the heartbeat timeout after the one before: this process did not run
+#: (a stall of its computer), so it cannot tell a drive's silence from its own until the frames
+#: that arrived meanwhile are read; heartbeats are judged again one heartbeat timeout later.
+STALL_FRACTION = 0.5
 #: The switch interval of the process' threads [s]: the SYNC thread gets the interpreter within it.
 SWITCH_INTERVAL = 5e-4
 _FAULTED = (State.FAULT, State.FAULT_REACTION_ACTIVE)
@@ -75,8 +79,11 @@ class DriveSet:
         self.faults: dict[str, ActuatorFault] = {}
         self.fault_times: dict[str, float] = {}
         self.bus_lost = False
-        #: a drive was heard within a few periods (this process ran and the bus carries frames)
+        #: a drive was heard within a few periods (this process ran and the bus carries frames),
+        #: and this process is not catching up after a stall (STALL_FRACTION)
         self.alive = False
+        self._last_cycle: float | None = None
+        self._catching_up_until = -1.0  # after a stall of this process (STALL_FRACTION)
         self.want: dict[str, State | None] = {d.name: None for d in self.drives}
         self._quick_stop: set[str] = set()
         self._reset_cycles: dict[str, int] = {}
@@ -154,7 +161,11 @@ class DriveSet:
         with self.lock:
             snaps = [d.snapshot() for d in self.drives]
             heard = max(max(t for t in (s.tpdo_time, s.heartbeat_time, 0.0) if t is not None) for s in snaps)
-            alive = self.alive = now - heard < max(ALIVE_PERIODS * self.period, ALIVE_MIN)
+            if self._last_cycle is not None and now - self._last_cycle > STALL_FRACTION * self.bus.heartbeat_timeout:
+                self._catching_up_until = now + self.bus.heartbeat_timeout
+            self._last_cycle = now
+            alive = self.alive = (now - heard < max(ALIVE_PERIODS * self.period, ALIVE_MIN)
+                                  and now >= self._catching_up_until)
             for d, snap in zip(self.drives, snaps):
                 self._look_at(d, snap, now, alive)
             self._watch_bus(now, heard)
