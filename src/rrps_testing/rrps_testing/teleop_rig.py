@@ -4,6 +4,7 @@ the deadman, moves the master's handle or stands in for the master robot sample 
 
 import contextlib
 import threading
+import time
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -20,6 +21,7 @@ from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_runtime.messages import joint_state_msg, pose_from_msg, pose_to_msg
 from rrps_runtime.qos import COMMAND_QOS
 from rrps_sim.nodes.driver_node import DriverNode
+from rrps_teleop.master import scripted_pose
 from rrps_teleop.nodes.master_node import MasterNode
 from rrps_teleop.nodes.teleop_node import TeleopNode
 from rrps_testing.ros_harness import Probe, Spinner, header_time, wait_for
@@ -128,6 +130,18 @@ class Rig:
         """The latest stamp of the slave commands: target_pose (teleop_node's computing time) and
         actuators/command (carrying its target's stamp, or teleop_node's own in joint mode)."""
         return max(header_time(m) for m in list(self.targets) + list(self.commands))
+
+    def stream_master(self, *, running=lambda: True, delay=lambda: 0.0) -> None:
+        """Stand in for a moving master from now on: every 10 ms while ``running()``, a sample of
+        its handle on a 6 mm circle (2 s a turn), stamped ``delay()`` s before now."""
+        t0 = time.monotonic()
+
+        def sample() -> None:
+            if running():
+                p, q = scripted_pose('circle', time.monotonic() - t0, MASTER.home_position,
+                                     MASTER.home_quaternion_xyzw, amplitude=0.006, period=2.0)
+                self.publish_master(p, q, delay=delay())
+        self.probe.create_timer(0.01, sample)
 
     def publish_master(self, position, quaternion, delay: float = 0.0):
         """Stand in for the master robot: one encoder sample and its pose, stamped ``delay`` s

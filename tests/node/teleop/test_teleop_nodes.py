@@ -293,17 +293,9 @@ def test_master_dropout_holds_the_slave_within_0_1_s(ros_context, control):
     sampling = threading.Event()
     with rig.spin(ros_context):
         assert wait_for(lambda: rig.poses)
-        t0 = time.monotonic()
         rig.enable = True
-
-        def sample():
-            if not sampling.is_set():
-                return
-            p, q = scripted_pose('circle', time.monotonic() - t0, MASTER.home_position,
-                                 MASTER.home_quaternion_xyzw, amplitude=0.006, period=2.0)
-            rig.publish_master(p, q)
         sampling.set()
-        rig.probe.create_timer(0.01, sample)
+        rig.stream_master(running=sampling.is_set)
         assert wait_for(lambda: rig.status and rig.values()['engaged'] == 'true')
         rig.follow()
         assert wait_for(lambda: rig.code() == 'SPEED_LIMITED'), rig.code()  # the slave lags
@@ -329,14 +321,8 @@ def test_a_master_stream_delivered_late_holds_the_slave_and_says_why(ros_context
     delay = threading.Event()
     with rig.spin(ros_context):
         assert wait_for(lambda: rig.poses)
-        t0 = time.monotonic()
         rig.enable = True
-
-        def sample():
-            p, q = scripted_pose('circle', time.monotonic() - t0, MASTER.home_position,
-                                 MASTER.home_quaternion_xyzw, amplitude=0.006, period=2.0)
-            rig.publish_master(p, q, delay=0.3 if delay.is_set() else 0.0)
-        rig.probe.create_timer(0.01, sample)
+        rig.stream_master(delay=lambda: 0.3 if delay.is_set() else 0.0)
         assert wait_for(lambda: rig.status and rig.values()['engaged'] == 'true')
         outputs = rig.targets if mode == 'cartesian' else rig.commands
         assert wait_for(lambda: len(outputs) > 20), rig.code()  # the slave is driven
