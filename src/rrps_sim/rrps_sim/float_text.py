@@ -71,6 +71,28 @@ def _shift(mid, high, d):
 
 
 @jit
+def _add(lo, mid, hi, lo_b, mid_b, hi_b):
+    """(hi, mid, lo) + (hi_b, mid_b, lo_b): 192-bit unsigned words with their carries."""
+    lo2 = lo + lo_b
+    mid2 = mid + mid_b
+    if lo2 < lo:
+        mid2 += _U1
+    hi2 = hi + hi_b + _U1 if mid2 < mid else hi + hi_b
+    return lo2, mid2, hi2
+
+
+@jit
+def _subtract(lo, mid, hi, lo_b, mid_b):
+    """(hi, mid, lo) - (0, mid_b, lo_b): 192-bit unsigned words with their borrows."""
+    lo2 = lo - lo_b
+    mid2 = mid - mid_b
+    if lo2 > lo:
+        mid2 -= _U1
+    hi2 = hi - _U1 if mid2 > mid else hi
+    return lo2, mid2, hi2
+
+
+@jit
 def _mul_shift_all(m2, low, high, j, mm_shift):
     """floor(x (high 2^64 + low) / 2^j) for x = 4 m2 (vr), 4 m2 + 2 (vp) and 4 m2 - 1 -
     mm_shift (vm), from the one product 2 m2 (high 2^64 + low) (Ryu's mulShiftAll64)."""
@@ -80,30 +102,14 @@ def _mul_shift_all(m2, low, high, j, mm_shift):
     mid = tmp + mid_lo
     if mid < tmp:
         hi += _U1
-    lo2 = lo + low
-    mid2 = mid + high
-    if lo2 < lo:
-        mid2 += _U1
-    hi2 = hi + _U1 if mid2 < mid else hi
+    _, mid2, hi2 = _add(lo, mid, hi, low, high, _U0)
     vp = _shift(mid2, hi2, j - 65)
     if mm_shift == _U1:
-        lo3 = lo - low
-        mid3 = mid - high
-        if lo3 > lo:
-            mid3 -= _U1
-        hi3 = hi - _U1 if mid3 > mid else hi
+        _, mid3, hi3 = _subtract(lo, mid, hi, low, high)
         vm = _shift(mid3, hi3, j - 65)
     else:
-        lo3 = lo + lo
-        mid3 = mid + mid
-        if lo3 < lo:
-            mid3 += _U1
-        hi3 = hi + hi + _U1 if mid3 < mid else hi + hi
-        lo4 = lo3 - low
-        mid4 = mid3 - high
-        if lo4 > lo3:
-            mid4 -= _U1
-        hi4 = hi3 - _U1 if mid4 > mid3 else hi3
+        lo3, mid3, hi3 = _add(lo, mid, hi, lo, mid, hi)
+        _, mid4, hi4 = _subtract(lo3, mid3, hi3, low, high)
         vm = _shift(mid4, hi4, j - 64)
     return _shift(mid, hi, j - 65), vp, vm
 
