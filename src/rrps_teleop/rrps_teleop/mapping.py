@@ -140,6 +140,7 @@ class TeleopMapping:
         self._master_pose_time = -math.inf
         self._master_lengths: np.ndarray | None = None
         self._master_lengths_time = -math.inf
+        self._master_late: tuple[float, str] | None = None  # (receipt, why) of the last late sample
         self._slave_pose: tuple[np.ndarray, np.ndarray] | None = None
         self._slave_pose_time: float | None = None
         self._round_trip: tuple[float, float] | None = None
@@ -221,6 +222,11 @@ class TeleopMapping:
         if self.config.mode == 'cartesian':
             self._sample_stamp = stamp
 
+    def on_master_late(self, t: float, why: str) -> None:
+        """A master sample received at ``t`` too late to be used (``why``): it changes nothing,
+        but while the master data is stale the status says so."""
+        self._master_late = (float(t), why)
+
     def on_master_lengths(self, t: float, lengths, stamp: float | None = None, age: float = 0.0) -> None:
         """The master's leg lengths (encoders) received at ``t``, ``age`` old (as for
         :meth:`on_master_pose`); ValueError if malformed."""
@@ -291,9 +297,13 @@ class TeleopMapping:
             return TeleopCode.DEADMAN_RELEASED, 'teleop/enable is not true'
         if t - self._enable_time > c.enable_timeout:
             return TeleopCode.DEADMAN_RELEASED, f'no teleop/enable true for {t - self._enable_time:.3g} s'
-        age = t - (self._master_pose_time if c.mode == 'cartesian' else self._master_lengths_time)
+        taken = self._master_pose_time if c.mode == 'cartesian' else self._master_lengths_time
+        age = t - taken
         if age > c.master_timeout:
             what = 'master/pose' if c.mode == 'cartesian' else 'master/actuators/state'
+            late = self._master_late
+            if late is not None and late[0] > taken and t - late[0] <= c.master_timeout:
+                return TeleopCode.MASTER_STALE, f'{what} arrives too late: {late[1]}'
             return TeleopCode.MASTER_STALE, f'no {what} newer than {age:.3g} s (timeout {c.master_timeout:g} s)'
         if self._slave_pose is None:
             return TeleopCode.WAITING_FOR_SLAVE_POSE, 'no slave pose yet'

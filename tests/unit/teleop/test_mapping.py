@@ -195,6 +195,21 @@ def test_a_master_sample_delivered_late_counts_from_when_it_was_taken(mode):
     assert m.step(1.25).has_command and not m.step(1.301).has_command
 
 
+def test_a_hold_for_late_master_samples_says_they_came_late():
+    m = TeleopMapping(SLAVE, TeleopConfig(master_timeout=0.1))
+    m.on_slave_pose(SLAVE.home_position, SLAVE.home_quaternion_xyzw)
+    m.on_enable(1.0, True)
+    why = 'command is stale: 0.300 s old > timeout 0.100 s'
+    m.on_master_late(1.0, why)  # dropped by the node: changes nothing but the reason
+    out = m.step(1.0)
+    assert out.code == TeleopCode.MASTER_STALE and not out.has_command
+    assert out.detail == f'master/pose arrives too late: {why}'
+    m.on_master_pose(1.05, MASTER.home_position, MASTER.home_quaternion_xyzw)
+    assert m.step(1.05).has_command
+    out = m.step(1.2)  # stale again, and the late sample is older than the last fresh one
+    assert out.code == TeleopCode.MASTER_STALE and out.detail.startswith('no master/pose newer than 0.15'), out.detail
+
+
 def test_no_engage_without_a_slave_pose_or_during_a_climb_step():
     m = TeleopMapping(SLAVE)
     m.on_enable(0.0, True)

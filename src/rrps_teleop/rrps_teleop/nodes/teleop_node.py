@@ -34,8 +34,9 @@ state to command, see benchmarks/teleop_latency.py) or on a timer at ``control_r
 watchdog releases the clutch when the deadman or the master data lapse, so the slave holds within
 one watchdog period of the timeout even when no master message arrives at all. A stamped master
 sample counts from its stamp (:class:`rrps_runtime.freshness.CommandFreshness`, also when the
-master's clock is not this node's): one delivered later than ``master_timeout`` is refused, so a
-stalled delivery cannot extend the timeout. ``mode``,
+master's clock is not this node's): one delivered later than ``master_timeout`` is dropped, so a
+stalled delivery cannot extend the timeout (not an error: the hold that follows if no fresh
+sample comes is MASTER_STALE, saying the samples arrive too late). ``mode``,
 ``translation_scale``, ``rotation_mode``, ``joint_scale`` and the guard parameters are settable
 at run time (validated; any change is a clutch). The load guards (``load_guards``, on by
 default) take the robot at rest on ``support`` turned by ``world_q_support`` in the world, with a
@@ -75,7 +76,7 @@ from rrps_interfaces.teleop import (
     TeleopStatus,
 )
 from rrps_runtime.diagnostics import ERROR, OK, STALE, WARN, Diagnostics
-from rrps_runtime.freshness import CommandFreshness
+from rrps_runtime.freshness import CommandFreshness, StaleCommand
 from rrps_runtime.messages import (
     joint_state_msg,
     lengths_from_joint_state,
@@ -255,6 +256,9 @@ class TeleopNode(Node):
             return
         try:
             self.mapping.on_master_pose(time.monotonic(), *pose_from_msg(msg), **self._sample_time(msg))
+        except StaleCommand as exc:
+            self._late('master/pose', exc)
+            return
         except ValueError as exc:
             self._reject(f'master/pose: {exc}')
             return
@@ -272,11 +276,20 @@ class TeleopNode(Node):
     def _on_master_state(self, msg: JointState) -> None:
         try:
             self.mapping.on_master_lengths(time.monotonic(), lengths_from_joint_state(msg), **self._sample_time(msg))
+        except StaleCommand as exc:
+            self._late('master/actuators/state', exc)
+            return
         except ValueError as exc:
             self._reject(f'master/actuators/state: {exc}')
             return
         if self.control == 'message' and self.mapping.config.mode == 'joint':
             self._control()
+
+    def _late(self, topic: str, exc: StaleCommand) -> None:
+        """A master sample older than master_timeout on arrival: dropped, not an error (a queue
+        behind a stall delivers some); if no fresh one follows, the hold says why (MASTER_STALE)."""
+        self.mapping.on_master_late(time.monotonic(), str(exc))
+        self.get_logger().warning(f'{topic} sample dropped: {exc}', throttle_duration_sec=5.0)
 
     def _on_enable(self, msg: Bool) -> None:
         self.mapping.on_enable(time.monotonic(), msg.data)
