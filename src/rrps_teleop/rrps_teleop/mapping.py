@@ -215,10 +215,11 @@ class TeleopMapping:
 
         ``stamp``: when the master sampled it (its header), for the step's time budget. ``age``:
         how old the sample was on receipt (the receiver's clock minus its stamp) [s]; a sample
-        delivered late is as fresh as when it was taken, so it cannot extend ``master_timeout``.
+        delivered late is as fresh as when it was taken, so it cannot extend ``master_timeout`` (a
+        negative or NaN age, from a clock ahead of ours, counts as none).
         """
         self._master_pose = validate_pose(position, quaternion_xyzw, what='master pose')
-        self._master_pose_time = _taken_at(t, age)
+        self._master_pose_time = float(t) - (float(age) if age > 0.0 else 0.0)
         if self.config.mode == 'cartesian':
             self._sample_stamp = stamp
 
@@ -234,7 +235,7 @@ class TeleopMapping:
         if L.shape != (6,) or not (L.min() > 0.0 and L.max() < math.inf):  # NaN fails both
             raise ValueError(f'master lengths must be 6 finite positive values, got {lengths!r}')
         self._master_lengths = L
-        self._master_lengths_time = _taken_at(t, age)
+        self._master_lengths_time = float(t) - (float(age) if age > 0.0 else 0.0)
         if self.config.mode == 'joint':
             self._sample_stamp = stamp
 
@@ -497,9 +498,3 @@ _LIMIT_CODES = (TeleopCode.NO_WARNING, TeleopCode.SPEED_LIMITED,
 def _compiled_guards():
     from rrps_teleop import compiled_guards
     return compiled_guards
-
-
-def _taken_at(t: float, age: float) -> float:
-    """When a sample received at ``t`` was taken, ``age`` earlier (a negative or NaN age, from
-    a clock ahead of ours, counts as none)."""
-    return float(t) - (float(age) if age > 0.0 else 0.0)
