@@ -6,6 +6,13 @@ Topics and services (relative names)::
     CLIMB_PREVIEW        diagnostic_msgs/DiagnosticStatus  values: ClimbPreview (latched: the last)
     CLIMB_STEP_UP, CLIMB_STEP_DOWN, CLIMB_RESUME  std_srvs/Trigger
     odometry_topic(ring) geometry_msgs/PoseStamped  the ring's pose in frame world
+    SUPPORT_POSE         geometry_msgs/TransformStamped  the supporting ring's pose in frame world
+                         (child_frame_id: the ring; latched): the world attitude that the
+                         driver's gravity and teleop's load guards follow
+
+Which ring supports is the grippers' (:func:`rrps_interfaces.driver.supporting_ring`);
+a reader uses a SUPPORT_POSE whose ring is the one that supports, and keeps its last
+attitude while none comes (its status says so).
 
 Pure Python, no ROS import.
 """
@@ -19,6 +26,7 @@ from rrps_description.names import RINGS
 from rrps_interfaces.status import StatusValues
 
 __all__ = ['CLIMB_STATUS', 'CLIMB_PREVIEW', 'CLIMB_STEP_UP', 'CLIMB_STEP_DOWN', 'CLIMB_RESUME', 'odometry_topic',
+           'SUPPORT_POSE',
            'ClimbState', 'PauseReason', 'PhaseAction', 'PreviewLimit', 'StepRefusal', 'ClimbStatus',
            'ClimbPreview']
 
@@ -27,6 +35,7 @@ CLIMB_PREVIEW = 'climb/preview'
 CLIMB_STEP_UP = 'climb/step_up'
 CLIMB_STEP_DOWN = 'climb/step_down'
 CLIMB_RESUME = 'climb/resume'
+SUPPORT_POSE = 'odometry/support'
 
 
 def odometry_topic(ring: str) -> str:

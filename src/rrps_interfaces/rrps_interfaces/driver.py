@@ -18,7 +18,8 @@ from typing import Mapping, Sequence
 from rrps_description.names import RINGS
 from rrps_interfaces.status import CommandAgeStatus
 
-__all__ = ['GRIPPERS_STATE', 'RESET_FAULTS', 'gripper_service', 'gripper_states', 'ActuatorMode', 'DriverStatus']
+__all__ = ['GRIPPERS_STATE', 'RESET_FAULTS', 'gripper_service', 'gripper_states', 'supporting_ring', 'ActuatorMode',
+           'SupportSource', 'DriverStatus']
 
 GRIPPERS_STATE = 'grippers/state'
 #: The driver's fault reset (the operator's, after a hardware fault; then activate again).
@@ -41,11 +42,28 @@ def gripper_states(names: Sequence[str], positions: Sequence[float]) -> dict[str
     return {ring: float(state[ring]) >= 0.5 for ring in RINGS}
 
 
+def supporting_ring(closed: Mapping[str, bool]) -> str | None:
+    """The ring whose gripper carries the robot: ring_a while it grips (both closed too, as the
+    odometry takes it), ring_b while it alone grips; None when both are open."""
+    if closed.get('ring_a'):
+        return 'ring_a'
+    return 'ring_b' if closed.get('ring_b') else None
+
+
 class ActuatorMode(enum.Enum):
     """Fidelity of the simulated actuators."""
 
     KINEMATIC = 'kinematic'  # lag, speed and stroke limits; quasi-static forces
     DYNAMIC = 'dynamic'      # the multibody dynamics (eqs. 19-20) with a PD force loop
+
+
+class SupportSource(enum.Enum):
+    """Where the supporting ring's world attitude a node computes with comes from."""
+
+    PARAMETERS = 'parameters'    # no odometry/support yet: the start attitude of the parameters
+    ODOMETRY = 'odometry'        # the newest odometry/support, fresh, for the ring that supports
+    HANDED_OVER = 'handed over'  # the support changed ring; the old attitude turned by the measured pose
+    STALE = 'stale'              # odometry/support silent too long: the last known attitude is kept
 
 
 @dataclasses.dataclass(frozen=True)
@@ -70,6 +88,14 @@ class DriverStatus(CommandAgeStatus):
     hardware: str = 'simulated'
     #: the hardware's latched faults, ``<actuator>:<kind>`` (kind: a FaultKind value of rrps_sim.hardware)
     faults: tuple[str, ...] = ()
+    #: the ring the gravity of the efforts and dynamics is grounded on, its world attitude
+    #: (x, y, z, w), where that comes from and the age [s] of the last odometry/support used
+    support_ring: str = 'ring_a'
+    world_q_support: tuple[float, ...] = ()
+    support_source: SupportSource = SupportSource.PARAMETERS
+    support_age: float | None = None
+    #: odometry/support messages rejected (malformed) since the start
+    support_rejected: int = 0
 
     @classmethod
     def grippers(cls, closed: Mapping[str, bool]) -> dict:

@@ -9,6 +9,7 @@ Topic names (relative, in the robot's namespace)::
     LINK_STATE         sensor_msgs/JointState      actuators/state at state_rate           best effort
     LINK_TARGET        geometry_msgs/PoseStamped   target_pose at target_rate              best effort
     LINK_ODOMETRY      geometry_msgs/PoseStamped   odometry/ring_a|ring_b at odometry_rate best effort
+                       geometry_msgs/TransformStamped  odometry/support likewise
     LINK_GRIPPERS      sensor_msgs/JointState      grippers/state: at once on a change,
                                                    else at grippers_rate                   reliable
     LINK_DIAGNOSTICS   diagnostic_msgs/DiagnosticArray  the newest status of each node of the
@@ -53,6 +54,7 @@ LINK_TOPICS = {
     '/diagnostics': LINK_DIAGNOSTICS,
     'odometry/ring_a': link_odometry_topic('ring_a'),
     'odometry/ring_b': link_odometry_topic('ring_b'),
+    'odometry/support': 'link/odometry/support',
 }
 
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 
+from rrps_interfaces.driver import SupportSource
 from rrps_interfaces.status import StatusValues
 
 __all__ = ['MASTER_TARGET_POSE', 'MASTER_STATE', 'MASTER_POSE', 'MASTER_FRAME', 'MASTER_FEEDBACK',
@@ -99,6 +100,8 @@ class TeleopStatus(StatusValues):
     margin_holding: float | None = None  # 1 - the supporting gripper's utilisation there
     robot: str = ''                      # the namespace of the driven robot
     slave_age_ms: float | None = None    # now minus the newest slave pose's stamp (synchronised clocks)
+    support_ring: str = ''               # the ring the load guards take as carrying the robot
+    support_source: SupportSource | None = None  # where its world attitude comes from
 
 
 @dataclasses.dataclass(frozen=True)

@@ -5,12 +5,13 @@ from __future__ import annotations
 from typing import Iterable, Sequence
 
 import numpy as np
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, TransformStamped
 from sensor_msgs.msg import JointState
 
 from rrps_description.names import LEG_NAMES
 
-__all__ = ['stamp_to_seconds', 'pose_from_msg', 'pose_to_msg', 'joint_state_msg', 'lengths_from_joint_state']
+__all__ = ['stamp_to_seconds', 'pose_from_msg', 'pose_to_msg', 'transform_from_msg', 'transform_to_msg',
+           'joint_state_msg', 'lengths_from_joint_state']
 
 
 def stamp_to_seconds(stamp) -> float:
@@ -34,6 +35,26 @@ def pose_to_msg(position: Sequence[float], quaternion_xyzw: Sequence[float], *, 
     msg.pose.position.x, msg.pose.position.y, msg.pose.position.z = (float(v) for v in position)
     (msg.pose.orientation.x, msg.pose.orientation.y, msg.pose.orientation.z,
      msg.pose.orientation.w) = (float(v) for v in quaternion_xyzw)
+    return msg
+
+
+def transform_from_msg(msg: TransformStamped) -> tuple[np.ndarray, np.ndarray]:
+    """TransformStamped -> (translation (3,), quaternion_xyzw (4,)), unvalidated floats."""
+    t = msg.transform.translation
+    q = msg.transform.rotation
+    return np.array([t.x, t.y, t.z]), np.array([q.x, q.y, q.z, q.w])
+
+
+def transform_to_msg(position: Sequence[float], quaternion_xyzw: Sequence[float], *, frame_id: str,
+                     child_frame_id: str, stamp) -> TransformStamped:
+    """(position, quaternion_xyzw) of ``child_frame_id`` in ``frame_id`` -> TransformStamped."""
+    msg = TransformStamped()
+    msg.header.frame_id = frame_id
+    msg.header.stamp = stamp
+    msg.child_frame_id = child_frame_id
+    t, q = msg.transform.translation, msg.transform.rotation
+    t.x, t.y, t.z = (float(v) for v in position)
+    q.x, q.y, q.z, q.w = (float(v) for v in quaternion_xyzw)
     return msg
 
 

@@ -168,9 +168,10 @@ class DynamicActuators:
     def support(self) -> Support:
         return self.dynamics.support
 
-    def set_support(self, ring: str) -> None:
-        """``ring`` alone grips now: ground it in the dynamics (:func:`handed_over`)."""
-        support = handed_over(self.support, self.dynamics.quaternion_xyzw, ring)
+    def set_support(self, ring: str | Support) -> None:
+        """``ring`` alone grips now: ground it in the dynamics (:func:`handed_over`); or ground
+        a :class:`Support` as given (its attitude from the odometry), at rest."""
+        support = ring if isinstance(ring, Support) else handed_over(self.support, self.dynamics.quaternion_xyzw, ring)
         if support is not self.support:
             self.dynamics.set_support(support)
             self._feedforward = self._holding_forces(self._feedforward)
@@ -239,10 +240,11 @@ class QuasiStaticEfforts:
         except ValueError:
             pass
 
-    def set_support(self, ring: str) -> None:
-        """``ring`` alone grips now (:func:`handed_over` at the last refreshed pose); the efforts
-        are solved again at once."""
-        support = handed_over(self.support, self._quaternion, ring)
+    def set_support(self, ring: str | Support) -> None:
+        """``ring`` alone grips now (:func:`handed_over` at the last refreshed pose), or a
+        :class:`Support` as given (its attitude from the odometry); the efforts are solved again
+        at once."""
+        support = ring if isinstance(ring, Support) else handed_over(self.support, self._quaternion, ring)
         if support is not self.support:
             self.support = support
             self._since = self.period

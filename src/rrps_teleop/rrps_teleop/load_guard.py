@@ -72,6 +72,13 @@ class LoadGuard:
         self._forces, self._wrench = np.empty(6), np.empty(6)
         self._cached: tuple[GuardedCommand, LoadMargins] | None = None
 
+    def set_support(self, support: Support) -> None:
+        """Guard on ``support`` from now on (the ring that grips, its attitude in the world)."""
+        self.support = support
+        if self._arrays is not None:
+            self._arrays = statics_arrays(self.slave, support)
+        self._cached = None
+
     def margins_at(self, position, quaternion_xyzw) -> LoadMargins:
         """The load margins with ring_b at (position, quaternion) in ring_a (NaN forces and
         margins at a singular pose)."""

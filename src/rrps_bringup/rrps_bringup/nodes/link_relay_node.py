@@ -6,7 +6,7 @@ that only those cross the link and the 500 Hz streams stay on the robot host:
 
 * ``pose`` -> ``link/pose`` (``pose_rate``), ``actuators/state`` -> ``link/actuators/state``
   (``state_rate``), ``target_pose`` -> ``link/target_pose`` (``target_rate``),
-  ``odometry/ring_a|ring_b`` -> ``link/odometry/...`` (``odometry_rate``): the newest sample once
+  ``odometry/ring_a|ring_b|support`` -> ``link/odometry/...`` (``odometry_rate``): the newest sample once
   a period has passed, best effort keep-last-1 (:data:`rrps_runtime.qos.LINK_STATE_QOS`); these
   are passed on as serialised bytes, never decoded;
 * ``grippers/state`` -> ``link/grippers/state``: at once when a gripper changes, else at
@@ -27,14 +27,14 @@ from __future__ import annotations
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, TransformStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from rrps_bringup.link_budget import ChangeGate, RateGate, StatusTable
 from rrps_description.geometry import load_robot
 from rrps_description.names import RINGS
-from rrps_interfaces.climb import odometry_topic
+from rrps_interfaces.climb import SUPPORT_POSE, odometry_topic
 from rrps_interfaces.driver import GRIPPERS_STATE
 from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE, TARGET_POSE
 from rrps_interfaces.link import LINK_DIAGNOSTICS, LINK_TOPICS, LinkRelayStatus
@@ -57,7 +57,8 @@ PARAMETERS = NodeParameters('link_relay_node', 'rrps_bringup', [
               'relayed', unit='Hz', range=_RATE),
     Parameter('target_rate', 10.0, "link/target_pose rate (the viewer's ghost); 0: not relayed", unit='Hz',
               range=_RATE),
-    Parameter('odometry_rate', 10.0, 'link/odometry/ring_a|ring_b rate (the viewer); 0: not relayed',
+    Parameter('odometry_rate', 10.0, 'link/odometry/ring_a|ring_b|support rate (the viewer, the load guards); '
+              '0: not relayed',
               unit='Hz', range=_RATE),
     Parameter('grippers_rate', 2.0, 'link/grippers/state rate while no gripper changes (a change goes at '
               'once); 0: not relayed', unit='Hz', range=_RATE),
@@ -73,6 +74,7 @@ _STREAMS = {
     ACTUATORS_STATE: (JointState, LATEST_QOS, 'state_rate'),
     TARGET_POSE: (PoseStamped, COMMAND_QOS, 'target_rate'),
     **{odometry_topic(ring): (PoseStamped, LATEST_QOS, 'odometry_rate') for ring in RINGS},
+    SUPPORT_POSE: (TransformStamped, LATEST_QOS, 'odometry_rate'),
 }
 
 

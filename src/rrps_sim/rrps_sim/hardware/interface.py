@@ -24,6 +24,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from rrps_description.geometry import RobotGeometry
+from rrps_description.world import Support
 from rrps_runtime.parameter_schema import Parameter
 
 __all__ = ['CallbackReturn', 'ReturnType', 'Transition', 'Result', 'SUCCESS', 'OK', 'FaultKind', 'ActuatorFault',
@@ -242,6 +243,17 @@ class SystemInterface(abc.ABC):
     def reset_faults(self) -> Result:
         """Clear the latched faults (the CiA 402 fault reset); the system stays inactive.
         Refused while the bus is lost."""
+
+    @property
+    def support(self) -> Support | None:
+        """The supporting ring and its world attitude the hardware computes gravity with (a
+        simulation); None for hardware that lives in the real world's gravity (this default)."""
+        return None
+
+    def set_support(self, support: Support) -> Result:
+        """Ground ``support`` (the ring that grips, its attitude from the odometry) in the
+        simulated world; this default has nothing to do (real gravity needs no attitude)."""
+        return OK
 
     def set_parameters(self, changes: Mapping[str, Any]) -> Result:
         """Apply run-time changes of dynamic :attr:`PARAMETERS`; this default refuses them all."""

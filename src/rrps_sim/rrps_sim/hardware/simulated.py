@@ -6,8 +6,10 @@ speed and stroke limits; efforts = the quasi-static holding forces of the pose, 
 eqs. 19-20 with a PD force loop per leg, efforts = forces [N]). ``write`` advances the
 simulation by its ``period``; ``read`` measures it (with :class:`rrps_sim.actuators.SensorFaults`).
 Efforts and dynamics are in the world's gravity: ring_a's attitude in the world while it grips
-(``world_q_support``, from the structure's grip frame), handed over to ring_b while ring_b alone
-grips (and back); ``payload_mass`` > 0 puts a point-mass payload on a ring in place of the
+(``world_q_support`` at the start, from the structure's grip frame), handed over to ring_b while
+ring_b alone grips (and back) through the measured pose, and replaced by the odometry's attitude
+of the supporting ring when the driver hands one over (:meth:`SimulatedRobot.set_support`);
+``payload_mass`` > 0 puts a point-mass payload on a ring in place of the
 robot's own.
 
 The simulated robot outlives its driver as a real one would: cleanup and configure keep it
@@ -88,8 +90,9 @@ class SimulatedRobot(SystemInterface):
         Parameter('fault_seed', 0, 'seed of the fault injection', range=(0, 2**31 - 1)),
         Parameter('state_file', '', "file that keeps the robot's physical state across driver restarts "
                   '(lengths, ring angles, grippers); empty: none'),
-        Parameter('world_q_support', IDENTITY_QUATERNION, "ring_a's attitude in the world while it grips "
-                  '(x, y, z, w): the gravity of efforts and dynamics; handed over at each grip change'),
+        Parameter('world_q_support', IDENTITY_QUATERNION, "ring_a's attitude in the world at the start "
+                  '(x, y, z, w): the gravity of efforts and dynamics; handed over at each grip change, then '
+                  'the odometry/support attitude'),
         Parameter('payload_mass', 0.0, "a point-mass payload replacing the robot description's; 0: the "
                   "description's", unit='kg', range=(0.0, 10000.0)),
         Parameter('payload_ring', 'ring_b', 'the ring carrying payload_mass', choices=RINGS),
@@ -171,6 +174,16 @@ class SimulatedRobot(SystemInterface):
     def support(self) -> Support:
         """The gripping ring and its attitude in the world, as the efforts and dynamics use it."""
         return (self.actuators if self.mode is ActuatorMode.DYNAMIC else self.static_efforts).support
+
+    def set_support(self, support: Support) -> Result:
+        """Ground ``support`` (its attitude from the odometry) in the efforts and dynamics;
+        refused for a ring that is not the one gripping (ring_a while it grips, else ring_b)."""
+        if self.actuators is None:
+            return _error('not configured')
+        if support.ring != self.support.ring:
+            return _error(f'{support.ring} does not support the robot now ({self.support.ring} does)')
+        (self.actuators if self.mode is ActuatorMode.DYNAMIC else self.static_efforts).set_support(support)
+        return OK
 
     def _follow_grip(self) -> None:
         """ring_b supports while it alone grips, ring_a otherwise (both closed: ring_a, as at start)."""

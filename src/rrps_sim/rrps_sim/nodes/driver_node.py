@@ -17,6 +17,13 @@ it is malformed, unstamped, outside the stroke, or older than ``timeout``; with
 ``hold_when_silent`` the robot also holds after ``timeout`` s without a command. Grippers:
 ``grippers/state`` and the SetBool services ``grippers/<ring>/set`` (true = close), never both open.
 
+Gravity (simulated hardware): the efforts and dynamics start on ring_a at the attitude of the
+``world_q_support`` parameter, hand it over to the other ring through the measured pose at each
+grip change, and follow the supporting ring's world attitude that the climb node's odometry
+publishes on ``odometry/support`` (:mod:`rrps_sim.support_follower`: only a fresh message for the
+ring that grips). Without one for ``support_timeout`` s the last known attitude is kept, and the
+status says so (WARN, ``support_source`` STALE); a malformed one is rejected and counted.
+
     driver_node --ros-args -r __ns:=/rrps -p robot:=pole_climber
 """
 
@@ -25,6 +32,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+from geometry_msgs.msg import TransformStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.lifecycle import LifecycleNode, State, TransitionCallbackReturn
 from sensor_msgs.msg import JointState
@@ -32,20 +40,29 @@ from std_srvs.srv import SetBool, Trigger
 
 from rrps_description.geometry import load_robot
 from rrps_description.names import LEG_NAMES, RINGS
-from rrps_interfaces.driver import GRIPPERS_STATE, RESET_FAULTS, ActuatorMode, DriverStatus, gripper_service
+from rrps_interfaces.climb import SUPPORT_POSE
+from rrps_interfaces.driver import (
+    GRIPPERS_STATE,
+    RESET_FAULTS,
+    ActuatorMode,
+    DriverStatus,
+    SupportSource,
+    gripper_service,
+)
 from rrps_interfaces.kinematics import ACTUATORS_COMMAND, ACTUATORS_STATE
 from rrps_runtime.diagnostics import ERROR, OK, STALE, WARN, Diagnostics
 from rrps_runtime.freshness import CommandAges, CommandFreshness, RejectedCommand
-from rrps_runtime.messages import joint_state_msg, lengths_from_joint_state, stamp_to_seconds
+from rrps_runtime.messages import joint_state_msg, lengths_from_joint_state, stamp_to_seconds, transform_from_msg
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
-from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
+from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
 from rrps_sim.hardware import hardware_class
 from rrps_sim.hardware.commands import checked_command, ring_joints
 from rrps_sim.hardware.interface import BusState, Command, HardwareConfig, Result, ReturnType, Transition
 from rrps_sim.hardware.simulated import SimulatedRobot
+from rrps_sim.support_follower import DEFAULT_TIMEOUT, SupportFollower
 
 __all__ = ['DriverNode', 'PARAMETERS', 'main']
 
@@ -61,6 +78,8 @@ PARAMETERS = NodeParameters('driver_node', 'rrps_sim', [
     Parameter('publish_on_command', False, 'also publish actuators/state at once when a command is accepted'),
     Parameter('hold_when_silent', False, 'stop the actuators where they are when no command arrived for timeout s'),
     Parameter('auto_activate', False, 'activate at start (otherwise: change_state activate)'),
+    Parameter('support_timeout', DEFAULT_TIMEOUT, 'odometry/support older than this is not followed: the last '
+              'known attitude of the supporting ring is kept (status WARN)', unit='s', range=(0.01, 600.0)),
     *SimulatedRobot.PARAMETERS,
 ])
 #: The parameters the driver passes on to its hardware while it runs.
@@ -97,6 +116,8 @@ class DriverNode(LifecycleNode):
         if self.trigger_configure() != TransitionCallbackReturn.SUCCESS:
             self.destroy_node()
             raise ValueError(f'{self.hardware_name} hardware: {self._refusal}')
+        start = self.hardware.support  # None: hardware in the real world's gravity
+        self._support = None if start is None else SupportFollower(start, timeout=values['support_timeout'])
         self._tap = RecordingTap(self)
         self._state_pub = self._tap.create_publisher(JointState, ACTUATORS_STATE, STATE_QOS)
         self._grippers_pub = self._tap.create_publisher(JointState, GRIPPERS_STATE, STATE_QOS)
@@ -105,6 +126,8 @@ class DriverNode(LifecycleNode):
             self.create_service(SetBool, gripper_service(ring),
                                 lambda request, response, ring=ring: self._on_gripper(ring, request, response))
         self.create_service(Trigger, RESET_FAULTS, self._on_reset_faults)
+        if self._support is not None:
+            self.create_subscription(TransformStamped, SUPPORT_POSE, self._on_support, LATCHED_QOS)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._diag = Diagnostics(self, self.label, hardware_id=g.name)
         self._tick_timer = self.create_timer(1.0 / self.rate, self._on_tick)
@@ -191,12 +214,16 @@ class DriverNode(LifecycleNode):
         s, error = self.state, self.state.persist_error
         if error:
             level, message = max(level, WARN), f'{message}; {self.state_file} not written: {error}'
+        support = self._follow_support()
+        if support.get('support_source') is SupportSource.STALE:
+            level, message = max(level, WARN), (f'{message}; {SUPPORT_POSE} silent for {support["support_age"]:.1f} s: '
+                                                f'keeping the last known attitude of {support["support_ring"]}')
         self._diag.report(level, message, DriverStatus(
             mode=self.mode, active=self.active, accepted=self.accepted, rejected=self.rejected, dropped=self.dropped,
             lengths=tuple(float(v) for v in s.positions), stuck_legs=self._stuck, **DriverStatus.grippers(s.grippers),
             gripper_refusals=self.gripper_refusals, state_file_error=error, hardware=self.hardware_name,
             faults=tuple(f'{f.actuator}:{f.kind.value}' for f in s.faults),
-            **self.ages.summary(self.get_clock().now().nanoseconds * 1e-9)))
+            **support, **self.ages.summary(self.get_clock().now().nanoseconds * 1e-9)))
 
     def _set_status(self, level, message: str) -> None:
         if (level, message) != self._status:
@@ -204,6 +231,32 @@ class DriverNode(LifecycleNode):
             if level != OK:
                 self.get_logger().warning(message, throttle_duration_sec=1.0)
             self._report()
+
+    # --- the supporting ring's attitude ---
+
+    def _on_support(self, msg: TransformStamped) -> None:
+        """The odometry's supporting ring (kept when well-formed), followed at once."""
+        _, q = transform_from_msg(msg)
+        if not self._support.on_message(msg.header.frame_id, msg.child_frame_id, q, time.monotonic()):
+            self.get_logger().warning(f'{SUPPORT_POSE} rejected, the attitude stays: {self._support.rejection}',
+                                      throttle_duration_sec=5.0)
+        self._follow_support()
+
+    def _follow_support(self) -> dict:
+        """Ground the odometry's attitude when it is fresh and for the ring that grips; the
+        status values of the support in use ({} for hardware in the real world's gravity)."""
+        current = self.hardware.support
+        if self._support is None or current is None:
+            return {}
+        new = self._support.update(current, time.monotonic())
+        if new is not None:
+            result = self.hardware.set_support(new)
+            if not result.ok:
+                self.get_logger().warning(f'{SUPPORT_POSE} not followed: {result.message}', throttle_duration_sec=5.0)
+        r, support = self._support.report(time.monotonic()), self.hardware.support
+        return {'support_ring': support.ring, 'world_q_support': tuple(float(v) for v in support.world_q_support),
+                'support_source': r.source, 'support_age': None if r.age is None else round(r.age, 3),
+                'support_rejected': r.rejected}
 
     # --- commands ---
 

@@ -7,6 +7,13 @@
                [--tool-force FX,FY,FZ] [--tool-torque TX,TY,TZ] [--tool-frame tool|world]
     rrps-climb --robot frame_climber --structure frame --junction-deg 90 [--out-of-plane]
                [--no-extra-dof] [--csv plan.csv]
+    rrps-climb --robot frame_climber --structure frame_route --distance 3.0 [--bends 30,30] [--start S]
+    rrps-climb --robot facade_climber --structure facade_corner --distance 1.0 [--corner-deg 20]
+
+Routes (``climbing.route``): ``frame_route`` climbs a frame over several nodes bent one way in
+one plane (``--bends``, degrees, one per node), up or down (a negative distance), from and to
+both rings side by side; ``facade_corner`` walks a facade round a vertical corner turned by
+``--corner-deg`` (positive: outside).
 
 With ``--junction-deg`` the frame's member leaves its node bent by that angle (in the column's
 web plane, or normal to it with ``--out-of-plane``) and the plan is the searched crossing of the
@@ -53,6 +60,7 @@ from rrps_teleop.climbing.frame_node import FrameNodePlanner
 from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_teleop.climbing.load_check import DEFAULT_SPEED, LoadCheck
 from rrps_teleop.climbing.plan import CSV_COLUMNS, PlanError
+from rrps_teleop.climbing.route import ROUTES, plan_route
 
 PROG = 'rrps-climb'
 _VECTOR_OPTIONS = ('--structure-quaternion', '--gravity') + LOAD_VECTOR_OPTIONS
@@ -73,7 +81,7 @@ def build_parser() -> OneLineParser:
                       'structure, checking every limit along every motion and the gripper '
                       'interlock; write one CSV row per phase.')
     p.add_argument('--robot', default='pole_climber', help='shipped robot name or YAML path')
-    p.add_argument('--structure', required=True, choices=sorted(STRUCTURES))
+    p.add_argument('--structure', required=True, choices=sorted(STRUCTURES) + sorted(ROUTES))
     p.add_argument('--distance', type=_distance,
                    help='route distance to climb [m] (negative: down); required without --junction-deg')
     p.add_argument('--steps', type=count, help='number of steps (default: as few as the reach allows)')
@@ -84,6 +92,10 @@ def build_parser() -> OneLineParser:
                    help='frame only: plan the crossing of a node bent by this angle [deg] (1 .. 90)')
     p.add_argument('--out-of-plane', action='store_true',
                    help="with --junction-deg: the member bends normal to the column's web plane")
+    p.add_argument('--bends', type=_bends, metavar='DEG,DEG',
+                   help='frame_route: the bend of each node [deg] (default 30,30)')
+    p.add_argument('--corner-deg', type=float, default=20.0,
+                   help='facade_corner: the corner [deg], positive outside (default 20)')
     p.add_argument('--csv', help='write the plan to this CSV file')
     p.add_argument('--speed', type=positive, default=DEFAULT_SPEED,
                    help=f'speed the motions are streamed at, for their loads [m/s] (default {DEFAULT_SPEED})')
@@ -93,6 +105,16 @@ def build_parser() -> OneLineParser:
                    help="the world's gravity [m/s^2] (default 0,0,-9.81)")
     add_load_options(p)
     return p
+
+
+def _bends(text: str) -> tuple[float, ...]:
+    try:
+        values = tuple(float(v) for v in text.split(','))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'expected comma-separated angles [deg], got {text!r}')
+    if not all(math.isfinite(v) and 1.0 <= v <= 90.0 for v in values):
+        raise argparse.ArgumentTypeError(f'each bend must be in 1 .. 90 deg, got {text!r}')
+    return values
 
 
 def _junction(text: str) -> float:
@@ -120,6 +142,13 @@ def _plan(args, geometry, loads: LoadCheck):
         raise UsageError('--out-of-plane needs --junction-deg')
     if args.distance is None:
         raise UsageError('--distance is required (or --junction-deg with --structure frame)')
+    if args.structure in ROUTES:
+        if args.steps is not None:
+            raise UsageError(f'--steps does not apply to the {args.structure} (its steps follow the route)')
+        return plan_route(geometry, args.structure, args.distance, start=args.start, corner_deg=args.corner_deg,
+                          bends_deg=(30.0, 30.0) if args.bends is None else args.bends,
+                          use_extra_dof=not args.no_extra_dof, loads=loads,
+                          gravity=None if args.gravity is None else tuple(args.gravity))
     needed = abs(args.distance) + (args.start or 0.0) + 1.5 * geometry.max_length + 0.3
     structure = make_structure(args.structure, needed)
     planner = GaitPlanner(geometry, structure, use_extra_dof=not args.no_extra_dof, loads=loads)

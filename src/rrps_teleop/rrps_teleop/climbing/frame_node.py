@@ -143,15 +143,19 @@ class FrameNodePlanner(GaitPlanner):
     plane, or ``out_of_plane``); see the module docstring. The search runs at construction;
     ``crossing`` holds its result, or ``refusal`` the PlanError (then :meth:`plan` raises it).
     ``batched``: check all candidates of a phase in one batch (False: one candidate at a time,
-    the plain grid search; the same plan). ``gravity``: the world's (default (0, 0, -9.81))."""
+    the plain grid search; the same plan). ``gravity``: the world's (default (0, 0, -9.81)).
+    ``frame``: another frame with one node (a route's, in the world) instead of the shipped one;
+    ``sides``: the faces searched; ``start_theta``: both extra-DOF angles at the stance [rad]."""
 
     def __init__(self, geometry: RobotGeometry, junction_deg: float, out_of_plane: bool = False, *,
                  use_extra_dof: bool = True, spacing: float = 0.01, ring_height: float = 0.1,
-                 gravity=None, batched: bool = True):
+                 gravity=None, batched: bool = True, frame: BeamFrame | None = None, sides=(1, -1),
+                 start_theta: float = 0.0):
         if not (math.isfinite(junction_deg) and 1.0 <= junction_deg <= 90.0):
             raise ValueError(f'junction_deg must be in 1 .. 90 deg, got {junction_deg!r}')
-        self.frame = make_structure('frame', junction_deg=junction_deg, out_of_plane=out_of_plane)
+        self.frame = frame or make_structure('frame', junction_deg=junction_deg, out_of_plane=out_of_plane)
         self.faces = {side: BeamFace(self.frame, side, ring_height=ring_height) for side in (1, -1)}
+        self.sides, self.start_theta = tuple(sides), float(start_theta)
         # forces and holding are searched at every pose below, with the beam-face clamp's model
         super().__init__(geometry, self.faces[1], use_extra_dof=use_extra_dof, spacing=spacing, loads=None)
         self.dof = use_extra_dof and {'ring_a', 'ring_b'} <= set(geometry.extra_dof)
@@ -165,7 +169,7 @@ class FrameNodePlanner(GaitPlanner):
             self._use(self.crossing.candidate.side, self.crossing.candidate.lift)
         except PlanError as exc:
             self.refusal = exc
-            self._use(1, _LIFTS[0])
+            self._use(self.sides[0], _LIFTS[0])
 
     @property
     def title(self) -> str:
@@ -217,6 +221,8 @@ class FrameNodePlanner(GaitPlanner):
         the post's radius, (n,). ring_a's gripper, ``ring_height`` tall below its ring, lies within
         what the legs' check keeps clear."""
         q0, q1, radius = self.structure.obstacles
+        if len(q0) == 0:  # a route's node: no beam frames into it off the route
+            return np.full(len(world_T_b), np.inf)
         mb = self._mount_matrices(0.0, 0.0)[1]
         top = world_T_b[:, :3, 3]
         foot = top + np.einsum('nij,j->ni', world_T_b[:, :3, :3], mb[:3, 3])
@@ -250,10 +256,10 @@ class FrameNodePlanner(GaitPlanner):
     def _motion(self, c: Candidate, ring: str):
         """(world_T_a, world_T_b, support, support's angle, ring angles) of the candidate's move."""
         self._use(c.side, c.lift)
-        state = GaitState(c.s_pre, c.s_pre, 0.0, 0.0)
+        state = GaitState(c.s_pre, c.s_pre, self.start_theta, self.start_theta)
         if ring == 'b':
             wa, wb, angles = self._move_poses(state, 'b', c.s_b, 1)
-            return wa, wb, 'ring_a', 0.0, angles
+            return wa, wb, 'ring_a', self.start_theta, angles
         key = (c.side, c.s_pre, c.s_b, c.lift)
         if key not in self._theta_b:  # ring_b's angle after its move (the same for every s_a)
             self._theta_b[key] = float(self._move_poses(state, 'b', c.s_b, 1)[2][-1, 1])
@@ -297,7 +303,7 @@ class FrameNodePlanner(GaitPlanner):
         """The best crossing (see the module docstring); PlanError naming the limit and the phase
         when no candidate keeps every limit."""
         self._theta_b = {}
-        firsts = [(side, s_pre, lift) for side in (1, -1) for s_pre in self._stance(side) for lift in _LIFTS]
+        firsts = [(side, s_pre, lift) for side in self.sides for s_pre in self._stance(side) for lift in _LIFTS]
         past = [self.faces[1].forbidden[0][1] + e for e in _PAST]
         stage_b = [Candidate(side, s_pre, s_b, math.nan, lift) for (side, s_pre, lift), s_b
                    in itertools.product(firsts, past)]
@@ -353,7 +359,8 @@ class FrameNodePlanner(GaitPlanner):
         c = self.crossing.candidate
         start = c.s_pre if start is None else float(start)
         sep = 0.0 if initial_separation is None else float(initial_separation)
-        if distance > 0.0 and abs(start - c.s_pre) < 1e-6 and abs(sep) < 1e-6 and abs(initial_theta) < 1e-9:
+        if distance > 0.0 and abs(start - c.s_pre) < 1e-6 and abs(sep) < 1e-6 \
+                and abs(initial_theta - self.start_theta) < 1e-9:
             return self.plan_crossing()
         lo, hi = self.structure.forbidden[0]
         ends = sorted((start, start + sep, start + distance, start + sep + distance))
@@ -369,7 +376,7 @@ class FrameNodePlanner(GaitPlanner):
             raise self.refusal
         c = self.crossing.candidate
         self._use(c.side, c.lift)
-        state = GaitState(c.s_pre, c.s_pre, 0.0, 0.0)
+        state = GaitState(c.s_pre, c.s_pre, self.start_theta, self.start_theta)
         phases = [self._phase(state, 0, PhaseAction.START, '', True, True)]
         phases += self._move(state, 1, 'b', c.s_b)
         phases += self._move(state, 1, 'a', c.s_a)

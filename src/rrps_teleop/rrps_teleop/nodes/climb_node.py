@@ -8,7 +8,11 @@ feeds it ``pose`` (a_T_b, frame ring_a; the newest sample at the node's ``rate``
 extra ring DOF, ``actuators/state``; it publishes what the machine asks for: ``target_pose``
 (and ``target_rings``) through the IK node's guards, requests to the driver's
 ``grippers/<ring>/set``, ``climb/status`` (values :class:`~rrps_interfaces.climb.ClimbStatus`)
-and ``odometry/ring_a|ring_b`` (frame ``world``, stamped with the pose they were chained from).
+and ``odometry/ring_a|ring_b`` (frame ``world``, stamped with the pose they were chained from),
+with the supporting ring's on ``odometry/support`` (TransformStamped, child frame the ring,
+latched; at once when it changes, else at 10 Hz: :mod:`rrps_teleop.climbing.odometry_attitude`),
+the attitude the driver's gravity and teleop's load guards follow. A step's preview stands where
+the odometry's ring_a is (``anchor_phases``): it computes in the gravity of the measured attitudes.
 
 Services ``climb/step_up``, ``climb/step_down`` and ``climb/resume`` (std_srvs/Trigger);
 ``auto_steps`` > 0 climbs that many steps up once the robot's state is known.
@@ -27,7 +31,7 @@ import threading
 from concurrent.futures import Future, ThreadPoolExecutor
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, TransformStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
@@ -42,6 +46,7 @@ from rrps_interfaces.climb import (
     CLIMB_STATUS,
     CLIMB_STEP_DOWN,
     CLIMB_STEP_UP,
+    SUPPORT_POSE,
     ClimbPreview,
     ClimbState,
     ClimbStatus,
@@ -52,7 +57,7 @@ from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE, TARGET_POSE, TARGE
 from rrps_interfaces.status import DIAGNOSTICS, source_node
 from rrps_interfaces.teleop import TELEOP_STATUS, TeleopStatus
 from rrps_runtime.diagnostics import ERROR, OK, WARN, Diagnostics
-from rrps_runtime.messages import joint_state_msg, pose_from_msg, pose_to_msg
+from rrps_runtime.messages import joint_state_msg, pose_from_msg, pose_to_msg, transform_to_msg
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
@@ -61,6 +66,7 @@ from rrps_runtime.recording_tap import RecordingTap
 from rrps_teleop.climbing.frame_node import FrameNodePlanner
 from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_teleop.climbing.load_check import LoadCheck
+from rrps_teleop.climbing.odometry_attitude import SupportPublisher, anchor_phases, support_of_odometry
 from rrps_teleop.climbing.step_io import ClimbOutput, ClimbTarget, StepConfig
 from rrps_teleop.climbing.step_machine import ClimbStepMachine
 from rrps_teleop.climbing.step_preview import PreviewConfig, run_preview
@@ -151,6 +157,8 @@ class ClimbNode(Node):
         self._preview_pub = self.create_publisher(DiagnosticStatus, CLIMB_PREVIEW, LATCHED_QOS)
         self._odo_pubs = {ring: self._tap.create_publisher(PoseStamped, odometry_topic(ring), STATE_QOS)
                           for ring in RINGS}
+        self._support_pub = self.create_publisher(TransformStamped, SUPPORT_POSE, LATCHED_QOS)
+        self._support_due = SupportPublisher()
         self.create_subscription(PoseStamped, POSE, self._on_pose, LATEST_QOS)
         self.create_subscription(JointState, GRIPPERS_STATE, self._on_grippers, STATE_QOS)
         # the operator station's sign of life: the newest sample counts; a reliable reader would
@@ -306,8 +314,10 @@ class ClimbNode(Node):
             self._gripper_call = (out.gripper, self._gripper_clients[out.gripper.ring].call_async(request))
         if out.preview is not None:
             c = self.machine.config
+            odometry = self.machine.odometry  # the step previewed where the odometry stands
+            phases = anchor_phases(out.preview, None if odometry is None else odometry.world_T_a)
             self._preview_job = self._preview_worker.submit(
-                run_preview, self.geometry, out.preview, speed=c.speed, period=c.period,
+                run_preview, self.geometry, phases, speed=c.speed, period=c.period,
                 config=self._preview_config, cancelled=self._closing.is_set)
         if out.status is not None:
             self._publish_status(out.status)
@@ -330,6 +340,11 @@ class ClimbNode(Node):
         for ring, T in (('ring_a', world_T_a), ('ring_b', world_T_b)):
             self._odo_pubs[ring].publish(pose_to_msg(T.position, T.quaternion_xyzw, frame_id=WORLD_FRAME,
                                                      stamp=stamp))
+        support = support_of_odometry(world_T_a, world_T_b, self.machine.grippers)
+        if support is not None and self._support_due.due(*support, self._now()):
+            ring, T = support
+            self._support_pub.publish(transform_to_msg(T.position, T.quaternion_xyzw, frame_id=WORLD_FRAME,
+                                                       child_frame_id=ring, stamp=stamp))
 
     def _publish_status(self, status: ClimbStatus) -> None:
         level = WARN if status.state is ClimbState.IDLE and self.machine.plan_refused else LEVELS[status.state]

@@ -39,8 +39,10 @@ stalled delivery cannot extend the timeout (not an error: the hold that follows 
 sample comes is MASTER_STALE, saying the samples arrive too late). ``mode``,
 ``translation_scale``, ``rotation_mode``, ``joint_scale`` and the guard parameters are settable
 at run time (validated; any change is a clutch). The load guards (``load_guards``, on by
-default) take the robot at rest on ``support`` turned by ``world_q_support`` in the world, with a
-point-mass payload (``payload_mass`` on ``payload_ring`` at ``payload_com``; unset: the robot's).
+default) take the robot at rest on its supporting ring: ``support`` turned by ``world_q_support``
+at the start, then the ring the robot's ``grippers/state`` shows carrying it, at the attitude of
+its ``odometry/support`` (:mod:`rrps_teleop.load_support`), with a point-mass payload
+(``payload_mass`` on ``payload_ring`` at ``payload_com``; unset: the robot's).
 """
 
 from __future__ import annotations
@@ -90,6 +92,7 @@ from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, LINK_EVENT_QOS, LINK_STATE
 from rrps_runtime.recording_tap import RecordingTap
 from rrps_teleop.fixture import FixtureConfig, fixture_wrench, master_wrench
 from rrps_teleop.mapping import TeleopConfig, TeleopMapping, TeleopOutput
+from rrps_teleop.nodes.teleop_support import SupportInput
 from rrps_teleop.teleop_config import PARAMETERS
 
 __all__ = ['TeleopNode', 'main']
@@ -129,8 +132,9 @@ class TeleopNode(Node):
         if config['singularity_halt'] is None:  # unset: the robot's, which the parameter then shows
             config['singularity_halt'] = float(self.geometry.min_conditioning)
             self.set_parameters([Parameter('singularity_halt', value=config['singularity_halt'])])
-        self.mapping = TeleopMapping(self.geometry, TeleopConfig(**config),
-                                     support=Support.of(values['support'], values['world_q_support']))
+        start = Support.of(values['support'], values['world_q_support'])
+        self.mapping = TeleopMapping(self.geometry, TeleopConfig(**config), support=start)
+        self._support = SupportInput(self, self.mapping.loads, start)
         self._pending: TeleopConfig | None = None
         self._last_status: tuple | None = None
         self._last_status_time = -math.inf
@@ -216,7 +220,8 @@ class TeleopNode(Node):
             self.create_subscription(DiagnosticStatus, namespaced(CLIMB_STATUS, ns), self._on_climb_status,
                                      STATE_QOS),
             self.create_subscription(DiagnosticArray, robot_topic(DIAGNOSTICS, ns, self._robot_topics),
-                                     self._on_diagnostics, LINK_EVENT_QOS if link else STATE_QOS)]
+                                     self._on_diagnostics, LINK_EVENT_QOS if link else STATE_QOS),
+            *self._support.attach(ns, self._robot_topics)]
 
     def _switch_robot(self, namespace: str) -> None:
         """Drive another robot: the clutch releases (the old robot holds: no more commands),
@@ -301,7 +306,9 @@ class TeleopNode(Node):
             self._reject(f'pose frame_id {msg.header.frame_id!r} is not {self.frame_id!r}')
             return
         try:
-            self.mapping.on_slave_pose(*pose_from_msg(msg), t=time.monotonic())
+            position, quaternion = pose_from_msg(msg)
+            self.mapping.on_slave_pose(position, quaternion, t=time.monotonic())
+            self._support.support.on_slave_pose(quaternion)
         except ValueError as exc:
             self._reject(str(exc))
             return
@@ -395,7 +402,7 @@ class TeleopNode(Node):
                               round_trip_time=self.mapping.round_trip(t),
                               speed_factor=self.mapping.speed_factor(t),
                               feedback_force=self._feedback[0], feedback_limit=self._feedback[1],
-                              robot=self.robot_namespace, slave_age_ms=self._slave_age_ms(),
+                              robot=self.robot_namespace, slave_age_ms=self._slave_age_ms(), **self._support.values(),
                               **{f'margin_{k}': v for k, v in out.margins.items()})
         status = DiagnosticStatus(level=level, name=self.get_name(), message=out.code.name,
                                   hardware_id=self.geometry.name)
