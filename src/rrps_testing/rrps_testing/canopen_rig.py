@@ -38,15 +38,17 @@ def can_env(port: int, **extra: str) -> dict:
 
 
 class DriveSim:
-    """``rrps-drive-sim`` in a process of its own; ``ask`` sends one request, returns the answer."""
+    """``rrps-drive-sim`` in a process of its own (its drives behaving as ``behaviour`` says:
+    rrps_canopen.simulator.behaviour); ``ask`` sends one request, returns the answer."""
 
     def __init__(self, robot: str = 'pole_climber', *, port: int | None = None, master: bool = False,
-                 lengths=None, time_constant: float | None = None):
+                 lengths=None, time_constant: float | None = None, behaviour: dict | None = None):
         self.port = free_port() if port is None else port
         args = [sys.executable, '-m', 'rrps_canopen.simulator.process', '--robot', robot, '--stdin']
         args += ['--master'] if master else []
         args += ['--lengths', *map(str, lengths)] if lengths is not None else []
         args += ['--time-constant', str(time_constant)] if time_constant is not None else []
+        args += ['--behaviour', json.dumps(behaviour)] if behaviour else []
         self.process = start_child(args, env=can_env(self.port), nice=CONTROL_NICE, realtime=SIM_RT_PRIORITY,
                                    stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         self._lines: queue.Queue[str | None] = queue.Queue()

@@ -47,7 +47,8 @@ class ReturnType(enum.Enum):
 
 @dataclass(frozen=True)
 class Transition:
-    """A lifecycle verb's outcome and, unless SUCCESS, the reason."""
+    """A lifecycle verb's outcome and, unless SUCCESS, the reason (on SUCCESS, what the hardware
+    had to leave out, for the operator: '' when nothing)."""
 
     code: CallbackReturn
     reason: str = ''
@@ -84,6 +85,7 @@ class FaultKind(enum.Enum):
     REBOOTED = 'rebooted'                # the drive restarted (it lost its homing)
     BUS_LOST = 'bus_lost'                # the bus carrying it went down
     GRIPPER_SENSOR = 'gripper_sensor'    # a gripper's clamp sensor disagrees with its command
+    HOMING = 'homing'                    # the homing failed, or ended where the actuator cannot be
 
 
 @dataclass(frozen=True)
