@@ -27,6 +27,7 @@ import numpy as np
 
 from rrps_canopen.cia402 import HomingStatus, Mode, homing_status
 from rrps_canopen.drive import MODE_NAMES, ConfigureError, RemoteDrive, object_text
+from rrps_description.bus import DriveConfig
 from rrps_description.geometry import RobotGeometry
 from rrps_kinematics.forward import forward_kinematics
 from rrps_kinematics.limits import pose_margins
@@ -39,6 +40,9 @@ HOMING_SLACK = 2.0
 #: How far below zero a pose margin (joint cones [rad], interference [m], conditioning) may be
 #: and the pose still count as within the limits after homing (rounding at a limit).
 MARGIN_TOLERANCE = 1e-6
+#: One solve at activation: the NumPy backend answers in a millisecond, where loading the numba
+#: kernels into the driver's process would hold the first activation for seconds.
+CHECK_BACKEND = 'numpy'
 
 
 def homing_timeout(drives: list[RemoteDrive]) -> float:
@@ -119,35 +123,36 @@ def home(drive_set, drives: list[RemoteDrive], timeout: float) -> tuple[str, dic
     return reason, statuses
 
 
-def check_positions(geometry: RobotGeometry, drives: list[RemoteDrive], lengths: np.ndarray,
+def check_positions(geometry: RobotGeometry, drives: tuple[DriveConfig, ...], lengths: np.ndarray,
                     homed: set[str]) -> dict[str, str]:
-    """{leg: why it cannot be where its drive says} ({} when every leg can be there); ``homed``:
-    the drives homed just now (see the module docstring). The tolerance is each drive's
-    following-error window: the distance the drive itself lets its axis be off."""
+    """{leg: why it cannot be where its drive says} ({} when every leg can be there) of the legs
+    of ``drives`` at ``lengths`` [m]; ``homed``: the legs homed just now (see the module
+    docstring). The tolerance is each drive's following-error window: the distance the drive
+    itself lets its axis be off."""
     problems: dict[str, str] = {}
-    for d, x in zip(drives, lengths):
-        c, tol = d.config, d.config.following_error
-        if d.name in homed and abs(x - c.home_position) > tol:
-            problems[d.name] = (f'homed at {x:.4f} m, not at its home position {c.home_position:.4f} m '
-                                f'(bus.drives.{d.name}.home_position): the drive did not take {object_text(0x607C)}, '
-                                'or its homing method finds another place')
+    for c, x in zip(drives, lengths):
+        tol = c.following_error
+        if c.actuator in homed and abs(x - c.home_position) > tol:
+            problems[c.actuator] = (f'homed at {x:.4f} m, not at its home position {c.home_position:.4f} m '
+                                    f'(bus.drives.{c.actuator}.home_position): the drive did not take '
+                                    f'{object_text(0x607C)}, or its homing method finds another place')
         elif not geometry.min_length - tol <= x <= geometry.max_length + tol:
-            problems[d.name] = (f'reads {x:.4f} m, outside the stroke [{geometry.min_length}, {geometry.max_length}] '
-                                'm: not homed, or a wrong offset or counts_per_metre')
+            problems[c.actuator] = (f'reads {x:.4f} m, outside the stroke [{geometry.min_length}, '
+                                    f'{geometry.max_length}] m: not homed, or a wrong offset or counts_per_metre')
     if problems:
         return problems
-    fk = forward_kinematics(geometry, lengths, tolerance=1e-9)
+    fk = forward_kinematics(geometry, lengths, tolerance=1e-9, backend=CHECK_BACKEND)
     lengths_text = ', '.join(f'{x:.4f}' for x in lengths)
     if not bool(fk.converged) or bool(fk.singular):
-        return {d.name: f'the six lengths [{lengths_text}] m assemble no pose of the robot (forward kinematics '
-                        'did not converge): a leg is not where its drive says' for d in drives}
+        return {c.actuator: f'the six lengths [{lengths_text}] m assemble no pose of the robot (forward kinematics '
+                            'did not converge): a leg is not where its drive says' for c in drives}
     if homed:  # the stroke is checked above, leg by leg
-        margins = pose_margins(geometry, fk.position, fk.quaternion_xyzw).minimum
+        margins = pose_margins(geometry, fk.position, fk.quaternion_xyzw, backend=CHECK_BACKEND).minimum
         broken = ', '.join(f'{kind} margin {m:.4g}' for kind, m in margins.items()
                            if kind != 'stroke' and not m >= -MARGIN_TOLERANCE)
         if broken:
-            return {d.name: f'the six lengths [{lengths_text}] m put the robot outside its limits ({broken})'
-                    for d in drives}
+            return {c.actuator: f'the six lengths [{lengths_text}] m put the robot outside its limits ({broken})'
+                    for c in drives}
     return {}
 
 

@@ -29,7 +29,7 @@ from __future__ import annotations
 import can
 import numpy as np
 
-from rrps_canopen.cia402 import Mode, State, Statusword
+from rrps_canopen.cia402 import HomingStatus, Mode, State, Statusword
 from rrps_canopen.drive import ConfigureError
 from rrps_canopen.drive_set import DriveSet
 from rrps_canopen.grippers import GripperIo
@@ -131,12 +131,13 @@ class CanopenRobot(SystemInterface):
         if unhomed:
             reason, statuses = home(d, unhomed, homing_timeout(unhomed))
             if reason:
-                problems = {drive.name: f'homing {statuses[drive.name].value}' if statuses and drive.name in statuses
-                            else 'homing not started' for drive in unhomed}
+                seen = statuses or {}
+                problems = {drive.name: f'homing {seen[drive.name].value}' if drive.name in seen else 'homing not done'
+                            for drive in unhomed if seen.get(drive.name) is not HomingStatus.COMPLETED}
                 return _failure(f'activation failed: {reason}: {refuse(d, problems, fault=statuses is not None)}')
         with d.lock:
             lengths = np.array([drive.scale.position(d.data[drive.name].position) for drive in d.drives])
-        problems = check_positions(self.geometry, d.drives, lengths, {drive.name for drive in unhomed})
+        problems = check_positions(self.geometry, d.bus.drives, lengths, {drive.name for drive in unhomed})
         if problems:
             return _failure(f'activation refused, drives disabled: {refuse(d, problems, fault=bool(unhomed))}')
         for drive in unhomed:
@@ -214,7 +215,8 @@ class CanopenRobot(SystemInterface):
         state = SystemState(
             positions=positions, velocities=velocities, efforts=efforts, targets=targets, grippers=grippers,
             actuators=statuses, bus=BusState.LOST if lost else BusState.OPERATIONAL, lost=lost,
-            gripper_faults=tuple(f for name, f in faults.items() if name not in LEG_NAMES))
+            gripper_faults=tuple(f for name, f in faults.items() if name not in LEG_NAMES),
+            rest_speed=max(drive.scale.rest_speed(d.period) for drive in d.drives))
         self._last = state
         return state
 
