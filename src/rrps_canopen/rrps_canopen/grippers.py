@@ -59,6 +59,7 @@ class GripperIo:
             network.add_node(self.node)
             self.node.nmt.add_heartbeat_callback(self._on_heartbeat)
         self.outputs = 0
+        self.configured = False  # the sensors are judged once the outputs and inputs were read
         self.commanded = {ring: True for ring in RINGS}
         self.disagree_since: dict[str, float | None] = {ring: None for ring in RINGS}
 
@@ -126,6 +127,7 @@ class GripperIo:
             self.commanded[ring] = not outputs[ring] >> channel.output & 1
             self.disagree_since[ring] = None
         self.heartbeat = now if self.node is not None else None
+        self.configured = True
 
     # --- the receive thread ---
 
@@ -153,7 +155,9 @@ class GripperIo:
     def cycle(self, now: float, alive: bool = True) -> None:
         """Each cycle: the module's heartbeat and boot-up (its heartbeat is lost only while the
         drives are ``alive``: else the bus or this process is the matter), and each sensor
-        against its command."""
+        against its command; nothing before :meth:`configure`."""
+        if not self.configured:
+            return
         if self.node is not None:
             with self.lock:
                 booted, self.booted, heartbeat = self.booted, False, self.heartbeat
