@@ -11,6 +11,7 @@ machine)."""
 
 from __future__ import annotations
 
+import re
 import time
 
 import numpy as np
@@ -170,3 +171,17 @@ def test_a_drive_without_limit_switches_fails_homing_and_nothing_is_enabled(tmp_
         assert {d['state'] for d in drives.values()} == {'switch_on_disabled'}, drives
         faults = hardware.read(0.0, 0.0).faults
         assert [(f.actuator, f.kind) for f in faults] == [('leg_3', FaultKind.HOMING)], faults
+
+
+def test_a_drive_slower_to_change_mode_than_mode_timeout_is_named_and_nothing_moves(tmp_path):
+    path = robot_yaml(tmp_path / 'slow.yaml', bus={**BUS, 'mode_timeout': 0.2}, drive_defaults=RETRACTED,
+                      drives=DIRECTION_MINUS)
+    with DriveSim(path, behaviour={'leg_5': {'mode_delay': 1.0}}) as sim, canopen_hardware(sim) as hardware:
+        start(sim, hardware, path)
+        outcome = hardware.on_activate()
+        assert not outcome.ok
+        assert re.fullmatch(r'activation failed: leg_5 \(node 5\) still shows (no mode|cyclic synchronous position '
+                            r'mode) in 0x6061 modes of operation display 0.2 s after homing mode was written '
+                            r'\(bus.mode_timeout\): drives disabled', outcome.reason), outcome.reason
+        assert_disabled_and_still(sim, POLE.home_lengths)
+        assert not hardware.read(0.0, 0.0).faults  # not a fault: activating again may do

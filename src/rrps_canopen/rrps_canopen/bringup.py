@@ -24,7 +24,7 @@ from concurrent.futures import ThreadPoolExecutor
 from canopen.sdo import SdoCommunicationError
 
 from rrps_canopen.cia402 import Mode
-from rrps_canopen.drive import MODE_NAMES, NO_OBJECT, ConfigureError, RemoteDrive, object_text
+from rrps_canopen.drive import NO_OBJECT, ConfigureError, RemoteDrive, mode_text, object_text
 from rrps_canopen.pdo_mapping import map_pdos
 from rrps_description.bus import HOMING_ABSOLUTE
 
@@ -130,7 +130,7 @@ def check(d: RemoteDrive, *, homes: bool) -> list[tuple[RemoteDrive, str]]:
         d.notes.append(f'{{drive}}: no {object_text(0x6502)}: the modes are not checked before they are used')
     else:
         supported = [m for m in range(1, 11) if modes >> (m - 1) & 1]
-        problems += [(d, f'{MODE_NAMES[m]} mode not supported by {{drive}}; supported: modes '
+        problems += [(d, f'{mode_text(m)} not supported by {{drive}}; supported: modes '
                          f'{", ".join(map(str, supported)) or "none"} ({object_text(0x6502)} 0x{modes:08X})')
                      for m in needed if m not in supported]
     method = d.config.homing

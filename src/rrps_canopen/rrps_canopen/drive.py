@@ -22,7 +22,7 @@ from rrps_canopen.units import AxisScale
 from rrps_description.bus import HOMING_ABSOLUTE, DriveConfig
 
 __all__ = ['ConfigureError', 'RemoteDrive', 'ProcessData', 'OBJECT_NAMES', 'MODE_NAMES', 'NO_OBJECT', 'BOOT_UP',
-           'object_text', 'keep_word']
+           'object_text', 'mode_text', 'keep_word']
 
 #: The objects the backend reads or writes, in words (CiA 301 / 402 names).
 OBJECT_NAMES = {
@@ -37,7 +37,7 @@ OBJECT_NAMES = {
 }
 #: The modes of operation in words.
 MODE_NAMES = {int(Mode.HOMING): 'homing', int(Mode.CYCLIC_SYNCHRONOUS_POSITION): 'cyclic synchronous position',
-              int(Mode.CYCLIC_SYNCHRONOUS_TORQUE): 'cyclic synchronous torque', 0: 'no mode'}
+              int(Mode.CYCLIC_SYNCHRONOUS_TORQUE): 'cyclic synchronous torque'}
 #: SDO abort codes (CiA 301) that say the device has no such object or sub-index.
 NO_OBJECT = (0x06020000, 0x06090011)
 #: Heartbeat state of a boot-up message.
@@ -52,6 +52,11 @@ class ConfigureError(Exception):
     def __init__(self, message: str, abort_code: int | None = None, reason: str = ''):
         super().__init__(message)
         self.abort_code, self.reason = abort_code, reason
+
+
+def mode_text(mode: int) -> str:
+    """``homing mode``, ``no mode`` (0), ``mode 3``."""
+    return f'{MODE_NAMES[mode]} mode' if mode in MODE_NAMES else 'no mode' if mode == 0 else f'mode {mode}'
 
 
 def object_text(index: int, subindex: int | None = None) -> str:

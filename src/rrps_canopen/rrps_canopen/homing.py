@@ -26,7 +26,7 @@ import time
 import numpy as np
 
 from rrps_canopen.cia402 import HomingStatus, Mode, homing_status
-from rrps_canopen.drive import MODE_NAMES, ConfigureError, RemoteDrive, object_text
+from rrps_canopen.drive import ConfigureError, RemoteDrive, mode_text, object_text
 from rrps_description.bus import DriveConfig
 from rrps_description.geometry import RobotGeometry
 from rrps_kinematics.forward import forward_kinematics
@@ -66,11 +66,10 @@ def set_mode(drive_set, drives: list[RemoteDrive], mode: Mode) -> str:
             shown = {d.name: m if m == int(mode) else d.read_object(0x6061) for d, m in zip(drives, shown.values())}
     except ConfigureError as exc:
         return str(exc)
-    late = [f'{d} still shows {MODE_NAMES.get(shown[d.name], shown[d.name])} mode' for d in drives
-            if shown[d.name] != int(mode)]
+    late = [f'{d} still shows {mode_text(shown[d.name])}' for d in drives if shown[d.name] != int(mode)]
     if late:
-        return (f'{"; ".join(late)} in {object_text(0x6061)} {timeout:g} s after {MODE_NAMES[int(mode)]} mode was '
-                'written (bus.mode_timeout)')
+        return (f'{"; ".join(late)} in {object_text(0x6061)} {timeout:g} s after {mode_text(int(mode))} was written '
+                '(bus.mode_timeout)')
     return ''
 
 

@@ -132,9 +132,11 @@ class CanopenRobot(SystemInterface):
             reason, statuses = home(d, unhomed, homing_timeout(unhomed))
             if reason:
                 seen = statuses or {}
-                problems = {drive.name: f'homing {seen[drive.name].value}' if drive.name in seen else 'homing not done'
-                            for drive in unhomed if seen.get(drive.name) is not HomingStatus.COMPLETED}
-                return _failure(f'activation failed: {reason}: {refuse(d, problems, fault=statuses is not None)}')
+                problems = {} if statuses is None else {
+                    drive.name: f'homing {seen[drive.name].value}' if drive.name in seen else 'homing not done'
+                    for drive in unhomed if seen.get(drive.name) is not HomingStatus.COMPLETED}
+                refused = refuse(d, problems, fault=statuses is not None) or 'drives disabled'
+                return _failure(f'activation failed: {reason}: {refused}')
         with d.lock:
             lengths = np.array([drive.scale.position(d.data[drive.name].position) for drive in d.drives])
         problems = check_positions(self.geometry, d.bus.drives, lengths, {drive.name for drive in unhomed})
