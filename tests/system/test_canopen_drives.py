@@ -20,18 +20,12 @@ import pytest
 
 from rrps_description.geometry import load_robot
 from rrps_sim.hardware.interface import Command, HardwareConfig
-from rrps_testing.canopen_rig import DriveSim, canopen_hardware, robot_yaml
+from rrps_testing.canopen_rig import UNHURRIED_BUS, DriveSim, canopen_hardware, robot_yaml
 from rrps_testing.ros_harness import wait_for
 
 pytestmark = [pytest.mark.slow]
 POLE = load_robot('pole_climber')
 COUNT = 1.0 / POLE.bus.drives[0].counts_per_metre
-#: These tests are not about heartbeats: a loaded machine must not lose one in them.
-BUS = {'heartbeat_period': 0.05, 'heartbeat_timeout': 0.5}
-
-
-def physical(sim: DriveSim) -> np.ndarray:
-    return np.array([d['position'] for d in sim.status()['drives'].values()])
 
 
 def configure(hardware, path: str):
@@ -43,25 +37,25 @@ def works(sim: DriveSim, hardware) -> None:
     them where they are."""
     outcome = hardware.on_activate()
     assert outcome.ok, outcome.reason
-    np.testing.assert_allclose(physical(sim), POLE.home_lengths, atol=COUNT)
+    np.testing.assert_allclose(sim.positions(), POLE.home_lengths, atol=COUNT)
     goal = hardware.read(0.0, 0.0).positions - 0.002
     assert hardware.write(0.0, 0.002, Command(goal)).ok
-    assert wait_for(lambda: np.allclose(physical(sim), goal, atol=2 * COUNT), timeout=30.0), physical(sim)
-    assert wait_for(lambda: np.allclose(hardware.read(0.0, 0.0).positions, physical(sim), atol=COUNT), timeout=10.0)
+    assert wait_for(lambda: np.allclose(sim.positions(), goal, atol=2 * COUNT), timeout=30.0), sim.positions()
+    assert wait_for(lambda: np.allclose(hardware.read(0.0, 0.0).positions, sim.positions(), atol=COUNT), timeout=10.0)
 
 
 def refused_and_nothing_ran(sim: DriveSim) -> None:
     drives = sim.status()['drives']
     assert {d['state'] for d in drives.values()} == {'switch_on_disabled'}, drives
     assert {d['nmt'] for d in drives.values()} <= {'PRE-OPERATIONAL'}, drives
-    np.testing.assert_allclose(physical(sim), POLE.home_lengths, atol=1e-12)
+    np.testing.assert_allclose(sim.positions(), POLE.home_lengths, atol=1e-12)
 
 
 def test_drives_that_boot_a_second_after_the_first_request_and_lose_sdo_requests_come_up(tmp_path):
     """Each drive is off until the master's first SDO request to it and boots 1 s later; every
     40th SDO request to it is lost on the way: the master waits (bus.boot_timeout) and sends a
     lost request again (bus.sdo_retries)."""
-    path = robot_yaml(tmp_path / 'late.yaml', bus=BUS)
+    path = robot_yaml(tmp_path / 'late.yaml', bus=UNHURRIED_BUS)
     with DriveSim(path, behaviour={'boot_delay': 1.0, 'sdo_loss': 40}) as sim, canopen_hardware(sim) as hardware:
         assert {d['silent'] for d in sim.status()['drives'].values()} == {True}  # off
         t0 = time.monotonic()
@@ -72,7 +66,7 @@ def test_drives_that_boot_a_second_after_the_first_request_and_lose_sdo_requests
 
 
 def test_a_homing_method_the_drive_lacks_is_refused_naming_it_and_what_the_drive_has(tmp_path):
-    path = robot_yaml(tmp_path / 'thirty_seven.yaml', bus=BUS,
+    path = robot_yaml(tmp_path / 'thirty_seven.yaml', bus=UNHURRIED_BUS,
                       drive_defaults={'homing': 37, 'home_position': 0.425})
     with DriveSim(path, behaviour={'leg_1': {'homing_methods': [35]}}) as sim, canopen_hardware(sim) as hardware:
         outcome = configure(hardware, path)
@@ -83,7 +77,8 @@ def test_a_homing_method_the_drive_lacks_is_refused_naming_it_and_what_the_drive
 
 
 def test_without_0x60e3_the_drive_refusing_the_method_is_named_as_the_homing_method(tmp_path):
-    path = robot_yaml(tmp_path / 'unlisted.yaml', bus=BUS, drive_defaults={'homing': 37, 'home_position': 0.425})
+    path = robot_yaml(tmp_path / 'unlisted.yaml', bus=UNHURRIED_BUS,
+                      drive_defaults={'homing': 37, 'home_position': 0.425})
     behaviour = {'leg_4': {'homing_methods': [35], 'absent': ['0x60E3']}}
     with DriveSim(path, behaviour=behaviour) as sim, canopen_hardware(sim) as hardware:
         outcome = configure(hardware, path)
@@ -97,7 +92,7 @@ def test_without_0x60e3_the_drive_refusing_the_method_is_named_as_the_homing_met
 def test_an_optional_object_the_drive_refuses_or_lacks_is_skipped_and_said(tmp_path):
     """The YAML does not ask for a quick stop option or an interpolation period: the drive keeps
     its own, and the successful configuration says so, once for all the drives."""
-    path = robot_yaml(tmp_path / 'optional.yaml', bus=BUS)
+    path = robot_yaml(tmp_path / 'optional.yaml', bus=UNHURRIED_BUS)
     with DriveSim(path, behaviour={'refuse': ['0x605A'], 'absent': ['0x60C2']}) as sim, \
             canopen_hardware(sim) as hardware:
         outcome = configure(hardware, path)
@@ -112,7 +107,7 @@ def test_an_optional_object_the_drive_refuses_or_lacks_is_skipped_and_said(tmp_p
 
 
 def test_an_object_the_yaml_asks_for_and_the_drive_refuses_is_an_error_naming_the_key(tmp_path):
-    path = robot_yaml(tmp_path / 'window.yaml', bus=BUS)  # the pole climber gives following_error
+    path = robot_yaml(tmp_path / 'window.yaml', bus=UNHURRIED_BUS)  # the pole climber gives following_error
     with DriveSim(path, behaviour={'leg_2': {'refuse': ['0x6065']}}) as sim, canopen_hardware(sim) as hardware:
         outcome = configure(hardware, path)
         assert not outcome.ok
@@ -123,7 +118,7 @@ def test_an_object_the_yaml_asks_for_and_the_drive_refuses_is_an_error_naming_th
 
 
 def test_another_power_on_mapping_and_pdos_the_eds_does_not_list_are_rewritten_and_disabled(tmp_path):
-    path = robot_yaml(tmp_path / 'vendor.yaml', bus=BUS)
+    path = robot_yaml(tmp_path / 'vendor.yaml', bus=UNHURRIED_BUS)
     with DriveSim(path, behaviour={'pdo_layout': 'vendor'}) as sim, canopen_hardware(sim) as hardware:
         before = sim.status()['drives']['leg_1']['pdos']
         assert before['RPDO3'] and before['TPDO3'] and before['TPDO4']  # enabled at power-on
@@ -138,7 +133,7 @@ def test_another_power_on_mapping_and_pdos_the_eds_does_not_list_are_rewritten_a
 
 
 def test_a_drive_that_keeps_its_own_pdo_mapping_is_refused_with_both_mappings(tmp_path):
-    path = robot_yaml(tmp_path / 'fixed.yaml', bus=BUS)
+    path = robot_yaml(tmp_path / 'fixed.yaml', bus=UNHURRIED_BUS)
     with DriveSim(path, behaviour={'leg_5': {'pdo_layout': 'vendor', 'fixed_pdos': True}}) as sim, \
             canopen_hardware(sim) as hardware:
         outcome = configure(hardware, path)
@@ -151,7 +146,8 @@ def test_a_drive_that_keeps_its_own_pdo_mapping_is_refused_with_both_mappings(tm
 
 
 def test_a_node_id_nobody_answers_is_named_after_the_boot_timeout(tmp_path):
-    path = robot_yaml(tmp_path / 'absent.yaml', bus={**BUS, 'boot_timeout': 2.0}, drives={'leg_6': {'node_id': 16}})
+    path = robot_yaml(tmp_path / 'absent.yaml', bus={**UNHURRIED_BUS, 'boot_timeout': 2.0},
+                      drives={'leg_6': {'node_id': 16}})
     with DriveSim('pole_climber') as sim, canopen_hardware(sim) as hardware:
         t0 = time.monotonic()
         outcome = configure(hardware, path)

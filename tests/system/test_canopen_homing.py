@@ -19,15 +19,13 @@ import pytest
 
 from rrps_description.geometry import load_robot
 from rrps_sim.hardware.interface import Command, FaultKind, HardwareConfig
-from rrps_testing.canopen_rig import DriveSim, canopen_hardware, robot_yaml
+from rrps_testing.canopen_rig import UNHURRIED_BUS, DriveSim, canopen_hardware, robot_yaml
 from rrps_testing.ros_harness import wait_for
 
 pytestmark = [pytest.mark.slow]
 POLE = load_robot('pole_climber')
 #: [m] one encoder count of the shipped pole climber's drives.
 COUNT = 1.0 / POLE.bus.drives[0].counts_per_metre
-#: These tests are not about heartbeats: a loaded machine must not lose one in them.
-BUS = {'heartbeat_period': 0.05, 'heartbeat_timeout': 0.5}
 #: Incremental encoders homed at the retracted end: the negative limit switch (17) of the legs
 #: that count up as they extend, the positive one (18) of those that count down (direction -1).
 RETRACTED = {'homing': 17, 'homing_speed': 0.05}
@@ -42,19 +40,15 @@ def start(sim: DriveSim, hardware, path: str):
     return outcome
 
 
-def physical(sim: DriveSim) -> np.ndarray:
-    return np.array([d['position'] for d in sim.status()['drives'].values()])
-
-
 def where_believed(sim: DriveSim, hardware) -> bool:
     """The lengths the driver reads agree with the simulated axes' within one count."""
-    return bool(np.all(np.abs(hardware.read(0.0, 0.0).positions - physical(sim)) <= COUNT))
+    return bool(np.all(np.abs(hardware.read(0.0, 0.0).positions - sim.positions()) <= COUNT))
 
 
 def assert_disabled_and_still(sim: DriveSim, lengths) -> None:
     drives = sim.status()['drives']
     assert {d['state'] for d in drives.values()} == {'switch_on_disabled'}, drives
-    np.testing.assert_allclose(physical(sim), lengths, atol=1e-12)
+    np.testing.assert_allclose(sim.positions(), lengths, atol=1e-12)
 
 
 def moves_on_command(hardware, sim: DriveSim) -> None:
@@ -62,7 +56,7 @@ def moves_on_command(hardware, sim: DriveSim) -> None:
     the driver reads it there."""
     goal = hardware.read(0.0, 0.0).positions + 0.002
     assert hardware.write(0.0, 0.002, Command(goal)).ok
-    assert wait_for(lambda: np.allclose(physical(sim), goal, atol=2 * COUNT), timeout=30.0), physical(sim)
+    assert wait_for(lambda: np.allclose(sim.positions(), goal, atol=2 * COUNT), timeout=30.0), sim.positions()
     assert wait_for(lambda: where_believed(sim, hardware), timeout=10.0)
 
 
@@ -70,14 +64,15 @@ def moves_on_command(hardware, sim: DriveSim) -> None:
 def test_a_drive_that_changes_mode_late_is_homed_and_then_follows(tmp_path, mode_delay):
     """0x6061 shows a new mode ``mode_delay`` after 0x6060 is written: the backend waits for it
     before it enables the drive, starts homing and reads the homing bits."""
-    path = robot_yaml(tmp_path / 'late.yaml', bus=BUS, drive_defaults=RETRACTED, drives=DIRECTION_MINUS)
+    path = robot_yaml(tmp_path / 'late.yaml', bus=UNHURRIED_BUS, drive_defaults=RETRACTED,
+                      drives=DIRECTION_MINUS)
     with DriveSim(path, behaviour={'mode_delay': mode_delay}) as sim, canopen_hardware(sim) as hardware:
         start(sim, hardware, path)
         outcome = hardware.on_activate()
         assert outcome.ok, outcome.reason
         drives = sim.status()['drives']
         assert all(d['homed'] and d['mode'] == 8 and d['state'] == 'operation_enabled' for d in drives.values())
-        np.testing.assert_allclose(physical(sim), POLE.min_length, atol=1e-9)  # the retracted end
+        np.testing.assert_allclose(sim.positions(), POLE.min_length, atol=1e-9)  # the retracted end
         assert wait_for(lambda: where_believed(sim, hardware), timeout=10.0)
         assert all(a.homed for a in hardware.read(0.0, 0.0).actuators)
         moves_on_command(hardware, sim)
@@ -88,12 +83,12 @@ def test_method_17_finds_the_extended_end_of_a_leg_counting_down_and_says_the_le
     the extended end. By default home_position is that end, so the driver believes the legs
     where they are; three legs retracted and three extended are no pose of the robot: activation
     refused, every drive disabled, a homing fault on each leg."""
-    path = robot_yaml(tmp_path / 'seventeen.yaml', bus=BUS, drive_defaults=RETRACTED)
+    path = robot_yaml(tmp_path / 'seventeen.yaml', bus=UNHURRIED_BUS, drive_defaults=RETRACTED)
     with DriveSim(path) as sim, canopen_hardware(sim) as hardware:
         start(sim, hardware, path)
         outcome = hardware.on_activate()
         assert not outcome.ok and 'assemble no pose of the robot' in outcome.reason, outcome.reason
-        np.testing.assert_allclose(physical(sim), [0.3, 0.55] * 3, atol=1e-9)
+        np.testing.assert_allclose(sim.positions(), [0.3, 0.55] * 3, atol=1e-9)
         assert wait_for(lambda: where_believed(sim, hardware), timeout=10.0)
         drives = sim.status()['drives']
         assert {d['state'] for d in drives.values()} == {'switch_on_disabled'}, drives
@@ -108,7 +103,7 @@ def test_method_37_with_limits_enforced_from_power_on_moves_nothing_before_homin
     from power-on: the drives are enabled in homing mode, where they follow no target, and homed
     where they stand (home_position: the robot on its stand)."""
     lengths = physical_start = POLE.home_lengths
-    path = robot_yaml(tmp_path / 'here.yaml', bus=BUS, drive_defaults={'homing': 37},
+    path = robot_yaml(tmp_path / 'here.yaml', bus=UNHURRIED_BUS, drive_defaults={'homing': 37},
                       drives={f'leg_{i}': {'home_position': float(x)} for i, x in enumerate(lengths, 1)})
     with DriveSim(path, behaviour={'limits_before_homing': True}) as sim, canopen_hardware(sim) as hardware:
         start(sim, hardware, path)
@@ -128,14 +123,15 @@ def test_enabled_in_position_mode_before_homing_such_a_drive_moves(tmp_path):
     from rrps_canopen.cia402 import Mode
     from rrps_canopen.drive_set import DriveSet
     from rrps_canopen.homing import set_mode
-    path = robot_yaml(tmp_path / 'early.yaml', bus=BUS, drive_defaults={'homing': 37, 'home_position': 0.425})
+    path = robot_yaml(tmp_path / 'early.yaml', bus=UNHURRIED_BUS,
+                      drive_defaults={'homing': 37, 'home_position': 0.425})
     with DriveSim(path, behaviour={'limits_before_homing': True}) as sim, canopen_hardware(sim):
         drives = DriveSet(load_robot(path).bus, Mode.CYCLIC_SYNCHRONOUS_POSITION)
         try:
             drives.configure()
             assert set_mode(drives, drives.drives, Mode.CYCLIC_SYNCHRONOUS_POSITION) == ''
             drives.enable()
-            assert wait_for(lambda: np.max(np.abs(physical(sim) - POLE.home_lengths)) > 1e-3, timeout=10.0)
+            assert wait_for(lambda: np.max(np.abs(sim.positions() - POLE.home_lengths)) > 1e-3, timeout=10.0)
         finally:
             drives.disable()
             drives.close(stop_drives=True)
@@ -146,19 +142,20 @@ def test_the_index_methods_home_on_the_pulse_next_to_the_switch(tmp_path):
     on those that count down: both at the pulse half a pitch inside the retracted end."""
     pitch = 0.002
     home = POLE.min_length + pitch / 2
-    path = robot_yaml(tmp_path / 'index.yaml', bus=BUS,
+    path = robot_yaml(tmp_path / 'index.yaml', bus=UNHURRIED_BUS,
                       drive_defaults={'homing': 1, 'home_position': home, 'homing_speed': 0.05},
                       drives={leg: {'homing': 2} for leg in DIRECTION_MINUS})
     with DriveSim(path, behaviour={'index_pitch': pitch}) as sim, canopen_hardware(sim) as hardware:
         start(sim, hardware, path)
         outcome = hardware.on_activate()
         assert outcome.ok, outcome.reason
-        np.testing.assert_allclose(physical(sim), home, atol=0.2 * pitch)
+        np.testing.assert_allclose(sim.positions(), home, atol=0.2 * pitch)
         assert wait_for(lambda: where_believed(sim, hardware), timeout=10.0)
 
 
 def test_a_drive_without_limit_switches_fails_homing_and_nothing_is_enabled(tmp_path):
-    path = robot_yaml(tmp_path / 'noswitch.yaml', bus=BUS, drive_defaults=RETRACTED, drives=DIRECTION_MINUS)
+    path = robot_yaml(tmp_path / 'noswitch.yaml', bus=UNHURRIED_BUS, drive_defaults=RETRACTED,
+                      drives=DIRECTION_MINUS)
     behaviour = {'leg_3': {'limit_switches': False}}
     with DriveSim(path, behaviour=behaviour) as sim, canopen_hardware(sim) as hardware:
         start(sim, hardware, path)
@@ -174,7 +171,7 @@ def test_a_drive_without_limit_switches_fails_homing_and_nothing_is_enabled(tmp_
 
 
 def test_a_drive_slower_to_change_mode_than_mode_timeout_is_named_and_nothing_moves(tmp_path):
-    path = robot_yaml(tmp_path / 'slow.yaml', bus={**BUS, 'mode_timeout': 0.2}, drive_defaults=RETRACTED,
+    path = robot_yaml(tmp_path / 'slow.yaml', bus={**UNHURRIED_BUS, 'mode_timeout': 0.2}, drive_defaults=RETRACTED,
                       drives=DIRECTION_MINUS)
     with DriveSim(path, behaviour={'leg_5': {'mode_delay': 1.0}}) as sim, canopen_hardware(sim) as hardware:
         start(sim, hardware, path)

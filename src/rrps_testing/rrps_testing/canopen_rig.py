@@ -23,6 +23,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
 
+import numpy as np
 import yaml
 
 from rrps_canopen.loopback_bus import free_port
@@ -30,8 +31,10 @@ from rrps_canopen.robot import CanopenRobot
 from rrps_description.geometry import robot_path
 from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child, stop_child
 
-__all__ = ['free_port', 'DriveSim', 'driver_process', 'can_env', 'canopen_hardware', 'robot_yaml']
+__all__ = ['free_port', 'DriveSim', 'driver_process', 'can_env', 'canopen_hardware', 'robot_yaml', 'UNHURRIED_BUS']
 
+#: Bus keys for tests that are not about heartbeats: a loaded machine must not lose one in them.
+UNHURRIED_BUS = {'heartbeat_period': 0.05, 'heartbeat_timeout': 0.5}
 #: [s] how long a request to the simulator may take on a busy machine.
 ANSWER_TIMEOUT = 30.0
 #: SCHED_RR priority of the drive simulator: above the robot's command path, as real drives are
@@ -92,6 +95,10 @@ class DriveSim:
 
     def status(self) -> dict:
         return self.ask(cmd='status')
+
+    def positions(self) -> np.ndarray:
+        """The simulated legs' lengths [m] now."""
+        return np.array([d['position'] for d in self.status()['drives'].values()])
 
     def fault(self, drive: str, kind: str) -> float:
         """Inject a fault; the simulator's monotonic time of it."""
