@@ -8,10 +8,11 @@ them by SDO.
   objects the mode needs) and against the robot YAML: the modes it supports (0x6502) and its
   homing methods (0x60E3). Every problem of every drive is one sentence naming the drive and the
   object in words ("homing method 37 not supported by leg_1 (node 1); it supports 35").
-* :func:`configure`: heartbeat, the mode, the homing method, the PDOs
+* :func:`configure`: heartbeat, the homing method, the PDOs
   (:mod:`rrps_canopen.pdo_mapping`), and the optional objects (:data:`OPTIONAL_OBJECTS`): one the
   YAML gave a value for must be written; one it did not is written only when the EDS lists it,
-  and when the drive lacks or refuses it the drive keeps its own, which a note says.
+  and when the drive lacks or refuses it the drive keeps its own, which a note says. The mode of
+  operation is written at activation, and confirmed (:func:`rrps_canopen.homing.set_mode`).
 
 Pure Python (canopen), no ROS import.
 """
@@ -198,6 +199,5 @@ def configure(d: RemoteDrive, *, heartbeat_period: float, sync_period: float) ->
     if c.rated_force is not None:
         d.write_object(0x6076, None, round(c.rated_force * 1000.0))  # N -> mN
     s.rated_force = d.read_object(0x6076) / 1000.0  # mN -> N
-    d.write_object(0x6060, None, int(d.mode))
     d.notes += map_pdos(d)
     d.take_process_data()
