@@ -40,7 +40,7 @@ class GripperIo:
 
     def __init__(self, config: GripperIoConfig, network: canopen.Network, drives: Mapping[str, RemoteDrive],
                  kinds: Mapping[str, str], eds: str, *, sdo_timeout: float, heartbeat_timeout: float,
-                 latch: Callable[[str, FaultKind, str, float], None]):
+                 latch: Callable[[str, FaultKind, str, float], None], sdo_retries: int = 2):
         self.config, self.kinds, self.latch = config, dict(kinds), latch
         self.heartbeat_timeout = heartbeat_timeout
         self.rings = {ring: ch for ring, ch in config.rings.items() if self.kinds.get(ring, 'none') != 'none'}
@@ -56,6 +56,7 @@ class GripperIo:
             except Exception as exc:  # noqa: BLE001 - the EDS parser raises many kinds
                 raise ConfigureError(f'{IO_MODULE}: cannot read its EDS {eds}: {exc}') from exc
             self.node.sdo.RESPONSE_TIMEOUT = sdo_timeout
+            self.node.sdo.MAX_RETRIES = 1 + sdo_retries  # canopen counts the first request
             network.add_node(self.node)
             self.node.nmt.add_heartbeat_callback(self._on_heartbeat)
         self.outputs = 0

@@ -101,7 +101,7 @@ class CanopenRobot(SystemInterface):
                 eds = resolve_eds(io.eds, g.bus.base_dir) if io.io == 'cia401' else ''
                 self.grippers = GripperIo(io, self.drives.network, by_name, g.grippers, eds,
                                           sdo_timeout=g.bus.sdo_timeout, heartbeat_timeout=g.bus.heartbeat_timeout,
-                                          latch=self.drives.latch)
+                                          latch=self.drives.latch, sdo_retries=g.bus.sdo_retries)
                 self.grippers.check()
             self.drives.configure()
             if self.grippers is not None:
