@@ -1,6 +1,6 @@
 """The CANopen backend against simulated drives, real processes, real CANopen traffic on the
-loopback bus: bring-up and homing of six drives, and a wrong EDS or node id refused at configure
-without leaving a drive half-configured.
+loopback bus: bring-up and homing of six drives, and a wrong EDS, node id or homing method refused
+at configure (driver_node exits 2 with one line) without leaving a drive half-configured.
 
 Every wait is a generous deadline that returns as soon as the thing happened (a loaded 2-core
 machine); every process is stopped in a ``finally``, also when a check fails."""
@@ -35,9 +35,14 @@ def robot_yaml(tmp_path: Path, **drive_defaults) -> str:
 
 
 def test_six_drives_come_up_disabled_and_home_only_at_activation(tmp_path, ros_context, ros_domain_id):
-    """Incremental encoders, homing on the retracted-end switch (method 17): configure enables
-    nothing and moves nothing; activation homes every leg to its switch, then holds it in CSP."""
-    robot = robot_yaml(tmp_path, homing=17, home_position=0.3, homing_speed=0.05)
+    """Incremental encoders, homing on the retracted-end switch (method 17 on the legs that count
+    up as they extend, 18 on those that count down): configure enables nothing and moves nothing;
+    activation homes every leg to its switch, then holds it in CSP."""
+    robot = robot_yaml(tmp_path, homing=17, homing_speed=0.05)
+    data = yaml.safe_load(Path(robot).read_text())
+    for leg in ('leg_2', 'leg_4', 'leg_6'):
+        data['bus']['drives'][leg]['homing'] = 18
+    Path(robot).write_text(yaml.safe_dump(data))
     processes = []
     with DriveSim(robot) as sim:
         try:
@@ -65,27 +70,34 @@ def test_six_drives_come_up_disabled_and_home_only_at_activation(tmp_path, ros_c
     assert codes == [0], processes[0].stderr.read()[-3000:]
 
 
-@pytest.mark.parametrize('change, message', [
-    ({'eds': 'cia401_io_module.eds'}, r'leg_1 \(node 1\): its EDS .*cia401_io_module.eds lacks 0x6040 controlword'),
-    ({'node_id': 13}, r'leg_3 \(node 13\): no answer \(SDO timeout'),
+@pytest.mark.parametrize('defaults, drives, behaviour, message', [
+    ({'eds': 'cia401_io_module.eds'}, {}, None,
+     r'leg_1 \(node 1\), .*leg_6 \(node 6\): its EDS .*cia401_io_module.eds lacks 0x6040 controlword'),
+    ({}, {'leg_3': {'node_id': 13}}, None,
+     r'leg_3 \(node 13\): no boot-up message, heartbeat or SDO answer within bus.boot_timeout 5 s: wrong node id'),
+    ({'homing': 17, 'home_position': 0.3}, {}, None,
+     r'bus.drives.leg_2.home_position: homing method 17 finds the negative limit switch, which for direction -1 '
+     r'is the extended end of the stroke; 0.3 m is nearer the other end'),
+    ({'homing': 37, 'home_position': 0.425}, {}, {'homing_methods': [35]},
+     r'homing method 37 not supported by leg_1 \(node 1\), .*leg_6 \(node 6\); supported: 35 \(0x60E3'),
 ])
-def test_a_wrong_eds_or_node_id_is_refused_at_configure_and_no_drive_runs(tmp_path, ros_domain_id, change, message):
+def test_a_wrong_eds_node_id_or_homing_is_refused_at_configure_and_no_drive_runs(tmp_path, ros_domain_id, defaults,
+                                                                               drives, behaviour, message):
     data = yaml.safe_load(robot_path('pole_climber').read_text())
-    if 'eds' in change:
-        data['bus']['drive_defaults'].update(change)
-    else:
-        data['bus']['drives']['leg_3'].update(change)
+    data['bus']['drive_defaults'].update(defaults)
+    for leg, keys in drives.items():
+        data['bus']['drives'][leg].update(keys)
     robot = tmp_path / 'misconfigured.yaml'
     robot.write_text(yaml.safe_dump(data))
-    with DriveSim('pole_climber') as sim:
+    with DriveSim('pole_climber', behaviour=behaviour) as sim:
         driver = driver_process(sim.port, robot=str(robot), namespace=NAMESPACE, domain_id=ros_domain_id)
         try:
             code = driver.wait(timeout=120)
         finally:
             stop_children([driver])
         err = driver.stderr.read()
-        drives = sim.status()['drives']
+        status = sim.status()['drives']
     assert code == 2 and re.search(message, err) and 'Traceback' not in err, err
-    assert {d['state'] for d in drives.values()} == {'switch_on_disabled'}, drives
-    assert {d['nmt'] for d in drives.values()} <= {'PRE-OPERATIONAL'}, drives
-    np.testing.assert_allclose([d['position'] for d in drives.values()], POLE.home_lengths, atol=1e-12)
+    assert {d['state'] for d in status.values()} == {'switch_on_disabled'}, status
+    assert {d['nmt'] for d in status.values()} <= {'PRE-OPERATIONAL'}, status
+    np.testing.assert_allclose([d['position'] for d in status.values()], POLE.home_lengths, atol=1e-12)

@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import enum
 
-__all__ = ['State', 'Mode', 'Controlword', 'Statusword', 'state_of', 'controlword_toward', 'DeviceStateMachine',
-           'ENABLE_PATH']
+__all__ = ['State', 'Mode', 'Controlword', 'Statusword', 'HomingStatus', 'state_of', 'homing_status',
+           'controlword_toward', 'DeviceStateMachine', 'ENABLE_PATH']
 
 
 class State(enum.Enum):
@@ -72,6 +72,16 @@ class Statusword(enum.IntFlag):
     MODE_SPECIFIC_13 = 1 << 13  # homing: error; CSP: following error
 
 
+class HomingStatus(enum.Enum):
+    """What the statusword says in homing mode (bits 13 error, 12 attained, 10 target reached)."""
+
+    IN_PROGRESS = 'in progress'                            # 0 0 0
+    NOT_STARTED = 'interrupted or not started'             # 0 0 1
+    ATTAINED = 'attained, not yet at rest'                 # 0 1 0
+    COMPLETED = 'completed'                                # 0 1 1
+    ERROR = 'error'                                        # 1 x x
+
+
 #: (mask, value, state) of the statusword, CiA 402 table 30.
 _STATES = (
     (0x4F, 0x00, State.NOT_READY_TO_SWITCH_ON),
@@ -95,6 +105,17 @@ def state_of(statusword: int) -> State | None:
         if statusword & mask == value:
             return state
     return None
+
+
+def homing_status(statusword: int) -> HomingStatus:
+    """The homing status of a statusword; meaningful only while the drive shows homing mode
+    (0x6061 = 6): in other modes bits 12 and 13 mean other things."""
+    if statusword & Statusword.MODE_SPECIFIC_13:
+        return HomingStatus.ERROR
+    attained, reached = statusword & Statusword.MODE_SPECIFIC_12, statusword & Statusword.TARGET_REACHED
+    if attained:
+        return HomingStatus.COMPLETED if reached else HomingStatus.ATTAINED
+    return HomingStatus.NOT_STARTED if reached else HomingStatus.IN_PROGRESS
 
 
 def controlword_toward(state: State | None, wanted: State) -> int | None:

@@ -1,14 +1,11 @@
-"""One CiA 402 drive as the backend sees it: its checks and configuration by SDO, its process data.
+"""One CiA 402 drive as the backend sees it: its objects by SDO, its process data.
 
-:class:`RemoteDrive` wraps canopen's ``RemoteNode``. ``check`` compares what the drive says it is
-(device type 0x1000, vendor and product 0x1018) with its EDS and that the EDS has the objects
-the mode needs; ``configure`` sets it up by SDO (heartbeat producer, quick-stop option "stop and
-stay", following-error window, soft limits, interpolation period, homing, the PDO mapping for
-cyclic synchronous position or torque mode: RPDO1 controlword + target, TPDO1 statusword +
-position on every SYNC, TPDO2 velocity + torque, and the digital I/O when the grippers are on
-the drive). Its
-TPDOs, heartbeat and EMCYs update :class:`ProcessData` from canopen's receive thread. Pure
-Python (canopen), no ROS import.
+:class:`RemoteDrive` wraps canopen's ``RemoteNode``: SDO reads and writes that are sent again
+when unanswered (``bus.sdo_retries``, canopen's ``MAX_RETRIES``) and fail with a message that
+names the drive and the object in words; its TPDOs, heartbeat and EMCYs update
+:class:`ProcessData` from canopen's receive thread; the cycle sends its RPDOs. Checking and
+configuring it is :mod:`rrps_canopen.bringup` and :mod:`rrps_canopen.pdo_mapping`. Pure Python
+(canopen), no ROS import.
 """
 
 from __future__ import annotations
@@ -24,28 +21,48 @@ from rrps_canopen.cia402 import Mode, State, state_of
 from rrps_canopen.units import AxisScale
 from rrps_description.bus import HOMING_ABSOLUTE, DriveConfig
 
-__all__ = ['ConfigureError', 'RemoteDrive', 'ProcessData', 'REQUIRED_OBJECTS']
+__all__ = ['ConfigureError', 'RemoteDrive', 'ProcessData', 'OBJECT_NAMES', 'MODE_NAMES', 'NO_OBJECT', 'BOOT_UP',
+           'object_text', 'mode_text', 'keep_word']
 
-#: The objects a drive's EDS must have, per mode (index: name).
-REQUIRED_OBJECTS = {
-    Mode.CYCLIC_SYNCHRONOUS_POSITION: {0x6040: 'controlword', 0x6041: 'statusword', 0x6060: 'modes of operation',
-                                       0x6064: 'position actual value', 0x607A: 'target position',
-                                       0x606C: 'velocity actual value', 0x6077: 'torque actual value',
-                                       0x6076: 'motor rated torque'},
-    Mode.CYCLIC_SYNCHRONOUS_TORQUE: {0x6040: 'controlword', 0x6041: 'statusword', 0x6060: 'modes of operation',
-                                     0x6064: 'position actual value', 0x6071: 'target torque',
-                                     0x606C: 'velocity actual value', 0x6077: 'torque actual value',
-                                     0x6076: 'motor rated torque'},
+#: The objects the backend reads or writes, in words (CiA 301 / 402 names).
+OBJECT_NAMES = {
+    0x1000: 'device type', 0x1017: 'producer heartbeat time', 0x1018: 'identity', 0x6040: 'controlword',
+    0x6041: 'statusword', 0x605A: 'quick stop option code', 0x6060: 'modes of operation',
+    0x6061: 'modes of operation display', 0x6064: 'position actual value', 0x6065: 'following error window',
+    0x6066: 'following error time out', 0x606C: 'velocity actual value', 0x6071: 'target torque',
+    0x6076: 'motor rated torque', 0x6077: 'torque actual value', 0x607A: 'target position', 0x607C: 'home offset',
+    0x607D: 'software position limit', 0x6098: 'homing method', 0x6099: 'homing speeds',
+    0x60C2: 'interpolation time period', 0x60E3: 'supported homing methods', 0x60FD: 'digital inputs',
+    0x60FE: 'digital outputs', 0x6502: 'supported drive modes',
 }
+#: The modes of operation in words.
+MODE_NAMES = {int(Mode.HOMING): 'homing', int(Mode.CYCLIC_SYNCHRONOUS_POSITION): 'cyclic synchronous position',
+              int(Mode.CYCLIC_SYNCHRONOUS_TORQUE): 'cyclic synchronous torque'}
+#: SDO abort codes (CiA 301) that say the device has no such object or sub-index.
+NO_OBJECT = (0x06020000, 0x06090011)
 #: Heartbeat state of a boot-up message.
 BOOT_UP = 0
-#: In position mode the drive's velocity and torque (TPDO2) go out every this many SYNCs (they
-#: inform, they do not close a loop); in torque mode every SYNC (the force output's damping).
-SLOW_TPDO_EVERY = 5
 
 
 class ConfigureError(Exception):
-    """A drive or its EDS is not what the robot YAML says (the message names the drive)."""
+    """A drive or its EDS is not what the robot YAML says (the message names the drive);
+    ``abort_code`` and ``reason``: when the drive refused an SDO request, its abort code and its
+    meaning (CiA 301)."""
+
+    def __init__(self, message: str, abort_code: int | None = None, reason: str = ''):
+        super().__init__(message)
+        self.abort_code, self.reason = abort_code, reason
+
+
+def mode_text(mode: int) -> str:
+    """``homing mode``, ``no mode`` (0), ``mode 3``."""
+    return f'{MODE_NAMES[mode]} mode' if mode in MODE_NAMES else 'no mode' if mode == 0 else f'mode {mode}'
+
+
+def object_text(index: int, subindex: int | None = None) -> str:
+    """``0x6098 homing method`` (with ``:1`` for a sub-index)."""
+    sub = f':{subindex}' if subindex else ''
+    return f'0x{index:04X}{sub} {OBJECT_NAMES.get(index, "")}'.rstrip()
 
 
 @dataclass
@@ -73,7 +90,7 @@ class RemoteDrive:
     """One leg's drive on ``network`` (see the module docstring)."""
 
     def __init__(self, network: canopen.Network, config: DriveConfig, eds: str, *, mode: Mode,
-                 sdo_timeout: float, digital_io: bool = False):
+                 sdo_timeout: float, sdo_retries: int = 2, digital_io: bool = False):
         self.config, self.eds, self.mode, self.digital_io = config, eds, mode, digital_io
         self.name = config.actuator
         try:
@@ -81,6 +98,7 @@ class RemoteDrive:
         except Exception as exc:  # noqa: BLE001 - the EDS parser raises many kinds
             raise ConfigureError(f'{self.name}: cannot read its EDS {eds}: {exc}') from exc
         self.node.sdo.RESPONSE_TIMEOUT = sdo_timeout
+        self.node.sdo.MAX_RETRIES = 1 + sdo_retries  # canopen counts the first request
         network.add_node(self.node)
         self.scale = AxisScale(config)
         self.data = ProcessData()
@@ -90,111 +108,59 @@ class RemoteDrive:
         # what the cycle sends: controlword, target position [counts], target torque [per mille], outputs
         self.controlword, self.target, self.target_torque, self.outputs = 0, 0, 0, 0
         self.homed = config.homing == HOMING_ABSOLUTE
+        #: what its configuration skipped or could not check, for the operator ('{drive}' names it)
+        self.notes: list[str] = []
 
     def __str__(self) -> str:
         return f'{self.name} (node {self.config.node_id})'
 
-    # --- checks and configuration (SDO: blocking, never from the receive thread) ---
+    # --- objects by SDO (blocking, never from the receive thread) ---
+
+    def _variable(self, index: int, subindex: int | None):
+        return self.node.sdo[index] if subindex is None else self.node.sdo[index][subindex]
 
     def read_object(self, index: int, subindex: int | None = None):
+        """An object's value (ConfigureError naming it when unanswered or refused)."""
         try:
-            obj = self.node.sdo[index] if subindex is None else self.node.sdo[index][subindex]
-            return obj.raw
+            if index in self.node.object_dictionary:
+                return self._variable(index, subindex).raw
+            return int.from_bytes(self.node.sdo.upload(index, subindex or 0), 'little')
         except SdoCommunicationError:
-            raise ConfigureError(f'{self}: no answer (SDO timeout {self.node.sdo.RESPONSE_TIMEOUT} s): wrong node id, '
-                                 'the drive is off, or the bus is not connected') from None
+            raise ConfigureError(f'{self}: no answer reading {object_text(index, subindex)} (SDO timeout '
+                                 f'{self.node.sdo.RESPONSE_TIMEOUT} s, {self.node.sdo.MAX_RETRIES} tries): wrong node '
+                                 'id, the drive is off, or the bus is not connected') from None
         except SdoAbortedError as exc:
-            raise ConfigureError(f'{self}: reading 0x{index:04X} refused: {exc}') from None
+            raise ConfigureError(f'{self}: reading {object_text(index, subindex)} refused: {exc}') from None
+
+    def probe(self, index: int, subindex: int = 0, *, signed: bool = False) -> int | None:
+        """An object's value read without its EDS (the raw bytes as an integer), or None when
+        the drive has no such object (ConfigureError when unanswered or otherwise refused)."""
+        try:
+            return int.from_bytes(self.node.sdo.upload(index, subindex), 'little', signed=signed)
+        except SdoAbortedError as exc:
+            if exc.code in NO_OBJECT:
+                return None
+            raise ConfigureError(f'{self}: reading {object_text(index, subindex)} refused: {exc}') from None
+        except SdoCommunicationError:
+            raise ConfigureError(f'{self}: no answer reading {object_text(index, subindex)} (SDO timeout)') from None
 
     def write_object(self, index: int, subindex: int | None, value) -> None:
+        """Write an object (ConfigureError naming it and the value when unanswered or refused)."""
         try:
-            obj = self.node.sdo[index] if subindex is None else self.node.sdo[index][subindex]
-            obj.raw = value
+            self._variable(index, subindex).raw = value
         except SdoCommunicationError:
-            raise ConfigureError(f'{self}: no answer writing 0x{index:04X} (SDO timeout)') from None
+            raise ConfigureError(f'{self}: no answer writing {object_text(index, subindex)} (SDO timeout)') from None
         except SdoAbortedError as exc:
-            raise ConfigureError(f'{self}: writing 0x{index:04X} refused: {exc}') from None
+            raise ConfigureError(f'{self}: writing {object_text(index, subindex)} = {value} refused: {exc}',
+                                 exc.code, str(exc)) from None
 
-    def check(self) -> None:
-        """ConfigureError unless the drive and its EDS agree and the EDS has the mode's objects."""
-        od = self.node.object_dictionary
-        missing = [f'0x{i:04X} {name}' for i, name in REQUIRED_OBJECTS[self.mode].items() if i not in od]
-        if missing:
-            raise ConfigureError(f'{self}: its EDS {self.eds} lacks {", ".join(missing)}: not a CiA 402 drive '
-                                 'EDS for this mode')
-        device_type = self.read_object(0x1000)
-        vendor, product = self.read_object(0x1018, 1), self.read_object(0x1018, 2)
-        info = od.device_information
-        expected = (od[0x1000].default, info.vendor_number, info.product_number)
-        if (device_type, vendor, product) != expected:
-            raise ConfigureError(
-                f'{self}: the drive reports device type 0x{device_type:08X}, vendor 0x{vendor:08X}, product '
-                f'0x{product:08X} but its EDS {self.eds} describes 0x{expected[0]:08X}, 0x{expected[1] or 0:08X}, '
-                f'0x{expected[2] or 0:08X}: wrong EDS or wrong node id')
-        if device_type & 0xFFFF != 402:
-            raise ConfigureError(f'{self}: device type 0x{device_type:08X} is not a CiA 402 drive')
-
-    def configure(self, *, heartbeat_period: float, sync_period: float) -> None:
-        """Set the drive up (PRE-OPERATIONAL, by SDO); it stays in its power state."""
-        c, s = self.config, self.scale
-        self.node.nmt.send_command(0x80)
-        self.write_object(0x1017, None, max(1, round(heartbeat_period * 1000)))
-        self.write_object(0x605A, None, 6)  # quick stop: stop, then stay in QUICK STOP ACTIVE, holding
-        self.write_object(0x6065, None, s.distance_counts(c.following_error))
-        self.write_object(0x6066, None, max(1, round(c.following_error_time * 1000)))
-        lo, hi = s.limit_counts()
-        self.write_object(0x607D, 1, lo)
-        self.write_object(0x607D, 2, hi)
-        if 0x60C2 in self.node.object_dictionary:
-            self.write_object(0x60C2, 1, max(1, round(sync_period * 1000)))
-            self.write_object(0x60C2, 2, -3)
-        if c.homing != HOMING_ABSOLUTE:
-            self.write_object(0x6098, None, c.homing)
-            self.write_object(0x607C, None, s.counts(c.home_position))
-            self.write_object(0x6099, 1, abs(s.counts_per_second(c.homing_speed)))
-        if c.rated_force is not None:
-            self.write_object(0x6076, None, round(c.rated_force * 1000.0))  # N -> mN
-        s.rated_force = self.read_object(0x6076) / 1000.0  # mN -> N
-        self.write_object(0x6060, None, int(self.mode))
-        self._map_pdos()
+    def take_process_data(self) -> None:
+        """Start the process data from the drive's statusword and position (by SDO), holding there."""
         statusword, position = self.read_object(0x6041), self.read_object(0x6064)
         with self.lock:
             self.data = ProcessData(statusword=statusword, position=position)
         self.target, self.target_torque = position, 0
         self.controlword = keep_word(state_of(statusword))
-
-    def _map_pdos(self) -> None:
-        node = self.node
-        node.rpdo.read(from_od=True)
-        node.tpdo.read(from_od=True)
-        second = 'Target position' if self.mode is Mode.CYCLIC_SYNCHRONOUS_POSITION else 'Target torque'
-        rpdo = [[0x6040, 0x607A if second == 'Target position' else 0x6071]]
-        tpdo = [[0x6041, 0x6064], [0x606C, 0x6077]]
-        if self.digital_io:
-            rpdo.append([(0x60FE, 1)])
-            tpdo.append([0x60FD])
-        slow = SLOW_TPDO_EVERY if self.mode is Mode.CYCLIC_SYNCHRONOUS_POSITION else 1
-        for maps, wanted in ((node.rpdo, rpdo), (node.tpdo, tpdo)):
-            for number, pdo in maps.map.items():
-                pdo.clear()
-                objects = wanted[number - 1] if number <= len(wanted) else []
-                for obj in objects:
-                    index, subindex = obj if isinstance(obj, tuple) else (obj, 0)
-                    pdo.add_variable(index, subindex)
-                pdo.trans_type = slow if maps is node.tpdo and number == 2 else 1
-                pdo.enabled = bool(objects)
-                if pdo.enabled and not pdo.cob_id:
-                    pdo.cob_id = pdo.predefined_cob_id
-        try:
-            node.rpdo.save()
-            node.tpdo.save()
-        except SdoCommunicationError:
-            raise ConfigureError(f'{self}: no answer while mapping its PDOs (SDO timeout)') from None
-        except SdoAbortedError as exc:
-            raise ConfigureError(f'{self}: its PDO mapping was refused: {exc}') from None
-        for pdo in node.tpdo.map.values():
-            if pdo.enabled and self._on_tpdo not in pdo.callbacks:
-                pdo.add_callback(self._on_tpdo)
 
     def start(self) -> None:
         """NMT OPERATIONAL: the PDOs run."""
@@ -202,7 +168,8 @@ class RemoteDrive:
 
     # --- the receive thread ---
 
-    def _on_tpdo(self, pdo) -> None:
+    def on_tpdo(self, pdo) -> None:
+        """A TPDO of the drive arrived (canopen's receive thread)."""
         now = time.monotonic()
         with self.lock:
             d = self.data

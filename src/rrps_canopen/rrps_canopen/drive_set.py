@@ -8,8 +8,9 @@ a fault reset of its own), sends the RPDOs and then the SYNC. A new fault makes 
 where it is (its target becomes its actual position), the faulted one gets a quick stop when it
 is still enabled, and ``faulted`` is set; nothing then enables a drive or resets a fault but
 :meth:`DriveSet.enable` and :meth:`DriveSet.reset`, which the operator's activation and fault
-reset call. A rebooted drive is configured again in the background and stays disabled. Pure
-Python (canopen, python-can), no ROS import.
+reset call. A rebooted drive is configured again in the background and stays disabled. Bring-up
+is :mod:`rrps_canopen.bringup`, homing :mod:`rrps_canopen.homing` (which raises the homing start
+bit through :attr:`DriveSet.homing_start`). Pure Python (canopen, python-can), no ROS import.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from typing import Callable
 import can
 
 import canopen
+from rrps_canopen.bringup import check, configure, fail, grouped, wait_for_drives
 from rrps_canopen.cia402 import Controlword, Mode, State, Statusword, controlword_toward
 from rrps_canopen.drive import ConfigureError, ProcessData, RemoteDrive, keep_word
 from rrps_canopen.network import open_network, resolve_eds
@@ -70,7 +72,8 @@ class DriveSet:
         self.network: canopen.Network = open_network(bus, (self.listener,))
         try:
             self.drives = [RemoteDrive(self.network, d, resolve_eds(d.eds, bus.base_dir), mode=mode,
-                                       sdo_timeout=bus.sdo_timeout, digital_io=d.actuator in digital_io)
+                                       sdo_timeout=bus.sdo_timeout, sdo_retries=bus.sdo_retries,
+                                       digital_io=d.actuator in digital_io)
                            for d in bus.drives]
         except (ConfigureError, FileNotFoundError):
             self.network.disconnect()
@@ -88,7 +91,8 @@ class DriveSet:
         self._quick_stop: set[str] = set()
         self._reset_cycles: dict[str, int] = {}
         self._resetting: set[str] = set()
-        self._homing: set[str] = set()
+        #: the drives whose controlword carries the homing start bit (4) while enabled
+        self.homing_start: set[str] = set()
         self._rebooting: set[str] = set()
         self.sync_times: deque[float] = deque(maxlen=100_000)
         self._stop = threading.Event()
@@ -97,14 +101,15 @@ class DriveSet:
     # --- bring-up ---
 
     def configure(self) -> None:
-        """Check every drive, then configure every drive, then start them (OPERATIONAL) and wait
-        for each one's first heartbeat and TPDO; ConfigureError naming the drive otherwise (the
-        drives are then sent back to PRE-OPERATIONAL: nothing runs half-configured)."""
+        """Wait for every drive (``bus.boot_timeout``), check every drive, then configure every
+        drive, then start them (OPERATIONAL) and wait for each one's first heartbeat and TPDO;
+        ConfigureError naming the drive and every problem otherwise (the drives are then sent back
+        to PRE-OPERATIONAL: nothing runs half-configured). What was skipped: :attr:`notes`."""
         try:
+            wait_for_drives(self.drives, self.bus.boot_timeout)
+            fail([problem for d in self.drives for problem in check(d, homes=not d.homed)])
             for d in self.drives:
-                d.check()
-            for d in self.drives:
-                d.configure(heartbeat_period=self.bus.heartbeat_period, sync_period=self.period)
+                configure(d, heartbeat_period=self.bus.heartbeat_period, sync_period=self.period)
             for d in self.drives:
                 d.start()
             self.start_cycle()
@@ -112,6 +117,11 @@ class DriveSet:
         except ConfigureError:
             self.close(stop_drives=True)
             raise
+
+    @property
+    def notes(self) -> str:
+        """What the bring-up skipped or could not check, a sentence per kind naming the drives."""
+        return grouped([(d, note) for d in self.drives for note in d.notes])
 
     def _wait_for_first_data(self) -> None:
         deadline = time.monotonic() + max(1.0, 3 * self.bus.heartbeat_timeout)
@@ -248,7 +258,7 @@ class DriveSet:
             self.fault_times[name] = now
             self._quick_stop.add(name)
             self.want[name] = None
-            self._homing.discard(name)
+            self.homing_start.discard(name)
             self.hold()
 
     def hold(self) -> None:
@@ -277,7 +287,7 @@ class DriveSet:
         want = self.want[d.name]
         word = None if want is None else controlword_toward(state, want)
         word = keep_word(state) if word is None else word
-        if d.name in self._homing and state is State.OPERATION_ENABLED:
+        if d.name in self.homing_start and state is State.OPERATION_ENABLED:
             word |= Controlword.HOMING_START
         return word
 
@@ -290,7 +300,8 @@ class DriveSet:
         def job() -> None:
             try:
                 time.sleep(2 * self.period)
-                d.configure(heartbeat_period=self.bus.heartbeat_period, sync_period=self.period)
+                d.notes = []
+                configure(d, heartbeat_period=self.bus.heartbeat_period, sync_period=self.period)
                 if d.digital_io:  # its outputs restarted de-energised: never switch them back by itself
                     d.outputs = d.read_object(0x60FE, 1)
                 d.start()
@@ -305,7 +316,7 @@ class DriveSet:
 
     # --- the operator's requests (blocking; never from the cycle or receive threads) ---
 
-    def _wait(self, done: Callable[[], str | None], timeout: float, what: str, *, faults: int = 0) -> str:
+    def wait(self, done: Callable[[], str | None], timeout: float, what: str, *, faults: int = 0) -> str:
         """Poll ``done`` (None when done, else what is missing) each period, while no more than
         ``faults`` faults are latched; '' or the reason."""
         deadline = time.monotonic() + timeout
@@ -320,60 +331,36 @@ class DriveSet:
                 return f'{what} timed out after {timeout:.1f} s: {missing}'
             time.sleep(self.period)
 
-    def enable(self, timeout: float = 2.0) -> str:
-        """Every drive to OPERATION ENABLED, holding where it is; '' or why not."""
+    def enable(self, timeout: float = 2.0, *, drives: list[RemoteDrive] | None = None) -> str:
+        """Every drive (or ``drives``) to OPERATION ENABLED, holding where it is; '' or why not."""
+        drives = self.drives if drives is None else drives
         with self.lock:
             if self.faults:
                 return f'{"; ".join(map(str, self.faults.values()))}: reset the faults first'
             self.hold()
-            for d in self.drives:
+            for d in drives:
                 self.want[d.name] = State.OPERATION_ENABLED
                 self._quick_stop.discard(d.name)
 
         def missing() -> str | None:
             off = [f'{d.name} {getattr(self.data[d.name].state, "value", "invalid statusword")}'
-                   for d in self.drives if self.data[d.name].state is not State.OPERATION_ENABLED]
+                   for d in drives if self.data[d.name].state is not State.OPERATION_ENABLED]
             return ', '.join(off) or None
-        return self._wait(missing, timeout, 'enabling')
+        return self.wait(missing, timeout, 'enabling')
 
-    def home(self, drives: list[RemoteDrive], timeout: float) -> str:
-        """Home ``drives`` (enabled, in homing mode), then back to the set's mode; '' or why not."""
-        if not drives:
-            return ''
-        try:
-            for d in drives:
-                d.write_object(0x6060, None, int(Mode.HOMING))
-        except ConfigureError as exc:
-            return str(exc)
+    def disable(self, timeout: float = 2.0) -> str:
+        """Every drive to SWITCH ON DISABLED (no torque: nothing moves); '' or why not."""
         with self.lock:
-            self._homing.update(d.name for d in drives)
+            self.hold()
+            self.homing_start.clear()
+            for d in self.drives:
+                self.want[d.name] = State.SWITCH_ON_DISABLED
 
         def missing() -> str | None:
-            left = []
-            for d in drives:
-                word = self.data[d.name].statusword
-                if word & Statusword.MODE_SPECIFIC_13:
-                    return None
-                if not (word & Statusword.MODE_SPECIFIC_12 and word & Statusword.TARGET_REACHED):
-                    left.append(d.name)
-            return ', '.join(left) or None
-        time.sleep(3 * self.period)  # the start bit goes out before homing is looked at
-        reason = self._wait(missing, timeout, 'homing')
-        with self.lock:
-            self._homing.difference_update(d.name for d in drives)
-            errors = [d.name for d in drives if self.data[d.name].statusword & Statusword.MODE_SPECIFIC_13]
-        if not reason and errors:
-            reason = f'homing failed on {", ".join(errors)}'
-        try:
-            for d in drives:
-                position = d.read_object(0x6064)
-                with self.lock:
-                    d.target = position
-                d.write_object(0x6060, None, int(self.mode))
-                d.homed = not reason
-        except ConfigureError as exc:
-            reason = reason or str(exc)
-        return reason
+            on = [f'{d.name} {getattr(self.data[d.name].state, "value", "invalid statusword")}' for d in self.drives
+                  if self.data[d.name].state not in (State.SWITCH_ON_DISABLED, *_FAULTED)]
+            return ', '.join(on) or None
+        return self.wait(missing, timeout, 'disabling', faults=len(self.faults))
 
     def reset(self, timeout: float = 1.0) -> str:
         """Reset the latched faults (CiA 402 fault reset of the faulted drives); the faulted
@@ -399,7 +386,7 @@ class DriveSet:
         def missing() -> str | None:
             left = [d.name for d in faulted if self.data[d.name].state is not State.SWITCH_ON_DISABLED]
             return ', '.join(left) or None
-        reason = self._wait(missing, timeout, 'fault reset', faults=len(latched))
+        reason = self.wait(missing, timeout, 'fault reset', faults=len(latched))
         with self.lock:
             self._resetting.difference_update(d.name for d in faulted)
             if not reason:

@@ -40,7 +40,7 @@ class GripperIo:
 
     def __init__(self, config: GripperIoConfig, network: canopen.Network, drives: Mapping[str, RemoteDrive],
                  kinds: Mapping[str, str], eds: str, *, sdo_timeout: float, heartbeat_timeout: float,
-                 latch: Callable[[str, FaultKind, str, float], None]):
+                 latch: Callable[[str, FaultKind, str, float], None], sdo_retries: int = 2):
         self.config, self.kinds, self.latch = config, dict(kinds), latch
         self.heartbeat_timeout = heartbeat_timeout
         self.rings = {ring: ch for ring, ch in config.rings.items() if self.kinds.get(ring, 'none') != 'none'}
@@ -56,9 +56,11 @@ class GripperIo:
             except Exception as exc:  # noqa: BLE001 - the EDS parser raises many kinds
                 raise ConfigureError(f'{IO_MODULE}: cannot read its EDS {eds}: {exc}') from exc
             self.node.sdo.RESPONSE_TIMEOUT = sdo_timeout
+            self.node.sdo.MAX_RETRIES = 1 + sdo_retries  # canopen counts the first request
             network.add_node(self.node)
             self.node.nmt.add_heartbeat_callback(self._on_heartbeat)
         self.outputs = 0
+        self.configured = False  # the sensors are judged once the outputs and inputs were read
         self.commanded = {ring: True for ring in RINGS}
         self.disagree_since: dict[str, float | None] = {ring: None for ring in RINGS}
 
@@ -126,6 +128,7 @@ class GripperIo:
             self.commanded[ring] = not outputs[ring] >> channel.output & 1
             self.disagree_since[ring] = None
         self.heartbeat = now if self.node is not None else None
+        self.configured = True
 
     # --- the receive thread ---
 
@@ -153,7 +156,9 @@ class GripperIo:
     def cycle(self, now: float, alive: bool = True) -> None:
         """Each cycle: the module's heartbeat and boot-up (its heartbeat is lost only while the
         drives are ``alive``: else the bus or this process is the matter), and each sensor
-        against its command."""
+        against its command; nothing before :meth:`configure`."""
+        if not self.configured:
+            return
         if self.node is not None:
             with self.lock:
                 booted, self.booted, heartbeat = self.booted, False, self.heartbeat

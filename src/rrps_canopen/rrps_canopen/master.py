@@ -18,6 +18,7 @@ from rrps_canopen.cia402 import Mode
 from rrps_canopen.drive import ConfigureError
 from rrps_canopen.drive_set import DriveSet
 from rrps_canopen.force_output import PassiveForceOutput
+from rrps_canopen.homing import set_mode
 from rrps_sim.hardware.interface import (
     OK,
     SUCCESS,
@@ -60,7 +61,7 @@ class CanopenMaster(MasterInterface):
         except (ConfigureError, FileNotFoundError, can.CanError, OSError, ValueError) as exc:
             self.drives = None
             return Transition(CallbackReturn.FAILURE, f'canopen master: {exc}')
-        return SUCCESS
+        return Transition(CallbackReturn.SUCCESS, self.drives.notes)
 
     def _cycle(self, now: float) -> None:
         """Each bus cycle, under the bus' lock: the encoders' bounds, then this period's forces."""
@@ -85,9 +86,10 @@ class CanopenMaster(MasterInterface):
     def on_activate(self) -> Transition:
         if self.drives is None:
             return Transition(CallbackReturn.FAILURE, 'not configured')
-        reason = self.drives.enable()
+        reason = set_mode(self.drives, self.drives.drives, Mode.CYCLIC_SYNCHRONOUS_TORQUE) or self.drives.enable()
         if reason:
-            return Transition(CallbackReturn.FAILURE, f'activation failed: {reason}')
+            self.drives.disable()
+            return Transition(CallbackReturn.FAILURE, f'activation failed: {reason}: drives disabled')
         with self.drives.lock:
             self.wanted = np.zeros(6)
             self.output.reset()

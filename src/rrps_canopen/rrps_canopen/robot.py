@@ -5,11 +5,17 @@ YAML's ``bus`` section: six CiA 402 leg drives in cyclic synchronous position mo
 (:class:`~rrps_canopen.drive_set.DriveSet`: one SYNC per period, the faults) and the grippers'
 digital I/O (:class:`~rrps_canopen.grippers.GripperIo`). The lifecycle is the driver's:
 
-* ``on_configure`` checks every device against its EDS, then configures them all (PDOs,
-  heartbeat, limits, homing), then starts them; it fails naming the device and the reason, and
-  then leaves no device running half-configured. Nothing is enabled and no output switches.
-* ``on_activate`` enables the drives where they are (CiA 402 up to OPERATION ENABLED), homes those
-  that need it (the only motion outside commands), and only then takes commands.
+* ``on_configure`` waits for every device, checks it against its EDS and the YAML (the modes and
+  homing methods it supports), then configures them all (PDOs, heartbeat, limits, homing), then
+  starts them; it fails naming the device and the reason, and then leaves no device running
+  half-configured. Nothing is enabled and no output switches. What it skipped (an optional object
+  the drive lacks) is the successful transition's reason.
+* ``on_activate`` homes the drives that need it (:mod:`rrps_canopen.homing`: in homing mode,
+  the others disabled; the only motion outside commands), checks that every leg can be where its
+  drive says (stroke, home position, forward kinematics), switches every drive to cyclic
+  synchronous position mode (confirmed in 0x6061), enables them where they are, and only then
+  takes commands. Whatever fails leaves every drive disabled; a failed or implausible homing is a
+  fault.
 * A fault (EMCY, following error, fault bit, lost heartbeat, reboot, bus lost, a gripper's sensor)
   holds every drive where it is (quick stop of the faulted one) and refuses commands and the
   grippers until ``reset_faults`` (refused while the bus is lost) and a new activation.
@@ -23,10 +29,11 @@ from __future__ import annotations
 import can
 import numpy as np
 
-from rrps_canopen.cia402 import Mode, State, Statusword
+from rrps_canopen.cia402 import HomingStatus, Mode, State, Statusword
 from rrps_canopen.drive import ConfigureError
 from rrps_canopen.drive_set import DriveSet
 from rrps_canopen.grippers import GripperIo
+from rrps_canopen.homing import check_positions, home, homing_timeout, refuse, set_mode
 from rrps_canopen.network import resolve_eds
 from rrps_description.names import LEG_NAMES, RINGS
 from rrps_sim.hardware.commands import ring_joints
@@ -62,6 +69,7 @@ class CanopenRobot(SystemInterface):
     def __init__(self):
         self.drives: DriveSet | None = None
         self.grippers: GripperIo | None = None
+        self.geometry = None
         self.active = False
         self._last: SystemState | None = None
 
@@ -93,7 +101,7 @@ class CanopenRobot(SystemInterface):
                 eds = resolve_eds(io.eds, g.bus.base_dir) if io.io == 'cia401' else ''
                 self.grippers = GripperIo(io, self.drives.network, by_name, g.grippers, eds,
                                           sdo_timeout=g.bus.sdo_timeout, heartbeat_timeout=g.bus.heartbeat_timeout,
-                                          latch=self.drives.latch)
+                                          latch=self.drives.latch, sdo_retries=g.bus.sdo_retries)
                 self.grippers.check()
             self.drives.configure()
             if self.grippers is not None:
@@ -103,7 +111,8 @@ class CanopenRobot(SystemInterface):
             self.drives = self.grippers = None
             return _failure(str(exc))
         self._last = None
-        return SUCCESS
+        self.geometry = g
+        return Transition(CallbackReturn.SUCCESS, self.drives.notes)
 
     def _extra(self, now: float) -> None:
         if self.grippers is not None:
@@ -116,14 +125,28 @@ class CanopenRobot(SystemInterface):
         with d.lock:
             if d.bus_lost:
                 return _failure('the bus is lost')
-        reason = d.enable()
-        if reason:
-            return _failure(f'activation failed: {reason}')
+            if d.faults:
+                return _failure(f'activation failed: {self._faults_text()}: reset the faults first')
         unhomed = [drive for drive in d.drives if not drive.homed]
-        timeout = max((g.max_position - g.min_position) / g.homing_speed for g in d.bus.drives) + 2.0
-        reason = d.home(unhomed, timeout)
+        if unhomed:
+            reason, statuses = home(d, unhomed, homing_timeout(unhomed))
+            if reason:
+                seen = statuses or {}
+                problems = {} if statuses is None else {
+                    drive.name: f'homing {seen[drive.name].value}' if drive.name in seen else 'homing not done'
+                    for drive in unhomed if seen.get(drive.name) is not HomingStatus.COMPLETED}
+                refused = refuse(d, problems, fault=statuses is not None) or 'drives disabled'
+                return _failure(f'activation failed: {reason}: {refused}')
+        with d.lock:
+            lengths = np.array([drive.scale.position(d.data[drive.name].position) for drive in d.drives])
+        problems = check_positions(self.geometry, d.bus.drives, lengths, {drive.name for drive in unhomed})
+        if problems:
+            return _failure(f'activation refused, drives disabled: {refuse(d, problems, fault=bool(unhomed))}')
+        for drive in unhomed:
+            drive.homed = True
+        reason = set_mode(d, d.drives, Mode.CYCLIC_SYNCHRONOUS_POSITION) or d.enable()
         if reason:
-            return _failure(f'activation failed: {reason}')
+            return _failure(f'activation failed: {reason}: {refuse(d, {}, fault=False) or "drives disabled"}')
         d.hold()
         self.active = True
         return SUCCESS
@@ -194,7 +217,8 @@ class CanopenRobot(SystemInterface):
         state = SystemState(
             positions=positions, velocities=velocities, efforts=efforts, targets=targets, grippers=grippers,
             actuators=statuses, bus=BusState.LOST if lost else BusState.OPERATIONAL, lost=lost,
-            gripper_faults=tuple(f for name, f in faults.items() if name not in LEG_NAMES))
+            gripper_faults=tuple(f for name, f in faults.items() if name not in LEG_NAMES),
+            rest_speed=max(drive.scale.rest_speed(d.period) for drive in d.drives))
         self._last = state
         return state
 

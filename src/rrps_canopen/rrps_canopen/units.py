@@ -12,10 +12,13 @@ import math
 
 from rrps_description.bus import DriveConfig
 
-__all__ = ['AxisScale', 'INT32']
+__all__ = ['AxisScale', 'INT32', 'REST_COUNTS']
 
 #: The range of a CiA 402 position or velocity (INTEGER32).
 INT32 = (-2**31, 2**31 - 1)
+#: A drive's velocity (0x606C) of a still axis dithers by about this many counts per sample: an
+#: encoder at rest flickers by one count each way, and the drive differentiates the count.
+REST_COUNTS = 2
 
 
 class AxisScale:
@@ -52,6 +55,11 @@ class AxisScale:
         """The soft limits as the drive's min and max position limits (0x607D), in counts."""
         a, b = self.counts(self.min_position), self.counts(self.max_position)
         return min(a, b), max(a, b)
+
+    def rest_speed(self, sample_period: float) -> float:
+        """[m/s] the speed a still axis can read: :data:`REST_COUNTS` counts per ``sample_period``
+        [s] (the drive's velocity sample time; the SYNC period bounds it from above)."""
+        return REST_COUNTS / abs(self.gain) / sample_period
 
     def within_limits(self, position: float) -> bool:
         return self.min_position <= position <= self.max_position

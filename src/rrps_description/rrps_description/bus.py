@@ -16,6 +16,9 @@ of ``drive_defaults``, then the defaults below. Every error names its key, e.g.
       sync_period: 0.002                # [s] one SYNC per driver period
       heartbeat_period: 0.05            # [s] the drives' heartbeat producer time
       heartbeat_timeout: 0.25           # [s] a drive silent this long is lost
+      boot_timeout: 5.0                 # [s] how long configure waits for each drive to answer
+      mode_timeout: 1.0                 # [s] how long a drive may take to show a new mode (0x6061)
+      sdo_retries: 2                    # an SDO request unanswered is sent again this many times
       drive_defaults: {eds: cia402_linear_drive.eds, counts_per_metre: 1.0e6, homing: absolute}
       drives:
         leg_1: {node_id: 1}
@@ -34,16 +37,32 @@ from typing import Any, Mapping
 from rrps_description.names import LEG_NAMES, RINGS
 from rrps_description.robot_parts import RobotDescriptionError, as_scalar
 
-__all__ = ['HOMING_ABSOLUTE', 'GRIPPER_IO', 'DriveConfig', 'GripperChannel', 'GripperIoConfig', 'ForceOutputConfig',
-           'BusConfig', 'bus_from']
+__all__ = ['HOMING_ABSOLUTE', 'HOMING_METHODS', 'GRIPPER_IO', 'DriveConfig', 'homing_end', 'GripperChannel',
+           'GripperIoConfig', 'ForceOutputConfig', 'BusConfig', 'bus_from']
 
 #: ``homing: absolute``: the drive's encoder is absolute; its position is the offset's, no homing.
 HOMING_ABSOLUTE = 'absolute'
+#: The CiA 402 homing methods (0x6098) rrps runs, and what each one finds (in the count direction:
+#: a leg with ``direction: -1`` counts down as it extends, so its negative limit switch is at the
+#: extended end).
+HOMING_METHODS = {
+    1: 'the negative limit switch, then the first index pulse back inside the stroke',
+    2: 'the positive limit switch, then the first index pulse back inside the stroke',
+    17: 'the negative limit switch',
+    18: 'the positive limit switch',
+    35: 'the current position',
+    37: 'the current position',
+}
+#: The methods that home at a limit switch, and the sign of the count direction towards it.
+_SWITCH_SIDE = {1: -1, 2: 1, 17: -1, 18: 1}
+#: The methods whose home only the YAML can say (``home_position`` required), and where it is.
+_HOME_GIVEN = {1: 'an index pulse', 2: 'an index pulse', 35: 'the current position', 37: 'the current position'}
 #: Where the grippers' valves and clamp sensors are wired: a CiA 401 I/O module or the drives.
 GRIPPER_IO = ('cia401', 'drive')
 
 _BUS_KEYS = {'interface', 'channel', 'bitrate', 'options', 'sync_period', 'heartbeat_period', 'heartbeat_timeout',
-             'sdo_timeout', 'drive_defaults', 'drives', 'grippers', 'force_output'}
+             'sdo_timeout', 'sdo_retries', 'boot_timeout', 'mode_timeout', 'drive_defaults', 'drives', 'grippers',
+             'force_output'}
 _DRIVE_KEYS = {'node_id', 'eds', 'counts_per_metre', 'direction', 'offset', 'min_position', 'max_position',
                'homing', 'home_position', 'homing_speed', 'following_error', 'following_error_time', 'rated_force'}
 
@@ -52,10 +71,13 @@ _DRIVE_KEYS = {'node_id', 'eds', 'counts_per_metre', 'direction', 'offset', 'min
 class DriveConfig:
     """One CiA 402 drive of a leg. ``counts = direction * counts_per_metre * length + offset``;
     ``min_position``/``max_position`` [m] its soft limits; ``homing`` ``'absolute'`` or a CiA 402
-    homing method (e.g. 37: here is ``home_position``; 17: move to the negative limit switch at
-    ``homing_speed`` [m/s], which is ``home_position``); ``following_error`` [m] the window the
-    drive trips on after ``following_error_time`` [s]; ``rated_force`` [N] the force of 1000 per
-    mille of its torque values, written to the drive (None: the drive's own 0x6076)."""
+    homing method of :data:`HOMING_METHODS` (37: here is ``home_position``, which must be given;
+    17: move at ``homing_speed`` [m/s] to the negative limit switch in count direction, which is
+    ``home_position``, by default the soft limit at the end :func:`homing_end` names);
+    ``following_error`` [m] the window the drive trips on after ``following_error_time`` [s];
+    ``rated_force`` [N] the force of 1000 per mille of its torque values, written to the drive
+    (None: the drive's own 0x6076); ``given``: the keys the YAML gave (the drive's optional
+    objects they set must be written; the others are written only when the drive has them)."""
 
     actuator: str
     node_id: int
@@ -71,6 +93,16 @@ class DriveConfig:
     following_error: float = 0.005
     following_error_time: float = 0.02
     rated_force: float | None = None
+    given: frozenset[str] = frozenset()
+
+
+def homing_end(method: str | int, direction: int) -> str | None:
+    """The end of the stroke (``'retracted'`` or ``'extended'``) a homing method finds for a leg
+    counting in ``direction``, or None (a method that homes where the leg stands, or absolute)."""
+    side = _SWITCH_SIDE.get(method) if isinstance(method, int) else None
+    if side is None:
+        return None
+    return 'extended' if side * direction > 0 else 'retracted'
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -118,6 +150,9 @@ class BusConfig:
     heartbeat_period: float = 0.05
     heartbeat_timeout: float = 0.25
     sdo_timeout: float = 0.3
+    sdo_retries: int = 2
+    boot_timeout: float = 5.0
+    mode_timeout: float = 1.0
     drives: tuple[DriveConfig, ...] = ()
     grippers: GripperIoConfig | None = None
     force_output: ForceOutputConfig | None = None
@@ -163,9 +198,19 @@ def _drive(actuator: str, sec: Mapping[str, Any], stroke: tuple[float, float]) -
     if stroke[0] < stroke[1] and not stroke[0] <= lo < hi <= stroke[1]:  # a bad stroke is the legs' error
         raise RobotDescriptionError(f'{key}: soft limits [{lo}, {hi}] m must be increasing and within the '
                                     f'stroke [{stroke[0]}, {stroke[1]}] m')
-    homing = sec.get('homing', HOMING_ABSOLUTE)
-    if homing != HOMING_ABSOLUTE:
-        homing = _integer(homing, f'{key}.homing', -128, 127)
+    homing = _homing_method(sec.get('homing', HOMING_ABSOLUTE), f'{key}.homing')
+    end = homing_end(homing, direction)
+    if homing in _HOME_GIVEN and 'home_position' not in sec:
+        raise RobotDescriptionError(f'{key}.home_position: missing: homing method {homing} homes at '
+                                    f'{_HOME_GIVEN[homing]}; give the leg\'s length there [m]')
+    home = as_scalar(sec.get('home_position', {'retracted': lo, 'extended': hi}.get(end, lo)), f'{key}.home_position')
+    if homing != HOMING_ABSOLUTE and not lo <= home <= hi:
+        raise RobotDescriptionError(f'{key}.home_position: {home} m is outside the soft limits [{lo}, {hi}] m: '
+                                    'the leg stands there after homing')
+    if end is not None and abs(home - (stroke[0] if end == 'retracted' else stroke[1])) > 0.5 * (stroke[1] - stroke[0]):
+        raise RobotDescriptionError(
+            f'{key}.home_position: homing method {homing} finds {HOMING_METHODS[homing]}, which for direction '
+            f'{direction} is the {end} end of the stroke; {home} m is nearer the other end')
     cpm = as_scalar(sec['counts_per_metre'], f'{key}.counts_per_metre', positive=True)
     offset = _integer(sec.get('offset', 0), f'{key}.offset', -2**31, 2**31 - 1)
     for edge in (lo, hi):
@@ -174,13 +219,21 @@ def _drive(actuator: str, sec: Mapping[str, Any], stroke: tuple[float, float]) -
     return DriveConfig(
         actuator=actuator, node_id=_integer(sec['node_id'], f'{key}.node_id', 1, 127), eds=str(sec['eds']),
         counts_per_metre=cpm, direction=direction, offset=offset, min_position=lo, max_position=hi, homing=homing,
-        home_position=as_scalar(sec.get('home_position', lo), f'{key}.home_position'),
+        home_position=home,
         homing_speed=as_scalar(sec.get('homing_speed', 0.01), f'{key}.homing_speed', positive=True),
         following_error=as_scalar(sec.get('following_error', 0.005), f'{key}.following_error', positive=True),
         following_error_time=as_scalar(sec.get('following_error_time', 0.02), f'{key}.following_error_time',
                                        nonnegative=True),
         rated_force=(as_scalar(sec['rated_force'], f'{key}.rated_force', positive=True) if 'rated_force' in sec
-                     else None))
+                     else None), given=frozenset(sec))
+
+
+def _homing_method(value: Any, key: str) -> str | int:
+    if value == HOMING_ABSOLUTE or (isinstance(value, int) and not isinstance(value, bool) and value in HOMING_METHODS):
+        return value
+    offered = '; '.join(f'{m}: {what}' for m, what in HOMING_METHODS.items())
+    raise RobotDescriptionError(f"{key}: must be 'absolute' or a CiA 402 homing method rrps runs ({offered}), "
+                                f'got {value!r}')
 
 
 def _grippers(sec: Mapping[str, Any], drives: tuple[DriveConfig, ...]) -> GripperIoConfig:
@@ -254,5 +307,8 @@ def bus_from(sec: Any, *, min_length: float, max_length: float, source: str = ''
         bitrate=_integer(sec.get('bitrate', 1_000_000), 'bus.bitrate', 10_000, 8_000_000), options=dict(options),
         sync_period=period, heartbeat_period=heartbeat, heartbeat_timeout=timeout,
         sdo_timeout=as_scalar(sec.get('sdo_timeout', 0.3), 'bus.sdo_timeout', positive=True),
+        sdo_retries=_integer(sec.get('sdo_retries', 2), 'bus.sdo_retries', 0, 10),
+        boot_timeout=as_scalar(sec.get('boot_timeout', 5.0), 'bus.boot_timeout', positive=True),
+        mode_timeout=as_scalar(sec.get('mode_timeout', 1.0), 'bus.mode_timeout', positive=True),
         drives=drives, grippers=grippers, force_output=force,
         base_dir=str(Path(source).parent) if source else '')

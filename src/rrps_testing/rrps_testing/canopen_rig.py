@@ -6,6 +6,9 @@ Each rig runs its bus on a loopback port of its own (``RRPS_CAN_PORT``), so rigs
 tests never hear each other. The processes run at the robot's real-time priority where that is
 permitted (root or CAP_SYS_NICE), as the demo runs them, and die with the process that started
 them; :meth:`DriveSim.stop` and :func:`rrps_runtime.supervision.stop_children` stop them.
+:func:`canopen_hardware` puts the CANopen hardware (``rrps_canopen.robot.CanopenRobot``) of a
+robot on a simulator's bus in this process, and :func:`robot_yaml` writes a variant of a shipped
+robot's bus section.
 """
 
 from __future__ import annotations
@@ -16,12 +19,22 @@ import queue
 import subprocess
 import sys
 import threading
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+import yaml
 
 from rrps_canopen.loopback_bus import free_port
+from rrps_canopen.robot import CanopenRobot
+from rrps_description.geometry import robot_path
 from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child, stop_child
 
-__all__ = ['free_port', 'DriveSim', 'driver_process', 'can_env']
+__all__ = ['free_port', 'DriveSim', 'driver_process', 'can_env', 'canopen_hardware', 'robot_yaml', 'UNHURRIED_BUS']
 
+#: Bus keys for tests that are not about heartbeats: a loaded machine must not lose one in them.
+UNHURRIED_BUS = {'heartbeat_period': 0.05, 'heartbeat_timeout': 0.5}
 #: [s] how long a request to the simulator may take on a busy machine.
 ANSWER_TIMEOUT = 30.0
 #: SCHED_RR priority of the drive simulator: above the robot's command path, as real drives are
@@ -38,15 +51,17 @@ def can_env(port: int, **extra: str) -> dict:
 
 
 class DriveSim:
-    """``rrps-drive-sim`` in a process of its own; ``ask`` sends one request, returns the answer."""
+    """``rrps-drive-sim`` in a process of its own (its drives behaving as ``behaviour`` says:
+    rrps_canopen.simulator.behaviour); ``ask`` sends one request, returns the answer."""
 
     def __init__(self, robot: str = 'pole_climber', *, port: int | None = None, master: bool = False,
-                 lengths=None, time_constant: float | None = None):
+                 lengths=None, time_constant: float | None = None, behaviour: dict | None = None):
         self.port = free_port() if port is None else port
         args = [sys.executable, '-m', 'rrps_canopen.simulator.process', '--robot', robot, '--stdin']
         args += ['--master'] if master else []
         args += ['--lengths', *map(str, lengths)] if lengths is not None else []
         args += ['--time-constant', str(time_constant)] if time_constant is not None else []
+        args += ['--behaviour', json.dumps(behaviour)] if behaviour else []
         self.process = start_child(args, env=can_env(self.port), nice=CONTROL_NICE, realtime=SIM_RT_PRIORITY,
                                    stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         self._lines: queue.Queue[str | None] = queue.Queue()
@@ -81,6 +96,10 @@ class DriveSim:
     def status(self) -> dict:
         return self.ask(cmd='status')
 
+    def positions(self) -> np.ndarray:
+        """The simulated legs' lengths [m] now."""
+        return np.array([d['position'] for d in self.status()['drives'].values()])
+
     def fault(self, drive: str, kind: str) -> float:
         """Inject a fault; the simulator's monotonic time of it."""
         return self.ask(cmd='fault', drive=drive, kind=kind)['time']
@@ -110,3 +129,33 @@ def driver_process(port: int, *params: str, robot: str = 'pole_climber', namespa
     env = can_env(port, **({'ROS_DOMAIN_ID': str(domain_id)} if domain_id is not None else {}))
     return start_child(args, env=env, nice=CONTROL_NICE, realtime=CONTROL_RT_PRIORITY, stdout=subprocess.PIPE,
                        stderr=subprocess.PIPE, text=True)
+
+
+@contextmanager
+def canopen_hardware(sim: DriveSim) -> Iterator[CanopenRobot]:
+    """The CANopen hardware of the simulator's robot, on its bus, in this process (the caller
+    configures and activates it); shut down on exit."""
+    before = os.environ.get('RRPS_CAN_PORT')
+    os.environ['RRPS_CAN_PORT'] = str(sim.port)
+    hardware = CanopenRobot()
+    try:
+        yield hardware
+    finally:
+        hardware.on_shutdown()
+        if before is None:
+            del os.environ['RRPS_CAN_PORT']
+        else:
+            os.environ['RRPS_CAN_PORT'] = before
+
+
+def robot_yaml(path: Path, robot: str = 'pole_climber', *, bus: dict | None = None, drive_defaults: dict | None = None,
+               drives: dict | None = None) -> str:
+    """``robot`` with its bus section's keys, drive defaults and drives (by leg) updated, written to
+    ``path``; the path as a string."""
+    data = yaml.safe_load(robot_path(robot).read_text())
+    data['bus'].update(bus or {})
+    data['bus']['drive_defaults'].update(drive_defaults or {})
+    for leg, keys in (drives or {}).items():
+        data['bus']['drives'][leg].update(keys)
+    Path(path).write_text(yaml.safe_dump(data))
+    return str(path)

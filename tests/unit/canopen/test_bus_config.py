@@ -7,7 +7,7 @@ import copy
 import pytest
 import yaml
 
-from rrps_description.bus import HOMING_ABSOLUTE
+from rrps_description.bus import HOMING_ABSOLUTE, homing_end
 from rrps_description.geometry import RobotDescriptionError, RobotGeometry, load_robot, robot_path
 
 DATA = yaml.safe_load(robot_path('pole_climber').read_text())
@@ -50,7 +50,21 @@ def test_a_robot_without_bus_section_has_none():
     (lambda b: b['drives']['leg_1'].update(max_position=0.6), r'bus.drives.leg_1: soft limits .* within the stroke'),
     (lambda b: b['drive_defaults'].update(counts_per_metre=-1), r'bus.drives.leg_1.counts_per_metre: must be > 0'),
     (lambda b: b['drive_defaults'].update(counts_per_metre=1e10), r'bus.drives.leg_1: .* 32-bit position'),
-    (lambda b: b['drive_defaults'].update(homing='sometimes'), r'bus.drives.leg_1.homing: must be an integer'),
+    (lambda b: b['drive_defaults'].update(homing='sometimes'),
+     r"bus.drives.leg_1.homing: must be 'absolute' or a CiA 402 homing method rrps runs \(1: .*got .sometimes"),
+    (lambda b: b['drive_defaults'].update(homing=19),
+     r'bus.drives.leg_1.homing: .*17: the negative limit switch.*got 19'),
+    (lambda b: b['drive_defaults'].update(homing=1), r'bus.drives.leg_1.home_position: missing: homing method 1 '
+                                                       r'homes at an index pulse'),
+    (lambda b: b['drive_defaults'].update(homing=37), r'bus.drives.leg_1.home_position: missing: homing method 37 '
+                                                        r'homes at the current position'),
+    (lambda b: b['drive_defaults'].update(homing=37, home_position=0.2), r'bus.drives.leg_1.home_position: 0.2 m is '
+                                                                          r'outside the soft limits'),
+    (lambda b: b['drive_defaults'].update(homing=17, home_position=0.3),
+     r'bus.drives.leg_2.home_position: homing method 17 finds the negative limit switch, which for direction -1 is '
+     r'the extended end of the stroke; 0.3 m is nearer the other end'),
+    (lambda b: b.update(sdo_retries=-1), r'bus.sdo_retries: must be an integer in 0..10'),
+    (lambda b: b.update(boot_timeout=0), r'bus.boot_timeout: must be > 0'),
     (lambda b: b['drive_defaults'].pop('eds'), r'bus.drives.leg_1.eds: missing'),
     (lambda b: b.update(bitrate='fast'), r'bus.bitrate: must be an integer'),
     (lambda b: b.update(heartbeat_timeout=0.01), r'bus.heartbeat_timeout: must exceed heartbeat_period'),
@@ -72,3 +86,32 @@ def test_grippers_on_the_drives_name_the_drive_of_each_ring():
                          'ring_b': {'drive': 'leg_4', 'output': 0, 'sensor': 16}}
     io = RobotGeometry.from_dict(with_bus(on_drives)).bus.grippers
     assert io.io == 'drive' and io.rings['ring_b'].drive == 'leg_4' and io.rings['ring_a'].sensor == 16
+
+
+def test_bring_up_timeouts_default_and_can_be_set():
+    bus = load_robot('pole_climber').bus
+    assert (bus.sdo_retries, bus.boot_timeout, bus.mode_timeout) == (2, 5.0, 1.0)
+    changed = RobotGeometry.from_dict(with_bus(lambda b: b.update(sdo_retries=0, boot_timeout=20.0,
+                                                                  mode_timeout=0.2))).bus
+    assert (changed.sdo_retries, changed.boot_timeout, changed.mode_timeout) == (0, 20.0, 0.2)
+
+
+@pytest.mark.parametrize('method, direction, end', [
+    (17, 1, 'retracted'), (17, -1, 'extended'), (18, 1, 'extended'), (18, -1, 'retracted'),
+    (1, 1, 'retracted'), (1, -1, 'extended'), (2, 1, 'extended'), (2, -1, 'retracted'),
+    (35, 1, None), (37, -1, None), ('absolute', 1, None)])
+def test_each_homing_method_finds_the_end_of_its_limit_switch_in_count_direction(method, direction, end):
+    """CiA 402: the negative limit switch is where the count is lowest; a leg counting down as it
+    extends (direction -1) has it at its extended end. Counted here from the unit conversion."""
+    cpm, stroke = 1e6, (0.3, 0.55)
+    counts = [direction * cpm * x for x in stroke]
+    negative_end = 'retracted' if counts[0] < counts[1] else 'extended'
+    other = {'retracted': 'extended', 'extended': 'retracted'}[negative_end]
+    expected = {17: negative_end, 1: negative_end, 18: other, 2: other}.get(method)
+    assert homing_end(method, direction) == expected == end
+
+
+def test_a_limit_switch_method_homes_by_default_at_the_end_it_finds_and_says_which_keys_were_given():
+    bus = RobotGeometry.from_dict(with_bus(lambda b: b['drive_defaults'].update(homing=17))).bus
+    assert [d.home_position for d in bus.drives] == [0.3, 0.55, 0.3, 0.55, 0.3, 0.55]
+    assert {'following_error', 'homing'} <= bus.drives[0].given and 'homing_speed' not in bus.drives[0].given

@@ -9,7 +9,9 @@ stroke limits: the simulated backend's model); a master's legs in torque mode ar
 the operator's hand (a spring-damper to where the hand is), pushed by the drives' forces, whose
 work on them is summed (the energy the master puts into the operator). :meth:`SimulatedBus.control`
 takes a test's requests (faults, the bus's loss, a bus-off error frame, a stuck clamp sensor, the
-hand) and reports the devices. Pure Python (canopen, python-can), no ROS import.
+hand) and reports the devices. Each drive behaves as its
+:class:`~rrps_canopen.simulator.behaviour.DriveBehaviour` says (``behaviour``: options for every
+drive, or per drive under its name). Pure Python (canopen, python-can), no ROS import.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import numpy as np
 
 from rrps_canopen.drive_set import CAN_ERR_BUSOFF
 from rrps_canopen.network import open_network, resolve_eds
+from rrps_canopen.simulator.behaviour import behaviours
 from rrps_canopen.simulator.drive import SimulatedDrive
 from rrps_canopen.simulator.heartbeat import HeartbeatProducer
 from rrps_canopen.simulator.io import Clamp, SimulatedIoModule
@@ -67,7 +70,8 @@ class HandModel:
 class SimulatedBus:
     """Every simulated device of ``geometry``'s bus (see the module docstring)."""
 
-    def __init__(self, geometry: RobotGeometry, *, lengths=None, master: bool = False, time_constant: float = 0.02):
+    def __init__(self, geometry: RobotGeometry, *, lengths=None, master: bool = False, time_constant: float = 0.02,
+                 behaviour: dict | None = None):
         bus = geometry.bus
         if bus is None:
             raise ValueError(f'robot {geometry.name!r} has no bus section')
@@ -77,8 +81,9 @@ class SimulatedBus:
         self.lock = threading.Lock()
         self.network = open_network(bus)
         self.heartbeats = HeartbeatProducer(self.network)
-        self.drives = [SimulatedDrive(self.network, d, resolve_eds(d.eds, bus.base_dir), stroke, float(x))
-                       for d, x in zip(bus.drives, x0)]
+        kinds = behaviours(behaviour, [d.actuator for d in bus.drives])
+        self.drives = [SimulatedDrive(self.network, d, resolve_eds(d.eds, bus.base_dir), stroke, float(x),
+                                      kinds[d.actuator], self.lock) for d, x in zip(bus.drives, x0)]
         self.legs = KinematicActuators(*stroke, geometry.max_speed, time_constant, x0)
         self.hand = HandModel(x0, stroke) if master else None
         io = bus.grippers
@@ -230,7 +235,8 @@ class SimulatedBus:
         drives = {d.config.actuator: {
             'state': d.machine.state.value, 'nmt': d.node.nmt.state, 'operational': d.operational,
             'homed': d.homed, 'mode': int(d.mode_display), 'position': d.x, 'target': d.length(d.target),
-            'counts': d.counts(), 'error_code': d.error_code, 'silent': d.silent} for d in self.drives}
+            'counts': d.counts(), 'error_code': d.error_code, 'silent': d.silent, 'pdos': d.pdo_states(),
+            'homing': None if d.run is None else d.run.phase.value} for d in self.drives}
         status = {'ok': True, 'drives': drives, 'grippers': {r: c.closed for r, c in self.clamps.items()},
                   'syncs': len(self.syncs)}
         if self.hand is not None:

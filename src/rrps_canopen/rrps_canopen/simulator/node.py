@@ -5,16 +5,19 @@ dictionary from the device's own EDS, the NMT state machine (reset node / commun
 boot-up message and the object dictionary back to the EDS's values), the heartbeat producer
 (0x1017, canopen's), the PDOs as configured in the object dictionary (RPDOs taken on the next
 SYNC, or at once for transmission type 254/255; TPDOs sent on SYNC), the EMCY producer, and the
-two faults of a node's link: ``silent`` (it stops answering) and ``reboot``. Pure Python
-(canopen, python-can), no ROS import.
+two faults of a node's link: ``silent`` (it stops answering) and ``reboot``; and, as a device's
+behaviour may have it, a late power-on (:meth:`SimulatedNode.power_on_when_asked`) and lost SDO
+requests. Pure Python (canopen, python-can), no ROS import.
 """
 
 from __future__ import annotations
 
 import logging
+import threading
 from typing import Any
 
 from canopen.pdo import PdoMap
+from canopen.sdo import SdoAbortedError
 
 import canopen
 
@@ -34,15 +37,20 @@ class SimulatedNode:
     RPDO), :meth:`on_reset` restores their power-on state.
     """
 
-    def __init__(self, network: canopen.Network, node_id: int, eds: str):
+    def __init__(self, network: canopen.Network, node_id: int, eds: str,
+                 object_dictionary: canopen.ObjectDictionary | None = None, *, sdo_loss: int = 0):
         self.network, self.node_id, self.eds = network, node_id, eds
-        self.node = canopen.LocalNode(node_id, eds)
+        self.node = canopen.LocalNode(node_id, object_dictionary or eds)
         self.node.add_read_callback(self._on_read)
         self.node.add_write_callback(self._on_write)
         network.add_node(self.node)
+        network.unsubscribe(self.node.sdo.rx_cobid, self.node.sdo.on_request)
+        network.subscribe(self.node.sdo.rx_cobid, self._on_sdo_request)
         network.subscribe(0, self._on_nmt)
         self.silent = False
         self.operational = False
+        self.sdo_loss, self._sdo_requests = sdo_loss, 0
+        self._boot_delay: float | None = None
         self._pending: list[PdoMap] = []
         self._sync_count = 0
 
@@ -66,11 +74,24 @@ class SimulatedNode:
     def _on_write(self, index: int, subindex: int, od, data: bytes) -> None:
         self.on_write(index, subindex, od.decode_raw(data))
 
-    def value(self, index: int, subindex: int = 0) -> Any:
-        """The stored (or EDS default) value of an object."""
+    def value(self, index: int, subindex: int = 0, default: Any = None) -> Any:
+        """The stored (or EDS default) value of an object; ``default`` when the device lacks it."""
+        if index not in self.node.object_dictionary:
+            return default
         obj = self.node.object_dictionary[index]
         var = obj if isinstance(obj, canopen.objectdictionary.ODVariable) else obj[subindex]
         return var.decode_raw(self.node.get_data(index, subindex))
+
+    def _on_sdo_request(self, can_id: int, data: bytes, timestamp: float) -> None:
+        if self.silent:
+            if self._boot_delay is not None:  # asked while off: it powers on a while later
+                delay, self._boot_delay = self._boot_delay, None
+                threading.Timer(delay, self._power_on).start()
+            return
+        self._sdo_requests += 1
+        if self.sdo_loss and self._sdo_requests % self.sdo_loss == 0:
+            return  # lost on the way
+        self.node.sdo.on_request(can_id, data, timestamp)
 
     # --- NMT ---
 
@@ -106,6 +127,16 @@ class SimulatedNode:
         self.silent = False
         self.boot(reset_application=True)
 
+    def power_on_when_asked(self, delay: float, lock: threading.Lock) -> None:
+        """The device is off (silent, no boot-up message) until the first SDO request to it, and
+        boots ``delay`` s after that request (under ``lock``: the bus' SYNC handler's)."""
+        self.node.nmt.stop_heartbeat()
+        self.silent, self._boot_delay, self._power_lock = True, delay, lock
+
+    def _power_on(self) -> None:
+        with self._power_lock:
+            self.reboot()
+
     def set_silent(self, silent: bool) -> None:
         """Stop answering anything (a cut link) or come back (the heartbeat resumes)."""
         if silent == self.silent:
@@ -113,9 +144,7 @@ class SimulatedNode:
         self.silent = silent
         if silent:
             self.node.nmt.stop_heartbeat()
-            self.network.unsubscribe(self.node.sdo.rx_cobid, self.node.sdo.on_request)
         else:
-            self.network.subscribe(self.node.sdo.rx_cobid, self.node.sdo.on_request)
             self.node.nmt.start_heartbeat(self.value(0x1017))
 
     # --- PDOs ---
@@ -146,7 +175,21 @@ class SimulatedNode:
     def _apply(self, pdo: PdoMap) -> None:
         for var in pdo.map:
             if var.length:
-                self.node.set_data(var.index, var.subindex, var.get_data())
+                try:
+                    self.node.set_data(var.index, var.subindex, var.get_data())
+                except SdoAbortedError:
+                    pass  # a value the device refuses: a PDO has no answer, it is ignored
+
+    def pdo_states(self) -> dict[str, bool]:
+        """{'RPDO1': enabled, ..., 'TPDO1': ...}: every PDO of the device as configured now."""
+        states = {}
+        for kind, base in (('RPDO', 0x1400), ('TPDO', 0x1800)):
+            for number in range(1, 513):
+                if base + number - 1 not in self.node.object_dictionary:
+                    break
+                cob_id = self.value(base + number - 1, 1)
+                states[f'{kind}{number}'] = not cob_id & 0x80000000
+        return states
 
     def take_rpdos(self) -> None:
         """At SYNC: the synchronous RPDOs received since the last one take effect."""

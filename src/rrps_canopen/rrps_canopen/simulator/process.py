@@ -2,6 +2,7 @@
 
     rrps-drive-sim --robot pole_climber              # the legs (CSP) and the grippers' I/O
     rrps-drive-sim --robot master_robot --master     # a master's legs (CST), held by a hand
+    rrps-drive-sim --behaviour '{"mode_delay": 0.05, "leg_2": {"homing_methods": [35]}}'
 
 It opens the bus of the robot YAML's ``bus`` section (``RRPS_CAN_CHANNEL`` / ``RRPS_CAN_PORT``
 override it), boots every device (boot-up messages, PRE-OPERATIONAL) and serves until SIGTERM or
@@ -32,6 +33,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument('--lengths', type=float, nargs=6, default=None, metavar='M',
                    help='the legs\' lengths at power-on [m] (default: the home pose)')
     p.add_argument('--time-constant', type=float, default=0.02, help='the legs\' first-order lag [s]')
+    p.add_argument('--behaviour', type=json.loads, default=None, metavar='JSON',
+                   help='how the drives behave (rrps_canopen.simulator.behaviour): options for every drive, or per '
+                   'drive under its name')
     p.add_argument('--stdin', action='store_true', help='take requests (JSON lines) on standard input, answer '
                    'on standard output, and stop at the end of the input')
     return p
@@ -60,8 +64,9 @@ def main(argv=None) -> int:
         signal.signal(sig, lambda *_: stop.set())
     try:
         geometry = load_robot(args.robot)
-        bus = SimulatedBus(geometry, lengths=args.lengths, master=args.master, time_constant=args.time_constant)
-    except (ValueError, OSError, can.CanError) as exc:
+        bus = SimulatedBus(geometry, lengths=args.lengths, master=args.master, time_constant=args.time_constant,
+                           behaviour=args.behaviour)
+    except (ValueError, TypeError, OSError, can.CanError) as exc:
         print(f'rrps-drive-sim: error: {exc}', file=sys.stderr)
         return 2
     try:

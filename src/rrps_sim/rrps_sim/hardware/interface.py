@@ -48,7 +48,8 @@ class ReturnType(enum.Enum):
 
 @dataclass(frozen=True)
 class Transition:
-    """A lifecycle verb's outcome and, unless SUCCESS, the reason."""
+    """A lifecycle verb's outcome and, unless SUCCESS, the reason (on SUCCESS, what the hardware
+    had to leave out, for the operator: '' when nothing)."""
 
     code: CallbackReturn
     reason: str = ''
@@ -85,6 +86,7 @@ class FaultKind(enum.Enum):
     REBOOTED = 'rebooted'                # the drive restarted (it lost its homing)
     BUS_LOST = 'bus_lost'                # the bus carrying it went down
     GRIPPER_SENSOR = 'gripper_sensor'    # a gripper's clamp sensor disagrees with its command
+    HOMING = 'homing'                    # the homing failed, or ended where the actuator cannot be
 
 
 @dataclass(frozen=True)
@@ -137,7 +139,9 @@ class SystemState:
     ``actuators`` the legs' then the ring DOFs' status; ``gripper_faults`` the latched faults of
     the grippers (actuator ``<ring>_gripper``); ``lost``: this cycle's sample did not
     arrive (the values are the previous sample's); ``persist_error``: why the hardware could not
-    keep its state across driver restarts ('' when it could or does not need to).
+    keep its state across driver restarts ('' when it could or does not need to);
+    ``rest_speed`` [m/s, rad/s]: the speed below which the hardware's velocities cannot tell an
+    actuator from a still one (its velocity resolution and noise; a model's are exact).
     """
 
     positions: np.ndarray
@@ -153,6 +157,7 @@ class SystemState:
     lost: bool = False
     persist_error: str = ''
     gripper_faults: tuple[ActuatorFault, ...] = ()
+    rest_speed: float = 1e-9
 
     @classmethod
     def no_sample(cls) -> SystemState:
@@ -165,8 +170,10 @@ class SystemState:
         """The latched faults, in actuator order, then the grippers'."""
         return tuple(a.fault for a in self.actuators if a.fault is not None) + self.gripper_faults
 
-    def at_rest(self, speed: float = 1e-9) -> bool:
-        """Every actuator at its target and none faster than ``speed`` [m/s, rad/s]."""
+    def at_rest(self, speed: float | None = None) -> bool:
+        """Every actuator at its target and none faster than ``speed`` [m/s, rad/s] (by default
+        :attr:`rest_speed`)."""
+        speed = self.rest_speed if speed is None else speed
         return (all(a.target_reached for a in self.actuators) and not np.any(np.abs(self.velocities) > speed)
                 and not np.any(np.abs(self.ring_velocities) > speed))
 

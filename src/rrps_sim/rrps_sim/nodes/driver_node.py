@@ -145,8 +145,11 @@ class DriverNode(LifecycleNode):
     # --- lifecycle: the hardware's verbs ---
 
     def _transition(self, outcome: Transition) -> TransitionCallbackReturn:
-        """The lifecycle return of a hardware verb; a refusal's reason is logged and kept."""
+        """The lifecycle return of a hardware verb; a refusal's reason is logged and kept, as is
+        what a successful verb had to say (what it skipped) as a warning."""
         if outcome.ok:
+            if outcome.reason:
+                self.get_logger().warning(outcome.reason)
             return TransitionCallbackReturn.SUCCESS
         self._refusal = outcome.reason
         self.get_logger().error(outcome.reason)
