@@ -38,6 +38,8 @@ from rrps_runtime.diagnostics import ERROR, OK, STALE, WARN, Diagnostics
 from rrps_runtime.freshness import CommandAges, CommandFreshness, RejectedCommand
 from rrps_runtime.messages import joint_state_msg, lengths_from_joint_state, stamp_to_seconds
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
+from rrps_runtime.scheduling import scheduling_parameters
+from rrps_runtime.supervision import CONTROL_RT_PRIORITY
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
@@ -61,6 +63,7 @@ PARAMETERS = NodeParameters('driver_node', 'rrps_sim', [
     Parameter('publish_on_command', False, 'also publish actuators/state at once when a command is accepted'),
     Parameter('hold_when_silent', False, 'stop the actuators where they are when no command arrived for timeout s'),
     Parameter('auto_activate', False, 'activate at start (otherwise: change_state activate)'),
+    *scheduling_parameters(CONTROL_RT_PRIORITY),
     *SimulatedRobot.PARAMETERS,
 ])
 #: The parameters the driver passes on to its hardware while it runs.

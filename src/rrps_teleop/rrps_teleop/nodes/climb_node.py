@@ -14,7 +14,9 @@ Services ``climb/step_up``, ``climb/step_down`` and ``climb/resume`` (std_srvs/T
 ``auto_steps`` > 0 climbs that many steps up once the robot's state is known.
 
 With ``preview`` (default), each planned step is first simulated on the dynamics in a worker
-thread (:func:`rrps_teleop.climbing.step_preview.run_preview`; the node keeps serving), its
+process (:func:`rrps_teleop.climbing.step_preview.run_preview` in a
+:class:`~rrps_runtime.worker.WorkerProcess`: the node and those composed with it keep their
+rate, docs/deployment.md), its
 peaks published on ``climb/preview`` (values :class:`~rrps_interfaces.climb.ClimbPreview`,
 latched); the machine then starts or refuses it.
 """
@@ -23,8 +25,7 @@ from __future__ import annotations
 
 import logging
 import math
-import threading
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
@@ -54,10 +55,13 @@ from rrps_interfaces.teleop import TELEOP_STATUS, TeleopStatus
 from rrps_runtime.diagnostics import ERROR, OK, WARN, Diagnostics
 from rrps_runtime.messages import joint_state_msg, pose_from_msg, pose_to_msg
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
+from rrps_runtime.scheduling import scheduling_parameters
+from rrps_runtime.supervision import CONTROL_RT_PRIORITY
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, LATEST_QOS, LINK_STATE_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
+from rrps_runtime.worker import WorkerProcess
 from rrps_teleop.climbing.frame_node import FrameNodePlanner
 from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_teleop.climbing.load_check import LoadCheck
@@ -105,6 +109,7 @@ PARAMETERS = NodeParameters('climb_node', 'rrps_teleop', [
     Parameter('gravity', (0.0, 0.0, -9.81), "the world's gravity in the structure's frame (the preview's)",
               unit='m/s^2', item_type=float),
     Parameter('preview_min_margin', 0.0, 'smallest holding margin a preview accepts', range=(-1.0, 1.0)),
+    *scheduling_parameters(CONTROL_RT_PRIORITY),
 ])
 
 LEVELS = {ClimbState.IDLE: OK, ClimbState.EXECUTING: OK, ClimbState.PAUSED: ERROR, ClimbState.FAILED: ERROR}
@@ -132,9 +137,8 @@ class ClimbNode(Node):
             raise ValueError(f"gravity: expected 3 numbers [m/s^2], got {values['gravity']}")
         self._preview_config = PreviewConfig(gravity=tuple(values['gravity']),
                                              min_margin=values['preview_min_margin'])
-        self._preview_worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix='climb_preview')
+        self._preview_worker = WorkerProcess('climb_preview')  # never in this process' interpreter
         self._preview_job: Future | None = None
-        self._closing = threading.Event()
         self._pose_msg: PoseStamped | None = None
         self._odometry = None  # (world_T_a, world_T_b, stamp) not yet published
         self._gripper_call = None  # (GripperRequest, Future) awaiting the driver's answer
@@ -308,7 +312,7 @@ class ClimbNode(Node):
             c = self.machine.config
             self._preview_job = self._preview_worker.submit(
                 run_preview, self.geometry, out.preview, speed=c.speed, period=c.period,
-                config=self._preview_config, cancelled=self._closing.is_set)
+                config=self._preview_config)
         if out.status is not None:
             self._publish_status(out.status)
 
@@ -341,8 +345,7 @@ class ClimbNode(Node):
 
 
     def destroy_node(self) -> None:
-        self._closing.set()
-        self._preview_worker.shutdown(wait=True, cancel_futures=True)
+        self._preview_worker.shutdown()
         super().destroy_node()
 
 

@@ -41,6 +41,8 @@ from rrps_kinematics.jacobian import leg_forces
 from rrps_runtime.diagnostics import ERROR, OK, OPERATOR_STATION, WARN, Diagnostics
 from rrps_runtime.messages import joint_state_msg, pose_from_msg, pose_to_msg
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
+from rrps_runtime.scheduling import scheduling_parameters
+from rrps_runtime.supervision import OPERATOR_RT_PRIORITY
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
@@ -74,6 +76,7 @@ PARAMETERS = NodeParameters('master_node', 'rrps_teleop', [
               'hand yields)', unit='m/N', range=(0.0, 0.1)),
     Parameter('feedback_angular_compliance', 0.05, 'how far master/feedback turns the handle back',
               unit='rad/(N m)', range=(0.0, 10.0)),
+    *scheduling_parameters(OPERATOR_RT_PRIORITY),
 ])
 
 
