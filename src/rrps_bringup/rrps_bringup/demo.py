@@ -187,16 +187,16 @@ def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
                  parameters: Mapping[str, Mapping] | None = None) -> subprocess.Popen:
     """The simulated hardware (driver_node) in a process of its own, as a real robot's driver.
 
-    Its 500 Hz loop has an interpreter and a core to itself. It keeps the robot's physical
+    Its 500 Hz loop has an interpreter to itself and claims its real-time priority itself
+    (``rt_priority``). It keeps the robot's physical
     state in ``state_file`` (a restart resumes it) and starts inactive unless ``activate``.
     It inherits the environment (domain id, discovery range) and dies with this process; stop
     it with :func:`rrps_runtime.supervision.stop_children`.
     """
-    from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child
+    from rrps_runtime.supervision import CONTROL_NICE, start_child
     return start_child(driver_command(robot=robot, rate=rate, namespace=namespace, state_file=state_file,
                                       activate=activate, hardware=hardware, parameters=parameters),
-                       nice=CONTROL_NICE,
-                       realtime=CONTROL_RT_PRIORITY)
+                       nice=CONTROL_NICE)
 
 
 def start_drives(*, robot: str) -> subprocess.Popen:
@@ -223,14 +223,14 @@ def driver_command(*, robot: str, rate: float = 500.0, namespace: str = NAMESPAC
 
 def start_robot_nodes(*, robot: str, namespace: str = NAMESPACE,
                       parameters: Mapping[str, Mapping] | None = None) -> subprocess.Popen:
-    """The robot computer's nodes (:data:`ROBOT_NODES`) composed in one process of their own."""
+    """The robot computer's nodes (:data:`ROBOT_NODES`) composed in one process of their own
+    (their command path claims its real-time priority itself)."""
     from rrps_bringup.params import params_file_arguments
-    from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child
+    from rrps_runtime.supervision import CONTROL_NICE, start_child
     return start_child([sys.executable, '-m', 'rrps_bringup.compose', *ROBOT_NODES, '--ros-args',
                         *params_file_arguments(*ROBOT_NODES),
                         '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
-                        *_process_arguments(parameters or {}, *ROBOT_NODES)], nice=CONTROL_NICE,
-                       realtime=CONTROL_RT_PRIORITY)
+                        *_process_arguments(parameters or {}, *ROBOT_NODES)], nice=CONTROL_NICE)
 
 
 #: The observers: the flight recorder and the robot's markers for RViz2 / Foxglove.
@@ -348,10 +348,13 @@ def _serve(executor, context, robot, stop: threading.Event) -> None:
 
 def _run_script(script, executor, context, robot, stop: threading.Event, viewer) -> int:
     """The headless demo: run the scripted session while another thread spins; 0 if it passed."""
+    from rrps_runtime.command_path import claim_spinning_thread
     from rrps_runtime.process import spin_until_shutdown
 
-    spinner = threading.Thread(target=spin_until_shutdown, args=(executor, context, stop),
-                               kwargs={'period': 0.02}, daemon=True)
+    def spin() -> None:
+        claim_spinning_thread()  # the operator station's command path spins here now
+        spin_until_shutdown(executor, context, stop, period=0.02)
+    spinner = threading.Thread(target=spin, daemon=True)
     spinner.start()
     try:
         ok = script.run(stop, viewer=viewer)
@@ -391,10 +394,10 @@ def main(argv=None) -> int:
     from rclpy.signals import SignalHandlerOptions
 
     from rrps_description.geometry import RobotDescriptionError
+    from rrps_runtime.command_path import claim_command_path
     from rrps_runtime.process import freeze_startup_objects, make_executor
     from rrps_runtime.supervision import (
         OPERATOR_NICE,
-        OPERATOR_RT_PRIORITY,
         Respawner,
         exit_with_parent,
         raise_priority,
@@ -403,8 +406,9 @@ def main(argv=None) -> int:
 
     stop = threading.Event()
     exit_with_parent(stop.set)
-    # the operator station: before other jobs (the browser), after the robot's processes
-    raise_priority(OPERATOR_NICE, realtime=OPERATOR_RT_PRIORITY)
+    # the operator station: before other jobs (the browser); its command path (master, teleop)
+    # claims its real-time priority once its nodes are up, after the robot's
+    raise_priority(OPERATOR_NICE)
     context = rclpy.Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     previous = {sig: signal.signal(sig, lambda *_: stop.set())
@@ -429,6 +433,7 @@ def main(argv=None) -> int:
         for node in nodes.values():
             executor.add_node(node)
         freeze_startup_objects()
+        claim_command_path(list(nodes.values()), executor)
         if not wait_for_robot(executor, context, nodes['teleop_node'],
                               list(robot.children.values()), stop):
             if not stop.is_set() or robot.poll():

@@ -3,9 +3,12 @@
 Each node of the command path declares ``rt_priority`` and ``cpu_affinity``
 (:func:`rrps_runtime.scheduling.scheduling_parameters`). Once a process has built its nodes,
 :func:`claim_command_path` merges their requests (the highest priority, the CPUs of all) and
-claims them for the thread that spins the executor and for the middleware's delivery threads:
-the threads through which every command of the process passes. Threads the nodes started for
-other work keep the normal policy. Every node logs one line with what was granted, and its
+claims them for the thread that spins the executor, the threads the executor starts for its
+timers (rclpy's EventsExecutor waits for the next timer in a thread of its own per clock: a
+timer of the command path fires only when that thread runs) and the middleware's delivery
+threads: the threads through which every command of the process passes. Threads the nodes
+started for other work keep the normal policy, and so do the threads the claimed ones start
+later (``SCHED_RESET_ON_FORK``). Every node logs one line with what was granted, and its
 status on /diagnostics carries it (:class:`rrps_interfaces.status.SchedulingStatus`).
 """
 
@@ -17,6 +20,7 @@ from functools import reduce
 from typing import Sequence
 
 from rclpy.node import Node
+from rclpy.task import Future
 
 from rrps_runtime.scheduling import (
     Granted,
@@ -25,10 +29,12 @@ from rrps_runtime.scheduling import (
     middleware_threads,
     name_thread,
     request_of,
+    process_request,
     set_process_scheduling,
+    thread_ids,
 )
 
-__all__ = ['claim_command_path', 'SWITCH_INTERVAL']
+__all__ = ['claim_command_path', 'claim_spinning_thread', 'SWITCH_INTERVAL']
 
 #: [s] The interpreter's switch interval in a process with a real-time command path: a
 #: real-time thread that asks for the GIL gets it within this time of a running holder
@@ -43,22 +49,33 @@ def _request(node: Node) -> Request | None:
                        'cpu_affinity': node.get_parameter('cpu_affinity').value})
 
 
-def claim_command_path(nodes: Sequence[Node], *, thread_id: int | None = None) -> Granted | None:
-    """Claim the scheduling the ``nodes`` ask for, for the executor's thread (``thread_id``,
-    default the calling thread) and the middleware's threads; what was granted (None when no
-    node asks). Logs one line per node."""
+def claim_command_path(nodes: Sequence[Node], executor) -> Granted | None:
+    """Claim the scheduling the ``nodes`` ask for, for the calling thread (the one that spins
+    ``executor``, which holds the nodes), the executor's timer threads and the middleware's
+    threads; what was granted (None when no node asks). Logs one line per node."""
     requests = [r for r in map(_request, nodes) if r is not None]
     if not requests:
         return None
     request = reduce(Request.merged, requests)
-    if thread_id is None:
-        name_thread('rrps-executor')
-        thread_id = threading.get_native_id()
-    granted = claim(request, [thread_id, *middleware_threads()])
+    name_thread('rrps-executor')
+    before = set(thread_ids())
+    executor.spin_until_future_complete(Future(), timeout_sec=0.0)  # its timer threads start
+    started = sorted(set(thread_ids()) - before)
+    granted = claim(request, [threading.get_native_id(), *started, *middleware_threads()])
     if granted.realtime:
         sys.setswitchinterval(min(sys.getswitchinterval(), SWITCH_INTERVAL))
-    set_process_scheduling(granted)
+    set_process_scheduling(request, granted)
     asked = f'SCHED_RR {request.priority}' if request.priority else 'the normal policy'
     for node in nodes:
         node.get_logger().info(f'command path scheduling: {granted.text()} (asked {asked})')
     return granted
+
+
+def claim_spinning_thread() -> Granted | None:
+    """The calling thread, which takes over spinning the executor of a process whose command path
+    was claimed, with the same scheduling (None when none was claimed)."""
+    request = process_request()
+    if request is None:
+        return None
+    name_thread('rrps-executor')
+    return claim(request)

@@ -84,7 +84,7 @@ def run_nodes(factories: Sequence[Callable[..., Node]], args=None, *, executor_k
         for node in nodes:
             executor.add_node(node)
         freeze_startup_objects()
-        claim_command_path(nodes)
+        claim_command_path(nodes, executor)
         spin_until_shutdown(executor, context, stop)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

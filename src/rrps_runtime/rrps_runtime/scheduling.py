@@ -32,8 +32,8 @@ from rrps_runtime.parameter_schema import Parameter
 from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, OPERATOR_NICE
 
 __all__ = ['Request', 'Granted', 'scheduling_parameters', 'request_of', 'fallback_nice', 'claim', 'claim_thread',
-           'background', 'demote', 'thread_ids', 'thread_name', 'name_thread', 'middleware_threads', 'scheduling_of_thread',
-           'set_process_scheduling', 'process_scheduling', 'MAX_RT_PRIORITY', 'NORMAL']
+           'background', 'demote', 'thread_ids', 'thread_name', 'name_thread', 'middleware_threads',
+           'scheduling_of_thread', 'set_process_scheduling', 'process_scheduling', 'process_request', 'MAX_RT_PRIORITY', 'NORMAL']
 
 #: Highest priority a node may ask for: below the kernel's threaded interrupts (50) and its
 #: watchdogs (99) there is room for every rrps cycle; higher would delay the network's interrupts.
@@ -266,15 +266,21 @@ def scheduling_of_thread(tid: int) -> Granted:
                    tuple(sorted(os.sched_getaffinity(tid))), 1)
 
 
-_process_granted: Granted | None = None
+_process: tuple[Request, Granted] | None = None
 
 
-def set_process_scheduling(granted: Granted | None) -> None:
-    """Record what this process' command path got (reported by every node's diagnostics)."""
-    global _process_granted
-    _process_granted = granted
+def set_process_scheduling(request: Request, granted: Granted) -> None:
+    """Record what this process' command path asked for and got (every node's diagnostics
+    reports it; a thread that takes over the spinning claims the same)."""
+    global _process
+    _process = (request, granted)
 
 
 def process_scheduling() -> Granted | None:
     """What this process' command path got, or None when no node claimed any."""
-    return _process_granted
+    return None if _process is None else _process[1]
+
+
+def process_request() -> Request | None:
+    """What this process' command path asked for, or None when no node claimed any."""
+    return None if _process is None else _process[0]

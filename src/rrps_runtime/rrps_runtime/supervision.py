@@ -34,7 +34,8 @@ from typing import Sequence
 
 __all__ = ['PARENT_PID_ENV', 'CONTROL_NICE', 'CONTROL_RT_PRIORITY', 'OPERATOR_NICE', 'OPERATOR_RT_PRIORITY',
            'OBSERVER_NICE', 'start_child', 'priority_of', 'group_priority_of', 'scheduling_of', 'raise_priority',
-           'stop_child', 'stop_children', 'exit_with_parent', 'die_with_parent', 'Respawner', 'process_alive', 'child_pids']
+           'stop_child', 'stop_children', 'exit_with_parent', 'die_with_parent', 'Respawner', 'process_alive',
+           'child_pids']
 
 #: Environment variable through which a child learns its supervisor's pid.
 PARENT_PID_ENV = 'RRPS_PARENT_PID'

@@ -30,12 +30,12 @@ from rrps_kinematics.tracking import PoseTracker
 from rrps_runtime.diagnostics import ERROR, OK, STALE, WARN, Diagnostics
 from rrps_runtime.messages import lengths_from_joint_state, pose_to_msg
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
-from rrps_runtime.scheduling import scheduling_parameters
-from rrps_runtime.supervision import CONTROL_RT_PRIORITY
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
+from rrps_runtime.scheduling import scheduling_parameters
+from rrps_runtime.supervision import CONTROL_RT_PRIORITY
 
 __all__ = ['FkNode', 'main']
 

@@ -30,12 +30,12 @@ from rrps_runtime.diagnostics import OK, STALE, WARN, Diagnostics
 from rrps_runtime.freshness import CommandAges, CommandFreshness, RejectedCommand
 from rrps_runtime.messages import joint_state_msg, lengths_from_joint_state, pose_from_msg, stamp_to_seconds
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
-from rrps_runtime.scheduling import scheduling_parameters
-from rrps_runtime.supervision import CONTROL_RT_PRIORITY
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
+from rrps_runtime.scheduling import scheduling_parameters
+from rrps_runtime.supervision import CONTROL_RT_PRIORITY
 
 __all__ = ['IkNode', 'main']
 

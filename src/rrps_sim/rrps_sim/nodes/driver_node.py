@@ -38,12 +38,12 @@ from rrps_runtime.diagnostics import ERROR, OK, STALE, WARN, Diagnostics
 from rrps_runtime.freshness import CommandAges, CommandFreshness, RejectedCommand
 from rrps_runtime.messages import joint_state_msg, lengths_from_joint_state, stamp_to_seconds
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
-from rrps_runtime.scheduling import scheduling_parameters
-from rrps_runtime.supervision import CONTROL_RT_PRIORITY
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
+from rrps_runtime.scheduling import scheduling_parameters
+from rrps_runtime.supervision import CONTROL_RT_PRIORITY
 from rrps_sim.hardware import hardware_class
 from rrps_sim.hardware.commands import checked_command, ring_joints
 from rrps_sim.hardware.interface import BusState, Command, HardwareConfig, Result, ReturnType, Transition

@@ -55,12 +55,12 @@ from rrps_interfaces.teleop import TELEOP_STATUS, TeleopStatus
 from rrps_runtime.diagnostics import ERROR, OK, WARN, Diagnostics
 from rrps_runtime.messages import joint_state_msg, pose_from_msg, pose_to_msg
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
-from rrps_runtime.scheduling import scheduling_parameters
-from rrps_runtime.supervision import CONTROL_RT_PRIORITY
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, LATEST_QOS, LINK_STATE_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
+from rrps_runtime.scheduling import scheduling_parameters
+from rrps_runtime.supervision import CONTROL_RT_PRIORITY
 from rrps_runtime.worker import WorkerProcess
 from rrps_teleop.climbing.frame_node import FrameNodePlanner
 from rrps_teleop.climbing.gait import GaitPlanner

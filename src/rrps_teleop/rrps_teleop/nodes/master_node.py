@@ -41,12 +41,12 @@ from rrps_kinematics.jacobian import leg_forces
 from rrps_runtime.diagnostics import ERROR, OK, OPERATOR_STATION, WARN, Diagnostics
 from rrps_runtime.messages import joint_state_msg, pose_from_msg, pose_to_msg
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
-from rrps_runtime.scheduling import scheduling_parameters
-from rrps_runtime.supervision import OPERATOR_RT_PRIORITY
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
+from rrps_runtime.scheduling import scheduling_parameters
+from rrps_runtime.supervision import OPERATOR_RT_PRIORITY
 from rrps_sim.hardware import master_hardware_class
 from rrps_sim.hardware.interface import HardwareConfig
 from rrps_teleop.master import TRAJECTORIES, HandleMotion, MasterModel, scripted_pose
