@@ -28,8 +28,8 @@ from rrps_runtime.scheduling import (
     claim,
     middleware_threads,
     name_thread,
-    request_of,
     process_request,
+    request_of,
     set_process_scheduling,
     thread_ids,
 )

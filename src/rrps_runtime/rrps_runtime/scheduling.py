@@ -33,7 +33,8 @@ from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, OPERATOR
 
 __all__ = ['Request', 'Granted', 'scheduling_parameters', 'request_of', 'fallback_nice', 'claim', 'claim_thread',
            'background', 'demote', 'thread_ids', 'thread_name', 'name_thread', 'middleware_threads',
-           'scheduling_of_thread', 'set_process_scheduling', 'process_scheduling', 'process_request', 'MAX_RT_PRIORITY', 'NORMAL']
+           'scheduling_of_thread', 'set_process_scheduling', 'process_scheduling', 'process_request',
+           'MAX_RT_PRIORITY', 'NORMAL']
 
 #: Highest priority a node may ask for: below the kernel's threaded interrupts (50) and its
 #: watchdogs (99) there is room for every rrps cycle; higher would delay the network's interrupts.

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import sys
 import threading
 from concurrent.futures import Future, ProcessPoolExecutor
 from typing import Any, Callable
@@ -38,7 +39,10 @@ def _start(name: str, parent: int, nice: int, warm_up: Callable[[], Any] | None)
     background(name)
     os.setpriority(os.PRIO_PROCESS, 0, max(os.getpriority(os.PRIO_PROCESS, 0), nice))
     if warm_up is not None:
-        warm_up()
+        try:
+            warm_up()
+        except Exception as exc:  # noqa: BLE001 - the jobs still run, only slower at first
+            print(f'{name}: warm-up failed: {type(exc).__name__}: {exc}', file=sys.stderr)
 
 
 def _pid() -> int:

@@ -26,6 +26,7 @@ from __future__ import annotations
 import logging
 import math
 from concurrent.futures import Future
+from functools import partial
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
@@ -67,7 +68,7 @@ from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_teleop.climbing.load_check import LoadCheck
 from rrps_teleop.climbing.step_io import ClimbOutput, ClimbTarget, StepConfig
 from rrps_teleop.climbing.step_machine import ClimbStepMachine
-from rrps_teleop.climbing.step_preview import PreviewConfig, run_preview
+from rrps_teleop.climbing.step_preview import PreviewConfig, run_preview, warm_up
 
 __all__ = ['PARAMETERS', 'ClimbNode', 'main']
 
@@ -137,7 +138,9 @@ class ClimbNode(Node):
             raise ValueError(f"gravity: expected 3 numbers [m/s^2], got {values['gravity']}")
         self._preview_config = PreviewConfig(gravity=tuple(values['gravity']),
                                              min_margin=values['preview_min_margin'])
-        self._preview_worker = WorkerProcess('climb_preview')  # never in this process' interpreter
+        # never in this process' interpreter; its kernels loaded there at start, not at the first step
+        self._preview_worker = WorkerProcess('climb_preview', warm_up=partial(warm_up, self.geometry,
+                                                                              self._preview_config))
         self._preview_job: Future | None = None
         self._pose_msg: PoseStamped | None = None
         self._odometry = None  # (world_T_a, world_T_b, stamp) not yet published
