@@ -19,6 +19,7 @@ import threading
 from functools import reduce
 from typing import Sequence
 
+from rclpy.exceptions import ParameterUninitializedException
 from rclpy.node import Node
 from rclpy.task import Future
 
@@ -45,8 +46,11 @@ SWITCH_INTERVAL = 5e-4
 def _request(node: Node) -> Request | None:
     if not (node.has_parameter('rt_priority') and node.has_parameter('cpu_affinity')):
         return None
-    return request_of({'rt_priority': node.get_parameter('rt_priority').value,
-                       'cpu_affinity': node.get_parameter('cpu_affinity').value})
+    try:
+        cpus = node.get_parameter('cpu_affinity').value
+    except ParameterUninitializedException:  # left unset: every CPU
+        cpus = None
+    return request_of({'rt_priority': node.get_parameter('rt_priority').value, 'cpu_affinity': cpus})
 
 
 def claim_command_path(nodes: Sequence[Node], executor) -> Granted | None:

@@ -121,8 +121,8 @@ def scheduling_parameters(priority: int) -> list[Parameter]:
                   'cycles, its executor and the middleware\'s delivery threads), claimed at start where permitted '
                   '(root, CAP_SYS_NICE, RLIMIT_RTPRIO); 0 = the normal policy. The log and /diagnostics say what '
                   'was granted', range=(0, MAX_RT_PRIORITY)),
-        Parameter('cpu_affinity', (), 'CPUs the threads of the command path may run on; empty = every CPU',
-                  item_type=int, range=(0, 1023)),
+        Parameter('cpu_affinity', None, 'CPUs the threads of the command path may run on', type=tuple,
+                  item_type=int, range=(0, 1023), unset_note='every CPU of the process'),
     ]
 
 
@@ -216,7 +216,8 @@ def claim(request: Request, tids: list[int] | None = None) -> Granted:
             except ProcessLookupError:
                 continue
             except OSError as exc:
-                refused += f'{"; " if refused else ""}nice {nice}: {exc.strerror}'
+                why = f'nice {nice}: {exc.strerror}'
+                refused += '' if why in refused else f'{"; " if refused else ""}{why}'
         done += 1
     got = scheduling_of_thread(tids[0] if done else threading.get_native_id())
     return Granted(got.policy, got.priority, got.nice, got.cpus, done, refused)
