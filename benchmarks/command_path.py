@@ -2,15 +2,16 @@
 """The command path's timing, hop by hop, as a new user launches the stack: idle and under load.
 
     python benchmarks/command_path.py [--seconds 40] [--hardware simulated|canopen]
-                                      [--launch main,plain,docs] [--viewer-apart] [--no-step]
+                                      [--launch main,plain,docs] [--viewer-with-operator] [--no-step]
 
 The stack runs as docs/deployment.md lays it out, one process each: the driver
 (``driver_node``, ``idle_rate`` = ``rate`` so that ``pose`` keeps 500 Hz at rest), the robot
-computer (``rrps-compose ik_node fk_node climb_node``) and the operator station (``rrps-compose
-master_node teleop_node viewer_node``, the master circling at 200 Hz; ``--viewer-apart``: the
-viewer in a process of its own). With ``--hardware canopen`` the driver drives the simulated
-CANopen drives (``rrps-drive-sim``, pinned to the last CPU at a real-time priority above the
-driver's: devices with processors of their own, off the robot computer's CPUs and time).
+computer (``rrps-compose ik_node fk_node climb_node``), the operator station's command path
+(``rrps-compose master_node teleop_node``, the master circling at 200 Hz) and the viewer
+(``viewer_node``; ``--viewer-with-operator``: composed with master and teleop, as the docs
+said before: the same-run evidence of what its drawing does to them). With ``--hardware
+canopen`` the driver drives the simulated CANopen drives (``rrps-drive-sim``, pinned to the
+last CPU at a real-time priority above the driver's: devices with processors of their own).
 
 Launches, one after the other in the same run (``--launch``):
 
@@ -71,12 +72,13 @@ def _command(nodes, *args: str) -> list[str]:
     return [sys.executable, '-m', 'rrps_bringup.compose', *nodes, *args]
 
 
-def start_stack(launch: str, hardware: str, port: int, viewer_apart: bool, can_port: int) -> list:
+def start_stack(launch: str, hardware: str, port: int, viewer_with_operator: bool, can_port: int) -> list:
     """The driver, the robot's and the operator's processes, launched as ``launch`` says."""
     common = ['--ros-args', '-r', f'__ns:={NAMESPACE}', '-p', 'robot:=pole_climber']
     if launch == 'main':
         common += ['-p', 'rt_priority:=0']
     env = dict(os.environ, RRPS_CAN_PORT=str(can_port))
+    viewer_apart = not viewer_with_operator
     operator = OPERATOR_NODES[:2] if viewer_apart else OPERATOR_NODES
     viewer = ['-p', f'port:={port}', '-p', f'token:={secrets.token_urlsafe(12)}']
     processes = [
@@ -155,7 +157,7 @@ def run_launch(launch: str, args) -> dict:
 
     can_port = free_port()
     sim = DriveSim('pole_climber', port=can_port, cpus=(os.cpu_count() - 1,)) if args.hardware == 'canopen' else None
-    children = start_stack(launch, args.hardware, free_port(), args.viewer_apart, can_port)
+    children = start_stack(launch, args.hardware, free_port(), args.viewer_with_operator, can_port)
     context = rclpy.Context()
     rclpy.init(context=context)
     trace = CommandTrace(context=context, namespace=NAMESPACE)
@@ -164,7 +166,7 @@ def run_launch(launch: str, args) -> dict:
     stop = threading.Event()
 
     def spin() -> None:
-        claim_probe()
+        claim_probe(executor)
         spin_until_shutdown(executor, context, stop, period=0.02)
     spinner = threading.Thread(target=spin, daemon=True)
     spinner.start()
@@ -243,12 +245,13 @@ def main() -> int:
     p.add_argument('--seconds', type=float, default=40.0, help='steady teleoperation per phase')
     p.add_argument('--hardware', choices=('simulated', 'canopen'), default='simulated')
     p.add_argument('--launch', default='main,plain,docs', help='comma-separated: main, plain, docs')
-    p.add_argument('--viewer-apart', action='store_true', help='the viewer in a process of its own')
+    p.add_argument('--viewer-with-operator', action='store_true',
+                   help='the viewer composed with master and teleop (default: a process of its own)')
     p.add_argument('--no-step', action='store_true', help='no climbing step after the loaded phase')
     args = p.parse_args()
     launches = [x for x in args.launch.split(',') if x]
     print(f'# command path, {args.hardware}, {os.cpu_count()} CPUs, {args.seconds:.0f} s per phase, '
-          f'viewer {"apart" if args.viewer_apart else "with master and teleop"}, '
+          f'viewer {"with master and teleop" if args.viewer_with_operator else "in a process of its own"}, '
           f'load average {os.getloadavg()[0]:.1f} at start')
     verdicts = []
     for launch in launches:

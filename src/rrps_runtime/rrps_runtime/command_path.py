@@ -35,7 +35,7 @@ from rrps_runtime.scheduling import (
     thread_ids,
 )
 
-__all__ = ['claim_command_path', 'claim_spinning_thread', 'SWITCH_INTERVAL']
+__all__ = ['claim_command_path', 'claim_executor', 'claim_spinning_thread', 'SWITCH_INTERVAL']
 
 #: [s] The interpreter's switch interval in a process with a real-time command path: a
 #: real-time thread that asks for the GIL gets it within this time of a running holder
@@ -61,11 +61,7 @@ def claim_command_path(nodes: Sequence[Node], executor) -> Granted | None:
     if not requests:
         return None
     request = reduce(Request.merged, requests)
-    name_thread('rrps-executor')
-    before = set(thread_ids())
-    executor.spin_until_future_complete(Future(), timeout_sec=0.0)  # its timer threads start
-    started = sorted(set(thread_ids()) - before)
-    granted = claim(request, [threading.get_native_id(), *started, *middleware_threads()])
+    granted = claim_executor(request, executor)
     if granted.realtime:
         sys.setswitchinterval(min(sys.getswitchinterval(), SWITCH_INTERVAL))
     set_process_scheduling(request, granted)
@@ -73,6 +69,16 @@ def claim_command_path(nodes: Sequence[Node], executor) -> Granted | None:
     for node in nodes:
         node.get_logger().info(f'command path scheduling: {granted.text()} (asked {asked})')
     return granted
+
+
+def claim_executor(request: Request, executor) -> Granted:
+    """``request`` for the calling thread (the one that spins ``executor``), the threads the
+    executor starts for its timers (spun once here, so that they exist) and the middleware's."""
+    name_thread('rrps-executor')
+    before = set(thread_ids())
+    executor.spin_until_future_complete(Future(), timeout_sec=0.0)  # its timer threads start
+    started = sorted(set(thread_ids()) - before)
+    return claim(request, [threading.get_native_id(), *started, *middleware_threads()])
 
 
 def claim_spinning_thread() -> Granted | None:

@@ -202,12 +202,15 @@ def claim(request: Request, tids: list[int] | None = None) -> Granted:
             refused = refused or f'CPU affinity: {exc.strerror}'
         if realtime:
             try:
-                os.sched_setscheduler(tid, _RT_POLICY | _RESET_ON_FORK, os.sched_param(request.priority))
+                _set_realtime(tid, request.priority)
             except ProcessLookupError:
                 continue
-            except OSError as exc:  # EPERM without CAP_SYS_NICE or an RLIMIT_RTPRIO allowance
-                realtime = False
-                refused = f'SCHED_RR {request.priority}: {exc.strerror}' + (f'; {refused}' if refused else '')
+            except OSError as exc:  # EPERM without CAP_SYS_NICE, above an RLIMIT_RTPRIO allowance
+                realtime = _within_allowance(tid, request.priority)
+                why = f'SCHED_RR {request.priority}: {exc.strerror}' + (
+                    f' (RLIMIT_RTPRIO: SCHED_RR {_rtprio_limit()})' if realtime else '')
+                if why not in refused:
+                    refused = f'{why}; {refused}' if refused else why
         if not realtime:
             if os.sched_getscheduler(tid) & ~_RESET_ON_FORK != os.SCHED_OTHER:
                 os.sched_setscheduler(tid, os.SCHED_OTHER, os.sched_param(0))
@@ -221,6 +224,29 @@ def claim(request: Request, tids: list[int] | None = None) -> Granted:
         done += 1
     got = scheduling_of_thread(tids[0] if done else threading.get_native_id())
     return Granted(got.policy, got.priority, got.nice, got.cpus, done, refused)
+
+
+def _set_realtime(tid: int, priority: int) -> None:
+    os.sched_setscheduler(tid, _RT_POLICY | _RESET_ON_FORK, os.sched_param(priority))
+
+
+def _rtprio_limit() -> int:
+    """The soft RLIMIT_RTPRIO of this process (the priority it may claim without CAP_SYS_NICE)."""
+    import resource
+    return int(resource.getrlimit(resource.RLIMIT_RTPRIO)[0])
+
+
+def _within_allowance(tid: int, priority: int) -> bool:
+    """After a refusal of ``priority``: the highest priority RLIMIT_RTPRIO allows, if any (a
+    container's ``--ulimit rtprio``); whether it was granted."""
+    allowed = min(_rtprio_limit(), priority - 1)
+    if allowed < 1:
+        return False
+    try:
+        _set_realtime(tid, allowed)
+    except OSError:
+        return False
+    return True
 
 
 def claim_thread(request: Request, name: str = '') -> Granted:

@@ -34,8 +34,9 @@ from rrps_interfaces.climb import CLIMB_STATUS
 from rrps_interfaces.kinematics import ACTUATORS_COMMAND, POSE, TARGET_POSE
 from rrps_interfaces.status import DIAGNOSTICS, source_node
 from rrps_interfaces.teleop import DISENGAGED_CODES, MASTER_POSE, TELEOP_ENABLE, TELEOP_STATUS, TeleopCode, TeleopStatus
+from rrps_runtime.command_path import claim_executor
 from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
-from rrps_runtime.scheduling import Request, claim, claim_thread, middleware_threads
+from rrps_runtime.scheduling import Request, claim_thread
 from rrps_testing.ros_harness import RECORD_COMMAND_QOS, RECORD_STATE_QOS
 
 __all__ = ['CommandTrace', 'Canary', 'claim_probe', 'hops', 'gaps', 'disengagements', 'percentiles',
@@ -150,10 +151,10 @@ class Canary:
         return [late for t, late in list(self.late) if t0 <= t <= t1 and late > longer_than]
 
 
-def claim_probe(thread_id: int | None = None):
-    """The probe's spinning thread (default: the calling one) and the middleware's threads at
-    :data:`PROBE_PRIORITY`; what they got."""
-    return claim(Request(PROBE_PRIORITY), [thread_id or threading.get_native_id(), *middleware_threads()])
+def claim_probe(executor):
+    """The probe's executor (spun by the calling thread), its timer threads (the deadman's) and
+    the middleware's threads at :data:`PROBE_PRIORITY`; what they got."""
+    return claim_executor(Request(PROBE_PRIORITY), executor)
 
 
 def percentiles(values_ms) -> tuple[int, float, float, float, float]:
