@@ -142,8 +142,9 @@ def measure(trace, canary, seconds: float, sim, clock_offset: float) -> dict:
         rows = sim.ask(cmd='trace', on=False)['trace']
         drive_targets = np.array([(r[0] + clock_offset, r[1][0]) for r in rows]).reshape(-1, 2)
     ages = [a for t, _, _, a in list(trace.statuses) if t0 <= t <= t1 and a is not None]
-    targets = trace.between('target_pose', t0, t1)
+    targets, grippers = trace.between('target_pose', t0, t1), trace.between('grippers/state', t0, t1)
     return {'hops': hops(trace, t0, t1, drive_targets), 'target_gaps': gaps(targets[:, 0]) if len(targets) else [],
+            'gripper_gaps': gaps(grippers[:, 0]) if len(grippers) else [],
             'slave_age': ages, 'disengaged': disengagements(trace, t0, t1), 'rt_stops': canary.stops(m0, m1),
             'load': os.getloadavg()[0], 'ik': trace.values('ik_node'), 'driver': trace.values('driver_node')}
 
@@ -192,6 +193,11 @@ def run_launch(launch: str, args) -> dict:
     return results
 
 
+def _ms(text: str | None) -> str:
+    """A reported age [ms] to one decimal, '-' when the node did not report it."""
+    return f'{float(text):.1f}' if text else '-'
+
+
 def report(launch: str, results: dict, hardware: str) -> list[str]:
     """Print the hop table and the target figures of one launch; the verdict lines."""
     print(f'\n### {launch} launch ({hardware})\n')
@@ -204,8 +210,8 @@ def report(launch: str, results: dict, hardware: str) -> list[str]:
             print(f'| {phase} | {name} | {n} | {p50:.2f} | {p99:.2f} | {p999:.2f} | {mx:.2f} |')
     figures = {}
     print('\n| phase | load avg | target_pose gap p99 / max [ms] | slave_age_ms p99 | disengaging | '
-          'RT stops > 20 ms | IK / driver command age p99 [ms] |')
-    print('|---|---|---|---|---|---|---|')
+          'RT stops > 20 ms | IK / driver command age p99 [ms] | grippers/state gap p99 / max [ms] |')
+    print('|---|---|---|---|---|---|---|---|')
     for phase in ('idle', 'load'):
         r = results[phase]
         _, _, gp99, _, gmax = percentiles(r['target_gaps'])
@@ -214,7 +220,8 @@ def report(launch: str, results: dict, hardware: str) -> list[str]:
         stops = r['rt_stops']
         print(f'| {phase} | {r["load"]:.1f} | {gp99:.1f} / {gmax:.1f} | {age99:.1f} | {dis} '
               f'{dict(r["disengaged"]) or ""} | {len(stops)}{f" (max {1e3 * max(stops):.0f} ms)" if stops else ""} | '
-              f'{r["ik"].get("command_age_p99_ms", "-")} / {r["driver"].get("command_age_p99_ms", "-")} |')
+              f'{_ms(r["ik"].get("command_age_p99_ms"))} / {_ms(r["driver"].get("command_age_p99_ms"))} | '
+              f'{percentiles(r["gripper_gaps"])[2]:.1f} / {percentiles(r["gripper_gaps"])[4]:.1f} |')
         if phase == 'load':
             figures.update({'target_pose gap p99 [ms]': gp99, 'target_pose gap max [ms]': gmax,
                             'slave_age_ms p99': age99, 'disengaging statuses': dis})

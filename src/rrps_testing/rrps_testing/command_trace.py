@@ -6,7 +6,8 @@ this host's clock and its header stamp (the sender's clock: one machine, one clo
 
 * ``master/pose`` (the master sample, stamped when sampled), ``target_pose`` (teleop's command,
   stamped when sent), ``actuators/command`` (IK's, with its target's stamp), ``pose`` (FK's, with
-  the stamp of the driver's ``actuators/state``), ``teleop/status`` (code, slave age);
+  the stamp of the driver's ``actuators/state``), ``grippers/state`` (the driver's 20 Hz
+  output), ``teleop/status`` (code, slave age);
 * the newest status of every node on /diagnostics, and ``climb/status``.
 
 The probe should run at a real-time priority above the stack's (:func:`claim_probe`): its
@@ -31,6 +32,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool
 
 from rrps_interfaces.climb import CLIMB_STATUS
+from rrps_interfaces.driver import GRIPPERS_STATE
 from rrps_interfaces.kinematics import ACTUATORS_COMMAND, POSE, TARGET_POSE
 from rrps_interfaces.status import DIAGNOSTICS, source_node
 from rrps_interfaces.teleop import DISENGAGED_CODES, MASTER_POSE, TELEOP_ENABLE, TELEOP_STATUS, TeleopCode, TeleopStatus
@@ -63,7 +65,8 @@ class CommandTrace(Node):
         self.climb_log: list[tuple[float, str, str]] = []  # (receipt, state, detail) on each change
         self.holding = False
         for topic, kind, qos in ((MASTER_POSE, PoseStamped, RECORD_STATE_QOS), (TARGET_POSE, PoseStamped,
-                                 RECORD_COMMAND_QOS), (POSE, PoseStamped, RECORD_STATE_QOS)):
+                                 RECORD_COMMAND_QOS), (POSE, PoseStamped, RECORD_STATE_QOS),
+                                 (GRIPPERS_STATE, JointState, RECORD_STATE_QOS)):
             self.create_subscription(kind, topic, self._recorder(topic), qos)
         self.create_subscription(JointState, ACTUATORS_COMMAND, self._on_command, RECORD_COMMAND_QOS)
         self.create_subscription(DiagnosticStatus, TELEOP_STATUS, self._on_teleop, STATE_QOS)
