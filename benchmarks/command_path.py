@@ -131,6 +131,7 @@ def measure(trace, canary, seconds: float, sim, clock_offset: float) -> dict:
     deadline = time.monotonic() + 60.0
     while not trace.engaged() and time.monotonic() < deadline:
         time.sleep(0.05)
+    engaged = trace.engaged()
     if sim is not None:
         sim.ask(cmd='trace', on=True)
     time.sleep(5.0)  # past the engagement and the start-up of the processes' workers
@@ -146,7 +147,8 @@ def measure(trace, canary, seconds: float, sim, clock_offset: float) -> dict:
     return {'hops': hops(trace, t0, t1, drive_targets), 'target_gaps': gaps(targets[:, 0]) if len(targets) else [],
             'gripper_gaps': gaps(grippers[:, 0]) if len(grippers) else [],
             'slave_age': ages, 'disengaged': disengagements(trace, t0, t1), 'rt_stops': canary.stops(m0, m1),
-            'load': os.getloadavg()[0], 'ik': trace.values('ik_node'), 'driver': trace.values('driver_node')}
+            'load': os.getloadavg()[0], 'ik': trace.values('ik_node'), 'driver': trace.values('driver_node'),
+            'engaged': engaged}
 
 
 def run_launch(launch: str, args) -> dict:
@@ -218,6 +220,12 @@ def report(launch: str, results: dict, hardware: str) -> list[str]:
         age99 = percentiles(r['slave_age'])[2]
         dis = sum(r['disengaged'].values())
         stops = r['rt_stops']
+        if not r['engaged']:  # every figure of the phase MISSED
+            print(f'| {phase} | {r["load"]:.1f} | teleop did not engage in 60 s; driver faults: '
+                  f'{r["driver"].get("faults")} |')
+            if phase == 'load':
+                figures.update({name: np.nan for name in list(TARGETS)[:4]})
+            continue
         print(f'| {phase} | {r["load"]:.1f} | {gp99:.1f} / {gmax:.1f} | {age99:.1f} | {dis} '
               f'{dict(r["disengaged"]) or ""} | {len(stops)}{f" (max {1e3 * max(stops):.0f} ms)" if stops else ""} | '
               f'{_ms(r["ik"].get("command_age_p99_ms"))} / {_ms(r["driver"].get("command_age_p99_ms"))} | '

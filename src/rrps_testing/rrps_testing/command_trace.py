@@ -118,7 +118,7 @@ class CommandTrace(Node):
     def between(self, topic: str, t0: float, t1: float) -> np.ndarray:
         """The records of ``topic`` received in [t0, t1], as an array (receipt, stamp[, value])."""
         rows = [r for r in list(self.records[topic]) if t0 <= r[0] <= t1]
-        return np.array(rows, dtype=float).reshape(len(rows), -1)
+        return np.array(rows, dtype=float) if rows else np.empty((0, 3))
 
 
 class Canary:
