@@ -182,8 +182,9 @@ def _usable_cpus(cpus: tuple[int, ...]) -> tuple[set[int], str]:
 def claim(request: Request, tids: list[int] | None = None) -> Granted:
     """Give threads ``tids`` (default: the calling thread) the ``request`` as permitted; what they got.
 
-    Real time where permitted, else the nice value of :func:`fallback_nice` where permitted,
-    else the normal policy as it was; the CPU set in each case. A thread that ended meanwhile
+    Real time where permitted, else the nice value of :func:`fallback_nice` where permitted
+    (a lower nice value than the thread's is kept), else the normal policy as it was; the CPU set
+    in each case. A thread that ended meanwhile
     is skipped, and so is any id that is not a thread of this process."""
     own = set(thread_ids())
     tids = [threading.get_native_id()] if tids is None else [t for t in tids if t in own]
@@ -215,7 +216,8 @@ def claim(request: Request, tids: list[int] | None = None) -> Granted:
             if os.sched_getscheduler(tid) & ~_RESET_ON_FORK != os.SCHED_OTHER:
                 os.sched_setscheduler(tid, os.SCHED_OTHER, os.sched_param(0))
             try:
-                os.setpriority(os.PRIO_PROCESS, tid, nice)
+                if nice < os.getpriority(os.PRIO_PROCESS, tid):  # never lower what a launcher gave
+                    os.setpriority(os.PRIO_PROCESS, tid, nice)
             except ProcessLookupError:
                 continue
             except OSError as exc:
