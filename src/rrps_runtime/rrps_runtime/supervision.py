@@ -90,7 +90,7 @@ def raise_priority(nice: int, *, realtime: int | None = None) -> bool:
 
 def scheduling_of(pid: int) -> str:
     """How process ``pid`` is scheduled, for people: ``'SCHED_RR 10'`` or ``'nice -10'``."""
-    if os.sched_getscheduler(pid) == os.SCHED_RR:
+    if os.sched_getscheduler(pid) & ~getattr(os, 'SCHED_RESET_ON_FORK', 0) == os.SCHED_RR:  # a claimed thread's flag
         return f'SCHED_RR {os.sched_getparam(pid).sched_priority}'
     return f'nice {priority_of(pid)}'
 
