@@ -21,8 +21,8 @@ class NoRos(importlib.abc.MetaPathFinder):
         return None
 
 sys.meta_path.insert(0, NoRos())
-ROS_MODULES = {{'rrps_runtime.' + m for m in ('diagnostics', 'messages', 'parameters', 'process', 'qos',
-                                               'recording_tap')}}
+ROS_MODULES = {{'rrps_runtime.' + m for m in ('command_path', 'diagnostics', 'messages', 'parameters', 'process',
+                                               'qos', 'recording_tap')}}
 imported = []
 for package in ('rrps_description', 'rrps_interfaces', 'rrps_runtime', 'rrps_kinematics', 'rrps_sim',
                 'rrps_teleop', 'rrps_recording'):

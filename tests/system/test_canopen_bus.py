@@ -107,6 +107,28 @@ def test_the_loopback_bus_carries_frames_between_processes_and_none_leaves_the_m
         assert tx_packets(interface) - before[interface] < FRAMES, interface
 
 
+@pytest.mark.skipif(not sys.platform.startswith('linux'), reason='the kernel filter is Linux only')
+def test_a_bus_is_never_woken_by_its_own_frames():
+    """Its own datagrams are dropped in the kernel (a socket filter): the bus' socket does not
+    even become readable for them, as a CAN controller's host never sees its own frames."""
+    import select
+    port = free_port()
+    one = can.Bus(interface='rrps_loopback', channel=GROUP, port=port)
+    other = can.Bus(interface='rrps_loopback', channel=GROUP, port=port)
+    try:
+        for k in range(100):
+            one.send(can.Message(arbitration_id=0x100, data=[k], is_extended_id=False))
+        assert other.recv(timeout=10) is not None  # they went out
+        readable, _, _ = select.select([one.fileno()], [], [], 0.3)
+        assert not readable
+        other.send(can.Message(arbitration_id=0x200, data=[1], is_extended_id=False))
+        readable, _, _ = select.select([one.fileno()], [], [], 10.0)
+        assert readable and one.recv(timeout=1).arbitration_id == 0x200
+    finally:
+        one.shutdown()
+        other.shutdown()
+
+
 def test_a_channel_that_is_not_a_multicast_group_is_refused():
     with pytest.raises(can.CanInitializationError, match='not a multicast group'):
         can.Bus(interface='rrps_loopback', channel='192.0.2.7', port=free_port())

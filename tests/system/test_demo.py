@@ -17,13 +17,14 @@ from rrps_runtime.supervision import (
     CONTROL_NICE,
     CONTROL_RT_PRIORITY,
     OBSERVER_NICE,
+    OPERATOR_NICE,
     OPERATOR_RT_PRIORITY,
     child_pids,
     priority_of,
     process_alive,
     scheduling_of,
 )
-from rrps_testing.processes import interrupt
+from rrps_testing.processes import interrupt, wait_until
 
 pytestmark = [pytest.mark.ros]
 
@@ -141,13 +142,16 @@ def test_a_killed_demo_takes_its_robot_processes_with_it_and_ctrl_c_stops_it_fas
                 if not line or 'is live' in line:  # the banner: the robot processes are up
                     break
             children = child_pids(proc.pid)
-            assert len(children) == 3, children  # the driver, the robot's nodes, the observers
-            if os.geteuid() == 0:  # the robot's command path first in line for a core (CI is root)
-                assert sorted(priority_of(c) for c in children) == [CONTROL_NICE, CONTROL_NICE,
-                                                                     OBSERVER_NICE]
-                rt = f'SCHED_RR {CONTROL_RT_PRIORITY}'
-                assert sorted(scheduling_of(c) for c in children) == [rt, rt, f'nice {OBSERVER_NICE}']
-                assert scheduling_of(proc.pid) == f'SCHED_RR {OPERATOR_RT_PRIORITY}'  # the operator station
+            assert len(children) == 4, children  # the driver, the robot's nodes, master and teleop, the observers
+            if os.geteuid() == 0:  # the command path first in line for a core (CI is root)
+                assert sorted(priority_of(c) for c in children) == sorted([CONTROL_NICE, CONTROL_NICE, OPERATOR_NICE,
+                                                                           OBSERVER_NICE])
+                # each node process claims its command path's priority itself once its nodes are up
+                rt, operator = f'SCHED_RR {CONTROL_RT_PRIORITY}', f'SCHED_RR {OPERATOR_RT_PRIORITY}'
+                wanted = sorted([rt, rt, operator, f'nice {OBSERVER_NICE}'])
+                assert wait_until(lambda: sorted(scheduling_of(c) for c in children) == wanted, 60), \
+                    [scheduling_of(c) for c in children]
+                assert scheduling_of(proc.pid) == operator  # the viewer's executor (the deadman)
             if how == 'kill':
                 proc.kill()  # no chance to clean up: the parent-death signal stops them
                 proc.wait()

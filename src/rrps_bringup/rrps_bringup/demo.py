@@ -1,13 +1,14 @@
 """rrps-demo: the whole stack with the web viewer (``./rrps demo``).
 
-The demo runs as the system would on a robot and an operator station, in four processes
+The demo runs as the system would on a robot and an operator station, in five processes
 (docs/deployment.md):
 
 * the simulated hardware (``driver_node``, 500 Hz), active at the first start; it keeps the
   robot's physical state in a file of the run, and a driver that dies is restarted inactive
   where the robot is (the viewer's "Activate driver" resumes);
 * the robot computer's nodes, IK, FK and climbing, composed in one process (``rrps-compose``);
-* the operator station, master, teleop and the viewer, in this process;
+* the operator station: master and teleop composed in one process, the viewer (and the
+  headless script) in this one, so that its drawing never holds their interpreter;
 * the observers (:func:`start_recorder`): the flight recorder (the last 60 s, written on a fault
   or on the viewer's "Save last 60 s", in ``--recordings``; ``--record`` also records the whole
   session there), ``markers_node`` and ``robot_description_node`` (the robot for RViz2 and
@@ -53,21 +54,22 @@ from collections.abc import Mapping
 
 from rrps_bringup.scenarios import SCENARIOS, ros_arguments, scenario
 
-__all__ = ['main', 'build_stack', 'start_driver', 'start_robot_nodes', 'start_recorder',
+__all__ = ['main', 'build_stack', 'start_driver', 'start_robot_nodes', 'start_operator_nodes', 'start_recorder',
            'ROBOT_NODES', 'OPERATOR_NODES', 'OBSERVER_NODES']
 
 NAMESPACE = '/rrps'
-#: The robot computer's nodes (one process) and the operator station's (the demo's own process).
+#: The robot computer's nodes (one process) and the operator station's command path (another);
+#: the viewer runs in the demo's own process.
 ROBOT_NODES = ('ik_node', 'fk_node', 'climb_node')
-OPERATOR_NODES = ('master_node', 'teleop_node', 'viewer_node')
+OPERATOR_NODES = ('master_node', 'teleop_node')
 
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog='rrps-demo', description='Run the whole rrps stack with the web viewer, in four supervised '
+        prog='rrps-demo', description='Run the whole rrps stack with the web viewer, in five supervised '
                                       'processes: the driver; IK, FK and climb (the robot computer); '
-                                      'master, teleop and viewer (the operator station); recorder and '
-                                      'markers (observers).')
+                                      'master and teleop, and the viewer (the operator station); recorder '
+                                      'and markers (observers).')
     p.add_argument('--host', default='127.0.0.1',
                    help='address the viewer binds (default 127.0.0.1; 0.0.0.0 for remote operators)')
     p.add_argument('--port', type=int, default=8080, help='viewer port (default 8080)')
@@ -93,14 +95,14 @@ def _parser() -> argparse.ArgumentParser:
 
 def build_stack(context, *, robot: str, host: str, port: int, token: str,
                 viewer: bool = True, climb: bool = True, driver: bool = True,
-                kinematics: bool = True, driver_rate: float = 500.0,
+                kinematics: bool = True, teleop: bool = True, driver_rate: float = 500.0,
                 namespace: str = NAMESPACE, parameters: Mapping[str, Mapping] | None = None) -> dict:
     """Create nodes of the demo on ``context`` under ``namespace``; returns name -> node.
 
     Every node by default (one process, as the tests use it). ``viewer=False`` / ``climb=False``
-    / ``driver=False`` / ``kinematics=False`` leave out the viewer / climbing node / simulated
-    driver / IK and FK nodes (the demo runs the driver and the robot's nodes in processes of
-    their own: :func:`start_driver`, :func:`start_robot_nodes`); ``driver_rate`` is the
+    / ``driver=False`` / ``kinematics=False`` / ``teleop=False`` leave out the viewer / climbing
+    node / simulated driver / IK and FK nodes / master and teleop (the demo runs them in processes
+    of their own: :func:`start_driver`, :func:`start_robot_nodes`, :func:`start_operator_nodes`); ``driver_rate`` is the
     simulated driver's actuators/state rate [Hz]. ``parameters``: node name -> {name: value}
     that node gets on top (a scenario's, :func:`scenario_parameters`).
     Each node reads its parameter file first (:func:`rrps_bringup.params.parameter_overrides`).
@@ -121,10 +123,8 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
             ] if driver else []
     if kinematics:
         plan += [('ik_node', IkNode, robot_param), ('fk_node', FkNode, robot_param)]
-    plan += [
-        ('master_node', MasterNode, []),
-        ('teleop_node', TeleopNode, robot_param),
-    ]
+    if teleop:
+        plan += [('master_node', MasterNode, []), ('teleop_node', TeleopNode, robot_param)]
     if climb:
         try:
             from rrps_teleop.nodes.climb_node import ClimbNode
@@ -187,16 +187,16 @@ def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
                  parameters: Mapping[str, Mapping] | None = None) -> subprocess.Popen:
     """The simulated hardware (driver_node) in a process of its own, as a real robot's driver.
 
-    Its 500 Hz loop has an interpreter and a core to itself. It keeps the robot's physical
+    Its 500 Hz loop has an interpreter to itself and claims its real-time priority itself
+    (``rt_priority``). It keeps the robot's physical
     state in ``state_file`` (a restart resumes it) and starts inactive unless ``activate``.
     It inherits the environment (domain id, discovery range) and dies with this process; stop
     it with :func:`rrps_runtime.supervision.stop_children`.
     """
-    from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child
+    from rrps_runtime.supervision import CONTROL_NICE, start_child
     return start_child(driver_command(robot=robot, rate=rate, namespace=namespace, state_file=state_file,
                                       activate=activate, hardware=hardware, parameters=parameters),
-                       nice=CONTROL_NICE,
-                       realtime=CONTROL_RT_PRIORITY)
+                       nice=CONTROL_NICE)
 
 
 def start_drives(*, robot: str) -> subprocess.Popen:
@@ -223,14 +223,25 @@ def driver_command(*, robot: str, rate: float = 500.0, namespace: str = NAMESPAC
 
 def start_robot_nodes(*, robot: str, namespace: str = NAMESPACE,
                       parameters: Mapping[str, Mapping] | None = None) -> subprocess.Popen:
-    """The robot computer's nodes (:data:`ROBOT_NODES`) composed in one process of their own."""
+    """The robot computer's nodes (:data:`ROBOT_NODES`) composed in one process of their own
+    (their command path claims its real-time priority itself)."""
     from rrps_bringup.params import params_file_arguments
-    from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child
+    from rrps_runtime.supervision import CONTROL_NICE, start_child
     return start_child([sys.executable, '-m', 'rrps_bringup.compose', *ROBOT_NODES, '--ros-args',
                         *params_file_arguments(*ROBOT_NODES),
                         '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
-                        *_process_arguments(parameters or {}, *ROBOT_NODES)], nice=CONTROL_NICE,
-                       realtime=CONTROL_RT_PRIORITY)
+                        *_process_arguments(parameters or {}, *ROBOT_NODES)], nice=CONTROL_NICE)
+
+
+def start_operator_nodes(*, robot: str, namespace: str = NAMESPACE,
+                         parameters: Mapping[str, Mapping] | None = None) -> subprocess.Popen:
+    """The operator station's command path (:data:`OPERATOR_NODES`: master, teleop) composed in
+    one process of their own, which claims its real-time priority itself."""
+    from rrps_bringup.params import params_file_arguments
+    from rrps_runtime.supervision import OPERATOR_NICE, start_child
+    return start_child([sys.executable, '-m', 'rrps_bringup.compose', *OPERATOR_NODES, '--ros-args',
+                        *params_file_arguments(*OPERATOR_NODES), '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
+                        *_process_arguments(parameters or {}, *OPERATOR_NODES)], nice=OPERATOR_NICE)
 
 
 #: The observers: the flight recorder and the robot's markers for RViz2 / Foxglove.
@@ -255,8 +266,8 @@ def start_recorder(*, robot: str, output_dir: str, record: bool = False,
 def wait_for_robot(executor, context, node, children: list[subprocess.Popen],
                    stop: threading.Event, *, timeout: float = 60.0) -> bool:
     """Spin until the robot is up, seen from ``node``: the driver's ``actuators/state``, the FK's
-    ``pose`` and the climbing services. False if a child exits, ``stop`` is set or ``timeout``
-    s pass first."""
+    ``pose``, the climbing services and teleop's status. False if a child exits, ``stop`` is set
+    or ``timeout`` s pass first."""
     from rclpy.task import Future
 
     ns = node.get_namespace().rstrip('/')
@@ -266,7 +277,8 @@ def wait_for_robot(executor, context, node, children: list[subprocess.Popen],
     def up() -> bool:
         names = {name for name, _ in node.get_service_names_and_types()}
         return (node.count_publishers(f'{ns}/actuators/state') > 0
-                and node.count_publishers(f'{ns}/pose') > 0 and f'{ns}/climb/step_up' in names)
+                and node.count_publishers(f'{ns}/pose') > 0 and f'{ns}/climb/step_up' in names
+                and node.count_publishers(f'{ns}/teleop/status') > 0)
 
     while context.ok() and not stop.is_set() and time.monotonic() < deadline:
         if any(child.poll() is not None for child in children):
@@ -311,12 +323,12 @@ def _argument_error(args) -> str | None:
 def _start_robot(args, run_dir: str):
     """The simulated robot: its driver (active at the first start only; a restarted driver
     resumes the robot's physical state from the state file and waits for activation), its
-    computer's nodes, and the observers (flight recorder, markers). A child that dies is
-    restarted (at most 3 times a minute)."""
+    computer's nodes, the operator station's master and teleop, and the observers (flight
+    recorder, markers). A child that dies is restarted (at most 3 times a minute)."""
     from rrps_runtime.supervision import Respawner
 
     state_file = os.path.join(run_dir, f'{args.robot}-hardware.json')
-    params = scenario_parameters(args.scenario, 'driver_node', *ROBOT_NODES, *OBSERVER_NODES)
+    params = scenario_parameters(args.scenario, 'driver_node', *ROBOT_NODES, *OPERATOR_NODES, *OBSERVER_NODES)
     drives = {}
     if args.hardware == 'canopen':  # the drives first: the driver configures them at its start
         from rrps_canopen.loopback_bus import free_port
@@ -327,6 +339,7 @@ def _start_robot(args, run_dir: str):
         'driver': lambda first: start_driver(robot=args.robot, state_file=state_file, activate=first,
                                              hardware=args.hardware, parameters=params),
         'robot nodes': lambda first: start_robot_nodes(robot=args.robot, parameters=params),
+        'operator nodes': lambda first: start_operator_nodes(robot=args.robot, parameters=params),
         'observer': lambda first: start_recorder(robot=args.robot, output_dir=args.recordings,
                                                  record=args.record, parameters=params),
     })
@@ -348,10 +361,13 @@ def _serve(executor, context, robot, stop: threading.Event) -> None:
 
 def _run_script(script, executor, context, robot, stop: threading.Event, viewer) -> int:
     """The headless demo: run the scripted session while another thread spins; 0 if it passed."""
+    from rrps_runtime.command_path import claim_spinning_thread
     from rrps_runtime.process import spin_until_shutdown
 
-    spinner = threading.Thread(target=spin_until_shutdown, args=(executor, context, stop),
-                               kwargs={'period': 0.02}, daemon=True)
+    def spin() -> None:
+        claim_spinning_thread()  # the operator station's command path spins here now
+        spin_until_shutdown(executor, context, stop, period=0.02)
+    spinner = threading.Thread(target=spin, daemon=True)
     spinner.start()
     try:
         ok = script.run(stop, viewer=viewer)
@@ -391,10 +407,10 @@ def main(argv=None) -> int:
     from rclpy.signals import SignalHandlerOptions
 
     from rrps_description.geometry import RobotDescriptionError
+    from rrps_runtime.command_path import claim_command_path
     from rrps_runtime.process import freeze_startup_objects, make_executor
     from rrps_runtime.supervision import (
         OPERATOR_NICE,
-        OPERATOR_RT_PRIORITY,
         Respawner,
         exit_with_parent,
         raise_priority,
@@ -403,8 +419,9 @@ def main(argv=None) -> int:
 
     stop = threading.Event()
     exit_with_parent(stop.set)
-    # the operator station: before other jobs (the browser), after the robot's processes
-    raise_priority(OPERATOR_NICE, realtime=OPERATOR_RT_PRIORITY)
+    # the operator station: before other jobs (the browser); its command path (master, teleop)
+    # claims its real-time priority once its nodes are up, after the robot's
+    raise_priority(OPERATOR_NICE)
     context = rclpy.Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     previous = {sig: signal.signal(sig, lambda *_: stop.set())
@@ -417,7 +434,7 @@ def main(argv=None) -> int:
         try:
             nodes = build_stack(context, robot=args.robot, host=args.host, port=args.port,
                                 token=args.token, viewer=True, driver=False, kinematics=False,
-                                climb=False, parameters=scenario_parameters(args.scenario, *OPERATOR_NODES))
+                                climb=False, teleop=False, parameters=scenario_parameters(args.scenario, 'viewer_node'))
         except (RobotDescriptionError, ValueError) as exc:
             print(f'error: {exc}', file=sys.stderr)
             return 2
@@ -429,7 +446,8 @@ def main(argv=None) -> int:
         for node in nodes.values():
             executor.add_node(node)
         freeze_startup_objects()
-        if not wait_for_robot(executor, context, nodes['teleop_node'],
+        claim_command_path(list(nodes.values()), executor)
+        if not wait_for_robot(executor, context, nodes['viewer_node'],
                               list(robot.children.values()), stop):
             if not stop.is_set() or robot.poll():
                 print('error: the simulated robot did not start', file=sys.stderr)

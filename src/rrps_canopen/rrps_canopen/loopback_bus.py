@@ -5,7 +5,10 @@ onto the machine's network. This bus is the same idea kept on the host: the grou
 127.0.0.1, sent through 127.0.0.1 (``IP_MULTICAST_IF``) with TTL 0, so no frame leaves the
 machine; no kernel module and no root are needed. Frames are ``udp_multicast``'s msgpack
 encoding. A process does not receive its own frames (as on a real CAN controller): each bus
-sends from a socket of its own and drops what came from it. Registered in python-can's
+sends from a socket of its own, and on Linux a socket filter (classic BPF on the UDP source
+port) drops its own datagrams in the kernel, so that the process never wakes for them (half of
+a driver's datagrams: docs/measurements.md, CANopen); elsewhere they are dropped on receipt.
+Registered in python-can's
 ``can.interface`` entry points::
 
     can.Bus(interface='rrps_loopback', channel='239.74.163.10', port=43120)
@@ -15,9 +18,12 @@ sends from a socket of its own and drops what came from it. Registered in python
 
 from __future__ import annotations
 
+import ctypes
 import ipaddress
 import select
 import socket
+import struct
+import sys
 import time
 from typing import Any
 
@@ -34,6 +40,24 @@ _MAX_DATAGRAM = 4096
 #: second of a six-drive bus at 500 Hz, every process' own frames included. The default (about
 #: 200 kB, 30 ms of that traffic) overflowed while a loaded machine stopped a process for 50 ms.
 RECEIVE_BUFFER = 4 << 20
+
+
+#: setsockopt option of a classic BPF socket filter (Linux' SO_ATTACH_FILTER).
+SO_ATTACH_FILTER = 26
+
+
+def _drop_own_datagrams(sock: socket.socket, port: int) -> ctypes.Array | None:
+    """Attach a socket filter to ``sock`` that drops UDP datagrams from source port ``port``
+    (Linux; the program's buffer is returned: keep it alive with the socket). None elsewhere."""
+    if not sys.platform.startswith('linux'):
+        return None
+    program = [(0x28, 0, 0, 0),             # ldh [0]: the UDP source port
+               (0x15, 0, 1, port),          # jeq #port, then drop, else accept
+               (0x06, 0, 0, 0),             # ret #0: drop
+               (0x06, 0, 0, 0xFFFFFFFF)]    # ret #-1: the whole datagram
+    code = ctypes.create_string_buffer(b''.join(struct.pack('HBBI', *op) for op in program))
+    sock.setsockopt(socket.SOL_SOCKET, SO_ATTACH_FILTER, struct.pack('HL', len(program), ctypes.addressof(code)))
+    return code
 
 
 def free_port() -> int:
@@ -79,6 +103,7 @@ class LoopbackBus(can.BusABC):
             self._tx.close()
             raise can.CanInitializationError(f'rrps_loopback: cannot open {self.group}:{self.port}: {exc}') from exc
         self._own = self._tx.getsockname()
+        self._filter = None if self.receive_own_messages else _drop_own_datagrams(self._rx, self._own[1])
         self._destination = (self.group, self.port)
         self.channel_info = f'rrps_loopback {self.group}:{self.port}'
         super().__init__(channel=self.group, **kwargs)

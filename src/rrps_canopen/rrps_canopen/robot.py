@@ -26,6 +26,8 @@ Python (canopen, python-can), no ROS import.
 
 from __future__ import annotations
 
+import threading
+
 import can
 import numpy as np
 
@@ -36,6 +38,7 @@ from rrps_canopen.grippers import GripperIo
 from rrps_canopen.homing import check_positions, home, homing_timeout, refuse, set_mode
 from rrps_canopen.network import resolve_eds
 from rrps_description.names import LEG_NAMES, RINGS
+from rrps_runtime.scheduling import Granted, claim, request_of
 from rrps_sim.hardware.commands import ring_joints
 from rrps_sim.hardware.interface import (
     OK,
@@ -63,6 +66,24 @@ def _failure(message: str) -> Transition:
     return Transition(CallbackReturn.FAILURE, message)
 
 
+#: The name of python-can's receive thread (``can.Notifier``'s, one per bus) begins so.
+RECEIVE_THREAD = 'Notifier for bus'
+
+
+def claim_bus_threads(config: HardwareConfig) -> tuple[Granted, Granted] | None:
+    """The bus' threads above the driver's command path (its ``rt_priority``, ``cpu_affinity``):
+    the SYNC cycle two priorities higher, python-can's receive thread one higher, so the cycle
+    never waits for the driver's executor (rrps_runtime.scheduling); what they got, or None
+    without a scheduling request."""
+    p = config.parameters
+    if 'rt_priority' not in p or 'cpu_affinity' not in p:
+        return None
+    request = request_of(p)
+    threads = [(t.name, t.native_id) for t in threading.enumerate() if t.native_id is not None]
+    return (claim(request.shifted(2), [tid for name, tid in threads if name == 'canopen-sync']),
+            claim(request.shifted(1), [tid for name, tid in threads if name.startswith(RECEIVE_THREAD)]))
+
+
 class CanopenRobot(SystemInterface):
     """A robot's legs and grippers on a CANopen bus (see the module docstring)."""
 
@@ -72,6 +93,8 @@ class CanopenRobot(SystemInterface):
         self.geometry = None
         self.active = False
         self._last: SystemState | None = None
+        #: what the SYNC cycle and the receive thread got (claim_bus_threads)
+        self.bus_scheduling: tuple[Granted, Granted] | None = None
 
     # --- lifecycle ---
 
@@ -104,6 +127,7 @@ class CanopenRobot(SystemInterface):
                                           latch=self.drives.latch, sdo_retries=g.bus.sdo_retries)
                 self.grippers.check()
             self.drives.configure()
+            self.bus_scheduling = claim_bus_threads(config)
             if self.grippers is not None:
                 self.grippers.configure(g.bus.heartbeat_period)
         except (ConfigureError, FileNotFoundError) as exc:

@@ -15,7 +15,7 @@ import typing
 from typing import Any, ClassVar, Mapping
 
 __all__ = ['DIAGNOSTICS', 'ContractError', 'encode_value', 'decode_value', 'StatusValues', 'source_node',
-           'CommandAgeStatus']
+           'CommandAgeStatus', 'SchedulingStatus']
 
 #: diagnostic_msgs/DiagnosticArray: every node's status (REP-107).
 DIAGNOSTICS = '/diagnostics'
@@ -121,3 +121,16 @@ class CommandAgeStatus(StatusValues):
     command_age_p50_ms: float | None = None
     command_age_p99_ms: float | None = None
     command_age_max_ms: float | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class SchedulingStatus(StatusValues):
+    """The scheduling a node's command path got (every node that claims one reports it with its
+    own status): the policy ('SCHED_RR' or 'SCHED_OTHER'), its priority, the nice value, the
+    CPUs, and why less than asked was granted ('' when all of it was)."""
+
+    scheduling_policy: str
+    scheduling_priority: int = 0
+    scheduling_nice: int = 0
+    scheduling_cpus: tuple[int, ...] = ()
+    scheduling_refused: str = ''

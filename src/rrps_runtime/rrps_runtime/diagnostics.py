@@ -4,7 +4,9 @@ A status is named ``<node name>: <what>`` (diagnostic_updater's convention, whic
 of ``rrps_bringup/config/diagnostics/diagnostic_aggregator.yaml`` match), has one of the four
 standard levels (OK, WARN, ERROR, STALE) and a ``hardware_id``: the robot's name for a status
 about the robot (the robot computer's nodes and teleop), else the role of the host it runs on
-(:data:`OPERATOR_STATION`, :data:`OBSERVER`).
+(:data:`OPERATOR_STATION`, :data:`OBSERVER`). In a process whose command path claimed its
+scheduling (:mod:`rrps_runtime.command_path`) every status also carries what it got
+(:class:`rrps_interfaces.status.SchedulingStatus`).
 """
 
 from __future__ import annotations
@@ -15,8 +17,9 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 
-from rrps_interfaces.status import DIAGNOSTICS, StatusValues
+from rrps_interfaces.status import DIAGNOSTICS, StatusValues, encode_value
 from rrps_runtime.qos import STATE_QOS
+from rrps_runtime.scheduling import process_scheduling
 
 __all__ = ['OK', 'WARN', 'ERROR', 'STALE', 'LEVELS', 'OPERATOR_STATION', 'OBSERVER', 'Diagnostics']
 
@@ -81,6 +84,9 @@ class Diagnostics:
         else:
             status.values = [KeyValue(key=str(k), value=_format_value(v))
                              for k, v in (values or {}).items()]
+        granted = process_scheduling()
+        if granted is not None:  # the command path's scheduling (rrps_interfaces.status.SchedulingStatus)
+            status.values += [KeyValue(key=k, value=encode_value(v)) for k, v in granted.values().items()]
         msg = DiagnosticArray()
         msg.header.stamp = now.to_msg()
         msg.status = [status]

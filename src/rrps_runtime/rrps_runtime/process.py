@@ -16,6 +16,7 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 
 from rrps_description.geometry import RobotDescriptionError
+from rrps_runtime.command_path import claim_command_path
 from rrps_runtime.supervision import exit_with_parent
 
 __all__ = ['make_executor', 'spin_until_shutdown', 'freeze_startup_objects', 'run_nodes']
@@ -63,7 +64,8 @@ def run_nodes(factories: Sequence[Callable[..., Node]], args=None, *, executor_k
     (an invalid robot description or parameter) prints one line and exits with status 2.
     SIGINT and SIGTERM end the spin between callbacks (never inside one), then nodes are destroyed.
     A process started by :func:`rrps_runtime.supervision.start_child` also stops when its
-    supervisor is gone.
+    supervisor is gone. The thread that spins claims the scheduling the nodes ask for
+    (:func:`rrps_runtime.command_path.claim_command_path`).
     """
     stop = threading.Event()
     exit_with_parent(stop.set)
@@ -82,6 +84,7 @@ def run_nodes(factories: Sequence[Callable[..., Node]], args=None, *, executor_k
         for node in nodes:
             executor.add_node(node)
         freeze_startup_objects()
+        claim_command_path(nodes, executor)
         spin_until_shutdown(executor, context, stop)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

@@ -34,7 +34,8 @@ from typing import Sequence
 
 __all__ = ['PARENT_PID_ENV', 'CONTROL_NICE', 'CONTROL_RT_PRIORITY', 'OPERATOR_NICE', 'OPERATOR_RT_PRIORITY',
            'OBSERVER_NICE', 'start_child', 'priority_of', 'group_priority_of', 'scheduling_of', 'raise_priority',
-           'stop_child', 'stop_children', 'exit_with_parent', 'Respawner', 'process_alive', 'child_pids']
+           'stop_child', 'stop_children', 'exit_with_parent', 'die_with_parent', 'Respawner', 'process_alive',
+           'child_pids']
 
 #: Environment variable through which a child learns its supervisor's pid.
 PARENT_PID_ENV = 'RRPS_PARENT_PID'
@@ -89,7 +90,7 @@ def raise_priority(nice: int, *, realtime: int | None = None) -> bool:
 
 def scheduling_of(pid: int) -> str:
     """How process ``pid`` is scheduled, for people: ``'SCHED_RR 10'`` or ``'nice -10'``."""
-    if os.sched_getscheduler(pid) == os.SCHED_RR:
+    if os.sched_getscheduler(pid) & ~getattr(os, 'SCHED_RESET_ON_FORK', 0) == os.SCHED_RR:  # a claimed thread's flag
         return f'SCHED_RR {os.sched_getparam(pid).sched_priority}'
     return f'nice {priority_of(pid)}'
 
@@ -131,8 +132,9 @@ def child_pids(pid: int) -> list[int]:
     return out
 
 
-def _die_with_parent(parent: int) -> None:
-    """In the child, before exec: ask the kernel for SIGTERM when the parent dies."""
+def die_with_parent(parent: int) -> None:
+    """In a child (before exec, or a worker process at its start): ask the kernel for SIGTERM
+    when the parent ``parent`` dies."""
     if sys.platform.startswith('linux'):
         libc = ctypes.CDLL(ctypes.util.find_library('c') or 'libc.so.6', use_errno=True)
         libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
@@ -157,7 +159,7 @@ def start_child(args: Sequence[str], *, env: dict | None = None, nice: int | Non
     child_env[PARENT_PID_ENV] = str(parent)
 
     def prepare() -> None:
-        _die_with_parent(parent)
+        die_with_parent(parent)
         if nice is not None or realtime is not None:
             if os.getsid(0) != os.getpid():
                 os.setsid()

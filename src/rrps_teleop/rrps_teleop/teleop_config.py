@@ -19,6 +19,8 @@ from rrps_description.world import IDENTITY_QUATERNION
 from rrps_interfaces.link import SOURCES
 from rrps_interfaces.teleop import MASTER_FRAME
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
+from rrps_runtime.scheduling import scheduling_parameters
+from rrps_runtime.supervision import OPERATOR_RT_PRIORITY
 
 __all__ = ['CONTROL_TRIGGERS', 'MODES', 'PARAMETERS', 'ROTATION_MODES', 'TeleopConfig', 'validate_scale']
 
@@ -94,6 +96,7 @@ PARAMETERS = NodeParameters('teleop_node', 'rrps_teleop', [
     Parameter('control_frame', 'ring_b', "the frame the master moves in cartesian mode: ring_b's origin or "
               'the tool-centre point (translations move the tool tip, rotations turn about it)',
               choices=TARGET_FRAMES, dynamic=True),
+    *scheduling_parameters(OPERATOR_RT_PRIORITY),
 ])
 
 

@@ -52,10 +52,15 @@ def can_env(port: int, **extra: str) -> dict:
 
 class DriveSim:
     """``rrps-drive-sim`` in a process of its own (its drives behaving as ``behaviour`` says:
-    rrps_canopen.simulator.behaviour); ``ask`` sends one request, returns the answer."""
+    rrps_canopen.simulator.behaviour); ``ask`` sends one request, returns the answer.
+
+    ``cpus``: the CPUs its threads may run on (all of them, once it is ready). The simulated
+    drives stand for devices with processors of their own: a benchmark pins them to a CPU the
+    robot computer's measured processes leave to them, so that their work is not the robot's."""
 
     def __init__(self, robot: str = 'pole_climber', *, port: int | None = None, master: bool = False,
-                 lengths=None, time_constant: float | None = None, behaviour: dict | None = None):
+                 lengths=None, time_constant: float | None = None, behaviour: dict | None = None,
+                 cpus: tuple[int, ...] = ()):
         self.port = free_port() if port is None else port
         args = [sys.executable, '-m', 'rrps_canopen.simulator.process', '--robot', robot, '--stdin']
         args += ['--master'] if master else []
@@ -70,6 +75,9 @@ class DriveSim:
         if not self.ready.get('ready'):
             self.stop()
             raise RuntimeError(f'rrps-drive-sim did not start: {self.ready}')
+        if cpus:  # its threads all exist now; those it starts later inherit the set
+            for tid in os.listdir(f'/proc/{self.process.pid}/task'):
+                os.sched_setaffinity(int(tid), set(cpus))
 
     def _read(self) -> None:
         for line in self.process.stdout:

@@ -34,6 +34,8 @@ from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
+from rrps_runtime.scheduling import scheduling_parameters
+from rrps_runtime.supervision import CONTROL_RT_PRIORITY
 
 __all__ = ['FkNode', 'main']
 
@@ -49,6 +51,7 @@ PARAMETERS = NodeParameters('fk_node', 'rrps_kinematics', [
               'length) is re-solved by continuation; 0 disables the check', unit='m', range=(0.0, 10.0),
               dynamic=True),
     Parameter('continuation_steps', 20, 'steps of the continuation solve', range=(1, 1000), dynamic=True),
+    *scheduling_parameters(CONTROL_RT_PRIORITY),
 ])
 
 

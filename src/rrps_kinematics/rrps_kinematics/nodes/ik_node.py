@@ -34,6 +34,8 @@ from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
+from rrps_runtime.scheduling import scheduling_parameters
+from rrps_runtime.supervision import CONTROL_RT_PRIORITY
 
 __all__ = ['IkNode', 'main']
 
@@ -52,6 +54,7 @@ PARAMETERS = NodeParameters('ik_node', 'rrps_kinematics', [
               'scale each command so no leg moves faster than max_speed since the previous one'),
     Parameter('max_speed', 0.0, "leg speed limit of limit_velocity; 0 = the robot's max_speed", unit='m/s',
               range=(0.0, 100.0)),
+    *scheduling_parameters(CONTROL_RT_PRIORITY),
 ])
 
 

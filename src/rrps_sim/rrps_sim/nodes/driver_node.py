@@ -58,6 +58,8 @@ from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
+from rrps_runtime.scheduling import scheduling_parameters
+from rrps_runtime.supervision import CONTROL_RT_PRIORITY
 from rrps_sim.hardware import hardware_class
 from rrps_sim.hardware.commands import checked_command, ring_joints
 from rrps_sim.hardware.interface import BusState, Command, HardwareConfig, Result, ReturnType, Transition
@@ -80,6 +82,7 @@ PARAMETERS = NodeParameters('driver_node', 'rrps_sim', [
     Parameter('auto_activate', False, 'activate at start (otherwise: change_state activate)'),
     Parameter('support_timeout', DEFAULT_TIMEOUT, 'odometry/support older than this is not followed: the last '
               'known attitude of the supporting ring is kept (status WARN)', unit='s', range=(0.01, 600.0)),
+    *scheduling_parameters(CONTROL_RT_PRIORITY),
     *SimulatedRobot.PARAMETERS,
 ])
 #: The parameters the driver passes on to its hardware while it runs.

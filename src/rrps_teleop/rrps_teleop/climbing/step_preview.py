@@ -23,7 +23,7 @@ from rrps_sim.preview import Drives, PreviewError, PreviewMotion, preview_step
 from rrps_teleop.climbing.phase_path import PhasePath
 from rrps_teleop.climbing.plan import Phase
 
-__all__ = ['PreviewConfig', 'preview_motions', 'run_preview', 'StepSnapshot']
+__all__ = ['PreviewConfig', 'preview_motions', 'run_preview', 'warm_up', 'StepSnapshot']
 
 
 @dataclass(frozen=True)
@@ -80,6 +80,17 @@ def run_preview(geometry: RobotGeometry, phases: Sequence[Phase], *, speed: floa
                         peak_reaction_moment=r.peak_reaction_moment, min_margin=r.min_margin,
                         min_margin_ring=r.min_margin_ring, limit=r.limit, simulated=r.simulated,
                         wall=r.wall, detail=r.detail)
+
+
+def warm_up(geometry: RobotGeometry, config: PreviewConfig = PreviewConfig()) -> None:
+    """Load the preview's compiled kernels (a still motion at home on each ring), so that the
+    first step's preview in a process does not wait seconds for them."""
+    positions = np.array([geometry.home_position] * 2, dtype=float)
+    quaternions = np.array([geometry.home_quaternion_xyzw] * 2, dtype=float)
+    upright = np.array([0.0, 0.0, 0.0, 1.0])
+    motions = [PreviewMotion(f'warm-up on {ring}', ring, upright, positions, quaternions, config.dt)
+               for ring in ('ring_a', 'ring_b')]
+    preview_step(geometry, motions, gravity=config.gravity, drives=config.drives, dt=config.dt, settle=config.dt)
 
 
 @dataclass(frozen=True)

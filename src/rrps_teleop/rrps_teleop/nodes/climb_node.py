@@ -18,7 +18,9 @@ Services ``climb/step_up``, ``climb/step_down`` and ``climb/resume`` (std_srvs/T
 ``auto_steps`` > 0 climbs that many steps up once the robot's state is known.
 
 With ``preview`` (default), each planned step is first simulated on the dynamics in a worker
-thread (:func:`rrps_teleop.climbing.step_preview.run_preview`; the node keeps serving), its
+process (:func:`rrps_teleop.climbing.step_preview.run_preview` in a
+:class:`~rrps_runtime.worker.WorkerProcess`: the node and those composed with it keep their
+rate, docs/deployment.md), its
 peaks published on ``climb/preview`` (values :class:`~rrps_interfaces.climb.ClimbPreview`,
 latched); the machine then starts or refuses it.
 """
@@ -27,8 +29,8 @@ from __future__ import annotations
 
 import logging
 import math
-import threading
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future
+from functools import partial
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, TransformStamped
@@ -63,13 +65,16 @@ from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, LATEST_QOS, LINK_STATE_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
+from rrps_runtime.scheduling import scheduling_parameters
+from rrps_runtime.supervision import CONTROL_RT_PRIORITY
+from rrps_runtime.worker import WorkerProcess
 from rrps_teleop.climbing.frame_node import FrameNodePlanner
 from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_teleop.climbing.load_check import LoadCheck
 from rrps_teleop.climbing.odometry_attitude import SupportPublisher, anchor_phases, support_of_odometry
 from rrps_teleop.climbing.step_io import ClimbOutput, ClimbTarget, StepConfig
 from rrps_teleop.climbing.step_machine import ClimbStepMachine
-from rrps_teleop.climbing.step_preview import PreviewConfig, run_preview
+from rrps_teleop.climbing.step_preview import PreviewConfig, run_preview, warm_up
 
 __all__ = ['PARAMETERS', 'ClimbNode', 'main']
 
@@ -111,6 +116,7 @@ PARAMETERS = NodeParameters('climb_node', 'rrps_teleop', [
     Parameter('gravity', (0.0, 0.0, -9.81), "the world's gravity in the structure's frame (the preview's)",
               unit='m/s^2', item_type=float),
     Parameter('preview_min_margin', 0.0, 'smallest holding margin a preview accepts', range=(-1.0, 1.0)),
+    *scheduling_parameters(CONTROL_RT_PRIORITY),
 ])
 
 LEVELS = {ClimbState.IDLE: OK, ClimbState.EXECUTING: OK, ClimbState.PAUSED: ERROR, ClimbState.FAILED: ERROR}
@@ -138,9 +144,10 @@ class ClimbNode(Node):
             raise ValueError(f"gravity: expected 3 numbers [m/s^2], got {values['gravity']}")
         self._preview_config = PreviewConfig(gravity=tuple(values['gravity']),
                                              min_margin=values['preview_min_margin'])
-        self._preview_worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix='climb_preview')
+        # never in this process' interpreter; its kernels loaded there at start, not at the first step
+        self._preview_worker = WorkerProcess('climb_preview', warm_up=partial(warm_up, self.geometry,
+                                                                              self._preview_config))
         self._preview_job: Future | None = None
-        self._closing = threading.Event()
         self._pose_msg: PoseStamped | None = None
         self._odometry = None  # (world_T_a, world_T_b, stamp) not yet published
         self._gripper_call = None  # (GripperRequest, Future) awaiting the driver's answer
@@ -318,7 +325,7 @@ class ClimbNode(Node):
             phases = anchor_phases(out.preview, None if odometry is None else odometry.world_T_a)
             self._preview_job = self._preview_worker.submit(
                 run_preview, self.geometry, phases, speed=c.speed, period=c.period,
-                config=self._preview_config, cancelled=self._closing.is_set)
+                config=self._preview_config)
         if out.status is not None:
             self._publish_status(out.status)
 
@@ -356,8 +363,7 @@ class ClimbNode(Node):
 
 
     def destroy_node(self) -> None:
-        self._closing.set()
-        self._preview_worker.shutdown(wait=True, cancel_futures=True)
+        self._preview_worker.shutdown()
         super().destroy_node()
 
 

@@ -45,6 +45,8 @@ from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
+from rrps_runtime.scheduling import scheduling_parameters
+from rrps_runtime.supervision import OPERATOR_RT_PRIORITY
 from rrps_sim.hardware import master_hardware_class
 from rrps_sim.hardware.interface import HardwareConfig
 from rrps_teleop.master import TRAJECTORIES, HandleMotion, MasterModel, scripted_pose
@@ -74,6 +76,7 @@ PARAMETERS = NodeParameters('master_node', 'rrps_teleop', [
               'hand yields)', unit='m/N', range=(0.0, 0.1)),
     Parameter('feedback_angular_compliance', 0.05, 'how far master/feedback turns the handle back',
               unit='rad/(N m)', range=(0.0, 10.0)),
+    *scheduling_parameters(OPERATOR_RT_PRIORITY),
 ])
 
 

@@ -67,6 +67,8 @@ from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS
+from rrps_runtime.scheduling import scheduling_parameters
+from rrps_runtime.supervision import OPERATOR_RT_PRIORITY
 from rrps_teleop.nodes.viewer_recording import ViewerRecording
 from rrps_teleop.nodes.viewer_requests import OperatorRequest, ViewerRequests
 from rrps_teleop.nodes.viewer_robots import DRIVER, FK, ViewerRobots
@@ -106,6 +108,7 @@ PARAMETERS = NodeParameters('viewer_node', 'rrps_teleop', [
               'link relays (link)', choices=SOURCES),
     Parameter('robots', ('',), "the namespaces of the robots (a fleet's: /robot_1, ...; '': the viewer's own), "
               'the first drawn at start', item_type=str),
+    *scheduling_parameters(OPERATOR_RT_PRIORITY),  # its executor sends the deadman; drawing stays normal
 ])
 
 
