@@ -9,7 +9,8 @@ capacity (eq. 19 with the motion's accelerations, linearised exactly per gridpoi
 bang-bang profile is then made jerk-limited by a moving average (:mod:`.timing_profile`, the
 window from the legs' jerk limit). The smoothed law is checked at every sample
 (:data:`SAMPLE_PERIOD`, the driver's period): each leg's speed, acceleration and jerk (finite
-differences of the accelerations), the actuator forces and the exact holding margin
+differences of the accelerations; a plan uses :data:`PLAN_SHARE` of each leg limit, the rest is
+the driver's to catch up with the stream), the actuator forces and the exact holding margin
 (:func:`rrps_sim.loads.holding_margin`). Where a check exceeds its limit (the averaging and the
 polyhedral holding capacity are approximations) the whole law is slowed by a uniform time scale
 until none does; a motion the limits cannot realise even at rest is refused.
@@ -32,6 +33,7 @@ import toppra
 from toppra.constraint import DiscretizationType, LinearConstraint
 
 from rrps_description.geometry import RobotGeometry
+from rrps_description.motion_limits import ActuatorLimits
 from rrps_description.pose import Pose
 from rrps_sim.loads import holding_margin
 from rrps_sim.path_loads import loads_at
@@ -41,7 +43,7 @@ from rrps_teleop.climbing.plan import PlanError, PlanLimit
 from rrps_teleop.climbing.timing_constraints import GridLimits, Held, grid_limits
 from rrps_teleop.climbing.timing_profile import SmoothedLaw, TimingLaw, jerk_window
 
-__all__ = ['SAMPLE_PERIOD', 'GRID_SPACING', 'TimedLoads', 'TimedMotion', 'time_motion', 'rest_loads', 'check_speed']
+__all__ = ['SAMPLE_PERIOD', 'GRID_SPACING', 'PLAN_SHARE', 'TimedLoads', 'TimedMotion', 'time_motion', 'rest_loads', 'check_speed']
 
 #: The timed motion's samples [s]: the driver's period.
 SAMPLE_PERIOD = 0.002
@@ -49,6 +51,9 @@ SAMPLE_PERIOD = 0.002
 GRID_SPACING = 0.005
 #: The fewest TOPP-RA stages of a motion.
 MIN_STAGES = 16
+#: The share of each leg limit a plan uses: the driver's setpoints (``rrps_sim.hardware.setpoints``)
+#: follow the stream one command period behind, and catch up with the rest.
+PLAN_SHARE = 0.97
 #: How much each retry slows a law whose loads exceed a limit.
 SLOWER = 1.03
 MAX_RETRIES = 60
@@ -264,7 +269,8 @@ def time_motion(geometry: RobotGeometry, curve: PathCurve, *, speed: float | Non
     none) and, with ``held``, the force limit and the holding ring's capacity. ``where`` (step,
     phase) names the motion in a refusal (:class:`PlanError`)."""
     speed = check_speed(speed, *where)
-    legs = geometry.motion_limits.legs
+    full = geometry.motion_limits.legs
+    legs = ActuatorLimits(PLAN_SHARE * full.speed, PLAN_SHARE * full.acceleration, PLAN_SHARE * full.jerk)
     if curve.length <= 0.0:
         raise ValueError(f'step {where[0]} {where[1]}: the path has no length to time')
     s = np.linspace(0.0, curve.length, max(MIN_STAGES, math.ceil(curve.length / GRID_SPACING)) + 1)
