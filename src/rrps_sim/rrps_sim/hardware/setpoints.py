@@ -7,10 +7,14 @@ every driver period (500 Hz). :class:`JerkLimitedSetpoints` makes those setpoint
 States*, RSS 2021; the ``ruckig`` library): each period it plans, from the setpoints' position,
 velocity and acceleration, the time-optimal motion to the command within each leg's speed,
 acceleration and jerk limits (:attr:`RobotGeometry.motion_limits`), and takes its state one
-period later. The command's target is the newest command moved on at its velocity (the change
-from the previous command over the time between their arrivals, within the speed limit, zero once
-no new command came for :data:`STALE_PERIODS` of them): a stream is followed without lag and
-without stopping at every sample, and a stream that stops, stops without a velocity jump. Any
+period later: to a command at rest, the time-optimal motion there (Ruckig's position interface);
+along a stream, the velocity that follows it (its interpolated velocity plus :data:`GAIN` times
+the position error, less what the present acceleration adds before it is shed, reached at zero
+acceleration: Ruckig's velocity interface, whose motions stay within the speed limit so). The stream is followed one command period behind: the parabola through its last
+three commands (by their arrival times), evaluated one period back, gives the position and
+velocity to follow; the newest command at rest once no new one came for :data:`STALE_PERIODS`
+periods. So a stream is followed without stopping at every sample, and a stream that stops, stops
+without a velocity jump. Any
 stream, however it jumps, reaches the legs within the limits. :func:`stream_setpoints` is the
 same for a whole command stream at once (the preview of a climbing step). Pure Python and
 NumPy (and ruckig); no ROS import.
@@ -46,7 +50,6 @@ class JerkLimitedSetpoints:
         self._input.max_velocity = [limits.speed] * self.n
         self._input.max_acceleration = [limits.acceleration] * self.n
         self._input.max_jerk = [limits.jerk] * self.n
-        self._input.control_interface = ruckig.ControlInterface.Velocity
         self.gain = GAIN
         self.reset(positions)
 
@@ -90,23 +93,31 @@ class JerkLimitedSetpoints:
         target, velocity, acceleration = self._target(time)
         lim = self.limits
         velocity = np.clip(velocity, -lim.speed, lim.speed)
-        wanted = np.clip(velocity + self.gain * (target - self.position), -lim.speed, lim.speed)
-        # the command's acceleration, as far as it can end at the wanted velocity within the speed limit
-        room = np.sqrt(2.0 * lim.jerk * np.maximum(lim.speed - np.sign(acceleration) * wanted, 0.0))
-        acceleration = np.clip(acceleration, -np.minimum(room, lim.acceleration), np.minimum(room, lim.acceleration))
+        # the wanted velocity leaves room to shed the present acceleration below the speed limit
+        brake = self.acceleration * np.abs(self.acceleration) / (2.0 * lim.jerk)
+        wanted = np.clip(velocity + self.gain * (target - self.position), -lim.speed - np.minimum(brake, 0.0),
+                         lim.speed - np.maximum(brake, 0.0))
         inp, out = self._input, self._output
         inp.current_position, inp.current_velocity = self.position.tolist(), self.velocity.tolist()
         inp.current_acceleration = self.acceleration.tolist()
-        inp.target_velocity, inp.target_acceleration = wanted.tolist(), acceleration.tolist()
+        if np.any(velocity) or np.any(acceleration):   # a stream: steered along it
+            inp.control_interface = ruckig.ControlInterface.Velocity
+            inp.target_velocity, inp.target_acceleration = wanted.tolist(), [0.0] * self.n
+        else:                                            # a command at rest: reached time-optimally
+            inp.control_interface = ruckig.ControlInterface.Position
+            inp.target_position = target.tolist()
+            inp.target_velocity = inp.target_acceleration = [0.0] * self.n
         self._otg.delta_time = dt
         try:
-            self._otg.update(inp, out)
-        except RuntimeError:   # a state Ruckig cannot start from: the command is held where it is
+            result = self._otg.update(inp, out)
+        except ruckig.RuckigError:   # a state Ruckig cannot start from: the command is held where it is
             self.reset(self.position)
             return self.position.copy()
         self.position = np.array(out.new_position)
         self.velocity = np.array(out.new_velocity)
         self.acceleration = np.array(out.new_acceleration)
+        if result == ruckig.Result.Finished and inp.control_interface == ruckig.ControlInterface.Position:
+            self.position = target.copy()   # arrived: exactly at the command (not a rounding off it)
         return self.position.copy()
 
 

@@ -50,6 +50,7 @@ from rrps_sim.hardware.interface import (
     SystemState,
     Transition,
 )
+from rrps_sim.hardware.setpoints import JerkLimitedSetpoints
 from rrps_sim.hardware_state import HardwareState, StateFileWriter, load_state
 
 __all__ = ['SimulatedRobot']
@@ -72,6 +73,8 @@ class SimulatedRobot(SystemInterface):
                   choices=tuple(m.value for m in ActuatorMode)),
         Parameter('time_constant', 0.02, 'first-order lag of the actuators; 0 = none', unit='s', range=(0.0, 10.0)),
         Parameter('limit_speed', True, "limit the actuators to the robot's max_speed"),
+        Parameter('jerk_limited', True, "drive the legs along jerk-limited setpoints (Ruckig) within the robot's "
+                  'speed, acceleration and jerk limits, following the commands one period behind'),
         Parameter('kp', 1.0e5, 'dynamic mode: PD stiffness per leg', unit='N/m', range=(0.0, 1e8)),
         Parameter('kd', 1.0e3, 'dynamic mode: PD damping per leg', unit='N s/m', range=(0.0, 1e6)),
         Parameter('dynamics_step', 1e-3, 'dynamic mode: largest integration step', unit='s', range=(1e-5, 0.01)),
@@ -161,6 +164,8 @@ class SimulatedRobot(SystemInterface):
             lo, hi = np.array([d.min_angle for d in dofs]), np.array([d.max_angle for d in dofs])
             angles0 = np.clip(saved.rings if saved is not None else 0.0, lo, hi)
             self.rings = KinematicActuators(lo, hi, values['ring_rotation_speed'], tau, angles0)
+        self.setpoints = JerkLimitedSetpoints(g.motion_limits.legs, lengths0) if values['jerk_limited'] else None
+        self._commanded: Command | None = None
         self.sensors = SensorFaults(values['sensor_noise'], values['drop_probability'], values['fault_seed'])
         self._set_stuck(values['stuck_legs'] or ())
         self.grippers = Grippers(g.grippers, None if saved is None else saved.grippers)
@@ -213,12 +218,12 @@ class SimulatedRobot(SystemInterface):
     def write(self, time: float, period: float, command: Command | None) -> Result:
         if self.actuators is None:
             return _error('not configured')
-        accepted = OK if command is None else self._accept(command)
-        stepped = self._step(period)  # the world goes on, whether the command was taken or not
+        accepted = OK if command is None else self._accept(command, time)
+        stepped = self._step(time, period)  # the world goes on, whether the command was taken or not
         self._save(time)
         return accepted if not accepted.ok else stepped
 
-    def _accept(self, command: Command) -> Result:
+    def _accept(self, command: Command, time: float) -> Result:
         if self.faults:
             return _error(f'{self._faults_text()}: holding; reset the faults, then activate')
         if not self.active:
@@ -232,16 +237,20 @@ class SimulatedRobot(SystemInterface):
                 return _error(f'ring angles {command.rings!r} for ring joints {self.ring_joints}')
             self.ring_reference = rings
         self.reference = lengths
+        if self.setpoints is not None and command is not self._commanded:   # a new command arrived
+            self.setpoints.command(lengths, time)
+        self._commanded = command
         return OK
 
-    def _step(self, dt: float) -> Result:
+    def _step(self, time: float, dt: float) -> Result:
         result = OK
         try:
-            self.actuators.step(self.reference, dt)
+            setpoints = self.reference if self.setpoints is None else self.setpoints.step(time, dt)
+            self.actuators.step(setpoints, dt)
         except RuntimeError as exc:  # a singular configuration of the dynamics
             dyn = self.actuators.dynamics
             dyn.reset(dyn.position, dyn.quaternion_xyzw)
-            self.reference = self.actuators.positions.copy()
+            self._hold()
             result = _error(f'dynamics failed ({exc}): reset at rest, holding')
         if self.mode is ActuatorMode.KINEMATIC:
             self.static_efforts.update(self.actuators.positions, dt)
@@ -296,6 +305,9 @@ class SimulatedRobot(SystemInterface):
     def _hold(self) -> None:
         """Track where the actuators are now (no jump towards an older target)."""
         self.reference = self.actuators.positions.copy()
+        self._commanded = None
+        if self.setpoints is not None:
+            self.setpoints.reset(self.reference)
         if self.rings is not None:
             self.ring_reference = self.rings.positions.copy()
 
