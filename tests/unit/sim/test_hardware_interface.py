@@ -117,7 +117,7 @@ def test_write_then_read_moves_to_a_step_command_within_the_speed_acceleration_a
 
 def test_a_command_stream_is_followed_one_period_behind_within_the_limits():
     """A stream at 50 Hz along a smooth ramp (a leg's planned motion): the legs follow it one
-    command period behind, within 3 mm while it accelerates and 0.1 mm once it cruises, every
+    command period behind, within 3 mm while it accelerates and 0.5 mm once it cruises, every
     sample within the limits."""
     robot = active()
     start, limits = POLE.home_lengths, POLE.motion_limits.legs
@@ -145,7 +145,7 @@ def test_a_command_stream_is_followed_one_period_behind_within_the_limits():
     assert jerk <= limits.jerk * (1 + 1e-6)
     behind = planned(np.arange(200) * DT - 0.02)
     error = np.abs(x - behind).max(axis=1)
-    assert error.max() < 3e-3 and error[100:].max() < 1e-4   # caught up once the stream cruises
+    assert error.max() < 3e-3 and error[100:].max() < 5e-4   # caught up once the stream cruises
 
 
 def test_ring_rotations_are_commanded_with_the_legs():
