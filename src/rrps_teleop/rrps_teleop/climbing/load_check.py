@@ -27,7 +27,6 @@ from rrps_description.rotations import quat_multiply_xyzw
 from rrps_description.world import IDENTITY_QUATERNION, STANDARD_GRAVITY, Support
 from rrps_interfaces.climb import PhaseAction
 from rrps_teleop.climbing.handover import check_handover
-from rrps_teleop.climbing.path_curve import PathCurve
 from rrps_teleop.climbing.plan import Phase, PhaseLoads
 from rrps_teleop.climbing.timing import TimedMotion, check_speed, rest_loads, time_motion
 from rrps_teleop.climbing.timing_constraints import Held
@@ -67,8 +66,7 @@ class LoadCheck:
 
 
 def _time_motion(geometry: RobotGeometry, ph: Phase, loads: LoadCheck | None) -> TimedMotion:
-    curve = PathCurve(ph.path, ph.ring_angles, characteristic_length=geometry.characteristic_length)
-    return time_motion(geometry, curve, speed=None if loads is None else loads.speed,
+    return time_motion(geometry, ph.path, ph.ring_angles, speed=None if loads is None else loads.speed,
                        held=None if loads is None else loads.held(ph), where=(ph.step, ph.phase))
 
 

@@ -32,7 +32,11 @@ from rrps_description.rotations import (
     rotation_angle_between,
 )
 
-__all__ = ['PathCurve', 'path_metric']
+__all__ = ['PathCurve', 'path_metric', 'corner_pieces', 'CORNER_ANGLE']
+
+#: Where the sampled path turns by more than this [rad] from one segment to the next, it has a
+#: corner: the motion stops there (a facade climber's lift-off, slide and set-down).
+CORNER_ANGLE = np.radians(30.0)
 
 
 def path_metric(path: np.ndarray, characteristic_length: float) -> np.ndarray:
@@ -41,6 +45,30 @@ def path_metric(path: np.ndarray, characteristic_length: float) -> np.ndarray:
     angles = rotation_angle_between(path[:-1, :3, :3], path[1:, :3, :3])
     seg = np.linalg.norm(np.diff(path[:, :3, 3], axis=0), axis=1) + characteristic_length * angles
     return np.concatenate([[0.0], np.cumsum(seg)])
+
+
+def corner_pieces(path: np.ndarray, characteristic_length: float) -> list[slice]:
+    """The pieces of a sampled path between its corners (slices of its samples sharing their end
+    samples): where consecutive segments, in positions and ``characteristic_length`` times the
+    rotation vectors, turn by more than :data:`CORNER_ANGLE`."""
+    steps = np.concatenate([np.diff(path[:, :3, 3], axis=0), characteristic_length * np.array(
+        [_rotation_vector(a.T @ b) for a, b in zip(path[:-1, :3, :3], path[1:, :3, :3])]).reshape(-1, 3)], axis=1)
+    norms = np.linalg.norm(steps, axis=1)
+    moving = np.flatnonzero(norms > 1e-12)
+    cuts = [0]
+    for i, j in zip(moving[:-1], moving[1:]):
+        cosine = steps[i] @ steps[j] / (norms[i] * norms[j])
+        if cosine < np.cos(CORNER_ANGLE):
+            cuts.append(int(j))
+    cuts.append(len(path) - 1)
+    return [slice(a, b + 1) for a, b in zip(cuts[:-1], cuts[1:]) if b > a]
+
+
+def _rotation_vector(R: np.ndarray) -> np.ndarray:
+    angle = float(rotation_angle_between(np.eye(3), R))
+    axis = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    n = np.linalg.norm(axis)
+    return axis / n * angle if n > 1e-15 else np.zeros(3)
 
 
 class PathCurve:

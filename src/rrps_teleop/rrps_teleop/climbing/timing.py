@@ -1,7 +1,7 @@
 """Time-optimal, jerk-limited timing of a planned motion along its path (TOPP-RA).
 
 A motion's geometric path, checked by the planner, is a curve of its path parameter s
-(:class:`~.path_curve.PathCurve`). Its timing law s(t) is found by TOPP-RA (Pham and Pham, *A
+(:class:`~.path_curve.PathCurve`), taken from rest to rest between its corners. Its timing law s(t) is found by TOPP-RA (Pham and Pham, *A
 New Approach to Time-Optimal Path Parameterization Based on Reachability Analysis*, IEEE T-RO
 2018; the ``toppra`` library) under every limit of :mod:`.timing_constraints`: the legs' speed
 and acceleration, a cap on the path speed, the actuators' force limit and the holding ring's
@@ -15,7 +15,7 @@ the driver's to catch up with the stream), the actuator forces and the exact hol
 polyhedral holding capacity are approximations) the whole law is slowed by a uniform time scale
 until none does; a motion the limits cannot realise even at rest is refused.
 
-    timed = time_motion(geometry, curve, speed=None, held=Held('ring_a', q, g), where=(1, 'move_b'))
+    timed = time_motion(geometry, path, ring_angles, held=Held('ring_a', q, g), where=(1, 'move_b'))
     timed.duration, timed.peak_speed, timed.loads.actuator_forces
     timed.at(t)                        # the a_T_b pose and ring angles at time t of the motion
 
@@ -37,7 +37,7 @@ from rrps_description.motion_limits import ActuatorLimits
 from rrps_description.pose import Pose
 from rrps_sim.loads import holding_margin
 from rrps_sim.path_loads import loads_at
-from rrps_teleop.climbing.path_curve import PathCurve
+from rrps_teleop.climbing.path_curve import PathCurve, corner_pieces
 from rrps_teleop.climbing.phase_path import PhasePath
 from rrps_teleop.climbing.plan import PlanError, PlanLimit
 from rrps_teleop.climbing.timing_constraints import GridLimits, Held, grid_limits
@@ -85,19 +85,20 @@ class TimedLoads(NamedTuple):
 
 
 class TimedMotion:
-    """A motion's path with its timing law (module docstring): ``curve``, ``law``
-    (:class:`~.timing_profile.SmoothedLaw`), the loads at the samples (None when no ring was
-    given as holding), the requested path-speed cap and the peak path speed reached [m/s]."""
+    """A motion's path with its timing law (module docstring): its ``pieces`` between corners, each
+    a :class:`~.path_curve.PathCurve` and its :class:`~.timing_profile.SmoothedLaw` from rest to
+    rest, one after the other; the loads at the samples (None when no ring was given as holding),
+    the requested path-speed cap and the peak path speed reached [m/s]."""
 
-    def __init__(self, curve: PathCurve, law: SmoothedLaw, loads: TimedLoads | None,
-                 requested_speed: float | None, peak_speed: float):
-        self.curve, self.law, self.loads = curve, law, loads
+    def __init__(self, pieces: list, loads: TimedLoads | None, requested_speed: float | None, peak_speed: float):
+        self.pieces, self.loads = pieces, loads
         self.requested_speed, self.peak_speed = requested_speed, peak_speed
+        self._starts = np.concatenate([[0.0], np.cumsum([law.duration for _, law in pieces])])
 
     @property
     def duration(self) -> float:
         """How long the motion takes [s]."""
-        return self.law.duration
+        return float(self._starts[-1])
 
     @property
     def capped(self) -> bool:
@@ -109,22 +110,27 @@ class TimedMotion:
         n = max(1, math.ceil(self.duration / period - 1e-9))
         return np.minimum(np.arange(n + 1) * period, self.duration)
 
-    def state(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(s, ṡ, s̈) at times ``t``."""
-        return self.law.evaluate(t)
+    def poses(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Positions (K, 3), quaternions (K, 4) and ring angles (K, 2) at times ``t`` (K,)."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        piece = np.clip(np.searchsorted(self._starts, t, side='right') - 1, 0, len(self.pieces) - 1)
+        p, q, angles = np.zeros((len(t), 3)), np.zeros((len(t), 4)), np.zeros((len(t), 2))
+        for i, (curve, law) in enumerate(self.pieces):
+            here = piece == i
+            if np.any(here):
+                s = law.evaluate(t[here] - self._starts[i])[0]
+                (p[here], q[here]), angles[here] = curve.poses(s), curve.ring_angles(s)
+        return p, q, angles
 
     def at(self, t: float) -> tuple[Pose, np.ndarray]:
         """The timed a_T_b and ring angles (theta_a, theta_b) at time ``t`` [s] of the motion."""
-        s = self.law.evaluate(np.array([t]))[0]
-        p, q = self.curve.poses(s)
-        return Pose(p[0], q[0]), self.curve.ring_angles(s)[0]
+        p, q, angles = self.poses([t])
+        return Pose(p[0], q[0]), angles[0]
 
     def phase_path(self, period: float = SAMPLE_PERIOD) -> PhasePath:
         """The motion sampled every ``period`` [s], as a stream plays it."""
         t = self.sample_times(period)
-        s = self.law.evaluate(t)[0]
-        p, q = self.curve.poses(s)
-        return PhasePath(t, p, q, self.curve.ring_angles(s))
+        return PhasePath(t, *self.poses(t))
 
 
 class _Arrays(LinearConstraint):
@@ -262,17 +268,8 @@ def _check_rest(geometry, limits: GridLimits, held: Held, where: tuple) -> None:
         raise _refusal(geometry, rest, k, float(limits.s[k] / limits.s[-1]), 'at rest', where)
 
 
-def time_motion(geometry: RobotGeometry, curve: PathCurve, *, speed: float | None = None, held: Held | None = None,
-                where: tuple = (0, 'move')) -> TimedMotion:
-    """The time-optimal, jerk-limited timing of ``curve`` (module docstring) within the legs'
-    limits (:attr:`RobotGeometry.motion_limits`), the path-speed cap ``speed`` [m/s] (None:
-    none) and, with ``held``, the force limit and the holding ring's capacity. ``where`` (step,
-    phase) names the motion in a refusal (:class:`PlanError`)."""
-    speed = check_speed(speed, *where)
-    full = geometry.motion_limits.legs
-    legs = ActuatorLimits(PLAN_SHARE * full.speed, PLAN_SHARE * full.acceleration, PLAN_SHARE * full.jerk)
-    if curve.length <= 0.0:
-        raise ValueError(f'step {where[0]} {where[1]}: the path has no length to time')
+def _time_piece(geometry: RobotGeometry, curve: PathCurve, legs: ActuatorLimits, speed, held, where):
+    """(law, loads, peak path speed) of one piece from rest to rest (module docstring)."""
     s = np.linspace(0.0, curve.length, max(MIN_STAGES, math.ceil(curve.length / GRID_SPACING)) + 1)
     limits = grid_limits(geometry, curve, s, speed=legs.speed, acceleration=legs.acceleration, speed_cap=speed,
                          held=held)
@@ -289,9 +286,37 @@ def time_motion(geometry: RobotGeometry, curve: PathCurve, *, speed: float | Non
         elif excess.load is not None:
             smoothed = SmoothedLaw(law, smoothed.window, smoothed.scale * SLOWER)
         else:
-            return TimedMotion(curve, smoothed, loads, speed, float(np.max(sd)))
+            return smoothed, loads, float(np.max(sd))
     k, t = excess.load
     raise _refusal(geometry, loads, k, t / smoothed.duration, f't={t:.2f} s', where)
+
+
+def time_motion(geometry: RobotGeometry, path: np.ndarray, ring_angles: np.ndarray, *, speed: float | None = None,
+                held: Held | None = None, where: tuple = (0, 'move')) -> TimedMotion:
+    """The time-optimal, jerk-limited timing of a sampled path (n, 4, 4) with its ring angles
+    (n, 2) (module docstring): from rest to rest between its corners
+    (:func:`~.path_curve.corner_pieces`), within the legs' limits
+    (:attr:`RobotGeometry.motion_limits`, :data:`PLAN_SHARE` of them), the path-speed cap
+    ``speed`` [m/s] (None: none) and, with ``held``, the force limit and the holding ring's
+    capacity. ``where`` (step, phase) names the motion in a refusal (:class:`PlanError`)."""
+    speed = check_speed(speed, *where)
+    full = geometry.motion_limits.legs
+    legs = ActuatorLimits(PLAN_SHARE * full.speed, PLAN_SHARE * full.acceleration, PLAN_SHARE * full.jerk)
+    c = geometry.characteristic_length
+    pieces, loads, peak = [], [], 0.0
+    for piece in corner_pieces(path, c):
+        curve = PathCurve(path[piece], ring_angles[piece], characteristic_length=c)
+        if curve.length <= 0.0:
+            continue
+        law, piece_loads, piece_peak = _time_piece(geometry, curve, legs, speed, held, where)
+        pieces.append((curve, law))
+        loads.append(piece_loads)
+        peak = max(peak, piece_peak)
+    if not pieces:
+        raise ValueError(f'step {where[0]} {where[1]}: the path has no length to time')
+    joined = None if held is None else TimedLoads(held.ring, *(np.concatenate([x[k] for x in loads])
+                                                              for k in (1, 2, 3)))
+    return TimedMotion(pieces, joined, speed, peak)
 
 
 def rest_loads(geometry: RobotGeometry, a_T_b: Pose, held: Held, where: tuple) -> TimedLoads:
