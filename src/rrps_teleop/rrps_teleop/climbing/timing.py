@@ -94,6 +94,13 @@ class TimedMotion:
         self.pieces, self.loads = pieces, loads
         self.requested_speed, self.peak_speed = requested_speed, peak_speed
         self._starts = np.concatenate([[0.0], np.cumsum([law.duration for _, law in pieces])])
+        #: the times [s] of the samples of ``loads`` (each piece's from its start, a little past its end)
+        self.load_times = np.zeros(0)
+
+    @property
+    def starts(self) -> np.ndarray:
+        """When each piece starts [s]."""
+        return self._starts[:-1]
 
     @property
     def duration(self) -> float:
@@ -226,8 +233,13 @@ def _loads(geometry, limits: GridLimits, held: Held, s, u, x) -> TimedLoads:
     return TimedLoads(held.ring, forces, wrench, margin)
 
 
+def _sample_times(law: SmoothedLaw) -> np.ndarray:
+    """Where a piece's law is checked: every SAMPLE_PERIOD from 0 past its end."""
+    return np.arange(max(2, math.ceil(law.duration / SAMPLE_PERIOD) + 1)) * SAMPLE_PERIOD
+
+
 def _check(geometry, curve, limits, legs, law: SmoothedLaw, held) -> tuple[_Excess, TimedLoads | None, np.ndarray]:
-    t = np.arange(max(2, math.ceil(law.duration / SAMPLE_PERIOD) + 1)) * SAMPLE_PERIOD
+    t = _sample_times(law)
     s, sd, sdd = law.evaluate(t)
     _, L1, L2 = curve.leg_rates(geometry, s)
     v, a = L1 * sd[:, None], L1 * sdd[:, None] + L2 * sd[:, None] ** 2
@@ -316,7 +328,9 @@ def time_motion(geometry: RobotGeometry, path: np.ndarray, ring_angles: np.ndarr
         raise ValueError(f'step {where[0]} {where[1]}: the path has no length to time')
     joined = None if held is None else TimedLoads(held.ring, *(np.concatenate([x[k] for x in loads])
                                                               for k in (1, 2, 3)))
-    return TimedMotion(pieces, joined, speed, peak)
+    timed = TimedMotion(pieces, joined, speed, peak)
+    timed.load_times = np.concatenate([start + _sample_times(law) for start, (_, law) in zip(timed.starts, pieces)])
+    return timed
 
 
 def rest_loads(geometry: RobotGeometry, a_T_b: Pose, held: Held, where: tuple) -> TimedLoads:
