@@ -32,7 +32,6 @@ from rrps_canopen.grippers import GripperIo
 from rrps_canopen.network import resolve_eds
 from rrps_description.names import LEG_NAMES, RINGS
 from rrps_sim.hardware.commands import ring_joints
-from rrps_sim.hardware.setpoints import JerkLimitedSetpoints
 from rrps_sim.hardware.interface import (
     OK,
     SUCCESS,
@@ -47,6 +46,7 @@ from rrps_sim.hardware.interface import (
     SystemState,
     Transition,
 )
+from rrps_sim.hardware.setpoints import JerkLimitedSetpoints
 
 __all__ = ['CanopenRobot']
 

@@ -19,8 +19,14 @@ import yaml
 
 from rrps_description.bus import BusConfig, bus_from
 from rrps_description.loads import GripperCapacity, Payload, ToolWrench, check_payload, loads_from
+from rrps_description.motion_limits import (
+    GripperTime,
+    MotionLimits,
+    check_rate_limits,
+    motion_limits,
+    motion_limits_from,
+)
 from rrps_description.robot_parts import (
-    TOOL_SHAPES,
     ExtraRingDof,
     LinkInertia,
     RigidBodyInertia,
@@ -37,7 +43,6 @@ from rrps_description.robot_parts import (
     link_from,
     tool_from,
 )
-from rrps_description.motion_limits import GripperTime, MotionLimits, check_rate_limits, motion_limits, motion_limits_from
 from rrps_description.rotations import normalize_quat, quat_xyzw_to_matrix
 
 __all__ = [

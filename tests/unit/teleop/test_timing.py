@@ -16,7 +16,6 @@ from rrps_kinematics import inverse_kinematics
 from rrps_sim.loads import static_solution
 from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_teleop.climbing.handover import handover_loads
-from rrps_teleop.climbing.path_curve import PathCurve
 from rrps_teleop.climbing.timing import PLAN_SHARE, SAMPLE_PERIOD, time_motion
 
 POLE = load_robot('pole_climber')
@@ -40,7 +39,8 @@ def _bound(geometry, path, share):
     h = 1e-5
 
     def lengths(x):
-        return inverse_kinematics(geometry, p0 + np.outer(x / length, p1 - p0), np.tile([0, 0, 0, 1.0], (len(x), 1))).lengths
+        identity = np.tile([0, 0, 0, 1.0], (len(x), 1))
+        return inverse_kinematics(geometry, p0 + np.outer(x / length, p1 - p0), identity).lengths
     L1 = (lengths(s + h) - lengths(s - h)) / (2 * h)
     L2 = (lengths(s + h) - 2 * lengths(s) + lengths(s - h)) / h ** 2
     x_max = np.min((v_max / np.abs(L1)) ** 2, axis=1)

@@ -1,4 +1,5 @@
-"""The driver's setpoints: jerk-limited, from the commands it receives, by an online trajectory generator.
+"""The driver's setpoints: jerk-limited, from the commands it receives, by an online trajectory
+generator.
 
 Commands reach the driver at the stream's rate (50 Hz from the climb node, the teleop rate from
 teleop, each through the IK node) and are held between arrivals; the hardware takes a setpoint
@@ -10,13 +11,13 @@ acceleration and jerk limits (:attr:`RobotGeometry.motion_limits`), and takes it
 period later: to a command at rest, the time-optimal motion there (Ruckig's position interface);
 along a stream, the velocity that follows it (its interpolated velocity plus :data:`GAIN` times
 the position error, less what the present acceleration adds before it is shed, reached at zero
-acceleration: Ruckig's velocity interface, whose motions stay within the speed limit so). The stream is followed one command period behind: the parabola through its last
-three commands (by their arrival times), evaluated one period back, gives the position and
-velocity to follow; the newest command at rest once no new one came for :data:`STALE_PERIODS`
-periods. So a stream is followed without stopping at every sample, and a stream that stops, stops
-without a velocity jump. Any
-stream, however it jumps, reaches the legs within the limits. :func:`stream_setpoints` is the
-same for a whole command stream at once (the preview of a climbing step). Pure Python and
+acceleration: Ruckig's velocity interface, whose motions stay within the speed limit so). The
+stream is followed one command period behind: the parabola through its last three commands (by
+their arrival times), evaluated one period back, gives the position and velocity to follow; the
+newest command at rest once no new one came for :data:`STALE_PERIODS` periods. So a stream is
+followed without stopping at every sample, and a stream that stops, stops without a velocity
+jump. Any stream, however it jumps, reaches the legs within the limits. :func:`stream_setpoints`
+is the same for a whole command stream at once (the preview of a climbing step). Pure Python and
 NumPy (and ruckig); no ROS import.
 """
 

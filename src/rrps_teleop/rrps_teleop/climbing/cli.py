@@ -50,7 +50,6 @@ from rrps_kinematics.cli_support import (
     count,
     join_negative_vectors,
     load_robot_or_usage_error,
-    positive,
     vector,
 )
 from rrps_sim.cli_world import LOAD_VECTOR_OPTIONS, add_load_options, with_loads
@@ -174,8 +173,9 @@ def _load_line(plan, geometry) -> str:
 def _timing_line(plan, speed) -> str:
     """Each step's duration and the climbing speed; where a requested speed was capped."""
     steps = plan.step_durations()
-    text = (f'  timing: {plan.duration:.1f} s in all, per step ' + ', '.join(f'{k}: {d:.1f} s' for k, d in steps.items())
-            + f'; climbing speed {plan.climbing_speed:.2f} m/min')
+    per_step = ', '.join(f'{k}: {d:.1f} s' for k, d in steps.items())
+    text = (f'  timing: {plan.duration:.1f} s in all, per step {per_step}; climbing speed '
+            f'{plan.climbing_speed:.2f} m/min')
     capped = LoadCheck.capped(plan.phases)
     if capped:
         fastest = max(ph.timing.peak_speed for ph in capped)

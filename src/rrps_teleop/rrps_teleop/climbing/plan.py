@@ -194,6 +194,16 @@ class ClimbPlan:
         return 60.0 * abs(self.climbed) / steps if steps > 0.0 else math.nan
 
     @property
+    def step_timing(self) -> tuple[float, float]:
+        """The longest step's duration [s] (steps 1..) and the climbing speed [m/min]."""
+        return max(d for k, d in self.step_durations().items() if k >= 1), self.climbing_speed
+
+    def describe(self) -> str:
+        """The plan in words: its steps, phases and timing."""
+        return (f'{self.steps} step(s) of {self.step_length:.3f} m, {len(self.phases)} phases, '
+                f'{self.step_timing[0]:.1f} s per step, {self.climbing_speed:.2f} m/min')
+
+    @property
     def climbed(self) -> float:
         """Route distance ring_a moved from the first phase to the last [m]."""
         return self.phases[-1].s_a - self.phases[0].s_a

@@ -56,10 +56,10 @@ from rrps_kinematics.odometry import RingOdometry
 from rrps_teleop.climbing.climb_watch import InputWatch
 from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_teleop.climbing.phase_path import PhasePath
-from rrps_teleop.climbing.timing import TimedMotion
 from rrps_teleop.climbing.plan import Phase, PlanError
 from rrps_teleop.climbing.step_io import ClimbOutput, ClimbTarget, GripperRequest, StepConfig
 from rrps_teleop.climbing.step_preview import StepSnapshot
+from rrps_teleop.climbing.timing import TimedMotion
 
 __all__ = ['ClimbStepMachine']
 
@@ -224,10 +224,7 @@ class ClimbStepMachine:
                 self._refuse(StepRefusal.PLAN, f'plan refused: cannot bring ring_b back to the gait: {exc}')
                 out.reply = (False, f'refused: {self.detail}')
                 return out
-        durations = [d for k, d in plan.step_durations().items() if k >= 1]
-        self.timing = (max(durations), plan.climbing_speed)
-        detail = (f'{plan.steps} step(s) of {plan.step_length:.3f} m, {len(plan.phases)} phases, '
-                  f'{self.timing[0]:.1f} s per step, {plan.climbing_speed:.2f} m/min')
+        self.timing, detail = plan.step_timing, plan.describe()
         self.plan_refused, self.refusal = False, None
         if self.preview:
             self._pending = (phases, detail, StepSnapshot(self.pose, dict(self.grippers), self.engagements,

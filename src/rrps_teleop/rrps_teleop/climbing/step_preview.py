@@ -14,11 +14,9 @@ import math
 from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
-import numpy as np
-
 from rrps_description.geometry import RobotGeometry
 from rrps_description.pose import Pose, pose_error
-from rrps_interfaces.climb import ClimbPreview, PhaseAction, StepRefusal
+from rrps_interfaces.climb import ClimbPreview, StepRefusal
 from rrps_sim.preview import Drives, PreviewError, PreviewMotion, preview_step
 from rrps_teleop.climbing.plan import Phase
 from rrps_teleop.climbing.timing import TimedMotion

@@ -1,19 +1,19 @@
 """Time-optimal, jerk-limited timing of a planned motion along its path (TOPP-RA).
 
 A motion's geometric path, checked by the planner, is a curve of its path parameter s
-(:class:`~.path_curve.PathCurve`), taken from rest to rest between its corners. Its timing law s(t) is found by TOPP-RA (Pham and Pham, *A
-New Approach to Time-Optimal Path Parameterization Based on Reachability Analysis*, IEEE T-RO
-2018; the ``toppra`` library) under every limit of :mod:`.timing_constraints`: the legs' speed
-and acceleration, a cap on the path speed, the actuators' force limit and the holding ring's
-capacity (eq. 19 with the motion's accelerations, linearised exactly per gridpoint). Its
-bang-bang profile is then made jerk-limited by a moving average (:mod:`.timing_profile`, the
-window from the legs' jerk limit). The smoothed law is checked at every sample
-(:data:`SAMPLE_PERIOD`, the driver's period): each leg's speed, acceleration and jerk (finite
-differences of the accelerations; a plan uses :data:`PLAN_SHARE` of each leg limit, the rest is
-the driver's to catch up with the stream), the actuator forces and the exact holding margin
-(:func:`rrps_sim.loads.holding_margin`). Where a check exceeds its limit (the averaging and the
-polyhedral holding capacity are approximations) the whole law is slowed by a uniform time scale
-until none does; a motion the limits cannot realise even at rest is refused.
+(:class:`~.path_curve.PathCurve`), taken from rest to rest between its corners. Its timing law
+s(t) is found by TOPP-RA (Pham and Pham, *A New Approach to Time-Optimal Path Parameterization
+Based on Reachability Analysis*, IEEE T-RO 2018; the ``toppra`` library) under every limit of
+:mod:`.timing_constraints`: the legs' speed and acceleration, a cap on the path speed, the
+actuators' force limit and the holding ring's capacity (eq. 19 with the motion's accelerations,
+linearised exactly per gridpoint). Its bang-bang profile is then made jerk-limited by a moving
+average (:mod:`.timing_profile`, the window from the legs' jerk limit). The smoothed law is
+checked at every sample (:data:`SAMPLE_PERIOD`, the driver's period): each leg's speed,
+acceleration and jerk (finite differences of the accelerations; a plan uses :data:`PLAN_SHARE` of
+each leg limit, the rest is the driver's to catch up with the stream), the actuator forces and
+the exact holding margin (:func:`rrps_sim.loads.holding_margin`). Where a check exceeds its limit
+(the averaging and the polyhedral holding capacity are approximations) the whole law is slowed by
+a uniform time scale until none does; a motion the limits cannot realise even at rest is refused.
 
     timed = time_motion(geometry, path, ring_angles, held=Held('ring_a', q, g), where=(1, 'move_b'))
     timed.duration, timed.peak_speed, timed.loads.actuator_forces
@@ -43,7 +43,8 @@ from rrps_teleop.climbing.plan import PlanError, PlanLimit
 from rrps_teleop.climbing.timing_constraints import GridLimits, Held, grid_limits
 from rrps_teleop.climbing.timing_profile import SmoothedLaw, TimingLaw, jerk_window
 
-__all__ = ['SAMPLE_PERIOD', 'GRID_SPACING', 'PLAN_SHARE', 'TimedLoads', 'TimedMotion', 'time_motion', 'rest_loads', 'check_speed']
+__all__ = ['SAMPLE_PERIOD', 'GRID_SPACING', 'PLAN_SHARE', 'TimedLoads', 'TimedMotion', 'time_motion', 'rest_loads',
+           'check_speed']
 
 #: The timed motion's samples [s]: the driver's period.
 SAMPLE_PERIOD = 0.002
@@ -274,7 +275,8 @@ def _check_rest(geometry, limits: GridLimits, held: Held, where: tuple) -> None:
     """Refuse a path whose loads at rest already break a limit somewhere (no timing helps)."""
     zero = np.zeros(len(limits.s))
     rest = _loads(geometry, limits, held, limits.s, zero, zero)
-    bad = np.flatnonzero(np.any(np.abs(rest.actuator_forces) > geometry.max_force, axis=1) | (rest.holding_margin < 0.0))
+    over = np.any(np.abs(rest.actuator_forces) > geometry.max_force, axis=1)
+    bad = np.flatnonzero(over | (rest.holding_margin < 0.0))
     if bad.size:
         k = int(bad[0])
         raise _refusal(geometry, rest, k, float(limits.s[k] / limits.s[-1]), 'at rest', where)
