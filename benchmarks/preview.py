@@ -2,7 +2,7 @@
 """Benchmark of the climbing step's preview: how many times faster than real time a whole step is
 simulated on the 13-body DAE (target: at least 5x).
 
-    python benchmarks/preview.py [--speed 0.02] [--period 0.02] [--baseline 2.0]
+    python benchmarks/preview.py [--period 0.02] [--baseline 2.0]
 
 For the pole, frame and facade climbers on their structures, one step of the planner's default
 length is planned and previewed as climb_node previews it (:func:`rrps_teleop.climbing.step_preview
@@ -58,7 +58,6 @@ def _baseline(geometry, motion, seconds: float, dt: float = 0.001) -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument('--speed', type=float, default=0.02, help='climbing speed [m/s] (climb_node default)')
     parser.add_argument('--period', type=float, default=0.02, help='command period [s] (climb_node default)')
     parser.add_argument('--baseline', type=float, default=2.0, help='robot time of the baseline run [s]')
     args = parser.parse_args()
@@ -67,11 +66,10 @@ def main() -> None:
         g = load_robot(robot)
         planner = GaitPlanner(g, make_structure(structure))
         plan = planner.plan(planner.default_step, 1)
-        motions = preview_motions(plan.phases, speed=args.speed, period=args.period,
-                                  characteristic_length=g.characteristic_length)
-        run_preview(g, plan.phases[:3], speed=args.speed, period=args.period)       # loaded once
+        motions = preview_motions(plan.phases, period=args.period)   # the timed motions, as streamed
+        run_preview(g, plan.phases[:3], period=args.period)       # loaded once
         cpu = time.process_time()
-        p = run_preview(g, plan.phases, speed=args.speed, period=args.period, config=PreviewConfig())
+        p = run_preview(g, plan.phases, period=args.period, config=PreviewConfig())
         cpu = time.process_time() - cpu
         base = _baseline(g, motions[0], args.baseline)
         speed = p.simulated / p.wall

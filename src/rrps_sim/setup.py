@@ -24,6 +24,7 @@ setup(
     install_requires=[
         'setuptools',
         'numpy',
+        'ruckig',
         'scipy',
         'rrps_description',
         'rrps_interfaces',

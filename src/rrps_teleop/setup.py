@@ -22,6 +22,8 @@ setup(
     install_requires=[
         'setuptools',
         'numpy',
+        'toppra',
+        'scipy',
         'viser',
         'rrps_description',
         'rrps_interfaces',

@@ -216,6 +216,7 @@ class ScriptedOperator(Node):
         self._say(f'master handle {master * 1e3:.1f} mm -> slave {moved * 1e3:.1f} mm {what}')
         # Release the deadman: the mapping disengages and the robot holds.
         released = self._wait(lambda: self._engaged() is False, WAIT, stop)
+        time.sleep(0.5)   # the legs stop within their jerk-limited stopping distance, then hold
         held_at = self._position(POSE)
         time.sleep(0.5)
         drift = float(np.linalg.norm(self._position(POSE) - held_at))

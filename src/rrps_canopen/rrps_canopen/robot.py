@@ -20,8 +20,10 @@ digital I/O (:class:`~rrps_canopen.grippers.GripperIo`). The lifecycle is the dr
   holds every drive where it is (quick stop of the faulted one) and refuses commands and the
   grippers until ``reset_faults`` (refused while the bus is lost) and a new activation.
 
-Commands and state are in metres at this interface; :mod:`rrps_canopen.units` converts. Pure
-Python (canopen, python-can), no ROS import.
+Commands and state are in metres at this interface; :mod:`rrps_canopen.units` converts. Each
+cycle's CSP target is the jerk-limited setpoint of the newest command
+(:class:`~rrps_sim.hardware.setpoints.JerkLimitedSetpoints`: within the legs' speed, acceleration
+and jerk limits). Pure Python (canopen, python-can), no ROS import.
 """
 
 from __future__ import annotations
@@ -54,6 +56,7 @@ from rrps_sim.hardware.interface import (
     SystemState,
     Transition,
 )
+from rrps_sim.hardware.setpoints import JerkLimitedSetpoints
 
 __all__ = ['CanopenRobot']
 
@@ -95,6 +98,9 @@ class CanopenRobot(SystemInterface):
         self._last: SystemState | None = None
         #: what the SYNC cycle and the receive thread got (claim_bus_threads)
         self.bus_scheduling: tuple[Granted, Granted] | None = None
+        self._limits = None
+        self.setpoints: JerkLimitedSetpoints | None = None
+        self._commanded: Command | None = None
 
     # --- lifecycle ---
 
@@ -107,6 +113,10 @@ class CanopenRobot(SystemInterface):
                             '(README: Connecting a robot)')
         if ring_joints(g):
             return _failure(f'the canopen hardware drives the six legs; {", ".join(ring_joints(g))} have no drive')
+        try:
+            self._limits = g.motion_limits.legs
+        except ValueError as exc:
+            return _failure(str(exc))
         io = g.bus.grippers
         if io is None and any(kind != 'none' for kind in g.grippers.values()):
             return _failure(f'robot {g.name!r} has grippers but its bus section has no grippers entry')
@@ -172,8 +182,17 @@ class CanopenRobot(SystemInterface):
         if reason:
             return _failure(f'activation failed: {reason}: {refuse(d, {}, fault=False) or "drives disabled"}')
         d.hold()
+        self._follow_targets()
         self.active = True
         return SUCCESS
+
+    def _follow_targets(self) -> None:
+        """The setpoints at rest where the drives hold (after a hold: no jump to an older command)."""
+        d = self.drives
+        with d.lock:
+            targets = [drive.scale.position(drive.target) for drive in d.drives]
+        self.setpoints = JerkLimitedSetpoints(self._limits, targets)
+        self._commanded = None
 
     def on_deactivate(self) -> Transition:
         self.active = False
@@ -216,7 +235,10 @@ class CanopenRobot(SystemInterface):
                        if not drive.scale.within_limits(float(x))]
             if outside:
                 return _error(f'outside the soft limits: {", ".join(outside)}')
-            for drive, x in zip(d.drives, lengths):
+            if command is not self._commanded:   # a new command arrived
+                self.setpoints.command(lengths, time)
+                self._commanded = command
+            for drive, x in zip(d.drives, self.setpoints.step(time, period)):
                 drive.target = drive.scale.counts(float(x))
         return OK
 
@@ -252,6 +274,7 @@ class CanopenRobot(SystemInterface):
         if self.drives is None:
             return _error('not configured')
         self.drives.hold()
+        self._follow_targets()
         return OK
 
     def set_gripper(self, ring: str, close: bool) -> Result:

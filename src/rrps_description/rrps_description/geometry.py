@@ -19,8 +19,14 @@ import yaml
 
 from rrps_description.bus import BusConfig, bus_from
 from rrps_description.loads import GripperCapacity, Payload, ToolWrench, check_payload, loads_from
+from rrps_description.motion_limits import (
+    GripperTime,
+    MotionLimits,
+    check_rate_limits,
+    motion_limits,
+    motion_limits_from,
+)
 from rrps_description.robot_parts import (
-    TOOL_SHAPES,
     ExtraRingDof,
     LinkInertia,
     RigidBodyInertia,
@@ -30,6 +36,7 @@ from rrps_description.robot_parts import (
     as_scalar,
     body_from,
     check_inertia,
+    check_tool,
     combine_bodies,
     extra_dof_from,
     leg_limits_from,
@@ -84,6 +91,8 @@ class RobotGeometry:
     min_length: float = 0.0
     max_length: float = math.inf
     max_speed: float = math.inf
+    max_acceleration: float = math.inf
+    max_jerk: float = math.inf
     max_force: float = math.inf
     leg_radius: float = 0.0
     universal_max_angle: float = math.pi
@@ -99,6 +108,8 @@ class RobotGeometry:
     home_quaternion_xyzw: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 0.0, 1.0]))
     grippers: Mapping[str, str] = field(default_factory=lambda: {'ring_a': 'clamp', 'ring_b': 'clamp'})
     extra_dof: Mapping[str, ExtraRingDof] = field(default_factory=dict)
+    #: each ring's gripper open/close times (:mod:`rrps_description.motion_limits`; not given: the default)
+    gripper_time: Mapping[str, GripperTime] = field(default_factory=dict)
     tool: Tool | None = None
     payload: Payload | None = None
     tool_wrench: ToolWrench | None = None
@@ -115,7 +126,7 @@ class RobotGeometry:
         self._check_legs()
         self._check_inertias()
         if self.tool is not None:
-            self._check_tool()
+            check_tool(self.tool)
         self._check_loads()
         self._set_home()
         self._set_joint_axes()
@@ -129,9 +140,8 @@ class RobotGeometry:
         if lo >= hi:
             raise RobotDescriptionError(
                 f'legs.min_length ({lo}) must be < legs.max_length ({hi})')
-        for key in ('max_speed', 'max_force'):
-            if getattr(self, key) != math.inf:
-                as_scalar(getattr(self, key), f'legs.{key}', positive=True)
+        check_rate_limits({key: getattr(self, key) for key in ('max_speed', 'max_acceleration', 'max_jerk',
+                                                               'max_force')})
         as_scalar(self.leg_radius, 'legs.radius', nonnegative=True)
         for key in ('universal_max_angle', 'spherical_max_angle'):
             value = as_scalar(getattr(self, key), f'legs.{key}', positive=True)
@@ -218,25 +228,6 @@ class RobotGeometry:
             if ring not in ('ring_a', 'ring_b'):
                 raise RobotDescriptionError(f'{ring}.holding: only ring_a and ring_b have grippers')
 
-    def _check_tool(self) -> None:
-        t = self.tool
-        object.__setattr__(t, 'position', as_array(t.position, (3,), 'tool.position'))
-        q = as_array(t.quaternion_xyzw, (4,), 'tool.quaternion')
-        if abs(np.linalg.norm(q) - 1.0) > 1e-6:
-            raise RobotDescriptionError('tool.quaternion: must be a unit quaternion (x, y, z, w)')
-        object.__setattr__(t, 'quaternion_xyzw', normalize_quat(q))
-        as_scalar(t.mass, 'tool.mass', positive=True)
-        object.__setattr__(t, 'com', as_array(t.com, (3,), 'tool.com'))
-        object.__setattr__(t, 'inertia', as_array(t.inertia, (3, 3), 'tool.inertia'))
-        check_inertia(t.inertia, 'tool.inertia')
-        if t.shape not in TOOL_SHAPES:
-            raise RobotDescriptionError(f'tool.shape: must be one of {TOOL_SHAPES}, got {t.shape!r}')
-        size = tuple(as_scalar(v, 'tool.size', positive=True) for v in t.size)
-        wanted = {'cylinder': 2, 'box': 3, 'sphere': 1}[t.shape]
-        if len(size) != wanted:
-            raise RobotDescriptionError(f'tool.size: a {t.shape} takes {wanted} sizes, got {len(size)}')
-        object.__setattr__(t, 'size', size)
-
     # --- derived quantities -------------------------------------------------------------
 
     def _home_leg_vectors(self) -> np.ndarray:
@@ -275,6 +266,12 @@ class RobotGeometry:
             body = combine_bodies(body, RigidBodyInertia(mass=t.mass, com=t.com, inertia=t.inertia),
                                   quat_xyzw_to_matrix(t.quaternion_xyzw), t.position)
         return self._with_payload(body, 'ring_b')
+
+    @cached_property
+    def motion_limits(self) -> MotionLimits:
+        """The legs' speed, acceleration and jerk limits and the grippers' times, defaults filled in
+        (:func:`rrps_description.motion_limits.motion_limits`: RobotDescriptionError without max_speed)."""
+        return motion_limits(self)
 
     @property
     def total_mass(self) -> float:
@@ -349,6 +346,7 @@ class RobotGeometry:
             if key in ring_b:
                 kwargs['ring_b_joint_axes'] = as_array(ring_b[key], (6, 3), f'ring_b.{key}')
         kwargs.update(leg_limits_from(legs))
+        kwargs.update(motion_limits_from(legs, ring_a, ring_b))
         kwargs.update(loads_from(data, ring_a, ring_b))
         home = section('home')
         if 'position' in home:

@@ -13,7 +13,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from rrps_description.rotations import quat_xyzw_to_matrix
+from rrps_description.rotations import normalize_quat, quat_xyzw_to_matrix
 
 __all__ = [
     'RobotDescriptionError',
@@ -26,6 +26,7 @@ __all__ = [
     'as_array',
     'as_scalar',
     'check_inertia',
+    'check_tool',
     'body_from',
     'link_from',
     'leg_limits_from',
@@ -171,6 +172,26 @@ def check_inertia(inertia: np.ndarray, key: str) -> None:
     if eig[0] + eig[1] < eig[2] * (1.0 - 1e-9):
         raise RobotDescriptionError(f'{key}: principal moments break the triangle inequality {eig}')
 
+
+def check_tool(t: Tool) -> None:
+    """Validate a :class:`Tool` in place (its arrays made read-only floats, its quaternion
+    normalised); RobotDescriptionError naming the ``tool.`` key otherwise."""
+    object.__setattr__(t, 'position', as_array(t.position, (3,), 'tool.position'))
+    q = as_array(t.quaternion_xyzw, (4,), 'tool.quaternion')
+    if abs(np.linalg.norm(q) - 1.0) > 1e-6:
+        raise RobotDescriptionError('tool.quaternion: must be a unit quaternion (x, y, z, w)')
+    object.__setattr__(t, 'quaternion_xyzw', normalize_quat(q))
+    as_scalar(t.mass, 'tool.mass', positive=True)
+    object.__setattr__(t, 'com', as_array(t.com, (3,), 'tool.com'))
+    object.__setattr__(t, 'inertia', as_array(t.inertia, (3, 3), 'tool.inertia'))
+    check_inertia(t.inertia, 'tool.inertia')
+    if t.shape not in TOOL_SHAPES:
+        raise RobotDescriptionError(f'tool.shape: must be one of {TOOL_SHAPES}, got {t.shape!r}')
+    size = tuple(as_scalar(v, 'tool.size', positive=True) for v in t.size)
+    wanted = {'cylinder': 2, 'box': 3, 'sphere': 1}[t.shape]
+    if len(size) != wanted:
+        raise RobotDescriptionError(f'tool.size: a {t.shape} takes {wanted} sizes, got {len(size)}')
+    object.__setattr__(t, 'size', size)
 
 
 def body_from(sec: Mapping[str, Any], key: str) -> RigidBodyInertia:

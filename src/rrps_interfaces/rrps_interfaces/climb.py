@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import math
 
 from rrps_description.names import RINGS
 from rrps_interfaces.status import StatusValues
@@ -94,7 +95,9 @@ class ClimbStatus(StatusValues):
     """climb/status values: the state, where the step is (``step``, the phase's ``action`` and
     ``ring``), the rings' route positions [m] and the reason in words (``detail``).
     ``previewing``: a requested step is being previewed (the state stays IDLE until it starts);
-    ``refusal``: why the last requested step did not start (None: it started, or none asked)."""
+    ``refusal``: why the last requested step did not start (None: it started, or none asked);
+    ``step_duration`` [s] and ``climbing_speed`` [m/min]: the last planned climb's longest step
+    and its speed (NaN before one is planned)."""
 
     state: ClimbState
     pause_reason: PauseReason | None = None
@@ -108,6 +111,8 @@ class ClimbStatus(StatusValues):
     detail: str = ''
     previewing: bool = False
     refusal: StepRefusal | None = None
+    step_duration: float = math.nan
+    climbing_speed: float = math.nan
 
     @property
     def phase(self) -> str:

@@ -8,8 +8,9 @@ its own ring (ring_a holds while ring_b moves, then the reverse).
 
 The legs are driven as the driver's dynamic mode drives them
 (:class:`rrps_sim.actuators.DynamicActuators`, compiled in :mod:`rrps_sim.dynamics.driven`): the
-commanded lengths (the motion's poses by IK, each held for the command period) shaped by the
-actuators' lag and speed limit, and each leg's force ``f = f_g + kp (r - L) + kd (r' - L')``,
+commanded lengths (the motion's poses by IK, one every command period) made the driver's
+jerk-limited setpoints (:func:`rrps_sim.hardware.setpoints.stream_setpoints`, every driver period)
+and shaped by the actuators' lag and speed limit, and each leg's force ``f = f_g + kp (r - L) + kd (r' - L')``,
 ``f_g`` the static holding forces on the support, refreshed every ``feedforward_period`` (at the
 commanded pose, where the driver takes the measured one: they differ by the tracking error); a
 force beyond ``max_force`` breaks the limit. After its last command, a motion is held ``settle``
@@ -35,6 +36,7 @@ from rrps_interfaces.climb import PreviewLimit
 from rrps_kinematics.inverse import inverse_kinematics
 from rrps_sim.dynamics import MultibodyDynamics
 from rrps_sim.dynamics.driven import DriveLoop
+from rrps_sim.hardware.setpoints import DRIVER_PERIOD, stream_setpoints
 from rrps_sim.loads import holding_margin, support_wrench
 from rrps_sim.statics import holding_forces
 from rrps_sim.support import support_of
@@ -50,13 +52,15 @@ class PreviewError(RuntimeError):
 class Drives(NamedTuple):
     """The legs' drives as the driver's dynamic mode models them (its parameters' defaults):
     PD gains ``kp`` [N/m], ``kd`` [N s/m], the reference's lag ``time_constant`` [s] and
-    ``max_speed`` [m/s] (None: the robot's), the gravity feed-forward's refresh period [s]."""
+    ``max_speed`` [m/s] (None: the robot's), the gravity feed-forward's refresh period [s], and
+    whether the commands pass the driver's jerk-limited setpoints (``jerk_limited``)."""
 
     kp: float = 1.0e5
     kd: float = 1.0e3
     time_constant: float = 0.02
     max_speed: float | None = None
     feedforward_period: float = 0.02
+    jerk_limited: bool = True
 
 
 @dataclass(frozen=True)
@@ -210,6 +214,10 @@ def _simulate_motion(geometry, motion, gravity, drives, dt, settle, correction_t
     except (ValueError, RuntimeError) as exc:
         raise PreviewError(f'{motion.name}: the commanded poses are not held at rest ({exc})') from None
     drive = _drive_loop(geometry, drives)
+    period = motion.period
+    if drives.jerk_limited:   # the driver's setpoints, every driver period, through the hold after
+        commands = stream_setpoints(commands, motion.period, geometry.motion_limits.legs, settle=settle)
+        period = DRIVER_PERIOD
     reference = np.concatenate([dyn.lengths, np.zeros(6)])
     forces, peak = feedforward[0].copy(), np.zeros(6)
     n_steps = max(1, math.ceil((motion.duration + settle) / dt - 1e-9))
@@ -225,7 +233,7 @@ def _simulate_motion(geometry, motion, gravity, drives, dt, settle, correction_t
         ff = feedforward[min(int(t / motion.period + 1e-9), len(feedforward) - 1)]
         before = peak.copy()
         try:
-            dyn.run_driven(commands, motion.period, t, steps, dt, drive, reference, ff, forces, peak)
+            dyn.run_driven(commands, period, t, steps, dt, drive, reference, ff, forces, peak)
         except RuntimeError as exc:
             raise PreviewError(f'{motion.name}: the dynamics failed near t={t:.3f} s ({exc})') from None
         if np.any(peak > before):

@@ -78,6 +78,15 @@ MALFORMED = [
     ('legs.max_length', _NAN, 'legs.max_length: must be finite'),
     ('legs.max_speed', 0.0, 'legs.max_speed: must be > 0'),
     ('legs.max_force', -5.0, 'legs.max_force: must be > 0'),
+    ('legs.max_acceleration', -0.25, 'legs.max_acceleration: must be > 0'),
+    ('legs.max_acceleration', _NAN, 'legs.max_acceleration: must be finite'),
+    ('legs.max_jerk', float('inf'), 'legs.max_jerk: must be finite'),
+    ('legs.max_jerk', 0.0, 'legs.max_jerk: must be > 0'),
+    ('legs.max_speed', _NAN, 'legs.max_speed: must be finite'),
+    ('ring_a.gripper_time', {'open': -1.0, 'close': 1.0}, 'ring_a.gripper_time.open: must be > 0'),
+    ('ring_b.gripper_time', {'close': _NAN}, 'ring_b.gripper_time.close: must be finite'),
+    ('ring_b.gripper_time', {'shut': 1.0}, "ring_b.gripper_time: unknown keys ['shut']"),
+    ('ring_a.gripper_time', 0.5, 'ring_a.gripper_time: expected a mapping'),
     ('legs.radius', -0.01, 'legs.radius: must be >= 0'),
     ('legs.radius', True, 'legs.radius: expected a number'),
     ('legs.universal_max_angle', 4.0, 'legs.universal_max_angle: must be <= pi'),
@@ -191,3 +200,24 @@ def test_geometry_arrays_are_read_only():
     g = load_robot('pole_climber')
     with pytest.raises(ValueError):
         g.ring_a_anchors[0, 0] = 1.0
+
+
+def test_motion_limits_are_the_descriptions_or_documented_defaults():
+    for name in ('pole_climber', 'frame_climber', 'facade_climber', 'master_robot'):
+        g = load_robot(name)
+        legs = g.motion_limits.legs
+        assert legs.speed == g.max_speed and legs.acceleration == g.max_acceleration and legs.jerk == g.max_jerk
+    pole = load_robot('pole_climber').motion_limits
+    assert (pole.grippers['ring_a'].open, pole.grippers['ring_a'].close) == (0.5, 0.8)
+    # a description without acceleration, jerk or gripper times: reach full speed in 0.5 s, full
+    # acceleration in 0.2 s, a gripper switch in 2 s
+    data = _pole_dict()
+    for key in ('legs.max_acceleration', 'legs.max_jerk', 'ring_a.gripper_time', 'ring_b.gripper_time'):
+        _set(data, key, _DELETE)
+    limits = RobotGeometry.from_dict(data).motion_limits
+    assert limits.legs.acceleration == pytest.approx(0.05 / 0.5) and limits.legs.jerk == pytest.approx(0.1 / 0.2)
+    assert limits.grippers['ring_b'].switch(close=True) == limits.grippers['ring_a'].switch(close=False) == 2.0
+    # without the speed nothing can be timed: the error names the key
+    _set(data, 'legs.max_speed', _DELETE)
+    with pytest.raises(RobotDescriptionError, match='legs.max_speed: not given'):
+        RobotGeometry.from_dict(data).motion_limits

@@ -80,23 +80,72 @@ def test_nothing_moves_before_activate():
     assert not np.array_equal(state.positions, POLE.home_lengths)
 
 
-def test_write_then_read_tracks_the_command_at_the_speed_limit():
+def _limits_by_differences(x, dt):
+    """The largest |speed|, |acceleration| and |jerk| of samples x (k, 6) every dt: finite differences."""
+    v = np.diff(x, axis=0) / dt
+    a = np.diff(v, axis=0) / dt
+    return np.abs(v).max(), np.abs(a).max(), np.abs(np.diff(a, axis=0) / dt).max()
+
+
+def test_write_then_read_moves_to_a_step_command_within_the_speed_acceleration_and_jerk_limits():
     robot = active()
-    start = POLE.home_lengths
-    for n in range(1, 400):
+    start, limits = POLE.home_lengths, POLE.motion_limits.legs
+    positions = [start]
+    for n in range(1, 1000):
         result, state = cycle(robot, Command(GOAL), t0=n * DT)
         assert result.ok
-        # independent: each leg moves straight at max_speed until it reaches its goal
-        expected = start + np.clip(GOAL - start, -POLE.max_speed * n * DT, POLE.max_speed * n * DT)
-        np.testing.assert_allclose(state.positions, expected, rtol=0, atol=1e-12)
+        positions.append(state.positions)
         if np.array_equal(state.positions, GOAL):
             break
+    x = np.array(positions)
+    speed, acceleration, jerk = _limits_by_differences(x, DT)
+    assert speed <= limits.speed * (1 + 1e-9) and acceleration <= limits.acceleration * (1 + 1e-9)
+    assert jerk <= limits.jerk * (1 + 1e-6)
+    # each leg moves toward its goal, never past it, and not much slower than a rest-to-rest
+    # motion at the jerk limit alone would allow: t >= (32 d / j)^(1/3) for a distance d
+    assert np.all((x - start) * np.sign(GOAL - start) >= -1e-12)
+    assert np.all((GOAL - x) * np.sign(GOAL - start) >= -1e-12)
+    fastest = (32.0 * np.abs(GOAL - start).max() / limits.jerk) ** (1.0 / 3.0)
+    assert fastest <= len(x) * DT <= 3.0 * fastest + 1.0
     assert all(a.target_reached for a in state.actuators) and [a.name for a in state.actuators] == list(LEG_NAMES)
     np.testing.assert_array_equal(state.targets, GOAL)
     assert state.bus is BusState.OPERATIONAL and state.faults == ()
     _, state = cycle(robot)  # no command: the actuators keep their target
     np.testing.assert_array_equal(state.positions, GOAL)
     np.testing.assert_array_equal(state.velocities, np.zeros(6))
+
+
+def test_a_command_stream_is_followed_one_period_behind_within_the_limits():
+    """A stream at 50 Hz along a smooth ramp (a leg's planned motion): the legs follow it one
+    command period behind, within 3 mm while it accelerates and 0.5 mm once it cruises, every
+    sample within the limits."""
+    robot = active()
+    start, limits = POLE.home_lengths, POLE.motion_limits.legs
+    ramp = 0.9 * limits.speed
+    t_ramp = 2.0 * ramp / (0.9 * limits.acceleration)
+
+    def planned(t):   # accelerate smoothly (a 1 - cos acceleration) to 90 % of the speed, then cruise
+        t = np.clip(np.atleast_1d(t), 0.0, None)
+        w = 2.0 * np.pi / t_ramp
+        s = np.where(t < t_ramp, ramp * (t ** 2 / (2.0 * t_ramp) + (np.cos(w * t) - 1.0) / (w ** 2 * t_ramp)),
+                     ramp * (t - t_ramp / 2.0))
+        return start + s[:, None] if s.size > 1 else start + s[0]
+
+    x = []
+    for n in range(200):   # 2 s (0.09 m, within the stroke), a command every other cycle
+        t = n * DT
+        command = Command(planned(t - t % 0.02))
+        if n % 2 == 0:
+            stream = command
+        robot.write(t, DT, stream)
+        x.append(robot.read(t, DT).positions)
+    x = np.array(x)
+    speed, acceleration, jerk = _limits_by_differences(x, DT)
+    assert speed <= limits.speed * (1 + 1e-9) and acceleration <= limits.acceleration * (1 + 1e-9)
+    assert jerk <= limits.jerk * (1 + 1e-6)
+    behind = planned(np.arange(200) * DT - 0.02)
+    error = np.abs(x - behind).max(axis=1)
+    assert error.max() < 3e-3 and error[100:].max() < 5e-4   # caught up once the stream cruises
 
 
 def test_ring_rotations_are_commanded_with_the_legs():

@@ -23,8 +23,9 @@ WALL = rotation_vector_to_quat_xyzw(np.array([np.pi / 2, 0.0, 0.0]))   # the rin
 DT = 0.001
 T = 0.4          # a fast motion: inertia matters [s]
 SETTLE = 0.1
-#: the driver's drives without its speed limit (the motion is faster than the robot's max_speed)
-FAST = Drives(max_speed=math.inf)
+#: the driver's drives without its speed limit and without its jerk-limited setpoints (the motion
+#: is faster than the robot's limits: the commands reach the drives as they are)
+FAST = Drives(max_speed=math.inf, jerk_limited=False)
 
 
 def _trajectory(t):

@@ -87,9 +87,9 @@ def test_too_long_step_is_refused(capsys):
 def test_a_heavy_payload_is_refused_for_holding(capsys):
     assert main(['--structure', 'pole', '--distance', '0.5', '--payload-mass', '200']) == 1
     err = capsys.readouterr().err
-    assert err.startswith('rrps-climb: refused: holding, ring_a, step 0 release_b, pose 1/1'), err
+    assert err.startswith('rrps-climb: refused: holding, ring_a, step 0 start (hand-over'), err
     there = dict((k, float(v)) for k, v in re.findall(r'(\w+) (-?\d+\.\d+)', err.split('[margins there:')[1]))
-    assert there['holding'] < 0.0 < there['actuator_force']
+    assert there['holding'] < 0.0
 
 
 def test_a_climb_prints_and_writes_its_load_figures(tmp_path, capsys):
@@ -106,14 +106,36 @@ def test_a_climb_prints_and_writes_its_load_figures(tmp_path, capsys):
     margins = [float(r['holding_margin']) for r in rows if r['holding_margin'] != 'nan']
     assert max(peaks) == pytest.approx(float(found[1]), abs=0.05)
     assert min(margins) == pytest.approx(float(found[2]), abs=1e-3)
-    assert all(r['peak_force'] == 'nan' for r in rows if r['gripper_a'] == r['gripper_b'] == '1')
+    # every phase has its duration: the motions their timing's, the grippers their switch times
+    durations = [float(r['duration']) for r in rows]
+    found = re.search(r'timing: (\d+\.\d) s in all, per step .*; climbing speed (\d+\.\d+) m/min', summary)
+    assert found, summary
+    assert sum(durations) == pytest.approx(float(found[1]), abs=0.05)
+    assert all(float(r['duration']) in (0.5, 0.8) for r in rows if r['phase'].startswith(('release', 'grip')))
+    steps = sum(float(r['duration']) for r in rows if int(r['step']) >= 1)
+    climbed = float(rows[-1]['s_a']) - float(rows[0]['s_a'])
+    assert float(found[2]) == pytest.approx(60.0 * climbed / steps, abs=0.01)
+
+
+def test_a_speed_beyond_the_legs_is_capped_and_said_so(capsys):
+    assert main(['--structure', 'pole', '--distance', '0.5', '--speed', '2']) == 0
+    out = capsys.readouterr().out
+    assert 'speed: 2 m/s requested, capped to what the legs allow' in out
+    assert main(['--structure', 'pole', '--distance', '0.5', '--speed', '0.01']) == 0   # slower: no cap
+    assert 'capped' not in capsys.readouterr().out
+
+
+@pytest.mark.parametrize('speed', ['0', '-1', 'nan'])
+def test_a_speed_that_is_not_positive_is_refused_naming_the_limit_step_and_phase(capsys, speed):
+    assert main(['--structure', 'pole', '--distance', '0.5', '--speed', speed]) == 1
+    err = capsys.readouterr().err
+    assert err.count('\n') == 1 and err.startswith('rrps-climb: refused: speed: ') and 'step 0 release_b' in err
 
 
 @pytest.mark.parametrize('argv,needle', [
     (['--structure', 'tower', '--distance', '1'], 'invalid choice'),
     (['--structure', 'pole', '--distance', '0.5', '--payload-com', '0.1,0,0'], 'need --payload-mass'),
     (['--structure', 'pole', '--distance', '0.5', '--payload-mass', '-3'], 'payload.mass'),
-    (['--structure', 'pole', '--distance', '0.5', '--speed', '0'], 'must be a positive number'),
     (['--structure', 'pole', '--distance', '0.5', '--structure-quaternion', '0,0,0,2'], '--structure-quaternion'),
     (['--structure', 'pole', '--distance', '0.5', '--gravity', '-9.81,0'], 'expected 3 numbers'),
     (['--structure', 'pole', '--distance', 'abc'], 'expected a number'),

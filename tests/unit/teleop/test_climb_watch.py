@@ -1,4 +1,4 @@
-"""InputWatch (what a climbing step watches) and PhasePath (a motion phase timed at a speed)."""
+"""InputWatch (what a climbing step watches) and PhasePath (a timed motion phase as a stream plays it)."""
 
 from __future__ import annotations
 
@@ -87,45 +87,41 @@ def test_ages_are_judged_only_after_a_state_timeout_without_a_stall_of_the_node(
         watch.received('actuators/state')
 
 
-def _path(n=5):
+def _samples(n=5):
+    times = np.linspace(0.0, 2.0, n)
     positions = np.linspace([0, 0, 0.4], [0.0, 0.0, 0.46], n)
-    path = np.array([Pose(p, rotation_vector_to_quat_xyzw(np.array([0, 0, 0.1 * k / n]))).matrix
-                     for k, p in enumerate(positions)])
-    return path, np.column_stack([np.linspace(0, 0.2, n), np.zeros(n)])
+    quaternions = np.array([rotation_vector_to_quat_xyzw(np.array([0, 0, 0.1 * k / n])) for k in range(n)])
+    return times, positions, quaternions, np.column_stack([np.linspace(0, 0.2, n), np.zeros(n)])
 
 
-def test_a_phase_path_is_timed_by_arc_length_and_rotation_at_the_speed():
-    path, angles = _path()
-    timed = PhasePath(path, angles, speed=0.02, characteristic_length=0.3)
-    rotation = 0.1 * 4 / 5
-    assert timed.duration == pytest.approx((0.06 + 0.3 * rotation) / 0.02)
+def test_a_phase_path_gives_its_samples_at_their_times_and_holds_the_last():
+    times, positions, quaternions, angles = _samples()
+    timed = PhasePath(times, positions, quaternions, angles)
+    assert timed.duration == 2.0
     start, a0 = timed.at(0.0)
-    assert pose_error(start, Pose.from_matrix(path[0])) == pytest.approx((0.0, 0.0), abs=1e-12)
+    assert pose_error(start, Pose(positions[0], quaternions[0])) == pytest.approx((0.0, 0.0), abs=1e-12)
     end, a1 = timed.at(timed.duration + 1.0)
-    assert pose_error(end, Pose.from_matrix(path[-1])) == pytest.approx((0.0, 0.0), abs=1e-12)
+    assert pose_error(end, Pose(positions[-1], quaternions[-1])) == pytest.approx((0.0, 0.0), abs=1e-12)
     np.testing.assert_allclose(a1, angles[-1])
-    middle, am = timed.at(timed.times[2])
-    assert pose_error(middle, Pose.from_matrix(path[2]))[0] < 1e-12
+    middle, am = timed.at(times[2])
+    assert pose_error(middle, Pose(positions[2], quaternions[2]))[0] < 1e-12
     np.testing.assert_allclose(am, angles[2], atol=1e-12)
 
 
 @settings(max_examples=50, deadline=None)
 @given(st.floats(0.0, 1.0))
-def test_a_phase_path_moves_monotonically_between_its_samples(fraction):
-    path, angles = _path()
-    timed = PhasePath(path, angles, speed=0.05, characteristic_length=0.3)
+def test_a_phase_path_moves_linearly_between_its_samples(fraction):
+    times, positions, quaternions, angles = _samples()
+    timed = PhasePath(times, positions, quaternions, angles)
     pose, _ = timed.at(fraction * timed.duration)
-    z = pose.position[2]
-    assert 0.4 - 1e-12 <= z <= 0.46 + 1e-12
-    assert z == pytest.approx(0.4 + 0.06 * np.interp(fraction * timed.duration, timed.times,
-                                                     np.linspace(0, 1, 5)), abs=1e-12)
+    assert pose.position[2] == pytest.approx(0.4 + 0.06 * fraction, abs=1e-12)
 
 
-def test_a_phase_path_rejects_bad_shapes_and_speeds():
-    path, angles = _path()
-    with pytest.raises(ValueError, match='path must be'):
-        PhasePath(path[:, :3], angles, speed=0.1, characteristic_length=0.3)
+def test_a_phase_path_rejects_bad_shapes_and_times():
+    times, positions, quaternions, angles = _samples()
+    with pytest.raises(ValueError, match='positions'):
+        PhasePath(times, positions[:, :2], quaternions, angles)
     with pytest.raises(ValueError, match='ring_angles'):
-        PhasePath(path, angles[:, :1], speed=0.1, characteristic_length=0.3)
-    with pytest.raises(ValueError, match='speed'):
-        PhasePath(path, angles, speed=0.0, characteristic_length=0.3)
+        PhasePath(times, positions, quaternions, angles[:, :1])
+    with pytest.raises(ValueError, match='times'):
+        PhasePath(times[::-1], positions, quaternions, angles)

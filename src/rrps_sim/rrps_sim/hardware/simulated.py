@@ -1,23 +1,23 @@
 """The simulated robot behind the hardware interface: actuators, ring DOFs, grippers, faults.
 
 Modes (parameter ``mode``): ``kinematic`` (:class:`rrps_sim.actuators.KinematicActuators`: lag,
-speed and stroke limits; efforts = the quasi-static holding forces of the pose, refreshed at
-5 Hz) and ``dynamic`` (:class:`rrps_sim.actuators.DynamicActuators`: the multibody dynamics of
-eqs. 19-20 with a PD force loop per leg, efforts = forces [N]). ``write`` advances the
-simulation by its ``period``; ``read`` measures it (with :class:`rrps_sim.actuators.SensorFaults`).
-Efforts and dynamics are in the world's gravity: ring_a's attitude in the world while it grips
-(``world_q_support`` at the start, from the structure's grip frame), handed over to ring_b while
-ring_b alone grips (and back) through the measured pose, and replaced by the odometry's attitude
-of the supporting ring when the driver hands one over (:meth:`SimulatedRobot.set_support`);
-``payload_mass`` > 0 puts a point-mass payload on a ring in place of the
-robot's own.
+speed and stroke limits; efforts = the quasi-static holding forces of the pose, refreshed at 5 Hz)
+and ``dynamic`` (:class:`rrps_sim.actuators.DynamicActuators`: the multibody dynamics of eqs. 19-20
+with a PD force loop per leg, efforts = forces [N]). ``write`` advances the simulation by its
+``period``, the legs along the commands' jerk-limited setpoints (Ruckig's); ``read`` measures it
+(with :class:`rrps_sim.actuators.SensorFaults`). Efforts and dynamics are in the world's gravity:
+ring_a's attitude in the world while it grips (``world_q_support`` at the start, from the
+structure's grip frame), handed over to ring_b while ring_b alone grips (and back) through the
+measured pose, and replaced by the odometry's attitude of the supporting ring when the driver hands
+one over (:meth:`SimulatedRobot.set_support`); ``payload_mass`` > 0 puts a point-mass payload on a
+ring in place of the robot's own.
 
-The simulated robot outlives its driver as a real one would: cleanup and configure keep it
-where it is, and with ``state_file`` its physical state (lengths, ring angles, grippers) is
-kept on disk (:mod:`rrps_sim.hardware_state`, written by a thread of its own every 0.1 s of
-``time`` when it changed, and at once when a gripper switched), so that a restarted driver
-resumes it. Faults for tests: ``stuck_legs``, ``sensor_noise``, ``drop_probability`` (run-time
-parameters) and :meth:`SimulatedRobot.inject_fault` (a latched actuator fault, a lost bus).
+The simulated robot outlives its driver as a real one would: cleanup and configure keep it where it
+is, and with ``state_file`` its physical state (lengths, ring angles, grippers) is kept on disk
+(:mod:`rrps_sim.hardware_state`, written by a thread of its own every 0.1 s of ``time`` when it
+changed, and at once when a gripper switched), so that a restarted driver resumes it. Faults for
+tests: ``stuck_legs``, ``sensor_noise``, ``drop_probability`` (run-time parameters) and
+:meth:`SimulatedRobot.inject_fault` (a latched actuator fault, a lost bus).
 """
 
 from __future__ import annotations
@@ -52,6 +52,7 @@ from rrps_sim.hardware.interface import (
     SystemState,
     Transition,
 )
+from rrps_sim.hardware.setpoints import JerkLimitedSetpoints
 from rrps_sim.hardware_state import HardwareState, StateFileWriter, load_state
 
 __all__ = ['SimulatedRobot']
@@ -74,6 +75,7 @@ class SimulatedRobot(SystemInterface):
                   choices=tuple(m.value for m in ActuatorMode)),
         Parameter('time_constant', 0.02, 'first-order lag of the actuators; 0 = none', unit='s', range=(0.0, 10.0)),
         Parameter('limit_speed', True, "limit the actuators to the robot's max_speed"),
+        Parameter('jerk_limited', True, "the legs follow the commands' jerk-limited setpoints (Ruckig, the limits')"),
         Parameter('kp', 1.0e5, 'dynamic mode: PD stiffness per leg', unit='N/m', range=(0.0, 1e8)),
         Parameter('kd', 1.0e3, 'dynamic mode: PD damping per leg', unit='N s/m', range=(0.0, 1e6)),
         Parameter('dynamics_step', 1e-3, 'dynamic mode: largest integration step', unit='s', range=(1e-5, 0.01)),
@@ -108,6 +110,7 @@ class SimulatedRobot(SystemInterface):
         self.active = False
         self.bus = BusState.OPERATIONAL
         self.faults: dict[str, ActuatorFault] = {}
+        self._commanded: Command | None = None   # the last command given to the setpoints
         self._writer: StateFileWriter | None = None
         self._saved_key: tuple | None = None
         self._saved_at = -math.inf
@@ -164,6 +167,7 @@ class SimulatedRobot(SystemInterface):
             lo, hi = np.array([d.min_angle for d in dofs]), np.array([d.max_angle for d in dofs])
             angles0 = np.clip(saved.rings if saved is not None else 0.0, lo, hi)
             self.rings = KinematicActuators(lo, hi, values['ring_rotation_speed'], tau, angles0)
+        self.setpoints = JerkLimitedSetpoints(g.motion_limits.legs, lengths0) if values['jerk_limited'] else None
         self.sensors = SensorFaults(values['sensor_noise'], values['drop_probability'], values['fault_seed'])
         self._set_stuck(values['stuck_legs'] or ())
         self.grippers = Grippers(g.grippers, None if saved is None else saved.grippers)
@@ -226,12 +230,12 @@ class SimulatedRobot(SystemInterface):
     def write(self, time: float, period: float, command: Command | None) -> Result:
         if self.actuators is None:
             return _error('not configured')
-        accepted = OK if command is None else self._accept(command)
-        stepped = self._step(period)  # the world goes on, whether the command was taken or not
+        accepted = OK if command is None else self._accept(command, time)
+        stepped = self._step(time, period)  # the world goes on, whether the command was taken or not
         self._save(time)
         return accepted if not accepted.ok else stepped
 
-    def _accept(self, command: Command) -> Result:
+    def _accept(self, command: Command, time: float) -> Result:
         if self.faults:
             return _error(f'{self._faults_text()}: holding; reset the faults, then activate')
         if not self.active:
@@ -245,16 +249,19 @@ class SimulatedRobot(SystemInterface):
                 return _error(f'ring angles {command.rings!r} for ring joints {self.ring_joints}')
             self.ring_reference = rings
         self.reference = lengths
+        if self.setpoints is not None and command is not self._commanded:   # a new command arrived
+            self.setpoints.command(lengths, time)
+        self._commanded = command
         return OK
 
-    def _step(self, dt: float) -> Result:
+    def _step(self, time: float, dt: float) -> Result:
         result = OK
         try:
-            self.actuators.step(self.reference, dt)
+            self.actuators.step(self.reference if self.setpoints is None else self.setpoints.step(time, dt), dt)
         except RuntimeError as exc:  # a singular configuration of the dynamics
             dyn = self.actuators.dynamics
             dyn.reset(dyn.position, dyn.quaternion_xyzw)
-            self.reference = self.actuators.positions.copy()
+            self._hold()
             result = _error(f'dynamics failed ({exc}): reset at rest, holding')
         if self.mode is ActuatorMode.KINEMATIC:
             self.static_efforts.update(self.actuators.positions, dt)
@@ -309,6 +316,9 @@ class SimulatedRobot(SystemInterface):
     def _hold(self) -> None:
         """Track where the actuators are now (no jump towards an older target)."""
         self.reference = self.actuators.positions.copy()
+        self._commanded = None
+        if self.setpoints is not None:
+            self.setpoints.reset(self.reference)
         if self.rings is not None:
             self.ring_reference = self.rings.positions.copy()
 

@@ -27,7 +27,12 @@ odometry chain), the kinematic pose a_T_b (``px..qw``), the extra-DOF angles, th
 one gripper holds its peak actuator force [N] and smallest holding margin
 (:mod:`rrps_teleop.climbing.load_check`: the motions streamed at ``--speed``, the structure
 turned by ``--structure-quaternion`` in a world of ``--gravity``, the payload and tool wrench of
-the robot or of the command line). A negative distance climbs down. Exit status: 0 planned,
+the robot or of the command line), and its ``duration`` [s]. Every motion is timed
+time-optimally within the legs' speed, acceleration and jerk limits, the force limit and the
+holding capacity (:mod:`rrps_teleop.climbing.timing`, TOPP-RA), capped at ``--speed`` [m/s] along
+the moving ring's path when given (a speed beyond the legs is capped to what they allow, and
+said so); the summary gives each step's duration and the climbing speed in m/min. A negative
+distance climbs down. Exit status: 0 planned,
 1 refused (a limit would break: the message says which, on which legs or ring, at which step
 and phase), 2 bad arguments (one line on stderr), 3 a bug (its traceback).
 """
@@ -52,13 +57,12 @@ from rrps_kinematics.cli_support import (
     count,
     join_negative_vectors,
     load_robot_or_usage_error,
-    positive,
     vector,
 )
 from rrps_sim.cli_world import LOAD_VECTOR_OPTIONS, add_load_options, with_loads
 from rrps_teleop.climbing.frame_node import FrameNodePlanner
 from rrps_teleop.climbing.gait import GaitPlanner
-from rrps_teleop.climbing.load_check import DEFAULT_SPEED, LoadCheck
+from rrps_teleop.climbing.load_check import LoadCheck
 from rrps_teleop.climbing.plan import CSV_COLUMNS, PlanError
 from rrps_teleop.climbing.route import ROUTES, plan_route
 
@@ -97,8 +101,8 @@ def build_parser() -> OneLineParser:
     p.add_argument('--corner-deg', type=float, default=20.0,
                    help='facade_corner: the corner [deg], positive outside (default 20)')
     p.add_argument('--csv', help='write the plan to this CSV file')
-    p.add_argument('--speed', type=positive, default=DEFAULT_SPEED,
-                   help=f'speed the motions are streamed at, for their loads [m/s] (default {DEFAULT_SPEED})')
+    p.add_argument('--speed', type=float, metavar='M/S',
+                   help="cap on the moving ring's path speed [m/s] (default: none, the legs' limits alone)")
     p.add_argument('--structure-quaternion', type=vector(4), metavar='QX,QY,QZ,QW',
                    help="the structure's attitude in the world (default identity: as built)")
     p.add_argument('--gravity', type=vector(3), metavar='GX,GY,GZ',
@@ -195,6 +199,20 @@ def _load_line(plan, geometry) -> str:
             f'{geometry.max_force:.0f} N), {holding}')
 
 
+def _timing_line(plan, speed) -> str:
+    """Each step's duration and the climbing speed; where a requested speed was capped."""
+    steps = plan.step_durations()
+    per_step = ', '.join(f'{k}: {d:.1f} s' for k, d in steps.items())
+    text = (f'  timing: {plan.duration:.1f} s in all, per step {per_step}; climbing speed '
+            f'{plan.climbing_speed:.2f} m/min')
+    capped = LoadCheck.capped(plan.phases)
+    if capped:
+        fastest = max(ph.timing.peak_speed for ph in capped)
+        text += (f'\n  speed: {speed:g} m/s requested, capped to what the legs allow ({fastest:.3f} m/s at most, '
+                 f'step {capped[0].step} {capped[0].phase} and {len(capped) - 1} more motions)')
+    return text
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     try:
@@ -246,6 +264,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         f'{k} {v:.4f}' for k, v in m.items() if not math.isnan(v))
         + '  (m; joint angles rad; conditioning dimensionless)')
     print(_load_line(plan, geometry))
+    print(_timing_line(plan, args.speed))
     if args.csv:
         print(f'  wrote {len(plan.phases)} rows to {args.csv}')
     return 0

@@ -39,7 +39,7 @@ from rrps_description.structures import Structure, interpolate_frames
 from rrps_interfaces.climb import PhaseAction
 from rrps_kinematics import inverse_kinematics, margins
 from rrps_kinematics.odometry import RingOdometry, invert, rot_z, transform
-from rrps_teleop.climbing.load_check import LoadCheck
+from rrps_teleop.climbing.load_check import LoadCheck, time_phases
 from rrps_teleop.climbing.plan import ClimbPlan, Phase, PlanError, PlanLimit, check_interlock
 
 __all__ = ['GaitPlanner', 'GaitState', 'plan_climb']
@@ -62,7 +62,8 @@ class GaitPlanner:
     so the legs are never twisted by a member's section orientation (off: the rings stay bolted
     to their grippers). ``step_fraction``: the default step is this fraction of the
     straight-member reach ``reach`` (the separations ring_b - ring_a within every limit).
-    ``loads``: how the loads are checked (None: not at all).
+    ``loads``: how the loads are checked and the motions timed (None: timed within the legs' limits
+    alone, no load checked).
     """
 
     def __init__(self, geometry: RobotGeometry, structure: Structure, *, use_extra_dof: bool = True,
@@ -325,8 +326,7 @@ class GaitPlanner:
                   self._phase(state, 0, PhaseAction.GRIP, 'ring_b', True, True)]
         for ph, wb in zip(phases, (world_T_b[0], world_T_b[-1], world_T_b[-1])):
             ph.world_T_a, ph.world_T_b = Pose.from_matrix(wa), Pose.from_matrix(wb)
-        if self.loads is not None:
-            self.loads.check(self.geometry, phases)
+        time_phases(self.geometry, phases, self.loads)
         return phases
 
 
@@ -377,8 +377,7 @@ class GaitPlanner:
             else:
                 odo.update(ph.a_T_b, ph.gripper_a, ph.gripper_b, a_T_grip=ma, b_T_grip=mb)
             ph.world_T_a, ph.world_T_b = odo.world_T_a, odo.world_T_b
-        if self.loads is not None:
-            self.loads.check(self.geometry, phases)
+        time_phases(self.geometry, phases, self.loads)
         return ClimbPlan(robot=self.geometry.name, structure=self.structure.name, step_length=step_length,
                          steps=steps, phases=phases)
 

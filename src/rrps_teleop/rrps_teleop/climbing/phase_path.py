@@ -1,10 +1,10 @@
-"""Timing a planned motion phase: its path streamed at a speed, sampled at any time.
+"""A timed motion phase as a stream plays it: its samples (time, pose a_T_b, ring angles), any time.
 
-A motion phase of a gait plan (``rrps_teleop.climbing.gait``) is a polyline of ring_b poses a_T_b with
-the extra-DOF angles of both rings at each sample. Streaming it at ``speed`` gives each sample a
-time: the arc length of positions plus ``characteristic_length`` times the rotation angle, over
-the speed. Between samples positions and angles are interpolated linearly and rotations by
-normalised linear interpolation of their quaternions (the samples are close).
+A motion phase of a gait plan (``rrps_teleop.climbing.gait``) is timed by
+:mod:`rrps_teleop.climbing.timing` and sampled (``TimedMotion.phase_path``): a pose of ring_b in
+ring_a and the extra-DOF angles of both rings at each sample time. Between samples positions and
+angles are interpolated linearly and rotations by normalised linear interpolation of their
+quaternions (the samples are a few milliseconds apart).
 """
 
 from __future__ import annotations
@@ -12,30 +12,26 @@ from __future__ import annotations
 import numpy as np
 
 from rrps_description.pose import Pose
-from rrps_description.rotations import matrix_to_quat_xyzw, rotation_angle_between
 
 __all__ = ['PhasePath']
 
 
 class PhasePath:
-    """A phase's path (n, 4, 4) and ring angles (n, 2), timed at ``speed`` [m/s]."""
+    """Samples at ``times`` (n,) [s] from 0: ``positions`` (n, 3) [m], unit ``quaternions_xyzw``
+    (n, 4) and ``ring_angles`` (n, 2) [rad]."""
 
-    def __init__(self, path: np.ndarray, ring_angles: np.ndarray, *, speed: float,
-                 characteristic_length: float):
-        self.path = np.asarray(path, dtype=float)
+    def __init__(self, times, positions, quaternions_xyzw, ring_angles):
+        self.times = np.asarray(times, dtype=float)
+        self.positions = np.asarray(positions, dtype=float)
+        self.quaternions_xyzw = np.asarray(quaternions_xyzw, dtype=float)
         self.ring_angles = np.asarray(ring_angles, dtype=float)
-        if self.path.ndim != 3 or self.path.shape[1:] != (4, 4) or len(self.path) < 1:
-            raise ValueError(f'path must be (n, 4, 4), got {self.path.shape}')
-        if self.ring_angles.shape != (len(self.path), 2):
-            raise ValueError(f'ring_angles must be ({len(self.path)}, 2), got {self.ring_angles.shape}')
-        if not speed > 0.0:
-            raise ValueError(f'speed must be > 0, got {speed!r}')
-        p = self.path[:, :3, 3]
-        angles = rotation_angle_between(self.path[:-1, :3, :3], self.path[1:, :3, :3])
-        seg = np.linalg.norm(np.diff(p, axis=0), axis=1) + characteristic_length * angles
-        self.times = np.concatenate([[0.0], np.cumsum(seg)]) / speed
-        #: the samples' rotations as quaternions (n, 4), x, y, z, w
-        self.quaternions_xyzw = matrix_to_quat_xyzw(self.path[:, :3, :3])
+        n = len(self.times)
+        if self.times.ndim != 1 or n < 1 or self.times[0] != 0.0 or np.any(np.diff(self.times) <= 0.0):
+            raise ValueError('times must be 1-D, from 0, increasing')
+        for name, value, width in (('positions', self.positions, 3), ('quaternions_xyzw', self.quaternions_xyzw, 4),
+                                   ('ring_angles', self.ring_angles, 2)):
+            if value.shape != (n, width):
+                raise ValueError(f'{name} must be ({n}, {width}), got {value.shape}')
 
     @property
     def duration(self) -> float:
@@ -46,10 +42,10 @@ class PhasePath:
         """The planned a_T_b and ring angles (theta_a, theta_b) at time ``t`` [s] of the phase."""
         times = self.times
         if t >= times[-1]:
-            return Pose.from_matrix(self.path[-1]), self.ring_angles[-1]
+            return Pose(self.positions[-1], self.quaternions_xyzw[-1]), self.ring_angles[-1]
         k = max(int(np.searchsorted(times, t, side='right')) - 1, 0)
-        w = (t - times[k]) / max(times[k + 1] - times[k], 1e-12)
-        p = (1 - w) * self.path[k, :3, 3] + w * self.path[k + 1, :3, 3]
+        w = (t - times[k]) / (times[k + 1] - times[k])
+        p = (1 - w) * self.positions[k] + w * self.positions[k + 1]
         q0, q1 = self.quaternions_xyzw[k], self.quaternions_xyzw[k + 1]
         q1 = q1 if q0 @ q1 >= 0 else -q1
         return Pose(p, (1 - w) * q0 + w * q1), (1 - w) * self.ring_angles[k] + w * self.ring_angles[k + 1]

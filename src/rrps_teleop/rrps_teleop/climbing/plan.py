@@ -24,7 +24,9 @@ class PlanLimit(str, enum.Enum):
     """What a refused plan breaks: a pose limit (:class:`rrps_kinematics.limits.LimitKind`), the
     legs' clearance to the structure, the gripper interlock, the extra DOF's range, no grip
     position, an actuator's force limit or the holding gripper's capacity
-    (:mod:`rrps_teleop.climbing.load_check`) (a str: ``PlanLimit.STROKE == 'stroke'``)."""
+    (:mod:`rrps_teleop.climbing.load_check`), a requested speed that is not finite and > 0, no
+    timing of a motion within the limits (:mod:`rrps_teleop.climbing.timing`) (a str:
+    ``PlanLimit.STROKE == 'stroke'``)."""
 
     STROKE = 'stroke'
     UNIVERSAL = 'universal'
@@ -37,6 +39,8 @@ class PlanLimit(str, enum.Enum):
     GRIP = 'grip'
     ACTUATOR_FORCE = 'actuator_force'
     HOLDING = 'holding'
+    SPEED = 'speed'
+    TIMING = 'timing'
 
 
 CSV_COLUMNS = (['step', 'phase', 'gripper_a', 'gripper_b', 's_a', 's_b',
@@ -44,7 +48,7 @@ CSV_COLUMNS = (['step', 'phase', 'gripper_a', 'gripper_b', 's_a', 's_b',
                 'b_x', 'b_y', 'b_z', 'b_qx', 'b_qy', 'b_qz', 'b_qw',
                 'px', 'py', 'pz', 'qx', 'qy', 'qz', 'qw', 'theta_a', 'theta_b']
                + [f'L{i}' for i in range(1, 7)] + [f'margin_{k}' for k in MARGIN_KINDS]
-               + ['peak_force', 'holding_margin'])
+               + ['peak_force', 'holding_margin', 'duration'])
 
 
 class PlanError(ValueError):
@@ -107,8 +111,12 @@ class Phase:
     world_T_b: Pose = field(default_factory=Pose)
     #: the extra-DOF angles (theta_a, theta_b) [rad] at each sample of ``path`` (n, 2)
     ring_angles: np.ndarray | None = None
-    #: the loads over the phase when they were checked and one gripper holds
+    #: the loads over the phase when they were checked (its timed motion's; a hand-over's split)
     loads: PhaseLoads | None = None
+    #: how long the phase takes [s] (a motion its timing's, a gripper its switch), once timed
+    duration: float = 0.0
+    #: a motion's timing law (:class:`rrps_teleop.climbing.timing.TimedMotion`), once timed
+    timing: object | None = None
 
     def __post_init__(self) -> None:
         if self.ring_angles is None:
@@ -133,7 +141,7 @@ class Phase:
                   *a_T_b.position, *a_T_b.quaternion_xyzw, self.theta_a, self.theta_b, *self.lengths,
                   *(self.min_margins[k] for k in MARGIN_KINDS),
                   *((math.nan, math.nan) if self.loads is None
-                    else (self.loads.peak_force, self.loads.holding_margin))]
+                    else (self.loads.peak_force, self.loads.holding_margin)), self.duration]
         return dict(zip(CSV_COLUMNS, values))
 
 
@@ -166,6 +174,34 @@ class ClimbPlan:
         return PhaseLoads(peak_force=peak.peak_force, peak_leg=peak.peak_leg,
                           holding_margin=low.holding_margin if held else math.nan,
                           holding_ring=low.holding_ring)
+
+    @property
+    def duration(self) -> float:
+        """How long the plan takes [s]: its motions' timings and its grippers' switches."""
+        return float(sum(p.duration for p in self.phases))
+
+    def step_durations(self) -> dict[int, float]:
+        """Each step's duration [s] (step 0: bringing ring_b to the gait's first stance)."""
+        out: dict[int, float] = {}
+        for p in self.phases:
+            out[p.step] = out.get(p.step, 0.0) + p.duration
+        return out
+
+    @property
+    def climbing_speed(self) -> float:
+        """Route distance climbed per minute [m/min] over the steps 1.. (step 0 excluded)."""
+        steps = sum(d for k, d in self.step_durations().items() if k >= 1)
+        return 60.0 * abs(self.climbed) / steps if steps > 0.0 else math.nan
+
+    @property
+    def step_timing(self) -> tuple[float, float]:
+        """The longest step's duration [s] (steps 1..) and the climbing speed [m/min]."""
+        return max(d for k, d in self.step_durations().items() if k >= 1), self.climbing_speed
+
+    def describe(self) -> str:
+        """The plan in words: its steps, phases and timing."""
+        return (f'{self.steps} step(s) of {self.step_length:.3f} m, {len(self.phases)} phases, '
+                f'{self.step_timing[0]:.1f} s per step, {self.climbing_speed:.2f} m/min')
 
     @property
     def climbed(self) -> float:

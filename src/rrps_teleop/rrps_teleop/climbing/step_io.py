@@ -21,8 +21,7 @@ __all__ = ['StepConfig', 'ClimbTarget', 'GripperRequest', 'ClimbOutput']
 class StepConfig:
     """How steps are executed (SI units); validated on construction (ValueError)."""
 
-    speed: float = 0.02                  # of the moving gripper along its path [m/s]
-    period: float = 0.02                 # between ticks [s]
+    period: float = 0.02                 # between ticks: the target stream's period [s]
     position_tolerance: float = 0.001    # arrival [m]
     orientation_tolerance: float = 0.01  # arrival [rad]
     settle_timeout: float = 5.0          # longest wait for an arrival or a gripper switch [s]
@@ -31,7 +30,7 @@ class StepConfig:
     operator_timeout: float = 0.5        # pause when the operator station is silent this long [s]
 
     def __post_init__(self) -> None:
-        for name in ('speed', 'period', 'position_tolerance', 'orientation_tolerance', 'settle_timeout',
+        for name in ('period', 'position_tolerance', 'orientation_tolerance', 'settle_timeout',
                      'state_timeout', 'operator_timeout'):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):

@@ -3,8 +3,9 @@
 A planned climb (:class:`rrps_teleop.climbing.gait.GaitPlanner`) is executed phase by phase.
 Each phase passes through stages, once per tick:
 
-* ``stream``: a motion phase's path (:class:`.phase_path.PhasePath`) is sent as target poses
-  a_T_b at ``speed``, one sample per tick;
+* ``stream``: a motion phase's timed path (its :class:`~.timing.TimedMotion`, planned within the
+  legs' speed, acceleration and jerk limits) is sent as target poses a_T_b, the sample of each
+  tick's time, one per tick;
 * ``arrive``: the phase's end pose is held until the measured pose has stayed within
   ``position_tolerance`` / ``orientation_tolerance`` of it for ``settle_time``;
 * ``gripper``: the phase's gripper is asked to switch, and the step waits until the gripper
@@ -58,6 +59,7 @@ from rrps_teleop.climbing.phase_path import PhasePath
 from rrps_teleop.climbing.plan import Phase, PlanError
 from rrps_teleop.climbing.step_io import ClimbOutput, ClimbTarget, GripperRequest, StepConfig
 from rrps_teleop.climbing.step_preview import StepSnapshot
+from rrps_teleop.climbing.timing import TimedMotion
 
 __all__ = ['ClimbStepMachine']
 
@@ -106,6 +108,7 @@ class ClimbStepMachine:
         self.preview = bool(preview)
         self._pending: tuple[list[Phase], str, StepSnapshot] | None = None  # being previewed
         self.steps_done = 0
+        self.timing = (math.nan, math.nan)  # the last planned step's duration [s] and climbing speed [m/min]
         self.pose: Pose | None = None
         self.grippers: dict[str, bool] | None = None
         self.driver_active: bool | None = None
@@ -221,7 +224,7 @@ class ClimbStepMachine:
                 self._refuse(StepRefusal.PLAN, f'plan refused: cannot bring ring_b back to the gait: {exc}')
                 out.reply = (False, f'refused: {self.detail}')
                 return out
-        detail = f'{plan.steps} step(s) of {plan.step_length:.3f} m, {len(plan.phases)} phases'
+        self.timing, detail = plan.step_timing, plan.describe()
         self.plan_refused, self.refusal = False, None
         if self.preview:
             self._pending = (phases, detail, StepSnapshot(self.pose, dict(self.grippers), self.engagements,
@@ -311,7 +314,8 @@ class ClimbStepMachine:
                            action=ph.action if ph else None, ring=ph.ring if ph else '',
                            structure=self.structure.name, s_a=self.s_a, s_b=self.s_b,
                            steps_done=self.steps_done, detail=self.detail,
-                           previewing=self._pending is not None, refusal=self.refusal)
+                           previewing=self._pending is not None, refusal=self.refusal,
+                           step_duration=self.timing[0], climbing_speed=self.timing[1])
 
     def report(self) -> ClimbStatus:
         """The status to report periodically (what changes after it is reported again at once)."""
@@ -406,9 +410,8 @@ class ClimbStepMachine:
         self._request, self._answer = None, None
         self._arrived_since = None
         self._deadline = now + self.config.settle_timeout
-        if ph.action is PhaseAction.MOVE:
-            self._path = PhasePath(ph.path, ph.ring_angles, speed=self.config.speed,
-                                   characteristic_length=self.planner.geometry.characteristic_length)
+        if isinstance(ph.timing, TimedMotion):
+            self._path = ph.timing.phase_path(self.config.period)
             self._stage = 'stream'
         else:
             self._stage = 'arrive'

@@ -1,8 +1,8 @@
 """A planned step's preview before it executes: its motions on the dynamics, and whether it may start.
 
 :func:`preview_motions` turns a plan's motion phases into the motions of
-:func:`rrps_sim.preview.preview_step` (each streamed at the step's speed and command period, the
-closed gripper's ring as the support with its world attitude from the plan); :func:`run_preview`
+:func:`rrps_sim.preview.preview_step` (each timed motion sampled at the command period as the climb
+node streams it, the closed gripper's ring as the support with its world attitude from the plan); :func:`run_preview`
 simulates them and returns the typed :class:`~rrps_interfaces.climb.ClimbPreview`.
 A step accepted by its preview starts only if nothing changed while it was previewed
 (:class:`StepSnapshot`). Pure Python; no ROS import.
@@ -18,10 +18,10 @@ import numpy as np
 
 from rrps_description.geometry import RobotGeometry
 from rrps_description.pose import Pose, pose_error
-from rrps_interfaces.climb import ClimbPreview, PhaseAction, StepRefusal
+from rrps_interfaces.climb import ClimbPreview, StepRefusal
 from rrps_sim.preview import Drives, PreviewError, PreviewMotion, preview_step
-from rrps_teleop.climbing.phase_path import PhasePath
 from rrps_teleop.climbing.plan import Phase
+from rrps_teleop.climbing.timing import TimedMotion
 
 __all__ = ['PreviewConfig', 'preview_motions', 'run_preview', 'warm_up', 'StepSnapshot']
 
@@ -39,34 +39,30 @@ class PreviewConfig:
     min_margin: float = 0.0
 
 
-def preview_motions(phases: Sequence[Phase], *, speed: float, period: float,
-                    characteristic_length: float) -> list[PreviewMotion]:
-    """The motion phases of a plan as the step machine streams them: a target every ``period``
-    [s] along the path at ``speed`` [m/s]; the support is the ring whose gripper stays closed."""
+def preview_motions(phases: Sequence[Phase], *, period: float) -> list[PreviewMotion]:
+    """The motion phases of a plan as the step machine streams them: the sample of the phase's
+    timed motion (:class:`~.timing.TimedMotion`) every ``period`` [s]; the support is the ring
+    whose gripper stays closed."""
     motions = []
     for ph in phases:
-        if ph.action is not PhaseAction.MOVE:
+        if not isinstance(ph.timing, TimedMotion):
             continue
-        path = PhasePath(ph.path, ph.ring_angles, speed=speed, characteristic_length=characteristic_length)
-        n = max(1, math.ceil(path.duration / period - 1e-9))
-        poses = [path.at(k * period)[0] for k in range(n + 1)]
+        path = ph.timing.phase_path(period)
         support = 'ring_a' if ph.gripper_a else 'ring_b'
         world_T_support = ph.world_T_a if support == 'ring_a' else ph.world_T_b
         motions.append(PreviewMotion(
             name=f'step {ph.step} {ph.phase}', support=support,
-            world_q_support=world_T_support.quaternion_xyzw,
-            positions=np.array([p.position for p in poses]),
-            quaternions=np.array([p.quaternion_xyzw for p in poses]), period=period))
+            world_q_support=world_T_support.quaternion_xyzw, positions=path.positions,
+            quaternions=path.quaternions_xyzw, period=period))
     return motions
 
 
-def run_preview(geometry: RobotGeometry, phases: Sequence[Phase], *, speed: float, period: float,
+def run_preview(geometry: RobotGeometry, phases: Sequence[Phase], *, period: float,
                 config: PreviewConfig = PreviewConfig(),
                 cancelled: Callable[[], bool] | None = None) -> ClimbPreview:
     """The preview of a plan's phases (accepted when it breaks no limit; not accepted, without a
     ``limit``, when the dynamics could not simulate it)."""
-    motions = preview_motions(phases, speed=speed, period=period,
-                              characteristic_length=geometry.characteristic_length)
+    motions = preview_motions(phases, period=period)
     if not motions:
         return ClimbPreview(accepted=True, max_force=float(geometry.max_force), detail='no motion')
     try:

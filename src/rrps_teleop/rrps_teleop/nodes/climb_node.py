@@ -91,7 +91,9 @@ PARAMETERS = NodeParameters('climb_node', 'rrps_teleop', [
     Parameter('step_length', 0.0, "length of one step; 0 = the planner's default for the robot", unit='m',
               range=(0.0, 10.0)),
     Parameter('auto_steps', 0, 'scripted climb: steps up to climb at start (0 = none)', range=(0, 10000)),
-    Parameter('speed', 0.02, 'speed of the moving gripper along its path', unit='m/s', range=(1e-3, 1.0)),
+    Parameter('speed', 0.0, "cap on the moving ring's path speed; 0 = none: each motion is timed as fast as the "
+              "legs' speed, acceleration, jerk and force limits and the holding capacity allow", unit='m/s',
+              range=(0.0, 10.0)),
     Parameter('rate', 50.0, 'target_pose stream and state machine rate', unit='Hz', range=(1.0, 1000.0)),
     Parameter('position_tolerance', 0.001, 'arrival tolerance of the measured pose', unit='m',
               range=(1e-5, 0.1)),
@@ -133,7 +135,7 @@ class ClimbNode(Node):
         start = values['start'] if values['start'] >= 0.0 else None
         if isinstance(planner, FrameNodePlanner) and planner.crossing is not None and start is None:
             start = planner.crossing.candidate.s_pre
-        config = StepConfig(speed=values['speed'], period=1.0 / values['rate'],
+        config = StepConfig(period=1.0 / values['rate'],
                             **{k: values[k] for k in ('position_tolerance', 'orientation_tolerance',
                                                       'settle_timeout', 'settle_time', 'state_timeout',
                                                       'operator_timeout')})
@@ -188,7 +190,7 @@ class ClimbNode(Node):
                 raise ValueError('out_of_plane needs junction_deg > 0')
             structure = structure_from_parameters(values)
             return GaitPlanner(self.geometry, structure, use_extra_dof=values['use_extra_dof'],
-                               loads=LoadCheck(speed=values['speed']))
+                               loads=LoadCheck(speed=values['speed'] or None))
         if values['structure'] != 'frame':
             raise ValueError(f"junction_deg needs structure 'frame', got {values['structure']!r}")
         planner = FrameNodePlanner(self.geometry, values['junction_deg'], values['out_of_plane'],
@@ -324,8 +326,7 @@ class ClimbNode(Node):
             odometry = self.machine.odometry  # the step previewed where the odometry stands
             phases = anchor_phases(out.preview, None if odometry is None else odometry.world_T_a)
             self._preview_job = self._preview_worker.submit(
-                run_preview, self.geometry, phases, speed=c.speed, period=c.period,
-                config=self._preview_config)
+                run_preview, self.geometry, phases, period=c.period, config=self._preview_config)
         if out.status is not None:
             self._publish_status(out.status)
 
