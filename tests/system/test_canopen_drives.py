@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 from rrps_description.geometry import load_robot
-from rrps_sim.hardware.interface import Command, HardwareConfig
-from rrps_testing.canopen_rig import UNHURRIED_BUS, DriveSim, canopen_hardware, robot_yaml
+from rrps_sim.hardware.interface import HardwareConfig
+from rrps_testing.canopen_rig import UNHURRIED_BUS, DriveSim, canopen_hardware, cycle_to, robot_yaml
 from rrps_testing.ros_harness import wait_for
 
 pytestmark = [pytest.mark.slow]
@@ -39,8 +39,8 @@ def works(sim: DriveSim, hardware) -> None:
     assert outcome.ok, outcome.reason
     np.testing.assert_allclose(sim.positions(), POLE.home_lengths, atol=COUNT)
     goal = hardware.read(0.0, 0.0).positions - 0.002
-    assert hardware.write(0.0, 0.002, Command(goal)).ok
-    assert wait_for(lambda: np.allclose(sim.positions(), goal, atol=2 * COUNT), timeout=30.0), sim.positions()
+    assert cycle_to(hardware, goal, arrived=lambda: np.allclose(sim.positions(), goal, atol=2 * COUNT)), \
+        sim.positions()
     assert wait_for(lambda: np.allclose(hardware.read(0.0, 0.0).positions, sim.positions(), atol=COUNT), timeout=10.0)
 
 

@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 from rrps_description.geometry import load_robot
-from rrps_sim.hardware.interface import Command, FaultKind, HardwareConfig
-from rrps_testing.canopen_rig import UNHURRIED_BUS, DriveSim, canopen_hardware, robot_yaml
+from rrps_sim.hardware.interface import FaultKind, HardwareConfig
+from rrps_testing.canopen_rig import UNHURRIED_BUS, DriveSim, canopen_hardware, cycle_to, robot_yaml
 from rrps_testing.ros_harness import wait_for
 
 pytestmark = [pytest.mark.slow]
@@ -55,8 +55,8 @@ def moves_on_command(hardware, sim: DriveSim) -> None:
     """An accepted command (a step within the following-error window) moves every leg there, and
     the driver reads it there."""
     goal = hardware.read(0.0, 0.0).positions + 0.002
-    assert hardware.write(0.0, 0.002, Command(goal)).ok
-    assert wait_for(lambda: np.allclose(sim.positions(), goal, atol=2 * COUNT), timeout=30.0), sim.positions()
+    assert cycle_to(hardware, goal, arrived=lambda: np.allclose(sim.positions(), goal, atol=2 * COUNT)), \
+        sim.positions()
     assert wait_for(lambda: where_believed(sim, hardware), timeout=10.0)
 
 

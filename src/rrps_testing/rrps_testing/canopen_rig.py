@@ -19,9 +19,10 @@ import queue
 import subprocess
 import sys
 import threading
+import time
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
+from typing import Callable, Iterator
 
 import numpy as np
 import yaml
@@ -30,8 +31,10 @@ from rrps_canopen.loopback_bus import free_port
 from rrps_canopen.robot import CanopenRobot
 from rrps_description.geometry import robot_path
 from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child, stop_child
+from rrps_sim.hardware.interface import Command
 
-__all__ = ['free_port', 'DriveSim', 'driver_process', 'can_env', 'canopen_hardware', 'robot_yaml', 'UNHURRIED_BUS']
+__all__ = ['free_port', 'DriveSim', 'driver_process', 'can_env', 'cycle_to', 'canopen_hardware', 'robot_yaml',
+           'UNHURRIED_BUS']
 
 #: Bus keys for tests that are not about heartbeats: a loaded machine must not lose one in them.
 UNHURRIED_BUS = {'heartbeat_period': 0.05, 'heartbeat_timeout': 0.5}
@@ -154,6 +157,22 @@ def canopen_hardware(sim: DriveSim) -> Iterator[CanopenRobot]:
             del os.environ['RRPS_CAN_PORT']
         else:
             os.environ['RRPS_CAN_PORT'] = before
+
+
+def cycle_to(hardware: CanopenRobot, goal, *, period: float = 0.002, timeout: float = 30.0,
+             arrived: Callable[[], bool]) -> bool:
+    """Run the driver's cycle on ``hardware`` (write one command, the same each period, as the
+    driver does until another arrives) until ``arrived()`` or ``timeout`` s; whether it arrived.
+    The hardware's jerk-limited setpoints advance one period per write."""
+    command, start = Command(np.asarray(goal, dtype=float)), time.monotonic()
+    while time.monotonic() - start < timeout:
+        now = time.monotonic() - start
+        result = hardware.write(now, period, command)
+        assert result.ok, result.message
+        if arrived():
+            return True
+        time.sleep(period)
+    return False
 
 
 def robot_yaml(path: Path, robot: str = 'pole_climber', *, bus: dict | None = None, drive_defaults: dict | None = None,
