@@ -44,7 +44,7 @@ from rrps_kinematics.nodes.ik_node import IkNode  # noqa: E402
 from rrps_runtime.messages import pose_from_msg, pose_to_msg
 from rrps_runtime.process import make_executor, run_nodes, spin_until_shutdown
 from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
-from rrps_sim.nodes.driver_node import DriverNode  # noqa: E402
+from rrps_hardware.nodes.driver_node import DriverNode  # noqa: E402
 from rrps_testing.processes import stop_processes, wait_until  # noqa: E402
 
 NAMESPACE = '/rrps_bench'

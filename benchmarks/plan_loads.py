@@ -8,7 +8,7 @@ of ``--repeat`` runs, ``time.process_time``):
 
 * ``plan, no loads``: ``GaitPlanner(..., loads=None)``, every kinematic limit checked;
 * ``plan + loads``: the default planner, which also checks the loads of every phase one
-  gripper holds (``rrps_teleop.climbing.load_check``: ``rrps_sim.path_loads.loads_at`` once for
+  gripper holds (``rrps_teleop.climbing.load_check``: ``rrps_loads.path_loads.loads_at`` once for
   all the samples of the phases one ring holds at one attitude); ``load check``: that check
   alone;
 * baseline ``loads per pose``: the same loads, one pose at a time in a Python loop (the twist
@@ -28,11 +28,11 @@ import numpy as np
 from rrps_description.geometry import load_robot
 from rrps_description.rotations import matrix_to_quat_xyzw, quat_multiply_xyzw
 from rrps_description.structures import make_structure
-from rrps_sim.inverse_dynamics import trajectory_twists
-from rrps_sim.path_loads import _supporting_wrench
-from rrps_sim.reduced import PlatformPose, generalized_forces
-from rrps_sim.statics import solve_actuator_forces
-from rrps_sim.support import support_of
+from rrps_loads.inverse_dynamics import trajectory_twists
+from rrps_loads.path_loads import _supporting_wrench
+from rrps_loads.reduced import PlatformPose, generalized_forces
+from rrps_loads.statics import solve_actuator_forces
+from rrps_loads.support import support_of
 from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_teleop.climbing.load_check import LoadCheck
 from rrps_teleop.climbing.phase_path import PhasePath

@@ -25,7 +25,7 @@ from rrps_description.structures import make_structure
 from rrps_kinematics import inverse_kinematics
 from rrps_sim.dynamics import simulate
 from rrps_sim.preview import Drives
-from rrps_sim.statics import holding_forces
+from rrps_loads.statics import holding_forces
 from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_teleop.climbing.step_preview import PreviewConfig, preview_motions, run_preview
 

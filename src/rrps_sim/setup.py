@@ -5,12 +5,12 @@ package_name = 'rrps_sim'
 #: 'rrps.nodes' entry-point group that rrps-compose and rrps-params read, and as the
 #: console scripts that `ros2 run` starts (lib/<package>/<node>).
 NODES = {
-    'driver_node': ('rrps_sim.nodes.driver_node', 'DriverNode'),
+    'driver_node': ('rrps_hardware.nodes.driver_node', 'DriverNode'),
 }
 #: The hardware implementations driver_node can host (its ``hardware`` parameter): name ->
-#: 'module:SystemInterface subclass', the 'rrps.hardware' entry-point group (rrps_sim.hardware).
+#: 'module:SystemInterface subclass', the 'rrps.hardware' entry-point group (rrps_hardware.registry).
 HARDWARE = {
-    'simulated': 'rrps_sim.hardware.simulated:SimulatedRobot',
+    'simulated': 'rrps_sim.simulated_robot:SimulatedRobot',
 }
 
 setup(

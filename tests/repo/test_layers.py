@@ -35,7 +35,7 @@ def test_every_layer_contract_is_kept():
     ('rrps_kinematics/inverse.py', 'import rclpy', 'Pure cores import no ROS'),
     ('rrps_description/pose.py', 'from std_msgs.msg import Header', 'The description and the interfaces are pure'),
     ('rrps_kinematics/forward.py', 'import rrps_teleop.mapping', 'Packages import only the packages below them'),
-    ('rrps_runtime/qos.py', 'import rrps_sim.statics', 'Packages import only the packages below them'),
+    ('rrps_runtime/qos.py', 'import rrps_loads.statics', 'Packages import only the packages below them'),
     ('rrps_kinematics/limits.py', 'import rrps_runtime.freshness', 'The kinematics core does not import the runtime'),
 ])
 def test_a_broken_layer_fails_the_check(tmp_path, module, line, broken):

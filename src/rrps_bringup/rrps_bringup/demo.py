@@ -111,7 +111,7 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
 
     from rrps_kinematics.nodes.fk_node import FkNode
     from rrps_kinematics.nodes.ik_node import IkNode
-    from rrps_sim.nodes.driver_node import DriverNode
+    from rrps_hardware.nodes.driver_node import DriverNode
     from rrps_teleop.nodes.master_node import MasterNode
     from rrps_teleop.nodes.teleop_node import TeleopNode
 
@@ -213,7 +213,7 @@ def driver_command(*, robot: str, rate: float = 500.0, namespace: str = NAMESPAC
     """The command line of :func:`start_driver` (no state file: the parameter's default;
     ``parameters``: a scenario's, :func:`scenario_parameters`)."""
     from rrps_bringup.params import params_file_arguments
-    return [sys.executable, '-m', 'rrps_sim.nodes.driver_node', '--ros-args',
+    return [sys.executable, '-m', 'rrps_hardware.nodes.driver_node', '--ros-args',
             *params_file_arguments('driver_node'), '-r', f'__ns:={namespace}',
             '-p', f'robot:={robot}', '-p', f'rate:={float(rate)}', '-p', f'hardware:={hardware}',
             *(['-p', f'state_file:={state_file}'] if state_file else []),

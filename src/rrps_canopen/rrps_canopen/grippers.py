@@ -22,7 +22,7 @@ import canopen
 from rrps_canopen.drive import BOOT_UP, ConfigureError, RemoteDrive
 from rrps_description.bus import GripperIoConfig
 from rrps_description.names import RINGS
-from rrps_sim.hardware.interface import FaultKind
+from rrps_hardware.interface import FaultKind
 
 __all__ = ['GripperIo', 'IO_MODULE']
 

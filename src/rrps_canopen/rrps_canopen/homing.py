@@ -31,7 +31,7 @@ from rrps_description.bus import DriveConfig
 from rrps_description.geometry import RobotGeometry
 from rrps_kinematics.forward import forward_kinematics
 from rrps_kinematics.limits import pose_margins
-from rrps_sim.hardware.interface import FaultKind
+from rrps_hardware.interface import FaultKind
 
 __all__ = ['set_mode', 'home', 'check_positions', 'refuse', 'homing_timeout']
 

@@ -19,7 +19,7 @@ from rrps_canopen.drive import ConfigureError
 from rrps_canopen.drive_set import DriveSet
 from rrps_canopen.force_output import PassiveForceOutput
 from rrps_canopen.homing import set_mode
-from rrps_sim.hardware.interface import (
+from rrps_hardware.interface import (
     OK,
     SUCCESS,
     CallbackReturn,
@@ -29,7 +29,7 @@ from rrps_sim.hardware.interface import (
     ReturnType,
     Transition,
 )
-from rrps_sim.hardware.master import MasterInterface, MasterSample
+from rrps_hardware.master import MasterInterface, MasterSample
 
 __all__ = ['CanopenMaster', 'STROKE_MARGIN']
 

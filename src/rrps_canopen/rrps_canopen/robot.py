@@ -1,6 +1,6 @@
 """The CANopen hardware of a robot behind the driver's interface: ``hardware: canopen``.
 
-:class:`CanopenRobot` is a :class:`~rrps_sim.hardware.interface.SystemInterface` over the robot
+:class:`CanopenRobot` is a :class:`~rrps_hardware.interface.SystemInterface` over the robot
 YAML's ``bus`` section: six CiA 402 leg drives in cyclic synchronous position mode
 (:class:`~rrps_canopen.drive_set.DriveSet`: one SYNC per period, the faults) and the grippers'
 digital I/O (:class:`~rrps_canopen.grippers.GripperIo`). The lifecycle is the driver's:
@@ -36,8 +36,8 @@ from rrps_canopen.grippers import GripperIo
 from rrps_canopen.homing import check_positions, home, homing_timeout, refuse, set_mode
 from rrps_canopen.network import resolve_eds
 from rrps_description.names import LEG_NAMES, RINGS
-from rrps_sim.hardware.commands import ring_joints
-from rrps_sim.hardware.interface import (
+from rrps_hardware.commands import ring_joints
+from rrps_hardware.interface import (
     OK,
     SUCCESS,
     ActuatorStatus,

@@ -29,7 +29,7 @@ from rrps_description.rotations import quat_conjugate_xyzw, quat_multiply_xyzw
 from rrps_description.world import Support
 from rrps_kinematics.forward import forward_kinematics
 from rrps_sim.dynamics import MultibodyDynamics
-from rrps_sim.statics import holding_forces
+from rrps_loads.statics import holding_forces
 
 __all__ = ['KinematicActuators', 'DynamicActuators', 'QuasiStaticEfforts', 'SensorFaults', 'handed_over']
 
@@ -111,7 +111,7 @@ class DynamicActuators:
 
     A :class:`KinematicActuators` shapes the reference (stroke and speed limits, lag); each leg's
     force is ``f = f_g + kp (r - L) + kd (r' - L')`` saturated at ``geometry.max_force``, with
-    ``f_g`` the static holding forces (gravity feed-forward, :func:`rrps_sim.statics.holding_forces`)
+    ``f_g`` the static holding forces (gravity feed-forward, :func:`rrps_loads.statics.holding_forces`)
     at the current pose, refreshed every ``feedforward_period`` s. The dynamics is stepped in
     sub-steps of at most ``max_step`` s with the force held over each. ``efforts`` = forces [N].
     """
@@ -212,7 +212,7 @@ class QuasiStaticEfforts:
     """Efforts [N] of position-controlled (kinematic) actuators: the statics of eq. 19 at rest.
 
     The forces that hold the current pose against gravity (legs included,
-    :func:`rrps_sim.statics.holding_forces`) at the pose found by FK from the current lengths,
+    :func:`rrps_loads.statics.holding_forces`) at the pose found by FK from the current lengths,
     refreshed at most every ``period`` s (an FK and a statics solve per refresh). A pose where FK
     fails or the Jacobian is singular keeps the previous efforts.
     """

@@ -16,8 +16,8 @@ force beyond ``max_force`` breaks the limit. After its last command, a motion is
 s, as the step waits for the arrival.
 
 At each refresh of the feed-forward, the multipliers of eq. 19 give the structure's wrench on the
-supporting ring (:func:`rrps_sim.loads.support_wrench`) and its holding margin
-(:func:`rrps_sim.loads.holding_margin`). :func:`preview_step` returns the peaks
+supporting ring (:func:`rrps_loads.loads.support_wrench`) and its holding margin
+(:func:`rrps_loads.loads.holding_margin`). :func:`preview_step` returns the peaks
 (:class:`PreviewResult`). Pure NumPy (and the compiled dynamics); no ROS import.
 """
 
@@ -35,9 +35,9 @@ from rrps_interfaces.climb import PreviewLimit
 from rrps_kinematics.inverse import inverse_kinematics
 from rrps_sim.dynamics import MultibodyDynamics
 from rrps_sim.dynamics.driven import DriveLoop
-from rrps_sim.loads import holding_margin, support_wrench
-from rrps_sim.statics import holding_forces
-from rrps_sim.support import support_of
+from rrps_loads.loads import holding_margin, support_wrench
+from rrps_loads.statics import holding_forces
+from rrps_loads.support import support_of
 
 __all__ = ['Drives', 'PreviewMotion', 'PreviewResult', 'PreviewError', 'preview_step']
 

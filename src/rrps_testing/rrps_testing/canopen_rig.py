@@ -122,7 +122,7 @@ class DriveSim:
 def driver_process(port: int, *params: str, robot: str = 'pole_climber', namespace: str = '/rrps_test',
                    domain_id: int | None = None, hardware: str = 'canopen') -> subprocess.Popen:
     """driver_node with ``hardware`` (canopen: on the rig's bus); ``params``: more ``name:=value``."""
-    args = [sys.executable, '-m', 'rrps_sim.nodes.driver_node', '--ros-args', '-r', f'__ns:={namespace}',
+    args = [sys.executable, '-m', 'rrps_hardware.nodes.driver_node', '--ros-args', '-r', f'__ns:={namespace}',
             '-p', f'robot:={robot}', '-p', f'hardware:={hardware}']
     for p in params:
         args += ['-p', p]

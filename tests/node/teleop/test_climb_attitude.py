@@ -24,7 +24,7 @@ from rrps_interfaces.climb import CLIMB_RESUME, ClimbState, ClimbStatus
 from rrps_interfaces.driver import DriverStatus, SupportSource
 from rrps_kinematics.nodes.fk_node import FkNode
 from rrps_kinematics.nodes.ik_node import IkNode
-from rrps_sim.nodes.driver_node import DriverNode
+from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_teleop.nodes.climb_node import ClimbNode
 from rrps_testing.node_helpers import statuses

@@ -24,7 +24,7 @@ from rrps_kinematics.nodes.fk_node import FkNode
 from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_runtime.messages import pose_from_msg
 from rrps_runtime.qos import COMMAND_QOS
-from rrps_sim.nodes.driver_node import DriverNode
+from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_teleop.climbing.frame_node import FrameNodePlanner
 from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_teleop.nodes.climb_node import ClimbNode

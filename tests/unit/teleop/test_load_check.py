@@ -1,4 +1,4 @@
-"""Loads along a climbing plan (rrps_sim.path_loads through the planner's load check), checked at
+"""Loads along a climbing plan (rrps_loads.path_loads through the planner's load check), checked at
 points of real plans against computations written here from the robot description alone:
 virtual work with a finite-difference Jacobian of the leg lengths with respect to the moving
 ring's pose (from the anchors), the moving ring's accelerations differentiated here from the
@@ -17,7 +17,7 @@ from rrps_description.pose import Pose
 from rrps_description.robot_parts import LinkInertia
 from rrps_description.rotations import quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
 from rrps_description.structures import make_structure
-from rrps_sim.loads import holding_margin
+from rrps_loads.loads import holding_margin
 from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_teleop.climbing.load_check import LoadCheck
 from rrps_teleop.climbing.plan import PlanError, PlanLimit

@@ -16,7 +16,7 @@ from rrps_kinematics.inverse import pose_arrays
 from rrps_sim.dynamics.bundles import Observations, Reactions
 from rrps_sim.dynamics.frames import supported_pose
 from rrps_sim.dynamics.model import MultibodyDynamics, RunRecord
-from rrps_sim.loads import support_wrench
+from rrps_loads.loads import support_wrench
 
 __all__ = ['SimulationResult', 'simulate']
 

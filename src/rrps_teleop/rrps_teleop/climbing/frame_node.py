@@ -14,7 +14,7 @@ stance before the node, both grip points past it and the lift of the open grippe
 sampled pose of every candidate is checked against stroke, joint cones, leg-leg interference and
 conditioning (eq. 1, ``rrps_kinematics.margins``), the clearance of the legs (and of ring_b's
 gripper post) to the beams at the node, the actuator forces and the gripping ring's holding in
-the world's gravity (``rrps_sim.loads.static_solution``). The feasible candidate whose smallest
+the world's gravity (``rrps_loads.loads.static_solution``). The feasible candidate whose smallest
 scaled margin is the largest (then whose sum of scaled margins is) is planned; when none is
 feasible, PlanError names the limit that blocks which phase.
 
@@ -37,7 +37,7 @@ from rrps_interfaces.climb import PhaseAction
 from rrps_kinematics import inverse_kinematics, margins
 from rrps_kinematics.limits import segment_distances
 from rrps_kinematics.odometry import invert
-from rrps_sim.loads import holding_margin, static_solution
+from rrps_loads.loads import holding_margin, static_solution
 from rrps_teleop.climbing.gait import GaitPlanner, GaitState
 from rrps_teleop.climbing.plan import ClimbPlan, PlanError, PlanLimit
 
@@ -234,7 +234,7 @@ class FrameNodePlanner(GaitPlanner):
         the ring, about its origin). A friction clamp on a beam's flanges: friction carries the
         force along the beam and the moment about the face normal at the clamped section,
         sqrt(F_x² + (M_z / r)²) <= μ N in the grip frame; the section's shape carries the rest.
-        Rated limits: ``rrps_sim.loads.holding_margin`` at the clamped section."""
+        Rated limits: ``rrps_loads.loads.holding_margin`` at the clamped section."""
         capacity = self.geometry.holding.get(support)
         if capacity is None:
             return np.ones(len(wrench))

@@ -1,5 +1,5 @@
 """Loads as limits of a climbing plan: every phase during which one gripper holds (release and
-move of the other ring) is checked along its path with :mod:`rrps_sim.path_loads` (one batch
+move of the other ring) is checked along its path with :mod:`rrps_loads.path_loads` (one batch
 for all the phases one ring holds at one attitude), quasi-static plus the accelerations of the
 phase's timing law (:class:`PhasePath` at ``speed``), in the world gravity of the holding
 ring's attitude (the plan's odometry, the structure turned by ``world_q_structure`` in the
@@ -23,7 +23,7 @@ import numpy as np
 from rrps_description.geometry import RobotGeometry
 from rrps_description.rotations import quat_multiply_xyzw
 from rrps_description.world import IDENTITY_QUATERNION, STANDARD_GRAVITY, Support
-from rrps_sim.path_loads import ACTUATOR_FORCE, LoadViolation, PathLoads, first_violation, loads_at, path_twists
+from rrps_loads.path_loads import ACTUATOR_FORCE, LoadViolation, PathLoads, first_violation, loads_at, path_twists
 from rrps_teleop.climbing.phase_path import PhasePath
 from rrps_teleop.climbing.plan import Phase, PhaseLoads, PlanError, PlanLimit
 
@@ -106,7 +106,7 @@ class LoadCheck:
 class _Timed(NamedTuple):
     """A held phase timed: the holding ring, its attitude in the world, the indices of the kept
     samples in the phase's path, their fractions of its duration, and (positions, quaternions,
-    twists, twist rates) at them (:func:`rrps_sim.path_loads.path_twists`)."""
+    twists, twist rates) at them (:func:`rrps_loads.path_loads.path_twists`)."""
 
     ring: str
     world_q: np.ndarray

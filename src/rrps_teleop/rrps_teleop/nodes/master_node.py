@@ -45,8 +45,8 @@ from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
-from rrps_sim.hardware import master_hardware_class
-from rrps_sim.hardware.interface import HardwareConfig
+from rrps_hardware.registry import master_hardware_class
+from rrps_hardware.interface import HardwareConfig
 from rrps_teleop.master import TRAJECTORIES, HandleMotion, MasterModel, scripted_pose
 
 __all__ = ['MasterNode', 'main']

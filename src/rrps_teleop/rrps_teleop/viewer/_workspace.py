@@ -6,7 +6,7 @@ the robot") before moving there. :class:`WorkspaceView` recomputes
 :func:`rrps_kinematics.workspace.reachable_workspace` in a worker thread whenever the orientation
 or ring_a's attitude in the world changed by more than ``angle_step``, or the payload changed
 (at most one computation at a time, the newest request wins), restricts it to the
-load-feasible positions (:func:`rrps_sim.load_workspace.load_workspace`: ring_a gripping, a
+load-feasible positions (:func:`rrps_loads.load_workspace.load_workspace`: ring_a gripping, a
 point-mass payload at ring_b's origin) and keeps the boundary of that set, which is what is
 drawn (light and readable, the robot stays visible inside it). No rclpy, no viser.
 """
@@ -31,7 +31,7 @@ from rrps_kinematics.workspace import (
     distance_to_boundary,
     reachable_workspace,
 )
-from rrps_sim.load_workspace import load_workspace
+from rrps_loads.load_workspace import load_workspace
 
 __all__ = ['WorkspaceSnapshot', 'WorkspaceView', 'boundary_points']
 

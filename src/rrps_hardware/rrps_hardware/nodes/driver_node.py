@@ -1,7 +1,7 @@
 """driver_node: the robot's hardware in ROS. actuators/command -> actuators/state, plus the grippers.
 
-It hosts the implementation its ``hardware`` parameter names (:mod:`rrps_sim.hardware`; by
-default :class:`~rrps_sim.hardware.simulated.SimulatedRobot`) and calls its verbs: the lifecycle
+It hosts the implementation its ``hardware`` parameter names (:mod:`rrps_hardware.registry`; by
+default :class:`~rrps_sim.simulated_robot.SimulatedRobot`) and calls its verbs: the lifecycle
 transitions, and each cycle ``write`` (the last accepted command) then ``read`` (published).
 
 A lifecycle node, **inactive** after start-up: the state streams but nothing moves and the
@@ -20,7 +20,7 @@ it is malformed, unstamped, outside the stroke, or older than ``timeout``; with
 Gravity (simulated hardware): the efforts and dynamics start on ring_a at the attitude of the
 ``world_q_support`` parameter, hand it over to the other ring through the measured pose at each
 grip change, and follow the supporting ring's world attitude that the climb node's odometry
-publishes on ``odometry/support`` (:mod:`rrps_sim.support_follower`: only a fresh message for the
+publishes on ``odometry/support`` (:mod:`rrps_hardware.support_follower`: only a fresh message for the
 ring that grips). Without one for ``support_timeout`` s the last known attitude is kept, and the
 status says so (WARN, ``support_source`` STALE); a malformed one is rejected and counted.
 
@@ -58,11 +58,11 @@ from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
-from rrps_sim.hardware import hardware_class
-from rrps_sim.hardware.commands import checked_command, ring_joints
-from rrps_sim.hardware.interface import BusState, Command, HardwareConfig, Result, ReturnType, Transition
-from rrps_sim.hardware.simulated import SimulatedRobot
-from rrps_sim.support_follower import DEFAULT_TIMEOUT, SupportFollower
+from rrps_hardware.registry import hardware_class
+from rrps_hardware.commands import checked_command, ring_joints
+from rrps_hardware.interface import BusState, Command, HardwareConfig, Result, ReturnType, Transition
+from rrps_sim.simulated_robot import SimulatedRobot
+from rrps_hardware.support_follower import DEFAULT_TIMEOUT, SupportFollower
 
 __all__ = ['DriverNode', 'PARAMETERS', 'main']
 

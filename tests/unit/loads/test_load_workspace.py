@@ -1,4 +1,4 @@
-"""The load-feasible workspace (rrps_sim.load_workspace): a subset of the reachable workspace that
+"""The load-feasible workspace (rrps_loads.load_workspace): a subset of the reachable workspace that
 shrinks as the payload grows, whose points agree with the NumPy statics one by one, alike with
 the compiled kernel and the NumPy path."""
 
@@ -11,8 +11,8 @@ from rrps_description.geometry import load_robot
 from rrps_description.loads import Payload
 from rrps_description.rotations import rotation_vector_to_quat_xyzw
 from rrps_kinematics.workspace import UNREACHABLE, reachable_workspace
-from rrps_sim.load_workspace import load_workspace
-from rrps_sim.loads import static_solution
+from rrps_loads.load_workspace import load_workspace
+from rrps_loads.loads import static_solution
 
 WALL = rotation_vector_to_quat_xyzw(np.array([np.pi / 2, 0.0, 0.0]))
 RESOLUTION = 0.02        # the viewer's

@@ -8,7 +8,7 @@ Batch NumPy over N poses, for planners, guards and previews::
     sol.actuator_forces       # (N, 6) [N], + pushes the rings apart
     sol.holding_margin        # (N,) 1 - the supporting gripper's utilisation (< 0: it slips)
 
-Each leg is one body between its joints (:mod:`rrps_sim.statics`): the spherical joint carries
+Each leg is one body between its joints (:mod:`rrps_loads.statics`): the spherical joint carries
 no moment and the universal joint's torque vanishes at rest, so ring_b pushes on leg i with
 R_S = -(f_i u_i + w_i) at the spherical joint and ring_a with R_U = f_i u_i - w'_i at the
 universal joint (w, w': the leg's weight shares). They are the multipliers of those joints'
@@ -28,9 +28,9 @@ from rrps_description.loads import GripperCapacity
 from rrps_description.pose import Pose
 from rrps_description.rotations import cross
 from rrps_kinematics.jacobian import inverse_jacobian
-from rrps_sim.reduced import assembled_pose
-from rrps_sim.statics import leg_weight_shares, solve_transposed, static_load
-from rrps_sim.support import Support, support_of, tool_wrench_in_support, world_loads
+from rrps_loads.reduced import assembled_pose
+from rrps_loads.statics import leg_weight_shares, solve_transposed, static_load
+from rrps_loads.support import Support, support_of, tool_wrench_in_support, world_loads
 
 __all__ = ['StaticSolution', 'static_solution', 'support_wrench', 'holding_margin']
 

@@ -1,4 +1,4 @@
-"""Loads along a timed path (rrps_sim.path_loads), checked against computations written here
+"""Loads along a timed path (rrps_loads.path_loads), checked against computations written here
 from the robot description alone: the moving ring's motion given in closed form (its velocities
 and accelerations differentiated by hand, not from samples), virtual work with a finite-difference
 Jacobian of the six leg lengths with respect to that ring's pose, the whole robot's momentum
@@ -19,8 +19,8 @@ from rrps_description.rotations import (
     rotation_vector_to_matrix,
     rotation_vector_to_quat_xyzw,
 )
-from rrps_sim.loads import holding_margin
-from rrps_sim.path_loads import ACTUATOR_FORCE, HOLDING, first_violation, loads_at, path_loads
+from rrps_loads.loads import holding_margin
+from rrps_loads.path_loads import ACTUATOR_FORCE, HOLDING, first_violation, loads_at, path_loads
 from rrps_testing.virtual_work import moving_ring_dynamics
 
 G_WORLD = np.array([0.0, 0.0, -9.81])

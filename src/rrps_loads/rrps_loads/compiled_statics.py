@@ -1,11 +1,11 @@
 """One pose's statics as a compiled kernel: the actuator forces, the support's wrench and the
-holding margin of :func:`rrps_sim.loads.static_solution` (paper eq. 19 at rest), for the teleop
+holding margin of :func:`rrps_loads.loads.static_solution` (paper eq. 19 at rest), for the teleop
 load guards and the load-feasible workspace, without NumPy's per-call overhead::
 
     s = statics_arrays(geometry, Support.of('ring_a', world_q_support))
     margin = pose_statics(s, p, q, forces, wrench)   # forces (6,), wrench (6,) filled in place
 
-The same equations as :mod:`rrps_sim.statics` and :mod:`rrps_sim.loads` (the reference; the
+The same equations as :mod:`rrps_loads.statics` and :mod:`rrps_loads.loads` (the reference; the
 tests check both agree): with J the inverse Jacobian (eq. 1) and Q the wrench of everything the
 free ring carries, J^T f = Q (ring_a supports: Q = -W_b; ring_b supports: Q = W_a), each leg's
 weight split between its joints. The support's wrench follows from the supporting ring's
@@ -25,7 +25,7 @@ import numpy as np
 from rrps_description.geometry import RobotGeometry
 from rrps_description.rotations import quat_xyzw_to_matrix
 from rrps_kinematics.backend import jit
-from rrps_sim.support import Support
+from rrps_loads.support import Support
 
 __all__ = ['StaticsArrays', 'statics_arrays', 'pose_statics', 'grid_statics', 'NO_CAPACITY',
            'FRICTION', 'RATED_LIMITS']

@@ -1,4 +1,4 @@
-"""The simulated robot through the hardware interface alone (rrps_sim.hardware): lifecycle order,
+"""The simulated robot through the hardware interface alone (rrps_hardware.registry): lifecycle order,
 write/read tracking, the gripper interlock, per-actuator faults and their reset, persisted state."""
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ from rrps_description.geometry import load_robot
 from rrps_description.names import LEG_NAMES
 from rrps_kinematics import inverse_kinematics
 from rrps_runtime.freshness import RejectedCommand
-from rrps_sim.hardware import hardware_class
-from rrps_sim.hardware.commands import checked_command
-from rrps_sim.hardware.interface import (
+from rrps_hardware.registry import hardware_class
+from rrps_hardware.commands import checked_command
+from rrps_hardware.interface import (
     ActuatorFault,
     BusState,
     CallbackReturn,
@@ -22,7 +22,7 @@ from rrps_sim.hardware.interface import (
     ReturnType,
     SystemInterface,
 )
-from rrps_sim.hardware.simulated import SimulatedRobot
+from rrps_sim.simulated_robot import SimulatedRobot
 from rrps_sim.hardware_state import load_state
 
 POLE = load_robot('pole_climber')

@@ -4,7 +4,7 @@ A :class:`MasterInterface` is a master robot as the operator's station sees it: 
 encoders (read only) and, while active, a force on each leg that renders the slave's limits to
 the operator's hand (master/feedback). An implementation keeps that force bounded and passive.
 Implementations are registered by name in the ``rrps.master_hardware`` entry-point group
-(:func:`rrps_sim.hardware.master_hardware_class`). Units SI. Pure Python, no ROS import.
+(:func:`rrps_hardware.registry.master_hardware_class`). Units SI. Pure Python, no ROS import.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rrps_sim.hardware.interface import ActuatorFault, HardwareConfig, Result, Transition
+from rrps_hardware.interface import ActuatorFault, HardwareConfig, Result, Transition
 
 __all__ = ['MasterSample', 'MasterInterface']
 

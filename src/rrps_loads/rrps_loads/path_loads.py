@@ -2,8 +2,8 @@
 wrench and its margin, checked against the limits (paper eq. 19 with its accelerations).
 
 While one ring grips, the other moves along the samples (t_k, a_T_b k) of a climbing phase. At
-each sample the actuator forces solve J^T f = M ṫ + Q0 (:mod:`rrps_sim.reduced`, the twist and
-its rate differentiated from the samples by :mod:`rrps_sim.inverse_dynamics`). The structure's
+each sample the actuator forces solve J^T f = M ṫ + Q0 (:mod:`rrps_loads.reduced`, the twist and
+its rate differentiated from the samples by :mod:`rrps_loads.inverse_dynamics`). The structure's
 wrench on the gripping ring follows from the momentum balance of the whole robot about that
 ring's origin O (at rest in the supporting frame)::
 
@@ -11,7 +11,7 @@ ring's origin O (at rest in the supporting frame)::
     M_s = Σ [c_k × m_k (a_k - g) + I_k α_k + ω_k × I_k ω_k] - c_tool × F_tool - τ_tool
 
 over the free ring, the twelve links and the gripping ring itself (a = 0), c measured from O:
-at rest it is :func:`rrps_sim.loads.support_wrench`. Batch NumPy over the samples::
+at rest it is :func:`rrps_loads.loads.support_wrench`. Batch NumPy over the samples::
 
     loads = path_loads(geometry, t, positions, quaternions, support='ring_a', world_q_support=q)
     loads.actuator_forces      # (K, 6) [N], + pushes the rings apart
@@ -28,11 +28,11 @@ import numpy as np
 
 from rrps_description.geometry import RobotGeometry
 from rrps_description.rotations import cross
-from rrps_sim.inverse_dynamics import MIN_SAMPLES, check_trajectory, trajectory_twists
-from rrps_sim.loads import holding_margin
-from rrps_sim.reduced import PlatformPose, body_accelerations, body_velocities, generalized_forces
-from rrps_sim.statics import solve_actuator_forces
-from rrps_sim.support import Support, support_of
+from rrps_loads.inverse_dynamics import MIN_SAMPLES, check_trajectory, trajectory_twists
+from rrps_loads.loads import holding_margin
+from rrps_loads.reduced import PlatformPose, body_accelerations, body_velocities, generalized_forces
+from rrps_loads.statics import solve_actuator_forces
+from rrps_loads.support import Support, support_of
 
 __all__ = ['PathLoads', 'LoadViolation', 'path_twists', 'path_loads', 'loads_at', 'first_violation',
            'ACTUATOR_FORCE', 'HOLDING']
@@ -124,7 +124,7 @@ def _supporting_wrench(pose: PlatformPose, twist: np.ndarray, twist_dot: np.ndar
 def path_twists(t, positions, quaternions_xyzw) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(positions (K, 3), unit sign-continuous quaternions (K, 4), twists (K, 6), their rates
     (K, 6)) of K samples of a_T_b at times ``t``, differentiated from the samples
-    (:func:`rrps_sim.inverse_dynamics.trajectory_twists`); with fewer than MIN_SAMPLES samples
+    (:func:`rrps_loads.inverse_dynamics.trajectory_twists`); with fewer than MIN_SAMPLES samples
     (a gripper phase: one pose) the robot is at rest. ValueError for invalid input."""
     p = np.atleast_2d(np.asarray(positions, dtype=float))
     q = np.atleast_2d(np.asarray(quaternions_xyzw, dtype=float))
@@ -140,7 +140,7 @@ def path_loads(geometry: RobotGeometry, t, positions, quaternions_xyzw, *, suppo
                world_q_support=None, gravity=None) -> PathLoads:
     """:class:`PathLoads` along K samples of a_T_b at times ``t`` (K,) [s] (positions (K, 3) [m],
     quaternions (K, 4) x, y, z, w) while ``support`` grips, turned by ``world_q_support`` in a
-    world of ``gravity`` (:func:`rrps_sim.support.support_of`). The payload and tool wrench are
+    world of ``gravity`` (:func:`rrps_loads.support.support_of`). The payload and tool wrench are
     the geometry's. The motion is differentiated from the samples (:func:`path_twists`). Raises
     ValueError for invalid input, SingularPoseError (a ValueError too) at a singular pose."""
     return loads_at(geometry, *path_twists(t, positions, quaternions_xyzw), support=support,
@@ -150,7 +150,7 @@ def path_loads(geometry: RobotGeometry, t, positions, quaternions_xyzw, *, suppo
 def loads_at(geometry: RobotGeometry, positions, quaternions_xyzw, twist, twist_dot, *, support='ring_a',
              world_q_support=None, gravity=None) -> PathLoads:
     """:class:`PathLoads` at N poses of a_T_b (positions (N, 3), quaternions (N, 4)) moving with
-    ring_b's twists and their rates (N, 6) (ring_a's frame, as in :mod:`rrps_sim.reduced`), e.g.
+    ring_b's twists and their rates (N, 6) (ring_a's frame, as in :mod:`rrps_loads.reduced`), e.g.
     the samples of several paths held by one ring at one attitude, batched. Other arguments and
     errors as :func:`path_loads`."""
     world = support_of(support, world_q_support, gravity)

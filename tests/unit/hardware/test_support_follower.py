@@ -1,4 +1,4 @@
-"""Following the odometry's supporting ring (rrps_sim.support_follower) and grounding it in the
+"""Following the odometry's supporting ring (rrps_hardware.support_follower) and grounding it in the
 simulated hardware: a fresh message for the ring that grips sets its attitude, anything else
 keeps the last known one, and the efforts are those of virtual work written independently
 (rrps_testing.virtual_work) in gravity turned by the test's own rotation."""
@@ -13,9 +13,9 @@ import pytest
 from rrps_description.geometry import load_robot
 from rrps_description.world import Support
 from rrps_interfaces.driver import SupportSource, supporting_ring
-from rrps_sim.hardware.interface import HardwareConfig
-from rrps_sim.hardware.simulated import SimulatedRobot
-from rrps_sim.support_follower import SupportFollower
+from rrps_hardware.interface import HardwareConfig
+from rrps_sim.simulated_robot import SimulatedRobot
+from rrps_hardware.support_follower import SupportFollower
 from rrps_testing.virtual_work import quaternion_matrix, rotation_x, virtual_work_forces
 
 G = np.array([0.0, 0.0, -9.81])

@@ -1,4 +1,4 @@
-"""Statics in the world (rrps_sim.statics, rrps_sim.loads): either ring gripping, at any
+"""Statics in the world (rrps_loads.statics, rrps_loads.loads): either ring gripping, at any
 attitude, with payloads and a tool wrench; checked against computations written here from the
 robot description alone (the free ring's Newton-Euler balance with massless legs, the world
 gravity potential, the global balance of the whole robot, each leg's free body) and against the
@@ -16,8 +16,8 @@ from rrps_description.robot_parts import LinkInertia
 from rrps_description.rotations import quat_multiply_xyzw, quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
 from rrps_kinematics import inverse_kinematics
 from rrps_sim.dynamics import MultibodyDynamics
-from rrps_sim.loads import holding_margin, static_solution
-from rrps_sim.statics import holding_forces
+from rrps_loads.loads import holding_margin, static_solution
+from rrps_loads.statics import holding_forces
 
 G_WORLD = np.array([0.0, 0.0, -9.81])
 ROBOTS = ['pole_climber', 'facade_climber', 'frame_climber']

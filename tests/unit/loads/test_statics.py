@@ -1,4 +1,4 @@
-"""Statics (rrps_sim.statics): holding forces by virtual work, checked against the gravity
+"""Statics (rrps_loads.statics): holding forces by virtual work, checked against the gravity
 potential, the pose-level statics of rrps_kinematics and the multibody Lagrange multipliers."""
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ from rrps_description.rotations import quat_multiply_xyzw, quat_xyzw_to_matrix, 
 from rrps_description.world import STANDARD_GRAVITY
 from rrps_kinematics import inverse_kinematics, leg_forces
 from rrps_sim.dynamics import MultibodyDynamics, simulate
-from rrps_sim.reduced import PlatformPose, generalized_forces, simulate_reduced
-from rrps_sim.statics import holding_forces, static_load
+from rrps_loads.reduced import PlatformPose, generalized_forces, simulate_reduced
+from rrps_loads.statics import holding_forces, static_load
 
 ROBOTS = ['pole_climber', 'frame_climber', 'facade_climber', 'master_robot']
 

@@ -1,5 +1,5 @@
-"""The compiled statics kernel (rrps_sim.compiled_statics): the same numbers as the NumPy statics
-of rrps_sim.loads, and actuator forces that do the work of the potential energy (virtual work by
+"""The compiled statics kernel (rrps_loads.compiled_statics): the same numbers as the NumPy statics
+of rrps_loads.loads, and actuator forces that do the work of the potential energy (virtual work by
 finite differences, written here from the robot description's parts), a support wrench that
 balances the whole robot, on either ring, at any attitude, with a payload and a tool wrench."""
 
@@ -12,9 +12,9 @@ from rrps_description.geometry import load_robot
 from rrps_description.loads import Payload, ToolWrench
 from rrps_description.pose import Pose
 from rrps_description.rotations import quat_multiply_xyzw, quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
-from rrps_sim.compiled_statics import grid_statics, pose_statics, statics_arrays
-from rrps_sim.loads import static_solution
-from rrps_sim.support import support_of
+from rrps_loads.compiled_statics import grid_statics, pose_statics, statics_arrays
+from rrps_loads.loads import static_solution
+from rrps_loads.support import support_of
 
 G = np.array([0.0, 0.0, -9.81])
 ATTITUDES = {

@@ -12,12 +12,12 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool
 
-import rrps_sim.hardware as hardware
+import rrps_hardware.registry as hardware
 from rrps_description.geometry import load_robot
 from rrps_description.names import LEG_NAMES, RINGS
 from rrps_interfaces.driver import DriverStatus
 from rrps_kinematics import inverse_kinematics
-from rrps_sim.hardware.interface import (
+from rrps_hardware.interface import (
     OK,
     SUCCESS,
     ActuatorFault,
@@ -30,7 +30,7 @@ from rrps_sim.hardware.interface import (
     SystemState,
     Transition,
 )
-from rrps_sim.nodes.driver_node import DriverNode
+from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_testing.node_helpers import command, said, statuses
 from rrps_testing.ros_harness import DEADLINE, Probe, Spinner, wait_for
 

@@ -1,14 +1,14 @@
 """Inverse dynamics of an RRPS platform: actuator forces along a prescribed ring_b trajectory.
 
 The trajectory is given as samples (t_k, r_k, q_k), optionally with ring_b's twist (v, ω) and
-its rate at each sample (both in ring_a's frame, as in :mod:`rrps_sim.reduced`). What is not
+its rate at each sample (both in ring_a's frame, as in :mod:`rrps_loads.reduced`). What is not
 given is differentiated from the samples by finite differences of high order
 (:func:`sample_derivatives`: 7 consecutive samples, centred where possible and one-sided at the
 ends, on any spacing), the quaternion's four components first made sign-continuous. For the
 quaternion curve q(t) the angular velocity in ring_a's frame is ω = 2 vec(q̇ ⊗ q*) / |q|² and its
 rate ω̇ = (2 vec(q̈ ⊗ q*) - 2 (q · q̇) ω) / |q|²; accelerations given without velocities are
 used as they are, velocities given without accelerations are differentiated once.
-The forces then solve eq. 19 written in ring_b's twist (:mod:`rrps_sim.reduced`):
+The forces then solve eq. 19 written in ring_b's twist (:mod:`rrps_loads.reduced`):
 J^T f = M ṫ + Q0(x, t), at every sample, on whichever ring supports the robot.
 """
 
@@ -20,9 +20,9 @@ import numpy as np
 
 from rrps_description.geometry import RobotGeometry
 from rrps_description.rotations import quat_conjugate_xyzw, quat_multiply_xyzw
-from rrps_sim.reduced import PlatformPose, generalized_forces
-from rrps_sim.statics import solve_actuator_forces
-from rrps_sim.support import support_of
+from rrps_loads.reduced import PlatformPose, generalized_forces
+from rrps_loads.statics import solve_actuator_forces
+from rrps_loads.support import support_of
 
 __all__ = ['STENCIL', 'check_trajectory', 'inverse_dynamics', 'sample_derivatives',
            'trajectory_twists']
@@ -123,7 +123,7 @@ def inverse_dynamics(geometry: RobotGeometry, t, positions, quaternions_xyzw, *,
     give a_T_b at each sample (K >= 4). ``twist`` (K, 6): ring_b's origin velocity [m/s] and
     angular velocity [rad/s], ``twist_dot`` (K, 6) their rates, both in ring_a's frame; each is
     differentiated from the samples when not given. ``support``: the gripping ring, turned by
-    ``world_q_support`` in a world of ``gravity`` (:func:`rrps_sim.support.support_of`; default
+    ``world_q_support`` in a world of ``gravity`` (:func:`rrps_loads.support.support_of`; default
     ring_a upright). Includes the inertia and weight of the free ring and of the twelve leg
     links and the tool wrench. Raises ValueError for invalid input, SingularPoseError (a
     ValueError) for a singular pose on the way.

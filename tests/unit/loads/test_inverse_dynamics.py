@@ -1,4 +1,4 @@
-"""Inverse dynamics (rrps_sim.inverse_dynamics): actuator forces along a prescribed trajectory,
+"""Inverse dynamics (rrps_loads.inverse_dynamics): actuator forces along a prescribed trajectory,
 checked by driving the reduced model and the multibody DAE with them."""
 
 from __future__ import annotations
@@ -14,14 +14,14 @@ from scipy.interpolate import CubicSpline
 from rrps_description.geometry import RobotGeometry, load_robot
 from rrps_description.rotations import quat_multiply_xyzw, rotation_vector_to_quat_xyzw
 from rrps_sim.dynamics import simulate
-from rrps_sim.inverse_dynamics import inverse_dynamics, sample_derivatives, trajectory_twists
-from rrps_sim.reduced import (
+from rrps_loads.inverse_dynamics import inverse_dynamics, sample_derivatives, trajectory_twists
+from rrps_loads.reduced import (
     PlatformPose,
     generalized_forces,
     platform_accelerations,
     simulate_reduced,
 )
-from rrps_sim.statics import holding_forces, solve_actuator_forces
+from rrps_loads.statics import holding_forces, solve_actuator_forces
 
 DURATION = 0.5
 

@@ -14,8 +14,8 @@ normal to the leg, w_i = m_u g + k g⊥ at the spherical joint (on ring_b) and w
 at the universal joint (on ring_a), w_i + w'_i = (m_l + m_u) g: the links' moment balance about
 their joints (the prismatic pair turns the leg as one body, the spherical joint carries no
 moment, and the universal joint's torque has no part along the leg: it vanishes at rest).
-Gravity is the world's, in ring_a's frame at each pose (:mod:`rrps_sim.support`). Forces are
-positive when they push the rings apart; :mod:`rrps_sim.loads` adds the joint reactions.
+Gravity is the world's, in ring_a's frame at each pose (:mod:`rrps_loads.support`). Forces are
+positive when they push the rings apart; :mod:`rrps_loads.loads` adds the joint reactions.
 """
 
 from __future__ import annotations
@@ -27,8 +27,8 @@ from rrps_description.rotations import cross
 from rrps_kinematics.errors import SingularPoseError
 from rrps_kinematics.inverse import InverseKinematicsResult
 from rrps_kinematics.jacobian import inverse_jacobian
-from rrps_sim.reduced import PlatformPose, assembled_pose
-from rrps_sim.support import Support, WorldLoads, support_of, world_loads
+from rrps_loads.reduced import PlatformPose, assembled_pose
+from rrps_loads.support import Support, WorldLoads, support_of, world_loads
 
 __all__ = ['leg_weight_shares', 'static_load', 'holding_forces', 'solve_actuator_forces',
            'SINGULAR_CONDITIONING']

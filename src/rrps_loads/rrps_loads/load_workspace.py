@@ -1,5 +1,5 @@
 """The load-feasible workspace: the reachable ring_b positions (:mod:`rrps_kinematics.workspace`)
-where the robot at rest also holds its loads (paper eq. 19 at rest, :mod:`rrps_sim.loads`)::
+where the robot at rest also holds its loads (paper eq. 19 at rest, :mod:`rrps_loads.loads`)::
 
     ws = load_workspace(geom, q, resolution=0.02, payload=Payload(mass=15.0))
     ws.volume, ws.excluded_by['actuator_force'], ws.excluded_by['holding']
@@ -12,7 +12,7 @@ unreachable, counted in ``excluded_by`` under 'actuator_force' (a singular pose 
 'holding' (the first broken, in that order). It is a subset of the reachable workspace; the
 forces and the support's wrench are affine in the payload's mass, so the masses at which a
 point is feasible form an interval: with a growing payload the set only shrinks, as long as the
-unloaded robot is feasible there. The compiled kernel (:func:`rrps_sim.compiled_statics.grid_statics`)
+unloaded robot is feasible there. The compiled kernel (:func:`rrps_loads.compiled_statics.grid_statics`)
 evaluates the reachable points only; without numba the NumPy statics does.
 """
 
@@ -25,9 +25,9 @@ import numpy as np
 from rrps_description.geometry import RobotGeometry
 from rrps_kinematics.backend import use_numba
 from rrps_kinematics.workspace import UNREACHABLE, Workspace, reachable_workspace
-from rrps_sim.compiled_statics import grid_statics, statics_arrays
-from rrps_sim.loads import static_solution
-from rrps_sim.support import support_of
+from rrps_loads.compiled_statics import grid_statics, statics_arrays
+from rrps_loads.loads import static_solution
+from rrps_loads.support import support_of
 
 __all__ = ['LOAD_LIMITS', 'load_margins', 'load_workspace']
 
@@ -40,7 +40,7 @@ def load_margins(geometry: RobotGeometry, points: np.ndarray, quaternion_xyzw, s
                  *, backend: str = 'auto') -> np.ndarray:
     """(N, 2): max_i |f_i| / max_force and the holding margin (NaN without a capacity) of the
     robot at rest with ring_b at ``points`` (N, 3) and one orientation, on ``support`` (a
-    :class:`rrps_sim.support.Support`); NaN forces at a singular pose (compiled path)."""
+    :class:`rrps_loads.support.Support`); NaN forces at a singular pose (compiled path)."""
     q = np.ascontiguousarray(quaternion_xyzw, dtype=float)
     out = np.empty((len(points), 2))
     if use_numba(backend):
@@ -64,7 +64,7 @@ def load_workspace(geometry: RobotGeometry, orientations=None, *, resolution: fl
     ``plain``: the reachable workspace to restrict (else computed here from ``orientations``,
     ``resolution`` and ``workspace_options`` as :func:`reachable_workspace` takes them);
     ``support``, ``world_q_support``, ``gravity``, ``payload`` and ``tool_wrench`` as
-    :func:`rrps_sim.loads.static_solution` takes them (``None``: the robot's own loads).
+    :func:`rrps_loads.loads.static_solution` takes them (``None``: the robot's own loads).
     ValueError for invalid arguments.
     """
     world = support_of(support, world_q_support, gravity)

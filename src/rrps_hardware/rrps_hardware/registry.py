@@ -1,12 +1,12 @@
 """The driver's hardware: the interface (:mod:`.interface`) and the registry of its implementations.
 
 An implementation is registered by name in the ``rrps.hardware`` entry-point group of its
-package's setup.py (``simulated = rrps_sim.hardware.simulated:SimulatedRobot``); the driver
+package's setup.py (``simulated = rrps_sim.simulated_robot:SimulatedRobot``); the driver
 node hosts the one its ``hardware`` parameter names::
 
     robot = hardware_class('simulated')()
 
-A master robot's drives (:class:`rrps_sim.hardware.master.MasterInterface`) are registered the
+A master robot's drives (:class:`rrps_hardware.master.MasterInterface`) are registered the
 same way in the ``rrps.master_hardware`` group, for master_node's ``hardware`` parameter
 (:func:`master_hardware_class`).
 """
@@ -16,8 +16,8 @@ from __future__ import annotations
 from importlib.metadata import entry_points
 from typing import Callable
 
-from rrps_sim.hardware.interface import SystemInterface
-from rrps_sim.hardware.master import MasterInterface
+from rrps_hardware.interface import SystemInterface
+from rrps_hardware.master import MasterInterface
 
 __all__ = ['GROUP', 'MASTER_GROUP', 'registered_hardware', 'registered_master_hardware', 'hardware_class',
            'master_hardware_class']

@@ -1,4 +1,4 @@
-"""Reduced 6-DOF model (rrps_sim.reduced): its kinematics, energy, and the cross-check against
+"""Reduced 6-DOF model (rrps_loads.reduced): its kinematics, energy, and the cross-check against
 the 91-coordinate multibody DAE of rrps_sim.dynamics."""
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from rrps_description.rotations import (
 from rrps_description.world import STANDARD_GRAVITY
 from rrps_kinematics.inverse import lower_link_rotations
 from rrps_sim.dynamics import simulate
-from rrps_sim.reduced import (
+from rrps_loads.reduced import (
     PlatformPose,
     body_accelerations,
     body_velocities,
@@ -32,7 +32,7 @@ from rrps_sim.reduced import (
     platform_accelerations,
     simulate_reduced,
 )
-from rrps_sim.statics import holding_forces
+from rrps_loads.statics import holding_forces
 
 ROBOTS = ['pole_climber', 'frame_climber', 'facade_climber', 'master_robot']
 

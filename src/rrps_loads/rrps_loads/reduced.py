@@ -48,7 +48,7 @@ from rrps_description.rotations import cross
 from rrps_kinematics.errors import ConvergenceError, SingularPoseError
 from rrps_kinematics.inverse import inverse_kinematics, universal_joint_frames
 from rrps_kinematics.jacobian import inverse_jacobian
-from rrps_sim.support import Support, support_of, world_loads
+from rrps_loads.support import Support, support_of, world_loads
 
 __all__ = [
     'ReducedState',
@@ -101,7 +101,7 @@ def assembled_pose(geometry: RobotGeometry, position, quaternion_xyzw):
 
 class PlatformPose:
     """Pose-dependent quantities of N poses of ring_b (position (N, 3), quaternion (N, 4)), and
-    the world's loads there for a ``support`` (:class:`~rrps_sim.support.Support`, default:
+    the world's loads there for a ``support`` (:class:`~rrps_loads.support.Support`, default:
     ring_a upright under the standard gravity)."""
 
     def __init__(self, geometry: RobotGeometry, position, quaternion_xyzw, support: Support | None = None):
@@ -299,7 +299,7 @@ def generalized_forces(pose: PlatformPose, twist, twist_dot) -> np.ndarray:
     Component k is the power of (m a - m g) and (I alpha + omega x I omega) of every moving body
     for the unit twist e_k, minus that of the tool wrench when ring_b moves (Kane's generalized
     inertia + active forces, with the sign of eq. 19's right side moved over). With twist =
-    twist_dot = 0 it is the static load of eq. 19 (:func:`rrps_sim.statics.static_load`).
+    twist_dot = 0 it is the static load of eq. 19 (:func:`rrps_loads.statics.static_load`).
     """
     g = pose.geometry
     twist = np.asarray(twist, dtype=float)
@@ -411,7 +411,7 @@ def simulate_reduced(geometry: RobotGeometry, position, quaternion_xyzw,
                      world_q_support=None, gravity=None) -> ReducedResult:
     """Integrate the reduced model from a pose (at rest unless velocities are given), on the
     ``support`` ring turned by ``world_q_support`` in a world of ``gravity``
-    (:func:`rrps_sim.support.support_of`; default ring_a upright, 9.81 m/s² down).
+    (:func:`rrps_loads.support.support_of`; default ring_a upright, 9.81 m/s² down).
 
     ``forces``: constant actuator forces (6,) [N] (+ = pushing the rings apart) — the paper's
     constant-force run — or ``forces(t, ReducedState) -> (6,)``, best smooth in t (the step

@@ -35,8 +35,8 @@ from rrps_interfaces.driver import ActuatorMode
 from rrps_runtime.parameter_schema import Parameter
 from rrps_sim.actuators import DynamicActuators, KinematicActuators, QuasiStaticEfforts, SensorFaults
 from rrps_sim.grippers import Grippers
-from rrps_sim.hardware.commands import ring_joints
-from rrps_sim.hardware.interface import (
+from rrps_hardware.commands import ring_joints
+from rrps_hardware.interface import (
     OK,
     SUCCESS,
     ActuatorFault,
