@@ -6,7 +6,7 @@ package_name = 'rrps_canopen'
 #: The hardware implementations of this package: driver_node's ``hardware`` (the 'rrps.hardware'
 #: entry points) and master_node's (the 'rrps.master_hardware' entry points), by name.
 HARDWARE = {'canopen': 'rrps_canopen.robot:CanopenRobot'}
-MASTER_HARDWARE = {'canopen': 'rrps_canopen.master:CanopenMaster'}
+MASTER_HARDWARE = {'canopen': 'rrps_canopen.master_hardware:CanopenMaster'}
 
 setup(
     name=package_name,
@@ -38,7 +38,7 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'rrps-drive-sim = rrps_canopen.simulator.process:main',
+            'rrps-drive-sim = rrps_canopen_sim.process:main',
         ],
         'rrps.hardware': [f'{name} = {target}' for name, target in HARDWARE.items()],
         'rrps.master_hardware': [f'{name} = {target}' for name, target in MASTER_HARDWARE.items()],

@@ -40,7 +40,7 @@ ANSWER_TIMEOUT = 30.0
 #: SCHED_RR priority of the drive simulator: above the robot's command path, as real drives are
 #: hardware of their own that the driver's computer cannot starve. The kernel's RT bandwidth limit
 #: still stops it for about 50 ms at times; its heartbeats stay ahead of its PDOs then
-#: (rrps_canopen.simulator.heartbeat; docs/measurements.md: CANopen).
+#: (rrps_canopen_sim.heartbeat; docs/measurements.md: CANopen).
 SIM_RT_PRIORITY = CONTROL_RT_PRIORITY + 10
 
 
@@ -52,12 +52,12 @@ def can_env(port: int, **extra: str) -> dict:
 
 class DriveSim:
     """``rrps-drive-sim`` in a process of its own (its drives behaving as ``behaviour`` says:
-    rrps_canopen.simulator.behaviour); ``ask`` sends one request, returns the answer."""
+    rrps_canopen_sim.behaviour); ``ask`` sends one request, returns the answer."""
 
     def __init__(self, robot: str = 'pole_climber', *, port: int | None = None, master: bool = False,
                  lengths=None, time_constant: float | None = None, behaviour: dict | None = None):
         self.port = free_port() if port is None else port
-        args = [sys.executable, '-m', 'rrps_canopen.simulator.process', '--robot', robot, '--stdin']
+        args = [sys.executable, '-m', 'rrps_canopen_sim.process', '--robot', robot, '--stdin']
         args += ['--master'] if master else []
         args += ['--lengths', *map(str, lengths)] if lengths is not None else []
         args += ['--time-constant', str(time_constant)] if time_constant is not None else []

@@ -9,8 +9,8 @@ import math
 import pytest
 
 from rrps_canopen.cia402 import HomingStatus, Statusword, homing_status
-from rrps_canopen.simulator.behaviour import DriveBehaviour, behaviours
-from rrps_canopen.simulator.homing import HomingRun, Phase
+from rrps_canopen_sim.behaviour import DriveBehaviour, behaviours
+from rrps_canopen_sim.homing import HomingRun, Phase
 from rrps_description.bus import HOMING_METHODS, homing_end
 
 STROKE = (0.30, 0.55)

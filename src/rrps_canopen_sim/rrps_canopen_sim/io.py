@@ -11,7 +11,7 @@ from __future__ import annotations
 from typing import Any
 
 import canopen
-from rrps_canopen.simulator.node import SimulatedNode
+from rrps_canopen_sim.node import SimulatedNode
 
 __all__ = ['SimulatedIoModule', 'Clamp', 'CLAMP_TIME']
 

@@ -1,16 +1,16 @@
 """The simulated devices of one CAN bus and the physics behind them, stepped on each SYNC.
 
-:class:`SimulatedBus` puts a :class:`~rrps_canopen.simulator.drive.SimulatedDrive` per leg (and
+:class:`SimulatedBus` puts a :class:`~rrps_canopen_sim.drive.SimulatedDrive` per leg (and
 the grippers' CiA 401 module, when the robot has one) on the bus of the robot YAML's ``bus``
 section. On each SYNC every device sends its heartbeat if it is due
-(:mod:`rrps_canopen.simulator.heartbeat`), takes its RPDOs, the axes move, the devices sense them and send
+(:mod:`rrps_canopen_sim.heartbeat`), takes its RPDOs, the axes move, the devices sense them and send
 their TPDOs. Legs in position mode move as ``rrps_sim``'s kinematic actuators (lag, speed and
 stroke limits: the simulated backend's model); a master's legs in torque mode are masses held by
 the operator's hand (a spring-damper to where the hand is), pushed by the drives' forces, whose
 work on them is summed (the energy the master puts into the operator). :meth:`SimulatedBus.control`
 takes a test's requests (faults, the bus's loss, a bus-off error frame, a stuck clamp sensor, the
 hand) and reports the devices. Each drive behaves as its
-:class:`~rrps_canopen.simulator.behaviour.DriveBehaviour` says (``behaviour``: options for every
+:class:`~rrps_canopen_sim.behaviour.DriveBehaviour` says (``behaviour``: options for every
 drive, or per drive under its name). Pure Python (canopen, python-can), no ROS import.
 """
 
@@ -26,10 +26,10 @@ import numpy as np
 
 from rrps_canopen.drive_set import CAN_ERR_BUSOFF
 from rrps_canopen.network import open_network, resolve_eds
-from rrps_canopen.simulator.behaviour import behaviours
-from rrps_canopen.simulator.drive import SimulatedDrive
-from rrps_canopen.simulator.heartbeat import HeartbeatProducer
-from rrps_canopen.simulator.io import Clamp, SimulatedIoModule
+from rrps_canopen_sim.behaviour import behaviours
+from rrps_canopen_sim.drive import SimulatedDrive
+from rrps_canopen_sim.heartbeat import HeartbeatProducer
+from rrps_canopen_sim.io import Clamp, SimulatedIoModule
 from rrps_description.geometry import RobotGeometry
 from rrps_description.names import RINGS
 from rrps_sim.actuators import KinematicActuators

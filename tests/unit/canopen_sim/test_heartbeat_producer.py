@@ -10,7 +10,7 @@ import can
 
 import canopen
 from rrps_canopen.network import resolve_eds
-from rrps_canopen.simulator.heartbeat import HeartbeatProducer
+from rrps_canopen_sim.heartbeat import HeartbeatProducer
 
 HOUR = 3600.0  # [s] a period the producer's thread never reaches in a test
 

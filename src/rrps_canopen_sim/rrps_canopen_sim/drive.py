@@ -2,16 +2,16 @@
 CST, the following-error monitor, EMCY, and the faults a test injects.
 
 The drive does not move anything itself: on each SYNC the bus simulator
-(:mod:`rrps_canopen.simulator.bus`) asks it for its axis' reference (:meth:`SimulatedDrive.reference`
+(:mod:`rrps_canopen_sim.bus`) asks it for its axis' reference (:meth:`SimulatedDrive.reference`
 in CSP and homing, :meth:`SimulatedDrive.force` in CST), steps the actuator model of ``rrps_sim``,
 and hands the drive the axis' new position and speed (:meth:`SimulatedDrive.sense`), from which it
 computes its statusword, actual values and faults before its TPDOs go out. The encoder of the
 axis is the drive's: absolute (``counts = gain * length + offset``) or incremental (0 at power-on
 until homed). A mode written to 0x6060 takes effect, and shows in 0x6061, after the behaviour's
 ``mode_delay``; homing starts on the rising edge of controlword bit 4 in homing mode and runs the
-method of 0x6098 (:mod:`rrps_canopen.simulator.homing`); the statusword's bits 13, 12 and 10 are
+method of 0x6098 (:mod:`rrps_canopen_sim.homing`); the statusword's bits 13, 12 and 10 are
 the homing error, attained and target reached bits in homing mode only. What the drive supports,
-lacks or refuses is its :class:`~rrps_canopen.simulator.behaviour.DriveBehaviour`. Pure Python
+lacks or refuses is its :class:`~rrps_canopen_sim.behaviour.DriveBehaviour`. Pure Python
 (canopen), no ROS import.
 """
 
@@ -26,10 +26,10 @@ from canopen.sdo import SdoAbortedError
 
 import canopen
 from rrps_canopen.cia402 import Controlword, DeviceStateMachine, Mode, State, Statusword
-from rrps_canopen.simulator.behaviour import DriveBehaviour
-from rrps_canopen.simulator.homing import HomingRun, Phase
-from rrps_canopen.simulator.node import SimulatedNode
-from rrps_canopen.simulator.objects import device_dictionary
+from rrps_canopen_sim.behaviour import DriveBehaviour
+from rrps_canopen_sim.homing import HomingRun, Phase
+from rrps_canopen_sim.node import SimulatedNode
+from rrps_canopen_sim.objects import device_dictionary
 from rrps_description.bus import HOMING_ABSOLUTE, DriveConfig
 
 __all__ = ['SimulatedDrive', 'EMCY_CODES', 'VALUE_RANGE_EXCEEDED']

@@ -1,7 +1,7 @@
 """The object dictionary of a simulated drive: its EDS's, changed by its behaviour.
 
 :func:`device_dictionary` reads the EDS and then gives the drive what its
-:class:`~rrps_canopen.simulator.behaviour.DriveBehaviour` says: the homing methods it lists
+:class:`~rrps_canopen_sim.behaviour.DriveBehaviour` says: the homing methods it lists
 (0x60E3) and the modes it supports (0x6502), the objects it lacks removed, and with the ``vendor``
 PDO layout another power-on mapping and one RPDO and one TPDO more than the EDS lists, enabled
 (a drive whose EDS the master was not given in full). Pure Python (canopen), no ROS import.
@@ -13,7 +13,7 @@ from canopen.objectdictionary import ODRecord, ODVariable
 from canopen.objectdictionary.datatypes import INTEGER8, UNSIGNED8, UNSIGNED32
 
 import canopen
-from rrps_canopen.simulator.behaviour import DriveBehaviour
+from rrps_canopen_sim.behaviour import DriveBehaviour
 
 __all__ = ['device_dictionary', 'VENDOR_RPDOS', 'VENDOR_TPDOS', 'SUPPORTED_HOMING_METHODS']
 

@@ -7,7 +7,7 @@
 It opens the bus of the robot YAML's ``bus`` section (``RRPS_CAN_CHANNEL`` / ``RRPS_CAN_PORT``
 override it), boots every device (boot-up messages, PRE-OPERATIONAL) and serves until SIGTERM or
 SIGINT. The first line out is ``{"ready": true, ...}``. With ``--stdin`` it takes requests (faults,
-the bus' loss, a stuck sensor: :meth:`rrps_canopen.simulator.bus.SimulatedBus.control`) as JSON
+the bus' loss, a stuck sensor: :meth:`rrps_canopen_sim.bus.SimulatedBus.control`) as JSON
 lines on standard input, answers each with one JSON line, and stops at the end of the input.
 Exit status 2 and one line on a bad robot or bus.
 """
@@ -34,7 +34,7 @@ def _parser() -> argparse.ArgumentParser:
                    help='the legs\' lengths at power-on [m] (default: the home pose)')
     p.add_argument('--time-constant', type=float, default=0.02, help='the legs\' first-order lag [s]')
     p.add_argument('--behaviour', type=json.loads, default=None, metavar='JSON',
-                   help='how the drives behave (rrps_canopen.simulator.behaviour): options for every drive, or per '
+                   help='how the drives behave (rrps_canopen_sim.behaviour): options for every drive, or per '
                    'drive under its name')
     p.add_argument('--stdin', action='store_true', help='take requests (JSON lines) on standard input, answer '
                    'on standard output, and stop at the end of the input')
@@ -56,7 +56,7 @@ def _serve(bus, stop: threading.Event) -> None:
 
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)
-    from rrps_canopen.simulator.bus import SimulatedBus
+    from rrps_canopen_sim.bus import SimulatedBus
     from rrps_description.geometry import load_robot
     sys.setswitchinterval(5e-4)  # the bus' receive thread gets the interpreter within a fraction of a period
     stop = threading.Event()
