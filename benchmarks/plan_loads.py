@@ -8,7 +8,7 @@ of ``--repeat`` runs, ``time.process_time``):
 
 * ``plan, no loads``: ``GaitPlanner(..., loads=None)``, every kinematic limit checked;
 * ``plan + loads``: the default planner, which also checks the loads of every phase one
-  gripper holds (``rrps_teleop.climbing.load_check``: ``rrps_loads.path_loads.loads_at`` once for
+  gripper holds (``rrps_climbing.load_check``: ``rrps_loads.path_loads.loads_at`` once for
   all the samples of the phases one ring holds at one attitude); ``load check``: that check
   alone;
 * baseline ``loads per pose``: the same loads, one pose at a time in a Python loop (the twist
@@ -33,9 +33,9 @@ from rrps_loads.path_loads import _supporting_wrench
 from rrps_loads.reduced import PlatformPose, generalized_forces
 from rrps_loads.statics import solve_actuator_forces
 from rrps_loads.support import support_of
-from rrps_teleop.climbing.gait import GaitPlanner
-from rrps_teleop.climbing.load_check import LoadCheck
-from rrps_teleop.climbing.phase_path import PhasePath
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.load_check import LoadCheck
+from rrps_climbing.phase_path import PhasePath
 
 CASES = [('pole_climber', 'pole', 1.0), ('pole_climber', 'palm_trunk', 1.0),
          ('frame_climber', 'frame', 2.0), ('facade_climber', 'facade', 1.5)]

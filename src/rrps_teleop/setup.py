@@ -7,7 +7,7 @@ package_name = 'rrps_teleop'
 NODES = {
     'master_node': ('rrps_teleop.nodes.master_node', 'MasterNode'),
     'teleop_node': ('rrps_teleop.nodes.teleop_node', 'TeleopNode'),
-    'climb_node': ('rrps_teleop.nodes.climb_node', 'ClimbNode'),
+    'climb_node': ('rrps_climbing.nodes.climb_node', 'ClimbNode'),
     'viewer_node': ('rrps_teleop.nodes.viewer_node', 'ViewerNode'),
 }
 
@@ -36,7 +36,7 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'rrps-climb = rrps_teleop.climbing.cli:main',
+            'rrps-climb = rrps_climbing.cli:main',
         ] + [f'{node} = {module}:main' for node, (module, _) in NODES.items()],
         'rrps.nodes': [f'{node} = {module}:{cls}' for node, (module, cls) in NODES.items()],
     },

@@ -127,7 +127,7 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
     ]
     if climb:
         try:
-            from rrps_teleop.nodes.climb_node import ClimbNode
+            from rrps_climbing.nodes.climb_node import ClimbNode
         except ImportError as exc:  # the climbing node is optional for the teleop part
             print(f'rrps demo: warning: no climb node ({exc}); climbing is unavailable',
                   file=sys.stderr)

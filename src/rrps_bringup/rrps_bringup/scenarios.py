@@ -27,7 +27,7 @@ from rrps_description.geometry import load_robot
 from rrps_description.rotations import matrix_to_quat_xyzw
 from rrps_description.structures import Structure, make_structure
 from rrps_description.world import STANDARD_GRAVITY, Support
-from rrps_teleop.climbing.frame_node import FrameNodePlanner
+from rrps_climbing.frame_crossing import FrameNodePlanner
 
 __all__ = ['Scenario', 'SCENARIOS', 'scenario', 'ros_arguments']
 

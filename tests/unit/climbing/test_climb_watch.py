@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 from rrps_description.pose import Pose, pose_error
 from rrps_description.rotations import rotation_vector_to_quat_xyzw
 from rrps_interfaces.climb import PauseReason
-from rrps_teleop.climbing.climb_watch import InputWatch
-from rrps_teleop.climbing.phase_path import PhasePath
+from rrps_climbing.climb_watch import InputWatch
+from rrps_climbing.phase_path import PhasePath
 
 
 class Clock:

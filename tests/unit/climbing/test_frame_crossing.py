@@ -11,8 +11,8 @@ import pytest
 
 from rrps_description.geometry import load_robot
 from rrps_kinematics.odometry import invert
-from rrps_teleop.climbing.frame_node import FrameNodePlanner
-from rrps_teleop.climbing.plan import PlanError, PlanLimit
+from rrps_climbing.frame_crossing import FrameNodePlanner
+from rrps_climbing.plan import PlanError, PlanLimit
 
 JUNCTIONS = [(deg, out) for deg in (30, 45, 60, 90) for out in (False, True)]
 pytestmark = pytest.mark.slow  # eight searches of a few seconds each, shared by the module

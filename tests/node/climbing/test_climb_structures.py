@@ -25,9 +25,9 @@ from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_runtime.messages import pose_from_msg
 from rrps_runtime.qos import COMMAND_QOS
 from rrps_hardware.nodes.driver_node import DriverNode
-from rrps_teleop.climbing.frame_node import FrameNodePlanner
-from rrps_teleop.climbing.gait import GaitPlanner
-from rrps_teleop.nodes.climb_node import ClimbNode
+from rrps_climbing.frame_crossing import FrameNodePlanner
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.nodes.climb_node import ClimbNode
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from rrps_description.geometry import load_robot
-from rrps_teleop.climbing import cli
-from rrps_teleop.climbing.frame_node import LIMITS
-from rrps_teleop.climbing.plan import PlanError
-from rrps_teleop.climbing.route import FrameRoutePlanner, frame_route, plan_route
+from rrps_climbing import cli
+from rrps_climbing.frame_crossing import LIMITS
+from rrps_climbing.plan import PlanError
+from rrps_climbing.route import FrameRoutePlanner, frame_route, plan_route
 from rrps_testing.virtual_work import quaternion_matrix
 
 FRAME = load_robot('frame_climber')

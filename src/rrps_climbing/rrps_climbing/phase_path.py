@@ -1,6 +1,6 @@
 """Timing a planned motion phase: its path streamed at a speed, sampled at any time.
 
-A motion phase of a gait plan (``rrps_teleop.climbing.gait``) is a polyline of ring_b poses a_T_b with
+A motion phase of a gait plan (``rrps_climbing.gait``) is a polyline of ring_b poses a_T_b with
 the extra-DOF angles of both rings at each sample. Streaming it at ``speed`` gives each sample a
 time: the arc length of positions plus ``characteristic_length`` times the rotation angle, over
 the speed. Between samples positions and angles are interpolated linearly and rotations by

@@ -25,8 +25,8 @@ from rrps_interfaces.driver import DriverStatus, SupportSource
 from rrps_kinematics.nodes.fk_node import FkNode
 from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_hardware.nodes.driver_node import DriverNode
-from rrps_teleop.climbing.gait import GaitPlanner
-from rrps_teleop.nodes.climb_node import ClimbNode
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.nodes.climb_node import ClimbNode
 from rrps_testing.node_helpers import statuses
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
 from rrps_testing.virtual_work import rotation_x

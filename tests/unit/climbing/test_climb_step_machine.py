@@ -18,9 +18,9 @@ from rrps_description.geometry import load_robot
 from rrps_description.pose import Pose, pose_error
 from rrps_description.structures import pole
 from rrps_interfaces.climb import ClimbPreview, ClimbState, PauseReason, PhaseAction, PreviewLimit, StepRefusal
-from rrps_teleop.climbing.gait import GaitPlanner
-from rrps_teleop.climbing.step_io import GripperRequest, StepConfig
-from rrps_teleop.climbing.step_machine import ClimbStepMachine
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.step_io import GripperRequest, StepConfig
+from rrps_climbing.step_machine import ClimbStepMachine
 
 POLE = load_robot('pole_climber')
 PLANNER = GaitPlanner(POLE, pole(3.0))

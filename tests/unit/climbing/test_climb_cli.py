@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from rrps_teleop.climbing.cli import main
+from rrps_climbing.cli import main
 
 
 def _rows(path):
@@ -154,7 +154,7 @@ def test_frame_node_without_extra_dof_is_refused_naming_limit_and_phase(capsys):
 
 def test_console_script(tmp_path):
     out = tmp_path / 'p.csv'
-    proc = subprocess.run([sys.executable, '-m', 'rrps_teleop.climbing.cli', '--structure', 'pole',
+    proc = subprocess.run([sys.executable, '-m', 'rrps_climbing.cli', '--structure', 'pole',
                            '--distance', '0.3', '--csv', str(out)], capture_output=True, text=True,
                           timeout=60)
     assert proc.returncode == 0, proc.stderr

@@ -23,7 +23,7 @@ from rrps_interfaces.teleop import TeleopCode, TeleopStatus
 from rrps_kinematics.nodes.fk_node import FkNode
 from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_hardware.nodes.driver_node import DriverNode
-from rrps_teleop.nodes.climb_node import ClimbNode
+from rrps_climbing.nodes.climb_node import ClimbNode
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]

@@ -12,7 +12,7 @@ import numpy as np
 
 from rrps_description.pose import Pose
 from rrps_interfaces.climb import ClimbStatus
-from rrps_teleop.climbing.plan import Phase
+from rrps_climbing.plan import Phase
 
 __all__ = ['StepConfig', 'ClimbTarget', 'GripperRequest', 'ClimbOutput']
 

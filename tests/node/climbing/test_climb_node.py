@@ -28,8 +28,8 @@ from rrps_kinematics.nodes.fk_node import FkNode
 from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_runtime.messages import pose_from_msg
 from rrps_hardware.nodes.driver_node import DriverNode
-from rrps_teleop.climbing.gait import GaitPlanner
-from rrps_teleop.nodes.climb_node import ClimbNode
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.nodes.climb_node import ClimbNode
 from rrps_testing.ros_harness import DEADLINE, Probe, Spinner, header_time, wait_for
 
 pytestmark = pytest.mark.ros

@@ -35,9 +35,9 @@ from rrps_description.geometry import RobotGeometry
 from rrps_description.structures import BeamFrame
 from rrps_interfaces.climb import PhaseAction
 from rrps_kinematics.odometry import invert
-from rrps_teleop.climbing.frame_node import LIMITS, BeamFace, FrameNodePlanner
-from rrps_teleop.climbing.gait import GaitPlanner, GaitState
-from rrps_teleop.climbing.plan import ClimbPlan, Phase, PhaseLoads, PlanError, PlanLimit
+from rrps_climbing.frame_crossing import LIMITS, BeamFace, FrameNodePlanner
+from rrps_climbing.gait import GaitPlanner, GaitState
+from rrps_climbing.plan import ClimbPlan, Phase, PhaseLoads, PlanError, PlanLimit
 
 __all__ = ['ROUTES', 'RouteFace', 'FrameRoutePlanner', 'frame_route', 'reversed_phases', 'plan_route']
 

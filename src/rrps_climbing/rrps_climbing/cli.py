@@ -25,7 +25,7 @@ positions ``s_a, s_b``, the world poses of both rings (``a_x..a_qw``, ``b_x..b_q
 odometry chain), the kinematic pose a_T_b (``px..qw``), the extra-DOF angles, the leg lengths
 ``L1..L6`` [m], the smallest margin of each kind over the phase, and for a phase during which
 one gripper holds its peak actuator force [N] and smallest holding margin
-(:mod:`rrps_teleop.climbing.load_check`: the motions streamed at ``--speed``, the structure
+(:mod:`rrps_climbing.load_check`: the motions streamed at ``--speed``, the structure
 turned by ``--structure-quaternion`` in a world of ``--gravity``, the payload and tool wrench of
 the robot or of the command line). A negative distance climbs down. Exit status: 0 planned,
 1 refused (a limit would break: the message says which, on which legs or ring, at which step
@@ -56,11 +56,11 @@ from rrps_kinematics.cli_support import (
     vector,
 )
 from rrps_sim.cli_world import LOAD_VECTOR_OPTIONS, add_load_options, with_loads
-from rrps_teleop.climbing.frame_node import FrameNodePlanner
-from rrps_teleop.climbing.gait import GaitPlanner
-from rrps_teleop.climbing.load_check import DEFAULT_SPEED, LoadCheck
-from rrps_teleop.climbing.plan import CSV_COLUMNS, PlanError
-from rrps_teleop.climbing.route import ROUTES, plan_route
+from rrps_climbing.frame_crossing import FrameNodePlanner
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.load_check import DEFAULT_SPEED, LoadCheck
+from rrps_climbing.plan import CSV_COLUMNS, PlanError
+from rrps_climbing.route import ROUTES, plan_route
 
 PROG = 'rrps-climb'
 _VECTOR_OPTIONS = ('--structure-quaternion', '--gravity') + LOAD_VECTOR_OPTIONS

@@ -1,7 +1,7 @@
-"""climb_node: executes inchworm gait steps (``rrps_teleop.climbing.gait``) on the robot over ROS;
-with ``junction_deg`` on a frame, the crossing of its node (``rrps_teleop.climbing.frame_node``).
+"""climb_node: executes inchworm gait steps (``rrps_climbing.gait``) on the robot over ROS;
+with ``junction_deg`` on a frame, the crossing of its node (``rrps_climbing.frame_crossing``).
 
-The step machine is :class:`rrps_teleop.climbing.step_machine.ClimbStepMachine` (phases, arrival,
+The step machine is :class:`rrps_climbing.step_machine.ClimbStepMachine` (phases, arrival,
 the gripper interlock and release gate, pauses on lost inputs, failures, odometry). This node
 feeds it ``pose`` (a_T_b, frame ring_a; the newest sample at the node's ``rate``),
 ``grippers/state``, the driver's status on /diagnostics, ``teleop/status`` and, on robots with the
@@ -10,7 +10,7 @@ extra ring DOF, ``actuators/state``; it publishes what the machine asks for: ``t
 ``grippers/<ring>/set``, ``climb/status`` (values :class:`~rrps_interfaces.climb.ClimbStatus`)
 and ``odometry/ring_a|ring_b`` (frame ``world``, stamped with the pose they were chained from),
 with the supporting ring's on ``odometry/support`` (TransformStamped, child frame the ring,
-latched; at once when it changes, else at 10 Hz: :mod:`rrps_teleop.climbing.odometry_attitude`),
+latched; at once when it changes, else at 10 Hz: :mod:`rrps_climbing.odometry_attitude`),
 the attitude the driver's gravity and teleop's load guards follow. A step's preview stands where
 the odometry's ring_a is (``anchor_phases``): it computes in the gravity of the measured attitudes.
 
@@ -18,7 +18,7 @@ Services ``climb/step_up``, ``climb/step_down`` and ``climb/resume`` (std_srvs/T
 ``auto_steps`` > 0 climbs that many steps up once the robot's state is known.
 
 With ``preview`` (default), each planned step is first simulated on the dynamics in a worker
-thread (:func:`rrps_teleop.climbing.step_preview.run_preview`; the node keeps serving), its
+thread (:func:`rrps_climbing.step_preview.run_preview`; the node keeps serving), its
 peaks published on ``climb/preview`` (values :class:`~rrps_interfaces.climb.ClimbPreview`,
 latched); the machine then starts or refuses it.
 """
@@ -63,13 +63,13 @@ from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, LATEST_QOS, LINK_STATE_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
-from rrps_teleop.climbing.frame_node import FrameNodePlanner
-from rrps_teleop.climbing.gait import GaitPlanner
-from rrps_teleop.climbing.load_check import LoadCheck
-from rrps_teleop.climbing.odometry_attitude import SupportPublisher, anchor_phases, support_of_odometry
-from rrps_teleop.climbing.step_io import ClimbOutput, ClimbTarget, StepConfig
-from rrps_teleop.climbing.step_machine import ClimbStepMachine
-from rrps_teleop.climbing.step_preview import PreviewConfig, run_preview
+from rrps_climbing.frame_crossing import FrameNodePlanner
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.load_check import LoadCheck
+from rrps_climbing.odometry_attitude import SupportPublisher, anchor_phases, support_of_odometry
+from rrps_climbing.step_io import ClimbOutput, ClimbTarget, StepConfig
+from rrps_climbing.step_machine import ClimbStepMachine
+from rrps_climbing.step_preview import PreviewConfig, run_preview
 
 __all__ = ['PARAMETERS', 'ClimbNode', 'main']
 

@@ -10,7 +10,7 @@ universal and spherical joint angles, leg-leg interference of all 15 pairs, cond
 legs' clearance to a tubular member's surface (its varying radius), and the gripper interlock
 (never both grippers open, a ring moves only while its own gripper is open and the other's
 closed). A plan that breaks a limit is refused with ``PlanError`` naming the limit, the legs and
-where (step, phase, sample). With a :class:`~rrps_teleop.climbing.load_check.LoadCheck` (the
+where (step, phase, sample). With a :class:`~rrps_climbing.load_check.LoadCheck` (the
 default) the planner also refuses a phase whose actuator forces or holding gripper's reaction
 exceed their limits anywhere along it.
 
@@ -39,8 +39,8 @@ from rrps_description.structures import Structure, interpolate_frames
 from rrps_interfaces.climb import PhaseAction
 from rrps_kinematics import inverse_kinematics, margins
 from rrps_kinematics.odometry import RingOdometry, invert, rot_z, transform
-from rrps_teleop.climbing.load_check import LoadCheck
-from rrps_teleop.climbing.plan import ClimbPlan, Phase, PlanError, PlanLimit, check_interlock
+from rrps_climbing.load_check import LoadCheck
+from rrps_climbing.plan import ClimbPlan, Phase, PlanError, PlanLimit, check_interlock
 
 __all__ = ['GaitPlanner', 'GaitState', 'plan_climb']
 

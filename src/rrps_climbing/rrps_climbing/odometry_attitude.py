@@ -23,7 +23,7 @@ from typing import Mapping, Sequence
 from rrps_description.pose import Pose
 from rrps_description.rotations import rotation_angle_between
 from rrps_interfaces.driver import supporting_ring
-from rrps_teleop.climbing.plan import Phase
+from rrps_climbing.plan import Phase
 
 __all__ = ['SupportPublisher', 'anchor_phases', 'support_of_odometry']
 

@@ -24,7 +24,7 @@ class PlanLimit(str, enum.Enum):
     """What a refused plan breaks: a pose limit (:class:`rrps_kinematics.limits.LimitKind`), the
     legs' clearance to the structure, the gripper interlock, the extra DOF's range, no grip
     position, an actuator's force limit or the holding gripper's capacity
-    (:mod:`rrps_teleop.climbing.load_check`) (a str: ``PlanLimit.STROKE == 'stroke'``)."""
+    (:mod:`rrps_climbing.load_check`) (a str: ``PlanLimit.STROKE == 'stroke'``)."""
 
     STROKE = 'stroke'
     UNIVERSAL = 'universal'

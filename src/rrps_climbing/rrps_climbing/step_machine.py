@@ -1,6 +1,6 @@
 """The climbing step's state machine (paper section 3: the inchworm gait), pure Python.
 
-A planned climb (:class:`rrps_teleop.climbing.gait.GaitPlanner`) is executed phase by phase.
+A planned climb (:class:`rrps_climbing.gait.GaitPlanner`) is executed phase by phase.
 Each phase passes through stages, once per tick:
 
 * ``stream``: a motion phase's path (:class:`.phase_path.PhasePath`) is sent as target poses
@@ -52,12 +52,12 @@ from rrps_interfaces.climb import (
     StepRefusal,
 )
 from rrps_kinematics.odometry import RingOdometry
-from rrps_teleop.climbing.climb_watch import InputWatch
-from rrps_teleop.climbing.gait import GaitPlanner
-from rrps_teleop.climbing.phase_path import PhasePath
-from rrps_teleop.climbing.plan import Phase, PlanError
-from rrps_teleop.climbing.step_io import ClimbOutput, ClimbTarget, GripperRequest, StepConfig
-from rrps_teleop.climbing.step_preview import StepSnapshot
+from rrps_climbing.climb_watch import InputWatch
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.phase_path import PhasePath
+from rrps_climbing.plan import Phase, PlanError
+from rrps_climbing.step_io import ClimbOutput, ClimbTarget, GripperRequest, StepConfig
+from rrps_climbing.step_preview import StepSnapshot
 
 __all__ = ['ClimbStepMachine']
 

@@ -38,8 +38,8 @@ from rrps_kinematics import inverse_kinematics, margins
 from rrps_kinematics.limits import segment_distances
 from rrps_kinematics.odometry import invert
 from rrps_loads.loads import holding_margin, static_solution
-from rrps_teleop.climbing.gait import GaitPlanner, GaitState
-from rrps_teleop.climbing.plan import ClimbPlan, PlanError, PlanLimit
+from rrps_climbing.gait import GaitPlanner, GaitState
+from rrps_climbing.plan import ClimbPlan, PlanError, PlanLimit
 
 __all__ = ['BeamFace', 'Candidate', 'Crossing', 'FrameNodePlanner', 'LIMITS', 'SCALES']
 
