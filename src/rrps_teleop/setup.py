@@ -8,7 +8,7 @@ NODES = {
     'master_node': ('rrps_teleop.nodes.master_node', 'MasterNode'),
     'teleop_node': ('rrps_teleop.nodes.teleop_node', 'TeleopNode'),
     'climb_node': ('rrps_climbing.nodes.climb_node', 'ClimbNode'),
-    'viewer_node': ('rrps_teleop.nodes.viewer_node', 'ViewerNode'),
+    'viewer_node': ('rrps_viewer.nodes.viewer_node', 'ViewerNode'),
 }
 
 setup(

@@ -134,7 +134,7 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
         else:
             plan.append(('climb_node', ClimbNode, robot_param))
     if viewer:
-        from rrps_teleop.nodes.viewer_node import ViewerNode
+        from rrps_viewer.nodes.viewer_node import ViewerNode
         plan.append(('viewer_node', ViewerNode, robot_param + [
             Parameter('host', value=host), Parameter('port', value=port),
             Parameter('token', value=token)]))

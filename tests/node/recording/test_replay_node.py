@@ -56,7 +56,7 @@ def test_replay_into_a_fresh_fk_and_viewer_reproduces_the_recorded_poses(ros_con
     from rrps_kinematics.nodes.ik_node import IkNode
     from rrps_recording.nodes.recorder_node import RecorderNode
     from rrps_hardware.nodes.driver_node import DriverNode
-    from rrps_teleop.nodes.viewer_node import ViewerNode
+    from rrps_viewer.nodes.viewer_node import ViewerNode
     from rrps_testing.node_helpers import target
 
     robot = [Parameter('robot', value='pole_climber')]

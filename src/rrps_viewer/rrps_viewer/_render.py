@@ -27,11 +27,11 @@ import viser.uplot
 from rrps_description.geometry import RobotGeometry
 from rrps_description.pose import Pose
 from rrps_kinematics.scene import RobotFigure, torus_mesh
-from rrps_teleop.viewer._broadcast import install as install_shared_encoding
-from rrps_teleop.viewer._control import OperatorControl
-from rrps_teleop.viewer._latency import LinkMonitor
-from rrps_teleop.viewer._operator_panel import ClientControls, OperatorActions
-from rrps_teleop.viewer._workspace import WorkspaceSnapshot
+from rrps_viewer._broadcast import install as install_shared_encoding
+from rrps_viewer._control import OperatorControl
+from rrps_viewer._latency import LinkMonitor
+from rrps_viewer._operator_panel import ClientControls, OperatorActions
+from rrps_viewer._workspace import WorkspaceSnapshot
 
 __all__ = ['Frame', 'ViewerServer']
 

@@ -1,4 +1,4 @@
-"""The viewer encodes each viser window once for all browsers (rrps_teleop.viewer._broadcast)."""
+"""The viewer encodes each viser window once for all browsers (rrps_viewer._broadcast)."""
 
 import asyncio
 import socket
@@ -13,7 +13,7 @@ import websockets
 import zstandard
 from viser._messages import ViewerCameraMessage
 
-from rrps_teleop.viewer._broadcast import EncodedWindows, install, windows_of
+from rrps_viewer._broadcast import EncodedWindows, install, windows_of
 from rrps_testing.ros_harness import wait_for
 
 

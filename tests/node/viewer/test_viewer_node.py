@@ -24,7 +24,7 @@ def _free_port() -> int:
 def viewer(ros_context):
     from rclpy.parameter import Parameter
 
-    from rrps_teleop.nodes.viewer_node import ViewerNode
+    from rrps_viewer.nodes.viewer_node import ViewerNode
     node = ViewerNode(context=ros_context, parameter_overrides=[
         Parameter('port', value=_free_port()), Parameter('token', value=TOKEN),
         Parameter('master_origin', value=[0.5, -1.0, 0.2])])
@@ -135,7 +135,7 @@ def test_requests_run_only_for_the_controller_and_answers_reach_the_operator(ros
     from std_srvs.srv import SetBool
 
     from rrps_teleop.nodes.teleop_node import TeleopNode
-    from rrps_teleop.nodes.viewer_requests import OperatorRequest
+    from rrps_viewer.operator_requests import OperatorRequest
     probe = Probe(context=ros_context)
 
     def refuse(request, response):

@@ -13,7 +13,7 @@ import pytest
 from rrps_description.geometry import load_robot
 from rrps_description.rotations import rotation_angle_between, rotation_vector_to_quat_xyzw
 from rrps_kinematics.workspace import UNREACHABLE, reachable_workspace
-from rrps_teleop.viewer._workspace import WorkspaceView, boundary_points
+from rrps_viewer._workspace import WorkspaceView, boundary_points
 
 POLE = load_robot('pole_climber')
 DEADLINE = 60.0

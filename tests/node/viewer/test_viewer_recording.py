@@ -32,7 +32,7 @@ def _free_port() -> int:
 def viewer(ros_context):
     from rclpy.parameter import Parameter
 
-    from rrps_teleop.nodes.viewer_node import ViewerNode
+    from rrps_viewer.nodes.viewer_node import ViewerNode
     node = ViewerNode(context=ros_context, namespace=NS, parameter_overrides=[
         Parameter('port', value=_free_port()), Parameter('token', value=TOKEN)])
     node.told = []

@@ -6,7 +6,7 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 from rrps_interfaces.climb import ClimbPreview, ClimbState, ClimbStatus, PreviewLimit, StepRefusal
-from rrps_teleop.viewer.status_text import (
+from rrps_viewer.status_text import (
     DEFAULT_SCALE,
     climb_line,
     driven_robot,

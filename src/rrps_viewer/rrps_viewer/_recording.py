@@ -7,7 +7,7 @@ heard), the folder shows its timeline: a slider of the recording time (drag to s
 box and the rate; they set the replay node's parameters (``seek``, ``paused``, ``rate``).
 
 The node side (services, parameters, the status) is the viewer node's
-(:class:`rrps_teleop.nodes.viewer_recording.ViewerRecording`); here only the widgets.
+(:class:`rrps_viewer.recording_clients.ViewerRecording`); here only the widgets.
 """
 
 from __future__ import annotations

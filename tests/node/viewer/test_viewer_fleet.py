@@ -28,8 +28,8 @@ def test_the_controller_switches_the_driven_robot_and_the_viewer_follows(ros_con
 
     from rrps_interfaces.climb import ClimbState, ClimbStatus
     from rrps_teleop.nodes.teleop_node import TeleopNode
-    from rrps_teleop.nodes.viewer_node import ViewerNode
-    from rrps_teleop.nodes.viewer_requests import OperatorRequest
+    from rrps_viewer.nodes.viewer_node import ViewerNode
+    from rrps_viewer.operator_requests import OperatorRequest
 
     viewer = ViewerNode(context=ros_context, parameter_overrides=[
         Parameter('port', value=_free_port()), Parameter('token', value=TOKEN),

@@ -1,5 +1,5 @@
 """The viewer node's recording side: the flight recorder's "Save last 60 s" and the replay's
-timeline (the widgets are in :mod:`rrps_teleop.viewer`'s recording controls).
+timeline (the widgets are in :mod:`rrps_viewer`'s recording controls).
 
 * :meth:`ViewerRecording.save` calls ``flight_recorder/save`` (std_srvs/Trigger); its answer's
   ``message`` is the path of the file being written; once the file exists (it appears whole,

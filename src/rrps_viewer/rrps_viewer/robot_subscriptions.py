@@ -26,7 +26,7 @@ from rrps_interfaces.link import namespaced, normalize_namespace, robot_topic
 from rrps_interfaces.status import DIAGNOSTICS, source_node
 from rrps_interfaces.teleop import TELEOP_STATUS
 from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, LATEST_QOS, LINK_EVENT_QOS, LINK_STATE_QOS, STATE_QOS
-from rrps_teleop.viewer import status_text as panel
+from rrps_viewer import status_text as panel
 
 __all__ = ['ViewerRobots', 'DRIVER', 'FK']
 

@@ -1,7 +1,7 @@
 """The operator controls of one browser (viser GUI): what a person clicks to drive the robot.
 
 Each connected browser gets a :class:`ClientControls`: the token entry and control hand-over
-(:class:`~rrps_teleop.viewer.OperatorControl` decides), the teleop clutch, deadman and mapping,
+(:class:`~rrps_viewer.OperatorControl` decides), the teleop clutch, deadman and mapping,
 the driver's activation, climb steps and resume, the grippers, the flight-recorder and replay
 controls, and, while it holds control, its own ``/operator/master_handle`` gizmo (world frame).
 Requests go to an :class:`OperatorActions` (the viewer node), which answers later through
@@ -17,8 +17,8 @@ import viser
 
 from rrps_description.pose import Pose
 from rrps_teleop.mapping import MODES, ROTATION_MODES
-from rrps_teleop.viewer._control import ControlResult
-from rrps_teleop.viewer._recording import RecordingControls
+from rrps_viewer._control import ControlResult
+from rrps_viewer._recording import RecordingControls
 
 __all__ = ['ClientControls', 'OperatorActions']
 

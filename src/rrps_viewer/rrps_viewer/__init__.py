@@ -3,7 +3,7 @@
 Pure scene and control logic (no rclpy, no viser) is importable and testable on its own; poses
 are :class:`rrps_description.pose.Pose` (re-exported here)::
 
-    from rrps_teleop.viewer import Pose, robot_figure, world_ring_poses, OperatorControl
+    from rrps_viewer import Pose, robot_figure, world_ring_poses, OperatorControl
     world_T_a, world_T_b = world_ring_poses(a_T_b=pose, gripping='ring_a', world_T_gripping=odom)
     fig = robot_figure(geom, a_T_b=pose, world_T_a=world_T_a, efforts=efforts)
     fig.leg_points      # (6, 2, 3) world: universal-joint centre -> spherical-joint centre
@@ -25,8 +25,8 @@ from rrps_kinematics.scene import (
     torus_mesh,
     world_ring_poses,
 )
-from rrps_teleop.viewer._control import ControlResult, OperatorControl
-from rrps_teleop.viewer._workspace import WorkspaceSnapshot, WorkspaceView, boundary_points
+from rrps_viewer._control import ControlResult, OperatorControl
+from rrps_viewer._workspace import WorkspaceSnapshot, WorkspaceView, boundary_points
 
 __all__ = [
     'ControlResult',

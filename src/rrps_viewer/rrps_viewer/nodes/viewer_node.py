@@ -67,12 +67,12 @@ from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS
-from rrps_teleop.nodes.viewer_recording import ViewerRecording
-from rrps_teleop.nodes.viewer_requests import OperatorRequest, ViewerRequests
-from rrps_teleop.nodes.viewer_robots import DRIVER, FK, ViewerRobots
-from rrps_teleop.viewer import Frame, ViewerServer, send_file
-from rrps_teleop.viewer import status_text as panel
-from rrps_teleop.viewer._workspace import WorkspaceView
+from rrps_viewer.recording_clients import ViewerRecording
+from rrps_viewer.operator_requests import OperatorRequest, ViewerRequests
+from rrps_viewer.robot_subscriptions import DRIVER, FK, ViewerRobots
+from rrps_viewer import Frame, ViewerServer, send_file
+from rrps_viewer import status_text as panel
+from rrps_viewer._workspace import WorkspaceView
 
 #: Length of the drawn master/feedback arrow per newton [m/N].
 FEEDBACK_ARROW = 0.01
@@ -130,7 +130,7 @@ class ViewerNode(Node):
         if len(self.token) < 8:
             raise ValueError('token must have at least 8 characters')
 
-        from rrps_teleop.viewer._control import OperatorControl
+        from rrps_viewer._control import OperatorControl
         self.control = OperatorControl(token=self.token, deadman_timeout=deadman_timeout)
         self._lock = threading.Lock()
         self._latest: dict[str, object] = {}
