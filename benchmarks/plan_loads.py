@@ -25,6 +25,9 @@ import time
 
 import numpy as np
 
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.load_check import LoadCheck
+from rrps_climbing.phase_path import PhasePath
 from rrps_description.geometry import load_robot
 from rrps_description.rotations import matrix_to_quat_xyzw, quat_multiply_xyzw
 from rrps_description.structures import make_structure
@@ -33,9 +36,6 @@ from rrps_loads.path_loads import _supporting_wrench
 from rrps_loads.reduced import PlatformPose, generalized_forces
 from rrps_loads.statics import solve_actuator_forces
 from rrps_loads.support import support_of
-from rrps_climbing.gait import GaitPlanner
-from rrps_climbing.load_check import LoadCheck
-from rrps_climbing.phase_path import PhasePath
 
 CASES = [('pole_climber', 'pole', 1.0), ('pole_climber', 'palm_trunk', 1.0),
          ('frame_climber', 'frame', 2.0), ('facade_climber', 'facade', 1.5)]

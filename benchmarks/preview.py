@@ -20,14 +20,14 @@ import time
 
 import numpy as np
 
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.step_preview import PreviewConfig, preview_motions, run_preview
 from rrps_description.geometry import load_robot
 from rrps_description.structures import make_structure
 from rrps_kinematics import inverse_kinematics
+from rrps_loads.statics import holding_forces
 from rrps_sim.dynamics import simulate
 from rrps_sim.preview import Drives
-from rrps_loads.statics import holding_forces
-from rrps_climbing.gait import GaitPlanner
-from rrps_climbing.step_preview import PreviewConfig, preview_motions, run_preview
 
 TARGET = 5.0
 CASES = (('pole_climber', 'pole'), ('frame_climber', 'frame'), ('facade_climber', 'facade'))

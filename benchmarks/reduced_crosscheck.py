@@ -23,10 +23,10 @@ import numpy as np
 
 from rrps_description.geometry import load_robot, shipped_robots
 from rrps_description.rotations import quat_conjugate_xyzw, quat_multiply_xyzw, rotation_vector_to_quat_xyzw
-from rrps_sim.dynamics import METHODS, MultibodyDynamics, simulate
 from rrps_loads.reduced import PlatformPose, platform_accelerations, simulate_reduced
 from rrps_loads.statics import holding_forces
 from rrps_loads.support import support_of
+from rrps_sim.dynamics import METHODS, MultibodyDynamics, simulate
 
 POSES = (([0.0, 0.0, 0.0], [0.0, 0.0, 0.0]), ([0.06, -0.03, 0.05], [0.06, -0.04, 0.1]),
          ([-0.05, 0.07, -0.04], [-0.12, 0.08, -0.15]))

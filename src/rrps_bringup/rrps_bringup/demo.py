@@ -109,9 +109,9 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
     """
     from rclpy.parameter import Parameter
 
+    from rrps_hardware.nodes.driver_node import DriverNode
     from rrps_kinematics.nodes.fk_node import FkNode
     from rrps_kinematics.nodes.ik_node import IkNode
-    from rrps_hardware.nodes.driver_node import DriverNode
     from rrps_teleop.nodes.master_node import MasterNode
     from rrps_teleop.nodes.teleop_node import TeleopNode
 

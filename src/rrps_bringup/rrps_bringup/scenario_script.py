@@ -36,9 +36,9 @@ from rrps_interfaces.climb import odometry_topic
 from rrps_interfaces.driver import GRIPPERS_STATE, gripper_service, gripper_states
 from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE
 from rrps_interfaces.teleop import TeleopCode, TeleopStatus
+from rrps_loads.loads import static_solution
 from rrps_runtime.messages import pose_from_msg
 from rrps_runtime.qos import STATE_QOS
-from rrps_loads.loads import static_solution
 
 __all__ = ['ScenarioScript', 'HALTING_CODES']
 

@@ -41,6 +41,11 @@ import sys
 import traceback
 from typing import Sequence
 
+from rrps_climbing.frame_crossing import FrameNodePlanner
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.load_check import DEFAULT_SPEED, LoadCheck
+from rrps_climbing.plan import CSV_COLUMNS, PlanError
+from rrps_climbing.route import ROUTES, plan_route
 from rrps_description.structures import STRUCTURES, make_structure
 from rrps_description.world import IDENTITY_QUATERNION, STANDARD_GRAVITY
 from rrps_kinematics.cli_support import (
@@ -56,11 +61,6 @@ from rrps_kinematics.cli_support import (
     vector,
 )
 from rrps_sim.cli_world import LOAD_VECTOR_OPTIONS, add_load_options, with_loads
-from rrps_climbing.frame_crossing import FrameNodePlanner
-from rrps_climbing.gait import GaitPlanner
-from rrps_climbing.load_check import DEFAULT_SPEED, LoadCheck
-from rrps_climbing.plan import CSV_COLUMNS, PlanError
-from rrps_climbing.route import ROUTES, plan_route
 
 PROG = 'rrps-climb'
 _VECTOR_OPTIONS = ('--structure-quaternion', '--gravity') + LOAD_VECTOR_OPTIONS

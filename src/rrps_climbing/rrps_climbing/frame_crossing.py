@@ -30,6 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rrps_climbing.gait import GaitPlanner, GaitState
+from rrps_climbing.plan import ClimbPlan, PlanError, PlanLimit
 from rrps_description.geometry import RobotGeometry
 from rrps_description.rotations import matrix_to_quat_xyzw, rotation_angle_between
 from rrps_description.structures import BeamFrame, Structure, interpolate_frames, make_structure
@@ -38,8 +40,6 @@ from rrps_kinematics import inverse_kinematics, margins
 from rrps_kinematics.limits import segment_distances
 from rrps_kinematics.odometry import invert
 from rrps_loads.loads import holding_margin, static_solution
-from rrps_climbing.gait import GaitPlanner, GaitState
-from rrps_climbing.plan import ClimbPlan, PlanError, PlanLimit
 
 __all__ = ['BeamFace', 'Candidate', 'Crossing', 'FrameNodePlanner', 'LIMITS', 'SCALES']
 

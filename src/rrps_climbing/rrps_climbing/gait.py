@@ -32,6 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rrps_climbing.load_check import LoadCheck
+from rrps_climbing.plan import ClimbPlan, Phase, PlanError, PlanLimit, check_interlock
 from rrps_description.geometry import RobotGeometry
 from rrps_description.pose import Pose
 from rrps_description.rotations import matrix_to_quat_xyzw, rotation_angle_between
@@ -39,8 +41,6 @@ from rrps_description.structures import Structure, interpolate_frames
 from rrps_interfaces.climb import PhaseAction
 from rrps_kinematics import inverse_kinematics, margins
 from rrps_kinematics.odometry import RingOdometry, invert, rot_z, transform
-from rrps_climbing.load_check import LoadCheck
-from rrps_climbing.plan import ClimbPlan, Phase, PlanError, PlanLimit, check_interlock
 
 __all__ = ['GaitPlanner', 'GaitState', 'plan_climb']
 

@@ -20,12 +20,12 @@ from typing import NamedTuple
 
 import numpy as np
 
+from rrps_climbing.phase_path import PhasePath
+from rrps_climbing.plan import Phase, PhaseLoads, PlanError, PlanLimit
 from rrps_description.geometry import RobotGeometry
 from rrps_description.rotations import quat_multiply_xyzw
 from rrps_description.world import IDENTITY_QUATERNION, STANDARD_GRAVITY, Support
 from rrps_loads.path_loads import ACTUATOR_FORCE, LoadViolation, PathLoads, first_violation, loads_at, path_twists
-from rrps_climbing.phase_path import PhasePath
-from rrps_climbing.plan import Phase, PhaseLoads, PlanError, PlanLimit
 
 __all__ = ['LoadCheck', 'DEFAULT_SPEED']
 

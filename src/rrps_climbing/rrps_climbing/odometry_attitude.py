@@ -20,10 +20,10 @@ import dataclasses
 import math
 from typing import Mapping, Sequence
 
+from rrps_climbing.plan import Phase
 from rrps_description.pose import Pose
 from rrps_description.rotations import rotation_angle_between
 from rrps_interfaces.driver import supporting_ring
-from rrps_climbing.plan import Phase
 
 __all__ = ['SupportPublisher', 'anchor_phases', 'support_of_odometry']
 

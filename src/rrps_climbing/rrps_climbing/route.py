@@ -30,14 +30,14 @@ import math
 
 import numpy as np
 
+from rrps_climbing.frame_crossing import LIMITS, BeamFace, FrameNodePlanner
+from rrps_climbing.gait import GaitPlanner, GaitState
+from rrps_climbing.plan import ClimbPlan, Phase, PhaseLoads, PlanError, PlanLimit
 from rrps_description.corners import facade_corner
 from rrps_description.geometry import RobotGeometry
 from rrps_description.structures import BeamFrame
 from rrps_interfaces.climb import PhaseAction
 from rrps_kinematics.odometry import invert
-from rrps_climbing.frame_crossing import LIMITS, BeamFace, FrameNodePlanner
-from rrps_climbing.gait import GaitPlanner, GaitState
-from rrps_climbing.plan import ClimbPlan, Phase, PhaseLoads, PlanError, PlanLimit
 
 __all__ = ['ROUTES', 'RouteFace', 'FrameRoutePlanner', 'frame_route', 'reversed_phases', 'plan_route']
 

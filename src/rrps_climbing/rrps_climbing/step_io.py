@@ -10,9 +10,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from rrps_climbing.plan import Phase
 from rrps_description.pose import Pose
 from rrps_interfaces.climb import ClimbStatus
-from rrps_climbing.plan import Phase
 
 __all__ = ['StepConfig', 'ClimbTarget', 'GripperRequest', 'ClimbOutput']
 

@@ -41,6 +41,12 @@ from collections.abc import Callable
 
 import numpy as np
 
+from rrps_climbing.climb_watch import InputWatch
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.phase_path import PhasePath
+from rrps_climbing.plan import Phase, PlanError
+from rrps_climbing.step_io import ClimbOutput, ClimbTarget, GripperRequest, StepConfig
+from rrps_climbing.step_preview import StepSnapshot
 from rrps_description.pose import Pose, pose_error
 from rrps_interfaces.climb import (
     CLIMB_RESUME,
@@ -52,12 +58,6 @@ from rrps_interfaces.climb import (
     StepRefusal,
 )
 from rrps_kinematics.odometry import RingOdometry
-from rrps_climbing.climb_watch import InputWatch
-from rrps_climbing.gait import GaitPlanner
-from rrps_climbing.phase_path import PhasePath
-from rrps_climbing.plan import Phase, PlanError
-from rrps_climbing.step_io import ClimbOutput, ClimbTarget, GripperRequest, StepConfig
-from rrps_climbing.step_preview import StepSnapshot
 
 __all__ = ['ClimbStepMachine']
 

@@ -16,12 +16,12 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from rrps_climbing.phase_path import PhasePath
+from rrps_climbing.plan import Phase
 from rrps_description.geometry import RobotGeometry
 from rrps_description.pose import Pose, pose_error
 from rrps_interfaces.climb import ClimbPreview, PhaseAction, StepRefusal
 from rrps_sim.preview import Drives, PreviewError, PreviewMotion, preview_step
-from rrps_climbing.phase_path import PhasePath
-from rrps_climbing.plan import Phase
 
 __all__ = ['PreviewConfig', 'preview_motions', 'run_preview', 'StepSnapshot']
 

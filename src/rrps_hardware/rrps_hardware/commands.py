@@ -9,8 +9,8 @@ import numpy as np
 
 from rrps_description.geometry import RobotGeometry
 from rrps_description.names import LEG_NAMES, RINGS, ring_joint
-from rrps_runtime.freshness import RejectedCommand
 from rrps_hardware.interface import Command
+from rrps_runtime.freshness import RejectedCommand
 
 __all__ = ['ring_joints', 'checked_command']
 

@@ -28,8 +28,8 @@ from rrps_description.geometry import RobotGeometry
 from rrps_description.rotations import quat_conjugate_xyzw, quat_multiply_xyzw
 from rrps_description.world import Support
 from rrps_kinematics.forward import forward_kinematics
-from rrps_sim.dynamics import MultibodyDynamics
 from rrps_loads.statics import holding_forces
+from rrps_sim.dynamics import MultibodyDynamics
 
 __all__ = ['KinematicActuators', 'DynamicActuators', 'QuasiStaticEfforts', 'SensorFaults', 'handed_over']
 

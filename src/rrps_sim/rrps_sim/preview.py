@@ -33,11 +33,11 @@ import numpy as np
 from rrps_description.geometry import RobotGeometry
 from rrps_interfaces.climb import PreviewLimit
 from rrps_kinematics.inverse import inverse_kinematics
-from rrps_sim.dynamics import MultibodyDynamics
-from rrps_sim.dynamics.driven import DriveLoop
 from rrps_loads.loads import holding_margin, support_wrench
 from rrps_loads.statics import holding_forces
 from rrps_loads.support import support_of
+from rrps_sim.dynamics import MultibodyDynamics
+from rrps_sim.dynamics.driven import DriveLoop
 
 __all__ = ['Drives', 'PreviewMotion', 'PreviewResult', 'PreviewError', 'preview_step']
 

@@ -31,10 +31,6 @@ import numpy as np
 from rrps_description.loads import Payload
 from rrps_description.names import LEG_NAMES, RINGS
 from rrps_description.world import IDENTITY_QUATERNION, Support
-from rrps_interfaces.driver import ActuatorMode
-from rrps_runtime.parameter_schema import Parameter
-from rrps_sim.actuators import DynamicActuators, KinematicActuators, QuasiStaticEfforts, SensorFaults
-from rrps_sim.grippers import Grippers
 from rrps_hardware.commands import ring_joints
 from rrps_hardware.interface import (
     OK,
@@ -52,6 +48,10 @@ from rrps_hardware.interface import (
     SystemState,
     Transition,
 )
+from rrps_interfaces.driver import ActuatorMode
+from rrps_runtime.parameter_schema import Parameter
+from rrps_sim.actuators import DynamicActuators, KinematicActuators, QuasiStaticEfforts, SensorFaults
+from rrps_sim.grippers import Grippers
 from rrps_sim.hardware_state import HardwareState, StateFileWriter, load_state
 
 __all__ = ['SimulatedRobot']

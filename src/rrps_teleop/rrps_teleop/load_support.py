@@ -21,9 +21,9 @@ from typing import Mapping
 import numpy as np
 
 from rrps_description.world import Support
+from rrps_hardware.support_follower import DEFAULT_TIMEOUT, SupportFollower, SupportReport
 from rrps_interfaces.driver import supporting_ring
 from rrps_sim.actuators import handed_over
-from rrps_hardware.support_follower import DEFAULT_TIMEOUT, SupportFollower, SupportReport
 from rrps_teleop.load_guard import LoadGuard
 
 __all__ = ['LoadSupport']

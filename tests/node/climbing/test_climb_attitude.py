@@ -18,15 +18,15 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rclpy.parameter import Parameter
 from std_srvs.srv import Trigger
 
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.nodes.climb_node import ClimbNode
 from rrps_description.geometry import load_robot
 from rrps_description.structures import make_structure
+from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_interfaces.climb import CLIMB_RESUME, ClimbState, ClimbStatus
 from rrps_interfaces.driver import DriverStatus, SupportSource
 from rrps_kinematics.nodes.fk_node import FkNode
 from rrps_kinematics.nodes.ik_node import IkNode
-from rrps_hardware.nodes.driver_node import DriverNode
-from rrps_climbing.gait import GaitPlanner
-from rrps_climbing.nodes.climb_node import ClimbNode
 from rrps_testing.node_helpers import statuses
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
 from rrps_testing.virtual_work import rotation_x

@@ -17,17 +17,17 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
+from rrps_climbing.frame_crossing import FrameNodePlanner
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.nodes.climb_node import ClimbNode
 from rrps_description.geometry import load_robot
 from rrps_description.structures import make_structure
+from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_interfaces.climb import CLIMB_RESUME, ClimbState, ClimbStatus
 from rrps_kinematics.nodes.fk_node import FkNode
 from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_runtime.messages import pose_from_msg
 from rrps_runtime.qos import COMMAND_QOS
-from rrps_hardware.nodes.driver_node import DriverNode
-from rrps_climbing.frame_crossing import FrameNodePlanner
-from rrps_climbing.gait import GaitPlanner
-from rrps_climbing.nodes.climb_node import ClimbNode
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]

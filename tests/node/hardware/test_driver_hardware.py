@@ -15,8 +15,6 @@ from std_srvs.srv import SetBool
 import rrps_hardware.registry as hardware
 from rrps_description.geometry import load_robot
 from rrps_description.names import LEG_NAMES, RINGS
-from rrps_interfaces.driver import DriverStatus
-from rrps_kinematics import inverse_kinematics
 from rrps_hardware.interface import (
     OK,
     SUCCESS,
@@ -31,6 +29,8 @@ from rrps_hardware.interface import (
     Transition,
 )
 from rrps_hardware.nodes.driver_node import DriverNode
+from rrps_interfaces.driver import DriverStatus
+from rrps_kinematics import inverse_kinematics
 from rrps_testing.node_helpers import command, said, statuses
 from rrps_testing.ros_harness import DEADLINE, Probe, Spinner, wait_for
 

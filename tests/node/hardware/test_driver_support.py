@@ -16,11 +16,11 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool
 
+from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_interfaces.driver import DriverStatus, SupportSource
 from rrps_interfaces.teleop import TeleopStatus
 from rrps_runtime.messages import joint_state_msg, pose_to_msg, transform_to_msg
 from rrps_runtime.qos import LATCHED_QOS
-from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_teleop.nodes.teleop_node import TeleopNode
 from rrps_testing.node_helpers import statuses
 from rrps_testing.ros_harness import Probe, Spinner, wait_for

@@ -14,13 +14,13 @@ import logging
 import numpy as np
 import pytest
 
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.step_io import GripperRequest, StepConfig
+from rrps_climbing.step_machine import ClimbStepMachine
 from rrps_description.geometry import load_robot
 from rrps_description.pose import Pose, pose_error
 from rrps_description.structures import pole
 from rrps_interfaces.climb import ClimbPreview, ClimbState, PauseReason, PhaseAction, PreviewLimit, StepRefusal
-from rrps_climbing.gait import GaitPlanner
-from rrps_climbing.step_io import GripperRequest, StepConfig
-from rrps_climbing.step_machine import ClimbStepMachine
 
 POLE = load_robot('pole_climber')
 PLANNER = GaitPlanner(POLE, pole(3.0))

@@ -7,11 +7,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from rrps_climbing.climb_watch import InputWatch
+from rrps_climbing.phase_path import PhasePath
 from rrps_description.pose import Pose, pose_error
 from rrps_description.rotations import rotation_vector_to_quat_xyzw
 from rrps_interfaces.climb import PauseReason
-from rrps_climbing.climb_watch import InputWatch
-from rrps_climbing.phase_path import PhasePath
 
 
 class Clock:

@@ -9,14 +9,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from rrps_climbing.gait import GaitPlanner, plan_climb
+from rrps_climbing.plan import PlanError, check_interlock
 from rrps_description.geometry import load_robot
 from rrps_description.pose import Pose
 from rrps_description.rotations import matrix_to_quat_xyzw, rotation_vector_to_quat_xyzw
 from rrps_description.structures import facade, palm_trunk, pole, structural_frame
 from rrps_kinematics import inverse_kinematics, margins
 from rrps_kinematics.odometry import InterlockError, RingOdometry, invert
-from rrps_climbing.gait import GaitPlanner, plan_climb
-from rrps_climbing.plan import PlanError, check_interlock
 
 CASES = {
     'pole': ('pole_climber', lambda: pole(3.0), 0.8, 11),

@@ -11,6 +11,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.load_check import LoadCheck
+from rrps_climbing.plan import PlanError, PlanLimit
 from rrps_description.geometry import load_robot
 from rrps_description.loads import Payload, ToolWrench
 from rrps_description.pose import Pose
@@ -18,9 +21,6 @@ from rrps_description.robot_parts import LinkInertia
 from rrps_description.rotations import quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
 from rrps_description.structures import make_structure
 from rrps_loads.loads import holding_margin
-from rrps_climbing.gait import GaitPlanner
-from rrps_climbing.load_check import LoadCheck
-from rrps_climbing.plan import PlanError, PlanLimit
 from rrps_testing.virtual_work import moving_ring_dynamics
 
 G_WORLD = np.array([0.0, 0.0, -9.81])

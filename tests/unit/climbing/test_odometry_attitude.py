@@ -8,11 +8,11 @@ import math
 
 import numpy as np
 
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.odometry_attitude import SupportPublisher, anchor_phases, support_of_odometry
 from rrps_description.geometry import load_robot
 from rrps_description.pose import Pose
 from rrps_description.structures import make_structure
-from rrps_climbing.gait import GaitPlanner
-from rrps_climbing.odometry_attitude import SupportPublisher, anchor_phases, support_of_odometry
 
 
 def test_the_supporting_ring_of_the_odometry():

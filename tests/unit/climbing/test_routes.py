@@ -12,11 +12,11 @@ import math
 import numpy as np
 import pytest
 
-from rrps_description.geometry import load_robot
 from rrps_climbing import cli
 from rrps_climbing.frame_crossing import LIMITS
 from rrps_climbing.plan import PlanError
 from rrps_climbing.route import FrameRoutePlanner, frame_route, plan_route
+from rrps_description.geometry import load_robot
 from rrps_testing.virtual_work import quaternion_matrix
 
 FRAME = load_robot('frame_climber')

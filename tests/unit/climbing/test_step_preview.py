@@ -7,14 +7,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.phase_path import PhasePath
+from rrps_climbing.step_preview import PreviewConfig, preview_motions, run_preview
 from rrps_description.geometry import load_robot
 from rrps_description.pose import Pose, pose_error
 from rrps_description.rotations import quat_xyzw_to_matrix
 from rrps_description.structures import facade, pole
 from rrps_interfaces.climb import ClimbPreview, PhaseAction, PreviewLimit
-from rrps_climbing.gait import GaitPlanner
-from rrps_climbing.phase_path import PhasePath
-from rrps_climbing.step_preview import PreviewConfig, preview_motions, run_preview
 
 POLE = load_robot('pole_climber')
 PLAN = GaitPlanner(POLE, pole(3.0)).plan(0.06, 1, start=0.2)

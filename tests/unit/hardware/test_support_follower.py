@@ -12,10 +12,10 @@ import pytest
 
 from rrps_description.geometry import load_robot
 from rrps_description.world import Support
-from rrps_interfaces.driver import SupportSource, supporting_ring
 from rrps_hardware.interface import HardwareConfig
-from rrps_sim.simulated_robot import SimulatedRobot
 from rrps_hardware.support_follower import SupportFollower
+from rrps_interfaces.driver import SupportSource, supporting_ring
+from rrps_sim.simulated_robot import SimulatedRobot
 from rrps_testing.virtual_work import quaternion_matrix, rotation_x, virtual_work_forces
 
 G = np.array([0.0, 0.0, -9.81])

@@ -13,7 +13,6 @@ from scipy.interpolate import CubicSpline
 
 from rrps_description.geometry import RobotGeometry, load_robot
 from rrps_description.rotations import quat_multiply_xyzw, rotation_vector_to_quat_xyzw
-from rrps_sim.dynamics import simulate
 from rrps_loads.inverse_dynamics import inverse_dynamics, sample_derivatives, trajectory_twists
 from rrps_loads.reduced import (
     PlatformPose,
@@ -22,6 +21,7 @@ from rrps_loads.reduced import (
     simulate_reduced,
 )
 from rrps_loads.statics import holding_forces, solve_actuator_forces
+from rrps_sim.dynamics import simulate
 
 DURATION = 0.5
 

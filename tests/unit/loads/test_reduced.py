@@ -21,7 +21,6 @@ from rrps_description.rotations import (
 )
 from rrps_description.world import STANDARD_GRAVITY
 from rrps_kinematics.inverse import lower_link_rotations
-from rrps_sim.dynamics import simulate
 from rrps_loads.reduced import (
     PlatformPose,
     body_accelerations,
@@ -33,6 +32,7 @@ from rrps_loads.reduced import (
     simulate_reduced,
 )
 from rrps_loads.statics import holding_forces
+from rrps_sim.dynamics import simulate
 
 ROBOTS = ['pole_climber', 'frame_climber', 'facade_climber', 'master_robot']
 

@@ -13,9 +13,9 @@ from rrps_description.robot_parts import LinkInertia
 from rrps_description.rotations import quat_multiply_xyzw, quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
 from rrps_description.world import STANDARD_GRAVITY
 from rrps_kinematics import inverse_kinematics, leg_forces
-from rrps_sim.dynamics import MultibodyDynamics, simulate
 from rrps_loads.reduced import PlatformPose, generalized_forces, simulate_reduced
 from rrps_loads.statics import holding_forces, static_load
+from rrps_sim.dynamics import MultibodyDynamics, simulate
 
 ROBOTS = ['pole_climber', 'frame_climber', 'facade_climber', 'master_robot']
 

@@ -15,9 +15,9 @@ from rrps_description.pose import Pose
 from rrps_description.robot_parts import LinkInertia
 from rrps_description.rotations import quat_multiply_xyzw, quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
 from rrps_kinematics import inverse_kinematics
-from rrps_sim.dynamics import MultibodyDynamics
 from rrps_loads.loads import holding_margin, static_solution
 from rrps_loads.statics import holding_forces
+from rrps_sim.dynamics import MultibodyDynamics
 
 G_WORLD = np.array([0.0, 0.0, -9.81])
 ROBOTS = ['pole_climber', 'facade_climber', 'frame_climber']

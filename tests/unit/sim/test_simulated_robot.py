@@ -8,9 +8,6 @@ import pytest
 
 from rrps_description.geometry import load_robot
 from rrps_description.names import LEG_NAMES
-from rrps_kinematics import inverse_kinematics
-from rrps_runtime.freshness import RejectedCommand
-from rrps_hardware.registry import hardware_class
 from rrps_hardware.commands import checked_command
 from rrps_hardware.interface import (
     ActuatorFault,
@@ -22,8 +19,11 @@ from rrps_hardware.interface import (
     ReturnType,
     SystemInterface,
 )
-from rrps_sim.simulated_robot import SimulatedRobot
+from rrps_hardware.registry import hardware_class
+from rrps_kinematics import inverse_kinematics
+from rrps_runtime.freshness import RejectedCommand
 from rrps_sim.hardware_state import load_state
+from rrps_sim.simulated_robot import SimulatedRobot
 
 POLE = load_robot('pole_climber')
 FRAME = load_robot('frame_climber')

@@ -13,8 +13,8 @@ import websockets
 import zstandard
 from viser._messages import ViewerCameraMessage
 
-from rrps_viewer._broadcast import EncodedWindows, install, windows_of
 from rrps_testing.ros_harness import wait_for
+from rrps_viewer._broadcast import EncodedWindows, install, windows_of
 
 
 def decode(data: bytes) -> tuple[list[dict], bytes]:

@@ -35,6 +35,8 @@ from std_srvs.srv import Trigger
 from rrps_description.geometry import load_robot
 from rrps_description.pose import validate_pose
 from rrps_description.rotations import quat_multiply_xyzw, rotation_vector_to_quat_xyzw
+from rrps_hardware.interface import HardwareConfig
+from rrps_hardware.registry import master_hardware_class
 from rrps_interfaces.teleop import MASTER_FEEDBACK, MASTER_FRAME, MASTER_POSE, MASTER_STATE, MASTER_TARGET_POSE
 from rrps_kinematics import forward_kinematics, inverse_kinematics
 from rrps_kinematics.jacobian import leg_forces
@@ -45,8 +47,6 @@ from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
-from rrps_hardware.registry import master_hardware_class
-from rrps_hardware.interface import HardwareConfig
 from rrps_teleop.master import TRAJECTORIES, HandleMotion, MasterModel, scripted_pose
 
 __all__ = ['MasterNode', 'main']
