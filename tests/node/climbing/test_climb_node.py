@@ -18,18 +18,18 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.nodes.climb_node import ClimbNode
 from rrps_description.geometry import load_robot
 from rrps_description.pose import Pose
 from rrps_description.structures import make_structure
+from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_interfaces.climb import ClimbPreview, ClimbState, ClimbStatus, PreviewLimit, StepRefusal
 from rrps_interfaces.teleop import TeleopCode, TeleopStatus
 from rrps_kinematics import inverse_kinematics
 from rrps_kinematics.nodes.fk_node import FkNode
 from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_runtime.messages import pose_from_msg
-from rrps_hardware.nodes.driver_node import DriverNode
-from rrps_climbing.gait import GaitPlanner
-from rrps_climbing.nodes.climb_node import ClimbNode
 from rrps_testing.ros_harness import DEADLINE, Probe, Spinner, header_time, wait_for
 
 pytestmark = pytest.mark.ros

@@ -12,11 +12,11 @@ from std_srvs.srv import SetBool
 import rrps_sim.hardware_state as hardware_state
 from rrps_description.geometry import load_robot
 from rrps_description.names import LEG_NAMES
+from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_interfaces.driver import DriverStatus
 from rrps_kinematics import inverse_kinematics
-from rrps_sim.hardware_state import load_state
-from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_loads.statics import holding_forces
+from rrps_sim.hardware_state import load_state
 from rrps_testing.node_helpers import command, said, statuses
 from rrps_testing.ros_harness import DEADLINE, Probe, Spinner, header_time, wait_for
 

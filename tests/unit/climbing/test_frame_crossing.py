@@ -9,10 +9,10 @@ import math
 import numpy as np
 import pytest
 
-from rrps_description.geometry import load_robot
-from rrps_kinematics.odometry import invert
 from rrps_climbing.frame_crossing import FrameNodePlanner
 from rrps_climbing.plan import PlanError, PlanLimit
+from rrps_description.geometry import load_robot
+from rrps_kinematics.odometry import invert
 
 JUNCTIONS = [(deg, out) for deg in (30, 45, 60, 90) for out in (False, True)]
 pytestmark = pytest.mark.slow  # eight searches of a few seconds each, shared by the module
@@ -154,7 +154,7 @@ def _virtual_work_forces(g, wa, wb, moving, gravity, h=1e-6):
 @pytest.mark.parametrize('deg, out_of_plane', JUNCTIONS)
 def test_forces_and_holding_against_virtual_work_and_the_robots_balance(plans, deg, out_of_plane):
     """The planner's peak actuator force and smallest holding margin of each motion (from
-    rrps_sim's statics) against virtual work and the whole robot's balance, computed here."""
+    rrps_loads' statics) against virtual work and the whole robot's balance, computed here."""
     planner, plan = plans[deg, out_of_plane]
     g, gravity = planner.geometry, np.array([0.0, 0.0, -9.81])
     for ph in (p for p in plan.phases if p.phase.startswith('move')):

@@ -36,6 +36,13 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 
+from rrps_climbing.frame_crossing import FrameNodePlanner
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.load_check import LoadCheck
+from rrps_climbing.odometry_attitude import SupportPublisher, anchor_phases, support_of_odometry
+from rrps_climbing.step_io import ClimbOutput, ClimbTarget, StepConfig
+from rrps_climbing.step_machine import ClimbStepMachine
+from rrps_climbing.step_preview import PreviewConfig, run_preview
 from rrps_description.geometry import load_robot
 from rrps_description.names import RING_A_FRAME, RINGS, WORLD_FRAME, ring_joint
 from rrps_description.pose import QUATERNION_TOLERANCE, InvalidPose, Pose
@@ -63,18 +70,11 @@ from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, LATEST_QOS, LINK_STATE_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
-from rrps_climbing.frame_crossing import FrameNodePlanner
-from rrps_climbing.gait import GaitPlanner
-from rrps_climbing.load_check import LoadCheck
-from rrps_climbing.odometry_attitude import SupportPublisher, anchor_phases, support_of_odometry
-from rrps_climbing.step_io import ClimbOutput, ClimbTarget, StepConfig
-from rrps_climbing.step_machine import ClimbStepMachine
-from rrps_climbing.step_preview import PreviewConfig, run_preview
 
 __all__ = ['PARAMETERS', 'ClimbNode', 'main']
 
 #: climb_node's parameters (descriptors, the shipped file and the docs' table come from here).
-PARAMETERS = NodeParameters('climb_node', 'rrps_teleop', [
+PARAMETERS = NodeParameters('climb_node', 'rrps_climbing', [
     ROBOT,
     Parameter('structure', 'pole', 'climbed structure', choices=tuple(sorted(STRUCTURES))),
     Parameter('structure_length', 0.0, 'route length of the structure; 0 = its shipped length', unit='m',

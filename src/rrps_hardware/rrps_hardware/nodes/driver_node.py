@@ -40,6 +40,10 @@ from std_srvs.srv import SetBool, Trigger
 
 from rrps_description.geometry import load_robot
 from rrps_description.names import LEG_NAMES, RINGS
+from rrps_hardware.commands import checked_command, ring_joints
+from rrps_hardware.interface import BusState, Command, HardwareConfig, Result, ReturnType, Transition
+from rrps_hardware.registry import hardware_class
+from rrps_hardware.support_follower import DEFAULT_TIMEOUT, SupportFollower
 from rrps_interfaces.climb import SUPPORT_POSE
 from rrps_interfaces.driver import (
     GRIPPERS_STATE,
@@ -58,16 +62,12 @@ from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
-from rrps_hardware.registry import hardware_class
-from rrps_hardware.commands import checked_command, ring_joints
-from rrps_hardware.interface import BusState, Command, HardwareConfig, Result, ReturnType, Transition
 from rrps_sim.simulated_robot import SimulatedRobot
-from rrps_hardware.support_follower import DEFAULT_TIMEOUT, SupportFollower
 
 __all__ = ['DriverNode', 'PARAMETERS', 'main']
 
 #: driver_node's parameters: its own, then those of the simulated hardware.
-PARAMETERS = NodeParameters('driver_node', 'rrps_sim', [
+PARAMETERS = NodeParameters('driver_node', 'rrps_hardware', [
     ROBOT,
     Parameter('hardware', 'simulated', 'the hardware implementation: a name of the rrps.hardware entry points'),
     Parameter('rate', 500.0, 'actuators/state publication rate', unit='Hz', range=(1.0, 5000.0)),

@@ -67,12 +67,12 @@ from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS
-from rrps_viewer.recording_clients import ViewerRecording
-from rrps_viewer.operator_requests import OperatorRequest, ViewerRequests
-from rrps_viewer.robot_subscriptions import DRIVER, FK, ViewerRobots
 from rrps_viewer import Frame, ViewerServer, send_file
 from rrps_viewer import status_text as panel
 from rrps_viewer._workspace import WorkspaceView
+from rrps_viewer.operator_requests import OperatorRequest, ViewerRequests
+from rrps_viewer.recording_clients import ViewerRecording
+from rrps_viewer.robot_subscriptions import DRIVER, FK, ViewerRobots
 
 #: Length of the drawn master/feedback arrow per newton [m/N].
 FEEDBACK_ARROW = 0.01
@@ -82,7 +82,7 @@ PLOT_PERIOD = 0.2
 _RECORDING = object()
 
 #: viewer_node's parameters (descriptors, the shipped file and the docs' table come from here).
-PARAMETERS = NodeParameters('viewer_node', 'rrps_teleop', [
+PARAMETERS = NodeParameters('viewer_node', 'rrps_viewer', [
     ROBOT,
     Parameter('master_robot', 'master_robot', 'master robot to draw (shipped name or YAML path; empty: none)'),
     Parameter('host', '127.0.0.1', 'address the web server binds (0.0.0.0: every interface)'),
