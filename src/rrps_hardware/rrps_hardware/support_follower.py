@@ -7,7 +7,7 @@ The climb node chains the rings' world poses from the measured pose and the grip
 supports is the grippers' (:func:`rrps_interfaces.driver.supporting_ring`). A reader keeps its
 :class:`~rrps_description.world.Support` (the ring it is grounded on, that ring's attitude, the
 world's gravity) and hands it over to the other ring itself at a grip change, through the
-measured pose (:func:`rrps_sim.actuators.handed_over`); a :class:`SupportFollower` says when the
+measured pose (:func:`rrps_description.world.handed_over`); a :class:`SupportFollower` says when the
 odometry's attitude replaces it::
 
     follower = SupportFollower(Support.of('ring_a', q_start), timeout=1.0)
