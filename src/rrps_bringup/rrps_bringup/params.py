@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 from rrps_bringup.registry import registered_nodes
+from rrps_runtime.parameter_schema import NodeParameters
 
 __all__ = ['config_file', 'params_file_arguments', 'parameter_overrides', 'main']
 
@@ -74,17 +75,40 @@ PARAMETERS_DOC = Path(__file__).resolve().parents[3] / 'docs' / 'parameters.md'
 
 def generated_files() -> dict[Path, str]:
     """{path: text} of every node's parameter file and of docs/parameters.md, from the schemas."""
-    schemas = {name: node.parameters() for name, node in registered_nodes().items()}
-    schemas = {name: schema for name, schema in schemas.items() if schema is not None}
-    files = {SOURCE_CONFIG / f'{name}.yaml': schema.config_yaml() for name, schema in schemas.items()}
+    files = {}
     doc = ['# Node parameters', '',
            'Every parameter of every rrps node, generated from the nodes\' parameter schemas',
            '(`rrps-params --write`; a test keeps this file and `rrps_bringup/config/*.yaml` equal to',
-           'them). Parameters not settable at run time are read-only.', '']
-    for schema in schemas.values():
+           'them). Parameters not settable at run time are read-only. A node that hosts a hardware',
+           '(driver_node, master_node) declares its own parameters, then those of the hardware its',
+           '`hardware` parameter names: each hardware\'s table follows the node\'s, and the node\'s',
+           'parameter file holds its own and those of the default hardware.', '']
+    for name, node in registered_nodes().items():
+        schema = node.parameters()
+        if schema is None:
+            continue
+        files[SOURCE_CONFIG / f'{name}.yaml'] = _config_yaml(schema, *node.hosted_parameters())
         doc.append(schema.markdown())
+        selector, hosted = node.hosted_parameters()
+        for implementation, owned in hosted.items():
+            if owned.parameters:
+                table = owned.markdown().split('\n', 1)[1]
+                doc.append(f'#### {name} with `{selector}: {implementation}` ({owned.package})\n{table}')
     files[PARAMETERS_DOC] = '\n'.join(doc)
     return files
+
+
+def _config_yaml(schema, selector: str, hosted: dict) -> str:
+    """A node's parameter file: its own parameters, then those of its default hardware, if any."""
+    default = schema[selector].default if selector else None
+    owned = hosted.get(default)
+    if owned is None or not owned.parameters:
+        return schema.config_yaml()
+    own = schema.config_yaml()
+    rest = NodeParameters(schema.node, schema.package, [*schema, *owned]).config_yaml()[len(own):]
+    note = (f'    # --- the parameters of {selector} {default} ({owned.package}), the default; another {selector}\n'
+            f'    # declares its own instead (docs/parameters.md) and these are not read\n')
+    return own + note + rest
 
 
 def main(argv=None) -> int:

@@ -38,6 +38,14 @@ class RegisteredNode:
         """The node's parameter schema (its module's ``PARAMETERS``, a NodeParameters), or None."""
         return getattr(importlib.import_module(self.module), 'PARAMETERS', None)
 
+    def hosted_parameters(self) -> tuple[str, dict]:
+        """For a node that hosts an implementation it names by a parameter (driver_node's
+        ``hardware``): that parameter and {implementation: the parameters the node declares for
+        it} (its module's ``HOSTED_BY`` and ``hosted_parameters()``); ('', {}) for the others."""
+        module = importlib.import_module(self.module)
+        hosted = getattr(module, 'hosted_parameters', None)
+        return (module.HOSTED_BY, hosted()) if hosted is not None else ('', {})
+
 
 def registered_nodes() -> dict[str, RegisteredNode]:
     """{name: node} of every installed rrps package, sorted by name."""

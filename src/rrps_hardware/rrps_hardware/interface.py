@@ -180,8 +180,8 @@ class SystemState:
 
 @dataclass(frozen=True)
 class HardwareConfig:
-    """What ``on_configure`` gets: the robot and the driver's parameter values {name: value}
-    (an implementation reads those of its :attr:`SystemInterface.PARAMETERS`)."""
+    """What ``on_configure`` gets: the robot and the values {name: value} of the implementation's
+    :attr:`SystemInterface.PARAMETERS`, as the host declared them."""
 
     geometry: RobotGeometry
     parameters: Mapping[str, Any] = field(default_factory=dict)
@@ -198,9 +198,9 @@ class SystemInterface(abc.ABC):
     ``on_activate`` is refused until ``reset_faults``.
     """
 
-    #: The parameters this implementation reads from :attr:`HardwareConfig.parameters` (the
-    #: driver node's schema declares them); the driver passes changes of the ``dynamic`` ones to
-    #: :meth:`set_parameters` while it runs.
+    #: The parameters this implementation owns and reads from :attr:`HardwareConfig.parameters`:
+    #: the driver declares them once its ``hardware`` parameter names this implementation, and
+    #: passes changes of the ``dynamic`` ones to :meth:`set_parameters` while it runs.
     PARAMETERS: tuple[Parameter, ...] = ()
 
     @abc.abstractmethod
@@ -250,6 +250,16 @@ class SystemInterface(abc.ABC):
     def reset_faults(self) -> Result:
         """Clear the latched faults (the CiA 402 fault reset); the system stays inactive.
         Refused while the bus is lost."""
+
+    @property
+    def label(self) -> str:
+        """What the driver's status calls this hardware ('': by its registered name, this default)."""
+        return ''
+
+    def status_values(self) -> Mapping[str, Any]:
+        """This hardware's own values of the driver's status (fields of
+        :class:`rrps_interfaces.driver.DriverStatus`); none by default."""
+        return {}
 
     @property
     def support(self) -> Support | None:

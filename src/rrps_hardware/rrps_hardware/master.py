@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rrps_hardware.interface import ActuatorFault, HardwareConfig, Result, Transition
+from rrps_runtime.parameter_schema import Parameter
 
 __all__ = ['MasterSample', 'MasterInterface']
 
@@ -34,6 +35,10 @@ class MasterSample:
 class MasterInterface(abc.ABC):
     """A master robot's drives: configure (encoders read), activate (force output on), read,
     write the wanted leg forces, reset the faults, shut down. No exception crosses it."""
+
+    #: The parameters this implementation owns (master_node declares them once its ``hardware``
+    #: parameter names it) and reads from :attr:`HardwareConfig.parameters`.
+    PARAMETERS: tuple[Parameter, ...] = ()
 
     @abc.abstractmethod
     def on_configure(self, config: HardwareConfig) -> Transition:

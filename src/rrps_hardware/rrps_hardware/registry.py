@@ -6,6 +6,9 @@ node hosts the one its ``hardware`` parameter names::
 
     robot = hardware_class('simulated')()
 
+Each implementation owns its parameters (its class's ``PARAMETERS``): the host declares them
+once its ``hardware`` parameter names that implementation (:func:`hardware_parameters`).
+
 A master robot's drives (:class:`rrps_hardware.master.MasterInterface`) are registered the
 same way in the ``rrps.master_hardware`` group, for master_node's ``hardware`` parameter
 (:func:`master_hardware_class`).
@@ -18,9 +21,10 @@ from typing import Callable
 
 from rrps_hardware.interface import SystemInterface
 from rrps_hardware.master import MasterInterface
+from rrps_runtime.parameter_schema import NodeParameters
 
 __all__ = ['GROUP', 'MASTER_GROUP', 'registered_hardware', 'registered_master_hardware', 'hardware_class',
-           'master_hardware_class']
+           'master_hardware_class', 'hardware_parameters']
 
 GROUP = 'rrps.hardware'
 MASTER_GROUP = 'rrps.master_hardware'
@@ -57,3 +61,12 @@ def hardware_class(name: str) -> type[SystemInterface]:
 def master_hardware_class(name: str) -> type[MasterInterface]:
     """The master robot's hardware registered as ``name``; ValueError naming the known ones."""
     return _registered(name, registered_master_hardware(), MasterInterface)
+
+
+def hardware_parameters(node: NodeParameters, cls: type[SystemInterface] | type[MasterInterface]) -> NodeParameters:
+    """The parameters the implementation ``cls`` owns, as the host ``node`` declares them (under the
+    implementation's package); ValueError when one of them has the name of one of the host's own."""
+    clash = sorted({p.name for p in node} & {p.name for p in cls.PARAMETERS})
+    if clash:
+        raise ValueError(f'{cls.__name__} declares {", ".join(clash)}, parameters of {node.node} itself')
+    return NodeParameters(node.node, cls.__module__.split('.')[0], cls.PARAMETERS)

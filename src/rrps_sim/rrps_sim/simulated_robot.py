@@ -171,6 +171,16 @@ class SimulatedRobot(SystemInterface):
         self._hold()
 
     @property
+    def label(self) -> str:
+        """The actuators' fidelity, for the driver's status."""
+        return f'{self.mode.value} actuators'
+
+    def status_values(self) -> Mapping[str, Any]:
+        """The driver's status values of the simulation: the actuators' ``mode`` and the ``stuck_legs``."""
+        stuck = () if self.actuators is None else tuple(int(i) + 1 for i in np.flatnonzero(self.actuators.stuck))
+        return {'mode': self.mode, 'stuck_legs': stuck}
+
+    @property
     def support(self) -> Support:
         """The gripping ring and its attitude in the world, as the efforts and dynamics use it."""
         return (self.actuators if self.mode is ActuatorMode.DYNAMIC else self.static_efforts).support
@@ -296,7 +306,7 @@ class SimulatedRobot(SystemInterface):
             ring_positions=empty if rings is None else rings.positions.copy(),
             ring_velocities=empty if rings is None else rings.velocities.copy(),
             ring_targets=empty if rings is None else self.ring_reference.copy(),
-            bus=self.bus, persist_error='' if error is None else str(error))
+            bus=self.bus, persist_error='' if error is None else f'{self._writer.path} not written: {error}')
 
     # --- requests ---
 

@@ -1,5 +1,6 @@
 """driver_node hosts whichever hardware its ``hardware`` parameter names: here an ideal robot
-registered under another name, its faults, and an unknown name."""
+registered under another name, its own parameters (and none of the simulated robot's), its faults,
+and an unknown name."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import pytest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from lifecycle_msgs.msg import Transition as LifecycleTransition
 from lifecycle_msgs.srv import ChangeState
+from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool
@@ -31,6 +33,8 @@ from rrps_hardware.interface import (
 from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_interfaces.driver import DriverStatus
 from rrps_kinematics import inverse_kinematics
+from rrps_runtime.parameter_schema import Parameter as SchemaParameter
+from rrps_sim.simulated_robot import SimulatedRobot
 from rrps_testing.node_helpers import command, said, statuses
 from rrps_testing.ros_harness import DEADLINE, Probe, Spinner, wait_for
 
@@ -41,7 +45,9 @@ pytestmark = pytest.mark.ros
 
 class IdealRobot(SystemInterface):
     """Legs that are where they were last commanded, no forces, grippers without interlock;
-    ``fault`` (set by the test) latches until reset."""
+    ``fault`` (set by the test) latches until reset; ``settle``, a parameter of its own."""
+
+    PARAMETERS = (SchemaParameter('settle', 0.0, 'a parameter of the ideal robot', unit='s', range=(0.0, 1.0)),)
 
     def __init__(self):
         self.lengths = np.zeros(6)
@@ -50,6 +56,7 @@ class IdealRobot(SystemInterface):
         self.fault: ActuatorFault | None = None
 
     def on_configure(self, config):
+        self.parameters = dict(config.parameters)
         self.lengths = np.array(config.geometry.home_lengths, dtype=float)
         return SUCCESS
 
@@ -108,8 +115,11 @@ def ideal_registered(monkeypatch):
 
 def test_the_driver_hosts_a_hardware_registered_under_another_name(ros_context, ideal_registered):
     node = DriverNode(context=ros_context, namespace='/t', parameter_overrides=[
-        Parameter('hardware', value='ideal'), Parameter('auto_activate', value=True)])
+        Parameter('hardware', value='ideal'), Parameter('auto_activate', value=True), Parameter('settle', value=0.5)])
     assert isinstance(node.hardware, IdealRobot) and node.active
+    # the driver declares this hardware's parameters and hands it their values; none of the simulated robot's
+    assert node.get_parameter('settle').value == 0.5 and node.hardware.parameters == {'settle': 0.5}
+    assert not any(node.has_parameter(p.name) for p in SimulatedRobot.PARAMETERS)
     probe = Probe(context=ros_context, namespace='/t')
     states = probe.collect(JointState, 'actuators/state')
     grippers = probe.collect(JointState, 'grippers/state')
@@ -141,9 +151,10 @@ def test_the_driver_hosts_a_hardware_registered_under_another_name(ros_context, 
         assert wait_for(lambda: statuses(diagnostics, 'driver_node') and not last_status().ring_b_closed)
         assert last_status().hardware == 'ideal' and last_status().faults == ()
 
-        # a run-time parameter of the simulated robot is not this hardware's: refused, with the reason
-        refused = node.set_parameters([Parameter('stuck_legs', value=[2])])[0]
-        assert not refused.successful and 'stuck_legs' in refused.reason
+        # a run-time parameter of the simulated robot is not this hardware's: not declared, refused
+        assert not node.has_parameter('stuck_legs')
+        with pytest.raises(ParameterNotDeclaredException):
+            node.set_parameters([Parameter('stuck_legs', value=[2])])
 
         # a drive faults: the driver deactivates and says which; activation waits for a reset
         node.hardware.fault = ActuatorFault('leg_2', FaultKind.DRIVE_FAULT, 'over-current')

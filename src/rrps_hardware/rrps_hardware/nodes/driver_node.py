@@ -2,7 +2,9 @@
 
 It hosts the implementation its ``hardware`` parameter names (:mod:`rrps_hardware.registry`; by
 default :class:`~rrps_sim.simulated_robot.SimulatedRobot`) and calls its verbs: the lifecycle
-transitions, and each cycle ``write`` (the last accepted command) then ``read`` (published).
+transitions, and each cycle ``write`` (the last accepted command) then ``read`` (published). It
+declares its own parameters, reads ``hardware``, then declares that implementation's parameters
+(its ``PARAMETERS``) and hands their values to it.
 
 A lifecycle node, **inactive** after start-up: the state streams but nothing moves and the
 grippers do not switch until ``activate`` through ``driver_node/change_state`` (or
@@ -42,17 +44,10 @@ from rrps_description.geometry import load_robot
 from rrps_description.names import LEG_NAMES, RINGS
 from rrps_hardware.commands import checked_command, ring_joints
 from rrps_hardware.interface import BusState, Command, HardwareConfig, Result, ReturnType, Transition
-from rrps_hardware.registry import hardware_class
+from rrps_hardware.registry import hardware_class, hardware_parameters, registered_hardware
 from rrps_hardware.support_follower import DEFAULT_TIMEOUT, SupportFollower
 from rrps_interfaces.climb import SUPPORT_POSE
-from rrps_interfaces.driver import (
-    GRIPPERS_STATE,
-    RESET_FAULTS,
-    ActuatorMode,
-    DriverStatus,
-    SupportSource,
-    gripper_service,
-)
+from rrps_interfaces.driver import GRIPPERS_STATE, RESET_FAULTS, DriverStatus, SupportSource, gripper_service
 from rrps_interfaces.kinematics import ACTUATORS_COMMAND, ACTUATORS_STATE
 from rrps_runtime.diagnostics import ERROR, OK, STALE, WARN, Diagnostics
 from rrps_runtime.freshness import CommandAges, CommandFreshness, RejectedCommand
@@ -62,11 +57,10 @@ from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
-from rrps_sim.simulated_robot import SimulatedRobot
 
-__all__ = ['DriverNode', 'PARAMETERS', 'main']
+__all__ = ['DriverNode', 'PARAMETERS', 'hosted_parameters', 'main']
 
-#: driver_node's parameters: its own, then those of the simulated hardware.
+#: driver_node's own parameters; the hardware's follow, declared once ``hardware`` names it.
 PARAMETERS = NodeParameters('driver_node', 'rrps_hardware', [
     ROBOT,
     Parameter('hardware', 'simulated', 'the hardware implementation: a name of the rrps.hardware entry points'),
@@ -80,10 +74,14 @@ PARAMETERS = NodeParameters('driver_node', 'rrps_hardware', [
     Parameter('auto_activate', False, 'activate at start (otherwise: change_state activate)'),
     Parameter('support_timeout', DEFAULT_TIMEOUT, 'odometry/support older than this is not followed: the last '
               'known attitude of the supporting ring is kept (status WARN)', unit='s', range=(0.01, 600.0)),
-    *SimulatedRobot.PARAMETERS,
 ])
-#: The parameters the driver passes on to its hardware while it runs.
-HARDWARE_PARAMETERS = frozenset(p.name for p in SimulatedRobot.PARAMETERS if p.dynamic)
+#: The parameter that names the hardware whose own parameters the driver declares.
+HOSTED_BY = 'hardware'
+
+
+def hosted_parameters() -> dict[str, NodeParameters]:
+    """{name: the parameters driver_node declares for it} of every installed hardware."""
+    return {name: hardware_parameters(PARAMETERS, load()) for name, load in registered_hardware().items()}
 
 
 class DriverNode(LifecycleNode):
@@ -94,15 +92,14 @@ class DriverNode(LifecycleNode):
         values = declare_parameters(self, PARAMETERS)
         g = self.geometry = load_robot(values['robot'])
         self.hardware_name = values['hardware']
-        self.hardware = hardware_class(self.hardware_name)()
-        self._config = HardwareConfig(g, values)
-        self.mode = ActuatorMode(values['mode'])
-        simulated = self.hardware_name == 'simulated'
-        self.label = f'{self.mode.value} actuators' if simulated else f'{self.hardware_name} hardware'
+        hardware = hardware_class(self.hardware_name)
+        owned = hardware_parameters(PARAMETERS, hardware)
+        self._config = HardwareConfig(g, declare_parameters(self, owned))
+        #: The hardware's parameters the driver passes on to it while it runs.
+        self._dynamic = frozenset(p.name for p in owned if p.dynamic)
+        self.hardware = hardware()
         self.rate, self.idle_rate, self.timeout = values['rate'], values['idle_rate'], values['timeout']
         self.publish_on_command, self.hold_when_silent = values['publish_on_command'], values['hold_when_silent']
-        self.state_file = values['state_file']
-        self._stuck = tuple(sorted(set(values['stuck_legs'] or ())))
         self.ring_names = ring_joints(g)
         self.names = list(LEG_NAMES) + self.ring_names
         self.active = False
@@ -116,6 +113,7 @@ class DriverNode(LifecycleNode):
         if self.trigger_configure() != TransitionCallbackReturn.SUCCESS:
             self.destroy_node()
             raise ValueError(f'{self.hardware_name} hardware: {self._refusal}')
+        self.label = self.hardware.label or f'{self.hardware_name} hardware'
         start = self.hardware.support  # None: hardware in the real world's gravity
         self._support = None if start is None else SupportFollower(start, timeout=values['support_timeout'])
         self._tap = RecordingTap(self)
@@ -199,15 +197,13 @@ class DriverNode(LifecycleNode):
 
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         """``timeout``, and the hardware's run-time parameters (it refuses what it does not take)."""
-        changes = {p.name: p.value for p in parameters if p.name in HARDWARE_PARAMETERS}
+        changes = {p.name: p.value for p in parameters if p.name in self._dynamic}
         result = self.hardware.set_parameters(changes) if changes else None
         if result is not None and not result.ok:
             return SetParametersResult(successful=False, reason=result.message)
         for p in parameters:
             if p.name == 'timeout':
                 self.timeout = self.freshness.timeout = float(p.value)
-            elif p.name == 'stuck_legs':
-                self._stuck = tuple(sorted(set(p.value or ())))
         return SetParametersResult(successful=True)
 
     # --- diagnostics ---
@@ -216,14 +212,15 @@ class DriverNode(LifecycleNode):
         level, message = self._status
         s, error = self.state, self.state.persist_error
         if error:
-            level, message = max(level, WARN), f'{message}; {self.state_file} not written: {error}'
+            level, message = max(level, WARN), f'{message}; {error}'
         support = self._follow_support()
         if support.get('support_source') is SupportSource.STALE:
             level, message = max(level, WARN), (f'{message}; {SUPPORT_POSE} silent for {support["support_age"]:.1f} s: '
                                                 f'keeping the last known attitude of {support["support_ring"]}')
         self._diag.report(level, message, DriverStatus(
-            mode=self.mode, active=self.active, accepted=self.accepted, rejected=self.rejected, dropped=self.dropped,
-            lengths=tuple(float(v) for v in s.positions), stuck_legs=self._stuck, **DriverStatus.grippers(s.grippers),
+            active=self.active, accepted=self.accepted, rejected=self.rejected, dropped=self.dropped,
+            lengths=tuple(float(v) for v in s.positions), **self.hardware.status_values(),
+            **DriverStatus.grippers(s.grippers),
             gripper_refusals=self.gripper_refusals, state_file_error=error, hardware=self.hardware_name,
             faults=tuple(f'{f.actuator}:{f.kind.value}' for f in s.faults),
             **support, **self.ages.summary(self.get_clock().now().nanoseconds * 1e-9)))
