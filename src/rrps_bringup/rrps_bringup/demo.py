@@ -161,7 +161,7 @@ def scenario_parameters(name: str | None, *nodes: str) -> dict[str, dict]:
     registry, chosen = registered_nodes(), scenario(name)
     out = {}
     for node in nodes:
-        params = chosen.parameters(node, registry[node].parameters() if node in registry else None)
+        params = chosen.parameters(node, registry[node].declared_parameters() if node in registry else None)
         params.pop('robot', None)
         out[node] = params
     return out

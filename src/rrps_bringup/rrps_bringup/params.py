@@ -16,7 +16,6 @@ import sys
 from pathlib import Path
 
 from rrps_bringup.registry import registered_nodes
-from rrps_runtime.parameter_schema import NodeParameters
 
 __all__ = ['config_file', 'params_file_arguments', 'parameter_overrides', 'main']
 
@@ -87,9 +86,9 @@ def generated_files() -> dict[Path, str]:
         schema = node.parameters()
         if schema is None:
             continue
-        files[SOURCE_CONFIG / f'{name}.yaml'] = _config_yaml(schema, *node.hosted_parameters())
-        doc.append(schema.markdown())
         selector, hosted = node.hosted_parameters()
+        files[SOURCE_CONFIG / f'{name}.yaml'] = _config_yaml(schema, node.declared_parameters(), selector, hosted)
+        doc.append(schema.markdown())
         for implementation, owned in hosted.items():
             if owned.parameters:
                 table = owned.markdown().split('\n', 1)[1]
@@ -98,17 +97,16 @@ def generated_files() -> dict[Path, str]:
     return files
 
 
-def _config_yaml(schema, selector: str, hosted: dict) -> str:
+def _config_yaml(schema, declared, selector: str, hosted: dict) -> str:
     """A node's parameter file: its own parameters, then those of its default hardware, if any."""
-    default = schema[selector].default if selector else None
-    owned = hosted.get(default)
-    if owned is None or not owned.parameters:
-        return schema.config_yaml()
     own = schema.config_yaml()
-    rest = NodeParameters(schema.node, schema.package, [*schema, *owned]).config_yaml()[len(own):]
-    note = (f'    # --- the parameters of {selector} {default} ({owned.package}), the default; another {selector}\n'
+    if len(declared.parameters) == len(schema.parameters):
+        return own
+    default = schema[selector].default
+    package = hosted[default].package
+    note = (f'    # --- the parameters of {selector} {default} ({package}), the default; another {selector}\n'
             f'    # declares its own instead (docs/parameters.md) and these are not read\n')
-    return own + note + rest
+    return own + note + declared.config_yaml()[len(own):]
 
 
 def main(argv=None) -> int:
