@@ -38,13 +38,13 @@ from rclpy.parameter import Parameter  # noqa: E402
 
 from rrps_description.geometry import load_robot
 from rrps_description.rotations import rotation_vector_to_quat_xyzw
+from rrps_hardware.nodes.driver_node import DriverNode  # noqa: E402
 from rrps_kinematics import check_pose
 from rrps_kinematics.nodes.fk_node import FkNode  # noqa: E402
 from rrps_kinematics.nodes.ik_node import IkNode  # noqa: E402
 from rrps_runtime.messages import pose_from_msg, pose_to_msg
 from rrps_runtime.process import make_executor, run_nodes, spin_until_shutdown
 from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
-from rrps_sim.nodes.driver_node import DriverNode  # noqa: E402
 from rrps_testing.processes import stop_processes, wait_until  # noqa: E402
 
 NAMESPACE = '/rrps_bench'

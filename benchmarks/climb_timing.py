@@ -34,16 +34,16 @@ import time
 
 import numpy as np
 
+from rrps_climbing import load_check
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.path_curve import PathCurve, path_metric
+from rrps_climbing.step_preview import run_preview
 from rrps_description.geometry import load_robot
 from rrps_description.loads import Payload
 from rrps_description.structures import make_structure
+from rrps_hardware.setpoints import DRIVER_PERIOD, stream_setpoints
 from rrps_interfaces.climb import PhaseAction
 from rrps_kinematics import inverse_kinematics
-from rrps_sim.hardware.setpoints import DRIVER_PERIOD, stream_setpoints
-from rrps_teleop.climbing import load_check
-from rrps_teleop.climbing.gait import GaitPlanner
-from rrps_teleop.climbing.path_curve import PathCurve, path_metric
-from rrps_teleop.climbing.step_preview import run_preview
 
 CASES = [  # (robot, structure, lean [deg], payload [kg] on ring_b)
     ('pole_climber', 'pole', 0.0, 0.0), ('frame_climber', 'frame', 0.0, 0.0),

@@ -68,7 +68,7 @@ TARGETS = {'target_pose gap p99 [ms]': 10.0, 'target_pose gap max [ms]': 50.0, '
 
 def _command(nodes, *args: str) -> list[str]:
     if nodes == ('driver_node',):
-        return [sys.executable, '-m', 'rrps_sim.nodes.driver_node', *args]
+        return [sys.executable, '-m', 'rrps_hardware.nodes.driver_node', *args]
     return [sys.executable, '-m', 'rrps_bringup.compose', *nodes, *args]
 
 

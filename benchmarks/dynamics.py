@@ -45,14 +45,14 @@ from rrps_kinematics import forward_kinematics, inverse_kinematics
 from rrps_kinematics.backend import jit
 from rrps_kinematics.inverse import universal_joint_frames
 from rrps_kinematics.multibody import MultibodyModel
+from rrps_loads.inverse_dynamics import inverse_dynamics
+from rrps_loads.reduced import PlatformPose, generalized_forces
+from rrps_loads.statics import solve_actuator_forces
 from rrps_sim.dynamics import METHODS, MultibodyDynamics, simulate
 from rrps_sim.dynamics.bundles import new_workspace, workspace
 from rrps_sim.dynamics.constraints import leg_blocks
 from rrps_sim.dynamics.kernels import accelerations
 from rrps_sim.figures import REPORT_EXTRA_FORCES, climb_poses
-from rrps_sim.inverse_dynamics import inverse_dynamics
-from rrps_sim.reduced import PlatformPose, generalized_forces
-from rrps_sim.statics import solve_actuator_forces
 
 MUJOCO_TARGET = 1.0          # rrps / MuJoCo time per step
 DRIFT_TARGET = 1e-10         # ‖Φ^K‖ along the run

@@ -142,7 +142,7 @@ def run_composition(name: str, composition, *, seconds: float, load: bool) -> di
     port, token = _free_port(), secrets.token_urlsafe(12)
     common = ['--ros-args', '-r', f'__ns:={NAMESPACE}', '-p', 'robot:=pole_climber']
     driver_scheduling, groups = composition
-    children = [start_child([sys.executable, '-m', 'rrps_sim.nodes.driver_node', *common,
+    children = [start_child([sys.executable, '-m', 'rrps_hardware.nodes.driver_node', *common,
                              '-p', 'auto_activate:=true'], **driver_scheduling)]
     labels = ['driver_node'] + ['+'.join(n.removesuffix('_node') for n in nodes) for nodes, _ in groups]
     for nodes, scheduling in groups:

@@ -22,8 +22,8 @@ import os
 import platform
 import time
 
+from rrps_climbing.frame_crossing import FrameNodePlanner
 from rrps_description.geometry import load_robot
-from rrps_teleop.climbing.frame_node import FrameNodePlanner
 
 TARGET = 10.0  # s per junction
 JUNCTIONS = [(deg, out) for deg in (30, 45, 60, 90) for out in (False, True)]

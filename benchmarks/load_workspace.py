@@ -8,7 +8,7 @@ For each climbing robot shipped (pole, facade, frame climber) at its home orient
 gripping a wall (its axis horizontal), rows:
 
 * ``plain``: :func:`rrps_kinematics.workspace.reachable_workspace` (what the viewer drew before);
-* ``load-feasible``: :func:`rrps_sim.load_workspace.load_workspace` from scratch (the plain
+* ``load-feasible``: :func:`rrps_loads.load_workspace.load_workspace` from scratch (the plain
   workspace plus the statics of every reachable point, compiled kernel), per payload on ring_b;
 * ``payload change``: the same with the plain workspace given (what the viewer's payload slider
   costs: the orientation did not change);
@@ -33,7 +33,7 @@ from rrps_description.loads import Payload
 from rrps_description.rotations import rotation_vector_to_quat_xyzw
 from rrps_kinematics import compiled_backend_available
 from rrps_kinematics.workspace import reachable_workspace
-from rrps_sim.load_workspace import load_workspace
+from rrps_loads.load_workspace import load_workspace
 
 ROBOTS = ('pole_climber', 'facade_climber', 'frame_climber')
 WALL = rotation_vector_to_quat_xyzw(np.array([np.pi / 2, 0.0, 0.0]))

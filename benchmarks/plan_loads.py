@@ -8,8 +8,8 @@ of ``--repeat`` runs, ``time.process_time``):
 
 * ``plan, no loads``: ``GaitPlanner(..., loads=None)``, every kinematic limit checked;
 * ``plan + loads``: the default planner, which also times every motion within the loads
-  (``rrps_teleop.climbing.load_check``: the loads' coefficients at the timing's gridpoints,
-  ``rrps_sim.path_loads.loads_at`` once per motion); ``load check``: that timing and check alone;
+  (``rrps_climbing.load_check``: the loads' coefficients at the timing's gridpoints,
+  ``rrps_loads.path_loads.loads_at`` once per motion); ``load check``: that timing and check alone;
 * baseline ``loads per pose``: the loads of the timed motions at their samples every 20 ms
   (the climb node's stream), one pose at a time in a Python loop, their twists from the timing
   law, and the largest difference of their forces from the check's at the same samples.
@@ -24,15 +24,15 @@ import time
 
 import numpy as np
 
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.load_check import LoadCheck
 from rrps_description.geometry import load_robot
 from rrps_description.rotations import quat_multiply_xyzw
 from rrps_description.structures import make_structure
-from rrps_sim.path_loads import _supporting_wrench
-from rrps_sim.reduced import PlatformPose, generalized_forces
-from rrps_sim.statics import solve_actuator_forces
-from rrps_sim.support import support_of
-from rrps_teleop.climbing.gait import GaitPlanner
-from rrps_teleop.climbing.load_check import LoadCheck
+from rrps_loads.path_loads import _supporting_wrench
+from rrps_loads.reduced import PlatformPose, generalized_forces
+from rrps_loads.statics import solve_actuator_forces
+from rrps_loads.support import support_of
 
 CASES = [('pole_climber', 'pole', 1.0), ('pole_climber', 'palm_trunk', 1.0),
          ('frame_climber', 'frame', 2.0), ('facade_climber', 'facade', 1.5)]

@@ -5,7 +5,7 @@ simulated on the 13-body DAE (target: at least 5x).
     python benchmarks/preview.py [--period 0.02] [--baseline 2.0]
 
 For the pole, frame and facade climbers on their structures, one step of the planner's default
-length is planned and previewed as climb_node previews it (:func:`rrps_teleop.climbing.step_preview
+length is planned and previewed as climb_node previews it (:func:`rrps_climbing.step_preview
 .run_preview`: the legs driven as the driver drives them, at the driver's 1 ms step, the support
 switched at each hand-over). Speed = simulated robot time / wall time (and / CPU time of this
 process: the 2 cores are shared). Same-run baseline: the plain ``simulate()`` at the same 1 ms
@@ -20,14 +20,14 @@ import time
 
 import numpy as np
 
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.step_preview import PreviewConfig, preview_motions, run_preview
 from rrps_description.geometry import load_robot
 from rrps_description.structures import make_structure
 from rrps_kinematics import inverse_kinematics
+from rrps_loads.statics import holding_forces
 from rrps_sim.dynamics import simulate
 from rrps_sim.preview import Drives
-from rrps_sim.statics import holding_forces
-from rrps_teleop.climbing.gait import GaitPlanner
-from rrps_teleop.climbing.step_preview import PreviewConfig, preview_motions, run_preview
 
 TARGET = 5.0
 CASES = (('pole_climber', 'pole'), ('frame_climber', 'frame'), ('facade_climber', 'facade'))

@@ -6,7 +6,7 @@
 
 For every robot: the paper's 0.5 s constant-force run (at rest at an off-home pose, the holding
 forces plus a constant push sized so that ring_b's initial acceleration would carry it 6 % of
-the robot's size) on the reduced 6-DOF model (rrps_sim.reduced, DOP853) and on the 91-coordinate
+the robot's size) on the reduced 6-DOF model (rrps_loads.reduced, DOP853) and on the 91-coordinate
 multibody DAE (rrps_sim.dynamics, dt = 1 ms), and the holding forces of both at three poses.
 Columns: ring_b's displacement, the largest differences of position, orientation, leg length and
 kinetic energy along the run, of the holding forces, and the wall time of each model.
@@ -23,10 +23,10 @@ import numpy as np
 
 from rrps_description.geometry import load_robot, shipped_robots
 from rrps_description.rotations import quat_conjugate_xyzw, quat_multiply_xyzw, rotation_vector_to_quat_xyzw
+from rrps_loads.reduced import PlatformPose, platform_accelerations, simulate_reduced
+from rrps_loads.statics import holding_forces
+from rrps_loads.support import support_of
 from rrps_sim.dynamics import METHODS, MultibodyDynamics, simulate
-from rrps_sim.reduced import PlatformPose, platform_accelerations, simulate_reduced
-from rrps_sim.statics import holding_forces
-from rrps_sim.support import support_of
 
 POSES = (([0.0, 0.0, 0.0], [0.0, 0.0, 0.0]), ([0.06, -0.03, 0.05], [0.06, -0.04, 0.1]),
          ([-0.05, 0.07, -0.04], [-0.12, 0.08, -0.15]))

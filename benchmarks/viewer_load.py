@@ -11,7 +11,7 @@ and this script holds the deadman), then measures twice in the same run:
   every 0.5 s (a browser on a starved link): the others must not slow down for it.
 
 The viewer's CPU per client is printed for the first client and for each further one: viser's
-windows are encoded once for all clients (rrps_teleop.viewer._broadcast), so what a further
+windows are encoded once for all clients (rrps_viewer._broadcast), so what a further
 client adds is its websocket send.
 
 The control loop's period is taken from the driver's ``actuators/state`` header stamps (its

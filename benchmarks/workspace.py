@@ -188,7 +188,7 @@ def viewer_recompute_table() -> bool:
     shipped robot, against the 0.5 s target; baseline: the same computation at 10 mm."""
     from rrps_description.geometry import shipped_robots
     from rrps_description.rotations import rotation_vector_to_quat_xyzw
-    from rrps_teleop.viewer._workspace import WorkspaceView
+    from rrps_viewer._workspace import WorkspaceView
 
     print()
     print(f'Viewer: workspace recomputed after ring_b turns 0.1 rad (WorkspaceView, default resolution; '

@@ -6,7 +6,7 @@ package_name = 'rrps_canopen'
 #: The hardware implementations of this package: driver_node's ``hardware`` (the 'rrps.hardware'
 #: entry points) and master_node's (the 'rrps.master_hardware' entry points), by name.
 HARDWARE = {'canopen': 'rrps_canopen.robot:CanopenRobot'}
-MASTER_HARDWARE = {'canopen': 'rrps_canopen.master:CanopenMaster'}
+MASTER_HARDWARE = {'canopen': 'rrps_canopen.master_hardware:CanopenMaster'}
 
 setup(
     name=package_name,
@@ -28,18 +28,15 @@ setup(
         'rrps_interfaces',
         'rrps_runtime',
         'rrps_kinematics',
-        'rrps_sim',
+        'rrps_hardware',
     ],
     extras_require={'test': ['pytest']},
     zip_safe=True,
     maintainer='rrps maintainers',
     maintainer_email='maintainers@users.noreply.h-seed-0d31557d.example',
-    description='CANopen (CiA 402, CiA 401) hardware of RRPS robots, a drive simulator and a loopback CAN bus.',
+    description='CANopen (CiA 402, CiA 401) hardware of RRPS robots and a loopback CAN bus.',
     license='Apache-2.0',
     entry_points={
-        'console_scripts': [
-            'rrps-drive-sim = rrps_canopen.simulator.process:main',
-        ],
         'rrps.hardware': [f'{name} = {target}' for name, target in HARDWARE.items()],
         'rrps.master_hardware': [f'{name} = {target}' for name, target in MASTER_HARDWARE.items()],
         'can.interface': ['rrps_loopback = rrps_canopen.loopback_bus:LoopbackBus'],

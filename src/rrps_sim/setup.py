@@ -1,16 +1,10 @@
 from setuptools import find_packages, setup
 
 package_name = 'rrps_sim'
-#: The nodes of this package: executable -> (module, node class). Registered once, in the
-#: 'rrps.nodes' entry-point group that rrps-compose and rrps-params read, and as the
-#: console scripts that `ros2 run` starts (lib/<package>/<node>).
-NODES = {
-    'driver_node': ('rrps_sim.nodes.driver_node', 'DriverNode'),
-}
 #: The hardware implementations driver_node can host (its ``hardware`` parameter): name ->
-#: 'module:SystemInterface subclass', the 'rrps.hardware' entry-point group (rrps_sim.hardware).
+#: 'module:SystemInterface subclass', the 'rrps.hardware' entry-point group (rrps_hardware.registry).
 HARDWARE = {
-    'simulated': 'rrps_sim.hardware.simulated:SimulatedRobot',
+    'simulated': 'rrps_sim.simulated_robot:SimulatedRobot',
 }
 
 setup(
@@ -24,24 +18,24 @@ setup(
     install_requires=[
         'setuptools',
         'numpy',
-        'ruckig',
         'scipy',
         'rrps_description',
         'rrps_interfaces',
         'rrps_runtime',
         'rrps_kinematics',
+        'rrps_hardware',
+        'rrps_loads',
     ],
     extras_require={'test': ['pytest', 'hypothesis']},
     zip_safe=True,
     maintainer='rrps maintainers',
     maintainer_email='maintainers@users.noreply.h-seed-0d31557d.example',
-    description='Multibody dynamics of RRPS climbing robots and the hardware driver node.',
+    description='Multibody dynamics of RRPS climbing robots and their simulated hardware.',
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
             'rrps-dynamics = rrps_sim.cli:main',
-        ] + [f'{node} = {module}:main' for node, (module, _) in NODES.items()],
-        'rrps.nodes': [f'{node} = {module}:{cls}' for node, (module, cls) in NODES.items()],
+        ],
         'rrps.hardware': [f'{name} = {target}' for name, target in HARDWARE.items()],
     },
 )

@@ -7,8 +7,6 @@ package_name = 'rrps_teleop'
 NODES = {
     'master_node': ('rrps_teleop.nodes.master_node', 'MasterNode'),
     'teleop_node': ('rrps_teleop.nodes.teleop_node', 'TeleopNode'),
-    'climb_node': ('rrps_teleop.nodes.climb_node', 'ClimbNode'),
-    'viewer_node': ('rrps_teleop.nodes.viewer_node', 'ViewerNode'),
 }
 
 setup(
@@ -22,13 +20,12 @@ setup(
     install_requires=[
         'setuptools',
         'numpy',
-        'toppra',
-        'scipy',
-        'viser',
         'rrps_description',
         'rrps_interfaces',
         'rrps_runtime',
         'rrps_kinematics',
+        'rrps_hardware',
+        'rrps_loads',
     ],
     extras_require={'test': ['pytest', 'hypothesis']},
     zip_safe=True,
@@ -38,7 +35,6 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'rrps-climb = rrps_teleop.climbing.cli:main',
         ] + [f'{node} = {module}:main' for node, (module, _) in NODES.items()],
         'rrps.nodes': [f'{node} = {module}:{cls}' for node, (module, cls) in NODES.items()],
     },

@@ -15,10 +15,10 @@ from std_srvs.srv import SetBool
 
 from rrps_description.geometry import load_robot
 from rrps_description.rotations import rotation_vector_to_quat_xyzw
+from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_kinematics import check_pose
 from rrps_kinematics.nodes.fk_node import FkNode
 from rrps_kinematics.nodes.ik_node import IkNode
-from rrps_sim.nodes.driver_node import DriverNode
 from rrps_testing.node_helpers import command, pose_error, said, target
 from rrps_testing.ros_harness import DEADLINE, Probe, Spinner, wait_for
 

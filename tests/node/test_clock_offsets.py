@@ -14,10 +14,10 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
 from rrps_description.geometry import load_robot
+from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_kinematics import inverse_kinematics
 from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_runtime.qos import COMMAND_QOS
-from rrps_sim.nodes.driver_node import DriverNode
 from rrps_testing.node_helpers import command, said, target
 from rrps_testing.ros_harness import Probe, Spinner, settled, wait_for
 

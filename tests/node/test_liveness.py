@@ -17,14 +17,14 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
+from rrps_climbing.nodes.climb_node import ClimbNode
 from rrps_description.geometry import load_robot
+from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_interfaces.climb import ClimbState, ClimbStatus, PauseReason
 from rrps_interfaces.teleop import TeleopCode, TeleopStatus
 from rrps_kinematics.nodes.fk_node import FkNode
 from rrps_kinematics.nodes.ik_node import IkNode
-from rrps_sim.nodes.driver_node import DriverNode
 from rrps_teleop.mapping import TeleopConfig, TeleopMapping
-from rrps_teleop.nodes.climb_node import ClimbNode
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
 
 POLE = load_robot('pole_climber')

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from rrps_description.geometry import load_robot
-from rrps_sim.hardware.interface import HardwareConfig
+from rrps_hardware.interface import HardwareConfig
 from rrps_testing.canopen_rig import UNHURRIED_BUS, DriveSim, canopen_hardware, cycle_to, robot_yaml
 from rrps_testing.ros_harness import wait_for
 

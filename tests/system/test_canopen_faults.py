@@ -19,7 +19,7 @@ from rrps_testing.ros_harness import wait_for
 
 pytestmark = [pytest.mark.slow, pytest.mark.ros]
 POLE = load_robot('pole_climber')
-#: The faults of a drive (rrps_canopen.simulator) and of the bus, in the order they are injected.
+#: The faults of a drive (rrps_canopen_sim) and of the bus, in the order they are injected.
 FAULTS = ('current', 'fault_bit', 'blocked', 'silent', 'reboot', 'bus')
 
 

@@ -116,7 +116,7 @@ def test_a_headless_scenario_teleoperates_the_robot_in_its_world(ros_domain_id, 
 def test_the_headless_frame_node_scenario_crosses_the_node_in_one_step(ros_domain_id):
     """One step up across the 90 deg node, previewed, resumed if a late state paused it: both
     rings end where the crossing planned here ends, on the second beam."""
-    from rrps_teleop.climbing.frame_node import FrameNodePlanner
+    from rrps_climbing.frame_crossing import FrameNodePlanner
 
     out = _run(ros_domain_id, 'frame_node')
     assert '[FAIL]' not in out, out[-4000:]

@@ -23,8 +23,9 @@ from rrps_testing.ci import require
 
 ROOT = Path(__file__).resolve().parents[2]
 SRC = ROOT / 'src'
-PACKAGES = ('rrps_description', 'rrps_interfaces', 'rrps_runtime', 'rrps_kinematics', 'rrps_sim', 'rrps_teleop',
-            'rrps_recording', 'rrps_canopen', 'rrps_bringup', 'rrps_testing')
+PACKAGES = ('rrps_description', 'rrps_interfaces', 'rrps_runtime', 'rrps_kinematics', 'rrps_hardware', 'rrps_loads',
+            'rrps_sim', 'rrps_canopen', 'rrps_teleop', 'rrps_recording', 'rrps_climbing', 'rrps_viewer',
+            'rrps_canopen_sim', 'rrps_bringup', 'rrps_testing')
 
 pytestmark = pytest.mark.slow
 

@@ -111,9 +111,9 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
     """
     from rclpy.parameter import Parameter
 
+    from rrps_hardware.nodes.driver_node import DriverNode
     from rrps_kinematics.nodes.fk_node import FkNode
     from rrps_kinematics.nodes.ik_node import IkNode
-    from rrps_sim.nodes.driver_node import DriverNode
     from rrps_teleop.nodes.master_node import MasterNode
     from rrps_teleop.nodes.teleop_node import TeleopNode
 
@@ -127,14 +127,14 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
         plan += [('master_node', MasterNode, []), ('teleop_node', TeleopNode, robot_param)]
     if climb:
         try:
-            from rrps_teleop.nodes.climb_node import ClimbNode
+            from rrps_climbing.nodes.climb_node import ClimbNode
         except ImportError as exc:  # the climbing node is optional for the teleop part
             print(f'rrps demo: warning: no climb node ({exc}); climbing is unavailable',
                   file=sys.stderr)
         else:
             plan.append(('climb_node', ClimbNode, robot_param))
     if viewer:
-        from rrps_teleop.nodes.viewer_node import ViewerNode
+        from rrps_viewer.nodes.viewer_node import ViewerNode
         plan.append(('viewer_node', ViewerNode, robot_param + [
             Parameter('host', value=host), Parameter('port', value=port),
             Parameter('token', value=token)]))
@@ -161,7 +161,7 @@ def scenario_parameters(name: str | None, *nodes: str) -> dict[str, dict]:
     registry, chosen = registered_nodes(), scenario(name)
     out = {}
     for node in nodes:
-        params = chosen.parameters(node, registry[node].parameters() if node in registry else None)
+        params = chosen.parameters(node, registry[node].declared_parameters() if node in registry else None)
         params.pop('robot', None)
         out[node] = params
     return out
@@ -203,7 +203,7 @@ def start_drives(*, robot: str) -> subprocess.Popen:
     """The simulated CANopen drives of ``robot``'s bus (``rrps-drive-sim``), above the driver's
     priority as real drives are hardware of their own; on the bus port of ``RRPS_CAN_PORT``."""
     from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child
-    return start_child([sys.executable, '-m', 'rrps_canopen.simulator.process', '--robot', robot],
+    return start_child([sys.executable, '-m', 'rrps_canopen_sim.process', '--robot', robot],
                        nice=CONTROL_NICE, realtime=CONTROL_RT_PRIORITY + 10)
 
 
@@ -213,7 +213,7 @@ def driver_command(*, robot: str, rate: float = 500.0, namespace: str = NAMESPAC
     """The command line of :func:`start_driver` (no state file: the parameter's default;
     ``parameters``: a scenario's, :func:`scenario_parameters`)."""
     from rrps_bringup.params import params_file_arguments
-    return [sys.executable, '-m', 'rrps_sim.nodes.driver_node', '--ros-args',
+    return [sys.executable, '-m', 'rrps_hardware.nodes.driver_node', '--ros-args',
             *params_file_arguments('driver_node'), '-r', f'__ns:={namespace}',
             '-p', f'robot:={robot}', '-p', f'rate:={float(rate)}', '-p', f'hardware:={hardware}',
             *(['-p', f'state_file:={state_file}'] if state_file else []),

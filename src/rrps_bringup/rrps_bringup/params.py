@@ -74,17 +74,39 @@ PARAMETERS_DOC = Path(__file__).resolve().parents[3] / 'docs' / 'parameters.md'
 
 def generated_files() -> dict[Path, str]:
     """{path: text} of every node's parameter file and of docs/parameters.md, from the schemas."""
-    schemas = {name: node.parameters() for name, node in registered_nodes().items()}
-    schemas = {name: schema for name, schema in schemas.items() if schema is not None}
-    files = {SOURCE_CONFIG / f'{name}.yaml': schema.config_yaml() for name, schema in schemas.items()}
+    files = {}
     doc = ['# Node parameters', '',
            'Every parameter of every rrps node, generated from the nodes\' parameter schemas',
            '(`rrps-params --write`; a test keeps this file and `rrps_bringup/config/*.yaml` equal to',
-           'them). Parameters not settable at run time are read-only.', '']
-    for schema in schemas.values():
+           'them). Parameters not settable at run time are read-only. A node that hosts a hardware',
+           '(driver_node, master_node) declares its own parameters, then those of the hardware its',
+           '`hardware` parameter names: each hardware\'s table follows the node\'s, and the node\'s',
+           'parameter file holds its own and those of the default hardware.', '']
+    for name, node in registered_nodes().items():
+        schema = node.parameters()
+        if schema is None:
+            continue
+        selector, hosted = node.hosted_parameters()
+        files[SOURCE_CONFIG / f'{name}.yaml'] = _config_yaml(schema, node.declared_parameters(), selector, hosted)
         doc.append(schema.markdown())
+        for implementation, owned in hosted.items():
+            if owned.parameters:
+                table = owned.markdown().split('\n', 1)[1]
+                doc.append(f'#### {name} with `{selector}: {implementation}` ({owned.package})\n{table}')
     files[PARAMETERS_DOC] = '\n'.join(doc)
     return files
+
+
+def _config_yaml(schema, declared, selector: str, hosted: dict) -> str:
+    """A node's parameter file: its own parameters, then those of its default hardware, if any."""
+    own = schema.config_yaml()
+    if len(declared.parameters) == len(schema.parameters):
+        return own
+    default = schema[selector].default
+    package = hosted[default].package
+    note = (f'    # --- the parameters of {selector} {default} ({package}), the default; another {selector}\n'
+            f'    # declares its own instead (docs/parameters.md) and these are not read\n')
+    return own + note + declared.config_yaml()[len(own):]
 
 
 def main(argv=None) -> int:

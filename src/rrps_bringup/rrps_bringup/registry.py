@@ -12,6 +12,8 @@ import importlib
 from dataclasses import dataclass
 from importlib.metadata import entry_points
 
+from rrps_runtime.parameter_schema import NodeParameters
+
 __all__ = ['GROUP', 'RegisteredNode', 'registered_nodes', 'node_class']
 
 GROUP = 'rrps.nodes'
@@ -37,6 +39,22 @@ class RegisteredNode:
     def parameters(self):
         """The node's parameter schema (its module's ``PARAMETERS``, a NodeParameters), or None."""
         return getattr(importlib.import_module(self.module), 'PARAMETERS', None)
+
+    def hosted_parameters(self) -> tuple[str, dict]:
+        """For a node that hosts an implementation it names by a parameter (driver_node's
+        ``hardware``): that parameter and {implementation: the parameters the node declares for
+        it} (its module's ``HOSTED_BY`` and ``hosted_parameters()``); ('', {}) for the others."""
+        module = importlib.import_module(self.module)
+        hosted = getattr(module, 'hosted_parameters', None)
+        return (module.HOSTED_BY, hosted()) if hosted is not None else ('', {})
+
+    def declared_parameters(self):
+        """Every parameter the node declares as it starts by default: its schema, then, for a
+        node that hosts an implementation, those of the default one (None without a schema)."""
+        schema = self.parameters()
+        selector, hosted = self.hosted_parameters()
+        owned = hosted.get(schema[selector].default) if schema is not None and selector else None
+        return schema if owned is None else NodeParameters(schema.node, schema.package, [*schema, *owned])
 
 
 def registered_nodes() -> dict[str, RegisteredNode]:

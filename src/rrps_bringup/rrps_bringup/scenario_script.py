@@ -8,7 +8,7 @@ alone holds the robot, its payload and ring_b), teleoperates ring_b along the sc
   on ``odometry/ring_a`` (the climb node's, placed by the structure);
 * the peak actuator force of the driver's ``actuators/state`` efforts against the robot's limit,
   and the driver's efforts at rest against the statics of the held pose in the scenario's world
-  (:func:`rrps_sim.loads.static_solution`: the driver really computes in that world);
+  (:func:`rrps_loads.loads.static_solution`: the driver really computes in that world);
 * the smallest holding margin of the supporting gripper along the received poses (statics);
 * the refusals (a halting teleop code, a refused gripper) and teleop warnings seen.
 
@@ -36,9 +36,9 @@ from rrps_interfaces.climb import odometry_topic
 from rrps_interfaces.driver import GRIPPERS_STATE, gripper_service, gripper_states
 from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE
 from rrps_interfaces.teleop import TeleopCode, TeleopStatus
+from rrps_loads.loads import static_solution
 from rrps_runtime.messages import pose_from_msg
 from rrps_runtime.qos import STATE_QOS
-from rrps_sim.loads import static_solution
 
 __all__ = ['ScenarioScript', 'HALTING_CODES']
 

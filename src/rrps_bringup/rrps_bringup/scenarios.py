@@ -23,11 +23,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rrps_climbing.frame_crossing import FrameNodePlanner
 from rrps_description.geometry import load_robot
 from rrps_description.rotations import matrix_to_quat_xyzw
 from rrps_description.structures import Structure, make_structure
 from rrps_description.world import STANDARD_GRAVITY, Support
-from rrps_teleop.climbing.frame_node import FrameNodePlanner
 
 __all__ = ['Scenario', 'SCENARIOS', 'scenario', 'ros_arguments']
 

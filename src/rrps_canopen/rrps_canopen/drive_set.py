@@ -29,7 +29,7 @@ from rrps_canopen.cia402 import Controlword, Mode, State, Statusword, controlwor
 from rrps_canopen.drive import ConfigureError, ProcessData, RemoteDrive, keep_word
 from rrps_canopen.network import open_network, resolve_eds
 from rrps_description.bus import BusConfig
-from rrps_sim.hardware.interface import ActuatorFault, FaultKind
+from rrps_hardware.interface import ActuatorFault, FaultKind
 
 __all__ = ['DriveSet', 'BusOffListener', 'ConfigureError']
 

@@ -22,7 +22,7 @@ import canopen
 from rrps_canopen.drive import BOOT_UP, ConfigureError, RemoteDrive
 from rrps_description.bus import GripperIoConfig
 from rrps_description.names import RINGS
-from rrps_sim.hardware.interface import FaultKind
+from rrps_hardware.interface import FaultKind
 
 __all__ = ['GripperIo', 'IO_MODULE']
 
@@ -93,8 +93,11 @@ class GripperIo:
                                  f'0x{product:08X} is not the CiA 401 module its EDS describes: wrong EDS or node id')
 
     def configure(self, heartbeat_period: float) -> None:
-        """Map the module's PDOs and read the outputs as they are (nothing switches)."""
+        """Map the module's PDOs and read the outputs as they are (nothing switches). A boot-up
+        heard before is the module's power-on (it may boot after the master starts), not a reboot."""
         self.heartbeat_period = heartbeat_period
+        with self.lock:
+            self.booted = False
         if self.node is None:
             outputs = {}
             for ring, channel in self.rings.items():

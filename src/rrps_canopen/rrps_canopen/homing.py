@@ -29,9 +29,9 @@ from rrps_canopen.cia402 import HomingStatus, Mode, homing_status
 from rrps_canopen.drive import ConfigureError, RemoteDrive, mode_text, object_text
 from rrps_description.bus import DriveConfig
 from rrps_description.geometry import RobotGeometry
+from rrps_hardware.interface import FaultKind
 from rrps_kinematics.forward import forward_kinematics
 from rrps_kinematics.limits import pose_margins
-from rrps_sim.hardware.interface import FaultKind
 
 __all__ = ['set_mode', 'home', 'check_positions', 'refuse', 'homing_timeout']
 

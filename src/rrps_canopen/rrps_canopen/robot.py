@@ -1,6 +1,6 @@
 """The CANopen hardware of a robot behind the driver's interface: ``hardware: canopen``.
 
-:class:`CanopenRobot` is a :class:`~rrps_sim.hardware.interface.SystemInterface` over the robot
+:class:`CanopenRobot` is a :class:`~rrps_hardware.interface.SystemInterface` over the robot
 YAML's ``bus`` section: six CiA 402 leg drives in cyclic synchronous position mode
 (:class:`~rrps_canopen.drive_set.DriveSet`: one SYNC per period, the faults) and the grippers'
 digital I/O (:class:`~rrps_canopen.grippers.GripperIo`). The lifecycle is the driver's:
@@ -22,7 +22,7 @@ digital I/O (:class:`~rrps_canopen.grippers.GripperIo`). The lifecycle is the dr
 
 Commands and state are in metres at this interface; :mod:`rrps_canopen.units` converts. Each
 cycle's CSP target is the jerk-limited setpoint of the newest command
-(:class:`~rrps_sim.hardware.setpoints.JerkLimitedSetpoints`: within the legs' speed, acceleration
+(:class:`~rrps_hardware.setpoints.JerkLimitedSetpoints`: within the legs' speed, acceleration
 and jerk limits). Pure Python (canopen, python-can), no ROS import.
 """
 
@@ -40,9 +40,8 @@ from rrps_canopen.grippers import GripperIo
 from rrps_canopen.homing import check_positions, home, homing_timeout, refuse, set_mode
 from rrps_canopen.network import resolve_eds
 from rrps_description.names import LEG_NAMES, RINGS
-from rrps_runtime.scheduling import Granted, claim, request_of
-from rrps_sim.hardware.commands import ring_joints
-from rrps_sim.hardware.interface import (
+from rrps_hardware.commands import ring_joints
+from rrps_hardware.interface import (
     OK,
     SUCCESS,
     ActuatorStatus,
@@ -56,7 +55,8 @@ from rrps_sim.hardware.interface import (
     SystemState,
     Transition,
 )
-from rrps_sim.hardware.setpoints import JerkLimitedSetpoints
+from rrps_hardware.setpoints import JerkLimitedSetpoints
+from rrps_runtime.scheduling import Granted, claim, request_of
 
 __all__ = ['CanopenRobot']
 

@@ -20,9 +20,9 @@ import numpy as np
 
 from rrps_description.names import RINGS
 from rrps_description.pose import QUATERNION_TOLERANCE, validate_pose
-from rrps_description.rotations import quat_xyzw_to_matrix
+from rrps_description.rotations import quat_conjugate_xyzw, quat_multiply_xyzw, quat_xyzw_to_matrix
 
-__all__ = ['STANDARD_GRAVITY', 'IDENTITY_QUATERNION', 'Support']
+__all__ = ['STANDARD_GRAVITY', 'IDENTITY_QUATERNION', 'Support', 'handed_over']
 
 #: Gravity in the world frame [m/s²].
 STANDARD_GRAVITY = (0.0, 0.0, -9.81)
@@ -75,3 +75,14 @@ class Support:
         g = self.world_R_support.T @ self.gravity
         g.setflags(write=False)
         return g
+
+
+def handed_over(support: Support, a_q_b, ring: str) -> Support:
+    """The support once ``ring`` alone grips, the robot at a_T_b's rotation ``a_q_b`` (x, y, z, w):
+    ring_b's world attitude is world_q_a a_q_b, ring_a's world_q_b conj(a_q_b); the world's
+    gravity stays. The same support when ``ring`` already grips."""
+    if ring == support.ring:
+        return support
+    q_ab = np.asarray(a_q_b, dtype=float)
+    turn = q_ab if ring == 'ring_b' else quat_conjugate_xyzw(q_ab)
+    return Support.of(ring, quat_multiply_xyzw(support.world_q_support, turn), support.gravity)

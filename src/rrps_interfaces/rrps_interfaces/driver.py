@@ -86,7 +86,7 @@ class DriverStatus(CommandAgeStatus):
     state_file_error: str = ''
     #: the hardware implementation the driver hosts (its ``hardware`` parameter)
     hardware: str = 'simulated'
-    #: the hardware's latched faults, ``<actuator>:<kind>`` (kind: a FaultKind value of rrps_sim.hardware)
+    #: the hardware's latched faults, ``<actuator>:<kind>`` (kind: a FaultKind value of rrps_hardware.interface)
     faults: tuple[str, ...] = ()
     #: the ring the gravity of the efforts and dynamics is grounded on, its world attitude
     #: (x, y, z, w), where that comes from and the age [s] of the last odometry/support used

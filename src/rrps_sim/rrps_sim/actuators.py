@@ -11,7 +11,7 @@ Pure NumPy, no ROS import. Both models take a reference (commanded lengths [m]) 
 Position-controlled actuators report the quasi-static forces of :class:`QuasiStaticEfforts`.
 Both compute in the world gravity of the supporting ring's attitude (``support``, a
 :class:`~rrps_description.world.Support`; default ring_a upright) and follow a gripper change
-with ``set_support(ring)`` (:func:`handed_over`).
+with ``set_support(ring)`` (:func:`rrps_description.world.handed_over`).
 
 Fault injection: ``stuck`` (per axis: the actuator ignores commands and keeps its length) on
 both models, and :class:`SensorFaults` (Gaussian noise on the measured lengths, dropped
@@ -25,24 +25,12 @@ import math
 import numpy as np
 
 from rrps_description.geometry import RobotGeometry
-from rrps_description.rotations import quat_conjugate_xyzw, quat_multiply_xyzw
-from rrps_description.world import Support
+from rrps_description.world import Support, handed_over
 from rrps_kinematics.forward import forward_kinematics
+from rrps_loads.statics import holding_forces
 from rrps_sim.dynamics import MultibodyDynamics
-from rrps_sim.statics import holding_forces
 
-__all__ = ['KinematicActuators', 'DynamicActuators', 'QuasiStaticEfforts', 'SensorFaults', 'handed_over']
-
-
-def handed_over(support: Support, a_q_b, ring: str) -> Support:
-    """The support once ``ring`` alone grips, the robot at a_T_b's rotation ``a_q_b`` (x, y, z, w):
-    ring_b's world attitude is world_q_a a_q_b, ring_a's world_q_b conj(a_q_b); the world's
-    gravity stays. The same support when ``ring`` already grips."""
-    if ring == support.ring:
-        return support
-    q_ab = np.asarray(a_q_b, dtype=float)
-    turn = q_ab if ring == 'ring_b' else quat_conjugate_xyzw(q_ab)
-    return Support.of(ring, quat_multiply_xyzw(support.world_q_support, turn), support.gravity)
+__all__ = ['KinematicActuators', 'DynamicActuators', 'QuasiStaticEfforts', 'SensorFaults']
 
 
 def _vector(value, n: int, name: str) -> np.ndarray:
@@ -111,7 +99,7 @@ class DynamicActuators:
 
     A :class:`KinematicActuators` shapes the reference (stroke and speed limits, lag); each leg's
     force is ``f = f_g + kp (r - L) + kd (r' - L')`` saturated at ``geometry.max_force``, with
-    ``f_g`` the static holding forces (gravity feed-forward, :func:`rrps_sim.statics.holding_forces`)
+    ``f_g`` the static holding forces (gravity feed-forward, :func:`rrps_loads.statics.holding_forces`)
     at the current pose, refreshed every ``feedforward_period`` s. The dynamics is stepped in
     sub-steps of at most ``max_step`` s with the force held over each. ``efforts`` = forces [N].
     """
@@ -212,7 +200,7 @@ class QuasiStaticEfforts:
     """Efforts [N] of position-controlled (kinematic) actuators: the statics of eq. 19 at rest.
 
     The forces that hold the current pose against gravity (legs included,
-    :func:`rrps_sim.statics.holding_forces`) at the pose found by FK from the current lengths,
+    :func:`rrps_loads.statics.holding_forces`) at the pose found by FK from the current lengths,
     refreshed at most every ``period`` s (an FK and a statics solve per refresh). A pose where FK
     fails or the Jacobian is singular keeps the previous efforts.
     """

@@ -277,14 +277,14 @@ def _simulate(g: RobotGeometry, args) -> list[str]:
 
 
 def _statics(g: RobotGeometry, args) -> list[str]:
-    from rrps_sim.loads import static_solution
+    from rrps_loads.loads import static_solution
     position, quat = _pose(g, args)
     sol = static_solution(g, (position, quat), support=world_of(args))
     return [statics_json(g, position, quat, sol)] if args.json else statics_lines(sol)
 
 
 def _inverse(g: RobotGeometry, args) -> list[str]:
-    from rrps_sim.inverse_dynamics import check_trajectory, inverse_dynamics
+    from rrps_loads.inverse_dynamics import check_trajectory, inverse_dynamics
     data, twist, twist_dot = _read_trajectory(args.trajectory)
     try:
         check_trajectory(data[:, 0], data[:, 1:4], data[:, 4:8])

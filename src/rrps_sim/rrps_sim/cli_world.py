@@ -23,8 +23,8 @@ from rrps_description.geometry import RobotDescriptionError, RobotGeometry
 from rrps_description.loads import WRENCH_FRAMES, Payload, ToolWrench
 from rrps_description.names import LEG_NAMES, RINGS
 from rrps_kinematics.cli_support import UsageError, vector
-from rrps_sim.loads import StaticSolution
-from rrps_sim.support import Support, support_of
+from rrps_loads.loads import StaticSolution
+from rrps_loads.support import Support, support_of
 
 __all__ = ['WORLD_VECTOR_OPTIONS', 'LOAD_VECTOR_OPTIONS', 'REACTION_COLUMNS', 'add_world_options',
            'add_load_options', 'world_of', 'with_loads',

@@ -9,7 +9,7 @@ its own ring (ring_a holds while ring_b moves, then the reverse).
 The legs are driven as the driver's dynamic mode drives them
 (:class:`rrps_sim.actuators.DynamicActuators`, compiled in :mod:`rrps_sim.dynamics.driven`): the
 commanded lengths (the motion's poses by IK, one every command period) made the driver's
-jerk-limited setpoints (:func:`rrps_sim.hardware.setpoints.stream_setpoints`, every driver period)
+jerk-limited setpoints (:func:`rrps_hardware.setpoints.stream_setpoints`, every driver period)
 and shaped by the actuators' lag and speed limit, and each leg's force ``f = f_g + kp (r - L) + kd (r' - L')``,
 ``f_g`` the static holding forces on the support, refreshed every ``feedforward_period`` (at the
 commanded pose, where the driver takes the measured one: they differ by the tracking error); a
@@ -17,8 +17,8 @@ force beyond ``max_force`` breaks the limit. After its last command, a motion is
 s, as the step waits for the arrival.
 
 At each refresh of the feed-forward, the multipliers of eq. 19 give the structure's wrench on the
-supporting ring (:func:`rrps_sim.loads.support_wrench`) and its holding margin
-(:func:`rrps_sim.loads.holding_margin`). :func:`preview_step` returns the peaks
+supporting ring (:func:`rrps_loads.loads.support_wrench`) and its holding margin
+(:func:`rrps_loads.loads.holding_margin`). :func:`preview_step` returns the peaks
 (:class:`PreviewResult`). Pure NumPy (and the compiled dynamics); no ROS import.
 """
 
@@ -32,14 +32,14 @@ from typing import Callable, NamedTuple, Sequence
 import numpy as np
 
 from rrps_description.geometry import RobotGeometry
+from rrps_hardware.setpoints import DRIVER_PERIOD, stream_setpoints
 from rrps_interfaces.climb import PreviewLimit
 from rrps_kinematics.inverse import inverse_kinematics
+from rrps_loads.loads import holding_margin, support_wrench
+from rrps_loads.statics import holding_forces
+from rrps_loads.support import support_of
 from rrps_sim.dynamics import MultibodyDynamics
 from rrps_sim.dynamics.driven import DriveLoop
-from rrps_sim.hardware.setpoints import DRIVER_PERIOD, stream_setpoints
-from rrps_sim.loads import holding_margin, support_wrench
-from rrps_sim.statics import holding_forces
-from rrps_sim.support import support_of
 
 __all__ = ['Drives', 'PreviewMotion', 'PreviewResult', 'PreviewError', 'preview_step']
 

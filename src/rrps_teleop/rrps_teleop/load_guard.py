@@ -2,18 +2,18 @@
 margin of zero, as the stroke and conditioning guards do (:mod:`rrps_teleop.guards`).
 
 Each step the kinematic guards accepted goes on to the loads at rest (paper eq. 19 at rest, the
-statics of :mod:`rrps_sim.loads`) of the slave on its supporting ring, with its payload and tool
+statics of :mod:`rrps_loads.loads`) of the slave on its supporting ring, with its payload and tool
 wrench. Two margins, as fractions:
 
 * force: 1 - max_i |f_i| / max_force (1 when the actuators have no force limit);
-* holding: 1 - the supporting gripper's utilisation (:func:`rrps_sim.loads.holding_margin`;
+* holding: 1 - the supporting gripper's utilisation (:func:`rrps_loads.loads.holding_margin`;
   +inf when the robot gives no capacity).
 
 When the step lowers a margin that is already inside its band (``force_slowdown``,
 ``holding_slowdown``), the step is scaled by the remaining fraction of the band (moving back
 out is at full speed), down to a halt at zero; a step that makes a margin negative, or a
 negative one smaller, is refused. With numba one pose's statics is the compiled kernel
-:func:`rrps_sim.compiled_statics.pose_statics`, else the NumPy statics; the tests check both agree.
+:func:`rrps_loads.compiled_statics.pose_statics`, else the NumPy statics; the tests check both agree.
 """
 
 from __future__ import annotations
@@ -30,9 +30,9 @@ from rrps_kinematics import forward_kinematics
 from rrps_kinematics.backend import use_numba
 from rrps_kinematics.errors import SingularPoseError
 from rrps_kinematics.limits import limit_arrays, pose_margins
-from rrps_sim.compiled_statics import pose_statics, statics_arrays
-from rrps_sim.loads import static_solution
-from rrps_sim.support import Support
+from rrps_loads.compiled_statics import pose_statics, statics_arrays
+from rrps_loads.loads import static_solution
+from rrps_loads.support import Support
 from rrps_teleop.command_layout import COMMAND_SIZE, STEP_ACCEPTED, STEP_FK_FAILED
 from rrps_teleop.guards import GuardedCommand, pose_step, refusal
 from rrps_teleop.teleop_config import TeleopConfig

@@ -5,10 +5,10 @@ The parameters give the start (``support``, ``world_q_support``). Then:
 
 * when the grippers (``grippers/state``) show the other ring carrying the robot
   (:func:`rrps_interfaces.driver.supporting_ring`), the guards' support is handed over to it
-  through the measured pose a_T_b (:func:`rrps_sim.actuators.handed_over`: the old ring's
+  through the measured pose a_T_b (:func:`rrps_description.world.handed_over`: the old ring's
   attitude turned by a_T_b's rotation), as the driver's simulation does;
 * a fresh ``odometry/support`` for that ring sets its attitude
-  (:class:`rrps_sim.support_follower.SupportFollower`); without one the last known attitude
+  (:class:`rrps_hardware.support_follower.SupportFollower`); without one the last known attitude
   stays, and :meth:`LoadSupport.report` says so.
 
 Pure NumPy; no ROS import.
@@ -20,10 +20,9 @@ from typing import Mapping
 
 import numpy as np
 
-from rrps_description.world import Support
+from rrps_description.world import Support, handed_over
+from rrps_hardware.support_follower import DEFAULT_TIMEOUT, SupportFollower, SupportReport
 from rrps_interfaces.driver import supporting_ring
-from rrps_sim.actuators import handed_over
-from rrps_sim.support_follower import DEFAULT_TIMEOUT, SupportFollower, SupportReport
 from rrps_teleop.load_guard import LoadGuard
 
 __all__ = ['LoadSupport']

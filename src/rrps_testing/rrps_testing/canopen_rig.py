@@ -30,8 +30,8 @@ import yaml
 from rrps_canopen.loopback_bus import free_port
 from rrps_canopen.robot import CanopenRobot
 from rrps_description.geometry import robot_path
+from rrps_hardware.interface import Command
 from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child, stop_child
-from rrps_sim.hardware.interface import Command
 
 __all__ = ['free_port', 'DriveSim', 'driver_process', 'can_env', 'cycle_to', 'canopen_hardware', 'robot_yaml',
            'UNHURRIED_BUS']
@@ -43,7 +43,7 @@ ANSWER_TIMEOUT = 30.0
 #: SCHED_RR priority of the drive simulator: above the robot's command path, as real drives are
 #: hardware of their own that the driver's computer cannot starve. The kernel's RT bandwidth limit
 #: still stops it for about 50 ms at times; its heartbeats stay ahead of its PDOs then
-#: (rrps_canopen.simulator.heartbeat; docs/measurements.md: CANopen).
+#: (rrps_canopen_sim.heartbeat; docs/measurements.md: CANopen).
 SIM_RT_PRIORITY = CONTROL_RT_PRIORITY + 10
 
 
@@ -55,7 +55,7 @@ def can_env(port: int, **extra: str) -> dict:
 
 class DriveSim:
     """``rrps-drive-sim`` in a process of its own (its drives behaving as ``behaviour`` says:
-    rrps_canopen.simulator.behaviour); ``ask`` sends one request, returns the answer.
+    rrps_canopen_sim.behaviour); ``ask`` sends one request, returns the answer.
 
     ``cpus``: the CPUs its threads may run on (all of them, once it is ready). The simulated
     drives stand for devices with processors of their own: a benchmark pins them to a CPU the
@@ -65,7 +65,7 @@ class DriveSim:
                  lengths=None, time_constant: float | None = None, behaviour: dict | None = None,
                  cpus: tuple[int, ...] = ()):
         self.port = free_port() if port is None else port
-        args = [sys.executable, '-m', 'rrps_canopen.simulator.process', '--robot', robot, '--stdin']
+        args = [sys.executable, '-m', 'rrps_canopen_sim.process', '--robot', robot, '--stdin']
         args += ['--master'] if master else []
         args += ['--lengths', *map(str, lengths)] if lengths is not None else []
         args += ['--time-constant', str(time_constant)] if time_constant is not None else []
@@ -133,7 +133,7 @@ class DriveSim:
 def driver_process(port: int, *params: str, robot: str = 'pole_climber', namespace: str = '/rrps_test',
                    domain_id: int | None = None, hardware: str = 'canopen') -> subprocess.Popen:
     """driver_node with ``hardware`` (canopen: on the rig's bus); ``params``: more ``name:=value``."""
-    args = [sys.executable, '-m', 'rrps_sim.nodes.driver_node', '--ros-args', '-r', f'__ns:={namespace}',
+    args = [sys.executable, '-m', 'rrps_hardware.nodes.driver_node', '--ros-args', '-r', f'__ns:={namespace}',
             '-p', f'robot:={robot}', '-p', f'hardware:={hardware}']
     for p in params:
         args += ['-p', p]

@@ -22,11 +22,11 @@ from geometry_msgs.msg import PoseStamped
 from std_msgs.msg import Bool
 from std_srvs.srv import Trigger
 
+from rrps_hardware.interface import FaultKind
 from rrps_interfaces.climb import CLIMB_RESUME, CLIMB_STATUS, ClimbState, ClimbStatus
 from rrps_interfaces.kinematics import POSE
 from rrps_interfaces.teleop import TELEOP_ENABLE, TELEOP_STATUS, TeleopStatus
 from rrps_runtime.supervision import OPERATOR_NICE, OPERATOR_RT_PRIORITY, raise_priority, stop_children
-from rrps_sim.hardware.interface import FaultKind
 from rrps_testing.canopen_rig import DriveSim, driver_process
 from rrps_testing.driver_probe import DriverProbe
 from rrps_testing.ros_harness import Spinner, wait_for

@@ -128,7 +128,7 @@ class Fleet:
         nodes = ['ik_node', 'fk_node', 'climb_node', 'link_relay_node'] + (['recorder_node'] if recorder else [])
         remaps = [a for rule in ROBOT_REMAPS for a in ('-r', rule)]
         for host, ns in zip(rig.hosts, self.namespaces):
-            rig.python(host, f'{host}_driver', ['-m', 'rrps_sim.nodes.driver_node', *rig.ros_args(
+            rig.python(host, f'{host}_driver', ['-m', 'rrps_hardware.nodes.driver_node', *rig.ros_args(
                 {'robot': 'pole_climber', 'rate': float(driver_rate), 'auto_activate': True}, namespace=ns), *remaps])
             params = {'robot': 'pole_climber', 'climb_node:step_length': 0.03, 'climb_node:speed': 0.03}
             if recorder:

@@ -359,7 +359,7 @@ class Rig:
         """driver_node on the robot host (the simulated hardware, a process of its own)."""
         if state_file:
             params['state_file'] = str(state_file)
-        return self.python('robot', name, ['-m', 'rrps_sim.nodes.driver_node', *self.ros_args({
+        return self.python('robot', name, ['-m', 'rrps_hardware.nodes.driver_node', *self.ros_args({
             'robot': 'pole_climber', 'rate': float(rate), 'auto_activate': activate, **params})])
 
     def start_robot_nodes(self, *, name: str = 'robot_nodes', **params) -> subprocess.Popen:

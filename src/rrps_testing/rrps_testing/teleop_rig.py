@@ -15,12 +15,12 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool
 
 from rrps_description.geometry import load_robot
+from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_kinematics import inverse_kinematics
 from rrps_kinematics.nodes.fk_node import FkNode
 from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_runtime.messages import joint_state_msg, pose_from_msg, pose_to_msg
 from rrps_runtime.qos import COMMAND_QOS
-from rrps_sim.nodes.driver_node import DriverNode
 from rrps_teleop.master import scripted_pose
 from rrps_teleop.nodes.master_node import MasterNode
 from rrps_teleop.nodes.teleop_node import TeleopNode

@@ -132,6 +132,19 @@ def test_shipped_files_are_what_the_schemas_generate(capsys):
     assert params.main(['--check']) == 0, capsys.readouterr().out
 
 
+def test_a_hosting_node_ships_the_default_hardware_and_documents_each():
+    """driver_node.yaml: the driver's own parameters, then the simulated robot's (the default
+    hardware); docs/parameters.md: a table per registered hardware that has parameters."""
+    from rrps_sim.simulated_robot import SimulatedRobot
+    _, values = _section(config_file('driver_node'))
+    own = registered_nodes()['driver_node'].parameters()
+    assert own['hardware'].default == 'simulated'
+    assert list(values) == [p.name for p in (*own, *SimulatedRobot.PARAMETERS) if p.default is not None]
+    doc = params.PARAMETERS_DOC.read_text()
+    assert '#### driver_node with `hardware: simulated` (rrps_sim)' in doc
+    assert '`hardware: canopen`' not in doc  # the CANopen hardware has no parameter of its own
+
+
 def test_check_finds_a_stale_file_and_write_renews_it(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(params, 'SOURCE_CONFIG', tmp_path / 'config')
     monkeypatch.setattr(params, 'PARAMETERS_DOC', tmp_path / 'parameters.md')

@@ -1,5 +1,6 @@
 """The demo scenarios against the shipped nodes' parameter schemas: each node gets exactly the
-scenario's parameters it declares, each value within that node's schema."""
+scenario's parameters it declares (the driver: its own and the simulated robot's), each value
+within that node's schema."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ from rrps_bringup.scenarios import SCENARIOS, Scenario, scenario
 def test_each_node_gets_the_parameters_it_declares_and_no_others():
     nodes = registered_nodes()
     s = scenario('pole_leaning')
-    driver = s.parameters('driver_node', nodes['driver_node'].parameters())
+    driver = s.parameters('driver_node', nodes['driver_node'].declared_parameters())
     assert driver['payload_mass'] == 40.0 and len(driver['world_q_support']) == 4
     for node in ('climb_node', 'viewer_node', 'markers_node'):
         params = s.parameters(node, nodes[node].parameters())
@@ -18,7 +19,7 @@ def test_each_node_gets_the_parameters_it_declares_and_no_others():
     assert s.parameters('ik_node', nodes['ik_node'].parameters()) == {'robot': 'pole_climber'}
     for row in SCENARIOS.values():
         for name, node in nodes.items():
-            schema = node.parameters()
+            schema = node.declared_parameters()
             declared = {p.name for p in schema} if schema is not None else set()
             params = row.parameters(name, schema)
             assert set(params) == declared & set(row.world_parameters()), name

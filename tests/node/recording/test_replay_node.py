@@ -52,12 +52,12 @@ def test_replay_into_a_fresh_fk_and_viewer_reproduces_the_recorded_poses(ros_con
     from mcap_ros2.decoder import DecoderFactory
     from rclpy.parameter import Parameter
 
+    from rrps_hardware.nodes.driver_node import DriverNode
     from rrps_kinematics.nodes.fk_node import FkNode
     from rrps_kinematics.nodes.ik_node import IkNode
     from rrps_recording.nodes.recorder_node import RecorderNode
-    from rrps_sim.nodes.driver_node import DriverNode
-    from rrps_teleop.nodes.viewer_node import ViewerNode
     from rrps_testing.node_helpers import target
+    from rrps_viewer.nodes.viewer_node import ViewerNode
 
     robot = [Parameter('robot', value='pole_climber')]
     # 1. record a session of the real chain: target_pose -> IK -> driver -> FK -> pose

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 from rrps_bringup.scenarios import SCENARIOS, Scenario, ros_arguments, scenario
+from rrps_climbing.frame_crossing import FrameNodePlanner
+from rrps_climbing.gait import GaitPlanner
 from rrps_description.geometry import load_robot
 from rrps_description.rotations import quat_xyzw_to_matrix
 from rrps_runtime.parameter_schema import NodeParameters, Parameter
-from rrps_teleop.climbing.frame_node import FrameNodePlanner
-from rrps_teleop.climbing.gait import GaitPlanner
 from rrps_testing.virtual_work import rotation_x
 
 

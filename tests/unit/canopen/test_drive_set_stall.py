@@ -13,7 +13,7 @@ from rrps_canopen.drive import RemoteDrive
 from rrps_canopen.drive_set import DriveSet
 from rrps_canopen.loopback_bus import free_port
 from rrps_description.geometry import load_robot
-from rrps_sim.hardware.interface import FaultKind
+from rrps_hardware.interface import FaultKind
 
 BUS = load_robot('pole_climber').bus
 

@@ -14,8 +14,8 @@ import yaml
 from rrps_canopen.homing import check_positions
 from rrps_canopen.units import AxisScale
 from rrps_description.geometry import RobotGeometry, load_robot, robot_path
+from rrps_hardware.interface import ActuatorStatus, SystemState
 from rrps_kinematics.inverse import inverse_kinematics
-from rrps_sim.hardware.interface import ActuatorStatus, SystemState
 
 POLE = load_robot('pole_climber')
 

@@ -22,7 +22,7 @@ from rrps_kinematics.scene import (
     torus_mesh,
     world_ring_poses,
 )
-from rrps_teleop.viewer._control import OperatorControl
+from rrps_viewer._control import OperatorControl
 
 GEOM = load_robot('pole_climber')
 

@@ -9,8 +9,8 @@ from hypothesis import strategies as st
 
 from rrps_description.geometry import load_robot
 from rrps_kinematics import inverse_kinematics
+from rrps_loads.statics import holding_forces
 from rrps_sim.actuators import DynamicActuators, KinematicActuators, QuasiStaticEfforts, SensorFaults
-from rrps_sim.statics import holding_forces
 
 LO, HI = 0.3, 0.55
 

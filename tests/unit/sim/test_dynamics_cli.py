@@ -14,14 +14,14 @@ import yaml
 from rrps_description.geometry import load_robot, robot_path
 from rrps_description.loads import Payload, ToolWrench
 from rrps_kinematics import inverse_kinematics
+from rrps_loads.inverse_dynamics import inverse_dynamics
+from rrps_loads.loads import static_solution
+from rrps_loads.statics import holding_forces
 from rrps_sim import cli
 from rrps_sim.cli import SIMULATION_COLUMNS, run
 from rrps_sim.cli_world import REACTION_COLUMNS
 from rrps_sim.dynamics import MultibodyDynamics, simulate
 from rrps_sim.figures import climb_poses
-from rrps_sim.inverse_dynamics import inverse_dynamics
-from rrps_sim.loads import static_solution
-from rrps_sim.statics import holding_forces
 
 GEOM = load_robot('pole_climber')
 POSITION = np.array([0.01, -0.02, 0.41])

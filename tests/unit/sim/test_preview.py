@@ -15,7 +15,7 @@ from rrps_description.loads import Payload
 from rrps_description.rotations import quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
 from rrps_interfaces.climb import PreviewLimit
 from rrps_kinematics.inverse import inverse_kinematics
-from rrps_sim.inverse_dynamics import inverse_dynamics
+from rrps_loads.inverse_dynamics import inverse_dynamics
 from rrps_sim.preview import Drives, PreviewMotion, preview_step
 
 GEOM = load_robot('pole_climber')

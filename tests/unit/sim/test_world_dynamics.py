@@ -20,12 +20,12 @@ from rrps_description.rotations import (
     quat_xyzw_to_rotation_vector,
     rotation_vector_to_quat_xyzw,
 )
+from rrps_loads.inverse_dynamics import inverse_dynamics
+from rrps_loads.loads import static_solution
+from rrps_loads.reduced import PlatformPose, body_velocities, platform_accelerations, simulate_reduced
+from rrps_loads.statics import holding_forces
+from rrps_loads.support import support_of
 from rrps_sim.dynamics import METHODS, MultibodyDynamics, simulate
-from rrps_sim.inverse_dynamics import inverse_dynamics
-from rrps_sim.loads import static_solution
-from rrps_sim.reduced import PlatformPose, body_velocities, platform_accelerations, simulate_reduced
-from rrps_sim.statics import holding_forces
-from rrps_sim.support import support_of
 
 GEOM = load_robot('pole_climber')
 TILT = rotation_vector_to_quat_xyzw(np.array([0.9, -0.4, 0.3]))      # the world turned, ~57°

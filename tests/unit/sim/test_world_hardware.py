@@ -9,10 +9,9 @@ import pytest
 
 from rrps_description.geometry import load_robot
 from rrps_description.rotations import quat_xyzw_to_matrix
-from rrps_description.world import Support
-from rrps_sim.actuators import handed_over
-from rrps_sim.hardware.interface import HardwareConfig
-from rrps_sim.hardware.simulated import SimulatedRobot
+from rrps_description.world import Support, handed_over
+from rrps_hardware.interface import HardwareConfig
+from rrps_sim.simulated_robot import SimulatedRobot
 from rrps_testing.virtual_work import quaternion_matrix, virtual_work_forces
 
 WALL_Q = (0.70710678118654752, 0.0, 0.0, 0.70710678118654752)  # ring_a's z horizontal, out of a wall

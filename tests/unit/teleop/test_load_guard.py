@@ -14,7 +14,7 @@ from rrps_description.rotations import rotation_vector_to_quat_xyzw
 from rrps_description.world import Support
 from rrps_interfaces.teleop import TeleopCode
 from rrps_kinematics import inverse_kinematics
-from rrps_sim.loads import static_solution
+from rrps_loads.loads import static_solution
 from rrps_teleop.load_guard import LoadGuard
 from rrps_teleop.mapping import TeleopConfig, TeleopMapping
 

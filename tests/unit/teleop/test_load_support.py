@@ -17,7 +17,7 @@ from rrps_description.pose import Pose
 from rrps_description.world import Support
 from rrps_interfaces.driver import SupportSource
 from rrps_interfaces.teleop import TeleopCode
-from rrps_sim.loads import static_solution
+from rrps_loads.loads import static_solution
 from rrps_teleop.load_support import LoadSupport
 from rrps_teleop.mapping import TeleopConfig, TeleopMapping
 from rrps_testing.virtual_work import quaternion_matrix, rotation_x, virtual_work_forces

@@ -498,7 +498,7 @@ def test_the_warm_up_loads_every_guard_kernel_a_session_calls(mode, rotation):
     steps: the first engaged step must not stall teleop_node's executor while numba loads or
     compiles (0.1-0.2 s, more than master_timeout: the slave would see its master go stale)."""
     require(use_numba('auto'), 'numba is not in use')
-    from rrps_sim.compiled_statics import pose_statics
+    from rrps_loads.compiled_statics import pose_statics
     from rrps_teleop import compiled_guards
     kernels = (compiled_guards.guarded_joint_step, compiled_guards.guarded_cartesian_step,
                compiled_guards.mapped_pose, compiled_guards.scaled_step, pose_statics)

@@ -34,8 +34,8 @@ from rclpy.qos import DurabilityPolicy
 from rrps_interfaces.kinematics import ROBOT_DESCRIPTION
 from rrps_interfaces.recording import RECORDING_TAP, TF, TF_STATIC
 from rrps_interfaces.status import DIAGNOSTICS
-from rrps_recording.nodes.topic_graph import offered, subscription_for
 from rrps_recording.storage.schemas import message_class, message_schema
+from rrps_recording.topic_graph import offered, subscription_for
 from rrps_recording.transport.throttle import Throttle
 from rrps_runtime.diagnostics import OK, OPERATOR_STATION, WARN, Diagnostics
 from rrps_runtime.parameter_schema import NodeParameters, Parameter

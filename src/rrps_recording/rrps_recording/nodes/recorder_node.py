@@ -71,12 +71,12 @@ from rrps_interfaces.recording import (
 from rrps_interfaces.status import DIAGNOSTICS
 from rrps_interfaces.teleop import TELEOP_STATUS
 from rrps_recording.markers import robot_transforms, tf_message_cdr, world_pose_of_ring_a
-from rrps_recording.nodes.topic_graph import offered, qos_spec, subscription_for, subscription_qos, type_hash_text
 from rrps_recording.storage.bag import BagRecording, free_name
 from rrps_recording.storage.bag_metadata import TopicInfo
 from rrps_recording.storage.mcap_files import COMPRESSIONS
 from rrps_recording.storage.qos import TF_QOS
 from rrps_recording.storage.schemas import message_class, message_schema
+from rrps_recording.topic_graph import offered, qos_spec, subscription_for, subscription_qos, type_hash_text
 from rrps_recording.transport.dumps import FlightDumps
 from rrps_recording.transport.ring import MessageRing
 from rrps_recording.transport.taps import TapRouter, fully_qualified_node

@@ -14,7 +14,7 @@ import numpy as np
 from rrps_description.world import Support
 from rrps_kinematics.backend import jit
 from rrps_kinematics.multibody import JointGeometry, MultibodyModel
-from rrps_sim.support import tool_wrench_in_support
+from rrps_loads.support import tool_wrench_in_support
 
 __all__ = ['WORKSPACE_SIZE', 'DynamicsParameters', 'Observation', 'Observations', 'Reactions',
            'Workspace', 'hub_joints', 'new_workspace', 'workspace']

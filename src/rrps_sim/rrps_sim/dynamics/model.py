@@ -18,6 +18,7 @@ from rrps_description.geometry import RobotGeometry
 from rrps_description.pose import Pose
 from rrps_kinematics.errors import ConvergenceError, SingularPoseError
 from rrps_kinematics.multibody import MultibodyModel
+from rrps_loads.support import support_of
 from rrps_sim.dynamics.bundles import DynamicsParameters, Observation, Observations, Reactions, new_workspace, workspace
 from rrps_sim.dynamics.constraints import leg_blocks
 from rrps_sim.dynamics.driven import DriveLoop, driven_run
@@ -25,7 +26,6 @@ from rrps_sim.dynamics.flops import step_flops
 from rrps_sim.dynamics.frames import grounded_coordinates, supported_pose
 from rrps_sim.dynamics.integrators import METHODS, NOT_CONVERGED, run, step
 from rrps_sim.dynamics.kernels import applied_forces, observe, reactions_into
-from rrps_sim.support import support_of
 
 __all__ = ['MultibodyDynamics', 'RunRecord']
 
@@ -57,7 +57,7 @@ class MultibodyDynamics:
     gains. ``correction_tolerance``: the hybrid's drift threshold for a partitioned correction.
     ``newton_tolerance``: residual of the dependent-coordinate Newton solves. ``support``: the
     gripping ring, turned by ``world_q_support`` in a world of ``gravity``
-    (:func:`rrps_sim.support.support_of`; default ring_a upright, 9.81 m/s² down).
+    (:func:`rrps_loads.support.support_of`; default ring_a upright, 9.81 m/s² down).
     """
 
     def __init__(self, geometry: RobotGeometry, method: str = 'hybrid', *, alpha: float = 10.0,

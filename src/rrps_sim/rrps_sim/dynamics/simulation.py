@@ -13,10 +13,10 @@ import numpy as np
 from rrps_description.geometry import RobotGeometry
 from rrps_description.world import Support
 from rrps_kinematics.inverse import pose_arrays
+from rrps_loads.loads import support_wrench
 from rrps_sim.dynamics.bundles import Observations, Reactions
 from rrps_sim.dynamics.frames import supported_pose
 from rrps_sim.dynamics.model import MultibodyDynamics, RunRecord
-from rrps_sim.loads import support_wrench
 
 __all__ = ['SimulationResult', 'simulate']
 

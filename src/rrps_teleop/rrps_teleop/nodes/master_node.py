@@ -35,6 +35,8 @@ from std_srvs.srv import Trigger
 from rrps_description.geometry import load_robot
 from rrps_description.pose import validate_pose
 from rrps_description.rotations import quat_multiply_xyzw, rotation_vector_to_quat_xyzw
+from rrps_hardware.interface import HardwareConfig
+from rrps_hardware.registry import hardware_parameters, master_hardware_class, registered_master_hardware
 from rrps_interfaces.teleop import MASTER_FEEDBACK, MASTER_FRAME, MASTER_POSE, MASTER_STATE, MASTER_TARGET_POSE
 from rrps_kinematics import forward_kinematics, inverse_kinematics
 from rrps_kinematics.jacobian import leg_forces
@@ -47,11 +49,9 @@ from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
 from rrps_runtime.scheduling import scheduling_parameters
 from rrps_runtime.supervision import OPERATOR_RT_PRIORITY
-from rrps_sim.hardware import master_hardware_class
-from rrps_sim.hardware.interface import HardwareConfig
 from rrps_teleop.master import TRAJECTORIES, HandleMotion, MasterModel, scripted_pose
 
-__all__ = ['MasterNode', 'main']
+__all__ = ['MasterNode', 'PARAMETERS', 'hosted_parameters', 'main']
 
 #: master/feedback older than this [s] is ignored (the teleop node sends it at 20 Hz).
 FEEDBACK_TIMEOUT = 0.2
@@ -78,6 +78,13 @@ PARAMETERS = NodeParameters('master_node', 'rrps_teleop', [
               unit='rad/(N m)', range=(0.0, 10.0)),
     *scheduling_parameters(OPERATOR_RT_PRIORITY),
 ])
+#: The parameter that names the master's hardware whose own parameters the node declares.
+HOSTED_BY = 'hardware'
+
+
+def hosted_parameters() -> dict[str, NodeParameters]:
+    """{name: the parameters master_node declares for it} of every installed master hardware."""
+    return {name: hardware_parameters(PARAMETERS, load()) for name, load in registered_master_hardware().items()}
 
 
 class MasterNode(Node):
@@ -121,8 +128,10 @@ class MasterNode(Node):
 
     def _start_hardware(self, values) -> None:
         """Configure and activate the master's hardware; ValueError (the reason) when it fails."""
-        self.hardware = master_hardware_class(values['hardware'])()
-        for verb in (lambda: self.hardware.on_configure(HardwareConfig(self.geometry, values)),
+        hardware = master_hardware_class(values['hardware'])
+        config = HardwareConfig(self.geometry, declare_parameters(self, hardware_parameters(PARAMETERS, hardware)))
+        self.hardware = hardware()
+        for verb in (lambda: self.hardware.on_configure(config),
                      self.hardware.on_activate):
             outcome = verb()
             if not outcome.ok:

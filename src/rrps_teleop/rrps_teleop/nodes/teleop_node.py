@@ -92,7 +92,7 @@ from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, LINK_EVENT_QOS, LINK_STATE
 from rrps_runtime.recording_tap import RecordingTap
 from rrps_teleop.fixture import FixtureConfig, fixture_wrench, master_wrench
 from rrps_teleop.mapping import TeleopConfig, TeleopMapping, TeleopOutput
-from rrps_teleop.nodes.teleop_support import SupportInput
+from rrps_teleop.support_input import SupportInput
 from rrps_teleop.teleop_config import PARAMETERS
 
 __all__ = ['TeleopNode', 'main']

@@ -1,0 +1,39 @@
+from setuptools import find_packages, setup
+
+package_name = 'rrps_hardware'
+#: The nodes of this package: executable -> (module, node class). Registered once, in the
+#: 'rrps.nodes' entry-point group that rrps-compose and rrps-params read, and as the
+#: console scripts that `ros2 run` starts (lib/<package>/<node>).
+NODES = {
+    'driver_node': ('rrps_hardware.nodes.driver_node', 'DriverNode'),
+}
+
+setup(
+    name=package_name,
+    version='0.2.0',
+    packages=find_packages(exclude=['test']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+    ],
+    install_requires=[
+        'setuptools',
+        'numpy',
+        'ruckig',
+        'rrps_description',
+        'rrps_interfaces',
+        'rrps_runtime',
+    ],
+    extras_require={'test': ['pytest']},
+    zip_safe=True,
+    maintainer='rrps maintainers',
+    maintainer_email='maintainers@users.noreply.h-seed-0d31557d.example',
+    description=('The hardware seam of RRPS robots: the driver and master hardware interfaces, their registry '
+                 'and the driver node.'),
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+        ] + [f'{node} = {module}:main' for node, (module, _) in NODES.items()],
+        'rrps.nodes': [f'{node} = {module}:{cls}' for node, (module, cls) in NODES.items()],
+    },
+)

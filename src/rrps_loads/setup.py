@@ -1,0 +1,31 @@
+from setuptools import find_packages, setup
+
+package_name = 'rrps_loads'
+
+setup(
+    name=package_name,
+    version='0.2.0',
+    packages=find_packages(exclude=['test']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+    ],
+    install_requires=[
+        'setuptools',
+        'numpy',
+        'scipy',
+        'rrps_description',
+        'rrps_kinematics',
+    ],
+    extras_require={'test': ['pytest', 'hypothesis']},
+    zip_safe=True,
+    maintainer='rrps maintainers',
+    maintainer_email='maintainers@users.noreply.h-seed-0d31557d.example',
+    description=('Loads of RRPS climbing robots on the 6-DOF model: statics, holding margins, inverse dynamics, '
+                 'loads along a path, the load-feasible workspace.'),
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+        ],
+    },
+)
