@@ -24,7 +24,7 @@ setup(
         'numpy',
         'scipy',
         'ros-jazzy-geometry-msgs',
-        'ros-jazzy-rclpy',
+        'ros-jazzy-rclpy[fastrtps]',
         'ros-jazzy-sensor-msgs',
         'ros-jazzy-std-msgs',
         'rrps_description',

@@ -27,7 +27,7 @@ setup(
         'ros-jazzy-builtin-interfaces',
         'ros-jazzy-diagnostic-msgs',
         'ros-jazzy-geometry-msgs',
-        'ros-jazzy-rclpy',
+        'ros-jazzy-rclpy[fastrtps]',
         'ros-jazzy-sensor-msgs',
         'ros-jazzy-std-msgs',
         'ros-jazzy-std-srvs',

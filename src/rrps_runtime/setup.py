@@ -16,7 +16,7 @@ setup(
         'ros-jazzy-diagnostic-msgs',
         'ros-jazzy-geometry-msgs',
         'ros-jazzy-rcl-interfaces',
-        'ros-jazzy-rclpy',
+        'ros-jazzy-rclpy[fastrtps]',
         'ros-jazzy-sensor-msgs',
         'ros-jazzy-std-msgs',
         'rrps_description',

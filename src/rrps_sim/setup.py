@@ -26,7 +26,7 @@ setup(
         'numpy',
         'scipy',
         'ros-jazzy-rcl-interfaces',
-        'ros-jazzy-rclpy',
+        'ros-jazzy-rclpy[fastrtps]',
         'ros-jazzy-sensor-msgs',
         'ros-jazzy-std-srvs',
         'rrps_description',

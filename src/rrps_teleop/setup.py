@@ -29,7 +29,7 @@ setup(
         'ros-jazzy-geometry-msgs',
         'ros-jazzy-lifecycle-msgs',
         'ros-jazzy-rcl-interfaces',
-        'ros-jazzy-rclpy',
+        'ros-jazzy-rclpy[fastrtps]',
         'ros-jazzy-sensor-msgs',
         'ros-jazzy-std-msgs',
         'ros-jazzy-std-srvs',

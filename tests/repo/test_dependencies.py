@@ -59,6 +59,12 @@ def normalise(name: str) -> str:
     return re.sub(r'[-_.]+', '-', name).lower()
 
 
+def bare(requirement: str) -> str:
+    """A requirement's distribution, without its extras (``ros-jazzy-rclpy[fastrtps]``: the RMW
+    implementation rclpy loads, a run-time dependency of every package that imports rclpy)."""
+    return requirement.split('[')[0]
+
+
 def packages() -> list[str]:
     return sorted(p.parent.name for p in SRC.glob('*/setup.py'))
 
@@ -109,7 +115,7 @@ def deptry_issues(directory: Path, name: str, requires: list[str], tmp_path: Pat
     requirements = tmp_path / f'{name}-requirements.txt'
     requirements.write_text(''.join(f'{r}\n' for r in requires))
     report = tmp_path / f'{name}-deptry.json'
-    names = ','.join(f'{r}={module}' for r in requires if (module := _module_of(r)))
+    names = ','.join(f'{bare(r)}={module}' for r in requires if (module := _module_of(bare(r))))
     command = [sys.executable, '-m', 'deptry', '.', '--no-ansi', '--known-first-party', name,
                '--requirements-files', str(requirements), '--json-output', str(report)]
     command += ['--package-module-name-map', names] if names else []
@@ -121,6 +127,7 @@ def deptry_issues(directory: Path, name: str, requires: list[str], tmp_path: Pat
 
 
 def rosdep_key(requirement: str) -> str:
+    requirement = bare(requirement)
     if requirement.startswith('rrps_'):
         return requirement
     if requirement.startswith(ROS_WHEEL_PREFIX):
@@ -179,7 +186,7 @@ def test_package_xml_declares_the_same_dependencies_as_rosdep_keys(name):
 def test_requirements_pin_every_declared_distribution():
     pinned = pins()
     unpinned = {f'{d.name}: {r}' for d in map(declared, packages()) for r in d.requires
-                if not r.startswith('rrps_') and normalise(r) not in pinned}
+                if not r.startswith('rrps_') and normalise(bare(r)) not in pinned}
     assert not unpinned, f'pin these in requirements.txt: {sorted(unpinned)}'
 
 
