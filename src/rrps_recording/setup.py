@@ -28,6 +28,7 @@ setup(
         'ros-jazzy-diagnostic-msgs',
         'ros-jazzy-geometry-msgs',
         'ros-jazzy-rclpy[fastrtps]',
+        'ros-jazzy-rosgraph-msgs',
         'ros-jazzy-sensor-msgs',
         'ros-jazzy-std-msgs',
         'ros-jazzy-std-srvs',

@@ -81,7 +81,7 @@ def test_the_package_installs_alone_imports_and_starts(name, package_wheels, tmp
     installed = _run([python, '-c', 'import sys; print(sys.path)'], env).stdout
     assert str(ROOT) not in installed and '.venv' not in installed, installed
     out = _run([python, '-c', IMPORT_ALL, name], env, timeout=300)
-    assert out.returncode == 0, f'a module of {name} does not import with its declared dependencies:\n{out.stderr[-3000:]}'
+    assert out.returncode == 0, f'{name} does not import with its declared dependencies:\n{out.stderr[-3000:]}'
     assert f'{venv}' in out.stdout, out.stdout   # the installed package, not the source
     tools = sorted(ep.name for ep in distribution(name).entry_points
                    if ep.group == 'console_scripts' and ep.name.startswith('rrps-'))

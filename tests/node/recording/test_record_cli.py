@@ -23,7 +23,8 @@ def _parameters(argv: list[str]) -> dict[str, str]:
 
 
 def test_o_names_the_bag_folder():
-    assert {'output_dir': 'runs/today', 'prefix': 'session'}.items() <= _parameters(['-o', 'runs/today/session']).items()
+    nested = _parameters(['-o', 'runs/today/session'])
+    assert {'output_dir': 'runs/today', 'prefix': 'session'}.items() <= nested.items()
     assert {'output_dir': '.', 'prefix': 'session'}.items() <= _parameters(['-o', 'session']).items()
     flight = _parameters(['--flight-recorder-only', '-o', 'faults'])
     assert flight['output_dir'] == 'faults' and 'prefix' not in flight and flight['record'] == 'false'
