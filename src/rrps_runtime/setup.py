@@ -15,6 +15,7 @@ setup(
         'PyYAML',
         'ros-jazzy-diagnostic-msgs',
         'ros-jazzy-geometry-msgs',
+        'ros-jazzy-nav-msgs',
         'ros-jazzy-rcl-interfaces',
         'ros-jazzy-rclpy[fastrtps]',
         'ros-jazzy-sensor-msgs',

@@ -28,6 +28,7 @@ setup(
         'ros-jazzy-diagnostic-msgs',
         'ros-jazzy-geometry-msgs',
         'ros-jazzy-lifecycle-msgs',
+        'ros-jazzy-nav-msgs',
         'ros-jazzy-rcl-interfaces',
         'ros-jazzy-rclpy[fastrtps]',
         'ros-jazzy-sensor-msgs',

@@ -228,4 +228,5 @@ def test_a_dropped_or_a_surplus_declaration_fails(tmp_path):
 def test_a_package_xml_that_disagrees_fails():
     d = declared('rrps_teleop')
     assert package_xml_disagreements(replace(d, exec_depends=d.exec_depends[1:])) == {'missing': [d.exec_depends[0]]}
-    assert package_xml_disagreements(replace(d, exec_depends=(*d.exec_depends, 'nav_msgs'))) == {'extra': ['nav_msgs']}
+    extra = replace(d, exec_depends=(*d.exec_depends, 'trajectory_msgs'))
+    assert package_xml_disagreements(extra) == {'extra': ['trajectory_msgs']}

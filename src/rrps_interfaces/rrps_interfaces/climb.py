@@ -5,7 +5,9 @@ Topics and services (relative names)::
     CLIMB_STATUS         diagnostic_msgs/DiagnosticStatus  values: ClimbStatus
     CLIMB_PREVIEW        diagnostic_msgs/DiagnosticStatus  values: ClimbPreview (latched: the last)
     CLIMB_STEP_UP, CLIMB_STEP_DOWN, CLIMB_RESUME  std_srvs/Trigger
-    odometry_topic(ring) geometry_msgs/PoseStamped  the ring's pose in frame world
+    ODOMETRY             nav_msgs/Odometry  the robot's odometry (REP-105): base_link (ring_a) in
+                         odom, its twist in base_link, both with covariance
+    odometry_topic(ring) geometry_msgs/PoseStamped  the ring's pose in frame odom (the world)
 
 Pure Python, no ROS import.
 """
@@ -18,8 +20,8 @@ import enum
 from rrps_description.names import RINGS
 from rrps_interfaces.status import StatusValues
 
-__all__ = ['CLIMB_STATUS', 'CLIMB_PREVIEW', 'CLIMB_STEP_UP', 'CLIMB_STEP_DOWN', 'CLIMB_RESUME', 'odometry_topic',
-           'ClimbState', 'PauseReason', 'PhaseAction', 'PreviewLimit', 'StepRefusal', 'ClimbStatus',
+__all__ = ['CLIMB_STATUS', 'CLIMB_PREVIEW', 'CLIMB_STEP_UP', 'CLIMB_STEP_DOWN', 'CLIMB_RESUME', 'ODOMETRY',
+           'odometry_topic', 'ClimbState', 'PauseReason', 'PhaseAction', 'PreviewLimit', 'StepRefusal', 'ClimbStatus',
            'ClimbPreview']
 
 CLIMB_STATUS = 'climb/status'
@@ -27,6 +29,7 @@ CLIMB_PREVIEW = 'climb/preview'
 CLIMB_STEP_UP = 'climb/step_up'
 CLIMB_STEP_DOWN = 'climb/step_down'
 CLIMB_RESUME = 'climb/resume'
+ODOMETRY = 'odometry'
 
 
 def odometry_topic(ring: str) -> str:

@@ -9,7 +9,7 @@ Topics and services (relative names)::
     /diagnostics          values: RecorderStatus (recorder_node)
     REPLAY_STATUS         diagnostic_msgs/DiagnosticStatus  values: ReplayStatus (replay_node)
     ROBOT_MARKERS         visualization_msgs/MarkerArray    the robot in frame ring_a and world
-    TF                    tf2_msgs/TFMessage  world -> ring_a and the URDF's moving joints
+    TF                    tf2_msgs/TFMessage  odom -> base_link (REP-105) and the URDF's moving joints
     TF_STATIC             tf2_msgs/TFMessage  the URDF's fixed joints (latched)
     CLOCK                 rosgraph_msgs/Clock  a replay's time (replay_node): what nodes with
                                                use_sim_time read as now

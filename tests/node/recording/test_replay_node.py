@@ -289,7 +289,7 @@ def test_the_recorders_tf_is_replayed_as_tf2_msgs(ros_context, tmp_path):
     ring_b = pose_in(replayed, 'ring_b', 'ring_a')  # through leg 1's chain, as the URDF hangs it
     np.testing.assert_allclose(ring_b.position, a_T_b.position, atol=1e-12)
     np.testing.assert_allclose(ring_b.quaternion_xyzw, a_T_b.quaternion_xyzw, atol=1e-12)
-    assert last[('world', 'ring_a')].transform.translation.z == 1.2
+    assert last[('odom', 'base_link')].transform.translation.z == 1.2
 
 
 def test_clock_is_the_recordings_time_and_a_use_sim_time_node_follows_it(ros_context, tmp_path):

@@ -8,7 +8,9 @@ feeds it ``pose`` (a_T_b, frame ring_a; the newest sample at the node's ``rate``
 extra ring DOF, ``actuators/state``; it publishes what the machine asks for: ``target_pose``
 (and ``target_rings``) through the IK node's guards, requests to the driver's
 ``grippers/<ring>/set``, ``climb/status`` (values :class:`~rrps_interfaces.climb.ClimbStatus`)
-and ``odometry/ring_a|ring_b`` (frame ``world``, stamped with the pose they were chained from).
+``odometry`` (nav_msgs/Odometry, REP-105: ``base_link`` in ``odom``, its twist, the covariance of
+:mod:`rrps_kinematics.base_odometry`) and ``odometry/ring_a|ring_b`` (each ring in ``odom``), all
+stamped with the pose they were chained from, their frames named with ``frame_prefix``.
 
 Services ``climb/step_up``, ``climb/step_down`` and ``climb/resume`` (std_srvs/Trigger);
 ``auto_steps`` > 0 climbs that many steps up once the robot's state is known.
@@ -28,12 +30,13 @@ from concurrent.futures import Future, ThreadPoolExecutor
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 
 from rrps_description.geometry import load_robot
-from rrps_description.names import RING_A_FRAME, RINGS, WORLD_FRAME, ring_joint
+from rrps_description.names import BASE_FRAME, ODOM_FRAME, RING_A_FRAME, RINGS, prefixed, ring_joint
 from rrps_description.pose import QUATERNION_TOLERANCE, InvalidPose, Pose
 from rrps_description.structures import STRUCTURES, structure_from_parameters
 from rrps_interfaces.climb import (
@@ -42,6 +45,7 @@ from rrps_interfaces.climb import (
     CLIMB_STATUS,
     CLIMB_STEP_DOWN,
     CLIMB_STEP_UP,
+    ODOMETRY,
     ClimbPreview,
     ClimbState,
     ClimbStatus,
@@ -51,8 +55,9 @@ from rrps_interfaces.driver import GRIPPERS_STATE, DriverStatus, gripper_service
 from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE, TARGET_POSE, TARGET_RINGS
 from rrps_interfaces.status import DIAGNOSTICS, source_node
 from rrps_interfaces.teleop import TELEOP_STATUS, TeleopStatus
+from rrps_kinematics.base_odometry import BaseOdometry
 from rrps_runtime.diagnostics import ERROR, OK, WARN, Diagnostics
-from rrps_runtime.messages import joint_state_msg, pose_from_msg, pose_to_msg
+from rrps_runtime.messages import joint_state_msg, odometry_msg, pose_from_msg, pose_to_msg, stamp_to_seconds
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
@@ -105,6 +110,10 @@ PARAMETERS = NodeParameters('climb_node', 'rrps_teleop', [
     Parameter('gravity', (0.0, 0.0, -9.81), "the world's gravity in the structure's frame (the preview's)",
               unit='m/s^2', item_type=float),
     Parameter('preview_min_margin', 0.0, 'smallest holding margin a preview accepts', range=(-1.0, 1.0)),
+    Parameter('frame_prefix', '', "the odometry's frames are <frame_prefix>odom, <frame_prefix>base_link (as "
+              "robot_state_publisher's frame_prefix: several robots in one domain)"),
+    Parameter('odometry_length_stddev', 1e-4, "standard deviation of a measured leg length: the odometry's "
+              'covariance', unit='m', range=(0.0, 0.1)),
 ])
 
 LEVELS = {ClimbState.IDLE: OK, ClimbState.EXECUTING: OK, ClimbState.PAUSED: ERROR, ClimbState.FAILED: ERROR}
@@ -151,6 +160,9 @@ class ClimbNode(Node):
         self._preview_pub = self.create_publisher(DiagnosticStatus, CLIMB_PREVIEW, LATCHED_QOS)
         self._odo_pubs = {ring: self._tap.create_publisher(PoseStamped, odometry_topic(ring), STATE_QOS)
                           for ring in RINGS}
+        self._frames = (prefixed(values['frame_prefix'], ODOM_FRAME), prefixed(values['frame_prefix'], BASE_FRAME))
+        self._base_odometry = BaseOdometry(self.geometry, values['odometry_length_stddev'], config.period)
+        self._base_pub = self.create_publisher(Odometry, ODOMETRY, STATE_QOS)
         self.create_subscription(PoseStamped, POSE, self._on_pose, LATEST_QOS)
         self.create_subscription(JointState, GRIPPERS_STATE, self._on_grippers, STATE_QOS)
         # the operator station's sign of life: the newest sample counts; a reliable reader would
@@ -322,14 +334,19 @@ class ClimbNode(Node):
             self._ring_pub.publish(joint_state_msg(stamp, target.ring_angles, names=self._ring_joints))
 
     def _publish_odometry(self) -> None:
-        """The latest world poses of both rings, at the node's ``rate`` (not at the pose rate)."""
+        """The latest world poses of both rings and base_link's odometry, at the node's ``rate``
+        (not at the pose rate)."""
         if self._odometry is None:
             return
         world_T_a, world_T_b, stamp = self._odometry
         self._odometry = None
+        odom, base = self._frames
         for ring, T in (('ring_a', world_T_a), ('ring_b', world_T_b)):
-            self._odo_pubs[ring].publish(pose_to_msg(T.position, T.quaternion_xyzw, frame_id=WORLD_FRAME,
-                                                     stamp=stamp))
+            self._odo_pubs[ring].publish(pose_to_msg(T.position, T.quaternion_xyzw, frame_id=odom, stamp=stamp))
+        grippers = self.machine.grippers
+        estimate = self._base_odometry.update(world_T_a, world_T_a.inverse() @ world_T_b,
+                                              grippers is None or grippers['ring_a'], stamp_to_seconds(stamp))
+        self._base_pub.publish(odometry_msg(estimate, stamp=stamp, frame_id=odom, child_frame_id=base))
 
     def _publish_status(self, status: ClimbStatus) -> None:
         level = WARN if status.state is ClimbState.IDLE and self.machine.plan_refused else LEVELS[status.state]
