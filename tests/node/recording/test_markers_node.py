@@ -79,7 +79,7 @@ def test_markers_of_the_robot_in_ring_a_and_odom(ros_context):
 
 #: The RIHS01 type hash of tf2_msgs/msg/TFMessage on ROS 2 Jazzy, as `ros2 topic info -v /tf`
 #: shows it on Jazzy installs from the ROS packages (the upstream tf2_msgs): the one built by
-#: tools/build_tf2_msgs.sh must be the same for real tf2 consumers to accept our /tf.
+#: tools/build_interfaces.sh must be the same for real tf2 consumers to accept our /tf.
 JAZZY_TF_MESSAGE_HASH = 'RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087'
 
 

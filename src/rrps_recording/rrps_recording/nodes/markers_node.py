@@ -15,7 +15,7 @@ from ``actuators/state``), computed as the recorder computes its ``/tf``
 (:func:`rrps_recording.markers.robot_transforms`); the URDF's fixed joints once on
 ``/tf_static`` (latched, as tf2_ros' StaticTransformBroadcaster): what robot_state_publisher
 publishes from robot_description and joint_states (robot_description_node). tf2_msgs is not on PyPI:
-``./rrps`` builds it (tools/build_tf2_msgs.sh) when cmake and a C compiler are there; without
+``./rrps`` builds it (tools/build_interfaces.sh) when cmake and a C compiler are there; without
 it the node logs that live /tf is off and publishes the markers only. Every frame, of /tf and of
 the markers, is named with ``frame_prefix`` (``robot_1/odom``, ``robot_1/base_link``, ...), as
 robot_state_publisher's parameter names them: several robots in one domain share /tf.
