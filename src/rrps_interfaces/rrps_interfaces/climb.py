@@ -4,7 +4,9 @@ Topics and services (relative names)::
 
     CLIMB_STATUS         diagnostic_msgs/DiagnosticStatus  values: ClimbStatus
     CLIMB_PREVIEW        diagnostic_msgs/DiagnosticStatus  values: ClimbPreview (latched: the last)
-    CLIMB_STEP_UP, CLIMB_STEP_DOWN, CLIMB_RESUME  std_srvs/Trigger
+    CLIMB_STEP           rrps_msgs/action/ClimbStep  one step up or down: feedback (state, phase,
+                         progress, the preview's margins), cancel (the step holds, paused)
+    CLIMB_STEP_UP, CLIMB_STEP_DOWN, CLIMB_RESUME  std_srvs/Trigger (the same step; resume)
     ODOMETRY             nav_msgs/Odometry  the robot's odometry (REP-105): base_link (ring_a) in
                          odom, its twist in base_link, both with covariance
     odometry_topic(ring) geometry_msgs/PoseStamped  the ring's pose in frame odom (the world)
@@ -20,12 +22,13 @@ import enum
 from rrps_description.names import RINGS
 from rrps_interfaces.status import StatusValues
 
-__all__ = ['CLIMB_STATUS', 'CLIMB_PREVIEW', 'CLIMB_STEP_UP', 'CLIMB_STEP_DOWN', 'CLIMB_RESUME', 'ODOMETRY',
-           'odometry_topic', 'ClimbState', 'PauseReason', 'PhaseAction', 'PreviewLimit', 'StepRefusal', 'ClimbStatus',
-           'ClimbPreview']
+__all__ = ['CLIMB_STATUS', 'CLIMB_PREVIEW', 'CLIMB_STEP', 'CLIMB_STEP_UP', 'CLIMB_STEP_DOWN', 'CLIMB_RESUME',
+           'ODOMETRY', 'odometry_topic', 'ClimbState', 'PauseReason', 'PhaseAction', 'PreviewLimit', 'StepRefusal',
+           'ClimbStatus', 'ClimbPreview']
 
 CLIMB_STATUS = 'climb/status'
 CLIMB_PREVIEW = 'climb/preview'
+CLIMB_STEP = 'climb/step'
 CLIMB_STEP_UP = 'climb/step_up'
 CLIMB_STEP_DOWN = 'climb/step_down'
 CLIMB_RESUME = 'climb/resume'
@@ -54,6 +57,7 @@ class PauseReason(enum.Enum):
     ROBOT_STATE_LOST = 'robot state lost'        # pose or grippers/state older than state_timeout
     OPERATOR_LINK_LOST = 'operator link lost'    # the operator station's teleop/status went silent
     DRIVER_INACTIVE = 'driver inactive'          # the driver left its active state
+    CANCELLED = 'cancelled'                      # the operator cancelled the step (its action)
 
 
 class PhaseAction(enum.Enum):
@@ -88,7 +92,8 @@ class ClimbStatus(StatusValues):
     """climb/status values: the state, where the step is (``step``, the phase's ``action`` and
     ``ring``), the rings' route positions [m] and the reason in words (``detail``).
     ``previewing``: a requested step is being previewed (the state stays IDLE until it starts);
-    ``refusal``: why the last requested step did not start (None: it started, or none asked)."""
+    ``refusal``: why the last requested step did not start (None: it started, or none asked);
+    ``phase_index`` of the step's ``phases`` (0 when idle)."""
 
     state: ClimbState
     pause_reason: PauseReason | None = None
@@ -102,6 +107,8 @@ class ClimbStatus(StatusValues):
     detail: str = ''
     previewing: bool = False
     refusal: StepRefusal | None = None
+    phase_index: int = 0
+    phases: int = 0
 
     @property
     def phase(self) -> str:

@@ -12,7 +12,9 @@ extra ring DOF, ``actuators/state``; it publishes what the machine asks for: ``t
 :mod:`rrps_kinematics.base_odometry`) and ``odometry/ring_a|ring_b`` (each ring in ``odom``), all
 stamped with the pose they were chained from, their frames named with ``frame_prefix``.
 
-Services ``climb/step_up``, ``climb/step_down`` and ``climb/resume`` (std_srvs/Trigger);
+The action ``climb/step`` (rrps_msgs/action/ClimbStep: feedback, cancel;
+:mod:`rrps_teleop.nodes.climb_action`, where rrps_msgs is built) and the services
+``climb/step_up``, ``climb/step_down`` and ``climb/resume`` (std_srvs/Trigger);
 ``auto_steps`` > 0 climbs that many steps up once the robot's state is known.
 
 With ``preview`` (default), each planned step is first simulated on the dynamics in a worker
@@ -43,6 +45,7 @@ from rrps_interfaces.climb import (
     CLIMB_PREVIEW,
     CLIMB_RESUME,
     CLIMB_STATUS,
+    CLIMB_STEP,
     CLIMB_STEP_DOWN,
     CLIMB_STEP_UP,
     ODOMETRY,
@@ -69,6 +72,7 @@ from rrps_teleop.climbing.load_check import LoadCheck
 from rrps_teleop.climbing.step_io import ClimbOutput, ClimbTarget, StepConfig
 from rrps_teleop.climbing.step_machine import ClimbStepMachine
 from rrps_teleop.climbing.step_preview import PreviewConfig, run_preview
+from rrps_teleop.nodes.climb_action import ClimbAction
 
 __all__ = ['PARAMETERS', 'ClimbNode', 'main']
 
@@ -174,6 +178,14 @@ class ClimbNode(Node):
         self.create_service(Trigger, CLIMB_RESUME, lambda req, res: self._request(res, self.machine.resume))
         self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, STATE_QOS)
         self._diag = Diagnostics(self, 'climb', hardware_id=self.geometry.name)
+        self._action = None
+        try:
+            from rrps_msgs.action import ClimbStep  # optional: built by ./rrps (tools/rrps_msgs), not on PyPI
+        except ImportError as exc:
+            self.get_logger().info(f'the {CLIMB_STEP} action is off: rrps_msgs is not installed ({exc}); '
+                                   'the step services serve')
+        else:
+            self._action = ClimbAction(self, ClimbStep, self._carry_out)
         self.create_timer(config.period, self._on_tick)
         self.create_timer(0.5, lambda: self._publish_status(self.machine.report()))
 
@@ -290,6 +302,8 @@ class ClimbNode(Node):
                                message=preview.detail, hardware_id=self.geometry.name)
         msg.values = [KeyValue(key=k, value=v) for k, v in preview.to_values().items()]
         self._preview_pub.publish(msg)
+        if self._action is not None:
+            self._action.preview = preview
         self._carry_out(self.machine.on_preview(preview, self._now()))
 
     def _on_tick(self) -> None:
@@ -298,6 +312,8 @@ class ClimbNode(Node):
         self._take_pose()
         self._publish_odometry()
         self._carry_out(self.machine.tick(self._now()))
+        if self._action is not None:
+            self._action.tick(self._now())
 
     # --- outputs --------------------------------------------------------------------------------
 
@@ -359,6 +375,8 @@ class ClimbNode(Node):
 
     def destroy_node(self) -> None:
         self._closing.set()
+        if self._action is not None:
+            self._action.close()
         self._preview_worker.shutdown(wait=True, cancel_futures=True)
         super().destroy_node()
 
