@@ -21,7 +21,7 @@ class NoRos(importlib.abc.MetaPathFinder):
         return None
 
 sys.meta_path.insert(0, NoRos())
-ROS_MODULES = {{'rrps_runtime.' + m for m in ('diagnostics', 'messages', 'parameters', 'process', 'qos',
+ROS_MODULES = {{'rrps_runtime.' + m for m in ('action_host', 'diagnostics', 'messages', 'parameters', 'process', 'qos',
                                                'recording_tap')}}
 imported = []
 for package in ('rrps_description', 'rrps_interfaces', 'rrps_runtime', 'rrps_kinematics', 'rrps_sim',
