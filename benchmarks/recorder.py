@@ -79,8 +79,8 @@ def _session(seconds: float, out_dir: Path, deadman, climb, Trigger) -> int:
     """Record ``seconds`` of teleop motion, then a climb step; print the recording."""
     from rrps_runtime.supervision import stop_child
     recorder = subprocess.Popen(
-        [sys.executable, '-m', 'rrps_recording.record_cli', '-o', str(out_dir), '--prefix',
-         'session', '--namespace', '/rrps'], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        [sys.executable, '-m', 'rrps_recording.record_cli', '-o', str(out_dir / 'session'),
+         '--namespace', '/rrps'], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         time.sleep(3.0)  # discovery
         t0 = time.monotonic()
@@ -169,8 +169,7 @@ def main() -> int:
         if args.session > 0.0:
             return _session(args.session, out_dir, deadman, climb, Trigger)
         pids = [p.pid for p in stack]
-        record = [sys.executable, '-m', 'rrps_recording.record_cli', '-o', str(out_dir),
-                  '--namespace', '/rrps']
+        record = [sys.executable, '-m', 'rrps_recording.record_cli', '--namespace', '/rrps']
         listener = [sys.executable, str(Path(__file__).resolve().parent / '_raw_listener.py'),
                     '--namespace', '/rrps']
         # The stack's own CPU drifts by several % of a core from one phase to the next on a
@@ -189,8 +188,8 @@ def main() -> int:
                 command = {'listener': listener,
                            'load': [sys.executable, str(Path(__file__).resolve().parent
                                                         / '_cpu_load.py'), f'{duty:.4f}'],
-                           'recorder': record + ['--prefix', f'phase{i}'],
-                           'recorder_dds': record + ['--prefix', f'phase{i}', '--ros-args',
+                           'recorder': record + ['-o', str(out_dir / f'phase{i}')],
+                           'recorder_dds': record + ['-o', str(out_dir / f'phase{i}'), '--ros-args',
                                                      '-p', 'use_taps:=false']}[kind]
                 recorder = start_child(command, nice=OBSERVER_NICE, stdout=subprocess.DEVNULL,
                                        stderr=subprocess.DEVNULL)

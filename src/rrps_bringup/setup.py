@@ -8,6 +8,11 @@ NODES = {
     'link_relay_node': ('rrps_bringup.nodes.link_relay_node', 'LinkRelayNode'),
 }
 
+#: What this package needs at run time without importing it (tests/repo/test_dependencies.py
+#: expects each one here, and only those): rrps_recording, whose recorder_node and markers_node
+#: the demo starts (rrps.nodes entry points).
+USED_WITHOUT_IMPORT = ['rrps_recording']
+
 setup(
     name=package_name,
     version='0.2.0',
@@ -20,22 +25,28 @@ setup(
         ('share/' + package_name + '/config/foxglove', glob('config/foxglove/*.json')),
     ],
     install_requires=[
-        'setuptools',
+        'numpy',
         'PyYAML',
-        'rrps_description',
-        'rrps_interfaces',
-        'rrps_runtime',
-        'rrps_kinematics',
-        'rrps_hardware',
-        'rrps_loads',
-        'rrps_sim',
+        'ros-jazzy-ament-index-python',
+        'ros-jazzy-diagnostic-msgs',
+        'ros-jazzy-geometry-msgs',
+        'ros-jazzy-rclpy[fastrtps]',
+        'ros-jazzy-sensor-msgs',
+        'ros-jazzy-std-msgs',
+        'ros-jazzy-std-srvs',
         'rrps_canopen',
-        'rrps_teleop',
+        'rrps_canopen',
         'rrps_climbing',
+        'rrps_description',
+        'rrps_hardware',
+        'rrps_interfaces',
+        'rrps_kinematics',
+        'rrps_loads',
+        'rrps_runtime',
+        'rrps_sim',
+        'rrps_teleop',
         'rrps_viewer',
-        'rrps_recording',
-    ],
-    extras_require={'test': ['pytest', 'hypothesis']},
+    ] + USED_WITHOUT_IMPORT,
     zip_safe=True,
     maintainer='rrps maintainers',
     maintainer_email='maintainers@users.noreply.h-seed-0d31557d.example',

@@ -8,6 +8,11 @@ package_name = 'rrps_canopen'
 HARDWARE = {'canopen': 'rrps_canopen.robot:CanopenRobot'}
 MASTER_HARDWARE = {'canopen': 'rrps_canopen.master_hardware:CanopenMaster'}
 
+#: What this package needs at run time without importing it (tests/repo/test_dependencies.py
+#: expects each one here, and only those): msgpack, with which python-can's udp_multicast packs
+#: the loopback bus' frames (python-can's own multicast extra would pin an older msgpack).
+USED_WITHOUT_IMPORT = ['msgpack']
+
 setup(
     name=package_name,
     version='0.2.0',
@@ -19,18 +24,14 @@ setup(
         ('share/' + package_name + '/eds', glob(package_name + '/eds/*.eds')),
     ],
     install_requires=[
-        'setuptools',
-        'numpy',
         'canopen',
+        'numpy',
         'python-can',
-        'msgpack',
         'rrps_description',
-        'rrps_interfaces',
-        'rrps_runtime',
-        'rrps_kinematics',
         'rrps_hardware',
-    ],
-    extras_require={'test': ['pytest']},
+        'rrps_kinematics',
+        'rrps_runtime',
+    ] + USED_WITHOUT_IMPORT,
     zip_safe=True,
     maintainer='rrps maintainers',
     maintainer_email='maintainers@users.noreply.h-seed-0d31557d.example',

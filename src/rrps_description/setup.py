@@ -15,11 +15,10 @@ setup(
         ('share/' + package_name + '/robots', glob(package_name + '/robots/*.yaml')),
     ],
     install_requires=[
-        'setuptools',
         'numpy',
         'PyYAML',
+        'scipy',
     ],
-    extras_require={'test': ['pytest', 'hypothesis']},
     zip_safe=True,
     maintainer='rrps maintainers',
     maintainer_email='maintainers@users.noreply.h-seed-0d31557d.example',

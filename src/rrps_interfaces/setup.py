@@ -11,10 +11,8 @@ setup(
         ('share/' + package_name, ['package.xml']),
     ],
     install_requires=[
-        'setuptools',
         'rrps_description',
     ],
-    extras_require={'test': ['pytest', 'hypothesis']},
     zip_safe=True,
     maintainer='rrps maintainers',
     maintainer_email='maintainers@users.noreply.h-seed-0d31557d.example',

@@ -11,7 +11,6 @@ setup(
         ('share/' + package_name, ['package.xml']),
     ],
     install_requires=[
-        'setuptools',
         'numpy',
         'scipy',
         'rrps_description',

@@ -252,8 +252,13 @@ def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa
 
     # The robot is drawn: hiding its scene nodes changes the picture in the 3-D view.
     # Counted in the 3-D view only: the panel on the right updates live (latency, plots) meanwhile.
-    count, _ = _changed_pixels(shots['robot'], shots['hidden'], VIEW_WIDTH)
+    count, box = _changed_pixels(shots['robot'], shots['hidden'], VIEW_WIDTH)
     assert count > 2000, f'only {count} pixels of the 3-D view changed when the robot was hidden'
+    # The first view is framed on it (odometry placed it): all of it inside the 3-D view, clear
+    # of the view's edges (the top one cut the frame climber off before).
+    from PIL import Image
+    height = Image.open(shots['robot']).height
+    assert box[0] > 2 and box[1] > 2 and box[2] < VIEW_WIDTH - 3 and box[3] < height - 3, (box, height)
     # The reachable workspace is drawn around the robot (hidden with it) and on the master: in
     # the browser, once the robot shows again, the robot's copy adds its pixels to the master's.
     ws_shown, ws_hidden = _workspace_pixels(shots['shown']), _workspace_pixels(shots['hidden'])

@@ -41,7 +41,6 @@ DDS stays on this machine: ``ROS_AUTOMATIC_DISCOVERY_RANGE`` defaults to LOCALHO
 
 from __future__ import annotations
 
-import argparse
 import os
 import shutil
 import signal
@@ -52,6 +51,7 @@ import threading
 import time
 from collections.abc import Mapping
 
+from rrps_bringup.demo_arguments import demo_parser
 from rrps_bringup.scenarios import SCENARIOS, ros_arguments, scenario
 
 __all__ = ['main', 'build_stack', 'start_driver', 'start_robot_nodes', 'start_operator_nodes', 'start_recorder',
@@ -62,35 +62,6 @@ NAMESPACE = '/rrps'
 #: the viewer runs in the demo's own process.
 ROBOT_NODES = ('ik_node', 'fk_node', 'climb_node')
 OPERATOR_NODES = ('master_node', 'teleop_node')
-
-
-def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
-        prog='rrps-demo', description='Run the whole rrps stack with the web viewer, in five supervised '
-                                      'processes: the driver; IK, FK and climb (the robot computer); '
-                                      'master and teleop, and the viewer (the operator station); recorder '
-                                      'and markers (observers).')
-    p.add_argument('--host', default='127.0.0.1',
-                   help='address the viewer binds (default 127.0.0.1; 0.0.0.0 for remote operators)')
-    p.add_argument('--port', type=int, default=8080, help='viewer port (default 8080)')
-    p.add_argument('--token', default='',
-                   help='operator token (default: a random one, printed at start-up)')
-    p.add_argument('--robot', default=None,
-                   help="shipped robot name or robot YAML path (default pole_climber, or the scenario's)")
-    p.add_argument('--scenario', default=None,
-                   help='a robot on its structure in the world with a payload: '
-                        f'{" | ".join(SCENARIOS)} (with --headless: a scripted load scenario)')
-    p.add_argument('--headless', action='store_true',
-                   help='no browser: run a scripted teleop session and a climb step, then exit '
-                        '(0 = success)')
-    p.add_argument('--recordings', default='rrps_recordings',
-                   help='folder of the flight recorder\'s files (and of --record)')
-    p.add_argument('--record', action='store_true',
-                   help='also record the whole session to MCAP in --recordings')
-    p.add_argument('--hardware', choices=('simulated', 'canopen'), default='simulated',
-                   help="the driver's hardware: simulated, or canopen (simulated CiA 402 drives on a loopback "
-                        'CAN bus; default simulated)')
-    return p
 
 
 def build_stack(context, *, robot: str, host: str, port: int, token: str,
@@ -395,7 +366,7 @@ def _script(args, context):
 
 
 def main(argv=None) -> int:
-    args = _parser().parse_args(argv)
+    args = demo_parser().parse_args(argv)
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     error = _argument_error(args)
     if error is not None:

@@ -7,8 +7,9 @@ the headless demo (:mod:`rrps_bringup.headless`) and the scenarios
 (:mod:`rrps_bringup.scenario_script`, :mod:`rrps_bringup.frame_script`) build on;
 :meth:`ScriptedOperator.teleop_session` engages, moves the handle, and releases the deadman,
 checking that the robot followed and then held; :meth:`ScriptedOperator.climb_step` requests one
-climbing step up (``climb/step_up``), waits for its preview and its execution, and resumes it
-when it paused.
+climbing step up (the action ``climb/step``, or ``climb/step_up`` where rrps_msgs is not built:
+:class:`~rrps_viewer.climb_step_client.ClimbStepClient`), waits for its preview and its
+execution, and resumes it when it paused.
 
 Like a person, it resumes a climbing step that paused (the robot's state or the operator link
 was late: the step holds, see ``PauseReason``) once the step accepts the resume, at most
@@ -32,7 +33,6 @@ from rrps_interfaces.climb import (
     CLIMB_PREVIEW,
     CLIMB_RESUME,
     CLIMB_STATUS,
-    CLIMB_STEP_UP,
     ClimbPreview,
     ClimbState,
     ClimbStatus,
@@ -49,6 +49,7 @@ from rrps_interfaces.teleop import (
 )
 from rrps_runtime.messages import pose_from_msg, pose_to_msg
 from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, STATE_QOS
+from rrps_viewer.climb_step_client import ClimbStepClient
 
 __all__ = ['ScriptedOperator', 'Check', 'WAIT', 'MAX_RESUMES', 'PREVIEW_WAIT', 'print_summary']
 
@@ -89,9 +90,13 @@ class ScriptedOperator(Node):
         self.create_subscription(DiagnosticStatus, CLIMB_PREVIEW,
                                  lambda m: self._store(CLIMB_PREVIEW, m), LATCHED_QOS)
         self._enable = self.create_publisher(Bool, TELEOP_ENABLE, COMMAND_QOS)
-        self._step_up = self.create_client(Trigger, CLIMB_STEP_UP)
+        self._step = ClimbStepClient(self)   # the climb/step action (or climb/step_up without rrps_msgs)
         self._resume = self.create_client(Trigger, CLIMB_RESUME)
         self._handle = self.create_publisher(PoseStamped, MASTER_TARGET_POSE, COMMAND_QOS)
+
+    def destroy_node(self) -> None:
+        self._step.close()
+        super().destroy_node()
 
     def _store(self, topic: str, msg) -> None:
         with self._lock:
@@ -230,13 +235,12 @@ class ScriptedOperator(Node):
         """Request one climbing step up, wait for its preview (up to :data:`PREVIEW_WAIT`) and
         its execution, resuming a pause at most :data:`MAX_RESUMES` times. Returns the checks and
         the climb status the step ended in (None: it did not start)."""
-        if not self._step_up.wait_for_service(timeout_sec=WAIT):
-            return [('climb/step_up service available', False)], None
-        future = self._step_up.call_async(Trigger.Request())
-        got = self._wait(future.done, WAIT, stop)
-        response = future.result() if got else None
-        accepted = response is not None and response.success
-        self._say(f'climb/step_up -> {response.message if response is not None else "no answer"!r}')
+        if not self._wait(self._step.ready, WAIT, stop):
+            return [(f'{self._step.name} available', False)], None
+        answer: dict = {}
+        self._step.request(+1, lambda ok, text: answer.update(ok=ok, text=text))
+        accepted = self._wait(lambda: 'ok' in answer, WAIT, stop) and answer['ok']
+        self._say(f'{self._step.name} -> {answer.get("text", "no answer")!r}')
         checks = [('climb step up accepted', accepted)]
         if not accepted:
             return checks, None
@@ -272,6 +276,9 @@ class ScriptedOperator(Node):
         resumed = f' after {len(pauses)} resume(s) ({", ".join(pauses)})' if pauses else ''
         checks.append((f'climb step executed and ended idle{resumed}',
                        seen_executing and done and final.state is ClimbState.IDLE))
+        if self._step.result is not None:   # the action's goal succeeded too
+            succeeded = self._wait(self._step.result.done, WAIT, stop) and self._step.result.result().result.success
+            checks.append(('climb/step action succeeded', bool(succeeded)))
         return checks, final
 
     def _resume_climb(self, stop: threading.Event) -> bool:

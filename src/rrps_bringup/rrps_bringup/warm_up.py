@@ -7,11 +7,14 @@ compile them in a running node. This runs each of them once, with the argument t
 uses: IK and FK (single, and batches serial and on every thread), the reachable workspace
 (serial and parallel), the limits of one pose, the assembly modes' path tracker, the teleop guards,
 a short preview on either ring and the CSV text of ``rrps-dynamics simulate``.
+Each group of kernels says when it is compiled, and how long it took (:func:`_say`): the first
+install compiles for minutes (docs/measurements.md), a later one loads them from the cache.
 Nothing is compiled when numba is off (``RRPS_NUMBA=0``) or missing.
 """
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import sys
 import time
@@ -45,6 +48,14 @@ def warm_up(robot: str = ROBOT) -> float:
     return time.perf_counter() - start
 
 
+@contextlib.contextmanager
+def _say(what: str):
+    """Print when the kernels of ``what`` are compiled (or loaded from the cache), with the time."""
+    start = time.perf_counter()
+    yield
+    print(f'rrps:   numba: {what}: ready in {time.perf_counter() - start:.0f} s', file=sys.stderr, flush=True)
+
+
 def _kinematics_kernels(robot: str) -> None:
     """IK, FK (single; batches serial and parallel), the workspace, the limits, assembly modes."""
     from rrps_kinematics import assembly_modes, forward_kinematics, leg_lengths
@@ -54,15 +65,19 @@ def _kinematics_kernels(robot: str) -> None:
 
     g = load_robot(robot)
     p, q = np.array(g.home_position, dtype=float), np.array(g.home_quaternion_xyzw, dtype=float)
-    forward_kinematics(g, g.home_lengths)
-    for n in (2, PARALLEL_BATCH):         # the serial and the parallel batch kernels
-        forward_kinematics(g, np.tile(g.home_lengths, (n, 1)))
-        leg_lengths(g, np.tile(p, (n, 1)), np.tile(q, (n, 1)))
-    stroke = g.max_length - g.min_length
-    for resolution in (stroke, stroke / 10):
-        reachable_workspace(g, resolution=resolution)
-    assembly_modes(g, g.home_lengths)     # the homotopy kernels and the batch FK that polishes
-    pose_margins(g, p, q)
+    with _say('IK and FK, single and batches'):
+        forward_kinematics(g, g.home_lengths)
+        for n in (2, PARALLEL_BATCH):         # the serial and the parallel batch kernels
+            forward_kinematics(g, np.tile(g.home_lengths, (n, 1)))
+            leg_lengths(g, np.tile(p, (n, 1)), np.tile(q, (n, 1)))
+    with _say('the reachable workspace'):
+        stroke = g.max_length - g.min_length
+        for resolution in (stroke, stroke / 10):
+            reachable_workspace(g, resolution=resolution)
+    with _say('the assembly modes (homotopy)'):
+        assembly_modes(g, g.home_lengths)     # the homotopy kernels and the batch FK that polishes
+    with _say("a pose's limits"):
+        pose_margins(g, p, q)
 
 
 def _dynamics_kernels(robot: str) -> None:
@@ -73,12 +88,15 @@ def _dynamics_kernels(robot: str) -> None:
 
     g = load_robot(robot)
     p, q = np.array(g.home_position, dtype=float), np.array(g.home_quaternion_xyzw, dtype=float)
-    TeleopMapping(g)                      # compiles the guards' kernels on construction
-    path = p + np.outer(np.linspace(0.0, 0.002, 3), [0.0, 0.0, 1.0])
-    motions = [PreviewMotion(f'warm-up on {ring}', ring, np.array([0.0, 0.0, 0.0, 1.0]), path,
-                             np.tile(q, (3, 1)), 0.01) for ring in ('ring_a', 'ring_b')]
-    preview_step(g, motions, settle=0.0)
-    csv_rows(np.zeros((1, 1)))
+    with _say('the teleop guards'):
+        TeleopMapping(g)                  # compiles the guards' kernels on construction
+    with _say("a climbing step's preview (the dynamics, on either ring)"):
+        path = p + np.outer(np.linspace(0.0, 0.002, 3), [0.0, 0.0, 1.0])
+        motions = [PreviewMotion(f'warm-up on {ring}', ring, np.array([0.0, 0.0, 0.0, 1.0]), path,
+                                 np.tile(q, (3, 1)), 0.01) for ring in ('ring_a', 'ring_b')]
+        preview_step(g, motions, settle=0.0)
+    with _say("rrps-dynamics' CSV text"):
+        csv_rows(np.zeros((1, 1)))
 
 
 def main() -> None:

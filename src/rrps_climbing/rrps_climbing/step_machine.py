@@ -295,6 +295,15 @@ class ClimbStepMachine:
         out.reply = (True, self.detail)
         return out
 
+    def cancel(self) -> ClimbOutput:
+        """Hold the executing step as a pause (the action's cancel); a step being previewed never starts."""
+        out = self._begin()
+        self._pending = None
+        if self.mode is EXECUTING:
+            self._pause(PauseReason.CANCELLED)
+        out.reply = (True, self.detail)
+        return out
+
     def tick(self, now: float) -> ClimbOutput:
         """One period at time ``now`` [s]: start the scripted climb, pause on a lost input, or
         advance the executing phase."""
@@ -311,8 +320,8 @@ class ClimbStepMachine:
         ph = self._phases[self._index] if self.mode in (EXECUTING, PAUSED) and self._phases else None
         return ClimbStatus(state=self.mode, pause_reason=self.pause_reason,
                            step=ph.step if ph else self.steps_done,
-                           action=ph.action if ph else None, ring=ph.ring if ph else '',
-                           structure=self.structure.name, s_a=self.s_a, s_b=self.s_b,
+                           action=ph.action if ph else None, ring=ph.ring if ph else '', phase_index=self._index,
+                           structure=self.structure.name, s_a=self.s_a, s_b=self.s_b, phases=len(self._phases),
                            steps_done=self.steps_done, detail=self.detail,
                            previewing=self._pending is not None, refusal=self.refusal,
                            step_duration=self.timing[0], climbing_speed=self.timing[1])

@@ -7,6 +7,7 @@ Conventions used everywhere in rrps:
 * ``euler_parameters`` is the paper's / Nikravesh's order (e0, e1, e2, e3) = (w, x, y, z),
   with ``A = (2 e0^2 - 1) I + 2 (e e^T + e0 ẽ)`` (section 2.1).
 * 3-1-3 Euler angles (psi, alpha, phi) give ``A_c = Rz(psi) Rx(alpha) Rz(phi)`` (eq. 1's A_c).
+* URDF's roll, pitch, yaw (fixed axes) give ``R = Rz(yaw) Ry(pitch) Rx(roll)`` (single values).
 
 Every function accepts a single value or any leading batch shape, e.g. (N, 4) quaternions.
 q and -q are the same rotation; functions returning a quaternion pick w >= 0 (w > 0, or for a
@@ -14,6 +15,8 @@ half turn the first non-zero of x, y, z positive).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -35,6 +38,8 @@ __all__ = [
     'rotation_vector_to_matrix',
     'normalize_quat',
     'rotation_angle_between',
+    'rpy_to_matrix',
+    'matrix_to_rpy',
 ]
 
 
@@ -272,3 +277,22 @@ def rotation_angle_between(R1: np.ndarray, R2: np.ndarray) -> np.ndarray:
         vec, scalar = q[..., 1:], q[..., 0]
     angle = 2.0 * np.arctan2(np.linalg.norm(vec, axis=-1), np.abs(scalar))
     return float(angle) if np.ndim(angle) == 0 else angle
+
+
+def rpy_to_matrix(rpy) -> np.ndarray:
+    """URDF's fixed-axis roll, pitch, yaw: R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    r, p, y = (float(v) for v in rpy)
+    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
+
+
+def matrix_to_rpy(R) -> tuple[float, float, float]:
+    """Roll, pitch, yaw of a rotation matrix (the inverse of :func:`rpy_to_matrix`), accurate
+    near pitch = ±pi/2 too: yaw first, then pitch and roll from Rz(-yaw) R = Ry(pitch) Rx(roll)."""
+    R = np.asarray(R, dtype=float)
+    yaw = math.atan2(R[1, 0], R[0, 0]) if math.hypot(R[1, 0], R[0, 0]) > 1e-12 else 0.0
+    c, s = math.cos(yaw), math.sin(yaw)
+    M = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]) @ R
+    return math.atan2(-M[1, 2], M[1, 1]), math.atan2(-M[2, 0], M[0, 0]), yaw

@@ -3,8 +3,9 @@ Foxglove read. Pure Python (XML through xml.etree), no ROS import.
 
 URDF describes a tree; an RRPS robot closes five loops through ring_b. The tree::
 
-    ring_a (root)
-      ring_a_body                     fixed: ring_a's inertia (KDL takes none on a root link)
+    base_link (root)                  REP-105's base_link; ring_a fixed on it (identity)
+    ring_a
+      ring_a_body                     fixed: ring_a's inertia
       ring_a_gripper                  fixed, or revolute ring_a_rotation (extra DOF, section 3.1)
       leg_i_universal_x  revolute     -> leg_i_universal_cross   at a_i, in the yoke frame F_i
       leg_i_universal_y  revolute     -> leg_i_lower             z along the leg (section 2.1)
@@ -30,13 +31,13 @@ from typing import Mapping
 import numpy as np
 
 from rrps_description.geometry import RobotGeometry
-from rrps_description.names import LEG_NAMES, RING_A_FRAME, RING_B_FRAME, ring_joint
+from rrps_description.names import BASE_FRAME, LEG_NAMES, RING_A_FRAME, RING_B_FRAME, ring_joint
 from rrps_description.pose import Pose
-from rrps_description.rotations import cross
+from rrps_description.rotations import cross, matrix_to_rpy, rpy_to_matrix
 from rrps_description.tool import TARGET_FRAMES
 
 __all__ = ['Shape', 'Inertial', 'Link', 'Joint', 'RobotModel', 'LegChain', 'leg_chain',
-           'socket_frames', 'urdf_model', 'rpy_to_matrix', 'matrix_to_rpy', 'UNBOUNDED']
+           'socket_frames', 'urdf_model', 'UNBOUNDED']
 
 #: What a limit the robot description leaves unbounded is written as (URDF needs numbers).
 UNBOUNDED = 1e9
@@ -46,25 +47,6 @@ _MATERIALS = {'ring': (0.47, 0.51, 0.59, 1.0), 'leg': (0.16, 0.67, 0.27, 1.0),
               'joint': (0.25, 0.25, 0.25, 1.0), 'gripper': (0.78, 0.78, 0.78, 1.0),
               'tool': (0.78, 0.35, 0.16, 1.0)}
 _AXES = {'x': (1.0, 0.0, 0.0), 'y': (0.0, 1.0, 0.0), 'z': (0.0, 0.0, 1.0)}
-
-
-def rpy_to_matrix(rpy) -> np.ndarray:
-    """URDF's fixed-axis roll, pitch, yaw: R = Rz(yaw) Ry(pitch) Rx(roll)."""
-    r, p, y = (float(v) for v in rpy)
-    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
-    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                     [-sp, cp * sr, cp * cr]])
-
-
-def matrix_to_rpy(R) -> tuple[float, float, float]:
-    """Roll, pitch, yaw of a rotation matrix (the inverse of :func:`rpy_to_matrix`), accurate
-    near pitch = ±pi/2 too: yaw first, then pitch and roll from Rz(-yaw) R = Ry(pitch) Rx(roll)."""
-    R = np.asarray(R, dtype=float)
-    yaw = math.atan2(R[1, 0], R[0, 0]) if math.hypot(R[1, 0], R[0, 0]) > 1e-12 else 0.0
-    c, s = math.cos(yaw), math.sin(yaw)
-    M = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]) @ R
-    return math.atan2(-M[1, 2], M[1, 1]), math.atan2(-M[2, 0], M[0, 0]), yaw
 
 
 @dataclass(frozen=True)
@@ -375,7 +357,8 @@ def _notes(g: RobotGeometry, sizes: _Sizes) -> tuple[str, ...]:
                                         ('max_speed', g.max_speed)) if not math.isfinite(value)]
     return tuple(note for note in (
         f'Robot {g.name!r}, generated from its robot description by rrps (rrps-kinematics urdf). '
-        'SI units; ring_a is the root, all kinematics is for a_T_b (ring_b in ring_a).',
+        'SI units; base_link (REP-105) is the root, ring_a fixed on it; all kinematics is for a_T_b '
+        '(ring_b in ring_a).',
         'URDF describes a tree and cannot close loops: the six legs close five loops through ring_b. '
         'ring_b hangs on leg_1 (fixed joint ring_b_on_leg_1 on leg_1_tip); legs 2-6 end in tip links at '
         'their spherical-joint centres. Joint values from the IK of a_T_b (rrps_kinematics.urdf_joints, '
@@ -392,8 +375,8 @@ def _notes(g: RobotGeometry, sizes: _Sizes) -> tuple[str, ...]:
         '(continuous). Passive joints and the extra ring DOF have effort and velocity 0 (none given).',
         f'Unbounded in the robot description, written as {UNBOUNDED:g}: {", ".join(unbounded)}.'
         if unbounded else '',
-        'Inertias from the robot description: the rings (ring_a on ring_a_body: KDL takes no inertia '
-        'on a root link), the legs\' lower and upper links (com along the leg, transverse and axial '
+        'Inertias from the robot description: the rings (ring_a\'s on ring_a_body), the legs\' lower '
+        'and upper links (com along the leg, transverse and axial '
         'inertias), the tool. Visuals and collisions are primitives: rings as cylinders around the '
         f'torus, grippers as collars, the legs\' lower and upper bodies as cylinders of radius {sizes.leg:g} m '
         f'and length {sizes.body:g} m, joint centres as spheres.',
@@ -411,8 +394,10 @@ def urdf_model(geometry: RobotGeometry, universal_frames: np.ndarray) -> RobotMo
     sizes = _Sizes(g)
     ring_a, ring_b = sizes.ring_shape(RING_A_FRAME), sizes.ring_shape(RING_B_FRAME)
     body = f'{RING_A_FRAME}_body'
-    links = [Link(RING_A_FRAME, (ring_a,), (ring_a,)), Link(body, inertial=_inertial(g.ring_a_inertia))]
-    joints = [Joint(f'{body}_mount', 'fixed', RING_A_FRAME, body)]
+    links = [Link(BASE_FRAME), Link(RING_A_FRAME, (ring_a,), (ring_a,)),
+             Link(body, inertial=_inertial(g.ring_a_inertia))]
+    joints = [Joint(f'{RING_A_FRAME}_on_base', 'fixed', BASE_FRAME, RING_A_FRAME),
+              Joint(f'{body}_mount', 'fixed', RING_A_FRAME, body)]
     parts = [_ring_parts(g, sizes, RING_A_FRAME)]
     parts += [_leg(g, sizes, i, frames[i]) for i in range(6)]
     tip_R_b = socket_frames(g)[0].T

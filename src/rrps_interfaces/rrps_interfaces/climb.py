@@ -4,8 +4,12 @@ Topics and services (relative names)::
 
     CLIMB_STATUS         diagnostic_msgs/DiagnosticStatus  values: ClimbStatus
     CLIMB_PREVIEW        diagnostic_msgs/DiagnosticStatus  values: ClimbPreview (latched: the last)
-    CLIMB_STEP_UP, CLIMB_STEP_DOWN, CLIMB_RESUME  std_srvs/Trigger
-    odometry_topic(ring) geometry_msgs/PoseStamped  the ring's pose in frame world
+    CLIMB_STEP           rrps_msgs/action/ClimbStep  one step up or down: feedback (state, phase,
+                         progress, the preview's margins), cancel (the step holds, paused)
+    CLIMB_STEP_UP, CLIMB_STEP_DOWN, CLIMB_RESUME  std_srvs/Trigger (the same step; resume)
+    ODOMETRY             nav_msgs/Odometry  the robot's odometry (REP-105): base_link (ring_a) in
+                         odom, its twist in base_link, both with covariance
+    odometry_topic(ring) geometry_msgs/PoseStamped  the ring's pose in frame odom (the world)
     SUPPORT_POSE         geometry_msgs/TransformStamped  the supporting ring's pose in frame world
                          (child_frame_id: the ring; latched): the world attitude that the
                          driver's gravity and teleop's load guards follow
@@ -26,17 +30,18 @@ import math
 from rrps_description.names import RINGS
 from rrps_interfaces.status import StatusValues
 
-__all__ = ['CLIMB_STATUS', 'CLIMB_PREVIEW', 'CLIMB_STEP_UP', 'CLIMB_STEP_DOWN', 'CLIMB_RESUME', 'odometry_topic',
-           'SUPPORT_POSE',
-           'ClimbState', 'PauseReason', 'PhaseAction', 'PreviewLimit', 'StepRefusal', 'ClimbStatus',
-           'ClimbPreview']
+__all__ = ['CLIMB_STATUS', 'CLIMB_PREVIEW', 'CLIMB_STEP', 'CLIMB_STEP_UP', 'CLIMB_STEP_DOWN', 'CLIMB_RESUME',
+           'ODOMETRY', 'odometry_topic', 'SUPPORT_POSE', 'ClimbState', 'PauseReason', 'PhaseAction', 'PreviewLimit',
+           'StepRefusal', 'ClimbStatus', 'ClimbPreview']
 
 CLIMB_STATUS = 'climb/status'
 CLIMB_PREVIEW = 'climb/preview'
+CLIMB_STEP = 'climb/step'
 CLIMB_STEP_UP = 'climb/step_up'
 CLIMB_STEP_DOWN = 'climb/step_down'
 CLIMB_RESUME = 'climb/resume'
 SUPPORT_POSE = 'odometry/support'
+ODOMETRY = 'odometry'
 
 
 def odometry_topic(ring: str) -> str:
@@ -61,6 +66,7 @@ class PauseReason(enum.Enum):
     ROBOT_STATE_LOST = 'robot state lost'        # pose or grippers/state older than state_timeout
     OPERATOR_LINK_LOST = 'operator link lost'    # the operator station's teleop/status went silent
     DRIVER_INACTIVE = 'driver inactive'          # the driver left its active state
+    CANCELLED = 'cancelled'                      # the operator cancelled the step (its action)
 
 
 class PhaseAction(enum.Enum):
@@ -97,7 +103,8 @@ class ClimbStatus(StatusValues):
     ``previewing``: a requested step is being previewed (the state stays IDLE until it starts);
     ``refusal``: why the last requested step did not start (None: it started, or none asked);
     ``step_duration`` [s] and ``climbing_speed`` [m/min]: the last planned climb's longest step
-    and its speed (NaN before one is planned)."""
+    and its speed (NaN before one is planned);
+    ``phase_index`` of the step's ``phases`` (0 when idle)."""
 
     state: ClimbState
     pause_reason: PauseReason | None = None
@@ -113,6 +120,8 @@ class ClimbStatus(StatusValues):
     refusal: StepRefusal | None = None
     step_duration: float = math.nan
     climbing_speed: float = math.nan
+    phase_index: int = 0
+    phases: int = 0
 
     @property
     def phase(self) -> str:

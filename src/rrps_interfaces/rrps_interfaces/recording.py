@@ -9,8 +9,10 @@ Topics and services (relative names)::
     /diagnostics          values: RecorderStatus (recorder_node)
     REPLAY_STATUS         diagnostic_msgs/DiagnosticStatus  values: ReplayStatus (replay_node)
     ROBOT_MARKERS         visualization_msgs/MarkerArray    the robot in frame ring_a and world
-    TF                    tf2_msgs/TFMessage  world -> ring_a and the URDF's moving joints
+    TF                    tf2_msgs/TFMessage  odom -> base_link (REP-105) and the URDF's moving joints
     TF_STATIC             tf2_msgs/TFMessage  the URDF's fixed joints (latched)
+    CLOCK                 rosgraph_msgs/Clock  a replay's time (replay_node): what nodes with
+                                               use_sim_time read as now
 
 COMMAND_TOPICS are the streams that move the robot: a replay never publishes them on their live
 names unless asked to (they go under REPLAY_PREFIX). Pure Python, no ROS import.
@@ -26,7 +28,7 @@ from rrps_interfaces.status import StatusValues
 from rrps_interfaces.teleop import MASTER_TARGET_POSE, TELEOP_ENABLE
 
 __all__ = ['RECORDING_TAP', 'FLIGHT_RECORDER_SAVE', 'REPLAY_STATUS', 'ROBOT_MARKERS', 'TF', 'TF_STATIC',
-           'REPLAY_PREFIX',
+           'CLOCK', 'REPLAY_PREFIX',
            'COMMAND_TOPICS', 'RecorderTrigger', 'RecorderStatus', 'ReplayStatus']
 
 #: A node's private topic of recording bundles: ``<namespace>/<node>/recording_tap``.
@@ -36,6 +38,7 @@ REPLAY_STATUS = 'replay/status'
 ROBOT_MARKERS = 'robot/markers'
 TF = '/tf'
 TF_STATIC = '/tf_static'
+CLOCK = '/clock'
 REPLAY_PREFIX = 'replay'
 #: Relative names of the command streams (what a replay must not feed to a live robot).
 COMMAND_TOPICS = (TARGET_POSE, ACTUATORS_COMMAND, TELEOP_ENABLE, MASTER_TARGET_POSE)

@@ -1,20 +1,22 @@
 """The robot for RViz2 and Foxglove: marker geometry and the transform tree. Pure, no rclpy.
 
-Frames: ``world`` -> ``ring_a`` (where odometry places the robot), then the robot's URDF tree
-(:mod:`rrps_description.urdf`: each leg's universal, prismatic and spherical joints, ring_b on
-leg 1's chain, grippers, tool) at the joint values of the pose a_T_b
+Frames (REP-105): ``odom`` -> ``base_link`` (where odometry places the robot: the world frame
+on the ROS interface, and ring_a's pose in it), then the robot's URDF tree
+(:mod:`rrps_description.urdf`: ``base_link`` -> ``ring_a``, each leg's universal, prismatic and
+spherical joints, ring_b on leg 1's chain, grippers, tool) at the joint values of the pose a_T_b
 (:mod:`rrps_kinematics.urdf_joints`): the link names and transforms robot_state_publisher
-publishes from robot_description and joint_states. :func:`robot_transforms` gives them as
-(parent, child, Pose); :func:`world_pose_of_ring_a` places ring_a in ``world`` from the
-odometry of the gripping ring. The recorder's ``/tf`` and markers_node's live ``/tf`` and
-``/tf_static`` all come from these two.
+publishes from robot_description and joint_states. A ``frame_prefix`` (``robot_1/``) names every
+frame of one robot, as robot_state_publisher's parameter does, so that several robots share
+/tf. :func:`robot_transforms` gives them as (parent, child, Pose); :func:`world_pose_of_ring_a`
+places ring_a in the world from the odometry of the gripping ring. The recorder's ``/tf`` and
+markers_node's live ``/tf`` and ``/tf_static`` all come from these two.
 
 :func:`robot_markers` describes what ``visualization_msgs/MarkerArray`` draws, as
 :class:`MarkerSpec` values the node converts to messages: in frame ``ring_a`` both rings
 (``rings``), the six legs coloured by their worst margin as the viewer colours them
 (``legs``, :func:`rrps_kinematics.scene.robot_figure`), the grippers (``grippers``: dark closed,
 yellow open, grey unknown) and the commanded target as a ghost ring_b (``ghost``); in frame
-``world``, when odometry places the robot, the same robot again (namespaces ``world/...``) and
+``odom``, when odometry places the robot, the same robot again (namespaces ``odom/...``) and
 the climbed structure (``structure``, :func:`structure_marker`).
 """
 
@@ -26,7 +28,7 @@ import struct
 import numpy as np
 
 from rrps_description.geometry import RobotGeometry
-from rrps_description.names import RING_A_FRAME, WORLD_FRAME
+from rrps_description.names import BASE_FRAME, ODOM_FRAME, RING_A_FRAME, prefixed
 from rrps_description.pose import Pose
 from rrps_kinematics.scene import robot_figure, world_ring_poses
 from rrps_kinematics.urdf_joints import joint_values, robot_model
@@ -70,20 +72,26 @@ def _circle(radius: float) -> np.ndarray:
     return np.stack([radius * np.cos(t), radius * np.sin(t), np.zeros_like(t)], axis=1)
 
 
+def _named(transforms, frame_prefix: str) -> list[tuple[str, str, Pose]]:
+    return [(prefixed(frame_prefix, parent), prefixed(frame_prefix, child), pose)
+            for parent, child, pose in transforms]
+
+
 def robot_transforms(geometry: RobotGeometry, a_T_b: Pose, world_T_a: Pose | None = None,
                      ring_angles: dict[str, float] | None = None, *,
-                     fixed: bool = True) -> list[tuple[str, str, Pose]]:
-    """The transform tree (parent, child, parent_T_child): world -> ring_a (when given), then
-    every joint of the URDF at a_T_b's joint values, as robot_state_publisher computes them;
-    the fixed joints too unless ``fixed`` is False (they are :func:`fixed_transforms`), a ring's
-    extra-DOF joint when ``ring_angles`` has its angle."""
-    out = [] if world_T_a is None else [(WORLD_FRAME, RING_A_FRAME, world_T_a)]
-    return out + robot_model(geometry).transforms(joint_values(geometry, a_T_b, ring_angles), fixed=fixed)
+                     fixed: bool = True, frame_prefix: str = '') -> list[tuple[str, str, Pose]]:
+    """The transform tree (parent, child, parent_T_child): odom -> base_link (``world_T_a``, when
+    given), then every joint of the URDF at a_T_b's joint values, as robot_state_publisher
+    computes them; the fixed joints too unless ``fixed`` is False (they are
+    :func:`fixed_transforms`), a ring's extra-DOF joint when ``ring_angles`` has its angle."""
+    out = [] if world_T_a is None else [(ODOM_FRAME, BASE_FRAME, world_T_a)]
+    out += robot_model(geometry).transforms(joint_values(geometry, a_T_b, ring_angles), fixed=fixed)
+    return _named(out, frame_prefix)
 
 
-def fixed_transforms(geometry: RobotGeometry) -> list[tuple[str, str, Pose]]:
+def fixed_transforms(geometry: RobotGeometry, frame_prefix: str = '') -> list[tuple[str, str, Pose]]:
     """The URDF's fixed joints (parent, child, parent_T_child): robot_state_publisher's /tf_static."""
-    return robot_model(geometry).transforms({})
+    return _named(robot_model(geometry).transforms({}), frame_prefix)
 
 
 _STAMP = struct.Struct('<iI')
@@ -124,10 +132,10 @@ def world_pose_of_ring_a(a_T_b: Pose, grippers: dict | None,
     return world_T_a
 
 
-def structure_marker(vertices: np.ndarray, faces: np.ndarray) -> MarkerSpec:
-    """The climbed member as a triangle list in ``world``."""
+def structure_marker(vertices: np.ndarray, faces: np.ndarray, frame_prefix: str = '') -> MarkerSpec:
+    """The climbed member as a triangle list in ``odom`` (the world)."""
     points = np.asarray(vertices, dtype=float)[np.asarray(faces, dtype=int)].reshape(-1, 3)
-    return MarkerSpec('structure', 0, 'triangle_list', WORLD_FRAME, _STRUCTURE_COLOUR,
+    return MarkerSpec('structure', 0, 'triangle_list', prefixed(frame_prefix, ODOM_FRAME), _STRUCTURE_COLOUR,
                       (1.0, 1.0, 1.0), points=points)
 
 
@@ -165,15 +173,17 @@ def _robot_in(frame: str, ns_prefix: str, frame_T_a: Pose, geometry: RobotGeomet
 
 def robot_markers(geometry: RobotGeometry, a_T_b: Pose, *, efforts=None,
                   grippers: dict | None = None, target: Pose | None = None,
-                  world_T_a: Pose | None = None) -> list[MarkerSpec]:
-    """The robot's markers in ``ring_a`` and, when ``world_T_a`` is known, in ``world``.
+                  world_T_a: Pose | None = None, frame_prefix: str = '') -> list[MarkerSpec]:
+    """The robot's markers in ``ring_a`` and, when ``world_T_a`` is known, in ``odom`` (the
+    frames named with ``frame_prefix``).
 
     ``grippers`` maps ring -> closed (True/False) or None (unknown); ``target`` is the
     commanded a_T_b (the ghost); ``efforts`` the legs' forces [N] (the force margin)."""
     grippers = grippers or {}
     figure = robot_figure(geometry, a_T_b=a_T_b, world_T_a=Pose(), efforts=efforts)
-    out = _robot_in(RING_A_FRAME, '', Pose(), geometry, a_T_b, figure, grippers, target)
+    out = _robot_in(prefixed(frame_prefix, RING_A_FRAME), '', Pose(), geometry, a_T_b, figure, grippers,
+                    target)
     if world_T_a is not None:
-        out += _robot_in(WORLD_FRAME, 'world/', world_T_a, geometry, a_T_b, figure, grippers,
-                         target)
+        out += _robot_in(prefixed(frame_prefix, ODOM_FRAME), 'odom/', world_T_a, geometry, a_T_b, figure,
+                         grippers, target)
     return out

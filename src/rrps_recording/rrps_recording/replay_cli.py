@@ -3,6 +3,7 @@
     rrps-replay recordings/rrps_20250101_120000                   # a bag folder, 1x, then waits
     rrps-replay session/session_0.mcap session/session_1.mcap --rate 4 --exit-at-end
     rrps-replay flight_..._operator --paused --start 30           # the viewer's timeline drives it
+    rviz2 --ros-args -p use_sim_time:=true                        # follows /clock, the replay's time
 
 The command streams (target_pose, actuators/command, teleop/enable, master/target_pose) are
 NOT published on their live names: they go under ``<namespace>/replay/`` so that a running
@@ -43,6 +44,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument('--namespace', default='/rrps',
                    help='namespace of the replay node, its replay/status and the remapped '
                         'command topics\' viewer (default /rrps; recorded topics keep their names)')
+    p.add_argument('--clock', type=float, default=40.0, metavar='HZ',
+                   help="publish /clock, the recording's time, at HZ (default 40, as ros2 bag play --clock; "
+                        '0: none): nodes run with use_sim_time:=true follow the replay')
     p.add_argument('--remap-prefix', default='replay',
                    help='where the command topics go otherwise (default replay)')
     return p
@@ -57,8 +61,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if missing:
         print(f'error: no such file or bag folder: {", ".join(missing)}', file=sys.stderr)
         return 2
-    if not 0.01 <= args.rate <= 100.0 or args.start < 0:
-        print('error: --rate must be 0.01..100 and --start >= 0', file=sys.stderr)
+    if not 0.01 <= args.rate <= 100.0 or args.start < 0 or not 0.0 <= args.clock <= 1000.0:
+        print('error: --rate must be 0.01..100, --start >= 0 and --clock 0..1000', file=sys.stderr)
         return 2
     files = ','.join(str(Path(f).resolve()) for f in args.files)
     ros = ['-r', f'__ns:={args.namespace}', '-p', f'files:=[{files}]', '-p', f'rate:={float(args.rate)}',
@@ -67,7 +71,7 @@ def main(argv: Sequence[str] | None = None) -> int:
            '-p', f'loop:={"true" if args.loop else "false"}',
            '-p', f'exit_at_end:={"true" if args.exit_at_end else "false"}',
            '-p', f'allow_commands:={"true" if args.allow_commands else "false"}',
-           '-p', f'remap_prefix:={args.remap_prefix}']
+           '-p', f'remap_prefix:={args.remap_prefix}', '-p', f'clock_rate:={float(args.clock)}']
     if args.topics:
         ros += ['-p', f'topics:=[{",".join(args.topics)}]']
     from rrps_recording.nodes.replay_node import ReplayNode

@@ -1,4 +1,4 @@
-"""Conversions between the rrps values and ROS messages (poses, leg states, stamps)."""
+"""Conversions between the rrps values and ROS messages (poses, leg states, odometry, stamps)."""
 
 from __future__ import annotations
 
@@ -6,12 +6,13 @@ from typing import Iterable, Sequence
 
 import numpy as np
 from geometry_msgs.msg import PoseStamped, TransformStamped
+from nav_msgs.msg import Odometry
 from sensor_msgs.msg import JointState
 
 from rrps_description.names import LEG_NAMES
 
 __all__ = ['stamp_to_seconds', 'pose_from_msg', 'pose_to_msg', 'transform_from_msg', 'transform_to_msg',
-           'joint_state_msg', 'lengths_from_joint_state']
+           'joint_state_msg', 'lengths_from_joint_state', 'odometry_msg']
 
 
 def stamp_to_seconds(stamp) -> float:
@@ -102,3 +103,20 @@ def lengths_from_joint_state(msg: JointState, names: Sequence[str] = LEG_NAMES) 
     if not np.all(np.isfinite(values)):
         raise ValueError('positions contain NaN or infinite values')
     return values
+
+
+def odometry_msg(estimate, *, stamp, frame_id: str, child_frame_id: str) -> Odometry:
+    """A :class:`rrps_kinematics.base_odometry.OdometryEstimate` as nav_msgs/Odometry: the pose of
+    ``child_frame_id`` in ``frame_id``, the twist in ``child_frame_id``, covariances row-major."""
+    msg = Odometry()
+    msg.header.stamp, msg.header.frame_id, msg.child_frame_id = stamp, frame_id, child_frame_id
+    pose = msg.pose.pose
+    pose.position.x, pose.position.y, pose.position.z = (float(v) for v in estimate.pose.position)
+    (pose.orientation.x, pose.orientation.y, pose.orientation.z,
+     pose.orientation.w) = (float(v) for v in estimate.pose.quaternion_xyzw)
+    twist = msg.twist.twist
+    twist.linear.x, twist.linear.y, twist.linear.z = (float(v) for v in estimate.twist[:3])
+    twist.angular.x, twist.angular.y, twist.angular.z = (float(v) for v in estimate.twist[3:])
+    msg.pose.covariance = [float(v) for v in np.ravel(estimate.pose_covariance)]
+    msg.twist.covariance = [float(v) for v in np.ravel(estimate.twist_covariance)]
+    return msg

@@ -11,7 +11,8 @@ from __future__ import annotations
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-__all__ = ['COMMAND_QOS', 'STATE_QOS', 'LATEST_QOS', 'LATCHED_QOS', 'LINK_STATE_QOS', 'LINK_EVENT_QOS']
+__all__ = ['COMMAND_QOS', 'STATE_QOS', 'LATEST_QOS', 'LATCHED_QOS', 'LINK_STATE_QOS', 'LINK_EVENT_QOS',
+           'CLOCK_QOS']
 
 COMMAND_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                          reliability=ReliabilityPolicy.BEST_EFFORT,
@@ -38,3 +39,8 @@ LINK_STATE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
 #: A link event stream (link/grippers/state, link/diagnostics), both sides: latched, so that a
 #: reader that joins late (an operator station switching to this robot) gets the newest at once.
 LINK_EVENT_QOS = LATCHED_QOS
+#: /clock, as rclcpp's ClockQoS offers it and rclpy's TimeSource reads it: best effort, keep
+#: last 1 (a late tick is worthless once the next one is out).
+CLOCK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
+                       reliability=ReliabilityPolicy.BEST_EFFORT,
+                       durability=DurabilityPolicy.VOLATILE)

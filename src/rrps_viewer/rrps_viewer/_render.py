@@ -28,6 +28,7 @@ from rrps_description.geometry import RobotGeometry
 from rrps_description.pose import Pose
 from rrps_kinematics.scene import RobotFigure, torus_mesh
 from rrps_viewer._broadcast import install as install_shared_encoding
+from rrps_viewer._camera import FirstView
 from rrps_viewer._control import OperatorControl
 from rrps_viewer._latency import LinkMonitor
 from rrps_viewer._operator_panel import ClientControls, OperatorActions
@@ -106,8 +107,10 @@ class ViewerServer:
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         self.server.gui.set_panel_label(title)
         self.server.scene.set_up_direction('+z')
-        self.server.initial_camera.position = (1.2, -2.0, 1.2)
-        self.server.initial_camera.look_at = (0.3, -0.35, 0.4)  # robot left of the panel
+        self.server.initial_camera.position = (1.2, -2.0, 1.2)  # framed on the robot once odometry
+        self.server.initial_camera.look_at = (0.3, -0.35, 0.4)  # places it (first_view)
+        self.first_view = FirstView(self.server, None if structure is None else structure[0],
+                                    reach=1.5 * geometry.characteristic_length)
         self.nodes: dict[str, object] = {}
         self._build_scene(geometry, master_geometry, structure)
         self._build_panel()
@@ -233,6 +236,7 @@ class ViewerServer:
             clients = list(self._clients.values())
         for controls in clients:
             controls.recording.show(frame.replay)
+        self.first_view.update(frame, [controls.client for controls in clients])
         key = self._scene_key(frame)
         if key == self._drawn_key:
             return  # nothing moved: no scene message at all (an idle viewer costs little)

@@ -3,7 +3,9 @@
 :class:`ViewerRequests` holds one service client per :class:`OperatorRequest` and sends a request
 without blocking; the answer is told to the browser that asked (``tell(client_id, text, ok)``):
 
-* ``STEP_UP`` / ``STEP_DOWN`` / ``RESUME``: ``climb/step_up|step_down|resume`` (std_srvs/Trigger);
+* ``STEP_UP`` / ``STEP_DOWN``: the action ``climb/step`` (its first feedback or its result answers;
+  :class:`~rrps_viewer.climb_step_client.ClimbStepClient`, the step services without rrps_msgs);
+* ``RESUME``: ``climb/resume`` (std_srvs/Trigger);
 * ``GRIPPER``: ``grippers/ring_a|ring_b/set`` (std_srvs/SetBool, true = close);
 * ``DRIVER``: ``driver_node/change_state`` (lifecycle activate / deactivate);
 * ``MAPPING``: ``teleop_node/set_parameters_atomically``: mode, rotation and scale change
@@ -28,9 +30,10 @@ from rcl_interfaces.srv import SetParametersAtomically
 from std_srvs.srv import SetBool, Trigger
 
 from rrps_description.names import RINGS
-from rrps_interfaces.climb import CLIMB_RESUME, CLIMB_STEP_DOWN, CLIMB_STEP_UP
+from rrps_interfaces.climb import CLIMB_RESUME
 from rrps_interfaces.driver import gripper_service
 from rrps_interfaces.link import namespaced
+from rrps_viewer.climb_step_client import ClimbStepClient
 
 __all__ = ['OperatorRequest', 'ViewerRequests', 'TELEOP_PARAMETERS', 'DRIVER_CHANGE_STATE']
 
@@ -78,14 +81,19 @@ class ViewerRequests:
         """The climb, gripper and driver requests go to the robot in namespace ``robot`` ('':
         the viewer's own) from now on (clients kept for a switch back)."""
         if robot not in self._robots:
-            climb = {OperatorRequest.STEP_UP: CLIMB_STEP_UP, OperatorRequest.STEP_DOWN: CLIMB_STEP_DOWN,
-                     OperatorRequest.RESUME: CLIMB_RESUME}
             node = self._node
+            step = ClimbStepClient(node, robot)
             self._robots[robot] = {
-                **{kind: node.create_client(Trigger, namespaced(name, robot)) for kind, name in climb.items()},
+                OperatorRequest.STEP_UP: step, OperatorRequest.STEP_DOWN: step,
+                OperatorRequest.RESUME: node.create_client(Trigger, namespaced(CLIMB_RESUME, robot)),
                 **{ring: node.create_client(SetBool, namespaced(gripper_service(ring), robot)) for ring in RINGS},
                 OperatorRequest.DRIVER: node.create_client(ChangeState, namespaced(DRIVER_CHANGE_STATE, robot))}
         self._clients = self._robots[robot]
+
+    def close(self) -> None:
+        """Stop the climbing step's action clients (their threads)."""
+        for clients in self._robots.values():
+            clients[OperatorRequest.STEP_UP].close()
 
     def _client(self, kind: OperatorRequest, arg):
         if kind is OperatorRequest.GRIPPER:
@@ -93,14 +101,21 @@ class ViewerRequests:
         return self._clients.get(kind, self._teleop)
 
     def ready(self, kind: OperatorRequest, ring: str = 'ring_a') -> bool:
-        """Whether the service behind ``kind`` is up (``ring``: which gripper)."""
-        return self._client(kind, (ring, True)).service_is_ready()
+        """Whether the service (or action) behind ``kind`` is up (``ring``: which gripper)."""
+        client = self._client(kind, (ring, True))
+        return client.ready() if isinstance(client, ClimbStepClient) else client.service_is_ready()
 
     def send(self, kind: OperatorRequest, client_id: int, arg=None) -> None:
         """Send one request: ``arg`` is (ring, close) for GRIPPER, active (bool) for DRIVER,
         (mode, rotation_mode, scale) for MAPPING, the robot's namespace for ROBOT, nothing else
         for the climb requests."""
         client = self._client(kind, arg)
+        if isinstance(client, ClimbStepClient):
+            what = kind.value
+            if not client.ready():
+                return self._tell(client_id, f'{what}: {client.name} is not available', False)
+            return client.request(+1 if kind is OperatorRequest.STEP_UP else -1,
+                                  lambda ok, text: self._tell(client_id, f'{what}: {text}', ok))
         if kind is OperatorRequest.DRIVER:
             what = ('activate' if arg else 'deactivate') + ' driver'
             request = ChangeState.Request(transition=Transition(

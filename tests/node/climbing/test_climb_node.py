@@ -127,7 +127,7 @@ def test_scripted_climb_ends_where_the_plan_says(ros_context):
     assert np.linalg.norm(p - final.a_T_b.position) <= TOL
     pa, _ = pose_from_msg(final_a)
     pb, _ = pose_from_msg(final_b)
-    assert final_a.header.frame_id == 'world'
+    assert final_a.header.frame_id == 'odom'
     assert np.linalg.norm(pa - final.world_T_a.position) <= handovers * TOL
     assert np.linalg.norm(pb - final.world_T_b.position) <= handovers * TOL
     assert pa[2] == pytest.approx(0.2 + steps * 0.06, abs=handovers * TOL)

@@ -264,3 +264,21 @@ def test_a_state_file_that_cannot_be_written_is_reported(ros_context, tmp_path):
     assert status.level == DiagnosticStatus.WARN
     assert str(not_a_dir) in DriverStatus.from_key_values(status.values).state_file_error
     node.destroy_node()
+
+
+def test_a_sensor_data_reader_matches_the_reliable_state_stream(ros_context):
+    """The 500 Hz actuators/state is offered reliable (README, the ROS interface: so that the
+    stack's reliable readers and a ROS user's sensor-data reader both match it); a reader with
+    rclpy's sensor-data profile (best effort, as RViz2 and PlotJuggler read sensors) gets it."""
+    from rclpy.node import Node
+    from rclpy.qos import ReliabilityPolicy, qos_profile_sensor_data
+    node = driver(ros_context)
+    reader = Node('sensor_data_reader', context=ros_context, namespace='/t')
+    got = []
+    reader.create_subscription(JointState, 'actuators/state', got.append, qos_profile_sensor_data)
+    with Spinner(ros_context, [node, reader]):
+        assert wait_for(lambda: len(got) > 20)
+        offered = reader.get_publishers_info_by_topic('/t/actuators/state')
+    assert [i.qos_profile.reliability for i in offered] == [ReliabilityPolicy.RELIABLE]
+    assert list(got[-1].name) == list(LEG_NAMES) and len(got[-1].position) == 6
+    reader.destroy_node()

@@ -24,7 +24,7 @@ pytestmark = pytest.mark.ros
 NS = f'/rrps_{os.getpid()}_{secrets.token_hex(3)}'
 
 
-def test_markers_of_the_robot_in_ring_a_and_world(ros_context):
+def test_markers_of_the_robot_in_ring_a_and_odom(ros_context):
     from geometry_msgs.msg import PoseStamped
     from rclpy.parameter import Parameter
     from sensor_msgs.msg import JointState
@@ -51,14 +51,14 @@ def test_markers_of_the_robot_in_ring_a_and_world(ros_context):
         probe.publisher(JointState, 'grippers/state').publish(
             joint_state_msg(stamp(), [1.0, 0.0], names=['ring_a', 'ring_b']))
         probe.publisher(PoseStamped, 'odometry/ring_a').publish(
-            pose_to_msg([0.0, 0.0, 1.0], [0, 0, 0, 1], frame_id='world', stamp=stamp()))
+            pose_to_msg([0.0, 0.0, 1.0], [0, 0, 0, 1], frame_id='odom', stamp=stamp()))
         probe.publisher(PoseStamped, 'target_pose', command=True).publish(
             pose_to_msg([0.0, 0.0, 0.44], [0, 0, 0, 1], frame_id='ring_a', stamp=stamp()))
         n = len(arrays)
         assert wait_for(lambda: len(arrays) > n + 2 and any(
             m.ns == 'ghost' for m in arrays[-1].markers))
         last = arrays[-1]
-    assert {m.header.frame_id for m in first.markers} <= {'ring_a', 'world'}
+    assert {m.header.frame_id for m in first.markers} <= {'ring_a', 'odom'}
     by_key = {(m.ns, m.id): m for m in last.markers}
     legs = by_key[('legs', 0)]
     assert legs.type == Marker.LINE_LIST and legs.header.frame_id == 'ring_a'
@@ -69,17 +69,17 @@ def test_markers_of_the_robot_in_ring_a_and_world(ros_context):
     np.testing.assert_allclose(colours, figure.leg_colours, atol=1e-3)
     closed, opened = by_key[('grippers', 0)].color, by_key[('grippers', 1)].color
     assert (closed.r, closed.g, closed.b) != (opened.r, opened.g, opened.b)
-    world_legs = by_key[('world/legs', 0)]
-    assert world_legs.header.frame_id == 'world'
+    world_legs = by_key[('odom/legs', 0)]
+    assert world_legs.header.frame_id == 'odom'
     assert world_legs.points[0].z == pytest.approx(points[0][2] + 1.0)
     assert by_key[('ghost', 0)].header.frame_id == 'ring_a'
-    assert any(m.ns == 'structure' and m.header.frame_id == 'world'
+    assert any(m.ns == 'structure' and m.header.frame_id == 'odom'
                for a in arrays for m in a.markers)
 
 
 #: The RIHS01 type hash of tf2_msgs/msg/TFMessage on ROS 2 Jazzy, as `ros2 topic info -v /tf`
 #: shows it on Jazzy installs from the ROS packages (the upstream tf2_msgs): the one built by
-#: tools/build_tf2_msgs.sh must be the same for real tf2 consumers to accept our /tf.
+#: tools/build_interfaces.sh must be the same for real tf2 consumers to accept our /tf.
 JAZZY_TF_MESSAGE_HASH = 'RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087'
 
 
@@ -136,18 +136,18 @@ def test_live_tf_agrees_with_robot_transforms(ros_context):
         assert wait_for(lambda: tf)
         _assert_transforms(tf[-1], robot_transforms(geometry, a_T_b, fixed=False))
         probe.publisher(PoseStamped, 'odometry/ring_a').publish(
-            pose_to_msg(world_T_a.position, world_T_a.quaternion_xyzw, frame_id='world',
+            pose_to_msg(world_T_a.position, world_T_a.quaternion_xyzw, frame_id='odom',
                         stamp=stamp()))
-        assert wait_for(lambda: ('world', 'ring_a') in _by_frames(tf[-1]))
+        assert wait_for(lambda: ('odom', 'base_link') in _by_frames(tf[-1]))
         _assert_transforms(tf[-1], robot_transforms(geometry, a_T_b, world_T_a, fixed=False))
-        # ring_a open, ring_b grips: world -> ring_a through ring_b's odometry
+        # ring_a open, ring_b grips: odom -> base_link through ring_b's odometry
         probe.publisher(PoseStamped, 'odometry/ring_b').publish(
-            pose_to_msg(world_T_b.position, world_T_b.quaternion_xyzw, frame_id='world',
+            pose_to_msg(world_T_b.position, world_T_b.quaternion_xyzw, frame_id='odom',
                         stamp=stamp()))
         probe.publisher(JointState, 'grippers/state').publish(
             joint_state_msg(stamp(), [0.0, 1.0], names=['ring_a', 'ring_b']))
         expected = robot_transforms(geometry, a_T_b, world_T_b.compose(a_T_b.inverse()), fixed=False)
-        assert wait_for(lambda: _by_frames(tf[-1])[('world', 'ring_a')].transform.translation.z
+        assert wait_for(lambda: _by_frames(tf[-1])[('odom', 'base_link')].transform.translation.z
                         == pytest.approx(expected[0][2].position[2], abs=1e-12))
         _assert_transforms(tf[-1], expected)
     assert info.node_name == 'markers_node' and info.topic_type == 'tf2_msgs/msg/TFMessage'

@@ -83,7 +83,7 @@ def test_recording_topics_schemas_counts_values_qos_and_tf(ros_context, tmp_path
         # a publisher that appears after the recorder started (best effort, a command stream)
         enable_pub = probe.publisher(Bool, 'teleop/enable', command=True)
         assert wait_for(lambda: f'{NS}/teleop/enable' in recorder._raw_subscriptions)
-        odom_pub.publish(_pose(probe, 1.5, frame='world'))
+        odom_pub.publish(_pose(probe, 1.5, frame='odom'))
         for i in range(200):
             msg = _pose(probe, 0.40 + 1e-4 * i)
             pose_pub.publish(msg)
@@ -141,7 +141,7 @@ def test_recording_topics_schemas_counts_values_qos_and_tf(ros_context, tmp_path
     tf = [d for t, _, d, _ in messages if t == '/tf']
     assert tf
     last = {(x.header.frame_id, x.child_frame_id): x.transform for x in tf[-1].transforms}
-    assert last[('world', 'ring_a')].translation.z == pytest.approx(1.5)
+    assert last[('odom', 'base_link')].translation.z == pytest.approx(1.5)
     # the URDF's tree, fixed joints included (any part of a recording shows the whole robot)
     tree = [(parent, child, Pose([t.translation.x, t.translation.y, t.translation.z],
                                  [t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w]))
@@ -209,7 +209,7 @@ def test_with_a_live_tf_the_recorder_writes_its_own_tf_only(ros_context, tmp_pat
     with Spinner(ros_context, [markers, own, live, probe]):
         assert wait_for(lambda: probe.count_subscribers(f'{NS}/pose') >= 3
                         and probe.count_subscribers(f'{NS}/odometry/ring_a') >= 3)
-        odom_pub.publish(_pose(probe, 1.5, frame='world'))
+        odom_pub.publish(_pose(probe, 1.5, frame='odom'))
         pose_pub.publish(_pose(probe, 0.42))
         assert wait_for(lambda: {'/tf', '/tf_static'} <= set(live._raw_subscriptions))
         seen = own.messages
@@ -235,7 +235,7 @@ def test_with_a_live_tf_the_recorder_writes_its_own_tf_only(ros_context, tmp_pat
     frames = [{(x.header.frame_id, x.child_frame_id): x.transform for x in d.transforms}
               for d in (tf['own'][-1][1], tf['live'][-1][1])]
     fixed = {(parent, child) for parent, child, _ in fixed_transforms(load_robot('pole_climber'))}
-    assert frames[0].keys() == frames[1].keys() | fixed and ('world', 'ring_a') in frames[1]
+    assert frames[0].keys() == frames[1].keys() | fixed and ('odom', 'base_link') in frames[1]
     assert not frames[1].keys() & fixed
     assert {(x.header.frame_id, x.child_frame_id) for x in static[0].transforms} == fixed
     for key, b in frames[1].items():

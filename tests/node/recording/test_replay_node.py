@@ -289,4 +289,58 @@ def test_the_recorders_tf_is_replayed_as_tf2_msgs(ros_context, tmp_path):
     ring_b = pose_in(replayed, 'ring_b', 'ring_a')  # through leg 1's chain, as the URDF hangs it
     np.testing.assert_allclose(ring_b.position, a_T_b.position, atol=1e-12)
     np.testing.assert_allclose(ring_b.quaternion_xyzw, a_T_b.quaternion_xyzw, atol=1e-12)
-    assert last[('world', 'ring_a')].transform.translation.z == 1.2
+    assert last[('odom', 'base_link')].transform.translation.z == 1.2
+
+
+def test_clock_is_the_recordings_time_and_a_use_sim_time_node_follows_it(ros_context, tmp_path):
+    """/clock (rosgraph_msgs/Clock) is the recording's time where the replay is: the first log
+    time while paused at the start, never going back, through the recording as it plays, the last
+    log time at its end. A node run with use_sim_time reads it as now: the recording was made a
+    day ago, so its clock reads a day behind the wall clock, and stands still with the replay;
+    the replay node itself, run with use_sim_time, stamps its /diagnostics in the recording's time
+    (every rrps node takes now from its node clock) while it keeps playing at the wall's pace."""
+    from diagnostic_msgs.msg import DiagnosticArray
+    from rclpy.node import Node
+    from rclpy.parameter import Parameter
+    from rclpy.serialization import serialize_message
+    from rosgraph_msgs.msg import Clock
+    from sensor_msgs.msg import JointState
+
+    from rrps_recording.storage.mcap_files import TopicInfo, write_recording
+    from rrps_recording.storage.qos import QosSpec
+    from rrps_runtime.messages import joint_state_msg
+    from rrps_runtime.qos import CLOCK_QOS
+
+    t0 = time.time_ns() - 86_400 * 10**9
+    log_times = [t0 + i * 20_000_000 for i in range(50)]
+    write_recording(tmp_path / 'day_old.mcap', [TopicInfo(f'{NS}/actuators/state', 'sensor_msgs/msg/JointState',
+                                                          (QosSpec(),))],
+                    [(f'{NS}/actuators/state', t, serialize_message(joint_state_msg(JointState().header.stamp,
+                                                                                    [0.43] * 6)))
+                     for t in log_times])
+    follower = Node('sim_time_follower', context=ros_context, namespace=NS,
+                    parameter_overrides=[Parameter('use_sim_time', value=True)])
+    ticks: list[int] = []
+    follower.create_subscription(Clock, '/clock', lambda m: ticks.append(m.clock.sec * 10**9 + m.clock.nanosec),
+                                 CLOCK_QOS)
+    stamps: list[int] = []
+    follower.create_subscription(DiagnosticArray, '/diagnostics', lambda m: stamps.extend(
+        m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for s in m.status if 'replay' in s.name), 10)
+    replay = _replay(ros_context, [tmp_path / 'day_old.mcap'], paused=True, clock_rate=50.0, use_sim_time=True)
+    sim_now = lambda: follower.get_clock().now().nanoseconds  # noqa: E731
+    with Spinner(ros_context, [replay, follower]):
+        assert wait_for(lambda: len(ticks) >= 5 and sim_now() == t0, timeout=20.0)
+        assert set(ticks) == {t0}                       # paused at the start: the clock stands
+        assert abs(time.time_ns() - 86_400 * 10**9 - sim_now()) < 60 * 10**9
+        n = len(ticks)
+        replay.set_parameters([Parameter('paused', value=False)])
+        assert wait_for(lambda: replay.finished and ticks[-1] == log_times[-1], timeout=30.0)
+        assert wait_for(lambda: sim_now() == log_times[-1], timeout=10.0)
+    playing = ticks[n:]
+    assert all(b >= a for a, b in zip(ticks, ticks[1:]))  # never back
+    assert min(ticks) == t0 and max(ticks) == log_times[-1]
+    # it went through the recording, not in one jump: ticks at 50 Hz across its 0.98 s
+    assert len({t for t in playing if t0 < t < log_times[-1]}) >= 5
+    # before its first /clock a use_sim_time node's time is 0; after it, the recording's
+    assert stamps and all(s == 0 or t0 <= s <= log_times[-1] for s in stamps) and max(stamps) >= t0, stamps
+    follower.destroy_node()

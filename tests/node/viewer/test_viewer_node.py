@@ -157,7 +157,7 @@ def test_requests_run_only_for_the_controller_and_answers_reach_the_operator(ros
         assert viewer.told[-1] == (cid, 'open ring_a: refused: the other ring is open', False)
         viewer.step(cid, 'down')                                # no climb node here
         assert wait_for(lambda: len(viewer.told) >= 3)
-        assert 'climb/step_down is not available' in viewer.told[-1][1]
+        assert viewer.told[-1][1].startswith('climb step down: climb/step') and 'not available' in viewer.told[-1][1]
         assert wait_for(lambda: viewer.requests.ready(OperatorRequest.MAPPING))
         viewer.set_mapping(cid, 'joint', 'absolute', 2.5)
         assert wait_for(lambda: len(viewer.told) >= 4)

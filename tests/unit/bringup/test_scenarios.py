@@ -75,3 +75,10 @@ def test_ros_arguments_and_unknown_names():
         '-p', 'flag:=true']
     with pytest.raises(ValueError, match='unknown scenario .*facade_wall'):
         scenario('bridge')
+
+
+def test_the_demos_help_names_every_scenario():
+    """``./rrps demo --help`` reads the names from the standard-library module, before any install."""
+    from rrps_bringup.demo_arguments import SCENARIO_NAMES, demo_parser
+    assert SCENARIO_NAMES == tuple(SCENARIOS)
+    assert ' | '.join(SCENARIOS) in ' '.join(demo_parser().format_help().split())

@@ -461,3 +461,31 @@ def test_a_step_accepted_by_its_preview_starts_only_if_nothing_changed(change, r
     assert out.status.detail.startswith('step refused: ') and 'while the step was previewed' in out.status.detail
     assert out.log == [(logging.WARNING, out.status.detail)]
     assert all(o.target is None and o.gripper is None for o in [rig.tick() for _ in range(5)])
+
+
+def test_a_cancel_holds_the_step_as_a_pause_and_a_previewed_step_never_starts():
+    """cancel (the climb/step action's): no target and no gripper request after it, the grippers
+    as they are; climb/resume goes on from there to the end of the step."""
+    rig = Rig()
+    _started(rig)
+    rig.run_until(_in_phase('move_b'))
+    index = rig.machine.status().phase_index
+    assert 0 < index < rig.machine.status().phases
+    n = len(rig.outputs)
+    out = rig.machine.cancel()
+    assert out.reply[0] and rig.machine.status().pause_reason is PauseReason.CANCELLED
+    for _ in range(50):
+        rig.tick()
+    assert all(o.target is None and o.gripper is None for _, o in rig.outputs[n:])
+    assert rig.machine.status().state is PAUSED and rig.grippers == {'ring_a': True, 'ring_b': False}
+    assert rig.call(rig.machine.resume).reply[0]
+    rig.run_until(lambda s: s.state is IDLE)
+    assert rig.machine.steps_done == 1 and not rig.both_open
+    previewed = Rig(preview=True)
+    _started(previewed)
+    assert previewed.machine.status().previewing
+    previewed.machine.cancel()
+    assert not previewed.machine.status().previewing
+    accepted = ClimbPreview(accepted=True, peak_force=1.0, max_force=2.0)
+    assert previewed.call(previewed.machine.on_preview, accepted).target is None
+    assert previewed.machine.status().state is IDLE

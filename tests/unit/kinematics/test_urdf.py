@@ -55,7 +55,8 @@ def test_the_urdf_parses_with_the_descriptions_joints_limits_and_inertias(name):
     g = load_robot(name)
     urdf = _parse(robot_urdf(g))
     assert urdf.validate()
-    assert urdf.base_link == 'ring_a'
+    assert urdf.base_link == 'base_link'  # REP-105, with ring_a fixed on it at identity
+    np.testing.assert_array_equal(urdf.get_transform('ring_a', 'base_link'), np.eye(4))
     joints = urdf.robot.joints
     dof = sorted(g.extra_dof)
     # per leg: 2 universal + 1 prismatic + 3 spherical; one ring DOF joint per ring that has it
@@ -65,7 +66,7 @@ def test_the_urdf_parses_with_the_descriptions_joints_limits_and_inertias(name):
     assert kinds.count('prismatic') == 6 and kinds.count('continuous') == 6
     assert kinds.count('revolute') == 24 + len(dof)
     fixed = {j.child: j.parent for j in joints if j.type == 'fixed'}
-    assert fixed['ring_b'] == 'leg_1_tip' and fixed['ring_a_body'] == 'ring_a'
+    assert fixed['ring_b'] == 'leg_1_tip' and fixed['ring_a_body'] == 'ring_a' and fixed['ring_a'] == 'base_link'
     assert ('tool' in fixed) == (g.tool is not None)
     for leg in range(1, 7):
         chain = leg_chain(leg)
@@ -81,7 +82,7 @@ def test_the_urdf_parses_with_the_descriptions_joints_limits_and_inertias(name):
         limit = urdf.joint_map[f'{ring}_rotation'].limit
         assert (limit.lower, limit.upper) == (g.extra_dof[ring].min_angle, g.extra_dof[ring].max_angle)
     inertial = {name: link.inertial for name, link in urdf.link_map.items() if link.inertial is not None}
-    assert urdf.link_map['ring_a'].inertial is None  # KDL takes no inertia on the root
+    assert urdf.link_map['base_link'].inertial is None  # KDL takes no inertia on the root
     for link, value in inertial.items():
         assert value.mass > 0.0 and np.all(np.linalg.eigvalsh(value.inertia) > 0.0), link
     assert inertial['ring_a_body'].mass == g.ring_a_inertia.mass
@@ -132,10 +133,10 @@ def test_our_tf_tree_is_the_one_a_urdf_parser_computes(name):
     rings = {f'{ring}_rotation': 0.4 for ring in g.extra_dof}
     tree = robot_transforms(g, a_T_b, world_T_a, rings)
     urdf.update_cfg(joint_values(g, a_T_b, rings))
-    assert {child for _, child, _ in tree} == set(urdf.link_map)  # ring_a: from world
+    assert {child for _, child, _ in tree} == set(urdf.link_map)  # base_link: from odom
     for link in urdf.link_map:
-        ours = pose_in(tree, link, 'world')
-        theirs = world_T_a.matrix @ urdf.get_transform(link, 'ring_a')
+        ours = pose_in(tree, link, 'odom')
+        theirs = world_T_a.matrix @ urdf.get_transform(link, 'base_link')
         assert np.linalg.norm(ours.position - theirs[:3, 3]) < 1e-12, link
         assert rotation_angle_between(ours.rotation, theirs[:3, :3]) < 1e-9, link
 
@@ -175,10 +176,10 @@ def test_urdfdom_robot_state_publishers_parser_reads_the_tree(name, tmp_path):
     path.write_text(robot_urdf(g))
     result = _check_urdf(path)
     assert result.returncode == 0, result.stderr
-    assert 'root Link: ring_a has' in result.stdout
+    assert 'root Link: base_link has' in result.stdout
     links = {line.split(':', 1)[1].strip() for line in result.stdout.splitlines()
              if line.strip().startswith('child(')}
-    assert links == set(_parse(robot_urdf(g)).link_map) - {'ring_a'}
+    assert links == set(_parse(robot_urdf(g)).link_map) - {'base_link'}
     # and it refuses what it must: a limit without an effort
     path.write_text(re.sub(r' effort="[^"]*"', '', robot_urdf(g), count=1))
     assert _check_urdf(path).returncode != 0

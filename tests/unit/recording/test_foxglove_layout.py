@@ -9,7 +9,7 @@ import json
 import re
 from pathlib import Path
 
-from rrps_interfaces.climb import CLIMB_STATUS
+from rrps_interfaces.climb import CLIMB_STATUS, ODOMETRY
 from rrps_interfaces.driver import GRIPPERS_STATE
 from rrps_interfaces.kinematics import ACTUATORS_STATE
 from rrps_interfaces.recording import ROBOT_MARKERS
@@ -24,6 +24,7 @@ TYPES = {f'{NS}/{ACTUATORS_STATE}': 'sensor_msgs/msg/JointState',
          f'{NS}/{TELEOP_STATUS}': 'diagnostic_msgs/msg/DiagnosticStatus',
          f'{NS}/{CLIMB_STATUS}': 'diagnostic_msgs/msg/DiagnosticStatus',
          f'{NS}/{ROBOT_MARKERS}': 'visualization_msgs/msg/MarkerArray',
+         f'{NS}/{ODOMETRY}': 'nav_msgs/msg/Odometry',
          f'{NS}/robot_description': 'std_msgs/msg/String',
          DIAGNOSTICS: 'diagnostic_msgs/msg/DiagnosticArray'}
 
@@ -64,3 +65,9 @@ def test_the_layout_arranges_configured_panels_on_the_stacks_topics():
     plotted = {s['value'] for p, c in layout['configById'].items() if p.startswith('Plot!') for s in c['paths']}
     assert {f'{NS}/{ACTUATORS_STATE}.position[{i}]' for i in range(6)} <= plotted  # leg lengths
     assert {f'{NS}/{ACTUATORS_STATE}.effort[{i}]' for i in range(6)} <= plotted  # leg forces
+
+
+def test_the_3d_panel_follows_base_link_over_the_odom_grid():
+    """REP-105: the camera follows the robot's base_link; the ground grid is the world's, odom."""
+    robot = json.loads(LAYOUT.read_text())['configById']['3D!robot']
+    assert robot['followTf'] == 'base_link' and robot['layers']['grid']['frameId'] == 'odom'

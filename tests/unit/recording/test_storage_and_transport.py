@@ -374,23 +374,23 @@ def test_transforms_chain_to_the_joint_centres_and_markers_use_the_viewer_colour
     ik = inverse_kinematics(geom, a_T_b.position, a_T_b.quaternion_xyzw)
     for i in range(6):
         chain = leg_chain(i + 1)
-        tip = pose_in(tree, chain.tip, 'world').position
-        base = pose_in(tree, chain.links[0], 'world').position
+        tip = pose_in(tree, chain.tip, 'odom').position
+        base = pose_in(tree, chain.links[0], 'odom').position
         np.testing.assert_allclose(tip, world_T_a.apply(ik.ring_b_anchors_in_a[i]), atol=1e-9)
         np.testing.assert_allclose(base, world_T_a.apply(geom.ring_a_anchors[i]), atol=1e-9)
         upper = pose_in(tree, chain.links[2], 'ring_a')  # at the S-joint, z along the leg
         np.testing.assert_allclose(upper.rotation[:, 2], ik.unit_vectors[i], atol=1e-12)
-    np.testing.assert_allclose(pose_in(tree, 'ring_b', 'world').position, world_T_a.compose(a_T_b).position)
+    np.testing.assert_allclose(pose_in(tree, 'ring_b', 'odom').position, world_T_a.compose(a_T_b).position)
 
     markers = robot_markers(geom, a_T_b, grippers={'ring_a': True, 'ring_b': False},
                             target=a_T_b, world_T_a=world_T_a)
     by_key = {(m.ns, m.id): m for m in markers}
-    assert {m.frame for m in markers} == {'ring_a', 'world'}
+    assert {m.frame for m in markers} == {'ring_a', 'odom'}
     legs = by_key[('legs', 0)]
     figure = robot_figure(geom, a_T_b=a_T_b, world_T_a=Pose())
     np.testing.assert_allclose(legs.points, figure.leg_points.reshape(-1, 3), atol=1e-12)
     np.testing.assert_allclose(legs.colours[::2, :3] * 255.0, figure.leg_colours, atol=1e-9)
     assert by_key[('grippers', 0)].colour != by_key[('grippers', 1)].colour
-    assert ('ghost', 0) in by_key and ('world/legs', 0) in by_key
-    np.testing.assert_allclose(by_key[('world/legs', 0)].points,
+    assert ('ghost', 0) in by_key and ('odom/legs', 0) in by_key
+    np.testing.assert_allclose(by_key[('odom/legs', 0)].points,
                                world_T_a.apply(figure.leg_points.reshape(-1, 3)), atol=1e-12)

@@ -8,13 +8,18 @@ feeds it ``pose`` (a_T_b, frame ring_a; the newest sample at the node's ``rate``
 extra ring DOF, ``actuators/state``; it publishes what the machine asks for: ``target_pose``
 (and ``target_rings``) through the IK node's guards, requests to the driver's
 ``grippers/<ring>/set``, ``climb/status`` (values :class:`~rrps_interfaces.climb.ClimbStatus`)
-and ``odometry/ring_a|ring_b`` (frame ``world``, stamped with the pose they were chained from),
-with the supporting ring's on ``odometry/support`` (TransformStamped, child frame the ring,
-latched; at once when it changes, else at 10 Hz: :mod:`rrps_climbing.odometry_attitude`),
-the attitude the driver's gravity and teleop's load guards follow. A step's preview stands where
-the odometry's ring_a is (``anchor_phases``): it computes in the gravity of the measured attitudes.
+``odometry`` (nav_msgs/Odometry, REP-105: ``base_link`` in ``odom``, its twist, the covariance of
+:mod:`rrps_kinematics.base_odometry`) and ``odometry/ring_a|ring_b`` (each ring in ``odom``), all
+stamped with the pose they were chained from, their frames named with ``frame_prefix``.
+The supporting ring's world pose goes on ``odometry/support`` (TransformStamped in frame ``world``,
+child frame the ring, latched; at once when it changes, else at 10 Hz:
+:mod:`rrps_climbing.odometry_attitude`), the attitude the driver's gravity and teleop's load guards
+follow. A step's preview stands where the odometry's ring_a is (``anchor_phases``): it computes in the
+gravity of the measured attitudes.
 
-Services ``climb/step_up``, ``climb/step_down`` and ``climb/resume`` (std_srvs/Trigger);
+The action ``climb/step`` (rrps_msgs/action/ClimbStep: feedback, cancel;
+:mod:`rrps_climbing.climb_action`, where rrps_msgs is built) and the services
+``climb/step_up``, ``climb/step_down`` and ``climb/resume`` (std_srvs/Trigger);
 ``auto_steps`` > 0 climbs that many steps up once the robot's state is known.
 
 With ``preview`` (default), each planned step is first simulated on the dynamics in a worker
@@ -34,10 +39,12 @@ from functools import partial
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, TransformStamped
+from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 
+from rrps_climbing.climb_action import ClimbAction
 from rrps_climbing.frame_crossing import FrameNodePlanner
 from rrps_climbing.gait import GaitPlanner
 from rrps_climbing.load_check import LoadCheck
@@ -46,15 +53,17 @@ from rrps_climbing.step_io import ClimbOutput, ClimbTarget, StepConfig
 from rrps_climbing.step_machine import ClimbStepMachine
 from rrps_climbing.step_preview import PreviewConfig, run_preview, warm_up
 from rrps_description.geometry import load_robot
-from rrps_description.names import RING_A_FRAME, RINGS, WORLD_FRAME, ring_joint
+from rrps_description.names import BASE_FRAME, ODOM_FRAME, RING_A_FRAME, RINGS, WORLD_FRAME, prefixed, ring_joint
 from rrps_description.pose import QUATERNION_TOLERANCE, InvalidPose, Pose
 from rrps_description.structures import STRUCTURES, structure_from_parameters
 from rrps_interfaces.climb import (
     CLIMB_PREVIEW,
     CLIMB_RESUME,
     CLIMB_STATUS,
+    CLIMB_STEP,
     CLIMB_STEP_DOWN,
     CLIMB_STEP_UP,
+    ODOMETRY,
     SUPPORT_POSE,
     ClimbPreview,
     ClimbState,
@@ -65,8 +74,16 @@ from rrps_interfaces.driver import GRIPPERS_STATE, DriverStatus, gripper_service
 from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE, TARGET_POSE, TARGET_RINGS
 from rrps_interfaces.status import DIAGNOSTICS, source_node
 from rrps_interfaces.teleop import TELEOP_STATUS, TeleopStatus
+from rrps_kinematics.base_odometry import BaseOdometry
 from rrps_runtime.diagnostics import ERROR, OK, WARN, Diagnostics
-from rrps_runtime.messages import joint_state_msg, pose_from_msg, pose_to_msg, transform_to_msg
+from rrps_runtime.messages import (
+    joint_state_msg,
+    odometry_msg,
+    pose_from_msg,
+    pose_to_msg,
+    stamp_to_seconds,
+    transform_to_msg,
+)
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
@@ -119,6 +136,10 @@ PARAMETERS = NodeParameters('climb_node', 'rrps_climbing', [
               unit='m/s^2', item_type=float),
     Parameter('preview_min_margin', 0.0, 'smallest holding margin a preview accepts', range=(-1.0, 1.0)),
     *scheduling_parameters(CONTROL_RT_PRIORITY),
+    Parameter('frame_prefix', '', "the odometry's frames are <frame_prefix>odom, <frame_prefix>base_link (as "
+              "robot_state_publisher's frame_prefix: several robots in one domain)"),
+    Parameter('odometry_length_stddev', 1e-4, "standard deviation of a measured leg length: the odometry's "
+              'covariance', unit='m', range=(0.0, 0.1)),
 ])
 
 LEVELS = {ClimbState.IDLE: OK, ClimbState.EXECUTING: OK, ClimbState.PAUSED: ERROR, ClimbState.FAILED: ERROR}
@@ -168,6 +189,9 @@ class ClimbNode(Node):
                           for ring in RINGS}
         self._support_pub = self.create_publisher(TransformStamped, SUPPORT_POSE, LATCHED_QOS)
         self._support_due = SupportPublisher()
+        self._frames = (prefixed(values['frame_prefix'], ODOM_FRAME), prefixed(values['frame_prefix'], BASE_FRAME))
+        self._base_odometry = BaseOdometry(self.geometry, values['odometry_length_stddev'], config.period)
+        self._base_pub = self.create_publisher(Odometry, ODOMETRY, STATE_QOS)
         self.create_subscription(PoseStamped, POSE, self._on_pose, LATEST_QOS)
         self.create_subscription(JointState, GRIPPERS_STATE, self._on_grippers, STATE_QOS)
         # the operator station's sign of life: the newest sample counts; a reliable reader would
@@ -179,6 +203,14 @@ class ClimbNode(Node):
         self.create_service(Trigger, CLIMB_RESUME, lambda req, res: self._request(res, self.machine.resume))
         self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, STATE_QOS)
         self._diag = Diagnostics(self, 'climb', hardware_id=self.geometry.name)
+        self._action = None
+        try:
+            from rrps_msgs.action import ClimbStep  # optional: built by ./rrps (tools/rrps_msgs), not on PyPI
+        except ImportError as exc:
+            self.get_logger().info(f'the {CLIMB_STEP} action is off: rrps_msgs is not installed ({exc}); '
+                                   'the step services serve')
+        else:
+            self._action = ClimbAction(self, ClimbStep, self._carry_out)
         self.create_timer(config.period, self._on_tick)
         self.create_timer(0.5, lambda: self._publish_status(self.machine.report()))
 
@@ -295,6 +327,8 @@ class ClimbNode(Node):
                                message=preview.detail, hardware_id=self.geometry.name)
         msg.values = [KeyValue(key=k, value=v) for k, v in preview.to_values().items()]
         self._preview_pub.publish(msg)
+        if self._action is not None:
+            self._action.preview = preview
         self._carry_out(self.machine.on_preview(preview, self._now()))
 
     def _on_tick(self) -> None:
@@ -303,6 +337,8 @@ class ClimbNode(Node):
         self._take_pose()
         self._publish_odometry()
         self._carry_out(self.machine.tick(self._now()))
+        if self._action is not None:
+            self._action.tick(self._now())
 
     # --- outputs --------------------------------------------------------------------------------
 
@@ -340,19 +376,24 @@ class ClimbNode(Node):
             self._ring_pub.publish(joint_state_msg(stamp, target.ring_angles, names=self._ring_joints))
 
     def _publish_odometry(self) -> None:
-        """The latest world poses of both rings, at the node's ``rate`` (not at the pose rate)."""
+        """The latest world poses of both rings and base_link's odometry, at the node's ``rate``
+        (not at the pose rate)."""
         if self._odometry is None:
             return
         world_T_a, world_T_b, stamp = self._odometry
         self._odometry = None
+        odom, base = self._frames
         for ring, T in (('ring_a', world_T_a), ('ring_b', world_T_b)):
-            self._odo_pubs[ring].publish(pose_to_msg(T.position, T.quaternion_xyzw, frame_id=WORLD_FRAME,
-                                                     stamp=stamp))
+            self._odo_pubs[ring].publish(pose_to_msg(T.position, T.quaternion_xyzw, frame_id=odom, stamp=stamp))
         support = support_of_odometry(world_T_a, world_T_b, self.machine.grippers)
         if support is not None and self._support_due.due(*support, self._now()):
             ring, T = support
             self._support_pub.publish(transform_to_msg(T.position, T.quaternion_xyzw, frame_id=WORLD_FRAME,
                                                        child_frame_id=ring, stamp=stamp))
+        grippers = self.machine.grippers
+        estimate = self._base_odometry.update(world_T_a, world_T_a.inverse() @ world_T_b,
+                                              grippers is None or grippers['ring_a'], stamp_to_seconds(stamp))
+        self._base_pub.publish(odometry_msg(estimate, stamp=stamp, frame_id=odom, child_frame_id=base))
 
     def _publish_status(self, status: ClimbStatus) -> None:
         level = WARN if status.state is ClimbState.IDLE and self.machine.plan_refused else LEVELS[status.state]
@@ -364,6 +405,8 @@ class ClimbNode(Node):
 
 
     def destroy_node(self) -> None:
+        if self._action is not None:
+            self._action.close()
         self._preview_worker.shutdown()
         super().destroy_node()
 

@@ -3,20 +3,22 @@
 Publishes ``robot/markers`` at ``rate`` Hz (:func:`rrps_recording.markers.robot_markers`):
 in frame ``ring_a`` both rings, the six legs coloured by their worst margin (the viewer's
 colours), the grippers (dark closed, yellow open, grey unknown) and the commanded target as a
-ghost ring_b; in frame ``world``, once odometry places the robot, the same robot again
-(namespaces ``world/...``) and the climbed structure (``structure``, every
+ghost ring_b; in frame ``odom`` (the world), once odometry places the robot, the same robot again
+(namespaces ``odom/...``) and the climbed structure (``structure``, every
 ``structure_period`` s). In RViz2: add a MarkerArray display on ``/rrps/robot/markers`` with
-fixed frame ``ring_a`` (or ``world``). The recordings also carry ``/tf`` (recorder_node).
+fixed frame ``odom`` (or ``base_link``). The recordings also carry ``/tf`` (recorder_node).
 
 Live ``/tf`` (``tf2_msgs/msg/TFMessage``, the absolute topic, with the QoS of tf2_ros'
-TransformBroadcaster) at ``tf_rate`` Hz once a pose is known: ``world -> ring_a`` (once odometry
-places the robot) and the URDF's moving joints at the pose's joint values (the extra ring DOF
+TransformBroadcaster) at ``tf_rate`` Hz once a pose is known, the REP-105 tree: ``odom ->
+base_link`` (once odometry places the robot) and the URDF's moving joints at the pose's joint values (the extra ring DOF
 from ``actuators/state``), computed as the recorder computes its ``/tf``
 (:func:`rrps_recording.markers.robot_transforms`); the URDF's fixed joints once on
 ``/tf_static`` (latched, as tf2_ros' StaticTransformBroadcaster): what robot_state_publisher
 publishes from robot_description and joint_states (robot_description_node). tf2_msgs is not on PyPI:
-``./rrps`` builds it (tools/build_tf2_msgs.sh) when cmake and a C compiler are there; without
-it the node logs that live /tf is off and publishes the markers only.
+``./rrps`` builds it (tools/build_interfaces.sh) when cmake and a C compiler are there; without
+it the node logs that live /tf is off and publishes the markers only. Every frame, of /tf and of
+the markers, is named with ``frame_prefix`` (``robot_1/odom``, ``robot_1/base_link``, ...), as
+robot_state_publisher's parameter names them: several robots in one domain share /tf.
 
 Subscribes (relative names): ``pose``, ``target_pose``, ``actuators/state`` (efforts),
 ``grippers/state``, ``odometry/ring_a|ring_b``; every subscription keeps only the newest
@@ -76,7 +78,7 @@ _KINDS = {'line_strip': Marker.LINE_STRIP, 'line_list': Marker.LINE_LIST,
 PARAMETERS = NodeParameters('markers_node', 'rrps_recording', [
     ROBOT,
     Parameter('rate', 10.0, 'robot/markers rate', unit='Hz', range=(0.1, 100.0)),
-    Parameter('structure', 'pole', 'structure to draw in world (pole, palm_trunk, frame, facade; empty: none)'),
+    Parameter('structure', 'pole', 'structure to draw in odom (pole, palm_trunk, frame, facade; empty: none)'),
     Parameter('structure_length', 3.0, 'drawn structure length', unit='m', range=(0.5, 100.0)),
     Parameter('structure_lean_deg', 0.0, 'the drawn pole leans this much from the vertical about the world x axis',
               unit='deg', range=(-80.0, 80.0)),
@@ -84,6 +86,8 @@ PARAMETERS = NodeParameters('markers_node', 'rrps_recording', [
     Parameter('out_of_plane', False, "frame: the member bends normal to the column's web plane"),
     Parameter('structure_period', 1.0, 'the structure is re-sent this often', unit='s', range=(0.1, 60.0)),
     Parameter('tf_rate', 30.0, 'live /tf rate (needs tf2_msgs); 0 = off', unit='Hz', range=(0.0, 1000.0)),
+    Parameter('frame_prefix', '', "every frame is <frame_prefix><name> (as robot_state_publisher's frame_prefix: "
+              'several robots in one domain)'),
 ])
 
 
@@ -134,11 +138,12 @@ class MarkersNode(Node):
         structure = values['structure']
         self.structure_period = values['structure_period']
         tf_rate = values['tf_rate']
+        self.frame_prefix = values['frame_prefix']
         self._structure = None
         if structure:  # static: its message is built once (thousands of points)
             from rrps_description.structures import structure_from_parameters
             vertices, faces = structure_from_parameters(values).mesh()
-            self._structure = marker_msg(structure_marker(vertices, faces),
+            self._structure = marker_msg(structure_marker(vertices, faces, self.frame_prefix),
                                          self.get_clock().now().to_msg())
         self._lock = threading.Lock()
         self._latest: dict[str, object] = {}
@@ -171,7 +176,7 @@ class MarkersNode(Node):
                 self._tf_pub = self.create_publisher(TFMessage, TF, _TF_PUBLISHER_QOS)
                 self._tf_static_pub = self.create_publisher(TFMessage, TF_STATIC, LATCHED_QOS)
                 self._tf_static_pub.publish(TFMessage(transforms=transform_msgs(
-                    fixed_transforms(self.geometry), self.get_clock().now().to_msg())))
+                    fixed_transforms(self.geometry, self.frame_prefix), self.get_clock().now().to_msg())))
                 self.create_timer(1.0 / tf_rate, self._publish_tf)
 
     def _store(self, topic: str, msg) -> None:
@@ -211,7 +216,8 @@ class MarkersNode(Node):
             except ValueError:
                 target = None
         return robot_markers(self.geometry, a_T_b, efforts=efforts,
-                             grippers=grippers or {}, target=target, world_T_a=world_T_a)
+                             grippers=grippers or {}, target=target, world_T_a=world_T_a,
+                             frame_prefix=self.frame_prefix)
 
     def transforms(self) -> list:
         """The /tf transforms (parent, child, Pose) of the newest messages (none before a pose):
@@ -226,7 +232,7 @@ class MarkersNode(Node):
         if state is not None and len(state.position) == len(state.name):
             rings = {name: value for name, value in zip(state.name, state.position)
                      if name in self._ring_joints and np.isfinite(value)}
-        return robot_transforms(self.geometry, a_T_b, world_T_a, rings, fixed=False)
+        return robot_transforms(self.geometry, a_T_b, world_T_a, rings, fixed=False, frame_prefix=self.frame_prefix)
 
     def _inputs(self) -> tuple:
         """What the markers are drawn from (the newest messages' values, not their stamps)."""

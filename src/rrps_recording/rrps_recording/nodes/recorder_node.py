@@ -20,7 +20,7 @@ of one per message, which is what keeps the recorder's cost within its budget (R
 the two loses and doubles nothing (:class:`rrps_recording.transport.taps.TapRouter`). A tapped
 message is logged at its publish time plus the node's smallest bundle delay.
 
-The transforms ``world -> ring_a`` and the URDF's, fixed joints included
+The transforms ``odom -> base_link`` (REP-105) and the URDF's, fixed joints included
 (:func:`rrps_recording.markers.robot_transforms`), are written to ``/tf`` as
 ``tf2_msgs/msg/TFMessage`` at ``tf_rate`` Hz from the newest ``pose``, ``odometry/*`` and
 ``grippers/state`` (:func:`rrps_recording.markers.tf_message_cdr`: tf2_msgs is not

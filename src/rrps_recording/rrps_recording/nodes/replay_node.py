@@ -13,6 +13,13 @@ Safety: a replay never feeds a live robot. The command streams (``target_pose``,
 ``actuators/command``, ``teleop/enable``, ``master/target_pose``) are published under
 ``<namespace>/replay/...`` instead (``remap_prefix``) unless ``allow_commands`` is set.
 
+``/clock`` (rosgraph_msgs/Clock, ``clock_rate`` Hz, as ``ros2 bag play --clock``) carries the
+recording's time where the replay is: a node started with ``use_sim_time:=true`` (RViz2, or any
+rrps node: they take "now" from their node clock) reads it as now, so it stamps and times out as
+it did while the session was recorded; it stands still while the replay is paused and jumps with
+a seek. The replay itself is paced by the wall clock (its timers and thread run on the steady
+clock), whatever its own ``use_sim_time``.
+
 Run-time parameters: ``rate`` (1.0 = as recorded), ``paused``, ``seek`` (set to a time [s]
 from the recording's start to jump there; the value stays as a record of the last jump).
 ``replay/status`` (diagnostic_msgs/DiagnosticStatus, values :class:`ReplayStatus`) says where
@@ -29,10 +36,13 @@ import time
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from rclpy.clock import Clock as NodeClock
+from rclpy.clock_type import ClockType
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
 
-from rrps_interfaces.recording import REPLAY_PREFIX, REPLAY_STATUS, ReplayStatus
+from rrps_interfaces.recording import CLOCK, REPLAY_PREFIX, REPLAY_STATUS, ReplayStatus
 from rrps_recording.storage.qos import offer_for_replay
 from rrps_recording.storage.schemas import message_class
 from rrps_recording.transport.replay import RecordingSet, ReplayClock, is_command_topic, replay_topic
@@ -40,7 +50,7 @@ from rrps_runtime.diagnostics import OBSERVER, OK, STALE, WARN, Diagnostics
 from rrps_runtime.parameter_schema import NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
-from rrps_runtime.qos import STATE_QOS
+from rrps_runtime.qos import CLOCK_QOS, STATE_QOS
 
 __all__ = ['ReplayNode', 'main']
 
@@ -59,6 +69,8 @@ PARAMETERS = NodeParameters('replay_node', 'rrps_recording', [
     Parameter('topics', ('',), "recorded topics to replay ('' = all)"),
     Parameter('status_rate', 10.0, 'replay/status rate', unit='Hz', range=(0.5, 100.0)),
     Parameter('exit_at_end', False, 'shut down when the recording ends (no loop)'),
+    Parameter('clock_rate', 40.0, "rate of /clock, the recording's time (0: no /clock)", unit='Hz',
+              range=(0.0, 1000.0)),
 ])
 
 
@@ -115,7 +127,11 @@ class ReplayNode(Node):
         self._status_pub = self.create_publisher(DiagnosticStatus, REPLAY_STATUS, STATE_QOS)
         self._diag = Diagnostics(self, 'replay', hardware_id=OBSERVER, rate_hz=1.0)
         self.add_post_set_parameters_callback(self._apply_parameters)
-        self.create_timer(1.0 / values['status_rate'], self._report)
+        steady = NodeClock(clock_type=ClockType.STEADY_TIME)
+        self.create_timer(1.0 / values['status_rate'], self._report, clock=steady)
+        if values['clock_rate'] > 0.0:
+            self._clock_pub = self.create_publisher(Clock, CLOCK, CLOCK_QOS)
+            self.create_timer(1.0 / values['clock_rate'], self._publish_clock, clock=steady)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name='replay', daemon=True)
         self._thread.start()
@@ -153,6 +169,14 @@ class ReplayNode(Node):
                 rate=self.clock.rate, paused=self.clock.paused, finished=self.finished,
                 file=self.files[0], published=self.published,
                 remapped=tuple(sorted(self.remapped.values())), skipped=tuple(sorted(self.skipped)))
+
+    def _publish_clock(self) -> None:
+        """/clock: the recording's time where the replay is now."""
+        with self._cond:
+            ns = self.clock.position(time.monotonic())
+        msg = Clock()
+        msg.clock.sec, msg.clock.nanosec = divmod(ns, 1_000_000_000)
+        self._clock_pub.publish(msg)
 
     def _report(self) -> None:
         status = self.status()

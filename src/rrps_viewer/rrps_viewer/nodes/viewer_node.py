@@ -476,6 +476,7 @@ class ViewerNode(Node):
 
     def destroy_node(self) -> None:
         self.viewer.stop()
+        self.requests.close()
         super().destroy_node()
 
 

@@ -1,0 +1,90 @@
+"""Each package installs on its own, with the dependencies it declares, into a clean environment.
+
+For every package of src/ (found by its setup.py, so the test follows a split of the packages):
+its wheel, and the wheels of the rrps packages it declares, are installed with pip, without
+``--no-deps``, into a fresh venv (no system site-packages, none of this checkout's environment)
+from the wheelhouse that ``./rrps install`` downloaded once (``--no-index``: the pinned PyPI
+wheels, the ROS 2 Jazzy ones among them). Then every module of the package imports there, and
+each of its command-line tools (``rrps-*``) answers ``--help``. A dependency the package imports
+but does not declare fails here as an ImportError (tests/repo/test_dependencies.py finds it
+without installing).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from importlib.metadata import distribution
+from pathlib import Path
+
+import pytest
+
+from rrps_testing.ci import require
+
+ROOT = Path(__file__).resolve().parents[2]
+SRC = ROOT / 'src'
+PACKAGES = sorted(p.parent.name for p in SRC.glob('*/setup.py'))
+#: Where ./rrps install keeps the wheels of requirements.txt.
+WHEELHOUSE = Path(sys.prefix) / 'wheelhouse'
+
+pytestmark = pytest.mark.slow
+
+#: Imports every module of the package named by argv[1]; prints how many.
+IMPORT_ALL = '''
+import importlib, pkgutil, sys
+package = importlib.import_module(sys.argv[1])
+names = [m.name for m in pkgutil.walk_packages(package.__path__, package.__name__ + '.')]
+for name in names:
+    importlib.import_module(name)
+print(len(names), 'modules of', package.__file__)
+'''
+
+
+def _run(command: list[str], env: dict | None = None, timeout: float = 600) -> subprocess.CompletedProcess:
+    return subprocess.run(command, capture_output=True, text=True, timeout=timeout, env=env, cwd='/')
+
+
+@pytest.fixture(scope='module')
+def package_wheels(tmp_path_factory) -> Path:
+    """Every package's wheel, built from a copy of its source (src/ stays clean)."""
+    require(WHEELHOUSE.is_dir(), f'no wheelhouse at {WHEELHOUSE}: ./rrps install makes it')
+    base = tmp_path_factory.mktemp('packages')
+    for name in PACKAGES:
+        shutil.copytree(SRC / name, base / 'src' / name,
+                        ignore=shutil.ignore_patterns('*.egg-info', '__pycache__', 'build'))
+    out = _run([sys.executable, '-m', 'pip', 'wheel', '-q', '--no-index', '--no-deps', '--no-build-isolation',
+                '-w', str(base / 'wheels'), *(str(base / 'src' / name) for name in PACKAGES)])
+    assert out.returncode == 0, out.stderr[-3000:]
+    return base / 'wheels'
+
+
+def _clean_environment(venv: Path) -> dict[str, str]:
+    """What a user's shell would have in that venv: none of this checkout's variables (its venv,
+    library path, ament prefix)."""
+    return {'PATH': f'{venv / "bin"}:/usr/bin:/bin', 'HOME': os.environ.get('HOME', '/tmp'), 'LANG': 'C.UTF-8',
+            'VIRTUAL_ENV': str(venv), 'AMENT_PREFIX_PATH': str(venv), 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
+            'RRPS_TEST_SESSION': os.environ.get('RRPS_TEST_SESSION', '')}
+
+
+@pytest.mark.parametrize('name', PACKAGES)
+def test_the_package_installs_alone_imports_and_starts(name, package_wheels, tmp_path):
+    venv = tmp_path / 'venv'
+    assert _run([sys.executable, '-m', 'venv', '--without-pip', str(venv)]).returncode == 0
+    python = str(venv / 'bin' / 'python')
+    out = _run([sys.executable, '-m', 'pip', '--python', python, 'install', '-q', '--no-compile', '--no-index',
+                '--find-links', str(WHEELHOUSE), '--find-links', str(package_wheels),
+                '-c', str(ROOT / 'requirements.txt'), name])
+    assert out.returncode == 0, f'pip install {name} with its declared dependencies:\n{out.stderr[-3000:]}'
+    env = _clean_environment(venv)
+    installed = _run([python, '-c', 'import sys; print(sys.path)'], env).stdout
+    assert str(ROOT) not in installed and '.venv' not in installed, installed
+    out = _run([python, '-c', IMPORT_ALL, name], env, timeout=300)
+    assert out.returncode == 0, f'{name} does not import with its declared dependencies:\n{out.stderr[-3000:]}'
+    assert f'{venv}' in out.stdout, out.stdout   # the installed package, not the source
+    tools = sorted(ep.name for ep in distribution(name).entry_points
+                   if ep.group == 'console_scripts' and ep.name.startswith('rrps-'))
+    for tool in tools:
+        out = _run([str(venv / 'bin' / tool), '--help'], env, timeout=300)
+        assert out.returncode == 0 and 'usage' in out.stdout.lower(), f'{tool} --help: {out.stderr[-2000:]}'
