@@ -97,7 +97,8 @@ class ClimbStatus(StatusValues):
     ``previewing``: a requested step is being previewed (the state stays IDLE until it starts);
     ``refusal``: why the last requested step did not start (None: it started, or none asked);
     ``step_duration`` [s] and ``climbing_speed`` [m/min]: the last planned climb's longest step
-    and its speed (NaN before one is planned)."""
+    and its speed (NaN before one is planned); ``plan_duration`` [s]: the executing (or last
+    executed) climb's planned duration, every phase's (a return to the gait's stance included)."""
 
     state: ClimbState
     pause_reason: PauseReason | None = None
@@ -113,6 +114,7 @@ class ClimbStatus(StatusValues):
     refusal: StepRefusal | None = None
     step_duration: float = math.nan
     climbing_speed: float = math.nan
+    plan_duration: float = math.nan
 
     @property
     def phase(self) -> str:

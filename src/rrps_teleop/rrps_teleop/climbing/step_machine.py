@@ -109,6 +109,7 @@ class ClimbStepMachine:
         self._pending: tuple[list[Phase], str, StepSnapshot] | None = None  # being previewed
         self.steps_done = 0
         self.timing = (math.nan, math.nan)  # the last planned step's duration [s] and climbing speed [m/min]
+        self.plan_duration = math.nan  # the executing (or last executed) climb's planned duration [s]
         self.pose: Pose | None = None
         self.grippers: dict[str, bool] | None = None
         self.driver_active: bool | None = None
@@ -264,6 +265,7 @@ class ClimbStepMachine:
 
     def _execute(self, phases: list[Phase], detail: str, now: float) -> None:
         self._phases, self._index = phases, 0
+        self.plan_duration = float(sum(ph.duration for ph in phases))
         self._enter_phase(now)
         self.mode = EXECUTING
         self.detail = detail
@@ -315,7 +317,8 @@ class ClimbStepMachine:
                            structure=self.structure.name, s_a=self.s_a, s_b=self.s_b,
                            steps_done=self.steps_done, detail=self.detail,
                            previewing=self._pending is not None, refusal=self.refusal,
-                           step_duration=self.timing[0], climbing_speed=self.timing[1])
+                           step_duration=self.timing[0], climbing_speed=self.timing[1],
+                           plan_duration=self.plan_duration)
 
     def report(self) -> ClimbStatus:
         """The status to report periodically (what changes after it is reported again at once)."""
