@@ -25,8 +25,8 @@ from rrps_interfaces.climb import ClimbPreview, ClimbState, ClimbStatus
 
 __all__ = ['ExecutionClock', 'StepReport', 'SLOWER', 'SETTLE_ALLOWANCE', 'EFFORT_AGREEMENT', 'EARLY']
 
-#: An executed step may take this many times its plan (a loaded machine streams late)...
-SLOWER = 1.5
+#: An executed step may take this many times its plan (on a loaded machine the robot falls behind)...
+SLOWER = 2.0
 #: ... plus this much [s]: the settle before each gripper and each next phase.
 SETTLE_ALLOWANCE = 3.0
 #: An executed step may end this much [s] before its plan: the receipt of climb/status (both ends).
