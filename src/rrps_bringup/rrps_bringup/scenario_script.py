@@ -1,15 +1,11 @@
 """The scripted operator of ``rrps-demo --headless --scenario NAME``: a load scenario over ROS.
 
-The operator (:class:`rrps_bringup.operator.ScriptedOperator`) first climbs one step up
-(``climb/step_up``: planned and previewed by the climb node with the scenario's payload, timed at
-the legs' limits, executed over ROS; :mod:`rrps_bringup.step_report`), then opens ring_b's
-gripper (ring_a alone holds the robot, its payload and ring_b), teleoperates ring_b along the
-scenario's motion (engage, move, release the deadman), closes the gripper again and prints a
-result block:
-
-* the climbing step: its planned duration and climbing speed [m/min], how long it executed
-  against its plan, the preview's peak actuator force and smallest holding margin, and the
-  driver's measured peak force against the preview's (a hardware that models the loads);
+The operator (:class:`rrps_bringup.operator.ScriptedOperator`) opens ring_b's gripper (ring_a
+alone holds the robot, its payload and ring_b), teleoperates ring_b along the scenario's motion
+(engage, move, release the deadman) and closes the gripper again; then it climbs one step up
+(``climb/step_up``: planned and previewed by the climb node with the scenario's payload, ring_b
+first brought back to the gait, timed at the legs' limits, executed over ROS;
+:mod:`rrps_bringup.step_report`). It prints a result block:
 
 * the supporting ring (from ``grippers/state``) and gravity in its frame, from its world attitude
   on ``odometry/ring_a`` (the climb node's, placed by the structure);
@@ -18,7 +14,10 @@ result block:
   (:func:`rrps_sim.loads.static_solution`: the driver really computes in that world); on
   ``canopen`` hardware the simulated drives' axes carry no load, so their efforts are not checked;
 * the smallest holding margin of the supporting gripper along the received poses (statics);
-* the refusals (a halting teleop code, a refused gripper) and teleop warnings seen.
+* the refusals (a halting teleop code, a refused gripper) and teleop warnings seen;
+* the climbing step: its planned duration and climbing speed [m/min], how long it executed
+  against its plan, the preview's peak actuator force and smallest holding margin, and the
+  driver's measured peak force against the preview's (a hardware that models the loads).
 
 Each check is printed [PASS]/[FAIL]; :meth:`ScenarioScript.run` is True when all passed.
 """
@@ -129,7 +128,6 @@ class ScenarioScript(ScriptedOperator):
             and self._efforts is not None and self._climb_state() is not None, WAIT, stop)
         checks.append(('odometry, grippers, actuator states and climb status received', up))
         if up:
-            checks += self._climb(stop)
             opened = self._set_gripper('ring_b', False, stop)
             checks.append(("ring_b's gripper opened: ring_a alone holds the robot", opened))
             support = self._support_ring()
@@ -138,6 +136,7 @@ class ScenarioScript(ScriptedOperator):
             checks += self._results(stop, support)
             if opened:
                 checks.append(("ring_b's gripper closed again", self._set_gripper('ring_b', True, stop)))
+            checks += self._climb(stop)
         if viewer is not None:
             drawn = viewer.viewer.frames_drawn
             checks.append((f'viewer drew {drawn} frames at {viewer.url}', drawn > 0))
@@ -152,14 +151,15 @@ class ScenarioScript(ScriptedOperator):
             self.climb_clock.reset()
         checks, final = self.climb_step(stop)
         with self._lock:
-            peak, self._peak = self._peak[0], (0.0, '')   # the teleop session's loads start afresh
-            self._poses = []
+            peak = self._peak[0]
             executed, paused = self.climb_clock.executing, self.climb_clock.paused
         if final is not None:
             self.step = StepReport(status=final, preview=self._climb_preview(), climbed=final.s_a - before.s_a,
                                    executed=executed, paused=paused, max_force=float(self.geometry.max_force),
                                    measured_peak=peak if self.hardware == 'simulated' else None,
                                    hardware=self.hardware)
+            for line in self.step.lines():
+                print(f'  {line}', flush=True)
             checks += self.step.checks()
         return checks
 
@@ -218,8 +218,6 @@ class ScenarioScript(ScriptedOperator):
         print('result:', flush=True)
         print(f'  scenario: {s.name} ({s.summary}); {s.motion}', flush=True)
         print(f'  support ring: {support_ring}', flush=True)
-        for line in self.step.lines() if self.step is not None else ():
-            print(f'  {line}', flush=True)
         print("  gravity in the supporting ring's frame: (" + ', '.join(f'{v:.3f}' for v in gravity) + ') g',
               flush=True)
         print(f'  peak actuator force: {peak:.1f} N ({leg}), max {g.max_force:.0f} N'
