@@ -346,9 +346,8 @@ class TeleopNode(Node):
     # --- control -------------------------------------------------------------------------
 
     def _control(self) -> None:
-        now = time.monotonic()
-        out = self.mapping.step(now)
-        self._stream.send(now, out, self.mapping.config.mode)
+        out = self.mapping.step(time.monotonic())
+        self._stream.send(out, self.mapping.config.mode)
         self._publish_status(out)
 
     def _publish_feedback(self) -> None:
@@ -371,12 +370,12 @@ class TeleopNode(Node):
         self._feedback = (float(np.linalg.norm(force)), limit)
 
     def _watchdog(self) -> None:
-        now = time.monotonic()
-        blocked = self.mapping.check(now)
+        blocked = self.mapping.check(time.monotonic())
         if blocked is not None:
-            self._stream.brake(now, self.mapping.config.mode)   # a stop streams without master samples too
+            self._stream.brake(self.mapping.config.mode)   # a stop streams without master samples too
             self._publish_status(TeleopOutput(blocked[0], False, blocked[1]))
         else:
+            self._stream.keep_up(self.mapping.command, self.mapping.config.mode, WATCHDOG_PERIOD)
             self._publish_status(self._output)
 
     def _slave_age_ms(self) -> float | None:
