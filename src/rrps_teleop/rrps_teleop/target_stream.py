@@ -42,8 +42,6 @@ __all__ = ['STREAM_SHARE', 'TargetStream', 'stopping_time', 'stopping_distance']
 
 #: The share of the legs' speed, acceleration and jerk limits the stream uses (the plans' share).
 STREAM_SHARE = 0.97
-#: Longest time step [s] the stream takes at once (a stalled step does not leap).
-MAX_STEP = 0.1
 
 
 def stopping_time(speed: float, limits: ActuatorLimits) -> float:
@@ -123,7 +121,7 @@ class TargetStream:
 
     def _update(self, t: float) -> bool:
         """One Ruckig step of the time since the last; False when it arrived (or cannot plan)."""
-        dt = min(max(float(t) - self._time, 0.0), MAX_STEP)
+        dt = max(float(t) - self._time, 0.0)   # the stream is a function of time: a late step takes its time's
         self._time = float(t)
         if dt <= 0.0:
             return True
