@@ -21,7 +21,7 @@ jerk-limited stop: Ruckig's velocity interface to zero speed, each leg from its 
 acceleration a. From rest it ends at once; from speed v with a = 0 it takes
 :func:`stopping_time` = 2 sqrt(v / j) (v <= a_max² / j) or v / a_max + a_max / j, over
 :func:`stopping_distance`: at the pole climber's 0.05 m/s, 0.25 m/s² and 2.5 m/s³, 0.3 s and
-7.5 mm; at the teleop speeds of a few mm/s, below 0.1 s and 0.1 mm. "The slave holds within
+7.5 mm; below 6 mm/s of leg speed, under 0.1 s and 0.3 mm. "The slave holds within
 0.1 s" means so: within 0.1 s of the release the stream is braking, and it is at rest within
 the stopping time of its speed then, no longer than the legs need to stop at all (the driver
 alone could not stop sooner). Pure NumPy (and ruckig); no ROS import.
