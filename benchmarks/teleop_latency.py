@@ -15,6 +15,8 @@ the previous one. Runs, interleaved sample by sample so they share the machine's
   - Cartesian mode: master/pose -> teleop_node -> target_pose -> ik_node -> actuators/command
     (3 deliveries);
   - Cartesian mode with ``control=timer`` at 200 Hz (the alternative to message-triggered control);
+  - Cartesian mode with ``jerk_limited`` off (the guarded commands as they are, without the
+    jerk-limited stream: what the stream costs);
 * across processes (the installed executables, each its own EventsExecutor; the bench is a
   separate process, so every number is a round trip from and back to the bench):
   - baseline: bare echo process, bench -> echo -> bench (2 deliveries);
@@ -228,6 +230,9 @@ def in_process(samples: int, domain_id: int) -> list[Run]:
     nodes = [TeleopNode(context=context, namespace='/joint', parameter_overrides=over(mode='joint')),
              TeleopNode(context=context, namespace='/cart', parameter_overrides=over(mode='cartesian')),
              IkNode(context=context, namespace='/cart'),
+             TeleopNode(context=context, namespace='/raw', parameter_overrides=over(mode='cartesian',
+                                                                                   jerk_limited=False)),
+             IkNode(context=context, namespace='/raw'),
              TeleopNode(context=context, namespace='/timer',
                         parameter_overrides=over(mode='cartesian', control='timer', control_rate=200.0)),
              IkNode(context=context, namespace='/timer'),
@@ -245,12 +250,14 @@ def in_process(samples: int, domain_id: int) -> list[Run]:
             Run('Cartesian mode: pub->teleop->ik->sub, 3 deliveries', teleop_sender(sender, '/cart', 'pose'),
                 Waiter()),
             Run('Cartesian, control=timer 200 Hz: teleop + ik', teleop_sender(sender, '/timer', 'pose'),
-                Waiter())]
+                Waiter()),
+            Run('Cartesian mode, guarded commands as they are (jerk_limited off)',
+                teleop_sender(sender, '/raw', 'pose'), Waiter())]
     for run, topic in zip(runs, ('/bare/bench/ping', '/relay/bench/pong', '/relay2/bench/out',
                                  '/joint/actuators/command', '/cart/actuators/command',
-                                 '/timer/actuators/command')):
+                                 '/timer/actuators/command', '/raw/actuators/command')):
         bench.create_subscription(JointState, topic, run.waiter, COMMAND_QOS)
-    tick = operator(sender, ['/joint', '/cart', '/timer'])
+    tick = operator(sender, ['/joint', '/cart', '/timer', '/raw'])
     stop, thread = spin_in_thread(context, nodes + [bench, sender])
     op_stop = threading.Event()
     try:
@@ -340,10 +347,11 @@ def main() -> None:
     if not args.no_processes:
         for run in across_processes(args.samples, domain_id + 1):
             print(row(run).replace('| ', '| processes: ', 1))
-    bare, relay, relay2, joint, cart, timer = (np.percentile(r.latencies, 99) * 1e3 for r in runs)
+    bare, relay, relay2, joint, cart, timer, raw = (np.percentile(r.latencies, 99) * 1e3 for r in runs)
     print(f'\nin-process p99: joint mode adds {joint - relay:.3f} ms over the bare relay of the same topology '
           f'(2 deliveries); Cartesian mode adds {cart - relay2:.3f} ms over the two-relay chain (3 deliveries); '
-          f'control=timer adds {timer - cart:.3f} ms over message-triggered control.')
+          f'control=timer adds {timer - cart:.3f} ms over message-triggered control; the jerk-limited stream '
+          f'adds {cart - raw:.3f} ms over the guarded commands as they are.')
     ok = True
     for what, ours, baseline in (
             ('joint mode (teleop) vs bare 1 delivery [target as stated]', joint, bare),

@@ -19,6 +19,7 @@ setup(
     ],
     install_requires=[
         'numpy',
+        'ruckig',
         'ros-jazzy-diagnostic-msgs',
         'ros-jazzy-geometry-msgs',
         'ros-jazzy-rcl-interfaces',

@@ -1,6 +1,7 @@
 """rrps-demo --headless --scenario: the facade climber on its wall and the pole climber on a leaning
-trunk, teleoperated over ROS by the scripted operator, and the frame climber across a 90 deg node,
-one climbing step over ROS, checked against physics and plans computed here.
+trunk, teleoperated over ROS by the scripted operator, then climbing one step at the legs' limits
+with the scenario's payload, on the simulated driver and on CANopen drives; the frame climber
+across a 90 deg node, one climbing step over ROS; checked against physics and plans computed here.
 
 The gravity each run prints (from the supporting ring's world attitude, over ROS) is compared with
 the structure's attitude built here from its description (a vertical wall whose outward normal is
@@ -10,6 +11,13 @@ a finite-difference Jacobian of the leg lengths, both from the anchors (eq. 1;
 :mod:`rrps_testing.virtual_work`). The frame node's gravity comes from the beam face built here
 (the column vertical, the bend in its web plane: the face normal is +-y, the route up the column),
 its end poses from the crossing planned here (``FrameNodePlanner``).
+
+The climbing step: the climb node plans and previews it with the scenario's payload, so the
+preview's peak force is at least the statics of the step's start (the home pose, at rest on
+ring_a, the payload on ring_b: by virtual work here) and below the limit; it is faster than the
+former constant 0.02 m/s stream could be (each ring moves the step's length, plus the grippers'
+open and close times of the robot's YAML) and executes no faster than its plan, the grippers'
+times included. CANopen's simulated drives move kinematic axes: their efforts are not checked.
 """
 
 from __future__ import annotations
@@ -56,12 +64,13 @@ FACE = np.column_stack([[0.0, 0.0, 1.0], np.cross([0.0, -1.0, 0.0], [0.0, 0.0, 1
 SCENARIOS['frame_node'] = ('frame_climber', FACE, 0.0)
 
 
-def _run(ros_domain_id: int, name: str) -> str:
+def _run(ros_domain_id: int, name: str, hardware: str = 'simulated') -> str:
     """The headless scenario's output (its exit status 0)."""
     command = [str(DEMO)] if DEMO.exists() else [sys.executable, '-m', 'rrps_bringup.demo']
     env = {**os.environ, 'ROS_DOMAIN_ID': str(ros_domain_id), 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
            'PYTHONUNBUFFERED': '1'}
-    proc = subprocess.Popen([*command, '--headless', '--scenario', name, '--port', str(_free_port())],
+    proc = subprocess.Popen([*command, '--headless', '--scenario', name, '--hardware', hardware,
+                             '--port', str(_free_port())],
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         out, _ = proc.communicate(timeout=600)  # a loaded machine: generous; no timing is checked
@@ -82,17 +91,28 @@ def _gravity(out: str) -> np.ndarray:
     return np.array([float(v) for v in printed.group(1).split(',')])
 
 
+#: The climbing step's line: route distance, planned step and speed, executed and planned climb.
+CLIMB = re.compile(r'climbing step: ([\d.]+) m in ([\d.]+) s planned \(([\d.]+) m/min\); executed in ([\d.]+) s '
+                   r'\(([\d.]+) m/min\) for ([\d.]+) s planned')
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize('name', TELEOP_SCENARIOS)
-def test_a_headless_scenario_teleoperates_the_robot_in_its_world(ros_domain_id, name):
+@pytest.mark.parametrize('name, hardware', [(name, hardware) for hardware in ('simulated', 'canopen')
+                                            for name in TELEOP_SCENARIOS])
+def test_a_headless_scenario_teleoperates_the_robot_in_its_world_and_climbs_a_step(ros_domain_id, name, hardware):
     robot, world_R_a, payload = SCENARIOS[name]
-    out = _run(ros_domain_id, name)
+    out = _run(ros_domain_id, name, hardware)
     assert '[FAIL]' not in out, out[-4000:]
+    loaded = hardware == 'simulated'   # the CANopen drives' axes carry no load
     for line in ("[PASS] ring_b's gripper opened", '[PASS] deadman held: teleop engaged',
                  '[PASS] slave followed the master', '[PASS] deadman released', '[PASS] viewer drew',
-                 "[PASS] the driver's efforts at rest match the statics"):
+                 '[PASS] climb step executed and ended idle', '[PASS] climbing step executed at its timing',
+                 '[PASS] climbing step peak actuator force', '[PASS] climbing step smallest holding margin',
+                 *(["[PASS] the driver's efforts at rest match the statics", "[PASS] the driver's peak force"]
+                   if loaded else [])):
         assert line in out, out[-4000:]
     assert 'support ring: ring_a' in out, out[-4000:]
+    _check_climb(out, robot, world_R_a, payload)
 
     gravity = _gravity(out)
     expected = world_R_a.T @ np.array([0.0, 0.0, -1.0])
@@ -100,16 +120,39 @@ def test_a_headless_scenario_teleoperates_the_robot_in_its_world(ros_domain_id, 
     np.testing.assert_allclose(expected, {'facade_wall': [0.0, -1.0, 0.0],
                                           'pole_leaning': [0.0, -0.5, -math.sqrt(3) / 2]}[name], atol=1e-12)
 
+    if not loaded:
+        return
     peak, limit = (float(v) for v in re.search(r'peak actuator force: ([\d.]+) N \(leg_\d\), max ([\d.]+) N',
                                                out).groups())
-    g = load_robot(robot)
-    start_forces = virtual_work_forces(g, g.home_position, quaternion_matrix(g.home_quaternion_xyzw),
-                                       world_R_a.T @ [0.0, 0.0, -G], payload_mass=payload)
-    start = float(np.max(np.abs(start_forces)))
+    start = _start_statics(robot, world_R_a, payload)
     assert limit == load_robot(robot).max_force
     assert peak < limit
     # the peak over a motion of millimetres from the start pose: the start's statics, give or take
     assert 0.8 * start < peak < 1.25 * start, (peak, start)
+
+
+def _start_statics(robot: str, world_R_a, payload: float) -> float:
+    """The largest leg force [N] at the home pose on ring_a, the payload on ring_b (virtual work)."""
+    g = load_robot(robot)
+    forces = virtual_work_forces(g, g.home_position, quaternion_matrix(g.home_quaternion_xyzw),
+                                 world_R_a.T @ [0.0, 0.0, -G], payload_mass=payload)
+    return float(np.max(np.abs(forces)))
+
+
+def _check_climb(out: str, robot: str, world_R_a, payload: float) -> None:
+    """The climbing step's figures against the module docstring's bounds."""
+    climbed, step, speed, executed, _, planned = (float(v) for v in CLIMB.search(out).groups())
+    g = load_robot(robot)
+    grippers = sum(g.motion_limits.grippers[ring].switch(close) for ring in ('ring_a', 'ring_b')
+                   for close in (False, True))
+    assert climbed > 0.05 and speed == pytest.approx(60.0 * climbed / step, rel=0.01)
+    former = 60.0 * climbed / (2.0 * climbed / 0.02 + grippers)   # the 0.02 m/s stream's best
+    assert speed > former, (speed, former)
+    assert executed >= planned - 0.2 and executed >= grippers, (executed, planned, grippers)
+    peak, limit = (float(v) for v in re.search(r'climbing step peak actuator force: ([\d.]+) N \(leg_\d\) in the '
+                                               r'preview, max ([\d.]+) N', out).groups())
+    start = _start_statics(robot, world_R_a, payload)
+    assert 0.97 * start <= peak < limit, (peak, start, limit)
 
 
 @pytest.mark.slow

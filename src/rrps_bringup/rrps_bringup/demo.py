@@ -360,7 +360,7 @@ def _script(args, context):
         return FrameScript(scenario(args.scenario), context=context, namespace=NAMESPACE)
     if args.scenario is not None:
         from rrps_bringup.scenario_script import ScenarioScript
-        return ScenarioScript(scenario(args.scenario), context=context, namespace=NAMESPACE)
+        return ScenarioScript(scenario(args.scenario), hardware=args.hardware, context=context, namespace=NAMESPACE)
     from rrps_bringup.headless import DemoScript
     return DemoScript(context=context, namespace=NAMESPACE)
 

@@ -29,6 +29,7 @@ from rclpy.node import Node
 from std_msgs.msg import Bool
 from std_srvs.srv import Trigger
 
+from rrps_bringup.step_report import ExecutionClock
 from rrps_interfaces.climb import (
     CLIMB_PREVIEW,
     CLIMB_RESUME,
@@ -81,6 +82,7 @@ class ScriptedOperator(Node):
         self._lock = threading.Lock()
         self._latest: dict[str, object] = {}
         self._disengaged: tuple[int, str] = (0, '')
+        self.climb_clock = ExecutionClock()  # the time climbs spent executing and paused
         for topic in (POSE, MASTER_POSE, odometry_topic('ring_a'), odometry_topic('ring_b')):
             self.create_subscription(PoseStamped, topic,
                                      lambda m, topic=topic: self._store(topic, m), STATE_QOS)
@@ -107,6 +109,8 @@ class ScriptedOperator(Node):
                 if not status.engaged:
                     self._disengaged = (self._disengaged[0] + 1, status.code.name)
                 self._on_teleop_status(status)
+            elif topic == CLIMB_STATUS:
+                self.climb_clock.update(ClimbStatus.from_key_values(msg.values).state, time.monotonic())
 
     def _on_teleop_status(self, status: TeleopStatus) -> None:
         """Each teleop/status received (under the lock): for subclasses that watch the codes."""

@@ -107,7 +107,8 @@ class Scenario:
 SCENARIOS = {s.name: s for s in (
     Scenario('facade_wall', robot='facade_climber', structure='facade',
              summary='the facade climber on its vertical wall, 15 kg on ring_b',
-             motion='ring_b out from the wall', handle_step=(0.0, 0.0, 0.004), payload_mass=15.0),
+             motion='ring_b out from the wall', handle_step=(0.0, 0.0, 0.004), payload_mass=15.0,
+             node_parameters=(('start', 0.5),)),   # ring_a 0.5 m up the wall: ring_b's first move fits below
     Scenario('pole_leaning', robot='pole_climber', structure='pole', lean_deg=30.0,
              summary='the pole climber on a trunk leaning 30 deg, 40 kg on ring_b',
              motion='ring_b up the trunk', handle_step=(0.0, 0.0, 0.004), payload_mass=40.0),

@@ -87,7 +87,7 @@ class SimulatedBus:
         self.legs = KinematicActuators(*stroke, geometry.max_speed, time_constant, x0)
         self.hand = HandModel(x0, stroke) if master else None
         io = bus.grippers
-        self.clamps = {ring: Clamp(True) for ring in RINGS}
+        self.clamps = {ring: Clamp(True, geometry.motion_limits.grippers[ring]) for ring in RINGS}
         self.module = (SimulatedIoModule(self.network, io.node_id, resolve_eds(io.eds, bus.base_dir))
                        if io is not None and io.io == 'cia401' else None)
         self.down = False

@@ -4,7 +4,8 @@ A motion phase of a gait plan (``rrps_climbing.gait``) is timed by
 :mod:`rrps_climbing.timing` and sampled (``TimedMotion.phase_path``): a pose of ring_b in
 ring_a and the extra-DOF angles of both rings at each sample time. Between samples positions and
 angles are interpolated linearly and rotations by normalised linear interpolation of their
-quaternions (the samples are a few milliseconds apart).
+quaternions (the samples are a few milliseconds apart). :class:`PlayClock` says where a stream
+is in it: the path is played in time, a tick late on a busy machine takes the sample of its time.
 """
 
 from __future__ import annotations
@@ -13,7 +14,10 @@ import numpy as np
 
 from rrps_description.pose import Pose
 
-__all__ = ['PhasePath']
+__all__ = ['PhasePath', 'PlayClock', 'MAX_TICK_PERIODS']
+
+#: Most periods one tick advances a stream (a stall does not leap along the path).
+MAX_TICK_PERIODS = 5
 
 
 class PhasePath:
@@ -49,3 +53,22 @@ class PhasePath:
         q0, q1 = self.quaternions_xyzw[k], self.quaternions_xyzw[k + 1]
         q1 = q1 if q0 @ q1 >= 0 else -q1
         return Pose(p, (1 - w) * q0 + w * q1), (1 - w) * self.ring_angles[k] + w * self.ring_angles[k + 1]
+
+
+class PlayClock:
+    """Where a stream played every ``period`` [s] is in its path: each tick advances it by the time
+    since the last tick (at most :data:`MAX_TICK_PERIODS` periods), the first one by one period."""
+
+    def __init__(self, period: float):
+        self.period, self.t = float(period), 0.0
+        self._last: float | None = None
+
+    def advance(self, now: float) -> float:
+        """The path time [s] at a tick at ``now`` [s]."""
+        step = self.period if self._last is None else min(max(now - self._last, 0.0), MAX_TICK_PERIODS * self.period)
+        self._last, self.t = now, self.t + step
+        return self.t
+
+    def restart(self) -> None:
+        """After a pause: the next tick advances one period."""
+        self._last = None

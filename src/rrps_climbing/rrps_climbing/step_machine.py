@@ -5,7 +5,7 @@ Each phase passes through stages, once per tick:
 
 * ``stream``: a motion phase's timed path (its :class:`~.timing.TimedMotion`, planned within the
   legs' speed, acceleration and jerk limits) is sent as target poses a_T_b, the sample of each
-  tick's time, one per tick;
+  tick's time (:class:`~.phase_path.PlayClock`), one per tick;
 * ``arrive``: the phase's end pose is held until the measured pose has stayed within
   ``position_tolerance`` / ``orientation_tolerance`` of it for ``settle_time``;
 * ``gripper``: the phase's gripper is asked to switch, and the step waits until the gripper
@@ -44,7 +44,7 @@ import numpy as np
 
 from rrps_climbing.climb_watch import InputWatch
 from rrps_climbing.gait import GaitPlanner
-from rrps_climbing.phase_path import PhasePath
+from rrps_climbing.phase_path import PhasePath, PlayClock
 from rrps_climbing.plan import Phase, PlanError
 from rrps_climbing.step_io import ClimbOutput, ClimbTarget, GripperRequest, StepConfig
 from rrps_climbing.step_preview import StepSnapshot
@@ -109,6 +109,7 @@ class ClimbStepMachine:
         self._pending: tuple[list[Phase], str, StepSnapshot] | None = None  # being previewed
         self.steps_done = 0
         self.timing = (math.nan, math.nan)  # the last planned step's duration [s] and climbing speed [m/min]
+        self.plan_duration = math.nan  # the executing (or last executed) climb's planned duration [s]
         self.pose: Pose | None = None
         self.grippers: dict[str, bool] | None = None
         self.driver_active: bool | None = None
@@ -119,7 +120,7 @@ class ClimbStepMachine:
         self._phases: list[Phase] = []
         self._index = 0
         self._stage = ''
-        self._t = 0.0
+        self._clock = PlayClock(self.config.period)
         self._path: PhasePath | None = None
         self._deadline = 0.0
         self._arrived_since: float | None = None
@@ -264,6 +265,7 @@ class ClimbStepMachine:
 
     def _execute(self, phases: list[Phase], detail: str, now: float) -> None:
         self._phases, self._index = phases, 0
+        self.plan_duration = float(sum(ph.duration for ph in phases))
         self._enter_phase(now)
         self.mode = EXECUTING
         self.detail = detail
@@ -281,13 +283,14 @@ class ClimbStepMachine:
             out.reply = (False, f'refused: {reason.value} ({self.watch.ages()})')
             return out
         if self._stage == 'stream':
-            dp, da = pose_error(self.pose, self._path.at(self._t)[0])
+            dp, da = pose_error(self.pose, self._path.at(self._clock.t)[0])
             if (dp > RESUME_TOLERANCE_FACTOR * self.config.position_tolerance
                     or da > RESUME_TOLERANCE_FACTOR * self.config.orientation_tolerance):
                 out.reply = (False, f'refused: the robot is {dp * 1e3:.1f} mm / {math.degrees(da):.2f} '
                              'deg off the paused path')
                 return out
         self._deadline = now + self.config.settle_timeout
+        self._clock.restart()
         self.mode, self.pause_reason = EXECUTING, None
         ph = self._phases[self._index]
         self.detail = f'resumed at step {ph.step}, phase {ph.phase}'
@@ -324,7 +327,8 @@ class ClimbStepMachine:
                            structure=self.structure.name, s_a=self.s_a, s_b=self.s_b, phases=len(self._phases),
                            steps_done=self.steps_done, detail=self.detail,
                            previewing=self._pending is not None, refusal=self.refusal,
-                           step_duration=self.timing[0], climbing_speed=self.timing[1])
+                           step_duration=self.timing[0], climbing_speed=self.timing[1],
+                           plan_duration=self.plan_duration)
 
     def report(self) -> ClimbStatus:
         """The status to report periodically (what changes after it is reported again at once)."""
@@ -415,7 +419,7 @@ class ClimbStepMachine:
 
     def _enter_phase(self, now: float) -> None:
         ph = self._phases[self._index]
-        self._t = 0.0
+        self._clock = PlayClock(self.config.period)
         self._request, self._answer = None, None
         self._arrived_since = None
         self._deadline = now + self.config.settle_timeout
@@ -436,9 +440,9 @@ class ClimbStepMachine:
 
     def _stream(self, ph: Phase, now: float) -> bool:
         """Send the next sample of the phase's path; at its end, wait for the pose to arrive."""
-        self._t += self.config.period
-        self._out.target = ClimbTarget(*self._path.at(self._t))
-        if self._t >= self._path.duration:
+        t = self._clock.advance(now)
+        self._out.target = ClimbTarget(*self._path.at(t))
+        if t >= self._path.duration:
             self._stage = 'arrive'
             self._deadline = now + self.config.settle_timeout
         return False

@@ -15,7 +15,10 @@ Biagiotti and Melchiorri, *Trajectory Planning for Automatic Machines and Robots
 so the smoothed law starts and stops at rest without a jump of velocity or acceleration, its
 speed and acceleration are averages of the profile's (within the same bounds where they do not
 change over the window), its jerk is bounded by the largest change of u over W divided by W, and
-it lasts W longer. :func:`jerk_window` picks the shortest W that bounds the jerk. A uniform
+it lasts W longer. :func:`jerk_window` picks the shortest W that bounds the jerk. (Ruckig, the
+online trajectory generator the driver's setpoints use, tracking the same profile on the path
+parameter or on the leg lengths leaves the checked path by millimetres, breaks a leg limit or
+takes longer: ``benchmarks/jerk_limiting.py``, same run.) A uniform
 time scale ``scale`` >= 1 (t -> t / scale) then divides speeds by it, accelerations by its
 square and jerks by its cube. Pure NumPy; no ROS import.
 """

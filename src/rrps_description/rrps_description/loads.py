@@ -14,6 +14,7 @@ Every reader names the offending key in its :class:`RobotDescriptionError`.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
@@ -23,7 +24,8 @@ from rrps_description.names import RINGS
 from rrps_description.robot_parts import RobotDescriptionError, as_array, as_scalar
 
 __all__ = ['Payload', 'WRENCH_FRAMES', 'ToolWrench', 'FRICTION_KEYS', 'LIMIT_KEYS', 'GripperCapacity',
-           'payload_from', 'tool_wrench_from', 'capacity_from', 'check_payload', 'loads_from']
+           'payload_from', 'tool_wrench_from', 'capacity_from', 'check_payload', 'loads_from',
+           'payload_from_parameters']
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -97,6 +99,21 @@ def check_payload(payload: Payload) -> Payload:
         raise RobotDescriptionError(f'payload.inertia: not a physical inertia (principal moments {eig})')
     return Payload(ring=payload.ring, mass=mass, com=as_array(payload.com, (3,), 'payload.com'),
                    inertia=inertia)
+
+
+def payload_from_parameters(values: Mapping[str, Any]) -> Payload | None:
+    """The point-mass payload of a node's parameters ``payload_mass`` [kg], ``payload_ring`` and
+    ``payload_com`` [m] (in that ring's frame); None for a mass of 0 (the robot description's
+    payload stays). ValueError naming the parameter when one is malformed."""
+    mass = float(values['payload_mass'])
+    if mass == 0.0:
+        return None
+    com = np.asarray(values['payload_com'], dtype=float)
+    if com.shape != (3,) or not np.all(np.isfinite(com)):
+        raise ValueError(f"payload_com must be 3 finite numbers [m], got {values['payload_com']}")
+    if not (math.isfinite(mass) and mass > 0.0):
+        raise ValueError(f'payload_mass must be finite and >= 0 [kg], got {mass}')
+    return check_payload(Payload(ring=values['payload_ring'], mass=mass, com=com))
 
 
 def _known(sec: Mapping[str, Any], keys, where: str) -> None:

@@ -103,7 +103,8 @@ class ClimbStatus(StatusValues):
     ``previewing``: a requested step is being previewed (the state stays IDLE until it starts);
     ``refusal``: why the last requested step did not start (None: it started, or none asked);
     ``step_duration`` [s] and ``climbing_speed`` [m/min]: the last planned climb's longest step
-    and its speed (NaN before one is planned);
+    and its speed (NaN before one is planned); ``plan_duration`` [s]: the executing (or last
+    executed) climb's planned duration, every phase's (a return to the gait's stance included);
     ``phase_index`` of the step's ``phases`` (0 when idle)."""
 
     state: ClimbState
@@ -122,6 +123,7 @@ class ClimbStatus(StatusValues):
     climbing_speed: float = math.nan
     phase_index: int = 0
     phases: int = 0
+    plan_duration: float = math.nan
 
     @property
     def phase(self) -> str:

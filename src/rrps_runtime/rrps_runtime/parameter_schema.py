@@ -23,7 +23,7 @@ from typing import Iterator, Sequence
 
 import yaml
 
-__all__ = ['Parameter', 'NodeParameters', 'ROBOT', 'format_value']
+__all__ = ['Parameter', 'NodeParameters', 'ROBOT', 'PAYLOAD', 'format_value']
 
 _TYPES = (bool, int, float, str, tuple)
 
@@ -122,6 +122,16 @@ def _bound(value: float) -> str:
 #: The robot every node serves: a shipped robot's name or the path of a robot YAML.
 ROBOT = Parameter('robot', 'pole_climber',
                   'shipped robot name (rrps-kinematics robots) or the path of a robot YAML')
+
+#: A point-mass payload on a ring in place of the robot description's, for every node that
+#: computes the robot's loads (the simulated driver, the climb node's plans and previews):
+#: ``rrps_description.loads.payload_from_parameters`` reads them.
+PAYLOAD = (
+    Parameter('payload_mass', 0.0, "a point-mass payload replacing the robot description's; 0: the "
+              "description's", unit='kg', range=(0.0, 10000.0)),
+    Parameter('payload_ring', 'ring_b', 'the ring carrying payload_mass', choices=('ring_a', 'ring_b')),
+    Parameter('payload_com', (0.0, 0.0, 0.0), "payload_mass's centre of mass in its ring's frame", unit='m'),
+)
 
 
 def _quoted(text: str) -> str:

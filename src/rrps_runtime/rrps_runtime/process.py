@@ -94,3 +94,6 @@ def run_nodes(factories: Sequence[Callable[..., Node]], args=None, *, executor_k
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown(context=context)
+        # the frozen objects back in the collector's reach, so that the interpreter's end frees
+        # them (an extension's objects still alive then, as Ruckig's, are reported as leaks)
+        gc.unfreeze()

@@ -10,7 +10,8 @@ ring_a's attitude in the world while it grips (``world_q_support`` at the start,
 structure's grip frame), handed over to ring_b while ring_b alone grips (and back) through the
 measured pose, and replaced by the odometry's attitude of the supporting ring when the driver hands
 one over (:meth:`SimulatedRobot.set_support`); ``payload_mass`` > 0 puts a point-mass payload on a
-ring in place of the robot's own.
+ring in place of the robot's own. The grippers take the robot description's open and close
+times (:class:`rrps_sim.grippers.Grippers`): their state switches once the gripper got there.
 
 The simulated robot outlives its driver as a real one would: cleanup and configure keep it where it
 is, and with ``state_file`` its physical state (lengths, ring angles, grippers) is kept on disk
@@ -28,7 +29,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from rrps_description.loads import Payload
+from rrps_description.loads import payload_from_parameters
 from rrps_description.names import LEG_NAMES, RINGS
 from rrps_description.world import IDENTITY_QUATERNION, Support
 from rrps_hardware.commands import ring_joints
@@ -50,7 +51,7 @@ from rrps_hardware.interface import (
 )
 from rrps_hardware.setpoints import JerkLimitedSetpoints
 from rrps_interfaces.driver import ActuatorMode
-from rrps_runtime.parameter_schema import Parameter
+from rrps_runtime.parameter_schema import PAYLOAD, Parameter
 from rrps_sim.actuators import DynamicActuators, KinematicActuators, QuasiStaticEfforts, SensorFaults
 from rrps_sim.grippers import Grippers
 from rrps_sim.hardware_state import HardwareState, StateFileWriter, load_state
@@ -95,10 +96,7 @@ class SimulatedRobot(SystemInterface):
         Parameter('world_q_support', IDENTITY_QUATERNION, "ring_a's attitude in the world at the start "
                   '(x, y, z, w): the gravity of efforts and dynamics; handed over at each grip change, then '
                   'the odometry/support attitude'),
-        Parameter('payload_mass', 0.0, "a point-mass payload replacing the robot description's; 0: the "
-                  "description's", unit='kg', range=(0.0, 10000.0)),
-        Parameter('payload_ring', 'ring_b', 'the ring carrying payload_mass', choices=RINGS),
-        Parameter('payload_com', (0.0, 0.0, 0.0), "payload_mass's centre of mass in its ring's frame", unit='m'),
+        *PAYLOAD,
     )
 
     def __init__(self):
@@ -137,11 +135,9 @@ class SimulatedRobot(SystemInterface):
         for p in self.PARAMETERS:
             if values[p.name] is not None:
                 p.check(values[p.name])
-        if values['payload_mass'] > 0.0:
-            com = np.asarray(values['payload_com'], dtype=float)
-            if com.shape != (3,) or not np.all(np.isfinite(com)):
-                raise ValueError(f"payload_com must be 3 finite numbers [m], got {values['payload_com']}")
-            g = g.with_(payload=Payload(ring=values['payload_ring'], mass=values['payload_mass'], com=com))
+        payload = payload_from_parameters(values)
+        if payload is not None:
+            g = g.with_(payload=payload)
         support = Support.of('ring_a', values['world_q_support'])  # ValueError naming it if not unit
         self.geometry, self.mode = g, ActuatorMode(values['mode'])
         self.ring_joints = ring_joints(g)
@@ -170,7 +166,7 @@ class SimulatedRobot(SystemInterface):
         self.setpoints = JerkLimitedSetpoints(g.motion_limits.legs, lengths0) if values['jerk_limited'] else None
         self.sensors = SensorFaults(values['sensor_noise'], values['drop_probability'], values['fault_seed'])
         self._set_stuck(values['stuck_legs'] or ())
-        self.grippers = Grippers(g.grippers, None if saved is None else saved.grippers)
+        self.grippers = Grippers(g.grippers, None if saved is None else saved.grippers, g.motion_limits.grippers)
         self._follow_grip()
         self._hold()
 
@@ -242,6 +238,9 @@ class SimulatedRobot(SystemInterface):
             return _error('not configured')
         accepted = OK if command is None else self._accept(command, time)
         stepped = self._step(time, period)  # the world goes on, whether the command was taken or not
+        if self.grippers.update(time):   # a gripper reached the end it was commanded to
+            self._follow_grip()
+            self._save(0.0, force=True)
         self._save(time)
         return accepted if not accepted.ok else stepped
 

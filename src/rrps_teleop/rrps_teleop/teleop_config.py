@@ -43,6 +43,9 @@ PARAMETERS = NodeParameters('teleop_node', 'rrps_teleop', [
     Parameter('control', 'message', 'run the control step on each master sample or on a timer',
               choices=CONTROL_TRIGGERS),
     Parameter('control_rate', 200.0, 'control rate in timer mode', unit='Hz', range=(1.0, 2000.0)),
+    Parameter('jerk_limited', True, "stream the targets jerk-limited within the legs' speed, acceleration and "
+              'jerk limits, stopping with the fastest jerk-limited stop (rrps_teleop.target_stream); false: each '
+              'guarded command as it is'),
     Parameter('status_rate', 10.0, 'teleop/status rate when unchanged', unit='Hz', range=(0.1, 100.0)),
     Parameter('feedback_rate', 20.0, 'master/feedback (the virtual fixture) rate', unit='Hz',
               range=(1.0, 200.0)),

@@ -79,10 +79,11 @@ def test_the_driver_follows_the_supporting_ring_and_keeps_the_last_attitude(ros_
                         and s[1].support_source is SupportSource.STALE and s[0].level == DiagnosticStatus.WARN
                         and 'keeping the last known attitude of ring_a' in s[0].message)
         assert _gravity_is(node, 'ring_a', rotation_x(lean))
-        # ring_a opens: the driver hands over to ring_b itself, then ring_b's odometry turns it
+        # ring_a opens (once its open time passed): the driver hands over to ring_b itself, then
+        # ring_b's odometry turns it
         future = gripper.call_async(SetBool.Request(data=False))
         assert wait_for(future.done) and future.result().success
-        assert node.hardware.support.ring == 'ring_b'
+        assert wait_for(lambda: node.hardware.support.ring == 'ring_b')
         _send(probe, pub, 'ring_b', _q_x(lean + 0.2))
         assert wait_for(lambda: _gravity_is(node, 'ring_b', rotation_x(lean + 0.2)))
 

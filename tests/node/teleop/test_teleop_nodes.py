@@ -12,6 +12,13 @@ and the probe's receipt times on the ROS clock. The probe runs in the same execu
 so its receipt of a message is, within milliseconds, the nodes' receipt of it; a guarantee such
 as "holds within 0.1 s of the release" is measured from that receipt, so that transport delays
 and stalls of a loaded machine do not count, only the nodes' own behaviour.
+
+The targets are streamed jerk-limited (``jerk_limited``, the default): a hold is the fastest
+jerk-limited stop, so "the slave holds within 0.1 s" reads: within 0.1 s of the release the
+stream brakes, and it is at rest within the fastest stop from the legs' speed and acceleration
+then (:func:`stop_bound`, derived by hand; test_teleop_stream.py checks the stream's limits). The
+tests of the mapping itself (its scale, clutch and joint map exactly, sample by sample) take the
+guarded commands as they are (``jerk_limited`` false).
 """
 
 import threading
@@ -34,6 +41,7 @@ from rrps_runtime.messages import joint_state_msg, lengths_from_joint_state, pos
 from rrps_teleop.master import scripted_pose
 from rrps_teleop.nodes.master_node import MasterNode
 from rrps_teleop.nodes.teleop_node import TeleopNode
+from rrps_teleop.target_stream import STREAM_SHARE
 from rrps_testing.ros_harness import DEADLINE, Probe, Spinner, header_time, stamped_between, wait_for
 from rrps_testing.teleop_rig import MASTER, NS, SLAVE, Rig, params
 
@@ -41,6 +49,36 @@ pytestmark = pytest.mark.ros
 
 def target_position(item):
     return pose_from_msg(item[1])[0]
+
+
+#: The slave's legs' limits as the target stream uses them.
+LEGS = SLAVE.motion_limits.legs
+SPEED, ACCELERATION, JERK = (STREAM_SHARE * x for x in (LEGS.speed, LEGS.acceleration, LEGS.jerk))
+#: The node reacts to a release within this [s] (its next control step or watchdog tick).
+REACTION = 0.1
+
+
+def stop_bound(items, t: float) -> float:
+    """The longest a jerk-limited stream may go on after ``t`` [s]: :data:`REACTION`, then the
+    fastest stop from the legs' speed v and acceleration a then (divided differences of the IK
+    lengths of the last targets, or commands, stamped before ``t``, each raised by what the legs'
+    limits add over those samples' span). Derived by hand: shed a at the jerk j (a / j), which adds
+    a² / 2j to the speed; then from v' = v + a² / 2j: 2 sqrt(v' / j) if v' <= A² / j (the
+    acceleration never reaches A), else v' / A + A / j."""
+    before = [m for r, m in list(items) if header_time(m) <= t][-4:]
+    if len(before) < 3:
+        return REACTION + SPEED / ACCELERATION + ACCELERATION / JERK   # from full speed
+    times = np.array([header_time(m) for m in before])
+    lengths = np.array([inverse_kinematics(SLAVE, *pose_from_msg(m)).lengths if hasattr(m, 'pose')
+                        else lengths_from_joint_state(m) for m in before])
+    v = np.abs(np.diff(lengths, axis=0) / np.diff(times)[:, None])
+    a = np.abs(np.diff(v, axis=0) / np.diff(times[1:])[:, None])
+    span = times[-1] - times[0]
+    v = min(float(v[-1].max()) + ACCELERATION * span, SPEED)
+    a = min(float(a[-1].max()) + JERK * span, ACCELERATION)
+    v += a * a / (2.0 * JERK)
+    stop = 2.0 * np.sqrt(v / JERK) if v <= ACCELERATION ** 2 / JERK else v / ACCELERATION + ACCELERATION / JERK
+    return REACTION + a / JERK + float(stop)
 
 
 def stamp_of(item):
@@ -106,7 +144,7 @@ def test_the_slave_follows_a_scripted_master_within_the_scale(ros_context):
     # 50 Hz master and driver: half the load of 100 Hz for the in-process simulation, which must
     # keep up with real time somewhere in the run for the tracking check below.
     rig = Rig(ros_context, master=dict(trajectory='lissajous', amplitude=0.004, period=8.0, rate=50.0),
-              driver_rate=50.0)
+              driver_rate=50.0, teleop=dict(jerk_limited=False))
     with rig.spin(ros_context):
         assert wait_for(lambda: rig.poses and len(rig.master_poses) > 10)
         rig.engage()
@@ -177,7 +215,8 @@ def test_the_slave_follows_a_scripted_master_within_the_scale(ros_context):
 
 
 def test_clutch_causes_no_jump(ros_context):
-    rig = Rig(ros_context, master=dict(trajectory='circle', amplitude=0.004, period=4.0))
+    rig = Rig(ros_context, master=dict(trajectory='circle', amplitude=0.004, period=4.0),
+              teleop=dict(jerk_limited=False))
     with rig.spin(ros_context):
         assert wait_for(lambda: rig.poses and len(rig.master_poses) > 10)
         rig.engage()
@@ -277,8 +316,11 @@ def test_deadman_release_and_lapse_hold_the_slave_within_0_1_s(ros_context):
                         and len(stamped_between(rig.poses, t_rest)) > 10)
         poses_end = [pose_from_msg(p[1])[0] for p in stamped_between(rig.poses, t_rest)]
         lapse_detail = lapsed()[0][1]
-    assert last_after_release - t_release < 0.1, last_after_release - t_release
-    assert last_after_lapse - t_lapse < 0.2 + 0.1, last_after_lapse - t_lapse  # enable_timeout, then held within 0.1 s
+    # held within 0.1 s: braking by then, at rest within the fastest jerk-limited stop
+    bound = stop_bound(rig.targets, t_release)
+    assert last_after_release - t_release < bound, (last_after_release - t_release, bound)
+    bound = 0.2 + stop_bound(rig.targets, t_lapse + 0.2)   # enable_timeout, then held
+    assert last_after_lapse - t_lapse < bound, (last_after_lapse - t_lapse, bound)
     # It followed until the timeout: the hold came from enable_timeout (0.2 s) running out
     # after the last true, not earlier.
     assert lapse_detail.startswith('no teleop/enable true for '), lapse_detail
@@ -307,10 +349,9 @@ def test_master_dropout_holds_the_slave_within_0_1_s(ros_context, control):
         # teleop_node went on for 0.4 s after the drop (its status, 10 Hz) without a target.
         assert wait_for(lambda: rig.status[-1][0] > t_drop + 0.4)
         last = rig.last_command_stamp()
-    # Message-triggered control stops with the last sample; a timer keeps stepping towards the
-    # last sample until master_timeout, then holds.
-    bound = 0.05 if control == 'message' else 0.1 + 0.05
-    assert last - t_drop < bound, last - t_drop
+        # The stream goes on towards the last sample's command until master_timeout, then stops.
+        bound = 0.1 + stop_bound(rig.targets, t_drop + 0.1)
+    assert last - t_drop < bound, (last - t_drop, bound)
 
 
 @pytest.mark.parametrize('mode', ['cartesian', 'joint'])
@@ -333,12 +374,13 @@ def test_a_master_stream_delivered_late_holds_the_slave_and_says_why(ros_context
         late = [v['detail'] for _, c, v in rig.statuses_after(t_switch) if c == 'MASTER_STALE']
         errors = [c for _, c, _ in rig.statuses_after(t_switch) if c == 'INVALID']
         last = rig.last_command_stamp()
+        bound = stop_bound(outputs, t_switch + 0.05)
         delay.clear()  # on time again: the deadman still held, it engages again (a clutch)
         t_back = rig.probe.now()
         assert wait_for(lambda: any(v['engaged'] == 'true' for _, _, v in rig.statuses_after(t_back))), rig.code()
     # Held: no command from a sample taken more than master_timeout before (the last on-time
     # sample was sent just before the switch; a timer step and a status period of slack).
-    assert last - t_switch < 0.1 + 0.05, last - t_switch
+    assert last - t_switch < 0.05 + bound, (last - t_switch, bound)
     topic = 'master/pose' if mode == 'cartesian' else 'master/actuators/state'
     # Dropped, not errors; the hold says why (the first status may still be the plain timeout).
     assert not errors, errors
@@ -396,7 +438,7 @@ def _ping_pong_run(ros_context, mode):
     """The probe is the master: one sample, wait for teleop_node's output and the slave command,
     next. Returns (master L published, L of teleop_node's first output after each sample,
     commands L, status codes)."""
-    rig = Rig(ros_context, teleop=dict(mode=mode))
+    rig = Rig(ros_context, teleop=dict(mode=mode, jerk_limited=False))
     outputs = rig.targets if mode == 'cartesian' else rig.commands  # teleop_node's own output
 
     def lengths(item):

@@ -160,13 +160,47 @@ def test_ring_rotations_are_commanded_with_the_legs():
 
 def test_a_refused_gripper_release_is_a_return_value_with_the_reason():
     robot = active()
+    cycle(robot)
     assert robot.set_gripper('ring_b', close=False).ok
+    refused = robot.set_gripper('ring_a', close=False)   # ring_b is still opening
+    assert refused.code is ReturnType.ERROR and 'ring_b is opening' in refused.message
+    _, state = cycle(robot, n=60)                        # ring_b's open time (0.5 s, the YAML's) has passed
+    assert state.grippers == {'ring_a': True, 'ring_b': False}
     refused = robot.set_gripper('ring_a', close=False)
-    assert refused.code is ReturnType.ERROR and 'ring_b is open' in refused.message
-    assert robot.read(0.0, DT).grippers == {'ring_a': True, 'ring_b': False}
+    assert refused.code is ReturnType.ERROR and 'ring_b is open ' in refused.message
     assert robot.set_gripper('ring_c', close=True).code is ReturnType.ERROR
-    assert robot.set_gripper('ring_b', close=True).ok and robot.set_gripper('ring_a', close=False).ok
-    assert robot.read(0.0, DT).grippers == {'ring_a': False, 'ring_b': True}
+    assert robot.set_gripper('ring_b', close=True).ok
+    refused = robot.set_gripper('ring_a', close=False)   # ring_b is still closing
+    assert refused.code is ReturnType.ERROR and 'ring_b is closing' in refused.message
+    _, state = cycle(robot, n=90, t0=0.6)                # its close time (0.8 s)
+    assert robot.set_gripper('ring_a', close=False).ok
+    _, state = cycle(robot, n=60, t0=1.5)
+    assert state.grippers == {'ring_a': False, 'ring_b': True}
+
+
+def test_a_gripper_switches_in_its_time_and_the_support_follows_its_sensor():
+    """The grippers' state switches once their YAML time passed (ring_b: open 0.5 s), and the
+    efforts' support with it (ring_a until then)."""
+    robot = active()
+    cycle(robot)
+    t0 = 0.01
+    assert robot.set_gripper('ring_b', close=False).ok
+    switched = None
+    for k in range(1, 100):
+        _, state = cycle(robot, t0=t0 + k * DT)
+        if not state.grippers['ring_b']:
+            switched = k * DT
+            break
+    assert switched == pytest.approx(POLE.motion_limits.grippers['ring_b'].open, abs=DT + 1e-9)
+    assert robot.support.ring == 'ring_a'
+    assert robot.set_gripper('ring_b', close=True).ok
+    for k in range(1, 100):
+        _, state = cycle(robot, t0=1.0 + k * DT)
+        if state.grippers['ring_b']:
+            break
+    assert robot.set_gripper('ring_a', close=False).ok
+    cycle(robot, n=60, t0=2.0)
+    assert robot.support.ring == 'ring_b'
 
 
 def test_an_actuator_fault_is_reported_for_that_actuator_and_the_robot_holds():
@@ -231,7 +265,9 @@ def test_stuck_legs_and_sensor_faults_as_run_time_parameters():
     assert robot.set_parameters({'drop_probability': 1.0}).ok
     before = robot.read(0.0, DT)  # lost: the previous sample
     robot.set_gripper('ring_b', close=False)
-    lost = robot.read(0.0, DT)
+    later = robot.grippers.now + 1.0
+    robot.write(later, DT, None)  # ring_b's open time (0.5 s) passed
+    lost = robot.read(later, DT)
     assert lost.lost and np.array_equal(lost.positions, before.positions)
     assert lost.grippers == {'ring_a': True, 'ring_b': False}  # the grippers are read on their own
 
@@ -261,6 +297,7 @@ def test_the_physical_state_survives_the_driver(tmp_path):
     rings = np.array([0.0, 0.2])
     _, state = cycle(robot, Command(FRAME.home_lengths + 0.004, rings), n=100)
     assert robot.set_gripper('ring_a', close=False).ok
+    cycle(robot, n=100, t0=1.0)    # ring_a's open time (0.8 s, the YAML's) passed
     assert robot.on_shutdown().ok and robot.on_shutdown().ok  # twice: nothing more to do
     saved = load_state(path, FRAME, 2)
     np.testing.assert_allclose(saved.lengths, state.positions, atol=1e-6)

@@ -1,5 +1,7 @@
 """climb_node: executes inchworm gait steps (``rrps_climbing.gait``) on the robot over ROS;
-with ``junction_deg`` on a frame, the crossing of its node (``rrps_climbing.frame_crossing``).
+with ``junction_deg`` on a frame, the crossing of its node (``rrps_climbing.frame_crossing``);
+on a route (``structure`` frame_route or facade_corner, ``rrps_climbing.route_steps``), its
+climbs over several frame nodes or round the facade's corner.
 
 The step machine is :class:`rrps_climbing.step_machine.ClimbStepMachine` (phases, arrival,
 the gripper interlock and release gate, pauses on lost inputs, failures, odometry). This node
@@ -16,6 +18,9 @@ child frame the ring, latched; at once when it changes, else at 10 Hz:
 :mod:`rrps_climbing.odometry_attitude`), the attitude the driver's gravity and teleop's load guards
 follow. A step's preview stands where the odometry's ring_a is (``anchor_phases``): it computes in the
 gravity of the measured attitudes.
+
+A payload (``payload_mass`` on ``payload_ring``, as the simulated driver's) replaces the robot
+description's in the plans' load check and the previews.
 
 The action ``climb/step`` (rrps_msgs/action/ClimbStep: feedback, cancel;
 :mod:`rrps_climbing.climb_action`, where rrps_msgs is built) and the services
@@ -49,10 +54,13 @@ from rrps_climbing.frame_crossing import FrameNodePlanner
 from rrps_climbing.gait import GaitPlanner
 from rrps_climbing.load_check import LoadCheck
 from rrps_climbing.odometry_attitude import SupportPublisher, anchor_phases, support_of_odometry
+from rrps_climbing.route import ROUTES
+from rrps_climbing.route_steps import ROUTE_START, RouteSteps, route_planner
 from rrps_climbing.step_io import ClimbOutput, ClimbTarget, StepConfig
 from rrps_climbing.step_machine import ClimbStepMachine
 from rrps_climbing.step_preview import PreviewConfig, run_preview, warm_up
 from rrps_description.geometry import load_robot
+from rrps_description.loads import payload_from_parameters
 from rrps_description.names import BASE_FRAME, ODOM_FRAME, RING_A_FRAME, RINGS, WORLD_FRAME, prefixed, ring_joint
 from rrps_description.pose import QUATERNION_TOLERANCE, InvalidPose, Pose
 from rrps_description.structures import STRUCTURES, structure_from_parameters
@@ -84,7 +92,7 @@ from rrps_runtime.messages import (
     stamp_to_seconds,
     transform_to_msg,
 )
-from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
+from rrps_runtime.parameter_schema import PAYLOAD, ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, LATEST_QOS, LINK_STATE_QOS, STATE_QOS
@@ -98,7 +106,11 @@ __all__ = ['PARAMETERS', 'ClimbNode', 'main']
 #: climb_node's parameters (descriptors, the shipped file and the docs' table come from here).
 PARAMETERS = NodeParameters('climb_node', 'rrps_climbing', [
     ROBOT,
-    Parameter('structure', 'pole', 'climbed structure', choices=tuple(sorted(STRUCTURES))),
+    Parameter('structure', 'pole', 'climbed structure, or a route: frame_route (several frame nodes, the frame '
+              'climber), facade_corner (a facade round a corner, the facade climber)',
+              choices=tuple(sorted(STRUCTURES)) + tuple(ROUTES)),
+    Parameter('corner_deg', 20.0, 'facade_corner: the corner, positive outside', unit='deg', range=(-90.0, 90.0)),
+    Parameter('route_bends_deg', (30.0, 30.0), "frame_route: each node's bend", unit='deg', item_type=float),
     Parameter('structure_length', 0.0, 'route length of the structure; 0 = its shipped length', unit='m',
               range=(0.0, 1000.0)),
     Parameter('structure_lean_deg', 0.0, 'the pole leans this much from the vertical about the world x axis',
@@ -135,6 +147,7 @@ PARAMETERS = NodeParameters('climb_node', 'rrps_climbing', [
     Parameter('gravity', (0.0, 0.0, -9.81), "the world's gravity in the structure's frame (the preview's)",
               unit='m/s^2', item_type=float),
     Parameter('preview_min_margin', 0.0, 'smallest holding margin a preview accepts', range=(-1.0, 1.0)),
+    *PAYLOAD,
     *scheduling_parameters(CONTROL_RT_PRIORITY),
     Parameter('frame_prefix', '', "the odometry's frames are <frame_prefix>odom, <frame_prefix>base_link (as "
               "robot_state_publisher's frame_prefix: several robots in one domain)"),
@@ -151,11 +164,16 @@ class ClimbNode(Node):
     def __init__(self, **kwargs):
         super().__init__('climb_node', **kwargs)
         values = declare_parameters(self, PARAMETERS)
+        payload = payload_from_parameters(values)   # the plans' load check and the previews carry it
         self.geometry = load_robot(values['robot'])
+        if payload is not None:
+            self.geometry = self.geometry.with_(payload=payload)
         planner = self._planner(values)
         start = values['start'] if values['start'] >= 0.0 else None
         if isinstance(planner, FrameNodePlanner) and planner.crossing is not None and start is None:
             start = planner.crossing.candidate.s_pre
+        if isinstance(planner, RouteSteps) and start is None:
+            start = ROUTE_START
         config = StepConfig(period=1.0 / values['rate'],
                             **{k: values[k] for k in ('position_tolerance', 'orientation_tolerance',
                                                       'settle_timeout', 'settle_time', 'state_timeout',
@@ -217,6 +235,10 @@ class ClimbNode(Node):
     def _planner(self, values: dict) -> GaitPlanner:
         """The inchworm gait on the structure, or with ``junction_deg`` the frame-node crossing
         (its search's refusal is logged; every step then refuses it)."""
+        if values['structure'] in ROUTES:
+            return route_planner(self.geometry, values['structure'], loads=LoadCheck(speed=values['speed'] or None),
+                                 corner_deg=values['corner_deg'], bends_deg=values['route_bends_deg'],
+                                 use_extra_dof=values['use_extra_dof'])
         if values['junction_deg'] <= 0.0:
             if values['out_of_plane']:
                 raise ValueError('out_of_plane needs junction_deg > 0')

@@ -29,6 +29,11 @@ along the gradient of the limits the slave approaches, scaled to the master
 (``feedback_scale``); zero while disengaged. A master with actuators renders it; the simulated
 master yields to it.
 
+The targets are streamed jerk-limited (``jerk_limited``, :mod:`rrps_teleop.target_stream`): the
+guarded commands reached within the legs' speed, acceleration and jerk limits; a hold (the
+deadman released or lapsed, stale data, a guard's halt) is the fastest jerk-limited stop, streamed
+until the robot's targets rest (its time and distance bounds there).
+
 Control runs on every master sample (``control`` = message, the default: one callback from master
 state to command, see benchmarks/teleop_latency.py) or on a timer at ``control_rate`` Hz. A 50 Hz
 watchdog releases the clutch when the deadman or the master data lapse, so the slave holds within
@@ -79,13 +84,7 @@ from rrps_interfaces.teleop import (
 )
 from rrps_runtime.diagnostics import ERROR, OK, STALE, WARN, Diagnostics
 from rrps_runtime.freshness import CommandFreshness, StaleCommand
-from rrps_runtime.messages import (
-    joint_state_msg,
-    lengths_from_joint_state,
-    pose_from_msg,
-    pose_to_msg,
-    stamp_to_seconds,
-)
+from rrps_runtime.messages import lengths_from_joint_state, pose_from_msg, stamp_to_seconds
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, LINK_EVENT_QOS, LINK_STATE_QOS, STATE_QOS
@@ -94,6 +93,7 @@ from rrps_teleop.fixture import FixtureConfig, fixture_wrench, master_wrench
 from rrps_teleop.mapping import TeleopConfig, TeleopMapping, TeleopOutput
 from rrps_teleop.support_input import SupportInput
 from rrps_teleop.teleop_config import PARAMETERS
+from rrps_teleop.teleop_stream import StreamOutput
 
 __all__ = ['TeleopNode', 'main']
 
@@ -145,6 +145,8 @@ class TeleopNode(Node):
         self._robot_topics = values['robot_topics']
         self._slave_stamp: float | None = None
         self._robot_publishers: dict[str, tuple] = {}
+        self._stream = StreamOutput(self, self.geometry, jerk_limited=values['jerk_limited'], frame_id=self.frame_id,
+                                    publishers=lambda: (self._target_pub, self._command_pub))
         self._robot_subscriptions: list = []
         self._attach_robot(values['robot_namespace'])
         self._master_subscription = None
@@ -228,6 +230,7 @@ class TeleopNode(Node):
         its last teleop/status says so, and the deadman must be released and pressed again."""
         old = self.robot_namespace
         self.mapping.switch_slave()
+        self._stream.reset()
         self._slave_stamp = None
         self._publish_status(TeleopOutput(TeleopCode.DEADMAN_RELEASED, False, 'switched to another robot'),
                              force=True)
@@ -344,13 +347,7 @@ class TeleopNode(Node):
 
     def _control(self) -> None:
         out = self.mapping.step(time.monotonic())
-        if out.has_command:
-            stamp = self.get_clock().now().to_msg()
-            if self.mapping.config.mode == 'cartesian':
-                self._target_pub.publish(pose_to_msg(out.position, out.quaternion_xyzw,
-                                                     frame_id=self.frame_id, stamp=stamp))
-            else:
-                self._command_pub.publish(joint_state_msg(stamp, out.lengths))
+        self._stream.send(out, self.mapping.config.mode)
         self._publish_status(out)
 
     def _publish_feedback(self) -> None:
@@ -375,8 +372,10 @@ class TeleopNode(Node):
     def _watchdog(self) -> None:
         blocked = self.mapping.check(time.monotonic())
         if blocked is not None:
+            self._stream.brake(self.mapping.config.mode)   # a stop streams without master samples too
             self._publish_status(TeleopOutput(blocked[0], False, blocked[1]))
         else:
+            self._stream.keep_up(self.mapping.command, self.mapping.config.mode, WATCHDOG_PERIOD)
             self._publish_status(self._output)
 
     def _slave_age_ms(self) -> float | None:
