@@ -143,5 +143,8 @@ def test_gripper_interlock_in_the_chain(ros_context):
         assert call('ring_a', False)                      # ring_a lets go, ring_b grips
         assert not call('ring_b', False)                  # refused: nothing would grip
         assert chain.reach(POLE.home_position + [0.0, 0.0, 0.01], [0, 0, 0, 1])   # step while ring_b grips
-        assert call('ring_a', True) and call('ring_b', False) and not call('ring_a', False)
+        assert call('ring_a', True)                       # ring_a closes in its gripper_time
+        assert wait_for(lambda: chain.driver.state.grippers['ring_a'], DEADLINE)
+        assert call('ring_b', False) and not call('ring_a', False)
+        assert wait_for(lambda: not chain.driver.state.grippers['ring_b'], DEADLINE)
     assert chain.driver.state.grippers == {'ring_a': True, 'ring_b': False}

@@ -1,18 +1,7 @@
 """The climbing step's state machine (paper section 3: the inchworm gait), pure Python.
 
-A planned climb (:class:`rrps_climbing.gait.GaitPlanner`) is executed phase by phase.
-Each phase passes through stages, once per tick:
-
-* ``stream``: a motion phase's timed path (its :class:`~.timing.TimedMotion`, planned within the
-  legs' speed, acceleration and jerk limits) is sent as target poses a_T_b, the sample of each
-  tick's time (:class:`~.phase_path.PlayClock`), one per tick;
-* ``arrive``: the phase's end pose is held until the measured pose has stayed within
-  ``position_tolerance`` / ``orientation_tolerance`` of it for ``settle_time``;
-* ``gripper``: the phase's gripper is asked to switch, and the step waits until the gripper
-  state shows it switched. A gripper opens only while the other one is closed (the interlock),
-  and only once the operator station was heard since the robot settled (the release gate: a
-  link lost before the release holds it);
-* ``done``: on to the next phase; after the last one the climb is idle.
+A planned climb (:class:`rrps_climbing.gait.GaitPlanner`) is executed phase by phase, each
+through its stages (stream, arrive, gripper: :class:`.phase_run.PhaseRun`), once per tick.
 
 With ``preview``, a planned step is first simulated on the dynamics (the caller runs
 :func:`.step_preview.run_preview` on ``ClimbOutput.preview`` and hands the result to
@@ -24,9 +13,8 @@ preview breaks a limit is refused; one it accepts starts only if nothing changed
 A step **pauses** (:class:`~rrps_interfaces.climb.PauseReason`) when an input is lost
 (:class:`.climb_watch.InputWatch`: robot state, operator link, driver inactive): it sends no
 target and switches no gripper until :meth:`ClimbStepMachine.resume` is called once the cause
-is gone. A failure (no arrival or no gripper switch within ``settle_timeout``, a refused gripper,
-the interlock) is final. The world odometry of both rings is chained from the measured pose and
-the gripper states (:class:`rrps_kinematics.odometry.RingOdometry`).
+is gone. A failure (a phase's, or both grippers open) is final. The world odometry of both
+rings is chained from the measured pose and the gripper states (:class:`rrps_kinematics.odometry.RingOdometry`).
 
 Inputs are plain values (the time [s], the measured pose, gripper states, the driver's and the
 operator station's status, requests, gripper answers); each call returns a :class:`ClimbOutput`
@@ -44,11 +32,10 @@ import numpy as np
 
 from rrps_climbing.climb_watch import InputWatch
 from rrps_climbing.gait import GaitPlanner
-from rrps_climbing.phase_path import PhasePath, PlayClock
+from rrps_climbing.phase_run import PhaseRun, arrived
 from rrps_climbing.plan import Phase, PlanError
-from rrps_climbing.step_io import ClimbOutput, ClimbTarget, GripperRequest, StepConfig
+from rrps_climbing.step_io import ClimbOutput, GripperRequest, StepConfig
 from rrps_climbing.step_preview import StepSnapshot
-from rrps_climbing.timing import TimedMotion
 from rrps_description.pose import Pose, pose_error
 from rrps_interfaces.climb import (
     CLIMB_RESUME,
@@ -56,7 +43,6 @@ from rrps_interfaces.climb import (
     ClimbState,
     ClimbStatus,
     PauseReason,
-    PhaseAction,
     StepRefusal,
 )
 from rrps_kinematics.odometry import RingOdometry
@@ -119,14 +105,7 @@ class ClimbStepMachine:
         self.odometry: RingOdometry | None = None
         self._phases: list[Phase] = []
         self._index = 0
-        self._stage = ''
-        self._clock = PlayClock(self.config.period)
-        self._path: PhasePath | None = None
-        self._deadline = 0.0
-        self._arrived_since: float | None = None
-        self._settled = 0.0  # watch time when the robot settled at a gripper phase's pose
-        self._request: GripperRequest | None = None
-        self._answer: tuple[bool, str] | None = None
+        self._run: PhaseRun | None = None  # the executing phase's stages
         self._auto_started = False
         self._last_status = None
         self._out = ClimbOutput()
@@ -183,8 +162,8 @@ class ClimbStepMachine:
     def on_gripper_answer(self, request: GripperRequest, success: bool, message: str = '') -> None:
         """The driver's answer to ``request`` (used at the next tick; an answer to another request
         than the pending one is ignored)."""
-        if request is self._request:
-            self._answer = (bool(success), message)
+        if self._run is not None:
+            self._run.on_answer(request, success, message)
 
     def thetas(self) -> tuple[float, float]:
         """The rings' extra-DOF angles (theta_a, theta_b) [rad]: measured where the robot has the
@@ -218,7 +197,7 @@ class ClimbStepMachine:
             out.reply = (False, f'refused: {exc}')
             return out
         phases = plan.phases
-        if not self._arrived(phases[0].a_T_b):
+        if not arrived(self.pose, phases[0].a_T_b, self.config):
             try:  # moved off the gait (teleoperation): ring_b first re-grips where the plan starts
                 phases = self.planner.approach(self.pose, self.s_a, self.s_b, self.theta, self.theta) + phases
             except PlanError as exc:
@@ -282,15 +261,14 @@ class ClimbStepMachine:
         if reason is not None:
             out.reply = (False, f'refused: {reason.value} ({self.watch.ages()})')
             return out
-        if self._stage == 'stream':
-            dp, da = pose_error(self.pose, self._path.at(self._clock.t)[0])
+        if self._run.stage == 'stream':
+            dp, da = pose_error(self.pose, self._run.path_target())
             if (dp > RESUME_TOLERANCE_FACTOR * self.config.position_tolerance
                     or da > RESUME_TOLERANCE_FACTOR * self.config.orientation_tolerance):
                 out.reply = (False, f'refused: the robot is {dp * 1e3:.1f} mm / {math.degrees(da):.2f} '
                              'deg off the paused path')
                 return out
-        self._deadline = now + self.config.settle_timeout
-        self._clock.restart()
+        self._run.restart(now)
         self.mode, self.pause_reason = EXECUTING, None
         ph = self._phases[self._index]
         self.detail = f'resumed at step {ph.step}, phase {ph.phase}'
@@ -408,88 +386,15 @@ class ClimbStepMachine:
         if reason is not None:
             self._pause(reason)
             return out
-        stages = {'stream': self._stream, 'arrive': self._arrive, 'gripper': self._switch_gripper}
-        ph = self._phases[self._index]
-        while self._stage in stages:
-            if not stages[self._stage](ph, now):
-                return out
-        if self._stage == 'done':
-            self._next_phase(ph, now)
+        failure = self._run.advance(now, self.pose, self.grippers, self.watch, self._out)
+        if failure:
+            self._fail(failure)
+        elif self._run.stage == 'done':
+            self._next_phase(self._phases[self._index], now)
         return out
 
     def _enter_phase(self, now: float) -> None:
-        ph = self._phases[self._index]
-        self._clock = PlayClock(self.config.period)
-        self._request, self._answer = None, None
-        self._arrived_since = None
-        self._deadline = now + self.config.settle_timeout
-        if isinstance(ph.timing, TimedMotion):
-            self._path = ph.timing.phase_path(self.config.period)
-            self._stage = 'stream'
-        else:
-            self._stage = 'arrive'
-
-    def _arrived(self, T: Pose) -> bool:
-        if self.pose is None:
-            return False
-        dp, da = pose_error(self.pose, T)
-        return dp <= self.config.position_tolerance and da <= self.config.orientation_tolerance
-
-    # The stages of a phase. Each returns True when it passed on to the next stage within this
-    # tick, False when the phase cannot go on this tick (still streaming, waiting, or failed).
-
-    def _stream(self, ph: Phase, now: float) -> bool:
-        """Send the next sample of the phase's path; at its end, wait for the pose to arrive."""
-        t = self._clock.advance(now)
-        self._out.target = ClimbTarget(*self._path.at(t))
-        if t >= self._path.duration:
-            self._stage = 'arrive'
-            self._deadline = now + self.config.settle_timeout
-        return False
-
-    def _arrive(self, ph: Phase, now: float) -> bool:
-        """Hold the phase's end pose until the measured pose stayed there ``settle_time``."""
-        self._out.target = ClimbTarget(ph.a_T_b, ph.ring_angles[-1])  # keeps the command stream fresh
-        if not self._arrived(ph.a_T_b):
-            self._arrived_since = None
-        elif self._arrived_since is None:
-            self._arrived_since = now
-        if self._arrived_since is not None and now - self._arrived_since >= self.config.settle_time:
-            self._stage = 'gripper' if ph.action in (PhaseAction.RELEASE, PhaseAction.GRIP) else 'done'
-            self._deadline = now + self.config.settle_timeout
-            self._settled = self.watch.now()
-            return True
-        if now > self._deadline:
-            dp, da = pose_error(self.pose, ph.a_T_b) if self.pose is not None else (math.inf, math.inf)
-            self._fail(f'step {ph.step}, phase {ph.phase}: the pose did not arrive within '
-                       f'{self.config.settle_timeout:.1f} s (error {dp * 1000:.1f} mm, {math.degrees(da):.2f} deg)')
-        return False
-
-    def _switch_gripper(self, ph: Phase, now: float) -> bool:
-        """Request the phase's gripper switch (a ring opens only while the other is closed, and
-        only once the operator station was heard since the robot settled) and wait until the
-        gripper state shows it switched."""
-        self._out.target = ClimbTarget(ph.a_T_b, ph.ring_angles[-1])
-        ring, close = ph.ring, ph.action is PhaseAction.GRIP
-        if self._request is None:
-            other = 'ring_b' if ring == 'ring_a' else 'ring_a'
-            if not close and not self.grippers[other]:
-                self._fail(f'step {ph.step}, phase {ph.phase}: interlock: {other} is not closed')
-                return False
-            if close or self.watch.operator_heard_since(self._settled):
-                self._request = self._out.gripper = GripperRequest(ring, close)
-        elif self._answer is not None:
-            success, message = self._answer
-            if not success:
-                self._fail(f'step {ph.step}, phase {ph.phase}: {ring} gripper refused: {message}')
-                return False
-            if self.grippers[ring] == close:
-                self._stage = 'done'
-                return True
-        if now > self._deadline:
-            self._fail(f'step {ph.step}, phase {ph.phase}: {ring} gripper did not switch within '
-                       f'{self.config.settle_timeout:.1f} s')
-        return False
+        self._run = PhaseRun(self._phases[self._index], self.config, now)
 
     def _next_phase(self, ph: Phase, now: float) -> None:
         """The phase is done: on to the next one, or the climb is over (idle)."""

@@ -38,6 +38,7 @@ class ClimbStepClient:
         self.type, self.host = ClimbStep, ActionHost(node)
         self._action = ActionClient(self.host.node, ClimbStep, self.name)
         self.result = None  # the newest goal's result future (the action)
+        self._closed = False
 
     def ready(self) -> bool:
         return self._action.server_is_ready() if self.host else self._services[+1].service_is_ready()
@@ -75,6 +76,8 @@ class ClimbStepClient:
                                      ).add_done_callback(goal)
 
     def close(self) -> None:
-        if self.host is not None:
+        """Destroy the action client and stop its thread (a second call does nothing)."""
+        if self.host is not None and not self._closed:
+            self._closed = True
             self._action.destroy()
             self.host.close()

@@ -69,7 +69,7 @@ def test_the_controller_switches_the_driven_robot_and_the_viewer_follows(ros_con
         assert wait_for(lambda: viewer.robots.selected == '/robot_2', 5.0)
         assert teleop.robot_namespace == '/robot_2'
         assert not control.clutch_engaged
-        assert viewer.requests._client(OperatorRequest.STEP_UP, None).srv_name == '/robot_2/climb/step_up'
+        assert viewer.requests._client(OperatorRequest.STEP_UP, None).name.startswith('/robot_2/climb/step')
         viewer.select_robot(7, 'robot_9')
         assert wait_for(lambda: any('unknown robot' in m for _, m, _ in told), 5.0)
     viewer.destroy_node()

@@ -59,18 +59,24 @@ def test_the_support_is_handed_over_with_the_grippers():
     g = load_robot('pole_climber')
     sim = _robot(g, world_q_support=WALL_Q)
     assert sim.on_activate().ok
+    sim.write(0.0, 0.01, None)
     assert sim.set_gripper('ring_a', False).ok
+    opening = g.motion_limits.grippers['ring_a'].open
+    sim.write(0.5 * opening, 0.01, None)
+    assert sim.support.ring == 'ring_a'  # still opening: ring_a's sensor reads closed
+    sim.write(opening, 0.01, None)
     assert sim.support.ring == 'ring_b'
     # ring_b's attitude is ring_a's turned by a_R_b (the home pose's rotation)
     world_R_b = quaternion_matrix(WALL_Q) @ quaternion_matrix(g.home_quaternion_xyzw)
     np.testing.assert_allclose(quat_xyzw_to_matrix(sim.support.world_q_support), world_R_b, atol=1e-9)
     np.testing.assert_allclose(sim.support.gravity_in_support, world_R_b.T @ [0.0, 0.0, -9.81], atol=1e-9)
     # its efforts: ring_a, the legs and nothing else hang from ring_b now (virtual work, ring_b fixed)
-    sim.write(0.0, 1.0, None)  # past the efforts' refresh period
+    sim.write(opening + 1.0, 1.0, None)  # past the efforts' refresh period
     expected = virtual_work_forces(g, g.home_position, quaternion_matrix(g.home_quaternion_xyzw),
                                    world_R_b.T @ [0.0, 0.0, -9.81], support='ring_b')
     np.testing.assert_allclose(sim.read(1.0, 0.01).efforts, expected, rtol=1e-5, atol=1e-3)
     assert sim.set_gripper('ring_a', True).ok
+    sim.write(opening + 1.0 + g.motion_limits.grippers['ring_a'].close, 0.01, None)
     assert sim.support.ring == 'ring_a'
     np.testing.assert_allclose(quat_xyzw_to_matrix(sim.support.world_q_support), quaternion_matrix(WALL_Q),
                                atol=1e-9)
