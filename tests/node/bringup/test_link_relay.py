@@ -39,7 +39,7 @@ def test_the_relay_sends_the_newest_state_at_the_profiles_rates(ros_context):
         closed = 1.0
         t0 = time.monotonic()
         sent = 0
-        while time.monotonic() - t0 < 2.0:  # 2 s of a 500 Hz robot
+        while sent < 1000:  # 2 s of a 500 Hz robot (longer when a loaded machine is late)
             sent += 1
             pose = PoseStamped()
             pose.header.frame_id = 'ring_a'
@@ -57,18 +57,18 @@ def test_the_relay_sends_the_newest_state_at_the_profiles_rates(ros_context):
                     DiagnosticStatus(name='ik_node: inverse kinematics', message='ok'),
                     DiagnosticStatus(name='teleop_node: teleop', message='engaged')]))
             time.sleep(max(t0 + sent * 0.002 - time.monotonic(), 0.0))
+        elapsed = time.monotonic() - t0
         time.sleep(0.3)
-    assert sent >= 800
     # about 50 and 10 a second (the relay's executor may lag a busy machine, never run ahead)
-    assert 60 <= len(poses) <= 102, len(poses)
-    assert 12 <= len(states) <= 21, len(states)
+    assert 30 * elapsed <= len(poses) <= 50 * (elapsed + 0.3) + 2, (len(poses), elapsed)
+    assert 6 * elapsed <= len(states) <= 10 * (elapsed + 0.3) + 1, (len(states), elapsed)
     # the newest sample each time: increasing, never the same twice
     z = [msg.pose.position.z for _, msg in poses]
     assert z == sorted(set(z))
     # the gripper's change went at once, between the 2 Hz repeats
     opened = [t for t, msg in grippers if msg.position[1] == 0.0]
     assert opened and opened[0] - t_open < 0.1
-    assert 3 <= len(grippers) <= 8, len(grippers)
+    assert 3 <= len(grippers) <= 2 * (elapsed + 0.3) + 4, len(grippers)
     # only the robot's nodes: its driver and IK, not the operator station's teleop
     names = {s.name for table in tables for s in table.status}
     assert names == {'driver_node: driver', 'ik_node: inverse kinematics'}
