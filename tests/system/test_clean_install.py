@@ -1,13 +1,14 @@
 """Each package installs on its own, with the dependencies it declares, into a clean environment.
 
 For every package of src/ (found by its setup.py, so the test follows a split of the packages):
-its wheel, and the wheels of the rrps packages it declares, are installed with pip, without
-``--no-deps``, into a fresh venv (no system site-packages, none of this checkout's environment)
+its wheel, and the wheels of the rrps packages it declares, are installed with their declared
+dependencies into a fresh venv (no system site-packages, none of this checkout's environment)
 from the wheelhouse that ``./rrps install`` downloaded once (``--no-index``: the pinned PyPI
-wheels, the ROS 2 Jazzy ones among them). Then every module of the package imports there, and
-each of its command-line tools (``rrps-*``) answers ``--help``. A dependency the package imports
-but does not declare fails here as an ImportError (tests/repo/test_dependencies.py finds it
-without installing).
+wheels, the ROS 2 Jazzy ones among them). The installer is uv's ``uv pip install``, which reads
+the same metadata as pip and links the wheels from its cache: 0.7 s a venv where pip took 15 s.
+Then every module of the package imports there, and each of its command-line tools
+(``rrps-*``) answers ``--help``. A dependency the package imports but does not declare fails
+here as an ImportError (tests/repo/test_dependencies.py finds it without installing).
 """
 
 from __future__ import annotations
@@ -47,6 +48,12 @@ def _run(command: list[str], env: dict | None = None, timeout: float = 600) -> s
 
 
 @pytest.fixture(scope='module')
+def uv_cache(tmp_path_factory) -> Path:
+    """uv's cache, shared by this module's venvs (one unpacking of each wheel)."""
+    return tmp_path_factory.mktemp('uv-cache')
+
+
+@pytest.fixture(scope='module')
 def package_wheels(tmp_path_factory) -> Path:
     """Every package's wheel, built from a copy of its source (src/ stays clean)."""
     require(WHEELHOUSE.is_dir(), f'no wheelhouse at {WHEELHOUSE}: ./rrps install makes it')
@@ -69,13 +76,16 @@ def _clean_environment(venv: Path) -> dict[str, str]:
 
 
 @pytest.mark.parametrize('name', PACKAGES)
-def test_the_package_installs_alone_imports_and_starts(name, package_wheels, tmp_path):
+def test_the_package_installs_alone_imports_and_starts(name, package_wheels, uv_cache, tmp_path):
     venv = tmp_path / 'venv'
     assert _run([sys.executable, '-m', 'venv', '--without-pip', str(venv)]).returncode == 0
     python = str(venv / 'bin' / 'python')
-    out = _run([sys.executable, '-m', 'pip', '--python', python, 'install', '-q', '--no-compile', '--no-index',
+    uv = shutil.which('uv') or str(Path(sys.executable).parent / 'uv')
+    require(Path(uv).exists(), 'uv is not installed (requirements.txt pins it)')
+    out = _run([uv, 'pip', 'install', '-q', '--offline', '--no-index', '--python', python,
                 '--find-links', str(WHEELHOUSE), '--find-links', str(package_wheels),
-                '-c', str(ROOT / 'requirements.txt'), name])
+                '-c', str(ROOT / 'requirements.txt'), name],
+               env={**os.environ, 'UV_CACHE_DIR': str(uv_cache), 'UV_NO_CONFIG': '1'})
     assert out.returncode == 0, f'pip install {name} with its declared dependencies:\n{out.stderr[-3000:]}'
     env = _clean_environment(venv)
     installed = _run([python, '-c', 'import sys; print(sys.path)'], env).stdout

@@ -1,0 +1,111 @@
+"""Compile the numba kernels once, at install (``./rrps install`` runs ``python -m rrps_bringup.warm_up``).
+
+The kernels are compiled on their first call and cached on disk (``cache=True``, stamped with the
+sources of every kernel: :func:`rrps_kinematics.backend.jit`). Without this, the first climbing
+step's preview (the dynamics), the first FK and the teleop guards would each wait for numba to
+compile them in a running node. This runs each of them once, with the argument types the stack
+uses: IK and FK (single, and batches serial and on every thread), the reachable workspace
+(serial and parallel), the limits of one pose, the assembly modes' path tracker, the teleop guards,
+a short preview on either ring and the CSV text of ``rrps-dynamics simulate``.
+Each group of kernels says when it is compiled, and how long it took (:func:`_say`): the first
+install compiles for minutes (docs/measurements.md), a later one loads them from the cache.
+Nothing is compiled when numba is off (``RRPS_NUMBA=0``) or missing.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import sys
+import time
+
+import numpy as np
+
+from rrps_description.geometry import load_robot
+from rrps_kinematics.backend import numba_enabled
+
+__all__ = ['warm_up', 'main']
+
+#: The robot whose calls compile the kernels (every robot has the same argument types).
+ROBOT = 'pole_climber'
+
+
+def warm_up(robot: str = ROBOT) -> float:
+    """Run every compiled kernel once; returns the seconds it took (0 when numba is off). The
+    dynamics' and the guards' kernels compile in a second process meanwhile (both cores)."""
+    if not numba_enabled():
+        return 0.0
+    start = time.perf_counter()
+    other = multiprocessing.get_context('spawn').Process(target=_dynamics_kernels, args=(robot,),
+                                                         name='rrps-warm-up')
+    other.start()
+    try:
+        _kinematics_kernels(robot)
+    finally:
+        other.join()
+    if other.exitcode != 0:
+        raise RuntimeError(f'the warm-up of the dynamics kernels failed (exit code {other.exitcode})')
+    return time.perf_counter() - start
+
+
+@contextlib.contextmanager
+def _say(what: str):
+    """Print when the kernels of ``what`` are compiled (or loaded from the cache), with the time."""
+    start = time.perf_counter()
+    yield
+    print(f'rrps:   numba: {what}: ready in {time.perf_counter() - start:.0f} s', file=sys.stderr, flush=True)
+
+
+def _kinematics_kernels(robot: str) -> None:
+    """IK, FK (single; batches serial and parallel), the workspace, the limits, assembly modes."""
+    from rrps_kinematics import assembly_modes, forward_kinematics, leg_lengths
+    from rrps_kinematics.backend import PARALLEL_BATCH
+    from rrps_kinematics.limits import pose_margins
+    from rrps_kinematics.workspace import reachable_workspace
+
+    g = load_robot(robot)
+    p, q = np.array(g.home_position, dtype=float), np.array(g.home_quaternion_xyzw, dtype=float)
+    with _say('IK and FK, single and batches'):
+        forward_kinematics(g, g.home_lengths)
+        for n in (2, PARALLEL_BATCH):         # the serial and the parallel batch kernels
+            forward_kinematics(g, np.tile(g.home_lengths, (n, 1)))
+            leg_lengths(g, np.tile(p, (n, 1)), np.tile(q, (n, 1)))
+    with _say('the reachable workspace'):
+        stroke = g.max_length - g.min_length
+        for resolution in (stroke, stroke / 10):
+            reachable_workspace(g, resolution=resolution)
+    with _say('the assembly modes (homotopy)'):
+        assembly_modes(g, g.home_lengths)     # the homotopy kernels and the batch FK that polishes
+    with _say("a pose's limits"):
+        pose_margins(g, p, q)
+
+
+def _dynamics_kernels(robot: str) -> None:
+    """The teleop guards, a short preview on either ring, the CSV text of rrps-dynamics."""
+    from rrps_sim.float_text import csv_rows
+    from rrps_sim.preview import PreviewMotion, preview_step
+    from rrps_teleop.mapping import TeleopMapping
+
+    g = load_robot(robot)
+    p, q = np.array(g.home_position, dtype=float), np.array(g.home_quaternion_xyzw, dtype=float)
+    with _say('the teleop guards'):
+        TeleopMapping(g)                  # compiles the guards' kernels on construction
+    with _say("a climbing step's preview (the dynamics, on either ring)"):
+        path = p + np.outer(np.linspace(0.0, 0.002, 3), [0.0, 0.0, 1.0])
+        motions = [PreviewMotion(f'warm-up on {ring}', ring, np.array([0.0, 0.0, 0.0, 1.0]), path,
+                                 np.tile(q, (3, 1)), 0.01) for ring in ('ring_a', 'ring_b')]
+        preview_step(g, motions, settle=0.0)
+    with _say("rrps-dynamics' CSV text"):
+        csv_rows(np.zeros((1, 1)))
+
+
+def main() -> None:
+    seconds = warm_up()
+    if seconds:
+        print(f'rrps: numba kernels compiled (or loaded from the cache) in {seconds:.1f} s', file=sys.stderr)
+    else:
+        print('rrps: numba is off: no kernels to compile', file=sys.stderr)
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,85 @@
+"""rrps-drive-sim: the simulated drives of one robot's CAN bus, in a process of their own.
+
+    rrps-drive-sim --robot pole_climber              # the legs (CSP) and the grippers' I/O
+    rrps-drive-sim --robot master_robot --master     # a master's legs (CST), held by a hand
+    rrps-drive-sim --behaviour '{"mode_delay": 0.05, "leg_2": {"homing_methods": [35]}}'
+
+It opens the bus of the robot YAML's ``bus`` section (``RRPS_CAN_CHANNEL`` / ``RRPS_CAN_PORT``
+override it), boots every device (boot-up messages, PRE-OPERATIONAL) and serves until SIGTERM or
+SIGINT. The first line out is ``{"ready": true, ...}``. With ``--stdin`` it takes requests (faults,
+the bus' loss, a stuck sensor: :meth:`rrps_canopen_sim.bus.SimulatedBus.control`) as JSON
+lines on standard input, answers each with one JSON line, and stops at the end of the input.
+Exit status 2 and one line on a bad robot or bus.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import sys
+import threading
+
+import can
+
+__all__ = ['main']
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog='rrps-drive-sim', description='Simulated CiA 402 drives (and CiA 401 I/O) '
+                                'of one robot\'s CAN bus.')
+    p.add_argument('--robot', default='pole_climber', help='shipped robot name or robot YAML path')
+    p.add_argument('--master', action='store_true', help="a master robot's drives: torque mode, held by a hand")
+    p.add_argument('--lengths', type=float, nargs=6, default=None, metavar='M',
+                   help='the legs\' lengths at power-on [m] (default: the home pose)')
+    p.add_argument('--time-constant', type=float, default=0.02, help='the legs\' first-order lag [s]')
+    p.add_argument('--behaviour', type=json.loads, default=None, metavar='JSON',
+                   help='how the drives behave (rrps_canopen_sim.behaviour): options for every drive, or per '
+                   'drive under its name')
+    p.add_argument('--stdin', action='store_true', help='take requests (JSON lines) on standard input, answer '
+                   'on standard output, and stop at the end of the input')
+    return p
+
+
+def _serve(bus, stop: threading.Event) -> None:
+    for line in sys.stdin:
+        line = line.strip()
+        if not line:
+            continue
+        try:
+            reply = bus.control(json.loads(line))
+        except (ValueError, KeyError, TypeError) as exc:
+            reply = {'ok': False, 'error': str(exc)}
+        print(json.dumps(reply), flush=True)
+    stop.set()
+
+
+def main(argv=None) -> int:
+    args = _parser().parse_args(argv)
+    from rrps_canopen_sim.bus import SimulatedBus
+    from rrps_description.geometry import load_robot
+    sys.setswitchinterval(5e-4)  # the bus' receive thread gets the interpreter within a fraction of a period
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+    try:
+        geometry = load_robot(args.robot)
+        bus = SimulatedBus(geometry, lengths=args.lengths, master=args.master, time_constant=args.time_constant,
+                           behaviour=args.behaviour)
+    except (ValueError, TypeError, OSError, can.CanError) as exc:
+        print(f'rrps-drive-sim: error: {exc}', file=sys.stderr)
+        return 2
+    try:
+        print(json.dumps({'ready': True, 'robot': geometry.name,
+                          'nodes': geometry.bus.node_ids()}), flush=True)
+        if args.stdin:
+            threading.Thread(target=_serve, args=(bus, stop), daemon=True).start()
+        while not stop.wait(0.2):
+            pass
+    finally:
+        bus.close()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,441 @@
+"""climb_node: executes inchworm gait steps (``rrps_climbing.gait``) on the robot over ROS;
+with ``junction_deg`` on a frame, the crossing of its node (``rrps_climbing.frame_crossing``);
+on a route (``structure`` frame_route or facade_corner, ``rrps_climbing.route_steps``), its
+climbs over several frame nodes or round the facade's corner.
+
+The step machine is :class:`rrps_climbing.step_machine.ClimbStepMachine` (phases, arrival,
+the gripper interlock and release gate, pauses on lost inputs, failures, odometry). This node
+feeds it ``pose`` (a_T_b, frame ring_a; the newest sample at the node's ``rate``),
+``grippers/state``, the driver's status on /diagnostics, ``teleop/status`` and, on robots with the
+extra ring DOF, ``actuators/state``; it publishes what the machine asks for: ``target_pose``
+(and ``target_rings``) through the IK node's guards, requests to the driver's
+``grippers/<ring>/set``, ``climb/status`` (values :class:`~rrps_interfaces.climb.ClimbStatus`)
+``odometry`` (nav_msgs/Odometry, REP-105: ``base_link`` in ``odom``, its twist, the covariance of
+:mod:`rrps_kinematics.base_odometry`) and ``odometry/ring_a|ring_b`` (each ring in ``odom``), all
+stamped with the pose they were chained from, their frames named with ``frame_prefix``.
+The supporting ring's world pose goes on ``odometry/support`` (TransformStamped in frame ``world``,
+child frame the ring, latched; at once when it changes, else at 10 Hz:
+:mod:`rrps_climbing.odometry_attitude`), the attitude the driver's gravity and teleop's load guards
+follow. A step's preview stands where the odometry's ring_a is (``anchor_phases``): it computes in the
+gravity of the measured attitudes.
+
+A payload (``payload_mass`` on ``payload_ring``, as the simulated driver's) replaces the robot
+description's in the plans' load check and the previews.
+
+The action ``climb/step`` (rrps_msgs/action/ClimbStep: feedback, cancel;
+:mod:`rrps_climbing.climb_action`, where rrps_msgs is built) and the services
+``climb/step_up``, ``climb/step_down`` and ``climb/resume`` (std_srvs/Trigger);
+``auto_steps`` > 0 climbs that many steps up once the robot's state is known.
+
+With ``preview`` (default), each planned step is first simulated on the dynamics in a worker
+process (:func:`rrps_climbing.step_preview.run_preview` in a
+:class:`~rrps_runtime.worker.WorkerProcess`: the node and those composed with it keep their
+rate, docs/deployment.md), its
+peaks published on ``climb/preview`` (values :class:`~rrps_interfaces.climb.ClimbPreview`,
+latched); the machine then starts or refuses it.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from concurrent.futures import Future
+from functools import partial
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PoseStamped, TransformStamped
+from nav_msgs.msg import Odometry
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_srvs.srv import SetBool, Trigger
+
+from rrps_climbing.climb_action import ClimbAction
+from rrps_climbing.frame_crossing import FrameNodePlanner
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.load_check import LoadCheck
+from rrps_climbing.odometry_attitude import SupportPublisher, anchor_phases, support_of_odometry
+from rrps_climbing.route import ROUTES
+from rrps_climbing.route_steps import ROUTE_START, RouteSteps, route_planner
+from rrps_climbing.step_io import ClimbOutput, ClimbTarget, StepConfig
+from rrps_climbing.step_machine import ClimbStepMachine
+from rrps_climbing.step_preview import PreviewConfig, run_preview, warm_up
+from rrps_description.geometry import load_robot
+from rrps_description.loads import payload_from_parameters
+from rrps_description.names import BASE_FRAME, ODOM_FRAME, RING_A_FRAME, RINGS, WORLD_FRAME, prefixed, ring_joint
+from rrps_description.pose import QUATERNION_TOLERANCE, InvalidPose, Pose
+from rrps_description.structures import STRUCTURES, structure_from_parameters
+from rrps_interfaces.climb import (
+    CLIMB_PREVIEW,
+    CLIMB_RESUME,
+    CLIMB_STATUS,
+    CLIMB_STEP,
+    CLIMB_STEP_DOWN,
+    CLIMB_STEP_UP,
+    ODOMETRY,
+    SUPPORT_POSE,
+    ClimbPreview,
+    ClimbState,
+    ClimbStatus,
+    odometry_topic,
+)
+from rrps_interfaces.driver import GRIPPERS_STATE, DriverStatus, gripper_service, gripper_states
+from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE, TARGET_POSE, TARGET_RINGS
+from rrps_interfaces.status import DIAGNOSTICS, source_node
+from rrps_interfaces.teleop import TELEOP_STATUS, TeleopStatus
+from rrps_kinematics.base_odometry import BaseOdometry
+from rrps_runtime.diagnostics import ERROR, OK, WARN, Diagnostics
+from rrps_runtime.messages import (
+    joint_state_msg,
+    odometry_msg,
+    pose_from_msg,
+    pose_to_msg,
+    stamp_to_seconds,
+    transform_to_msg,
+)
+from rrps_runtime.parameter_schema import PAYLOAD, ROBOT, NodeParameters, Parameter
+from rrps_runtime.parameters import declare_parameters
+from rrps_runtime.process import run_nodes
+from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, LATEST_QOS, LINK_STATE_QOS, STATE_QOS
+from rrps_runtime.recording_tap import RecordingTap
+from rrps_runtime.scheduling import scheduling_parameters
+from rrps_runtime.supervision import CONTROL_RT_PRIORITY
+from rrps_runtime.worker import WorkerProcess
+
+__all__ = ['PARAMETERS', 'ClimbNode', 'main']
+
+#: climb_node's parameters (descriptors, the shipped file and the docs' table come from here).
+PARAMETERS = NodeParameters('climb_node', 'rrps_climbing', [
+    ROBOT,
+    Parameter('structure', 'pole', 'climbed structure, or a route: frame_route (several frame nodes, the frame '
+              'climber), facade_corner (a facade round a corner, the facade climber)',
+              choices=tuple(sorted(STRUCTURES)) + tuple(ROUTES)),
+    Parameter('corner_deg', 20.0, 'facade_corner: the corner, positive outside', unit='deg', range=(-90.0, 90.0)),
+    Parameter('route_bends_deg', (30.0, 30.0), "frame_route: each node's bend", unit='deg', item_type=float),
+    Parameter('structure_length', 0.0, 'route length of the structure; 0 = its shipped length', unit='m',
+              range=(0.0, 1000.0)),
+    Parameter('structure_lean_deg', 0.0, 'the pole leans this much from the vertical about the world x axis',
+              unit='deg', range=(-80.0, 80.0)),
+    Parameter('start', -1.0, "route position of ring_a's gripper at start; negative = the lowest that fits",
+              unit='m', range=(-1.0, 1000.0)),
+    Parameter('step_length', 0.0, "length of one step; 0 = the planner's default for the robot", unit='m',
+              range=(0.0, 10.0)),
+    Parameter('auto_steps', 0, 'scripted climb: steps up to climb at start (0 = none)', range=(0, 10000)),
+    Parameter('speed', 0.0, "cap on the moving ring's path speed; 0 = none: each motion is timed as fast as the "
+              "legs' speed, acceleration, jerk and force limits and the holding capacity allow", unit='m/s',
+              range=(0.0, 10.0)),
+    Parameter('rate', 50.0, 'target_pose stream and state machine rate', unit='Hz', range=(1.0, 1000.0)),
+    Parameter('position_tolerance', 0.001, 'arrival tolerance of the measured pose', unit='m',
+              range=(1e-5, 0.1)),
+    Parameter('orientation_tolerance', 0.01, 'arrival tolerance of the measured pose', unit='rad',
+              range=(1e-5, 0.5)),
+    Parameter('settle_timeout', 5.0, 'longest wait for the pose to arrive or a gripper to switch', unit='s',
+              range=(0.1, 600.0)),
+    Parameter('settle_time', 0.1, 'the pose must stay within tolerance this long before a gripper switches',
+              unit='s', range=(0.0, 10.0)),
+    Parameter('state_timeout', 0.2, 'pause when pose or grippers/state is older than this', unit='s',
+              range=(0.01, 10.0)),
+    Parameter('operator_timeout', 0.5,
+              'pause when the operator station (its teleop/status, once seen) is silent this long', unit='s',
+              range=(0.05, 60.0)),
+    Parameter('use_extra_dof', True, 'use the extra ring DOF where the robot has one'),
+    Parameter('junction_deg', 0.0, 'frame: cross its node, the member bent by this angle (0 = a straight '
+              'splice, the inchworm gait); start defaults to the searched stance before the node', unit='deg',
+              range=(0.0, 90.0)),
+    Parameter('out_of_plane', False, "frame with junction_deg: the member bends normal to the column's web plane"),
+    Parameter('preview', True, 'simulate each step on the dynamics before it executes; refuse it if it '
+              'breaks a force or holding limit'),
+    Parameter('gravity', (0.0, 0.0, -9.81), "the world's gravity in the structure's frame (the preview's)",
+              unit='m/s^2', item_type=float),
+    Parameter('preview_min_margin', 0.0, 'smallest holding margin a preview accepts', range=(-1.0, 1.0)),
+    *PAYLOAD,
+    *scheduling_parameters(CONTROL_RT_PRIORITY),
+    Parameter('frame_prefix', '', "the odometry's frames are <frame_prefix>odom, <frame_prefix>base_link (as "
+              "robot_state_publisher's frame_prefix: several robots in one domain)"),
+    Parameter('odometry_length_stddev', 1e-4, "standard deviation of a measured leg length: the odometry's "
+              'covariance', unit='m', range=(0.0, 0.1)),
+])
+
+LEVELS = {ClimbState.IDLE: OK, ClimbState.EXECUTING: OK, ClimbState.PAUSED: ERROR, ClimbState.FAILED: ERROR}
+
+
+class ClimbNode(Node):
+    """Executes climbing steps on the driver; see the module docstring."""
+
+    def __init__(self, **kwargs):
+        super().__init__('climb_node', **kwargs)
+        values = declare_parameters(self, PARAMETERS)
+        payload = payload_from_parameters(values)   # the plans' load check and the previews carry it
+        self.geometry = load_robot(values['robot'])
+        if payload is not None:
+            self.geometry = self.geometry.with_(payload=payload)
+        planner = self._planner(values)
+        start = values['start'] if values['start'] >= 0.0 else None
+        if isinstance(planner, FrameNodePlanner) and planner.crossing is not None and start is None:
+            start = planner.crossing.candidate.s_pre
+        if isinstance(planner, RouteSteps) and start is None:
+            start = ROUTE_START
+        config = StepConfig(period=1.0 / values['rate'],
+                            **{k: values[k] for k in ('position_tolerance', 'orientation_tolerance',
+                                                      'settle_timeout', 'settle_time', 'state_timeout',
+                                                      'operator_timeout')})
+        self.machine = ClimbStepMachine(planner, config, start=start,
+                                        step_length=values['step_length'] or None,
+                                        auto_steps=values['auto_steps'], preview=values['preview'])
+        if len(values['gravity']) != 3:
+            raise ValueError(f"gravity: expected 3 numbers [m/s^2], got {values['gravity']}")
+        self._preview_config = PreviewConfig(gravity=tuple(values['gravity']),
+                                             min_margin=values['preview_min_margin'])
+        # never in this process' interpreter; its kernels loaded there at start, not at the first step
+        self._preview_worker = WorkerProcess('climb_preview', warm_up=partial(warm_up, self.geometry,
+                                                                              self._preview_config))
+        self._preview_job: Future | None = None
+        self._pose_msg: PoseStamped | None = None
+        self._odometry = None  # (world_T_a, world_T_b, stamp) not yet published
+        self._gripper_call = None  # (GripperRequest, Future) awaiting the driver's answer
+
+        self._tap = RecordingTap(self)
+        self._target_pub = self._tap.create_publisher(PoseStamped, TARGET_POSE, COMMAND_QOS)
+        # robots with the extra ring DOF: the rings are commanded, and measured for the odometry
+        self._ring_joints = [ring_joint(r) for r in RINGS] if planner.dof else []
+        self._ring_pub = (self._tap.create_publisher(JointState, TARGET_RINGS, COMMAND_QOS)
+                          if self._ring_joints else None)
+        if self._ring_joints:
+            self.create_subscription(JointState, ACTUATORS_STATE, self._on_state, LATEST_QOS)
+        self._status_pub = self.create_publisher(DiagnosticStatus, CLIMB_STATUS, STATE_QOS)
+        self._preview_pub = self.create_publisher(DiagnosticStatus, CLIMB_PREVIEW, LATCHED_QOS)
+        self._odo_pubs = {ring: self._tap.create_publisher(PoseStamped, odometry_topic(ring), STATE_QOS)
+                          for ring in RINGS}
+        self._support_pub = self.create_publisher(TransformStamped, SUPPORT_POSE, LATCHED_QOS)
+        self._support_due = SupportPublisher()
+        self._frames = (prefixed(values['frame_prefix'], ODOM_FRAME), prefixed(values['frame_prefix'], BASE_FRAME))
+        self._base_odometry = BaseOdometry(self.geometry, values['odometry_length_stddev'], config.period)
+        self._base_pub = self.create_publisher(Odometry, ODOMETRY, STATE_QOS)
+        self.create_subscription(PoseStamped, POSE, self._on_pose, LATEST_QOS)
+        self.create_subscription(JointState, GRIPPERS_STATE, self._on_grippers, STATE_QOS)
+        # the operator station's sign of life: the newest sample counts; a reliable reader would
+        # hold the later ones back until a lost one is resent (seconds on a lossy link)
+        self.create_subscription(DiagnosticStatus, TELEOP_STATUS, self._on_teleop, LINK_STATE_QOS)
+        self._gripper_clients = {ring: self.create_client(SetBool, gripper_service(ring)) for ring in RINGS}
+        self.create_service(Trigger, CLIMB_STEP_UP, lambda req, res: self._request(res, self.machine.step, +1))
+        self.create_service(Trigger, CLIMB_STEP_DOWN, lambda req, res: self._request(res, self.machine.step, -1))
+        self.create_service(Trigger, CLIMB_RESUME, lambda req, res: self._request(res, self.machine.resume))
+        self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, STATE_QOS)
+        self._diag = Diagnostics(self, 'climb', hardware_id=self.geometry.name)
+        self._action = None
+        try:
+            from rrps_msgs.action import ClimbStep  # optional: built by ./rrps (tools/rrps_msgs), not on PyPI
+        except ImportError as exc:
+            self.get_logger().info(f'the {CLIMB_STEP} action is off: rrps_msgs is not installed ({exc}); '
+                                   'the step services serve')
+        else:
+            self._action = ClimbAction(self, ClimbStep, self._carry_out)
+        self.create_timer(config.period, self._on_tick)
+        self.create_timer(0.5, lambda: self._publish_status(self.machine.report()))
+
+    def _planner(self, values: dict) -> GaitPlanner:
+        """The inchworm gait on the structure, or with ``junction_deg`` the frame-node crossing
+        (its search's refusal is logged; every step then refuses it)."""
+        if values['structure'] in ROUTES:
+            return route_planner(self.geometry, values['structure'], loads=LoadCheck(speed=values['speed'] or None),
+                                 corner_deg=values['corner_deg'], bends_deg=values['route_bends_deg'],
+                                 use_extra_dof=values['use_extra_dof'])
+        if values['junction_deg'] <= 0.0:
+            if values['out_of_plane']:
+                raise ValueError('out_of_plane needs junction_deg > 0')
+            structure = structure_from_parameters(values)
+            return GaitPlanner(self.geometry, structure, use_extra_dof=values['use_extra_dof'],
+                               loads=LoadCheck(speed=values['speed'] or None))
+        if values['structure'] != 'frame':
+            raise ValueError(f"junction_deg needs structure 'frame', got {values['structure']!r}")
+        planner = FrameNodePlanner(self.geometry, values['junction_deg'], values['out_of_plane'],
+                                   use_extra_dof=values['use_extra_dof'])
+        if planner.refusal is not None:
+            self.get_logger().error(f'frame node refused: {planner.refusal}')
+        else:
+            c = planner.crossing
+            self.get_logger().info(f'{planner.title}: crossing from s={c.candidate.s_pre:.3f} m '
+                                   f'(score {c.score:.3f}, {c.evaluated} candidates)')
+        return planner
+
+    # --- the machine's state, for tests and tools ------------------------------------------------
+
+    pose = property(lambda self: self.machine.pose, doc='the newest measured pose a_T_b used')
+    watch = property(lambda self: self.machine.watch, doc='the input watch (climb_watch.InputWatch)')
+    s_a = property(lambda self: self.machine.s_a, doc="route position [m] of ring_a's gripper at rest")
+    measured_angles = property(lambda self: self.machine.measured_angles,
+                               doc='the measured extra-DOF angles (theta_a, theta_b) [rad], or None')
+
+    # --- inputs ---------------------------------------------------------------------------------
+
+    def _on_pose(self, msg: PoseStamped) -> None:
+        """Keep the newest measured pose; it is used at the node's rate (:meth:`_take_pose`)."""
+        self._pose_msg = msg
+        self.machine.pose_received()
+
+    def _take_pose(self) -> None:
+        """Give the machine the newest measured pose (if one came since it last got one)."""
+        msg, self._pose_msg = self._pose_msg, None
+        if msg is None or msg.header.frame_id != RING_A_FRAME:
+            return
+        try:
+            pose = Pose(*pose_from_msg(msg), tolerance=QUATERNION_TOLERANCE)
+        except InvalidPose as exc:
+            self.get_logger().warning(f'pose ignored: {exc}', throttle_duration_sec=5.0)
+            return
+        out = self.machine.on_pose(pose)
+        if out.odometry is not None:
+            self._odometry = (*out.odometry, msg.header.stamp)
+        self._carry_out(out)
+
+    def _on_grippers(self, msg: JointState) -> None:
+        state = gripper_states(msg.name, msg.position)
+        if state is not None:
+            self.machine.on_grippers(state)
+
+    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        """The driver's lifecycle state, from its typed status."""
+        for status in msg.status:
+            if source_node(status.name) == 'driver_node':
+                try:
+                    self.machine.on_driver_active(DriverStatus.from_key_values(status.values).active)
+                except ValueError as exc:
+                    self.get_logger().warning(f'driver status ignored: {exc}', throttle_duration_sec=5.0)
+
+    def _on_teleop(self, msg: DiagnosticStatus) -> None:
+        try:
+            engaged = TeleopStatus.from_key_values(msg.values).engaged
+        except ValueError as exc:
+            engaged = None
+            self.get_logger().warning(f'{TELEOP_STATUS} ignored: {exc}', throttle_duration_sec=5.0)
+        self.machine.on_teleop(engaged)  # the operator station is reachable
+
+    def _on_state(self, msg: JointState) -> None:
+        """The measured extra-DOF angles (robots that have them), for the odometry."""
+        state = dict(zip(msg.name, msg.position))
+        self.machine.on_ring_angles(*(state.get(name, math.nan) for name in self._ring_joints))
+
+    def _request(self, response, call, *args):
+        """A Trigger service: the machine's reply to ``call(*args, now)``."""
+        self._take_pose()
+        out = call(*args, self._now())
+        self._carry_out(out)
+        response.success, response.message = out.reply
+        return response
+
+    def _answer_gripper(self) -> None:
+        """Hand the driver's answer to the pending gripper request to the machine, once it came."""
+        if self._gripper_call is None or not self._gripper_call[1].done():
+            return
+        request, future = self._gripper_call
+        self._gripper_call = None
+        result = future.result()
+        self.machine.on_gripper_answer(request, result is not None and result.success,
+                                       getattr(result, 'message', 'no reply'))
+
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def _take_preview(self) -> None:
+        """Publish a finished preview and hand it to the machine."""
+        if self._preview_job is None or not self._preview_job.done():
+            return
+        job, self._preview_job = self._preview_job, None
+        try:
+            preview = job.result()
+        except Exception as exc:  # noqa: BLE001 - a preview that raised refuses its step, logged
+            preview = ClimbPreview(accepted=False, max_force=float(self.geometry.max_force),
+                                   detail=f'preview failed: {type(exc).__name__}: {exc}')
+        msg = DiagnosticStatus(level=OK if preview.accepted else WARN, name=f'{self.get_name()}: preview',
+                               message=preview.detail, hardware_id=self.geometry.name)
+        msg.values = [KeyValue(key=k, value=v) for k, v in preview.to_values().items()]
+        self._preview_pub.publish(msg)
+        if self._action is not None:
+            self._action.preview = preview
+        self._carry_out(self.machine.on_preview(preview, self._now()))
+
+    def _on_tick(self) -> None:
+        self._take_preview()
+        self._answer_gripper()
+        self._take_pose()
+        self._publish_odometry()
+        self._carry_out(self.machine.tick(self._now()))
+        if self._action is not None:
+            self._action.tick(self._now())
+
+    # --- outputs --------------------------------------------------------------------------------
+
+    def _carry_out(self, out: ClimbOutput) -> None:
+        """Log, command, request and report what the machine asked for."""
+        for level, text in out.log:
+            # one call site per severity: rclpy refuses a site whose severity changes
+            if level >= logging.ERROR:
+                self.get_logger().error(text)
+            elif level >= logging.WARNING:
+                self.get_logger().warning(text)
+            else:
+                self.get_logger().info(text)
+        if out.target is not None:
+            self._publish_target(out.target)
+        if out.gripper is not None:
+            request = SetBool.Request(data=out.gripper.close)
+            self._gripper_call = (out.gripper, self._gripper_clients[out.gripper.ring].call_async(request))
+        if out.preview is not None:
+            c = self.machine.config
+            odometry = self.machine.odometry  # the step previewed where the odometry stands
+            phases = anchor_phases(out.preview, None if odometry is None else odometry.world_T_a)
+            self._preview_job = self._preview_worker.submit(
+                run_preview, self.geometry, phases, period=c.period, config=self._preview_config)
+        if out.status is not None:
+            self._publish_status(out.status)
+
+    def _publish_target(self, target: ClimbTarget) -> None:
+        """target_pose, and the extra-DOF angles on target_rings for robots that have them (the
+        IK node sends them to the driver with the leg lengths)."""
+        stamp = self.get_clock().now().to_msg()
+        T = target.a_T_b
+        self._target_pub.publish(pose_to_msg(T.position, T.quaternion_xyzw, frame_id=RING_A_FRAME, stamp=stamp))
+        if self._ring_pub is not None:
+            self._ring_pub.publish(joint_state_msg(stamp, target.ring_angles, names=self._ring_joints))
+
+    def _publish_odometry(self) -> None:
+        """The latest world poses of both rings and base_link's odometry, at the node's ``rate``
+        (not at the pose rate)."""
+        if self._odometry is None:
+            return
+        world_T_a, world_T_b, stamp = self._odometry
+        self._odometry = None
+        odom, base = self._frames
+        for ring, T in (('ring_a', world_T_a), ('ring_b', world_T_b)):
+            self._odo_pubs[ring].publish(pose_to_msg(T.position, T.quaternion_xyzw, frame_id=odom, stamp=stamp))
+        support = support_of_odometry(world_T_a, world_T_b, self.machine.grippers)
+        if support is not None and self._support_due.due(*support, self._now()):
+            ring, T = support
+            self._support_pub.publish(transform_to_msg(T.position, T.quaternion_xyzw, frame_id=WORLD_FRAME,
+                                                       child_frame_id=ring, stamp=stamp))
+        grippers = self.machine.grippers
+        estimate = self._base_odometry.update(world_T_a, world_T_a.inverse() @ world_T_b,
+                                              grippers is None or grippers['ring_a'], stamp_to_seconds(stamp))
+        self._base_pub.publish(odometry_msg(estimate, stamp=stamp, frame_id=odom, child_frame_id=base))
+
+    def _publish_status(self, status: ClimbStatus) -> None:
+        level = WARN if status.state is ClimbState.IDLE and self.machine.plan_refused else LEVELS[status.state]
+        msg = DiagnosticStatus(level=level, name=self.get_name(), message=status.state.value,
+                               hardware_id=self.geometry.name)
+        msg.values = [KeyValue(key=k, value=v) for k, v in status.to_values().items()]
+        self._status_pub.publish(msg)
+        self._diag.report(level, f'{status.state.value}: {status.detail}', status)
+
+
+    def destroy_node(self) -> None:
+        if self._action is not None:
+            self._action.close()
+        self._preview_worker.shutdown()
+        super().destroy_node()
+
+
+def main(args=None) -> None:
+    run_nodes([ClimbNode], args)
+
+
+if __name__ == '__main__':
+    main()

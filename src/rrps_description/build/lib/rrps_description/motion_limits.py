@@ -1,0 +1,115 @@
+"""How fast a robot may move: each actuator's speed, acceleration and jerk, and how long its
+grippers take to open and close (the YAML keys ``legs.max_speed``, ``legs.max_acceleration``,
+``legs.max_jerk`` and ``ring_a.gripper_time`` / ``ring_b.gripper_time``)::
+
+    legs:
+      max_speed: 0.05            # [m/s]
+      max_acceleration: 0.25     # [m/s^2]
+      max_jerk: 2.5              # [m/s^3]
+    ring_a:
+      gripper_time: {open: 0.5, close: 0.8}   # [s]
+
+The shipped robots give all of them. A description that leaves some out gets documented
+conservative defaults, derived from the speed: the legs reach full speed in
+:data:`DEFAULT_RAMP_TIME` (``max_acceleration = max_speed / 0.5 s``) and full acceleration in
+:data:`DEFAULT_JERK_TIME` (``max_jerk = max_acceleration / 0.2 s``); a gripper takes
+:data:`DEFAULT_GRIPPER_TIME` to open or close. Without ``legs.max_speed`` nothing can be timed:
+:func:`motion_limits` refuses naming the key. Every reader names the offending key in its
+:class:`RobotDescriptionError` (a non-finite, zero or negative limit is refused).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+from rrps_description.names import RINGS
+from rrps_description.robot_parts import RobotDescriptionError, as_scalar
+
+__all__ = ['DEFAULT_RAMP_TIME', 'DEFAULT_JERK_TIME', 'DEFAULT_GRIPPER_TIME', 'GripperTime', 'ActuatorLimits',
+           'MotionLimits', 'motion_limits', 'motion_limits_from', 'check_rate_limits']
+
+#: The legs reach full speed in this time when the description gives no acceleration [s].
+DEFAULT_RAMP_TIME = 0.5
+#: The legs reach full acceleration in this time when the description gives no jerk [s].
+DEFAULT_JERK_TIME = 0.2
+#: A gripper opens or closes in this time when the description gives none [s].
+DEFAULT_GRIPPER_TIME = 2.0
+
+
+@dataclass(frozen=True)
+class GripperTime:
+    """How long a gripper takes to open and to close [s]."""
+
+    open: float = DEFAULT_GRIPPER_TIME
+    close: float = DEFAULT_GRIPPER_TIME
+
+    def switch(self, close: bool) -> float:
+        """The time [s] of one switch: closing (``close``) or opening."""
+        return self.close if close else self.open
+
+
+@dataclass(frozen=True)
+class ActuatorLimits:
+    """One actuator's limits: ``speed`` [m/s], ``acceleration`` [m/s²], ``jerk`` [m/s³]."""
+
+    speed: float
+    acceleration: float
+    jerk: float
+
+
+@dataclass(frozen=True)
+class MotionLimits:
+    """A robot's limits in time: its legs' (:class:`ActuatorLimits`) and each ring's gripper
+    times (:class:`GripperTime`)."""
+
+    legs: ActuatorLimits
+    grippers: Mapping[str, GripperTime]
+
+
+def check_rate_limits(values: Mapping[str, float]) -> None:
+    """RobotDescriptionError naming the key unless each ``legs.<key>`` rate limit given
+    (max_speed, max_acceleration, max_jerk; infinite: not given) is finite and > 0."""
+    for key, value in values.items():
+        if value != math.inf:
+            as_scalar(value, f'legs.{key}', positive=True)
+
+
+def motion_limits(geometry) -> MotionLimits:
+    """The :class:`MotionLimits` of a :class:`~rrps_description.geometry.RobotGeometry`, the
+    documented defaults filled in (module docstring); RobotDescriptionError without a finite
+    ``legs.max_speed``."""
+    speed = geometry.max_speed
+    if not math.isfinite(speed):
+        raise RobotDescriptionError(f'{geometry.name}: legs.max_speed: not given; a timed motion needs the '
+                                    "legs' speed limit [m/s]")
+    acceleration = geometry.max_acceleration
+    if not math.isfinite(acceleration):
+        acceleration = speed / DEFAULT_RAMP_TIME
+    jerk = geometry.max_jerk
+    if not math.isfinite(jerk):
+        jerk = acceleration / DEFAULT_JERK_TIME
+    grippers = {ring: geometry.gripper_time.get(ring, GripperTime()) for ring in RINGS}
+    return MotionLimits(ActuatorLimits(float(speed), float(acceleration), float(jerk)), grippers)
+
+
+def _gripper_time(sec: Any, ring: str) -> GripperTime:
+    if not isinstance(sec, Mapping):
+        raise RobotDescriptionError(f'{ring}.gripper_time: expected a mapping {{open: S, close: S}}')
+    unknown = set(sec) - {'open', 'close'}
+    if unknown:
+        raise RobotDescriptionError(f'{ring}.gripper_time: unknown keys {sorted(unknown)} (open, close)')
+    return GripperTime(**{key: as_scalar(sec.get(key, DEFAULT_GRIPPER_TIME), f'{ring}.gripper_time.{key}',
+                                         positive=True) for key in ('open', 'close')})
+
+
+def motion_limits_from(legs: Mapping[str, Any], ring_a: Mapping[str, Any],
+                       ring_b: Mapping[str, Any]) -> dict[str, Any]:
+    """RobotGeometry keyword arguments of the YAML's ``legs.max_acceleration``,
+    ``legs.max_jerk`` and the rings' ``gripper_time`` that are given."""
+    kwargs: dict[str, Any] = {key: as_scalar(legs[key], f'legs.{key}', positive=True)
+                              for key in ('max_acceleration', 'max_jerk') if key in legs}
+    kwargs['gripper_time'] = {ring: _gripper_time(sec['gripper_time'], ring)
+                              for ring, sec in (('ring_a', ring_a), ('ring_b', ring_b)) if 'gripper_time' in sec}
+    return kwargs

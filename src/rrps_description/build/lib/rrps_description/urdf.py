@@ -1,0 +1,411 @@
+"""The robot as URDF, generated from its description: the tree robot_state_publisher, RViz2 and
+Foxglove read. Pure Python (XML through xml.etree), no ROS import.
+
+URDF describes a tree; an RRPS robot closes five loops through ring_b. The tree::
+
+    base_link (root)                  REP-105's base_link; ring_a fixed on it (identity)
+    ring_a
+      ring_a_body                     fixed: ring_a's inertia
+      ring_a_gripper                  fixed, or revolute ring_a_rotation (extra DOF, section 3.1)
+      leg_i_universal_x  revolute     -> leg_i_universal_cross   at a_i, in the yoke frame F_i
+      leg_i_universal_y  revolute     -> leg_i_lower             z along the leg (section 2.1)
+      leg_i              prismatic    -> leg_i_upper             at the spherical-joint centre
+      leg_i_spherical_z  continuous   -> leg_i_spherical_z_link  twist about the leg
+      leg_i_spherical_x  revolute     -> leg_i_spherical_x_link
+      leg_i_spherical_y  revolute     -> leg_i_tip               the socket frame, fixed in ring_b
+      ring_b             fixed on leg_1_tip; ring_b_gripper; tool (robots with one)
+
+Each leg's joint values come from IK of a_T_b (:mod:`rrps_kinematics.urdf_joints`); they put
+every tip link on its ring_b anchor. :func:`socket_frames` fixes the spherical joint's angles:
+z along its neutral axis, so the middle angle (x) never exceeds the cone angle.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Mapping
+
+import numpy as np
+
+from rrps_description.geometry import RobotGeometry
+from rrps_description.names import BASE_FRAME, LEG_NAMES, RING_A_FRAME, RING_B_FRAME, ring_joint
+from rrps_description.pose import Pose
+from rrps_description.rotations import cross, matrix_to_rpy, rpy_to_matrix
+from rrps_description.tool import TARGET_FRAMES
+
+__all__ = ['Shape', 'Inertial', 'Link', 'Joint', 'RobotModel', 'LegChain', 'leg_chain',
+           'socket_frames', 'urdf_model', 'UNBOUNDED']
+
+#: What a limit the robot description leaves unbounded is written as (URDF needs numbers).
+UNBOUNDED = 1e9
+#: The tool's link: the tool-centre-point frame, named as ik_node's target frame.
+TOOL_LINK = TARGET_FRAMES[1]
+_MATERIALS = {'ring': (0.47, 0.51, 0.59, 1.0), 'leg': (0.16, 0.67, 0.27, 1.0),
+              'joint': (0.25, 0.25, 0.25, 1.0), 'gripper': (0.78, 0.78, 0.78, 1.0),
+              'tool': (0.78, 0.35, 0.16, 1.0)}
+_AXES = {'x': (1.0, 0.0, 0.0), 'y': (0.0, 1.0, 0.0), 'z': (0.0, 0.0, 1.0)}
+
+
+@dataclass(frozen=True)
+class Shape:
+    """A visual or collision primitive in its link's frame: ``kind`` cylinder (radius, length
+    along z), box (x, y, z) or sphere (radius,) [m], centred at ``xyz``."""
+
+    kind: str
+    size: tuple[float, ...]
+    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    material: str = 'ring'
+
+
+@dataclass(frozen=True)
+class Inertial:
+    """Mass [kg], centre of mass [m] and inertia about it [kg m^2], in the link's frame."""
+
+    mass: float
+    com: np.ndarray
+    inertia: np.ndarray
+
+
+@dataclass(frozen=True)
+class Link:
+    """A URDF link: what it looks like, collides as, and weighs (None: massless)."""
+
+    name: str
+    visuals: tuple[Shape, ...] = ()
+    collisions: tuple[Shape, ...] = ()
+    inertial: Inertial | None = None
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A URDF joint: ``kind`` revolute, continuous, prismatic or fixed; ``origin`` the child's
+    frame in the parent's at zero motion, as URDF writes it (``xyz``, ``rpy``); ``axis`` in that
+    frame; limits [rad or m] for revolute and prismatic joints, effort [N] and velocity [m/s]."""
+
+    name: str
+    kind: str
+    parent: str
+    child: str
+    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    lower: float | None = None
+    upper: float | None = None
+    effort: float = 0.0
+    velocity: float = 0.0
+
+    @cached_property
+    def origin(self) -> Pose:
+        """The joint's origin as a Pose (from the written rpy, as a URDF parser reads it)."""
+        return Pose.from_rotation(self.xyz, rpy_to_matrix(self.rpy))
+
+    def transform(self, value: float = 0.0) -> Pose:
+        """parent_T_child at joint value ``value`` [rad or m]: the origin, then the motion (a
+        translation along the axis, or a rotation about it by the quaternion (axis sin, cos))."""
+        origin = self.origin
+        if self.kind == 'fixed':
+            return origin
+        if self.kind == 'prismatic':
+            return Pose(origin.position + origin.rotation @ (np.asarray(self.axis) * value),
+                        origin.quaternion_xyzw)
+        x1, y1, z1, w1 = (float(v) for v in origin.quaternion_xyzw)
+        s, w2 = math.sin(0.5 * value), math.cos(0.5 * value)
+        x2, y2, z2 = (s * v for v in self.axis)
+        return Pose(origin.position, (w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2, w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+                                      w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2, w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2))
+
+
+@dataclass(frozen=True)
+class LegChain:
+    """Joint and link names of leg ``leg`` (1..6): universal (x, y), the prismatic actuator
+    (the leg's name), spherical (z, x, y), and the links between them."""
+
+    universal: tuple[str, str]
+    prismatic: str
+    spherical: tuple[str, str, str]
+    links: tuple[str, str, str, str, str, str]  # cross, lower, upper, spherical z, x, tip
+
+    @property
+    def joints(self) -> tuple[str, ...]:
+        return (*self.universal, self.prismatic, *self.spherical)
+
+    @property
+    def tip(self) -> str:
+        return self.links[-1]
+
+
+def leg_chain(leg: int) -> LegChain:
+    """The names of leg ``leg``'s chain (1..6)."""
+    if leg not in range(1, 7):
+        raise ValueError(f'leg must be 1..6, got {leg!r}')
+    p = f'leg_{leg}'
+    return LegChain(universal=(f'{p}_universal_x', f'{p}_universal_y'), prismatic=LEG_NAMES[leg - 1],
+                    spherical=(f'{p}_spherical_z', f'{p}_spherical_x', f'{p}_spherical_y'),
+                    links=(f'{p}_universal_cross', f'{p}_lower', f'{p}_upper', f'{p}_spherical_z_link',
+                           f'{p}_spherical_x_link', f'{p}_tip'))
+
+
+def _frames(z: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """Frames (N, 3, 3) with columns x, y, z: z given, x normal to z and ``reference``."""
+    z = z / np.linalg.norm(z, axis=-1, keepdims=True)
+    x = cross(z, reference)
+    for fallback in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)):
+        bad = np.linalg.norm(x, axis=-1) < 1e-9
+        x[bad] = cross(z[bad], np.array(fallback))
+    x /= np.linalg.norm(x, axis=-1, keepdims=True)
+    return np.stack([x, cross(z, x), z], axis=-1)
+
+
+def socket_frames(geometry: RobotGeometry) -> np.ndarray:
+    """Each spherical joint's socket frame in ring_b (b_R_tip), shape (6, 3, 3): z along the
+    joint's neutral axis pointing away from ring_a (the leg's direction there), x normal to it
+    and to the anchor b_i. The frame of the leg's tip links."""
+    return _frames(-np.asarray(geometry.ring_b_joint_axes), np.asarray(geometry.ring_b_anchors))
+
+
+@dataclass(frozen=True)
+class RobotModel:
+    """The URDF of a robot: links, joints (parents before children) and the notes written as
+    XML comments at the top."""
+
+    name: str
+    links: tuple[Link, ...]
+    joints: tuple[Joint, ...]
+    notes: tuple[str, ...] = ()
+
+    @property
+    def moving_joints(self) -> tuple[str, ...]:
+        """Names of the joints that move (every joint but the fixed ones), in tree order."""
+        return tuple(j.name for j in self.joints if j.kind != 'fixed')
+
+    def transforms(self, values: Mapping[str, float], *,
+                   fixed: bool = True) -> list[tuple[str, str, Pose]]:
+        """(parent, child, parent_T_child) of every joint whose value is in ``values`` (and of
+        the fixed joints unless ``fixed`` is False), as robot_state_publisher computes them."""
+        out = []
+        for j in self.joints:
+            if j.kind == 'fixed':
+                if fixed:
+                    out.append((j.parent, j.child, j.origin))
+            elif j.name in values:
+                out.append((j.parent, j.child, j.transform(float(values[j.name]))))
+        return out
+
+    def xml(self) -> str:
+        """The URDF text."""
+        robot = ET.Element('robot', name=self.name)
+        for note in self.notes:
+            robot.append(ET.Comment(f' {note} '))
+        for name, rgba in _MATERIALS.items():
+            ET.SubElement(ET.SubElement(robot, 'material', name=name), 'color', rgba=_numbers(rgba))
+        for link in self.links:
+            robot.append(_link_xml(link))
+        for joint in self.joints:
+            robot.append(_joint_xml(joint))
+        ET.indent(robot)
+        return '<?xml version="1.0"?>\n' + ET.tostring(robot, encoding='unicode') + '\n'
+
+
+def _numbers(values) -> str:
+    return ' '.join(repr(float(v)) for v in values)
+
+
+def _shape_xml(parent: ET.Element, tag: str, shape: Shape) -> None:
+    element = ET.SubElement(parent, tag)
+    ET.SubElement(element, 'origin', xyz=_numbers(shape.xyz), rpy='0.0 0.0 0.0')
+    geometry = ET.SubElement(element, 'geometry')
+    if shape.kind == 'cylinder':
+        ET.SubElement(geometry, 'cylinder', radius=repr(float(shape.size[0])), length=repr(float(shape.size[1])))
+    elif shape.kind == 'box':
+        ET.SubElement(geometry, 'box', size=_numbers(shape.size))
+    else:
+        ET.SubElement(geometry, 'sphere', radius=repr(float(shape.size[0])))
+    if tag == 'visual':
+        ET.SubElement(element, 'material', name=shape.material)
+
+
+def _link_xml(link: Link) -> ET.Element:
+    element = ET.Element('link', name=link.name)
+    if link.inertial is not None:
+        inertial = ET.SubElement(element, 'inertial')
+        ET.SubElement(inertial, 'origin', xyz=_numbers(link.inertial.com), rpy='0.0 0.0 0.0')
+        ET.SubElement(inertial, 'mass', value=repr(float(link.inertial.mass)))
+        inertia = np.asarray(link.inertial.inertia, dtype=float)
+        ET.SubElement(inertial, 'inertia', **{f'i{"xyz"[a]}{"xyz"[b]}': repr(float(inertia[a, b]))
+                                             for a, b in ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))})
+    for shape in link.visuals:
+        _shape_xml(element, 'visual', shape)
+    for shape in link.collisions:
+        _shape_xml(element, 'collision', shape)
+    return element
+
+
+def _joint_xml(joint: Joint) -> ET.Element:
+    element = ET.Element('joint', name=joint.name, type=joint.kind)
+    ET.SubElement(element, 'parent', link=joint.parent)
+    ET.SubElement(element, 'child', link=joint.child)
+    ET.SubElement(element, 'origin', xyz=_numbers(joint.xyz), rpy=_numbers(joint.rpy))
+    if joint.kind != 'fixed':
+        ET.SubElement(element, 'axis', xyz=_numbers(joint.axis))
+    if joint.kind in ('revolute', 'prismatic'):
+        ET.SubElement(element, 'limit', lower=repr(float(joint.lower)), upper=repr(float(joint.upper)),
+                      effort=repr(float(joint.effort)), velocity=repr(float(joint.velocity)))
+    return element
+
+
+def _bounded(value: float) -> float:
+    return float(value) if math.isfinite(value) else UNBOUNDED
+
+
+def _origin(position, rotation=None) -> dict:
+    rpy = (0.0, 0.0, 0.0) if rotation is None else matrix_to_rpy(rotation)
+    return {'xyz': tuple(float(v) for v in position), 'rpy': tuple(float(v) for v in rpy)}
+
+
+class _Sizes:
+    """The primitives' dimensions [m]: rings as cylinders around the viewer's torus (mean anchor
+    radius r, tube 0.08 r), grippers as collars of radius 0.45 r at the ring's origin, the legs'
+    lower and upper bodies as cylinders of the leg radius, each ``body`` long (the shortest leg,
+    or half the longest if that is more: the two always overlap), joint centres as spheres."""
+
+    def __init__(self, g: RobotGeometry):
+        self.ring = {ring: float(np.mean(np.linalg.norm(anchors[:, :2], axis=1)))
+                     for ring, anchors in ((RING_A_FRAME, g.ring_a_anchors), (RING_B_FRAME, g.ring_b_anchors))}
+        self.leg = g.leg_radius if g.leg_radius > 0.0 else 0.01 * g.characteristic_length
+        reach = g.max_length if math.isfinite(g.max_length) else float(np.max(g.home_lengths))
+        self.body = max(g.min_length, 0.5 * reach)
+
+    def ring_shape(self, ring: str) -> Shape:
+        tube = max(0.08 * self.ring[ring], 1e-3)
+        return Shape('cylinder', (self.ring[ring] + tube, 2.0 * tube), material='ring')
+
+    def gripper_shape(self, ring: str) -> Shape:
+        r = max(self.ring[ring], 1e-2)
+        return Shape('cylinder', (0.45 * r, 0.4 * r), material='gripper')
+
+
+def _inertial(body) -> Inertial:
+    return Inertial(float(body.mass), np.asarray(body.com, dtype=float), np.asarray(body.inertia, dtype=float))
+
+
+def _leg(g: RobotGeometry, sizes: _Sizes, i: int, yoke: np.ndarray) -> tuple[list[Link], list[Joint]]:
+    """Leg i+1's links and joints, from ring_a to its tip."""
+    names = leg_chain(i + 1)
+    cross_link, lower, upper, sz, sx, tip = names.links
+    u_max, s_max = g.universal_max_angle, g.spherical_max_angle
+    body, r = sizes.body, sizes.leg
+    ball = Shape('sphere', (1.2 * r,), material='joint')
+    lower_body = Shape('cylinder', (r, body), (0.0, 0.0, 0.5 * body), material='leg')
+    upper_body = Shape('cylinder', (r, body), (0.0, 0.0, -0.5 * body), material='leg')
+
+    def leg_link(name: str, part, sign: float, shape: Shape) -> Link:
+        return Link(name, (shape,), (shape,),
+                    Inertial(part.mass, np.array([0.0, 0.0, sign * part.com_from_joint]), part.inertia_tensor()))
+
+    links = [Link(cross_link, (ball,)), leg_link(lower, g.lower_link, 1.0, lower_body),
+             leg_link(upper, g.upper_link, -1.0, upper_body), Link(sz), Link(sx), Link(tip, (ball,))]
+    tilt = {'lower': -u_max, 'upper': u_max}
+    cone = {'lower': -s_max, 'upper': s_max}
+    joints = [
+        Joint(names.universal[0], 'revolute', RING_A_FRAME, cross_link, axis=_AXES['x'], **tilt,
+              **_origin(g.ring_a_anchors[i], yoke)),
+        Joint(names.universal[1], 'revolute', cross_link, lower, axis=_AXES['y'], **tilt),
+        Joint(names.prismatic, 'prismatic', lower, upper, axis=_AXES['z'], lower=float(g.min_length),
+              upper=_bounded(g.max_length), effort=_bounded(g.max_force), velocity=_bounded(g.max_speed)),
+        Joint(names.spherical[0], 'continuous', upper, sz, axis=_AXES['z']),
+        Joint(names.spherical[1], 'revolute', sz, sx, axis=_AXES['x'], **cone),
+        Joint(names.spherical[2], 'revolute', sx, tip, axis=_AXES['y'], **cone),
+    ]
+    return links, joints
+
+
+def _ring_parts(g: RobotGeometry, sizes: _Sizes, ring: str) -> tuple[list[Link], list[Joint]]:
+    """A ring's gripper: fixed to it, or on the extra DOF's revolute joint (section 3.1)."""
+    kind = g.grippers.get(ring, 'none')
+    dof = g.extra_dof.get(ring)
+    if kind == 'none' and dof is None:
+        return [], []
+    shapes = (sizes.gripper_shape(ring),) if kind != 'none' else ()
+    link = Link(f'{ring}_gripper', shapes, shapes)
+    if dof is None:
+        return [link], [Joint(f'{ring}_gripper_mount', 'fixed', ring, link.name)]
+    return [link], [Joint(ring_joint(ring), 'revolute', ring, link.name, axis=tuple(float(v) for v in dof.axis),
+                          lower=float(dof.min_angle), upper=float(dof.max_angle))]
+
+
+def _tool(g: RobotGeometry) -> tuple[list[Link], list[Joint]]:
+    t = g.tool
+    if t is None:
+        return [], []
+    if t.shape == 'cylinder':
+        shape = Shape('cylinder', t.size, (0.0, 0.0, -0.5 * t.size[1]), material='tool')
+    elif t.shape == 'box':
+        shape = Shape('box', t.size, (0.0, 0.0, -0.5 * t.size[2]), material='tool')
+    else:
+        shape = Shape('sphere', t.size, material='tool')
+    link = Link(TOOL_LINK, (shape,), (shape,), Inertial(t.mass, np.asarray(t.com), np.asarray(t.inertia)))
+    pose = Pose(t.position, t.quaternion_xyzw)
+    return [link], [Joint(f'{TOOL_LINK}_mount', 'fixed', RING_B_FRAME, TOOL_LINK,
+                          **_origin(pose.position, pose.rotation))]
+
+
+def _notes(g: RobotGeometry, sizes: _Sizes) -> tuple[str, ...]:
+    unbounded = [key for key, value in (('max_length', g.max_length), ('max_force', g.max_force),
+                                        ('max_speed', g.max_speed)) if not math.isfinite(value)]
+    return tuple(note for note in (
+        f'Robot {g.name!r}, generated from its robot description by rrps (rrps-kinematics urdf). '
+        'SI units; base_link (REP-105) is the root, ring_a fixed on it; all kinematics is for a_T_b '
+        '(ring_b in ring_a).',
+        'URDF describes a tree and cannot close loops: the six legs close five loops through ring_b. '
+        'ring_b hangs on leg_1 (fixed joint ring_b_on_leg_1 on leg_1_tip); legs 2-6 end in tip links at '
+        'their spherical-joint centres. Joint values from the IK of a_T_b (rrps_kinematics.urdf_joints, '
+        'robot_description_node) put every tip on its ring_b anchor.',
+        'Universal joint: leg_i_universal_x (about the yoke axis fixed in ring_a) then leg_i_universal_y, '
+        'at the ring_a anchor. Prismatic leg_i: the joint value is the leg length. Spherical joint: three '
+        'revolute joints in the order z (twist about the leg), x, y, at the ring_b anchor; the tip link '
+        'is the socket frame fixed in ring_b, z along the neutral axis, so the home pose has x = y = 0 '
+        'and |x| never exceeds the cone angle: gimbal lock (x = +-pi/2) lies outside the cone unless '
+        'spherical_max_angle >= pi/2.',
+        'Joint limits: the stroke on leg_i; the universal and spherical cones (angle from the neutral '
+        'axis <= max angle, cos(angle) = cos(x) cos(y)) are not URDF limits: each pair of tilt joints '
+        'is limited to the box [-max, max]^2, which contains the cone. The twist is not limited '
+        '(continuous). Passive joints and the extra ring DOF have effort and velocity 0 (none given).',
+        f'Unbounded in the robot description, written as {UNBOUNDED:g}: {", ".join(unbounded)}.'
+        if unbounded else '',
+        'Inertias from the robot description: the rings (ring_a\'s on ring_a_body), the legs\' lower '
+        'and upper links (com along the leg, transverse and axial '
+        'inertias), the tool. Visuals and collisions are primitives: rings as cylinders around the '
+        f'torus, grippers as collars, the legs\' lower and upper bodies as cylinders of radius {sizes.leg:g} m '
+        f'and length {sizes.body:g} m, joint centres as spheres.',
+    ) if note)
+
+
+def urdf_model(geometry: RobotGeometry, universal_frames: np.ndarray) -> RobotModel:
+    """The URDF of ``geometry``. ``universal_frames`` (6, 3, 3): each universal joint's yoke
+    frame in ring_a (:func:`rrps_kinematics.inverse.universal_joint_frames`), which defines the
+    joint angles of the IK (x = the axis fixed in ring_a)."""
+    g = geometry
+    frames = np.asarray(universal_frames, dtype=float)
+    if frames.shape != (6, 3, 3):
+        raise ValueError(f'universal_frames must have shape (6, 3, 3), got {frames.shape}')
+    sizes = _Sizes(g)
+    ring_a, ring_b = sizes.ring_shape(RING_A_FRAME), sizes.ring_shape(RING_B_FRAME)
+    body = f'{RING_A_FRAME}_body'
+    links = [Link(BASE_FRAME), Link(RING_A_FRAME, (ring_a,), (ring_a,)),
+             Link(body, inertial=_inertial(g.ring_a_inertia))]
+    joints = [Joint(f'{RING_A_FRAME}_on_base', 'fixed', BASE_FRAME, RING_A_FRAME),
+              Joint(f'{body}_mount', 'fixed', RING_A_FRAME, body)]
+    parts = [_ring_parts(g, sizes, RING_A_FRAME)]
+    parts += [_leg(g, sizes, i, frames[i]) for i in range(6)]
+    tip_R_b = socket_frames(g)[0].T
+    parts.append(([Link(RING_B_FRAME, (ring_b,), (ring_b,), _inertial(g.ring_b_inertia))],
+                  [Joint(f'{RING_B_FRAME}_on_leg_1', 'fixed', leg_chain(1).tip, RING_B_FRAME,
+                         **_origin(-(tip_R_b @ g.ring_b_anchors[0]), tip_R_b))]))
+    parts += [_ring_parts(g, sizes, RING_B_FRAME), _tool(g)]
+    for part_links, part_joints in parts:
+        links += part_links
+        joints += part_joints
+    return RobotModel(g.name, tuple(links), tuple(joints), _notes(g, sizes))

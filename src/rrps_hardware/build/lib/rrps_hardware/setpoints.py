@@ -1,0 +1,139 @@
+"""The driver's setpoints: jerk-limited, from the commands it receives, by an online trajectory
+generator.
+
+Commands reach the driver at the stream's rate (50 Hz from the climb node, the teleop rate from
+teleop, each through the IK node) and are held between arrivals; the hardware takes a setpoint
+every driver period (500 Hz). :class:`JerkLimitedSetpoints` makes those setpoints with Ruckig
+(Berscheid and Kröger, *Jerk-limited Real-time Trajectory Generation with Arbitrary Target
+States*, RSS 2021; the ``ruckig`` library): each period it plans, from the setpoints' position,
+velocity and acceleration, the time-optimal motion to the command within each leg's speed,
+acceleration and jerk limits (:attr:`RobotGeometry.motion_limits`), and takes its state one
+period later: to a command at rest, the time-optimal motion there (Ruckig's position interface);
+along a stream, the velocity that follows it (its interpolated velocity plus :data:`GAIN` times
+the position error, less what the present acceleration adds before it is shed, reached at zero
+acceleration: Ruckig's velocity interface, whose motions stay within the speed limit so). The
+stream is followed one command period behind: the parabola through its last three commands (by
+their arrival times), evaluated one period back, gives the position and velocity to follow; the
+newest command at rest once no new one came for :data:`STALE_PERIODS` periods. So a stream is
+followed without stopping at every sample, and a stream that stops, stops without a velocity
+jump. Any stream, however it jumps, reaches the legs within the limits. :func:`stream_setpoints`
+is the same for a whole command stream at once (the preview of a climbing step). Pure Python and
+NumPy (and ruckig); no ROS import.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import ruckig
+
+from rrps_description.motion_limits import ActuatorLimits
+
+__all__ = ['DRIVER_PERIOD', 'STALE_PERIODS', 'JerkLimitedSetpoints', 'stream_setpoints']
+
+#: The driver's period [s] (500 Hz).
+DRIVER_PERIOD = 0.002
+#: A command's velocity counts this many of its periods after it arrived.
+STALE_PERIODS = 2.5
+#: The gain [1/s] of the position error in the velocity the setpoints are steered to.
+GAIN = 5.0
+
+
+class JerkLimitedSetpoints:
+    """Setpoints of ``n`` actuators within ``limits``, at rest at ``positions`` (module docstring)."""
+
+    def __init__(self, limits: ActuatorLimits, positions):
+        positions = np.asarray(positions, dtype=float)
+        self.n = len(positions)
+        self.limits = limits
+        self._otg = ruckig.Ruckig(self.n, DRIVER_PERIOD)
+        self._input = ruckig.InputParameter(self.n)
+        self._output = ruckig.OutputParameter(self.n)
+        self._input.max_velocity = [limits.speed] * self.n
+        self._input.max_acceleration = [limits.acceleration] * self.n
+        self._input.max_jerk = [limits.jerk] * self.n
+        self.gain = GAIN
+        self.reset(positions)
+
+    def reset(self, positions) -> None:
+        """At rest at ``positions`` (the legs hold there); the command is forgotten."""
+        positions = np.asarray(positions, dtype=float)
+        self.position, self.velocity, self.acceleration = positions.copy(), np.zeros(self.n), np.zeros(self.n)
+        self._history: list = []   # the last three commands (arrival time, positions)
+
+    def command(self, positions, time: float) -> None:
+        """A new command of ``positions`` arrived at ``time`` [s]."""
+        self._history = [h for h in self._history if h[0] < time][-2:] + [(float(time),
+                                                                             np.asarray(positions, dtype=float).copy())]
+
+    def _target(self, time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The commands one period behind at ``time``: position, velocity and acceleration of the
+        parabola through the last three (a line through two), the newest at rest once stale."""
+        zero = np.zeros(self.n)
+        if not self._history:
+            return self.position, zero, zero
+        t_new, newest = self._history[-1]
+        if len(self._history) < 2:
+            return newest, zero, zero
+        period = t_new - self._history[-2][0]
+        if time - t_new > STALE_PERIODS * period:
+            return newest, zero, zero
+        tau = min(max(time - period, self._history[0][0]), t_new)
+        (t1, p1), (t2, p2) = self._history[-2:]
+        d1 = (p2 - p1) / (t2 - t1)
+        if len(self._history) < 3:
+            return p1 + d1 * (tau - t1), d1, zero
+        t0, p0 = self._history[0]
+        a = 2.0 * (d1 - (p1 - p0) / (t1 - t0)) / (t2 - t0)          # the parabola's second derivative
+        v = d1 + 0.5 * a * (2.0 * tau - t1 - t2)
+        return p1 + d1 * (tau - t1) + 0.5 * a * (tau - t1) * (tau - t2), v, a
+
+    def step(self, time: float, dt: float) -> np.ndarray:
+        """The setpoints ``dt`` [s] on, at ``time`` [s] (the positions (n,))."""
+        if dt <= 0.0:
+            return self.position.copy()
+        target, velocity, acceleration = self._target(time)
+        lim = self.limits
+        velocity = np.clip(velocity, -lim.speed, lim.speed)
+        # the wanted velocity leaves room to shed the present acceleration below the speed limit
+        brake = self.acceleration * np.abs(self.acceleration) / (2.0 * lim.jerk)
+        wanted = np.clip(velocity + self.gain * (target - self.position), -lim.speed - np.minimum(brake, 0.0),
+                         lim.speed - np.maximum(brake, 0.0))
+        inp, out = self._input, self._output
+        inp.current_position, inp.current_velocity = self.position.tolist(), self.velocity.tolist()
+        inp.current_acceleration = self.acceleration.tolist()
+        if np.any(velocity) or np.any(acceleration):   # a stream: steered along it
+            inp.control_interface = ruckig.ControlInterface.Velocity
+            inp.target_velocity, inp.target_acceleration = wanted.tolist(), [0.0] * self.n
+        else:                                            # a command at rest: reached time-optimally
+            inp.control_interface = ruckig.ControlInterface.Position
+            inp.target_position = target.tolist()
+            inp.target_velocity = inp.target_acceleration = [0.0] * self.n
+        self._otg.delta_time = dt
+        try:
+            result = self._otg.update(inp, out)
+        except ruckig.RuckigError:   # a state Ruckig cannot start from: the command is held where it is
+            self.reset(self.position)
+            return self.position.copy()
+        self.position = np.array(out.new_position)
+        self.velocity = np.array(out.new_velocity)
+        self.acceleration = np.array(out.new_acceleration)
+        if result == ruckig.Result.Finished and inp.control_interface == ruckig.ControlInterface.Position:
+            self.position = target.copy()   # arrived: exactly at the command (not a rounding off it)
+        return self.position.copy()
+
+
+def stream_setpoints(commands, period: float, limits: ActuatorLimits, *, settle: float = 0.0) -> np.ndarray:
+    """The driver's setpoints (m, n) every :data:`DRIVER_PERIOD` for ``commands`` (k, n) arriving
+    every ``period`` [s] from rest at the first, and ``settle`` [s] after the last."""
+    commands = np.asarray(commands, dtype=float)
+    gen = JerkLimitedSetpoints(limits, commands[0])
+    steps = int(round((period * (len(commands) - 1) + settle) / DRIVER_PERIOD))
+    per_command = max(1, int(round(period / DRIVER_PERIOD)))
+    out = np.empty((steps + 1, commands.shape[1]))
+    out[0] = commands[0]
+    for k in range(1, steps + 1):
+        i = (k - 1) // per_command
+        if (k - 1) % per_command == 0 and i < len(commands):
+            gen.command(commands[i], (k - 1) * DRIVER_PERIOD)
+        out[k] = gen.step((k - 1) * DRIVER_PERIOD, DRIVER_PERIOD)
+    return out

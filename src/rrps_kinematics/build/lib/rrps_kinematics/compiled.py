@@ -1,0 +1,279 @@
+"""Numba-compiled hot loops of the kinematics core: batch IK lengths and Newton FK.
+
+The same equations as the pure-NumPy paths in :mod:`.inverse` and :mod:`.forward` (which stay
+the reference and the fallback; the tests check both give the same numbers). Imported lazily
+by those modules on first use, so ``import rrps_kinematics`` does not pay numba's import.
+Compiled code is cached on disk (``cache=True``); set ``RRPS_NUMBA=0`` to use NumPy only.
+
+FK algorithm (both backends): unknowns the pose (r, A_c) of ring_b in ring_a; residual
+f_i = L_i - l_i with l_i = |r + A_c s'_i - s0_i| (eq. 1); Newton step J dx = f with J the
+inverse Jacobian (rows [u_i, (A_c s'_i) x u_i]); the angular columns are divided by the
+characteristic length before the LU factorisation (unit-consistent pivots); the rotation is
+updated multiplicatively, q <- exp(dtheta) (x) q. Steps whose rotation exceeds pi/2 are
+scaled down, and a step is halved (up to ``MAX_HALVINGS`` times) until the residual's 2-norm
+decreases; if it never does, the solve stops unconverged (constants in :mod:`.newton_settings`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from rrps_kinematics.newton_settings import MAX_HALVINGS, MAX_ROTATION_STEP, PIVOT_TOLERANCE
+
+__all__ = ['ik_lengths_batch', 'ik_lengths_parallel', 'fk_single', 'fk_solve', 'fk_batch',
+           'fk_batch_parallel', 'quat_to_matrix']
+
+_jit = numba.njit(cache=True, fastmath=False, nogil=True, error_model='numpy')
+#: Rows per task of the parallel batch kernels (the threads take the next task when done).
+PARALLEL_ROWS = 256
+_parallel_jit = numba.njit(cache=True, fastmath=False, nogil=True, parallel=True, error_model='numpy')
+
+
+@_jit
+def quat_to_matrix(q, R):
+    """R <- the rotation matrix of the unit quaternion q (x, y, z, w), in place."""
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    R[0, 0] = 1.0 - 2.0 * (y * y + z * z)
+    R[0, 1] = 2.0 * (x * y - z * w)
+    R[0, 2] = 2.0 * (x * z + y * w)
+    R[1, 0] = 2.0 * (x * y + z * w)
+    R[1, 1] = 1.0 - 2.0 * (x * x + z * z)
+    R[1, 2] = 2.0 * (y * z - x * w)
+    R[2, 0] = 2.0 * (x * z - y * w)
+    R[2, 1] = 2.0 * (y * z + x * w)
+    R[2, 2] = 1.0 - 2.0 * (x * x + y * y)
+
+
+@_jit
+def ik_lengths_batch(A, B, P, Q, out):
+    """out[n, i] = |P[n] + R(Q[n]) B[i] - A[i]| for unit quaternions Q (x, y, z, w) (eq. 1)."""
+    R = np.empty((3, 3))
+    for n in range(P.shape[0]):
+        quat_to_matrix(Q[n], R)
+        for i in range(6):
+            s = 0.0
+            for k in range(3):
+                d = P[n, k] + R[k, 0] * B[i, 0] + R[k, 1] * B[i, 1] + R[k, 2] * B[i, 2] - A[i, k]
+                s += d * d
+            out[n, i] = math.sqrt(s)
+
+
+@_parallel_jit
+def ik_lengths_parallel(A, B, P, Q, out):
+    """:func:`ik_lengths_batch` in runs of ``PARALLEL_ROWS`` rows on numba's threads: the same
+    numbers."""
+    n = P.shape[0]
+    for c in numba.prange((n + PARALLEL_ROWS - 1) // PARALLEL_ROWS):
+        start, stop = c * PARALLEL_ROWS, min(n, (c + 1) * PARALLEL_ROWS)
+        ik_lengths_batch(A, B, P[start:stop], Q[start:stop], out[start:stop])
+
+
+@_jit
+def _residual(A, B, L, p, q, R, rb, d, lengths, f):
+    """Leg vectors d, lengths, residual f = L - l; returns (max |f|, sum f^2)."""
+    quat_to_matrix(q, R)
+    worst = 0.0
+    ss = 0.0
+    for i in range(6):
+        s = 0.0
+        for k in range(3):
+            rb[i, k] = R[k, 0] * B[i, 0] + R[k, 1] * B[i, 1] + R[k, 2] * B[i, 2]
+            d[i, k] = p[k] + rb[i, k] - A[i, k]
+            s += d[i, k] * d[i, k]
+        lengths[i] = math.sqrt(s)
+        f[i] = L[i] - lengths[i]
+        if not abs(f[i]) <= worst:
+            worst = abs(f[i]) if math.isfinite(f[i]) else math.inf  # NaN counts as infinite
+        ss += f[i] * f[i]
+    return worst, ss
+
+
+@_jit
+def _solve_step(rb, d, lengths, f, inv_scale, M, dx):  # noqa: C901 - a compiled kernel: flat loops for numba
+    """Solve J dx = f by LU with partial pivoting; False when J is singular."""
+    for i in range(6):
+        li = lengths[i]
+        if not li > 0.0:
+            return False
+        ux, uy, uz = d[i, 0] / li, d[i, 1] / li, d[i, 2] / li
+        M[i, 0] = ux
+        M[i, 1] = uy
+        M[i, 2] = uz
+        M[i, 3] = (rb[i, 1] * uz - rb[i, 2] * uy) * inv_scale
+        M[i, 4] = (rb[i, 2] * ux - rb[i, 0] * uz) * inv_scale
+        M[i, 5] = (rb[i, 0] * uy - rb[i, 1] * ux) * inv_scale
+        M[i, 6] = f[i]
+    for c in range(6):
+        piv = c
+        best = abs(M[c, c])
+        for r in range(c + 1, 6):
+            if abs(M[r, c]) > best:
+                best = abs(M[r, c])
+                piv = r
+        if not best > PIVOT_TOLERANCE:
+            return False
+        if piv != c:
+            for k in range(c, 7):
+                tmp = M[c, k]
+                M[c, k] = M[piv, k]
+                M[piv, k] = tmp
+        for r in range(c + 1, 6):
+            m = M[r, c] / M[c, c]
+            if m != 0.0:
+                for k in range(c + 1, 7):
+                    M[r, k] -= m * M[c, k]
+    for c in range(5, -1, -1):
+        s = M[c, 6]
+        for k in range(c + 1, 6):
+            s -= M[c, k] * dx[k]
+        dx[c] = s / M[c, c]
+    for k in range(3, 6):
+        dx[k] *= inv_scale
+    for k in range(6):
+        if not math.isfinite(dx[k]):
+            return False
+    return True
+
+
+@_jit
+def _apply_step(p, q, dx, t, p_out, q_out):
+    """p_out = p + t dx[:3]; q_out = exp(t dx[3:]) (x) q, normalised."""
+    for k in range(3):
+        p_out[k] = p[k] + t * dx[k]
+    vx, vy, vz = t * dx[3], t * dx[4], t * dx[5]
+    angle = math.sqrt(vx * vx + vy * vy + vz * vz)
+    if angle < 1e-6:
+        s = 0.5 - angle * angle / 48.0
+    else:
+        s = math.sin(0.5 * angle) / angle
+    ax, ay, az, aw = vx * s, vy * s, vz * s, math.cos(0.5 * angle)
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    nx = aw * x + ax * w + ay * z - az * y
+    ny = aw * y - ax * z + ay * w + az * x
+    nz = aw * z + ax * y - ay * x + az * w
+    nw = aw * w - ax * x - ay * y - az * z
+    n = math.sqrt(nx * nx + ny * ny + nz * nz + nw * nw)
+    q_out[0] = nx / n
+    q_out[1] = ny / n
+    q_out[2] = nz / n
+    q_out[3] = nw / n
+
+
+@_jit
+def _fk(A, B, L, p, q, inv_scale, tolerance, max_iterations, work_p, work_q, R, rb, d, lengths, f,
+        M, dx):
+    """Newton FK in place on p, q; returns (converged, iterations, residual, singular)."""
+    worst, ss = _residual(A, B, L, p, q, R, rb, d, lengths, f)
+    it = 0
+    while True:
+        if worst <= tolerance:
+            return True, it, worst, False
+        if it >= max_iterations or not math.isfinite(ss):
+            return False, it, worst, False
+        if not _solve_step(rb, d, lengths, f, inv_scale, M, dx):
+            return False, it, worst, True
+        rot = math.sqrt(dx[3] * dx[3] + dx[4] * dx[4] + dx[5] * dx[5])
+        t = 1.0
+        if rot > MAX_ROTATION_STEP:
+            t = MAX_ROTATION_STEP / rot
+        accepted = False
+        for _ in range(MAX_HALVINGS + 1):
+            _apply_step(p, q, dx, t, work_p, work_q)
+            w2, s2 = _residual(A, B, L, work_p, work_q, R, rb, d, lengths, f)
+            if s2 < ss:
+                accepted = True
+                break
+            t *= 0.5
+        if not accepted:
+            # Restore the residual of the last accepted pose before reporting.
+            worst, ss = _residual(A, B, L, p, q, R, rb, d, lengths, f)
+            return False, it, worst, False
+        for k in range(3):
+            p[k] = work_p[k]
+        for k in range(4):
+            q[k] = work_q[k]
+        worst, ss = w2, s2
+        it += 1
+
+
+@_jit
+def fk_single(A, B, L, p, q, inv_scale, tolerance, max_iterations):
+    """One warm-started FK solve in place on p (3,) and q (4,)."""
+    return _fk(A, B, L, p, q, inv_scale, tolerance, max_iterations, np.empty(3), np.empty(4),
+               np.empty((3, 3)), np.empty((6, 3)), np.empty((6, 3)), np.empty(6), np.empty(6),
+               np.empty((6, 7)), np.empty(6))
+
+
+#: The one signature of :func:`fk_solve`: writable C-contiguous float64 vectors (others raise
+#: TypeError instead of compiling a new specialisation in a real-time loop).
+_FK_SOLVE_SIGNATURE = ('(float64[:, ::1], float64[:, ::1], float64[::1], float64[::1], float64[::1], '
+                       'float64, float64, int64)')
+
+
+@numba.njit(_FK_SOLVE_SIGNATURE, cache=True, nogil=True)
+def fk_solve(A, B, L, seed_p, seed_q, inv_scale, tolerance, max_iterations):
+    """One FK solve from the seed (p (3,), q (4,), left unchanged), its input checked here:
+    returns (ok, p, q, converged, iterations, residual, singular); ok is False (and the rest
+    meaningless) for a wrong shape, NaN/inf in the lengths or the seed, or a zero quaternion,
+    which the caller reports. q is normalised on entry and has w >= 0 on return."""
+    p = np.empty(3)
+    q = np.empty(4)
+    if L.shape[0] != 6 or seed_p.shape[0] != 3 or seed_q.shape[0] != 4:
+        return False, p, q, False, 0, math.inf, False
+    finite = 0.0
+    for i in range(6):
+        finite += 0.0 * L[i]  # NaN or inf anywhere makes it NaN
+    norm2 = 0.0
+    for k in range(4):
+        q[k] = seed_q[k]
+        norm2 += q[k] * q[k]
+    for k in range(3):
+        p[k] = seed_p[k]
+        finite += 0.0 * p[k]
+    norm = math.sqrt(norm2)
+    if not (finite == 0.0 and math.isfinite(norm) and norm >= 1e-12):
+        return False, p, q, False, 0, math.inf, False
+    for k in range(4):
+        q[k] /= norm
+    c, it, res, sing = fk_single(A, B, L, p, q, inv_scale, tolerance, max_iterations)
+    if q[3] < 0.0:
+        for k in range(4):
+            q[k] = -q[k]
+    return True, p, q, c, it, res, sing
+
+
+@_jit
+def fk_batch(A, B, L, P, Q, inv_scale, tolerance, max_iterations, converged, iterations, residual,
+             singular):
+    """FK for each row of L (N, 6) from seeds P (N, 3), Q (N, 4), in place."""
+    work_p = np.empty(3)
+    work_q = np.empty(4)
+    R = np.empty((3, 3))
+    rb = np.empty((6, 3))
+    d = np.empty((6, 3))
+    lengths = np.empty(6)
+    f = np.empty(6)
+    M = np.empty((6, 7))
+    dx = np.empty(6)
+    for n in range(L.shape[0]):
+        c, it, res, sing = _fk(A, B, L[n], P[n], Q[n], inv_scale, tolerance, max_iterations,
+                               work_p, work_q, R, rb, d, lengths, f, M, dx)
+        converged[n] = c
+        iterations[n] = it
+        residual[n] = res
+        singular[n] = sing
+
+
+@_parallel_jit
+def fk_batch_parallel(A, B, L, P, Q, inv_scale, tolerance, max_iterations, converged, iterations,
+                      residual, singular):
+    """:func:`fk_batch` in runs of ``PARALLEL_ROWS`` rows on numba's threads, each run solved by
+    the serial kernel: the same numbers bit for bit."""
+    n = L.shape[0]
+    for c in numba.prange((n + PARALLEL_ROWS - 1) // PARALLEL_ROWS):
+        a, b = c * PARALLEL_ROWS, min(n, (c + 1) * PARALLEL_ROWS)
+        fk_batch(A, B, L[a:b], P[a:b], Q[a:b], inv_scale, tolerance, max_iterations, converged[a:b],
+                 iterations[a:b], residual[a:b], singular[a:b])

@@ -1,0 +1,73 @@
+"""Every URDF joint's value from a pose a_T_b (the IK of eq. 1), and the robot's URDF.
+
+For leg i (:func:`rrps_description.urdf.leg_chain`): the universal-joint angles (theta1 about
+the yoke axis fixed in ring_a, theta2 about the cross's second axis), the leg length |r_ABi|, and
+the spherical joint's z-x-y angles of ``J_i = a_R_lower^T a_R_b b_R_tip``, the socket frame
+(:func:`rrps_description.urdf.socket_frames`) seen from the leg's upper link:
+``J = Rz(twist) Rx(x) Ry(y)``. With these values the URDF's chains put every tip link on its
+ring_b anchor and ring_b (hung on leg 1) at a_T_b. The extra ring DOF angles (section 3.1) are
+measured, not derived: they come with ``ring_angles`` when known.
+
+Pure NumPy, no ROS import.
+"""
+
+from __future__ import annotations
+
+from typing import Mapping
+
+import numpy as np
+
+from rrps_description.geometry import RobotGeometry
+from rrps_description.pose import Pose
+from rrps_description.urdf import RobotModel, leg_chain, socket_frames, urdf_model
+from rrps_kinematics.inverse import inverse_kinematics, universal_joint_frames
+
+__all__ = ['robot_model', 'robot_urdf', 'joint_values', 'spherical_angles']
+
+_MODELS: dict[int, tuple[RobotGeometry, RobotModel]] = {}
+
+
+def robot_model(geometry: RobotGeometry) -> RobotModel:
+    """The URDF model of ``geometry`` (built once per geometry object)."""
+    cached = _MODELS.get(id(geometry))
+    if cached is not None and cached[0] is geometry:
+        return cached[1]
+    model = urdf_model(geometry, universal_joint_frames(geometry))
+    if len(_MODELS) >= 16:
+        _MODELS.clear()
+    _MODELS[id(geometry)] = (geometry, model)
+    return model
+
+
+def robot_urdf(geometry: RobotGeometry) -> str:
+    """The URDF text of ``geometry``."""
+    return robot_model(geometry).xml()
+
+
+def spherical_angles(J: np.ndarray) -> np.ndarray:
+    """z-x-y angles (twist, x, y) of rotations ``J = Rz(twist) Rx(x) Ry(y)``, (..., 3, 3) -> (..., 3)."""
+    twist = np.arctan2(-J[..., 0, 1], J[..., 1, 1])
+    x = np.arctan2(J[..., 2, 1], np.hypot(J[..., 2, 0], J[..., 2, 2]))
+    y = np.arctan2(-J[..., 2, 0], J[..., 2, 2])
+    return np.stack([twist, x, y], axis=-1)
+
+
+def joint_values(geometry: RobotGeometry, a_T_b: Pose,
+                 ring_angles: Mapping[str, float] | None = None) -> dict[str, float]:
+    """Every moving URDF joint's value [rad or m] for ring_b at ``a_T_b``, in the URDF's order;
+    a ring's extra-DOF joint (``ring_a_rotation``, ``ring_b_rotation``) only when its angle is
+    in ``ring_angles``."""
+    ik = inverse_kinematics(geometry, a_T_b.position, a_T_b.quaternion_xyzw)
+    lower = ik.lower_link_rotations  # (6, 3, 3): a_R_lower (= a_R_upper)
+    J = np.swapaxes(lower, -1, -2) @ a_T_b.rotation @ socket_frames(geometry)
+    spherical = spherical_angles(J)
+    values: dict[str, float] = {}
+    for i in range(6):
+        chain = leg_chain(i + 1)
+        for name, value in zip(chain.joints, (*ik.universal_angles[i], ik.lengths[i], *spherical[i])):
+            values[name] = float(value)
+    rings = dict(ring_angles or {})
+    for name in robot_model(geometry).moving_joints:
+        if name not in values and name in rings:
+            values[name] = float(rings[name])
+    return values

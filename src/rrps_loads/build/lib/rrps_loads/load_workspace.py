@@ -1,0 +1,96 @@
+"""The load-feasible workspace: the reachable ring_b positions (:mod:`rrps_kinematics.workspace`)
+where the robot at rest also holds its loads (paper eq. 19 at rest, :mod:`rrps_loads.loads`)::
+
+    ws = load_workspace(geom, q, resolution=0.02, payload=Payload(mass=15.0))
+    ws.volume, ws.excluded_by['actuator_force'], ws.excluded_by['holding']
+
+A reachable grid point is **load-feasible** when, at every orientation of the workspace, with the
+robot on its ``support`` ring in the world's gravity, under the payload and the tool wrench,
+every actuator force is within ``max_force`` (|f_i| <= max_force) and the supporting gripper's
+holding margin is >= 0 (no limit when the robot gives no capacity). The others become
+unreachable, counted in ``excluded_by`` under 'actuator_force' (a singular pose too) or
+'holding' (the first broken, in that order). It is a subset of the reachable workspace; the
+forces and the support's wrench are affine in the payload's mass, so the masses at which a
+point is feasible form an interval: with a growing payload the set only shrinks, as long as the
+unloaded robot is feasible there. The compiled kernel (:func:`rrps_loads.compiled_statics.grid_statics`)
+evaluates the reachable points only; without numba the NumPy statics does.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from rrps_description.geometry import RobotGeometry
+from rrps_kinematics.backend import use_numba
+from rrps_kinematics.workspace import UNREACHABLE, Workspace, reachable_workspace
+from rrps_loads.compiled_statics import grid_statics, statics_arrays
+from rrps_loads.loads import static_solution
+from rrps_loads.support import support_of
+
+__all__ = ['LOAD_LIMITS', 'load_margins', 'load_workspace']
+
+#: The load limits in the order in which they exclude a point.
+LOAD_LIMITS = ('actuator_force', 'holding')
+_CHUNK = 16_384
+
+
+def load_margins(geometry: RobotGeometry, points: np.ndarray, quaternion_xyzw, support,
+                 *, backend: str = 'auto') -> np.ndarray:
+    """(N, 2): max_i |f_i| / max_force and the holding margin (NaN without a capacity) of the
+    robot at rest with ring_b at ``points`` (N, 3) and one orientation, on ``support`` (a
+    :class:`rrps_loads.support.Support`); NaN forces at a singular pose (compiled path)."""
+    q = np.ascontiguousarray(quaternion_xyzw, dtype=float)
+    out = np.empty((len(points), 2))
+    if use_numba(backend):
+        grid_statics(statics_arrays(geometry, support), np.ascontiguousarray(points, dtype=float), q,
+                     float(geometry.max_force), out)
+        return out
+    for start in range(0, len(points), _CHUNK):
+        chunk = points[start:start + _CHUNK]
+        sol = static_solution(geometry, (chunk, np.broadcast_to(q, (len(chunk), 4))), support=support)
+        out[start:start + len(chunk), 0] = np.abs(sol.actuator_forces).max(axis=-1) / geometry.max_force
+        out[start:start + len(chunk), 1] = sol.holding_margin
+    return out
+
+
+def load_workspace(geometry: RobotGeometry, orientations=None, *, resolution: float | None = None,
+                   plain: Workspace | None = None, support='ring_a', world_q_support=None, gravity=None,
+                   payload=None, tool_wrench=None, backend: str = 'auto', **workspace_options) -> Workspace:
+    """The load-feasible workspace (module docstring) as a :class:`Workspace` whose
+    ``excluded_by`` also counts the load limits.
+
+    ``plain``: the reachable workspace to restrict (else computed here from ``orientations``,
+    ``resolution`` and ``workspace_options`` as :func:`reachable_workspace` takes them);
+    ``support``, ``world_q_support``, ``gravity``, ``payload`` and ``tool_wrench`` as
+    :func:`rrps_loads.loads.static_solution` takes them (``None``: the robot's own loads).
+    ValueError for invalid arguments.
+    """
+    world = support_of(support, world_q_support, gravity)
+    if payload is not None or tool_wrench is not None:
+        geometry = geometry.with_(payload=payload or geometry.payload,
+                                  tool_wrench=tool_wrench or geometry.tool_wrench)
+    if plain is None:
+        if resolution is None:
+            raise ValueError('give the resolution of the grid, or the plain workspace to restrict')
+        plain = reachable_workspace(geometry, orientations, resolution=resolution, backend=backend,
+                                    **workspace_options)
+    index = np.argwhere(plain.labels != UNREACHABLE)
+    points = plain.origin + plain.spacing * index
+    excluded = np.full(len(points), -1, dtype=np.int8)
+    for q in plain.orientations:
+        alive = np.flatnonzero(excluded < 0)
+        if not alive.size:
+            break
+        m = load_margins(geometry, points[alive], q, world, backend=backend)
+        over_force = ~(m[:, 0] <= 1.0)
+        slipping = ~over_force & (m[:, 1] < 0.0)
+        excluded[alive[over_force]] = 0
+        excluded[alive[slipping]] = 1
+    labels = plain.labels.copy()
+    out = index[excluded >= 0]
+    labels[out[:, 0], out[:, 1], out[:, 2]] = UNREACHABLE
+    counts = np.bincount(excluded[excluded >= 0], minlength=len(LOAD_LIMITS))
+    return dataclasses.replace(plain, labels=labels, excluded_by={
+        **plain.excluded_by, **{k: int(counts[i]) for i, k in enumerate(LOAD_LIMITS)}})

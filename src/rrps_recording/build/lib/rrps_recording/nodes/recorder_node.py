@@ -1,0 +1,467 @@
+"""recorder_node: every rrps topic and /diagnostics to a rosbag2 bag folder, and the flight recorder.
+
+Recording (``record``, default on): every topic of the node's namespace, ``/diagnostics``,
+``/tf`` and ``/tf_static`` (or the names/prefixes of ``topics``) is found in the ROS graph every
+``discovery_period`` s, so late publishers are recorded too, and subscribed to raw: the CDR
+bytes are written as received, never deserialised. The recording is the bag folder
+``<output_dir>/<prefix>/`` (:mod:`rrps_recording.storage.bag`): ``metadata.yaml`` and MCAP files
+in the ``ros2`` profile (:mod:`rrps_recording.storage.mcap_files`): ``ros2msg`` schemas, ``cdr``
+messages, the QoS each publisher offered as ``offered_qos_profiles``; zstd chunks flushed every
+``flush_period`` s; a new file ``<prefix>_<n>.mcap`` past ``max_file_size_mb`` or
+``max_file_duration``. A folder that exists is refused (a bad ``prefix``).
+A topic is subscribed reliable only if every publisher offers reliable (rosbag2's rule).
+
+Recording taps (``use_taps``, default on): the stack's nodes send their high-rate publications
+in bundles on ``<node>/recording_tap`` while a recorder listens
+(:mod:`rrps_runtime.recording_tap`). A topic whose every publisher taps it is
+recorded from the bundles and not subscribed to: one DDS delivery per node every 0.1 s instead
+of one per message, which is what keeps the recorder's cost within its budget (README,
+*Recording*). A topic with any other publisher is subscribed to as above; the switch between
+the two loses and doubles nothing (:class:`rrps_recording.transport.taps.TapRouter`). A tapped
+message is logged at its publish time plus the node's smallest bundle delay.
+
+The transforms ``odom -> base_link`` (REP-105) and the URDF's, fixed joints included
+(:func:`rrps_recording.markers.robot_transforms`), are written to ``/tf`` as
+``tf2_msgs/msg/TFMessage`` at ``tf_rate`` Hz from the newest ``pose``, ``odometry/*`` and
+``grippers/state`` (:func:`rrps_recording.markers.tf_message_cdr`: tf2_msgs is not
+needed); the live ``/tf`` and ``/tf_static`` are then not subscribed to, so the recording has no
+duplicate transforms, and any part of it shows the whole robot. With ``tf_rate`` 0 the live
+``/tf`` and ``/tf_static`` are recorded like any topic (where tf2_msgs is installed).
+
+Flight recorder (``flight_recorder``, default on): the last ``buffer_seconds`` of the same
+messages in memory (:class:`rrps_recording.transport.ring.MessageRing`), written to
+the bag folder ``<output_dir>/flight_<time>_<trigger>/`` ``post_trigger`` s after a fault
+(:class:`rrps_recording.transport.triggers.FaultWatch`: a node's ERROR, a gripper refusal, a lost
+teleop or climb link; at most one every ``min_dump_interval`` s) and when the service
+``flight_recorder/save`` (std_srvs/Trigger) is called (0.2 s later, so that the recording taps'
+last bundles are in); the answer's ``message`` is the path of its MCAP file
+(:class:`rrps_recording.transport.dumps.FlightDumps`: the folder is written as ``<folder>.part``
+and renamed when complete, so it exists only whole).
+
+    recorder_node --ros-args -r __ns:=/rrps -p output_dir:=recordings
+    rrps-record -o recordings --namespace /rrps          (the same, as a command)
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from pathlib import Path
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from geometry_msgs.msg import PoseStamped
+from rclpy.node import Node
+from rclpy.serialization import deserialize_message
+from sensor_msgs.msg import JointState
+from std_srvs.srv import Trigger
+
+from rrps_description.geometry import load_robot
+from rrps_description.pose import Pose
+from rrps_interfaces.climb import CLIMB_STATUS, odometry_topic
+from rrps_interfaces.driver import GRIPPERS_STATE, gripper_states
+from rrps_interfaces.kinematics import POSE
+from rrps_interfaces.recording import (
+    FLIGHT_RECORDER_SAVE,
+    RECORDING_TAP,
+    TF,
+    TF_STATIC,
+    RecorderStatus,
+    RecorderTrigger,
+)
+from rrps_interfaces.status import DIAGNOSTICS
+from rrps_interfaces.teleop import TELEOP_STATUS
+from rrps_recording.markers import robot_transforms, tf_message_cdr, world_pose_of_ring_a
+from rrps_recording.storage.bag import BagRecording, free_name
+from rrps_recording.storage.bag_metadata import TopicInfo
+from rrps_recording.storage.mcap_files import COMPRESSIONS
+from rrps_recording.storage.qos import TF_QOS
+from rrps_recording.storage.schemas import message_class, message_schema
+from rrps_recording.topic_graph import offered, qos_spec, subscription_for, subscription_qos, type_hash_text
+from rrps_recording.transport.dumps import FlightDumps
+from rrps_recording.transport.ring import MessageRing
+from rrps_recording.transport.taps import TapRouter, fully_qualified_node
+from rrps_recording.transport.triggers import FaultWatch, StatusEvent
+from rrps_runtime.diagnostics import OBSERVER, OK, WARN, Diagnostics
+from rrps_runtime.messages import pose_from_msg
+from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
+from rrps_runtime.parameters import declare_parameters
+from rrps_runtime.process import run_nodes
+from rrps_runtime.qos import STATE_QOS
+from rrps_runtime.recording_bundle import BUNDLE_TYPE, decode_bundle
+from rrps_runtime.recording_tap import FLUSH_PERIOD as TAP_FLUSH_PERIOD
+from rrps_runtime.recording_tap import TAP_QOS
+
+__all__ = ['RecorderNode', 'main', 'qos_spec', 'subscription_qos', 'type_hash_text', 'TF_TYPE']
+
+TF_TYPE = 'tf2_msgs/msg/TFMessage'
+_IGNORED = ('/rosout', '/parameter_events')
+
+#: recorder_node's parameters (descriptors, the shipped file and the docs' table come from here).
+PARAMETERS = NodeParameters('recorder_node', 'rrps_recording', [
+    ROBOT,
+    Parameter('output_dir', 'rrps_recordings', 'folder of the recordings'),
+    Parameter('prefix', '', 'bag folder name in output_dir, which must not exist (empty: rrps_<date>_<time>)'),
+    Parameter('record', True, 'write every message to MCAP files'),
+    Parameter('flight_recorder', True, 'keep the last buffer_seconds for fault dumps'),
+    Parameter('buffer_seconds', 60.0, 'flight recorder window', unit='s', range=(1.0, 3600.0)),
+    Parameter('buffer_max_mb', 512.0, 'flight recorder memory bound (of messages)', unit='MiB',
+              range=(1.0, 65536.0)),
+    Parameter('topics', ('',), "topics or prefixes to record ('' = the node's namespace, /diagnostics, /tf and "
+              '/tf_static)'),
+    Parameter('discovery_period', 1.0, 'graph discovery period', unit='s', range=(0.05, 60.0)),
+    Parameter('max_file_size_mb', 0.0, 'start a new file past this size; 0 = no limit', unit='MiB',
+              range=(0.0, 1e6)),
+    Parameter('max_file_duration', 0.0, 'start a new file past this duration; 0 = no limit', unit='s',
+              range=(0.0, 1e6)),
+    Parameter('compression', 'zstd', 'chunk compression', choices=tuple(COMPRESSIONS)),
+    Parameter('flush_period', 1.0, 'write the chunk in progress at least this often (what a crash can lose)',
+              unit='s', range=(0.05, 600.0)),
+    Parameter('depth', 100, 'subscription queue depth', range=(1, 100000)),
+    Parameter('use_taps', True, "record the nodes' recording taps instead of subscribing to the topics they "
+              'cover'),
+    Parameter('tf_rate', 10.0, '/tf written at this rate; 0 = none', unit='Hz', range=(0.0, 1000.0)),
+    Parameter('post_trigger', 2.0, 'a fault dump waits this long to include the aftermath', unit='s',
+              range=(0.0, 600.0)),
+    Parameter('min_dump_interval', 10.0, 'at most one fault dump this often', unit='s', range=(0.0, 3600.0)),
+])
+
+
+class RecorderNode(Node):
+    """Records the rrps topics to MCAP and keeps the flight recorder; see the module docstring."""
+
+    def __init__(self, **kwargs):
+        super().__init__('recorder_node', **kwargs)
+        values = declare_parameters(self, PARAMETERS)
+        self.geometry = load_robot(values['robot'])
+        self.output_dir = Path(values['output_dir'])
+        prefix = values['prefix']
+        self.record = values['record']
+        self.flight_recorder = values['flight_recorder']
+        buffer_seconds = values['buffer_seconds']
+        self.topics = list(values['topics'])
+        self.discovery_period = values['discovery_period']
+        self.depth = values['depth']
+        self.use_taps = values['use_taps']
+        tf_rate = values['tf_rate']
+        self.post_trigger = values['post_trigger']
+        self.min_dump_interval = values['min_dump_interval']
+        self.prefix = prefix or free_name(self.output_dir, time.strftime('rrps_%Y%m%d_%H%M%S'))
+        self._lock = threading.Lock()
+        self._topics: dict[str, TopicInfo] = {}
+        self._raw_subscriptions: dict[str, object] = {}
+        self._bundle_subscriptions: dict[str, object] = {}
+        self._taps = TapRouter()
+        self._graph_signature: tuple = ()
+        self.bad_bundles = 0
+        self.dropped_topics: dict[str, str] = {}
+        self._latest: dict[str, bytes] = {}
+        self._tf_cache: tuple[tuple, list] | None = None  # (inputs, transforms)
+        ns = self.get_namespace().rstrip('/')
+        self._tf_inputs = {f'{ns}/{POSE}': POSE, f'{ns}/{GRIPPERS_STATE}': GRIPPERS_STATE,
+                           f'{ns}/{odometry_topic("ring_a")}': 'ring_a',
+                           f'{ns}/{odometry_topic("ring_b")}': 'ring_b'}
+        try:
+            self.recording = (BagRecording(self.output_dir / self.prefix,
+                                           max_bytes=int(values['max_file_size_mb'] * 2**20),
+                                           max_seconds=values['max_file_duration'],
+                                           compression=values['compression'],
+                                           flush_period=values['flush_period'])
+                              if self.record else None)
+        except FileExistsError as exc:
+            raise ValueError(f'prefix: {exc}') from None
+        self.ring = (MessageRing(buffer_seconds, max_bytes=int(values['buffer_max_mb'] * 2**20))
+                     if self.flight_recorder else None)
+        self.buffer_seconds = buffer_seconds
+        self.messages = 0
+        self.dumps = FlightDumps(self.output_dir, self.get_logger().error)
+        self.last_trigger: RecorderTrigger | None = None
+        self._pending_dump: tuple[float, RecorderTrigger] | None = None
+        self._last_dump_time = -1e18
+        self._faults = FaultWatch()
+        self._writes_tf = tf_rate > 0.0
+        if self._writes_tf:
+            self._add_topic(TopicInfo(TF, TF_TYPE, (TF_QOS,)))
+            self.create_timer(1.0 / tf_rate, self._write_tf)
+        self._diag = Diagnostics(self, 'recorder', hardware_id=OBSERVER)
+        # The fault triggers' topics (full name: event source, type): heard through their
+        # recording subscription (_on_raw), or through one of their own when not recorded.
+        self._triggers = {DIAGNOSTICS: (DIAGNOSTICS, DiagnosticArray),
+                          f'{ns}/{TELEOP_STATUS}': (TELEOP_STATUS, DiagnosticStatus),
+                          f'{ns}/{CLIMB_STATUS}': (CLIMB_STATUS, DiagnosticStatus)}
+        for name, (_, msg_type) in self._triggers.items():
+            if not self._selected(name):
+                self.create_subscription(msg_type, name,
+                                         lambda data, name=name: self._on_trigger(name, data),
+                                         STATE_QOS, raw=True)
+        self.create_service(Trigger, FLIGHT_RECORDER_SAVE, self._on_save)
+        self.create_timer(self.discovery_period, self._discover)
+        self.create_timer(0.1, self._housekeeping)
+        self.create_timer(1.0, self._report)
+        self._discover()
+        where = f'recording to {self.recording.path}' if self.recording else 'not recording'
+        self.get_logger().info(
+            f'{where}; flight recorder '
+            + (f'on ({buffer_seconds:g} s)' if self.ring is not None else 'off'))
+
+    # --- topics ------------------------------------------------------------------------------
+
+    def _selected(self, name: str) -> bool:
+        if name in _IGNORED:
+            return False
+        ns = self.get_namespace().rstrip('/')
+        for entry in self.topics:
+            if entry == '':
+                if name in (DIAGNOSTICS, TF, TF_STATIC) or (ns and name.startswith(ns + '/')) or not ns:
+                    return True
+            elif name == entry or name.startswith(entry.rstrip('/') + '/'):
+                return True
+        return False
+
+    def _add_topic(self, topic: TopicInfo) -> None:
+        with self._lock:
+            self._topics[topic.name] = topic
+        if self.recording is not None:
+            self.recording.add_topic(topic)
+
+    def _discover(self, *, force: bool = False) -> None:
+        """Find the selected topics and the recording taps; subscribe (raw) to every selected
+        topic that has a publisher and that the taps do not cover."""
+        now = time.time_ns()
+        graph = self.get_topic_names_and_types()
+        # The graph's shape (topics, types, publisher counts, nodes): while it is unchanged and
+        # no tap's topics changed, nothing is looked at again (the per-topic endpoint queries are
+        # most of discovery's cost).
+        signature = (tuple((name, tuple(types)) for name, types in graph),
+                     tuple(self.get_node_names_and_namespaces()),
+                     tuple(self.count_publishers(name) for name, _ in graph))
+        if signature == self._graph_signature and not force:
+            return
+        self._graph_signature = signature
+        if self.use_taps:
+            self._discover_taps(graph)
+        for name, types in graph:
+            if not self._selected(name) or self._is_tap(name, types):
+                continue
+            if name in (TF, TF_STATIC) and self._writes_tf:
+                continue  # written by this node from the robot's state (/tf: every joint)
+            if len(types) != 1:
+                self.dropped_topics[name] = f'several types {types}'
+                continue
+            infos = self.get_publishers_info_by_topic(name)
+            if not infos:
+                continue  # subscribers only: nothing to record (yet)
+            type_name = types[0]
+            if name not in self._topics:
+                try:
+                    message_class(type_name)
+                    message_schema(type_name)
+                except (ImportError, AttributeError, ValueError, LookupError) as exc:
+                    self.dropped_topics[name] = f'{type_name}: {exc}'
+                    continue
+                self._add_topic(TopicInfo(name, type_name, offered(infos),
+                                          type_hash_text(infos[0].topic_type_hash)))
+                self.dropped_topics.pop(name, None)
+            tapped = self.use_taps and self._taps.covers(
+                name, (fully_qualified_node(i.node_namespace, i.node_name) for i in infos))
+            self._taps.set_tapped(name, tapped, now)
+            subscription = self._raw_subscriptions.get(name)
+            if tapped and subscription is not None:
+                self.destroy_subscription(self._raw_subscriptions.pop(name))
+            elif not tapped and subscription is None:
+                topic = self._topics[name]
+                self._raw_subscriptions[name] = self.create_subscription(
+                    message_class(type_name), name,
+                    lambda data, name=name: self._on_raw(name, data),
+                    subscription_for(topic.offered_qos, self.depth),
+                    raw=True)
+
+    @staticmethod
+    def _is_tap(name: str, types) -> bool:
+        return name.endswith('/' + RECORDING_TAP) and list(types) == [BUNDLE_TYPE]
+
+    def _discover_taps(self, graph) -> None:
+        """Subscribe to the recording taps of the recorded namespaces (never another robot's:
+        its streams would cross the network); forget the nodes whose tap is gone."""
+        alive = set()
+        for name, types in graph:
+            if not self._is_tap(name, types) or not self._selected(name):
+                continue
+            infos = self.get_publishers_info_by_topic(name)
+            alive.update(fully_qualified_node(i.node_namespace, i.node_name) for i in infos)
+            if name not in self._bundle_subscriptions and infos:
+                self._bundle_subscriptions[name] = self.create_subscription(
+                    message_class(BUNDLE_TYPE), name, self._on_bundle, TAP_QOS, raw=True)
+        self._taps.forget(alive)
+
+    def _on_bundle(self, data: bytes) -> None:
+        try:
+            bundle = decode_bundle(data)
+        except ValueError as exc:
+            self.bad_bundles += 1
+            self.get_logger().warning(f'malformed recording bundle ignored: {exc}',
+                                      throttle_duration_sec=5.0)
+            return
+        changed, messages = self._taps.receive(bundle, time.time_ns())
+        topics = self._topics
+        if any(topic not in topics for topic, _, _ in messages):
+            messages = [m for m in messages if m[0] in topics]
+        self._store_many(messages)
+        if changed:
+            self._discover(force=True)  # a node's tapped topics are known: stop subscribing
+
+    def _on_raw(self, topic: str, data: bytes) -> None:
+        t = time.time_ns()
+        if self._taps.subscribed(topic, data, t):
+            self._store(topic, t, data)
+        if topic in self._triggers:
+            self._on_trigger(topic, data)
+
+    def _store(self, topic: str, t: int, data: bytes) -> None:
+        self._store_many(((topic, t, data),))
+
+    def _store_many(self, messages) -> None:
+        """Record messages (topic, log time [ns], CDR bytes) to the file and the ring; keep
+        the newest of /tf's inputs."""
+        self.messages += len(messages)
+        tf_inputs = self._tf_inputs
+        for topic, _, data in messages:
+            if topic in tf_inputs:
+                self._latest[topic] = data
+        if self.recording is not None:
+            self.recording.write_many(messages)
+        if self.ring is not None:
+            self.ring.add_many(messages)
+
+    # --- /tf -----------------------------------------------------------------------------------
+
+    def _write_tf(self) -> None:
+        pose_data = self._latest.get(next(k for k, v in self._tf_inputs.items() if v == POSE))
+        if pose_data is None:
+            return
+        # The inputs without their stamps: each is a stamped message whose CDR starts with the
+        # 4-byte encapsulation and header.stamp (8 bytes); a resting robot keeps the rest.
+        inputs = tuple(None if d is None else d[12:]
+                       for d in (self._latest.get(k) for k in self._tf_inputs))
+        if self._tf_cache is not None and self._tf_cache[0] == inputs:
+            t = time.time_ns()  # a robot at rest: the same transforms, stamped now
+            self._store(TF, t, tf_message_cdr(t, self._tf_cache[1]))
+            return
+        try:
+            a_T_b = Pose(*pose_from_msg(deserialize_message(pose_data, PoseStamped)))
+            odometry = {ring: Pose(*pose_from_msg(deserialize_message(data, PoseStamped)))
+                        for key, ring in self._tf_inputs.items()
+                        if ring in ('ring_a', 'ring_b') and (data := self._latest.get(key)) is not None}
+            gripper_data = self._latest.get(next(k for k, v in self._tf_inputs.items()
+                                                 if v == GRIPPERS_STATE))
+            closed = None
+            if gripper_data is not None:
+                g = deserialize_message(gripper_data, JointState)
+                closed = gripper_states(list(g.name), list(g.position))
+            world_T_a = world_pose_of_ring_a(a_T_b, closed, odometry)
+            transforms = robot_transforms(self.geometry, a_T_b, world_T_a)
+            self._tf_cache = (inputs, transforms)
+        except ValueError as exc:
+            self.get_logger().warning(f'no /tf for this pose: {exc}', throttle_duration_sec=5.0)
+            return
+        t = time.time_ns()
+        self._store(TF, t, tf_message_cdr(t, transforms))
+
+    # --- flight recorder ----------------------------------------------------------------------
+
+    def _on_trigger(self, topic: str, data: bytes) -> None:
+        """A /diagnostics array or a status topic's DiagnosticStatus: each status an event."""
+        source, msg_type = self._triggers[topic]
+        try:
+            msg = deserialize_message(data, msg_type)
+        except Exception as exc:  # rclpy raises a bare Exception for bytes it cannot read
+            self.get_logger().warning(f'{topic}: unreadable message ignored: {exc}',
+                                      throttle_duration_sec=5.0)
+            return
+        for status in (msg.status if msg_type is DiagnosticArray else [msg]):
+            level = status.level
+            self._event(StatusEvent(source, int.from_bytes(level, 'little')
+                                    if isinstance(level, bytes) else int(level), status.name,
+                                    {kv.key: kv.value for kv in status.values}))
+
+    def _event(self, event: StatusEvent) -> None:
+        trigger = self._faults.check(event)
+        if trigger is None or self.ring is None or self._pending_dump is not None:
+            return
+        now = time.monotonic()
+        if now - self._last_dump_time < self.min_dump_interval:
+            return
+        self.get_logger().warning(f'flight recorder: {trigger.value} ({event.name or event.source})'
+                                  f'; writing the last {self.buffer_seconds:g} s in '
+                                  f'{self.post_trigger:g} s')
+        self._pending_dump = (now + self.post_trigger, trigger)
+
+    def _housekeeping(self) -> None:
+        pending = self._pending_dump
+        if pending is not None and time.monotonic() >= pending[0]:
+            self._pending_dump = None
+            self.dump(pending[1])
+
+    def dump(self, trigger: RecorderTrigger, *, settle: float = 0.0) -> Path:
+        """Write the buffer (in a thread, ``settle`` s from now) to a new bag folder; returns
+        the path its MCAP file will have."""
+        if self.ring is None:
+            raise RuntimeError('the flight recorder is off (flight_recorder:=false)')
+        self._last_dump_time = time.monotonic()
+        self.last_trigger = trigger
+
+        def topics() -> list[TopicInfo]:
+            with self._lock:
+                return list(self._topics.values())
+        return self.dumps.start(trigger.value, self.ring.snapshot, topics, settle=settle)
+
+    def _on_save(self, request, response):
+        try:
+            # the nodes' taps send what they published up to now within a flush period
+            path = self.dump(RecorderTrigger.OPERATOR,
+                             settle=2.0 * TAP_FLUSH_PERIOD if self.use_taps else 0.0)
+        except (RuntimeError, OSError) as exc:
+            response.success, response.message = False, str(exc)
+            return response
+        response.success, response.message = True, str(path.resolve())
+        return response
+
+    def wait_for_dumps(self, timeout: float = 30.0) -> None:
+        """Wait until every dump started so far is written (tests, shutdown)."""
+        self.dumps.wait(timeout)
+
+    # --- status ------------------------------------------------------------------------------
+
+    def _report(self) -> None:
+        status = RecorderStatus(
+            recording=self.recording is not None, flight_recorder=self.ring is not None,
+            topics=len(self._topics), tapped_topics=len(self._taps.tapped_topics),
+            bad_bundles=self.bad_bundles, messages=self.messages,
+            bytes_written=self.recording.bytes_written if self.recording is not None else 0,
+            file=str(self.recording.path) if self.recording is not None else '',
+            buffered_messages=len(self.ring) if self.ring is not None else 0,
+            buffer_seconds=self.ring.span if self.ring is not None else 0.0,
+            dumps=len(self.dumps.folders),
+            last_dump=str(self.dumps.folders[-1]) if self.dumps.folders else '',
+            last_trigger=self.last_trigger, dropped_topics=tuple(sorted(self.dropped_topics)))
+        level = WARN if self.dropped_topics or self.bad_bundles else OK
+        message = (f'{len(self._topics)} topics ({len(self._taps.tapped_topics)} from taps), '
+                   f'{self.messages} messages'
+                   + (f'; not recorded: {", ".join(sorted(self.dropped_topics))}'
+                      if self.dropped_topics else '')
+                   + (f'; {self.bad_bundles} malformed recording bundles ignored'
+                      if self.bad_bundles else ''))
+        self._diag.report(level, message, status)
+
+    def destroy_node(self) -> None:
+        self.wait_for_dumps(timeout=30.0)
+        if self.recording is not None:
+            self.recording.close()
+        super().destroy_node()
+
+
+def main(args=None) -> None:
+    run_nodes([RecorderNode], args)
+
+
+if __name__ == '__main__':
+    main()

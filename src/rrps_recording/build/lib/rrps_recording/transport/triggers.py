@@ -1,0 +1,86 @@
+"""When the flight recorder writes its buffer: the fault triggers, as one small pure function.
+
+A fault is read from typed values only (never from a status' human text):
+
+* a node's DiagnosticStatus on ``/diagnostics`` at level ERROR (:attr:`RecorderTrigger.NODE_ERROR`);
+* the driver's ``DriverStatus.gripper_refusals`` larger than the last value seen
+  (:attr:`RecorderTrigger.GRIPPER_REFUSAL`);
+* ``teleop/status`` or ``climb/status`` at ERROR, or at STALE after it was healthy (OK or
+  WARN): a lost link or lost state (:attr:`RecorderTrigger.LINK_LOST`). A status that starts
+  STALE (waiting for its inputs at start-up) has lost nothing yet.
+
+:class:`FaultWatch` holds what the rules need to remember (the refusal count, which sources
+are already faulted) so a fault triggers once when it appears, not at every repetition of the
+status; a source that recovers (level back to OK or WARN) can trigger again. To add a rule,
+add a branch to :meth:`FaultWatch.check`. Pure Python, no rclpy.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from rrps_interfaces.climb import CLIMB_STATUS
+from rrps_interfaces.driver import DriverStatus
+from rrps_interfaces.recording import RecorderTrigger
+from rrps_interfaces.status import ContractError, source_node
+from rrps_interfaces.teleop import TELEOP_STATUS
+
+__all__ = ['OK', 'WARN', 'ERROR', 'STALE', 'StatusEvent', 'FaultWatch']
+
+# diagnostic_msgs/DiagnosticStatus levels
+OK, WARN, ERROR, STALE = 0, 1, 2, 3
+
+DRIVER_NODE = 'driver_node'
+LINK_TOPICS = (TELEOP_STATUS, CLIMB_STATUS)
+
+
+@dataclasses.dataclass(frozen=True)
+class StatusEvent:
+    """One DiagnosticStatus as the recorder saw it: ``source`` is ``'/diagnostics'`` or the
+    relative status topic (``teleop/status``, ``climb/status``)."""
+
+    source: str
+    level: int
+    name: str
+    values: dict[str, str]
+
+
+class FaultWatch:
+    """Turns status events into flight-recorder triggers (see the module docstring)."""
+
+    def __init__(self):
+        self._refusals: int | None = None
+        self._faulted: set[str] = set()
+        self._healthy: set[str] = set()
+
+    def _edge(self, key: str, faulted: bool) -> bool:
+        """True when ``key`` becomes faulted (not while it stays so)."""
+        if not faulted:
+            self._faulted.discard(key)
+            return False
+        if key in self._faulted:
+            return False
+        self._faulted.add(key)
+        return True
+
+    def check(self, event: StatusEvent) -> RecorderTrigger | None:
+        """The trigger this event fires, or None."""
+        if event.source in LINK_TOPICS:
+            if event.level in (OK, WARN):
+                self._healthy.add(event.source)
+            lost = event.level == ERROR or (event.level == STALE
+                                             and event.source in self._healthy)
+            return RecorderTrigger.LINK_LOST if self._edge(event.source, lost) else None
+        trigger = None
+        if source_node(event.name) == DRIVER_NODE:
+            try:
+                refusals = DriverStatus.from_values(event.values).gripper_refusals
+            except ContractError:
+                refusals = None
+            if refusals is not None:
+                if self._refusals is not None and refusals > self._refusals:
+                    trigger = RecorderTrigger.GRIPPER_REFUSAL
+                self._refusals = refusals
+        if self._edge(f'diag:{event.name}', event.level == ERROR) and trigger is None:
+            trigger = RecorderTrigger.NODE_ERROR
+        return trigger

@@ -1,0 +1,44 @@
+"""A node's ROS 2 actions, served whatever executor the node runs on.
+
+rclpy's EventsExecutor (Jazzy, the default of :func:`rrps_runtime.process.run_nodes`) serves no
+action server or client: measured here, a goal request to a server on it never gets its answer.
+So a node's action servers and clients live on a node of their own (``<node>_actions``, in the
+node's namespace and context), spun by a SingleThreadedExecutor in a thread of the process until
+:meth:`ActionHost.close`. Its callbacks run in that thread: what they share with the node's own
+callbacks needs a lock or a hand-over.
+"""
+
+from __future__ import annotations
+
+import threading
+
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+
+__all__ = ['ActionHost']
+
+
+class ActionHost:
+    """The node ``host.node`` on which ``owner``'s actions are created, and the thread spinning it."""
+
+    def __init__(self, owner: Node):
+        self.node = Node(f'{owner.get_name()}_actions', namespace=owner.get_namespace(), context=owner.context)
+        self._executor = SingleThreadedExecutor(context=owner.context)
+        self._executor.add_node(self.node)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._spin, name=f'{owner.get_name()}-actions', daemon=True)
+        self._thread.start()
+
+    def _spin(self) -> None:
+        while not self._stop.is_set() and self.node.context.ok():
+            try:
+                self._executor.spin_once(timeout_sec=0.05)
+            except ExternalShutdownException:
+                return
+
+    def close(self) -> None:
+        """Stop the thread and destroy the node (the owner's destroy_node calls this)."""
+        self._stop.set()
+        self._thread.join(timeout=5.0)
+        self._executor.remove_node(self.node)
+        self.node.destroy_node()

@@ -1,0 +1,181 @@
+"""Staleness of command streams without synchronised clocks, and the ages of received commands.
+
+Pure Python and NumPy, no ROS import::
+
+    freshness = CommandFreshness(timeout)   # one per command stream
+    age = freshness.check(stamp_s, now_s)   # the age [s], or StaleCommand saying why
+    ages = CommandAges()                    # ages over the last 10 s, for /diagnostics
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+
+import numpy as np
+
+__all__ = ['RejectedCommand', 'StaleCommand', 'CommandFreshness', 'CommandAges']
+
+
+class RejectedCommand(ValueError):
+    """A command that must not be acted on; the message says why."""
+
+
+class StaleCommand(RejectedCommand):
+    """A command too old (or stamped ahead, or unstamped) to be acted on."""
+
+
+class _SenderClock:
+    """One sender clock seen on a stream: its offset is the smallest receipt-minus-stamp [s] of
+    its messages over the last ``window`` s (the clocks' offset plus the fastest delivery;
+    a sliding minimum, so slow drift between the clocks is followed)."""
+
+    def __init__(self, d: float, receipt: float, window: float, *, fixed: bool = False):
+        self.window = window
+        self.fixed = fixed                 # the synchronised-clocks sender: offset stays 0
+        self.first_receipt = receipt
+        self.last_receipt = receipt
+        self.count = 0
+        self._minima: collections.deque = collections.deque()  # (receipt, d), d increasing
+        self.add(d, receipt)
+
+    @property
+    def offset(self) -> float:
+        return 0.0 if self.fixed else self._minima[0][1]
+
+    def matches(self, d: float, timeout: float, future_tolerance: float) -> bool:
+        return self.offset - future_tolerance <= d <= self.offset + timeout
+
+    def add(self, d: float, receipt: float) -> None:
+        self.count += 1
+        self.last_receipt = receipt
+        while self._minima and self._minima[-1][1] >= d:
+            self._minima.pop()
+        self._minima.append((receipt, d))
+        while receipt - self._minima[0][0] > self.window:
+            self._minima.popleft()
+
+
+class CommandFreshness:
+    """Staleness of one command stream, also when the sender's clock is not the receiver's.
+
+    A command stamped ``stamp`` (sender's clock) received at ``receipt`` (this node's clock)
+    shows d = receipt - stamp = its delay + the offset between the clocks. Each sender clock
+    seen on the stream has an offset: 0 for synchronised clocks (NTP-synchronised hosts, the
+    same machine), else the smallest d of its last ``window`` s (its offset plus the fastest
+    delivery). A command is fresh for a sender when d lies within [offset -
+    ``future_tolerance``, offset + ``timeout``]; its age is d - offset. The policy:
+
+    1. While the stream is live (a command was accepted less than ``switch_silence`` s ago),
+       a command must be fresh for the sender of that stream: anything else is late (a
+       delayed copy, a queue flushing) and refused, also when the delay happens to look like
+       another clock.
+    2. After silence, a command fresh for synchronised clocks or for a sender clock learned
+       before is accepted at once and its sender makes the stream live again.
+    3. Else it comes from a new sender clock (or is late): refused until ``confirm_count``
+       commands spanning ``confirm_time`` s agree on the new clock, which is then learned.
+
+    A receipt-time watchdog completes it: the receiving node holds when no command arrived for
+    ``timeout`` s, whatever the stamps say. Limits (without synchronised clocks the one-way
+    delay cannot be measured, only d): a new sender's first stream is taken as on time, so a
+    delay it carries from its first message on is indistinguishable from a clock offset; and
+    a stream whose every command arrives late for longer than ``switch_silence`` +
+    ``confirm_time`` looks like a sender switch and is learned as a new clock. Single late
+    commands and delays shorter than that are never acted on; the operator station's
+    round-trip measurement (teleop holds above 0.3 s) bounds the rest.
+    """
+
+    def __init__(self, timeout: float, *, future_tolerance: float = 0.05,
+                 confirm_count: int = 5, confirm_time: float = 0.2,
+                 switch_silence: float = 1.0, window: float = 10.0):
+        if not (timeout > 0.0 and future_tolerance >= 0.0 and confirm_count >= 1
+                and confirm_time >= 0.0 and switch_silence >= 0.0 and window > 0.0):
+            raise ValueError('timeout and window must be > 0, the other limits >= 0')
+        self.timeout = float(timeout)
+        self.future_tolerance = float(future_tolerance)
+        self.confirm_count = int(confirm_count)
+        self.confirm_time = float(confirm_time)
+        self.switch_silence = float(switch_silence)
+        self.window = float(window)
+        self._synchronised = _SenderClock(0.0, -math.inf, window, fixed=True)
+        self.senders: list[_SenderClock] = [self._synchronised]
+        self._live: _SenderClock | None = None
+        self._last_accepted = -math.inf
+        self._candidate: _SenderClock | None = None
+
+    def check(self, stamp: float, receipt: float) -> float:
+        """The command's age [s] if it may be acted on, else StaleCommand saying why."""
+        if stamp == 0.0:
+            raise StaleCommand('command is unstamped (header.stamp = 0): its age cannot be checked')
+        d = receipt - stamp
+        if not math.isfinite(d):
+            raise StaleCommand(f'command is stale or unstamped: its stamp {stamp!r} is not a time')
+        tol, timeout = self.future_tolerance, self.timeout
+        if receipt - self._last_accepted < self.switch_silence:
+            live = self._live
+            if live.matches(d, timeout, tol):
+                return self._accept(live, d, receipt)
+            age = d - live.offset
+            clock = '' if live.fixed else " (by its sender's clock)"
+            if age < 0.0:
+                raise StaleCommand(f'command is stamped {-age:.3f} s ahead of its stream{clock}: '
+                                      'a clock jump or another sender while the stream is live')
+            raise StaleCommand(f'command is stale: {age:.3f} s old > timeout {timeout:.3f} s{clock}')
+        self.senders = [s for s in self.senders if s.fixed or receipt - s.last_receipt <= 60.0]
+        for sender in self.senders:
+            if sender.matches(d, timeout, tol):
+                return self._accept(sender, d, receipt)
+        return self._learn(d, receipt)
+
+    def _accept(self, sender: _SenderClock, d: float, receipt: float) -> float:
+        sender.add(d, receipt)
+        self._live, self._last_accepted, self._candidate = sender, receipt, None
+        return max(d - sender.offset, 0.0)
+
+    def _learn(self, d: float, receipt: float) -> float:
+        c = self._candidate
+        if c is None or not c.matches(d, self.timeout, self.future_tolerance):
+            self._candidate = c = _SenderClock(d, receipt, self.window)
+        else:
+            c.add(d, receipt)
+        if c.count >= self.confirm_count and receipt - c.first_receipt >= self.confirm_time:
+            self.senders.append(c)
+            return self._accept(c, d, receipt)
+        side = 'behind' if d > 0 else 'ahead of'
+        raise StaleCommand(f'command is stale or from a clock {abs(d):.3f} s {side} this one: '
+                              f'confirming the new sender clock ({c.count}/{self.confirm_count})')
+
+
+class CommandAges:
+    """Ages [s] of the commands a node received (receipt time minus stamp) over the last
+    ``window`` s: how late the commands reach it (transport plus the receiving executor).
+
+    ``summary()`` gives the count in the window, the stale ones since the start (older than the
+    node's timeout) and the 50th and 99th percentiles and the maximum in milliseconds, for
+    /diagnostics.
+    """
+
+    def __init__(self, window: float = 10.0, max_samples: int = 10_000):
+        if not (window > 0.0 and max_samples > 0):
+            raise ValueError('window must be > 0 s and max_samples > 0')
+        self.window = window
+        self._samples: collections.deque = collections.deque(maxlen=max_samples)
+        self.stale = 0
+
+    def add(self, now: float, age: float, *, stale: bool = False) -> None:
+        """One command received at ``now`` [s] that was ``age`` [s] old."""
+        self._samples.append((now, age))
+        self.stale += bool(stale)
+
+    def summary(self, now: float) -> dict[str, float | int]:
+        """{'command_count', 'command_stale_total', 'command_age_p50_ms', ..._p99_ms, ..._max_ms}."""
+        while self._samples and now - self._samples[0][0] > self.window:
+            self._samples.popleft()
+        out: dict[str, float | int] = {'command_count': len(self._samples),
+                                       'command_stale_total': self.stale}
+        if self._samples:
+            ages = 1e3 * np.fromiter((a for _, a in self._samples), dtype=float)
+            p50, p99 = np.percentile(ages, [50.0, 99.0])
+            out.update(command_age_p50_ms=float(p50), command_age_p99_ms=float(p99),
+                       command_age_max_ms=float(np.max(ages)))
+        return out

@@ -1,0 +1,99 @@
+"""A node process: executors, spinning until shutdown, and the Jazzy ``main()`` of every node."""
+
+from __future__ import annotations
+
+import gc
+import signal
+import sys
+import threading
+from typing import Callable, Sequence
+
+import rclpy
+from rclpy.exceptions import ParameterException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+from rclpy.task import Future
+
+from rrps_description.geometry import RobotDescriptionError
+from rrps_runtime.command_path import claim_command_path
+from rrps_runtime.supervision import exit_with_parent
+
+__all__ = ['make_executor', 'spin_until_shutdown', 'freeze_startup_objects', 'run_nodes']
+
+
+def make_executor(context, kind: str = 'events'):
+    """An EventsExecutor (the default: lower latency, docs/measurements.md) or a SingleThreadedExecutor."""
+    if kind == 'events':
+        from rclpy.experimental import EventsExecutor
+        return EventsExecutor(context=context)
+    if kind == 'single':
+        return SingleThreadedExecutor(context=context)
+    raise ValueError(f"executor kind must be 'events' or 'single', got {kind!r}")
+
+
+def spin_until_shutdown(executor, context, stop: threading.Event | None = None, *,
+                        period: float = 0.1) -> None:
+    """Spin until the context shuts down, ``stop`` is set, or Ctrl-C.
+
+    rclpy 7.1's EventsExecutor.spin() blocks in C++ and never sees SIGINT (and shutting it down
+    from another thread hangs), so spin in slices of ``period`` s (on a future that never
+    completes: every event of a slice is handled in C++, cheaper than one spin_once per event)
+    and check between them.
+    """
+    never = Future()
+    while context.ok() and not (stop is not None and stop.is_set()):
+        executor.spin_until_future_complete(never, timeout_sec=period)
+
+
+def freeze_startup_objects() -> None:
+    """Move every object alive now (modules, compiled kernels, the nodes) out of the garbage
+    collector's reach (``gc.freeze``), once a process has started its nodes.
+
+    A full collection otherwise walks them all with the GIL held, which can take long enough for
+    a 0.1 s command timeout to reject a message queued behind it (docs/measurements.md).
+    """
+    gc.collect()
+    gc.freeze()
+
+
+def run_nodes(factories: Sequence[Callable[..., Node]], args=None, *, executor_kind: str = 'events') -> None:
+    """Jazzy ``main()`` pattern: init, spin the nodes in one executor, clean Ctrl-C shutdown.
+
+    ``factories`` are node classes (or callables) taking ``context=``. A node that cannot start
+    (an invalid robot description or parameter) prints one line and exits with status 2.
+    SIGINT and SIGTERM end the spin between callbacks (never inside one), then nodes are destroyed.
+    A process started by :func:`rrps_runtime.supervision.start_child` also stops when its
+    supervisor is gone. The thread that spins claims the scheduling the nodes ask for
+    (:func:`rrps_runtime.command_path.claim_command_path`).
+    """
+    stop = threading.Event()
+    exit_with_parent(stop.set)
+    context = rclpy.Context()
+    rclpy.init(args=args, context=context, signal_handler_options=SignalHandlerOptions.NO)
+    previous = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
+    nodes: list[Node] = []
+    try:
+        try:
+            for factory in factories:
+                nodes.append(factory(context=context))
+        except (RobotDescriptionError, ValueError, ParameterException) as exc:
+            print(f'error: {exc}', file=sys.stderr)
+            raise SystemExit(2) from None
+        executor = make_executor(context, executor_kind)
+        for node in nodes:
+            executor.add_node(node)
+        freeze_startup_objects()
+        claim_command_path(nodes, executor)
+        spin_until_shutdown(executor, context, stop)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        for node in nodes:
+            node.destroy_node()
+        rclpy.try_shutdown(context=context)
+        # the frozen objects back in the collector's reach, so that the interpreter's end frees
+        # them (an extension's objects still alive then, as Ruckig's, are reported as leaks)
+        gc.unfreeze()

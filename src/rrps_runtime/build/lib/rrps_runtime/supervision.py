@@ -1,0 +1,252 @@
+"""Child processes that never outlive their supervisor, their scheduling, and a clean way to stop them.
+
+:func:`start_child` starts a process that the kernel stops (``SIGTERM``) when the process that
+started it dies, however it dies (Linux ``PR_SET_PDEATHSIG``; elsewhere the child's own
+:func:`exit_with_parent` watchdog catches it within a second), so a robot's driver never keeps
+running with nobody watching. :func:`stop_child` asks politely (SIGTERM: the nodes' clean
+shutdown) and kills what is still running after a timeout; :class:`Respawner` restarts children
+that die, as a launch file's ``respawn``.
+
+Scheduling: the robot's command path (driver, IK, FK, climbing) runs with the real-time
+round-robin policy (``SCHED_RR`` at :data:`CONTROL_RT_PRIORITY`, as ros2_control runs its
+control loop), the operator station at :data:`OPERATOR_RT_PRIORITY`, observers at the nice value
+:data:`OBSERVER_NICE`. A child started with a nice value leads its own session and gives that
+session's autogroup (``/proc/self/autogroup``) the same nice value, since with Linux autogroup a
+nice value only ranks a process within its session; terminal Ctrl-C then reaches the supervisor
+only, which stops it. Raising priority needs root or ``CAP_SYS_NICE`` (or an ``RLIMIT_RTPRIO``
+allowance); without them a child runs at the best priority it may have and
+:func:`scheduling_of` tells. Why, and the systemd equivalent: docs/deployment.md.
+
+Pure Python, no ROS import.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from typing import Sequence
+
+__all__ = ['PARENT_PID_ENV', 'CONTROL_NICE', 'CONTROL_RT_PRIORITY', 'OPERATOR_NICE', 'OPERATOR_RT_PRIORITY',
+           'OBSERVER_NICE', 'start_child', 'priority_of', 'group_priority_of', 'scheduling_of', 'raise_priority',
+           'stop_child', 'stop_children', 'exit_with_parent', 'die_with_parent', 'Respawner', 'process_alive',
+           'child_pids']
+
+#: Environment variable through which a child learns its supervisor's pid.
+PARENT_PID_ENV = 'RRPS_PARENT_PID'
+
+_PR_SET_PDEATHSIG = 1
+_AUTOGROUP = '/proc/self/autogroup'
+
+#: Nice value of the robot's command path (driver; IK, FK, climbing) where real-time
+#: scheduling is not permitted, and under it (the value a normal policy returns to).
+CONTROL_NICE = -10
+#: SCHED_RR priority of the robot's command path: above every normal process, below the
+#: kernel's interrupt threads (priority 50).
+CONTROL_RT_PRIORITY = 10
+#: Nice value of the operator station (master, teleop, viewer): before other jobs, after the robot.
+OPERATOR_NICE = -5
+#: SCHED_RR priority of the operator station: ahead of normal processes (the browser, other
+#: jobs), behind the robot's command path.
+OPERATOR_RT_PRIORITY = 5
+#: Nice value of observers (recorder, markers): best effort, they yield to everything above.
+OBSERVER_NICE = 5
+
+
+def raise_priority(nice: int, *, realtime: int | None = None) -> bool:
+    """Set this process's nice value (lower = more CPU under contention) and, with
+    ``realtime``, the SCHED_RR policy at that priority (threads started later inherit it);
+    without, the normal policy (a child of a real-time process inherits its policy).
+    False when not permitted (a lower nice value or a real-time policy needs root or
+    CAP_SYS_NICE): the process then keeps what it was allowed.
+
+    A process that leads its own session also sets its session's autogroup nice value, so the
+    nice value counts against other sessions too (module docstring)."""
+    niced = realtime_set = True
+    try:
+        os.setpriority(os.PRIO_PROCESS, 0, nice)
+    except (PermissionError, OSError):  # without CAP_SYS_NICE: an RLIMIT_NICE allowance
+        niced = False
+    if realtime is not None:
+        try:  # without CAP_SYS_NICE: an RLIMIT_RTPRIO allowance (ulimit -r)
+            os.sched_setscheduler(0, os.SCHED_RR, os.sched_param(realtime))
+        except (PermissionError, OSError):
+            realtime_set = False
+    elif os.sched_getscheduler(0) != os.SCHED_OTHER:  # e.g. a child of a real-time supervisor
+        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+    if niced and os.getsid(0) == os.getpid():
+        try:
+            with open(_AUTOGROUP, 'w') as f:
+                f.write(str(nice))
+        except OSError:  # no autogroup in this kernel, or not permitted: the nice value stands
+            pass
+    return niced and realtime_set
+
+
+def scheduling_of(pid: int) -> str:
+    """How process ``pid`` is scheduled, for people: ``'SCHED_RR 10'`` or ``'nice -10'``."""
+    if os.sched_getscheduler(pid) & ~getattr(os, 'SCHED_RESET_ON_FORK', 0) == os.SCHED_RR:  # a claimed thread's flag
+        return f'SCHED_RR {os.sched_getparam(pid).sched_priority}'
+    return f'nice {priority_of(pid)}'
+
+
+def group_priority_of(pid: int) -> int | None:
+    """The autogroup nice value of process ``pid``'s session; None without autogroup."""
+    try:
+        with open(f'/proc/{pid}/autogroup') as f:
+            return int(f.read().split()[-1])
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def priority_of(pid: int) -> int:
+    """The nice value of a process."""
+    return os.getpriority(os.PRIO_PROCESS, pid)
+
+
+def process_alive(pid: int) -> bool:
+    """Whether process ``pid`` exists and is not a zombie (Linux /proc)."""
+    try:
+        with open(f'/proc/{pid}/stat') as f:
+            return f.read().rsplit(')', 1)[1].split()[0] != 'Z'
+    except OSError:
+        return False
+
+
+def child_pids(pid: int) -> list[int]:
+    """The pids of the processes whose parent is ``pid`` (Linux /proc)."""
+    out = []
+    for entry in os.listdir('/proc'):
+        if entry.isdigit():
+            try:
+                with open(f'/proc/{entry}/stat') as f:
+                    if int(f.read().rsplit(')', 1)[1].split()[1]) == pid:
+                        out.append(int(entry))
+            except (OSError, ValueError):
+                continue
+    return out
+
+
+def die_with_parent(parent: int) -> None:
+    """In a child (before exec, or a worker process at its start): ask the kernel for SIGTERM
+    when the parent ``parent`` dies."""
+    if sys.platform.startswith('linux'):
+        libc = ctypes.CDLL(ctypes.util.find_library('c') or 'libc.so.6', use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
+    if os.getppid() != parent:  # the parent died before prctl took effect
+        os._exit(1)
+
+
+def start_child(args: Sequence[str], *, env: dict | None = None, nice: int | None = None,
+                realtime: int | None = None, **popen_kwargs) -> subprocess.Popen:
+    """``subprocess.Popen(args)`` of a child that receives SIGTERM when this process dies,
+    with the nice value ``nice`` if given and the SCHED_RR priority ``realtime`` if given (as
+    permitted, see :func:`raise_priority`), in a session of its own then (its own scheduling
+    group, see the module docstring).
+
+    Must be called from the main thread (the kernel ties the signal to the forking thread).
+    The child's environment carries :data:`PARENT_PID_ENV` for :func:`exit_with_parent`.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        raise RuntimeError('start_child must be called from the main thread')
+    parent = os.getpid()
+    child_env = dict(os.environ if env is None else env)
+    child_env[PARENT_PID_ENV] = str(parent)
+
+    def prepare() -> None:
+        die_with_parent(parent)
+        if nice is not None or realtime is not None:
+            if os.getsid(0) != os.getpid():
+                os.setsid()
+            raise_priority(priority_of(0) if nice is None else nice, realtime=realtime)
+    return subprocess.Popen(list(args), env=child_env, preexec_fn=prepare, **popen_kwargs)
+
+
+def stop_child(process: subprocess.Popen, timeout: float = 5.0) -> int:
+    """SIGTERM, wait up to ``timeout`` s, then SIGKILL; returns the exit status."""
+    return stop_children([process], timeout)[0]
+
+
+def stop_children(processes: Sequence[subprocess.Popen], timeout: float = 5.0) -> list[int]:
+    """:func:`stop_child` for several processes at once (they stop in parallel)."""
+    for process in processes:
+        if process.poll() is None:
+            try:
+                process.send_signal(signal.SIGTERM)
+            except ProcessLookupError:
+                pass
+    deadline = time.monotonic() + timeout
+    for process in processes:
+        try:
+            process.wait(max(deadline - time.monotonic(), 0.0))
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+    return [process.returncode for process in processes]
+
+
+def exit_with_parent(on_exit, *, period: float = 0.5) -> threading.Thread | None:
+    """In a child started by :func:`start_child`: call ``on_exit()`` once its supervisor is gone.
+
+    A portable second line behind ``PR_SET_PDEATHSIG``: a daemon thread polls the parent pid.
+    Returns the thread, or None when this process was not started by :func:`start_child`.
+    """
+    value = os.environ.pop(PARENT_PID_ENV, None)  # not inherited by this process's own children
+    if not value:
+        return None
+    parent = int(value)
+
+    def watch() -> None:
+        while True:
+            if os.getppid() != parent:
+                on_exit()
+                return
+            time.sleep(period)
+
+    thread = threading.Thread(target=watch, name='exit-with-parent', daemon=True)
+    thread.start()
+    return thread
+
+
+class Respawner:
+    """Children restarted when they die, as a launch file's ``respawn``: ``starters`` maps a
+    name to a function ``start(first: bool) -> Popen`` (``first`` is False for a restart, e.g.
+    to start a driver inactive). At most ``max_restarts`` restarts of a child per ``window``
+    s; beyond that :meth:`poll` reports it as given up and leaves it dead.
+
+    Call :meth:`poll` periodically from the main thread (children are started there).
+    """
+
+    def __init__(self, starters, *, max_restarts: int = 3, window: float = 60.0):
+        self.starters = dict(starters)
+        self.max_restarts = max_restarts
+        self.window = window
+        self.children = {name: start(True) for name, start in self.starters.items()}
+        self._restarts: dict[str, list[float]] = {name: [] for name in self.starters}
+        self.given_up: set[str] = set()
+
+    def poll(self) -> list[tuple[str, int | None, bool]]:
+        """(name, exit status, restarted) for every child found dead since the last call."""
+        events = []
+        now = time.monotonic()
+        for name, child in list(self.children.items()):
+            if name in self.given_up or child.poll() is None:
+                continue
+            recent = [t for t in self._restarts[name] if now - t < self.window]
+            if len(recent) >= self.max_restarts:
+                self.given_up.add(name)
+                events.append((name, child.returncode, False))
+                continue
+            self._restarts[name] = recent + [now]
+            self.children[name] = self.starters[name](False)
+            events.append((name, child.returncode, True))
+        return events
+
+    def stop(self, timeout: float = 5.0) -> list[int]:
+        """Stop every child (SIGTERM, then SIGKILL after ``timeout`` s)."""
+        return stop_children(list(self.children.values()), timeout)

@@ -1,0 +1,83 @@
+"""Heavy work in a process of its own, so that it never holds the interpreter of a control node.
+
+A node's threads share one interpreter lock (the GIL). A computation of seconds in a worker
+thread (a climbing step's preview on the dynamics, a workspace) holds it between its compiled
+kernels; a control thread of the same process then waits for it, and waits the longer when the
+worker, at the normal policy, is itself preempted by other jobs while it holds the lock: the
+real-time thread inherits the worker's place in the queue for a CPU (docs/measurements.md). A
+:class:`WorkerProcess` runs such work in a child process instead, a ``concurrent.futures``
+executor of one process: ``submit(fn, *args)`` returns a Future resolved in the node's process.
+The child runs at the normal policy (``SCHED_OTHER``, nice :data:`WORKER_NICE`), on every CPU,
+dies with its parent, and is started when the pool is made (``warm_up`` runs there first, e.g.
+to load compiled kernels), so the first job does not wait for an interpreter to start.
+
+``fn`` and its arguments travel pickled: module-level functions and plain data only. Pure
+Python, no ROS import.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import sys
+import threading
+from concurrent.futures import Future, ProcessPoolExecutor
+from typing import Any, Callable
+
+from rrps_runtime.scheduling import background, demote
+from rrps_runtime.supervision import die_with_parent
+
+__all__ = ['WorkerProcess', 'WORKER_NICE']
+
+#: Nice value of a worker process: after the nodes, before observers.
+WORKER_NICE = 2
+
+
+def _start(name: str, parent: int, nice: int, warm_up: Callable[[], Any] | None) -> None:
+    """In the child: die with the parent, run at the normal policy, warm up."""
+    die_with_parent(parent)
+    background(name)
+    os.setpriority(os.PRIO_PROCESS, 0, max(os.getpriority(os.PRIO_PROCESS, 0), nice))
+    if warm_up is not None:
+        try:
+            warm_up()
+        except Exception as exc:  # noqa: BLE001 - the jobs still run, only slower at first
+            print(f'{name}: warm-up failed: {type(exc).__name__}: {exc}', file=sys.stderr)
+
+
+def _pid() -> int:
+    return os.getpid()
+
+
+class WorkerProcess:
+    """One child process that runs submitted jobs one after the other (module docstring)."""
+
+    def __init__(self, name: str, *, warm_up: Callable[[], Any] | None = None, nice: int = WORKER_NICE):
+        before = {t.ident for t in threading.enumerate()}
+        self.name = name
+        self._pool = ProcessPoolExecutor(
+            max_workers=1, mp_context=multiprocessing.get_context('spawn'), initializer=_start,
+            initargs=(name, os.getpid(), nice, warm_up))
+        self._started = self._pool.submit(_pid)  # starts the child now, off any job's time
+        # the pool's own threads (its queue feeder, its manager) only pass jobs along
+        demote([t.native_id for t in threading.enumerate() if t.ident not in before and t.native_id])
+
+    @property
+    def pid(self) -> int:
+        """The child's pid (waits for it to start)."""
+        return self._started.result()
+
+    def submit(self, fn: Callable, /, *args, **kwargs) -> Future:
+        """Run ``fn(*args, **kwargs)`` in the child; its Future (raises what ``fn`` raised, or
+        ``BrokenProcessPool`` when the child died)."""
+        return self._pool.submit(fn, *args, **kwargs)
+
+    def shutdown(self) -> None:
+        """Cancel the jobs not started and end the child (a running job is abandoned)."""
+        processes = list(getattr(self._pool, '_processes', {}).values())  # the pinned Python's pool
+        self._pool.shutdown(wait=False, cancel_futures=True)
+        for process in processes:
+            if process.is_alive():
+                process.terminate()
+        for process in processes:
+            process.join(timeout=5.0)

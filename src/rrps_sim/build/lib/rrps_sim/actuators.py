@@ -1,0 +1,270 @@
+"""Actuator models of the simulated hardware: kinematic (lag + limits) and dynamic (PD on eq. 19).
+
+Pure NumPy, no ROS import. Both models take a reference (commanded lengths [m]) and advance by
+``dt`` [s]; both expose ``positions`` [m], ``velocities`` [m/s] and ``efforts`` [N]::
+
+    act = KinematicActuators(min_position, max_position, max_speed, time_constant, initial)
+    act.step(reference, dt)                 # first-order lag, speed and stroke limits
+    dyn = DynamicActuators(geometry, initial_lengths)
+    dyn.step(reference, dt)                 # multibody dynamics with a PD force loop per leg
+
+Position-controlled actuators report the quasi-static forces of :class:`QuasiStaticEfforts`.
+Both compute in the world gravity of the supporting ring's attitude (``support``, a
+:class:`~rrps_description.world.Support`; default ring_a upright) and follow a gripper change
+with ``set_support(ring)`` (:func:`rrps_description.world.handed_over`).
+
+Fault injection: ``stuck`` (per axis: the actuator ignores commands and keeps its length) on
+both models, and :class:`SensorFaults` (Gaussian noise on the measured lengths, dropped
+messages) applied by the driver to what it publishes.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rrps_description.geometry import RobotGeometry
+from rrps_description.world import Support, handed_over
+from rrps_kinematics.forward import forward_kinematics
+from rrps_loads.statics import holding_forces
+from rrps_sim.dynamics import MultibodyDynamics
+
+__all__ = ['KinematicActuators', 'DynamicActuators', 'QuasiStaticEfforts', 'SensorFaults']
+
+
+def _vector(value, n: int, name: str) -> np.ndarray:
+    v = np.broadcast_to(np.asarray(value, dtype=float), (n,)).copy()
+    if np.any(np.isnan(v)):
+        raise ValueError(f'{name} contains NaN')
+    return v
+
+
+class KinematicActuators:
+    """Position-controlled actuators: a first-order lag toward the reference, then speed and
+    stroke limits, per axis.
+
+    ``x' = (r - x) / tau`` integrated exactly over dt (``tau = 0``: no lag), the step clipped
+    to ``max_speed * dt``, the reference clipped to ``[min_position, max_position]``.
+    Arrays (n,) or scalars broadcast over ``initial`` (n,); ``max_speed`` may be inf.
+    """
+
+    def __init__(self, min_position, max_position, max_speed, time_constant: float, initial):
+        x0 = np.asarray(initial, dtype=float)
+        if x0.ndim != 1 or not np.all(np.isfinite(x0)):
+            raise ValueError(f'initial positions must be a finite vector, got {initial!r}')
+        n = x0.size
+        self.min_position = _vector(min_position, n, 'min_position')
+        self.max_position = _vector(max_position, n, 'max_position')
+        self.max_speed = _vector(max_speed, n, 'max_speed')
+        if not np.all(self.min_position < self.max_position):
+            raise ValueError('min_position must be < max_position')
+        if not np.all(self.max_speed > 0.0):
+            raise ValueError('max_speed must be > 0')
+        if not (math.isfinite(time_constant) and time_constant >= 0.0):
+            raise ValueError(f'time_constant must be finite and >= 0, got {time_constant}')
+        if np.any(x0 < self.min_position) or np.any(x0 > self.max_position):
+            raise ValueError(f'initial positions {x0} outside [{self.min_position}, {self.max_position}]')
+        self.time_constant = float(time_constant)
+        self.positions = x0.copy()
+        self.velocities = np.zeros(n)
+        self.stuck = np.zeros(n, dtype=bool)
+
+    @property
+    def efforts(self) -> np.ndarray:
+        """Not modelled by the kinematic actuators: empty."""
+        return np.zeros(0)
+
+    def step(self, reference, dt: float) -> None:
+        """Advance by ``dt`` >= 0 s toward ``reference`` (n,); stuck axes keep their position."""
+        r = np.asarray(reference, dtype=float)
+        if r.shape != self.positions.shape or not np.all(np.isfinite(r)):
+            raise ValueError(f'reference must be {self.positions.size} finite numbers, got {r!r}')
+        if not (math.isfinite(dt) and dt >= 0.0):
+            raise ValueError(f'dt must be finite and >= 0, got {dt}')
+        x = self.positions
+        r = np.clip(r, self.min_position, self.max_position)
+        r = np.where(self.stuck, x, r)
+        lagged = r if self.time_constant == 0.0 else r + (x - r) * math.exp(-dt / self.time_constant)
+        reach = np.full_like(x, np.inf)
+        finite = np.isfinite(self.max_speed)
+        reach[finite] = self.max_speed[finite] * dt
+        delta = np.clip(lagged - x, -reach, reach)
+        self.positions = x + delta
+        self.velocities = delta / dt if dt > 0.0 else np.zeros_like(delta)
+
+
+class DynamicActuators:
+    """The six legs as force actuators on the multibody dynamics (eqs. 19-20).
+
+    A :class:`KinematicActuators` shapes the reference (stroke and speed limits, lag); each leg's
+    force is ``f = f_g + kp (r - L) + kd (r' - L')`` saturated at ``geometry.max_force``, with
+    ``f_g`` the static holding forces (gravity feed-forward, :func:`rrps_loads.statics.holding_forces`)
+    at the current pose, refreshed every ``feedforward_period`` s. The dynamics is stepped in
+    sub-steps of at most ``max_step`` s with the force held over each. ``efforts`` = forces [N].
+    """
+
+    def __init__(self, geometry: RobotGeometry, initial_lengths, *, kp: float = 1.0e5,
+                 kd: float = 1.0e3, time_constant: float = 0.0, max_speed: float | None = None,
+                 max_step: float = 1e-3, feedforward_period: float = 0.02, method: str = 'hybrid',
+                 support: Support | None = None):
+        for name, value in (('kp', kp), ('kd', kd)):
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f'{name} must be finite and >= 0, got {value}')
+        if not (math.isfinite(max_step) and max_step > 0.0):
+            raise ValueError(f'max_step must be > 0, got {max_step}')
+        if not (math.isfinite(feedforward_period) and feedforward_period >= 0.0):
+            raise ValueError(f'feedforward_period must be >= 0, got {feedforward_period}')
+        self.geometry = geometry
+        L0 = np.asarray(initial_lengths, dtype=float)
+        fk = forward_kinematics(geometry, L0)
+        if not fk.converged:
+            raise ValueError(f'initial lengths {L0} do not assemble near the home pose')
+        self.dynamics = MultibodyDynamics(geometry, method, support=support or Support.of())
+        self.dynamics.reset(fk.position, fk.quaternion_xyzw)
+        self.reference = KinematicActuators(
+            geometry.min_length, geometry.max_length,
+            geometry.max_speed if max_speed is None else max_speed, time_constant, L0)
+        self.kp, self.kd = float(kp), float(kd)
+        self.max_step = float(max_step)
+        self.feedforward_period = float(feedforward_period)
+        self.forces = np.zeros(6)
+        self._feedforward = self._holding_forces(np.zeros(6))
+        self._since_feedforward = 0.0
+
+    @property
+    def stuck(self) -> np.ndarray:
+        return self.reference.stuck
+
+    @stuck.setter
+    def stuck(self, value) -> None:
+        self.reference.stuck = np.asarray(value, dtype=bool)
+
+    @property
+    def positions(self) -> np.ndarray:
+        return self.dynamics.lengths
+
+    @property
+    def velocities(self) -> np.ndarray:
+        return self.dynamics.length_rates
+
+    @property
+    def efforts(self) -> np.ndarray:
+        return self.forces.copy()
+
+    @property
+    def support(self) -> Support:
+        return self.dynamics.support
+
+    def set_support(self, ring: str | Support) -> None:
+        """``ring`` alone grips now: ground it in the dynamics (:func:`handed_over`); or ground
+        a :class:`Support` as given (its attitude from the odometry), at rest."""
+        support = ring if isinstance(ring, Support) else handed_over(self.support, self.dynamics.quaternion_xyzw, ring)
+        if support is not self.support:
+            self.dynamics.set_support(support)
+            self._feedforward = self._holding_forces(self._feedforward)
+
+    def _holding_forces(self, fallback: np.ndarray) -> np.ndarray:
+        try:
+            return holding_forces(self.geometry, self.dynamics.position, self.dynamics.quaternion_xyzw,
+                                  support=self.support)
+        except ValueError:  # singular pose: keep the previous feed-forward
+            return fallback
+
+    def step(self, reference, dt: float) -> None:
+        """Advance by ``dt`` s toward the reference lengths (6,).
+
+        Raises RuntimeError (from the dynamics) at a singular configuration; the state is then
+        left as it was at the start of the failing sub-step.
+        """
+        self.reference.step(reference, dt)
+        if dt == 0.0:
+            return
+        r, rdot = self.reference.positions, self.reference.velocities
+        n = max(1, math.ceil(dt / self.max_step - 1e-9))
+        h = dt / n
+        limit = self.geometry.max_force
+        for _ in range(n):
+            if self.feedforward_period > 0.0 and self._since_feedforward >= self.feedforward_period:
+                self._feedforward = self._holding_forces(self._feedforward)
+                self._since_feedforward = 0.0
+            dyn = self.dynamics
+            f = self._feedforward + self.kp * (r - dyn.lengths) + self.kd * (rdot - dyn.length_rates)
+            f = np.clip(f, -limit, limit)
+            dyn.step(f, h)
+            self.forces = f
+            self._since_feedforward += h
+
+
+class QuasiStaticEfforts:
+    """Efforts [N] of position-controlled (kinematic) actuators: the statics of eq. 19 at rest.
+
+    The forces that hold the current pose against gravity (legs included,
+    :func:`rrps_loads.statics.holding_forces`) at the pose found by FK from the current lengths,
+    refreshed at most every ``period`` s (an FK and a statics solve per refresh). A pose where FK
+    fails or the Jacobian is singular keeps the previous efforts.
+    """
+
+    def __init__(self, geometry: RobotGeometry, initial_lengths, *, period: float = 0.2,
+                 support: Support | None = None):
+        if not (math.isfinite(period) and period >= 0.0):
+            raise ValueError(f'period must be finite and >= 0, got {period}')
+        self.geometry = geometry
+        self.support = support or Support.of()
+        self.period = float(period)
+        self._position = geometry.home_position
+        self._quaternion = geometry.home_quaternion_xyzw
+        self.efforts = np.zeros(6)
+        self._since = 0.0
+        self._refresh(np.asarray(initial_lengths, dtype=float))
+
+    def _refresh(self, lengths: np.ndarray) -> None:
+        fk = forward_kinematics(self.geometry, lengths, self._position, self._quaternion)
+        if not fk.converged:
+            return
+        self._position, self._quaternion = fk.position, fk.quaternion_xyzw
+        try:
+            self.efforts = holding_forces(self.geometry, fk.position, fk.quaternion_xyzw, support=self.support)
+        except ValueError:
+            pass
+
+    def set_support(self, ring: str | Support) -> None:
+        """``ring`` alone grips now (:func:`handed_over` at the last refreshed pose), or a
+        :class:`Support` as given (its attitude from the odometry); the efforts are solved again
+        at once."""
+        support = ring if isinstance(ring, Support) else handed_over(self.support, self._quaternion, ring)
+        if support is not self.support:
+            self.support = support
+            self._since = self.period
+
+    def update(self, lengths, dt: float) -> np.ndarray:
+        """Advance the refresh clock by ``dt`` s; re-solve when ``period`` has passed."""
+        self._since += dt
+        if self._since >= self.period:
+            self._since = 0.0
+            self._refresh(np.asarray(lengths, dtype=float))
+        return self.efforts
+
+
+class SensorFaults:
+    """Faults of the measurement path: Gaussian noise (std ``noise`` [m]) on the published
+    lengths and a probability ``drop_probability`` of dropping a state message. Seeded."""
+
+    def __init__(self, noise: float = 0.0, drop_probability: float = 0.0, seed: int | None = None):
+        if not (math.isfinite(noise) and noise >= 0.0):
+            raise ValueError(f'noise must be finite and >= 0, got {noise}')
+        if not (0.0 <= drop_probability <= 1.0):
+            raise ValueError(f'drop_probability must be in [0, 1], got {drop_probability}')
+        self.noise = float(noise)
+        self.drop_probability = float(drop_probability)
+        self._rng = np.random.default_rng(seed)
+
+    def measure(self, positions: np.ndarray) -> np.ndarray:
+        """The positions as the sensors report them."""
+        if self.noise == 0.0:
+            return positions
+        return positions + self._rng.normal(0.0, self.noise, np.shape(positions))
+
+    def drop(self) -> bool:
+        """True when this message is lost."""
+        return self.drop_probability > 0.0 and bool(self._rng.random() < self.drop_probability)

@@ -1,0 +1,178 @@
+"""Teleoperation parameters: the teleop node's parameter schema and the mapping's validated
+configuration (SI units).
+
+:data:`PARAMETERS` declares every parameter of the teleop node once (name, default, unit, range,
+description); :class:`TeleopConfig` is what :class:`rrps_teleop.mapping.TeleopMapping` runs with,
+its field defaults taken from that schema; an invalid value raises ValueError naming the parameter.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from rrps_description.names import RING_A_FRAME, RINGS
+from rrps_description.tool import TARGET_FRAMES
+from rrps_description.world import IDENTITY_QUATERNION
+from rrps_interfaces.link import SOURCES
+from rrps_interfaces.teleop import MASTER_FRAME
+from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
+from rrps_runtime.scheduling import scheduling_parameters
+from rrps_runtime.supervision import OPERATOR_RT_PRIORITY
+
+__all__ = ['CONTROL_TRIGGERS', 'MODES', 'PARAMETERS', 'ROTATION_MODES', 'TeleopConfig', 'validate_scale']
+
+MODES = ('cartesian', 'joint')
+ROTATION_MODES = ('relative', 'absolute')
+#: when the teleop node runs a control step: on each master sample or on a timer.
+CONTROL_TRIGGERS = ('message', 'timer')
+
+#: teleop_node's parameters (descriptors, the shipped file, the docs' table and the defaults of
+#: TeleopConfig and of the fixture's stiffness come from here).
+PARAMETERS = NodeParameters('teleop_node', 'rrps_teleop', [
+    ROBOT,
+    Parameter('frame_id', RING_A_FRAME, 'frame of pose and target_pose'),
+    Parameter('master_frame_id', MASTER_FRAME, 'frame of master/pose'),
+    Parameter('robot_topics', 'direct', "read the robot's state from its own topics (direct) or from its "
+              'link relay (link: link/pose, link/diagnostics; docs/deployment.md, field links)', choices=SOURCES),
+    Parameter('robot_namespace', '', "namespace of the driven robot's topics (pose, target_pose, "
+              "teleop/status, ...; empty: this node's own); a change switches robots: the clutch is "
+              'released and the deadman must be released and pressed again', dynamic=True),
+    Parameter('control', 'message', 'run the control step on each master sample or on a timer',
+              choices=CONTROL_TRIGGERS),
+    Parameter('control_rate', 200.0, 'control rate in timer mode', unit='Hz', range=(1.0, 2000.0)),
+    Parameter('jerk_limited', True, "stream the targets jerk-limited within the legs' speed, acceleration and "
+              'jerk limits, stopping with the fastest jerk-limited stop (rrps_teleop.target_stream); false: each '
+              'guarded command as it is'),
+    Parameter('status_rate', 10.0, 'teleop/status rate when unchanged', unit='Hz', range=(0.1, 100.0)),
+    Parameter('feedback_rate', 20.0, 'master/feedback (the virtual fixture) rate', unit='Hz',
+              range=(1.0, 200.0)),
+    Parameter('feedback_scale', 1.0, 'master force per newton of the fixture on the slave', range=(0.0, 100.0)),
+    Parameter('fixture_stiffness', 10.0, 'the fixture push of one limit at the limit', unit='N',
+              range=(1e-3, 1e4)),
+    Parameter('mode', 'cartesian', 'map master poses (cartesian) or leg lengths (joint)', choices=MODES,
+              dynamic=True),
+    Parameter('translation_scale', 4.0, 'slave translation = scale x master translation since engage',
+              range=(1e-3, 1e3), dynamic=True),
+    Parameter('rotation_mode', 'relative', 'master rotation since engage (relative) or its orientation '
+              '(absolute)', choices=ROTATION_MODES, dynamic=True),
+    Parameter('joint_scale', (4.0,) * 6, 'joint mode: a_i of L_slave,i = a_i L_master,i + b_i (6 values > 0; '
+              'b_i set at engage)', dynamic=True),
+    Parameter('enable_timeout', 0.2, 'hold when teleop/enable was not true for this long', unit='s',
+              range=(0.01, 5.0), dynamic=True),
+    Parameter('master_timeout', 0.1, 'hold when the master data is older than this', unit='s',
+              range=(0.005, 5.0), dynamic=True),
+    Parameter('max_linear_speed', 0.05, 'slave translation speed limit', unit='m/s', range=(1e-4, 10.0),
+              dynamic=True),
+    Parameter('max_angular_speed', 0.25, 'slave rotation speed limit', unit='rad/s', range=(1e-4, 100.0),
+              dynamic=True),
+    Parameter('singularity_slowdown', 0.08, 'inverse condition number below which motion towards a '
+              'singularity slows down', range=(1e-4, 1.0), dynamic=True),
+    Parameter('singularity_halt', None, 'inverse condition number where motion towards a singularity halts',
+              range=(0.0, 1.0), dynamic=True, type=float, unset_note="the robot's min_conditioning"),
+    Parameter('collision_slowdown', 0.02, 'leg-leg interference margin below which motion towards it slows '
+              'down', unit='m', range=(1e-5, 1.0), dynamic=True),
+    Parameter('align_tolerance', 0.1, 'absolute rotation mode: largest master/slave orientation difference '
+              'to engage', unit='rad', range=(1e-4, math.pi), dynamic=True),
+    Parameter('state_timeout', 0.2, 'hold when the slave pose (its measured state) is older than this',
+              unit='s', range=(0.01, 5.0), dynamic=True),
+    Parameter('slow_latency', 0.2, "the operator's round trip above which speeds are scaled down (to 1/4 at "
+              'hold_latency)', unit='s', range=(0.001, 5.0), dynamic=True),
+    Parameter('hold_latency', 0.3, "the operator's round trip above which the robot holds", unit='s',
+              range=(0.001, 5.0), dynamic=True),
+    Parameter('load_guards', True, 'slow down near and halt at the actuator force limit and a holding margin of '
+              "zero (the statics of the robot at rest on its supporting ring, with its payload)", dynamic=True),
+    Parameter('force_slowdown', 0.1, 'force margin 1 - max|f_i| / max_force below which motion towards the limit '
+              'slows down', range=(1e-4, 1.0), dynamic=True),
+    Parameter('holding_slowdown', 0.1, "holding margin (1 - the supporting gripper's utilisation) below which "
+              'motion towards zero slows down', range=(1e-4, 1.0), dynamic=True),
+    Parameter('support', 'ring_a', 'the ring gripping the structure while teleoperated (the support of the '
+              'load guards)', choices=RINGS),
+    Parameter('world_q_support', IDENTITY_QUATERNION, "the supporting ring's attitude in the world "
+              '(x, y, z, w; gravity is (0, 0, -9.81) m/s^2 there)'),
+    Parameter('payload_mass', None, 'a point-mass payload for the load guards', unit='kg', range=(0.0, 1e5),
+              type=float, unset_note="the robot's payload (none unless its YAML gives one)"),
+    Parameter('payload_com', (0.0, 0.0, 0.0), "the payload's centre of mass in its ring's frame", unit='m'),
+    Parameter('payload_ring', 'ring_b', 'the ring carrying the payload', choices=RINGS),
+    Parameter('control_frame', 'ring_b', "the frame the master moves in cartesian mode: ring_b's origin or "
+              'the tool-centre point (translations move the tool tip, rotations turn about it)',
+              choices=TARGET_FRAMES, dynamic=True),
+    *scheduling_parameters(OPERATOR_RT_PRIORITY),
+])
+
+
+def _default(name: str):
+    return PARAMETERS[name].default
+
+
+def validate_scale(value, name: str = 'translation_scale') -> float:
+    """A scale factor as float; ValueError unless it is finite and > 0."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f'{name} must be a number, got {value!r}') from None
+    if not (math.isfinite(v) and v > 0.0):
+        raise ValueError(f'{name} must be finite and > 0, got {value!r}')
+    return v
+
+
+@dataclass(frozen=True)
+class TeleopConfig:
+    """Mapping and guard parameters (SI units; the teleop node's, described in :data:`PARAMETERS`);
+    validated on construction (ValueError)."""
+
+    mode: str = _default('mode')
+    translation_scale: float = _default('translation_scale')
+    rotation_mode: str = _default('rotation_mode')
+    #: a_i of the joint-space map, one per leg (a scalar is broadcast).
+    joint_scale: tuple = _default('joint_scale')
+    enable_timeout: float = _default('enable_timeout')
+    master_timeout: float = _default('master_timeout')
+    max_linear_speed: float = _default('max_linear_speed')
+    max_angular_speed: float = _default('max_angular_speed')
+    singularity_slowdown: float = _default('singularity_slowdown')
+    #: None: the robot's min_conditioning.
+    singularity_halt: float | None = _default('singularity_halt')
+    collision_slowdown: float = _default('collision_slowdown')
+    align_tolerance: float = _default('align_tolerance')
+    #: longest time step [s] the speed limits allow (a late step never gets a large jump).
+    max_period: float = 0.05
+    state_timeout: float = _default('state_timeout')
+    slow_latency: float = _default('slow_latency')
+    hold_latency: float = _default('hold_latency')
+    control_frame: str = _default('control_frame')
+    load_guards: bool = _default('load_guards')
+    force_slowdown: float = _default('force_slowdown')
+    holding_slowdown: float = _default('holding_slowdown')
+
+    def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            raise ValueError(f'mode must be one of {MODES}, got {self.mode!r}')
+        if self.control_frame not in TARGET_FRAMES:
+            raise ValueError(f'control_frame must be one of {TARGET_FRAMES}, got {self.control_frame!r}')
+        if self.rotation_mode not in ROTATION_MODES:
+            raise ValueError(f'rotation_mode must be one of {ROTATION_MODES}, got {self.rotation_mode!r}')
+        object.__setattr__(self, 'translation_scale', validate_scale(self.translation_scale))
+        a = np.broadcast_to(np.asarray(self.joint_scale, dtype=float), (6,)) if np.ndim(self.joint_scale) == 0 \
+            else np.asarray(self.joint_scale, dtype=float)
+        if a.shape != (6,):
+            raise ValueError(f'joint_scale must be a scalar or 6 values, got shape {a.shape}')
+        object.__setattr__(self, 'joint_scale', tuple(validate_scale(v, 'joint_scale') for v in a))
+        for name in ('enable_timeout', 'master_timeout', 'max_linear_speed', 'max_angular_speed',
+                     'singularity_slowdown', 'collision_slowdown', 'align_tolerance', 'max_period',
+                     'state_timeout', 'slow_latency', 'hold_latency', 'force_slowdown', 'holding_slowdown'):
+            validate_scale(getattr(self, name), name)
+        if not self.slow_latency < self.hold_latency:
+            raise ValueError(f'slow_latency must be < hold_latency, got {self.slow_latency!r}, '
+                             f'{self.hold_latency!r}')
+        if self.singularity_halt is not None:
+            h = float(self.singularity_halt)
+            if not (math.isfinite(h) and 0.0 <= h < self.singularity_slowdown):
+                raise ValueError('singularity_halt must be in [0, singularity_slowdown), '
+                                 f'got {self.singularity_halt!r}')
+
+    def with_(self, **changes) -> 'TeleopConfig':
+        """A validated copy with some fields changed."""
+        return replace(self, **changes)

@@ -1,0 +1,146 @@
+#!/usr/bin/env python3
+"""Fault report: what the robot does under each fault of a two-host deployment, in one table.
+
+    python -m rrps_testing.fault_report [--loopback] [--only NAME[,NAME...]] [--log-dir DIR]
+
+The stack runs as it is deployed (docs/deployment.md): on the robot host the simulated
+driver (a process: the hardware) and the robot computer's nodes (IK, FK, climbing composed in a
+second process); on the operator station the master and teleop (a third process). As root
+(``ip netns``) the hosts are two network namespaces joined by a veth pair (rrps_testing.netns_rig:
+DDS multicast discovery on that link only); without root, or with ``--loopback``, both run in
+this machine's namespace on loopback and the link faults are left out. An agent on each host
+(rrps_testing.netns_agent) plays the operator (deadman, climb and driver services, the viewer's
+round-trip report, a sender with an offset clock) and records what the robot does. Faults:
+
+* ``climb_link_<phase>``: the link goes down for 2 s as a climbing step enters each phase
+  (release, move, grip of ring_b then ring_a); the climb pauses and waits for the operator;
+* ``climb_kill_operator``, ``climb_kill_driver``, ``climb_kill_robot_nodes``: that process is
+  killed (SIGKILL) during a climbing motion and restarted 1 s later;
+* ``teleop_link``: the link goes down for 2 s while the operator holds the deadman and moves
+  the master;
+* ``teleop_deadman_silent``: the deadman stream stops without a release (a frozen operator
+  station or browser);
+* ``teleop_rtt_250``, ``teleop_rtt_400``: the operator's round trip (the viewer's measurement
+  of its browser's websocket) reads 250 ms / 400 ms for 2 s;
+* ``teleop_kill_driver``, ``teleop_kill_robot_nodes``, ``teleop_kill_operator``: each process
+  killed in turn during teleoperation and restarted 1 s later (the driver inactive, resuming
+  its state file, as the demo restarts it);
+* ``clock_ahead``, ``clock_behind``: a sender whose clock is 2 s ahead / behind streams
+  targets, then its stream is cut for 2 s (the link goes down; on loopback the sender stops);
+* ``clock_late``: the sender 2 s ahead, its targets then arrive 0.3 s late for 2 s;
+* ``demo_kill``: the demo (``rrps-demo``, the supervisor of the driver, the robot's nodes and
+  the observers, on loopback with a domain id of its own) is killed (SIGKILL): its children
+  must not outlive it (parent-death signal).
+
+Measured from the recorded messages (receipt times and header stamps on the host's one wall
+clock): the time from the fault to a safe hold (the last actuators/command published on the
+robot host), the largest leg-length change from the fault until the recovery action (a
+restarted driver's resumed lengths count) and in brackets from 0.5 s after the hold on (the
+actuators' lag has settled), the gripper openings in that time (grippers/state), how the
+fault was detected (typed status values) and the recovery action with its outcome.
+
+``run_report`` is also what tests/system/test_fault_report.py runs, with a few faults.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from rrps_testing.fault_scenarios import climb_faults, demo_kill, teleop_faults
+from rrps_testing.fault_session import CLIMB_FAULTS, FAULTS, LINK_FAULTS, TELEOP_FAULTS, Row, Session
+from rrps_testing.netns import netns_supported
+from rrps_testing.netns_rig import Rig
+
+# --- the report -----------------------------------------------------------------------------
+
+def run_report(*, only: list[str] | None = None, loopback: bool = False, domain_id: int | None = None,
+               log_dir: str | Path | None = None) -> list[Row]:
+    """Run the faults (``only``: a subset of FAULTS, in FAULTS' order) and return their rows."""
+    wanted = list(FAULTS if not only else only)
+    unknown = set(wanted) - set(FAULTS)
+    if unknown:
+        raise ValueError(f'unknown faults {sorted(unknown)}; known: {", ".join(FAULTS)}')
+    isolated = not loopback and netns_supported()[0]
+    rows: list[Row] = []
+    if not isolated:
+        for fault in [f for f in wanted if f in LINK_FAULTS]:
+            rows.append(Row(fault, note='not run: cutting a link needs root (network namespaces)'))
+        wanted = [f for f in wanted if f not in LINK_FAULTS]
+    domain = domain_id if domain_id is not None else 150 + os.getpid() % 50
+    climbing = [f for f in wanted if f in CLIMB_FAULTS]
+    teleoperating = [f for f in TELEOP_FAULTS if f in wanted]
+    state_dir = Path(tempfile.mkdtemp(prefix='rrps-faults-'))
+    try:
+        if climbing or teleoperating:
+            with Rig(domain, discovery='subnet' if isolated else 'loopback', log_dir=log_dir) as rig:
+                s = Session(rig, state_dir)
+                if climbing:
+                    rows += climb_faults(s, climbing)
+                if teleoperating:
+                    rows += teleop_faults(s, teleoperating)
+    finally:
+        shutil.rmtree(state_dir, ignore_errors=True)
+    if 'demo_kill' in wanted:
+        rows.append(demo_kill(domain + 1))
+    return rows
+
+
+HEAD = ('fault', 'time to safe hold', 'motion during fault', 'gripper openings', 'detection',
+        'recovery action')
+
+
+def table(rows: list[Row]) -> str:
+    """One Markdown table: a row per fault (HEAD's columns)."""
+    def cells(r: Row) -> tuple:
+        if r.note and r.hold_s is None and r.motion_mm is None:
+            return (r.fault, '', '', '', r.note, '')
+        hold = '' if r.hold_s is None else f'{r.hold_s:.2f} s'
+        motion = ''
+        if r.motion_mm is not None and not math.isnan(r.motion_mm):
+            held = ('' if r.held_motion_mm is None or math.isnan(r.held_motion_mm)
+                    else f' ({r.held_motion_mm:.3f} mm held)')
+            motion = f'{r.motion_mm:.2f} mm{held}'
+        return (r.fault + (f' ({r.note})' if r.note else ''), hold or 'n/a', motion,
+                '' if r.openings is None else str(r.openings), r.detected,
+                r.recovery + ('' if r.recovered is None else ': ok' if r.recovered else ': FAILED'))
+    body = [cells(r) for r in rows]
+    widths = [max(len(str(x[i])) for x in [HEAD] + body) for i in range(len(HEAD))]
+
+    def fmt(cols) -> str:
+        return '| ' + ' | '.join(str(c).ljust(w) for c, w in zip(cols, widths)) + ' |'
+    line = '|' + '|'.join('-' * (w + 2) for w in widths) + '|'
+    return '\n'.join([fmt(HEAD), line] + [fmt(b) for b in body])
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description='rrps fault report (one table)')
+    p.add_argument('--only', default='', help=f'comma-separated faults: {", ".join(FAULTS)}')
+    p.add_argument('--loopback', action='store_true', help='no network namespaces, even as root')
+    p.add_argument('--domain-id', type=int, default=None)
+    p.add_argument('--log-dir', default=None, help='keep the processes\' logs there')
+    args = p.parse_args(argv)
+    only = [f for f in args.only.split(',') if f]
+    t0 = time.time()
+    rows = run_report(only=only or None, loopback=args.loopback, domain_id=args.domain_id,
+                      log_dir=args.log_dir)
+    mode = ('two network namespaces joined by a veth pair' if not args.loopback and netns_supported()[0]
+            else 'loopback (one host)')
+    print(f'rrps fault report: pole climber, driver 100 Hz, {mode}; {time.time() - t0:.0f} s\n')
+    print(table(rows))
+    print('\ntime to safe hold: from the fault to the last actuators/command published on the robot '
+          'host (the driver holds its last command: the IK and the driver refuse commands older '
+          'than 0.1 s); motion: largest leg-length change from the fault until the recovery action '
+          '(a restarted driver\'s resumed lengths count), in brackets from 0.5 s after the hold '
+          'on; gripper openings: closed -> open switches in that time.')
+    return 0 if all(r.recovered is not False for r in rows) else 1
+
+
+if __name__ == '__main__':
+    sys.exit(main())

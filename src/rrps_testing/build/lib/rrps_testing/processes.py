@@ -1,0 +1,59 @@
+"""Helpers shared by the benchmarks and tests that start the installed nodes."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+_TICK = os.sysconf('SC_CLK_TCK')
+
+
+def cpu_seconds(pids) -> float:
+    """User + system CPU seconds of the processes ``pids`` so far, from /proc/<pid>/stat (0 for
+    one that is gone)."""
+    total = 0.0
+    for pid in pids:
+        try:
+            fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
+        except OSError:
+            continue
+        total += (int(fields[11]) + int(fields[12])) / _TICK
+    return total
+
+
+def wait_until(predicate, timeout: float) -> bool:
+    """Poll ``predicate`` every 10 ms until it is truthy (True) or ``timeout`` s pass (False)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(0.01)
+    return False
+
+
+def interrupt(process: subprocess.Popen, timeout: float = 60.0) -> None:
+    """Ctrl-C ``process`` if it still runs (SIGINT, as an operator stops the demo); kill it if it
+    has not stopped after ``timeout`` s."""
+    if process.poll() is None:
+        process.send_signal(signal.SIGINT)
+        try:
+            process.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+
+
+def stop_processes(processes, timeout: float = 5.0) -> None:
+    """SIGTERM every process (the nodes' clean shutdown, as Ctrl-C; a SIGINT would be ignored
+    by a benchmark started in the background of a non-interactive shell, which passes SIGINT
+    ignored to its children), then kill those still running."""
+    for p in processes:
+        p.send_signal(signal.SIGTERM)
+    for p in processes:
+        try:
+            p.wait(timeout)
+        except subprocess.TimeoutExpired:
+            p.kill()

@@ -1,0 +1,70 @@
+"""The viewer's first view: the camera framed on the robot, the structure around it and the master
+robot, once odometry has placed the robot in the world.
+
+:func:`framing` is the geometry (pure): it looks at the centre of the points' bounding sphere from
+the viewer's usual direction, far enough for the sphere to fit the narrower field of view.
+:class:`FirstView` applies it once: to viser's initial camera (every browser that connects later,
+and its "Reset View") and to the browsers already open, which have not moved yet.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ['DIRECTION', 'FOV', 'framing', 'scene_points', 'FirstView']
+
+#: The direction the viewer looks in (unit, world): from the front right, a little from above.
+DIRECTION = -np.array([0.9, -1.65, 0.8]) / np.linalg.norm([0.9, -1.65, 0.8])
+#: viser's vertical field of view [rad] (its cameras' default).
+FOV = math.radians(75.0)
+#: The panel covers the right of the window: the view is framed for a square of its height.
+ASPECT = 1.0
+
+
+def framing(points: np.ndarray, *, fov: float = FOV, aspect: float = ASPECT, direction=DIRECTION,
+            margin: float = 1.15) -> tuple[np.ndarray, np.ndarray]:
+    """(camera position, look_at) [m, world] from which every point of ``points`` (N, 3) is in a
+    pinhole view of vertical field ``fov`` [rad] and width/height ``aspect``, with ``margin``."""
+    points = np.asarray(points, dtype=float).reshape(-1, 3)
+    centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
+    radius = max(float(np.max(np.linalg.norm(points - centre, axis=1))), 1e-3)
+    half = min(fov, 2.0 * math.atan(aspect * math.tan(0.5 * fov))) / 2.0
+    distance = margin * radius / math.sin(half)
+    return centre - np.asarray(direction, dtype=float) * distance, centre
+
+
+def scene_points(robot, master, structure_vertices: np.ndarray | None, reach: float) -> np.ndarray:
+    """What the first view shows: the robot (a :class:`rrps_kinematics.scene.RobotFigure` in the
+    world: its legs and rings), the master's figure (or None), and the structure's vertices
+    within ``reach`` [m] of the robot's centre (the member it climbs, not its whole length)."""
+    parts = [robot.leg_points.reshape(-1, 3), robot.world_T_a.position[None], robot.world_T_b.position[None]]
+    if master is not None:
+        parts.append(master.leg_points.reshape(-1, 3))
+    if structure_vertices is not None:
+        centre = np.mean(parts[0], axis=0)
+        vertices = np.asarray(structure_vertices, dtype=float)
+        parts.append(vertices[np.linalg.norm(vertices - centre, axis=1) <= reach])
+    return np.concatenate(parts)
+
+
+class FirstView:
+    """Frames the view once, on the first frame with the robot placed by odometry (its trails)."""
+
+    def __init__(self, server, structure_vertices: np.ndarray | None, reach: float):
+        self.server = server
+        self.structure_vertices = structure_vertices
+        self.reach = reach
+        self.camera: tuple[np.ndarray, np.ndarray] | None = None
+
+    def update(self, frame, clients) -> None:
+        """Frame the view from ``frame`` if not yet done; ``clients``: the open viser clients."""
+        if self.camera is not None or frame.slave is None or not frame.trails:
+            return
+        self.camera = framing(scene_points(frame.slave, frame.master, self.structure_vertices, self.reach))
+        position, look_at = (tuple(float(v) for v in x) for x in self.camera)
+        self.server.initial_camera.position, self.server.initial_camera.look_at = position, look_at
+        for client in clients:
+            with client.atomic():
+                client.camera.position, client.camera.look_at = position, look_at
