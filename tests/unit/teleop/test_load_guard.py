@@ -1,6 +1,7 @@
 """The teleop load guards (rrps_teleop.load_guard): a motion towards an actuator's force limit or
 a holding margin of zero slows down and halts, a motion away moves at full speed, both with the
-compiled statics and the NumPy statics; and the load margins are those of the NumPy statics."""
+statics compiled and interpreted; and the load margins are those of the statics, whose forces
+are checked by virtual work."""
 
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ from rrps_kinematics import inverse_kinematics
 from rrps_sim.loads import static_solution
 from rrps_teleop.load_guard import LoadGuard
 from rrps_teleop.mapping import TeleopConfig, TeleopMapping
+from rrps_testing.virtual_work import quaternion_matrix, virtual_work_forces
 
 BACKENDS = pytest.mark.parametrize('backend', ['numba', 'numpy'])
 BASE = load_robot('pole_climber').with_(payload=Payload(ring='ring_b', mass=20.0, com=np.array([0.1, 0.0, 0.05])))
@@ -129,6 +131,9 @@ def test_the_compiled_and_the_numpy_load_margins_agree_with_the_statics():
         p = geom.home_position + 0.03 * rng.standard_normal(3)
         q = rotation_vector_to_quat_xyzw(0.1 * rng.standard_normal(3))
         sol = static_solution(geom, Pose(p, q), support=WALL)
+        gravity = quaternion_matrix(WALL.world_q_support).T @ np.array([0.0, 0.0, -9.81])   # in ring_a
+        independent = virtual_work_forces(geom, p, quaternion_matrix(q), gravity)
+        np.testing.assert_allclose(sol.actuator_forces, independent, rtol=1e-5, atol=1e-6 * 9.81 * geom.total_mass)
         for guard in guards:
             m = guard.margins_at(p, q)
             np.testing.assert_allclose(m.forces, sol.actuator_forces, rtol=1e-9, atol=1e-9)
