@@ -13,6 +13,7 @@ setup(
     install_requires=[
         'setuptools',
         'numpy',
+        'rosbags',
         'rrps_description',
         'rrps_interfaces',
     ],
