@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 
-from rrps_kinematics.backend import floats, jit, matrix, parallel_range
+from rrps_kinematics.backend import floats, jit, parallel_range
 from rrps_kinematics.newton_settings import MAX_HALVINGS, MAX_ROTATION_STEP, PIVOT_TOLERANCE
 
 __all__ = ['ik_lengths_batch', 'ik_lengths_parallel', 'fk_single', 'fk_solve', 'fk_batch',
@@ -31,23 +31,23 @@ prange = parallel_range()
 
 @jit(**_OPTIONS)
 def quat_to_matrix(q, R):
-    """R <- the rotation matrix of the unit quaternion q (x, y, z, w), in place."""
+    """R <- the rotation matrix of the unit quaternion q (x, y, z, w), row by row (9,), in place."""
     x, y, z, w = q[0], q[1], q[2], q[3]
-    R[0][0] = 1.0 - 2.0 * (y * y + z * z)
-    R[0][1] = 2.0 * (x * y - z * w)
-    R[0][2] = 2.0 * (x * z + y * w)
-    R[1][0] = 2.0 * (x * y + z * w)
-    R[1][1] = 1.0 - 2.0 * (x * x + z * z)
-    R[1][2] = 2.0 * (y * z - x * w)
-    R[2][0] = 2.0 * (x * z - y * w)
-    R[2][1] = 2.0 * (y * z + x * w)
-    R[2][2] = 1.0 - 2.0 * (x * x + y * y)
+    R[0] = 1.0 - 2.0 * (y * y + z * z)
+    R[1] = 2.0 * (x * y - z * w)
+    R[2] = 2.0 * (x * z + y * w)
+    R[3] = 2.0 * (x * y + z * w)
+    R[4] = 1.0 - 2.0 * (x * x + z * z)
+    R[5] = 2.0 * (y * z - x * w)
+    R[6] = 2.0 * (x * z - y * w)
+    R[7] = 2.0 * (y * z + x * w)
+    R[8] = 1.0 - 2.0 * (x * x + y * y)
 
 
 @jit(**_OPTIONS)
 def ik_lengths_batch(A, B, P, Q, out):
     """out[n][i] = |P[n] + R(Q[n]) B[i] - A[i]| for unit quaternions Q (x, y, z, w) (eq. 1)."""
-    R = matrix(3, 3)
+    R = floats(9)
     for n in range(len(P)):
         quat_to_matrix(Q[n], R)
         p = P[n]
@@ -56,7 +56,7 @@ def ik_lengths_batch(A, B, P, Q, out):
             a, b = A[i], B[i]
             s = 0.0
             for k in range(3):
-                d = p[k] + R[k][0] * b[0] + R[k][1] * b[1] + R[k][2] * b[2] - a[k]
+                d = p[k] + R[3 * k] * b[0] + R[3 * k + 1] * b[1] + R[3 * k + 2] * b[2] - a[k]
                 s += d * d
             row[i] = math.sqrt(s)
 
@@ -73,17 +73,19 @@ def ik_lengths_parallel(A, B, P, Q, out):
 
 @jit(**_OPTIONS)
 def _residual(A, B, L, p, q, R, rb, d, lengths, f):
-    """Leg vectors d, lengths, residual f = L - l; returns (max |f|, sum f^2)."""
+    """A_c s'_i (rb) and the leg vectors d (18,: leg i at 3 i), lengths, residual f = L - l;
+    returns (max |f|, sum f^2)."""
     quat_to_matrix(q, R)
     worst = 0.0
     ss = 0.0
     for i in range(6):
-        a, b, rbi, di = A[i], B[i], rb[i], d[i]
+        a, b = A[i], B[i]
         s = 0.0
         for k in range(3):
-            rbi[k] = R[k][0] * b[0] + R[k][1] * b[1] + R[k][2] * b[2]
-            di[k] = p[k] + rbi[k] - a[k]
-            s += di[k] * di[k]
+            j = 3 * i + k
+            rb[j] = R[3 * k] * b[0] + R[3 * k + 1] * b[1] + R[3 * k + 2] * b[2]
+            d[j] = p[k] + rb[j] - a[k]
+            s += d[j] * d[j]
         lengths[i] = math.sqrt(s)
         fi = L[i] - lengths[i]
         f[i] = fi
@@ -95,46 +97,47 @@ def _residual(A, B, L, p, q, R, rb, d, lengths, f):
 
 @jit(**_OPTIONS)
 def _solve_step(rb, d, lengths, f, inv_scale, M, dx):  # noqa: C901 - a kernel: flat loops for numba
-    """Solve J dx = f by LU with partial pivoting; False when J is singular."""
+    """Solve J dx = f by LU with partial pivoting on M (the 6 x 7 augmented matrix, row r at
+    7 r); False when J is singular."""
     for i in range(6):
         li = lengths[i]
         if not li > 0.0:
             return False
-        di, c, row = d[i], rb[i], M[i]
-        ux, uy, uz = di[0] / li, di[1] / li, di[2] / li
-        row[0] = ux
-        row[1] = uy
-        row[2] = uz
-        row[3] = (c[1] * uz - c[2] * uy) * inv_scale
-        row[4] = (c[2] * ux - c[0] * uz) * inv_scale
-        row[5] = (c[0] * uy - c[1] * ux) * inv_scale
-        row[6] = f[i]
+        j, r = 3 * i, 7 * i
+        ux, uy, uz = d[j] / li, d[j + 1] / li, d[j + 2] / li
+        M[r] = ux
+        M[r + 1] = uy
+        M[r + 2] = uz
+        M[r + 3] = (rb[j + 1] * uz - rb[j + 2] * uy) * inv_scale
+        M[r + 4] = (rb[j + 2] * ux - rb[j] * uz) * inv_scale
+        M[r + 5] = (rb[j] * uy - rb[j + 1] * ux) * inv_scale
+        M[r + 6] = f[i]
     for c in range(6):
         piv = c
-        best = abs(M[c][c])
+        best = abs(M[7 * c + c])
         for r in range(c + 1, 6):
-            if abs(M[r][c]) > best:
-                best = abs(M[r][c])
+            if abs(M[7 * r + c]) > best:
+                best = abs(M[7 * r + c])
                 piv = r
         if not best > PIVOT_TOLERANCE:
             return False
-        top = M[c]
+        top = 7 * c
         if piv != c:
-            other = M[piv]
+            other = 7 * piv
             for k in range(c, 7):
-                top[k], other[k] = other[k], top[k]
+                M[top + k], M[other + k] = M[other + k], M[top + k]
         for r in range(c + 1, 6):
-            row = M[r]
-            m = row[c] / top[c]
+            row = 7 * r
+            m = M[row + c] / M[top + c]
             if m != 0.0:
                 for k in range(c + 1, 7):
-                    row[k] -= m * top[k]
+                    M[row + k] -= m * M[top + k]
     for c in range(5, -1, -1):
-        row = M[c]
-        s = row[6]
+        row = 7 * c
+        s = M[row + 6]
         for k in range(c + 1, 6):
-            s -= row[k] * dx[k]
-        dx[c] = s / row[c]
+            s -= M[row + k] * dx[k]
+        dx[c] = s / M[row + c]
     for k in range(3, 6):
         dx[k] *= inv_scale
     for k in range(6):
@@ -208,7 +211,7 @@ def _fk(A, B, L, p, q, inv_scale, tolerance, max_iterations, work_p, work_q, R, 
 def fk_single(A, B, L, p, q, inv_scale, tolerance, max_iterations):
     """One warm-started FK solve in place on p (3,) and q (4,)."""
     return _fk(A, B, L, p, q, inv_scale, tolerance, max_iterations, floats(3), floats(4),
-               matrix(3, 3), matrix(6, 3), matrix(6, 3), floats(6), floats(6), matrix(6, 7), floats(6))
+               floats(9), floats(18), floats(18), floats(6), floats(6), floats(42), floats(6))
 
 
 #: The one signature of the compiled :func:`fk_solve`: writable C-contiguous float64 vectors
@@ -255,12 +258,12 @@ def fk_batch(A, B, L, P, Q, inv_scale, tolerance, max_iterations, converged, ite
     """FK for each row of L (N, 6) from seeds P (N, 3), Q (N, 4), in place."""
     work_p = floats(3)
     work_q = floats(4)
-    R = matrix(3, 3)
-    rb = matrix(6, 3)
-    d = matrix(6, 3)
+    R = floats(9)
+    rb = floats(18)
+    d = floats(18)
     lengths = floats(6)
     f = floats(6)
-    M = matrix(6, 7)
+    M = floats(42)
     dx = floats(6)
     for n in range(len(L)):
         c, it, res, sing = _fk(A, B, L[n], P[n], Q[n], inv_scale, tolerance, max_iterations,

@@ -16,8 +16,8 @@ from rrps_kinematics.backend import floats, jit, matrix
 from rrps_kinematics.compiled import quat_to_matrix
 
 __all__ = ['pose_margins', 'pose_margin_arrays', 'margins_batch', 'segment_distances_batch',
-           'jacobian_determinant', 'N_MARGINS', 'pose_in_ring_a', 'vector_angle', 'segment_distance',
-           'scaled_inverse_jacobian', 'inverse_condition', 'PAIR_COUNT']
+           'jacobian_determinant', 'N_MARGINS', 'pose_in_ring_a', 'vector_angle', 'universal_angle',
+           'spherical_angle', 'segment_distance', 'scaled_inverse_jacobian', 'inverse_condition', 'PAIR_COUNT']
 
 _OPTIONS = dict(nogil=True, error_model='numpy')
 #: Layout of :func:`pose_margins`' output: min stroke, universal, spherical, interference
@@ -29,12 +29,12 @@ PAIR_COUNT = 15
 
 @jit(**_OPTIONS)
 def pose_in_ring_a(A, B, p, R, b_in_a, u, lengths):
-    """Ring_b's anchors in ring_a's frame, unit leg vectors and lengths (eq. 1) for rotation R."""
+    """Ring_b's anchors in ring_a's frame, unit leg vectors and lengths (eq. 1) for the rotation R (9,)."""
     for i in range(6):
         a, b, c, ui = A[i], B[i], b_in_a[i], u[i]
         s = 0.0
         for k in range(3):
-            c[k] = p[k] + R[k][0] * b[0] + R[k][1] * b[1] + R[k][2] * b[2]
+            c[k] = p[k] + R[3 * k] * b[0] + R[3 * k + 1] * b[1] + R[3 * k + 2] * b[2]
             d = c[k] - a[k]
             ui[k] = d
             s += d * d
@@ -53,16 +53,21 @@ def vector_angle(u0, u1, u2, v0, v1, v2):
 
 
 @jit(**_OPTIONS)
-def cone_angles(u, R, axes_a, axes_b, i):
-    """(universal, spherical) cone angles of leg i: the leg from its universal joint's neutral
-    axis (ring_a), and the leg seen from ring_b (towards ring_a, -R^T u) from its spherical
-    joint's neutral axis."""
-    ui, a, b = u[i], axes_a[i], axes_b[i]
-    t0 = -(R[0][0] * ui[0] + R[1][0] * ui[1] + R[2][0] * ui[2])
-    t1 = -(R[0][1] * ui[0] + R[1][1] * ui[1] + R[2][1] * ui[2])
-    t2 = -(R[0][2] * ui[0] + R[1][2] * ui[1] + R[2][2] * ui[2])
-    return (vector_angle(ui[0], ui[1], ui[2], a[0], a[1], a[2]),
-            vector_angle(t0, t1, t2, b[0], b[1], b[2]))
+def universal_angle(u, axes_a, i):
+    """Leg i's angle from its universal joint's neutral axis (ring_a)."""
+    ui, a = u[i], axes_a[i]
+    return vector_angle(ui[0], ui[1], ui[2], a[0], a[1], a[2])
+
+
+@jit(**_OPTIONS)
+def spherical_angle(u, R, axes_b, i):
+    """Leg i seen from ring_b (towards ring_a, -R^T u): its angle from its spherical joint's
+    neutral axis."""
+    ui, b = u[i], axes_b[i]
+    t0 = -(R[0] * ui[0] + R[3] * ui[1] + R[6] * ui[2])
+    t1 = -(R[1] * ui[0] + R[4] * ui[1] + R[7] * ui[2])
+    t2 = -(R[2] * ui[0] + R[5] * ui[1] + R[8] * ui[2])
+    return vector_angle(t0, t1, t2, b[0], b[1], b[2])
 
 
 @jit(**_OPTIONS)
@@ -205,7 +210,8 @@ def _limits_at(g, p, R, lengths, universal_angles, spherical_angles, distances, 
     pose_in_ring_a(A, B, p, R, b_in_a, u, lengths)
     for i in range(6):
         stroke[i] = min(lengths[i] - limits[0], limits[1] - lengths[i])
-        ua, sa = cone_angles(u, R, g.ring_a_joint_axes, g.ring_b_joint_axes, i)
+        ua = universal_angle(u, g.ring_a_joint_axes, i)
+        sa = spherical_angle(u, R, g.ring_b_joint_axes, i)
         universal_angles[i] = ua
         spherical_angles[i] = sa
         universal[i] = limits[2] - ua
@@ -224,7 +230,8 @@ def _limits_at(g, p, R, lengths, universal_angles, spherical_angles, distances, 
 @jit(**_OPTIONS)
 def margins_batch(g, P, R, lengths, universal_angles, spherical_angles, distances, stroke, universal,
                   spherical, interference, inverse_conditions):
-    """:func:`_limits_at` of the poses (P[n], R[n]) ((N, 3), (N, 3, 3)), row n of each output."""
+    """:func:`_limits_at` of the poses (P[n], R[n]) ((N, 3), (N, 9): rotations row by row), row n of
+    each output."""
     for n in range(len(P)):
         inverse_conditions[n] = _limits_at(g, P[n], R[n], lengths[n], universal_angles[n], spherical_angles[n],
                                            distances[n], stroke[n], universal[n], spherical[n], interference[n])
@@ -235,7 +242,7 @@ def pose_margin_arrays(g, p, q, lengths, stroke, universal, spherical, interfere
     """Every margin of one pose (q a unit quaternion x, y, z, w), per leg (stroke, universal,
     spherical (6,)) and per leg pair (interference (15,)), written in place; returns the inverse
     condition number (NaN when the Jacobian is not finite)."""
-    R = matrix(3, 3)
+    R = floats(9)
     quat_to_matrix(q, R)
     return _limits_at(g, p, R, lengths, floats(6), floats(6), floats(PAIR_COUNT), stroke, universal, spherical,
                       interference)
@@ -265,7 +272,7 @@ def pose_margins(g, p, q, out, lengths):
 @jit(**_OPTIONS)
 def jacobian_determinant(g, p, q):
     """det J (unscaled inverse Jacobian, rows [u_i, (A_c s'_i) x u_i]) at one pose."""
-    R = matrix(3, 3)
+    R = floats(9)
     quat_to_matrix(q, R)
     b_in_a = matrix(6, 3)
     u = matrix(6, 3)

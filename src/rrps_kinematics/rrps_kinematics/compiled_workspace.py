@@ -13,7 +13,13 @@ import math
 
 from rrps_kinematics.backend import floats, jit, matrix, parallel_range
 from rrps_kinematics.compiled import quat_to_matrix
-from rrps_kinematics.compiled_limits import cone_angles, inverse_condition, scaled_inverse_jacobian, segment_distance
+from rrps_kinematics.compiled_limits import (
+    inverse_condition,
+    scaled_inverse_jacobian,
+    segment_distance,
+    spherical_angle,
+    universal_angle,
+)
 from rrps_kinematics.limits import LIMIT_KINDS
 
 __all__ = ['classify_grid', 'classify_grid_parallel', 'inverse_condition', 'WITHIN_LIMITS']
@@ -38,7 +44,7 @@ def _classify_pose(g, p, q, R, b_in_a, u, lengths, J):  # noqa: C901 - a compile
         a, b, c, ui = A[i], B[i], b_in_a[i], u[i]
         s = 0.0
         for k in range(3):
-            c[k] = p[k] + R[k][0] * b[0] + R[k][1] * b[1] + R[k][2] * b[2]
+            c[k] = p[k] + R[3 * k] * b[0] + R[3 * k + 1] * b[1] + R[3 * k + 2] * b[2]
             d = c[k] - a[k]
             ui[k] = d
             s += d * d
@@ -47,14 +53,12 @@ def _classify_pose(g, p, q, R, b_in_a, u, lengths, J):  # noqa: C901 - a compile
             return _STROKE, math.nan
         for k in range(3):
             ui[k] /= lengths[i]
-    spherical_broken = False
     for i in range(6):
-        universal, spherical = cone_angles(u, R, g.ring_a_joint_axes, g.ring_b_joint_axes, i)
-        if not (limits[2] - universal >= 0.0):
+        if not (limits[2] - universal_angle(u, g.ring_a_joint_axes, i) >= 0.0):
             return _UNIVERSAL, math.nan
-        spherical_broken = spherical_broken or not (limits[3] - spherical >= 0.0)
-    if spherical_broken:
-        return _SPHERICAL, math.nan
+    for i in range(6):
+        if not (limits[3] - spherical_angle(u, R, g.ring_b_joint_axes, i) >= 0.0):
+            return _SPHERICAL, math.nan
     for i in range(6):
         for j in range(i + 1, 6):
             if not (segment_distance(A[i], b_in_a[i], A[j], b_in_a[j]) - 2.0 * limits[4] >= 0.0):
@@ -70,7 +74,7 @@ def _classify_pose(g, p, q, R, b_in_a, u, lengths, J):  # noqa: C901 - a compile
 def _classify_slice(g, x, ys, zs, Q, status, conditions):
     """The points (x, ys[j], zs[k]) of one grid slice: status and conditions (J, K)."""
     p = floats(3)
-    R = matrix(3, 3)
+    R = floats(9)
     b_in_a = matrix(6, 3)
     u = matrix(6, 3)
     lengths = floats(6)

@@ -265,7 +265,7 @@ def margins(geometry: RobotGeometry, ik: InverseKinematicsResult, *, backend: st
     g = geometry
     batch = np.shape(ik.position)[:-1]
     P = np.ascontiguousarray(np.reshape(ik.position, (-1, 3)), dtype=float)
-    R = np.ascontiguousarray(np.reshape(ik.rotation, (-1, 3, 3)), dtype=float)
+    R = np.ascontiguousarray(np.reshape(ik.rotation, (-1, 9)), dtype=float)
     n = len(P)
     widths = (6, 6, 6, len(PAIRS), 6, 6, 6, len(PAIRS))
     kernels, lists = _kernels(backend)

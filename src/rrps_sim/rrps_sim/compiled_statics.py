@@ -206,10 +206,10 @@ def _statics_at(s, p, R, forces, universal, spherical, wrench, load):  # noqa: C
     fb = floats(3)                     # the tool force and torque in ring_b
     tb = floats(3)
     for k in range(3):
-        g[k] = gs[k] if support == 0 else R[k][0] * gs[0] + R[k][1] * gs[1] + R[k][2] * gs[2]
+        g[k] = gs[k] if support == 0 else R[3 * k] * gs[0] + R[3 * k + 1] * gs[1] + R[3 * k + 2] * gs[2]
         if tool[9] > 0.0 and support == 0:    # a world-frame wrench, ring_b turned by R
-            fb[k] = R[0][k] * tool[3] + R[1][k] * tool[4] + R[2][k] * tool[5]
-            tb[k] = R[0][k] * tool[6] + R[1][k] * tool[7] + R[2][k] * tool[8]
+            fb[k] = R[k] * tool[3] + R[3 + k] * tool[4] + R[6 + k] * tool[5]
+            tb[k] = R[k] * tool[6] + R[3 + k] * tool[7] + R[6 + k] * tool[8]
         else:
             fb[k], tb[k] = tool[3 + k], tool[6 + k]
     b = matrix(6, 3)                   # R b_i: ring_b's anchors about its origin, in ring_a
@@ -220,7 +220,7 @@ def _statics_at(s, p, R, forces, universal, spherical, wrench, load):  # noqa: C
     for i in range(6):
         bi, ui, Bi = b[i], u[i], B[i]
         for k in range(3):
-            bi[k] = R[k][0] * Bi[0] + R[k][1] * Bi[1] + R[k][2] * Bi[2]
+            bi[k] = R[3 * k] * Bi[0] + R[3 * k + 1] * Bi[1] + R[3 * k + 2] * Bi[2]
             ui[k] = p[k] + bi[k] - A[i][k]
         length = math.sqrt(ui[0] * ui[0] + ui[1] * ui[1] + ui[2] * ui[2])
         ug = 0.0
@@ -240,10 +240,10 @@ def _statics_at(s, p, R, forces, universal, spherical, wrench, load):  # noqa: C
         m = body[0]
         c, tcp, ft, tt = floats(3), floats(3), floats(3), floats(3)
         for k in range(3):
-            c[k] = R[k][0] * body[1] + R[k][1] * body[2] + R[k][2] * body[3]
-            tcp[k] = R[k][0] * tool[0] + R[k][1] * tool[1] + R[k][2] * tool[2]
-            ft[k] = R[k][0] * fb[0] + R[k][1] * fb[1] + R[k][2] * fb[2]
-            tt[k] = R[k][0] * tb[0] + R[k][1] * tb[1] + R[k][2] * tb[2]
+            c[k] = R[3 * k] * body[1] + R[3 * k + 1] * body[2] + R[3 * k + 2] * body[3]
+            tcp[k] = R[3 * k] * tool[0] + R[3 * k + 1] * tool[1] + R[3 * k + 2] * tool[2]
+            ft[k] = R[3 * k] * fb[0] + R[3 * k + 1] * fb[1] + R[3 * k + 2] * fb[2]
+            tt[k] = R[3 * k] * tb[0] + R[3 * k + 1] * tb[1] + R[3 * k + 2] * tb[2]
         moment = _cross(c[0], c[1], c[2], m * g[0], m * g[1], m * g[2])
         tool_moment = _cross(tcp[0], tcp[1], tcp[2], ft[0], ft[1], ft[2])
         for k in range(3):
@@ -285,8 +285,8 @@ def _statics_at(s, p, R, forces, universal, spherical, wrench, load):  # noqa: C
             x0, x1, x2 = ru[0], ru[1], ru[2]
             y0, y1, y2 = rs[0], rs[1], rs[2]
             for k in range(3):
-                ru[k] = R[0][k] * x0 + R[1][k] * x1 + R[2][k] * x2
-                rs[k] = R[0][k] * y0 + R[1][k] * y1 + R[2][k] * y2
+                ru[k] = R[k] * x0 + R[3 + k] * x1 + R[6 + k] * x2
+                rs[k] = R[k] * y0 + R[3 + k] * y1 + R[6 + k] * y2
     _balance(s, universal if support == 0 else spherical, wrench)
     return _holding_margin(s.capacity, wrench)
 
@@ -296,14 +296,15 @@ def pose_statics(s, p, q, forces, wrench):
     """The robot ``s`` (:class:`StaticsArrays`) at rest with ring_b at (p, q) in ring_a (q unit,
     x, y, z, w): ``forces`` (6,) [N] and the support's ``wrench`` (6,) filled in place; returns
     the holding margin (NaN without a capacity). At a singular pose every output is NaN."""
-    R = matrix(3, 3)
+    R = floats(9)
     quat_to_matrix(q, R)
     return _statics_at(s, p, R, forces, matrix(6, 3), matrix(6, 3), wrench, floats(6))
 
 
 @jit
 def statics_batch(s, P, R, forces, universal, spherical, wrench, load, margin):
-    """:func:`_statics_at` of the poses (P[n], R[n]) ((N, 3), (N, 3, 3)), row n of each output."""
+    """:func:`_statics_at` of the poses (P[n], R[n]) ((N, 3), (N, 9): rotations row by row), row n of
+    each output."""
     for n in range(len(P)):
         margin[n] = _statics_at(s, P[n], R[n], forces[n], universal[n], spherical[n], wrench[n], load[n])
 

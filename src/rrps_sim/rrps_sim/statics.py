@@ -79,7 +79,7 @@ def rest_statics(geometry: RobotGeometry, support: Support, ik: InverseKinematic
     :func:`rrps_sim.compiled_statics.statics_batch`; SingularPoseError at a singular pose."""
     s = compiled_statics.statics_arrays(geometry, support)
     P = np.ascontiguousarray(np.reshape(ik.position, (-1, 3)), dtype=float)
-    R = np.ascontiguousarray(np.reshape(ik.rotation, (-1, 3, 3)), dtype=float)
+    R = np.ascontiguousarray(np.reshape(ik.rotation, (-1, 9)), dtype=float)
     n = len(P)
     shapes = ((n, 6), (n, 6, 3), (n, 6, 3), (n, 6), (n, 6), (n,))
     if use_numba(backend):
