@@ -11,6 +11,7 @@ import websockets
 from viser._messages import ViewerCameraMessage
 
 from rrps_teleop.viewer import _viser_shim
+from rrps_teleop.viewer._broadcast import install
 from rrps_teleop.viewer._viser_shim import INTERNALS_SHA256, VISER_VERSION, client_connection, internals_digest
 
 CAMERA = ViewerCameraMessage(wxyz=(1.0, 0.0, 0.0, 0.0), position=(1.0, 1.0, 1.0), fov=1.0, near=0.01, far=100.0,
@@ -21,6 +22,8 @@ def test_viser_is_the_version_and_the_source_the_shim_was_written_against():
     """An upgrade of viser (or a change of the internals the shim stands on) must be deliberate:
     check the wire format and the two hooks against the new source, then update the shim."""
     assert viser.__version__ == VISER_VERSION
+    assert internals_digest() == INTERNALS_SHA256
+    install()                                   # the viewer's producer replaces viser's: the same digest
     assert internals_digest() == INTERNALS_SHA256
 
 

@@ -24,6 +24,8 @@ __all__ = ['VISER_VERSION', 'INTERNALS_SHA256', 'internals_digest', 'set_message
 
 #: The viser version this shim was written against.
 VISER_VERSION = '1.1.1'
+#: viser's own message producer (kept before :func:`set_message_producer` replaces it).
+_VISER_PRODUCER = _infra._message_producer
 #: sha256 of the sources of the internals used here (:func:`internals_digest`).
 INTERNALS_SHA256 = '8f1d263cc6427b1ccfd17b84cefda4c2553abd2f0cd8b60926aa698e17732120'
 
@@ -33,7 +35,7 @@ def internals_digest() -> str:
     (the wire format a replacement must write), its buffer alignment, and the websocket server
     (where the producers and the connections live)."""
     digest = hashlib.sha256(viser.__version__.encode())
-    for item in (_infra._message_producer, _infra._append_aligned_buffers, _infra.WebsockServer):
+    for item in (_VISER_PRODUCER, _infra._append_aligned_buffers, _infra.WebsockServer):
         digest.update(inspect.getsource(item).encode())
     return digest.hexdigest()
 
