@@ -21,12 +21,23 @@ from rrps_kinematics.backend import floats, jit, parallel_range
 from rrps_kinematics.newton_settings import MAX_HALVINGS, MAX_ROTATION_STEP, PIVOT_TOLERANCE
 
 __all__ = ['ik_lengths_batch', 'ik_lengths_parallel', 'fk_single', 'fk_solve', 'fk_batch',
-           'fk_batch_parallel', 'quat_to_matrix', 'PARALLEL_ROWS']
+           'fk_batch_parallel', 'quat_to_matrix', 'quotient', 'PARALLEL_ROWS']
 
 #: Rows per task of the parallel batch kernels (the threads take the next task when done).
 PARALLEL_ROWS = 256
 _OPTIONS = dict(nogil=True, error_model='numpy')
 prange = parallel_range()
+
+
+@jit(**_OPTIONS)
+def quotient(a, b):
+    """a / b as IEEE 754 divides (inf or NaN for b = 0), compiled (numba's error model 'numpy') and
+    interpreted alike (Python's float division raises there)."""
+    if b != 0.0:
+        return a / b
+    if a != a or a == 0.0:
+        return math.nan
+    return math.copysign(math.inf, a) * math.copysign(1.0, b)
 
 
 @jit(**_OPTIONS)

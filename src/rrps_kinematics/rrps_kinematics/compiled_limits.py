@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from rrps_kinematics.backend import floats, jit, matrix
-from rrps_kinematics.compiled import quat_to_matrix
+from rrps_kinematics.compiled import quat_to_matrix, quotient
 
 __all__ = ['pose_margins', 'pose_margin_arrays', 'margins_batch', 'segment_distances_batch',
            'jacobian_determinant', 'N_MARGINS', 'pose_in_ring_a', 'vector_angle', 'universal_angle',
@@ -40,7 +40,7 @@ def pose_in_ring_a(A, B, p, R, b_in_a, u, lengths):
             s += d * d
         lengths[i] = math.sqrt(s)
         for k in range(3):
-            ui[k] /= lengths[i]
+            ui[k] = quotient(ui[k], lengths[i])
 
 
 @jit(**_OPTIONS)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from rrps_kinematics.backend import floats, jit, matrix, parallel_range
-from rrps_kinematics.compiled import quat_to_matrix
+from rrps_kinematics.compiled import quat_to_matrix, quotient
 from rrps_kinematics.compiled_limits import (
     inverse_condition,
     scaled_inverse_jacobian,
@@ -52,7 +52,7 @@ def _classify_pose(g, p, q, R, b_in_a, u, lengths, J):  # noqa: C901 - a compile
         if not (lengths[i] - limits[0] >= 0.0 and limits[1] - lengths[i] >= 0.0):
             return _STROKE, math.nan
         for k in range(3):
-            ui[k] /= lengths[i]
+            ui[k] = quotient(ui[k], lengths[i])
     for i in range(6):
         if not (limits[2] - universal_angle(u, g.ring_a_joint_axes, i) >= 0.0):
             return _UNIVERSAL, math.nan

@@ -25,7 +25,7 @@ from rrps_description.geometry import RobotGeometry
 from rrps_description.loads import GripperCapacity
 from rrps_description.rotations import quat_xyzw_to_matrix
 from rrps_kinematics.backend import floats, jit, matrix
-from rrps_kinematics.compiled import quat_to_matrix
+from rrps_kinematics.compiled import quat_to_matrix, quotient
 from rrps_sim.support import Support
 
 __all__ = ['StaticsArrays', 'statics_arrays', 'capacity_array', 'pose_statics', 'grid_statics', 'statics_batch',
@@ -225,9 +225,9 @@ def _statics_at(s, p, R, forces, universal, spherical, wrench, load):  # noqa: C
         length = math.sqrt(ui[0] * ui[0] + ui[1] * ui[1] + ui[2] * ui[2])
         ug = 0.0
         for k in range(3):
-            ui[k] /= length
+            ui[k] = quotient(ui[k], length)
             ug += ui[k] * g[k]
-        share = (links[0] * links[1] - links[2] * links[3]) / length
+        share = quotient(links[0] * links[1] - links[2] * links[3], length)
         for k in range(3):
             normal = g[k] - ui[k] * ug
             wb[i][k] = links[2] * g[k] + share * normal

@@ -10,9 +10,11 @@ import pytest
 from rrps_description.geometry import load_robot
 from rrps_description.loads import Payload
 from rrps_description.rotations import rotation_vector_to_quat_xyzw
+from rrps_kinematics.backend import use_numba
 from rrps_kinematics.workspace import UNREACHABLE, reachable_workspace
 from rrps_sim.load_workspace import load_workspace
 from rrps_sim.loads import static_solution
+from rrps_testing.ci import require
 from rrps_testing.virtual_work import quaternion_matrix, virtual_work_forces
 
 WALL = rotation_vector_to_quat_xyzw(np.array([np.pi / 2, 0.0, 0.0]))
@@ -70,6 +72,7 @@ def test_sampled_points_agree_with_the_numpy_statics(pole):
 
 
 def test_the_compiled_and_the_numpy_paths_agree_on_either_support():
+    require(use_numba('auto'), 'numba is not in use')
     geom = load_robot('facade_climber')
     for support in ('ring_a', 'ring_b'):
         kwargs = dict(resolution=0.04, support=support, world_q_support=WALL, payload=_payload(60.0))

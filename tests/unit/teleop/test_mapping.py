@@ -21,7 +21,7 @@ SLAVE = load_robot('pole_climber')
 MASTER = load_robot('master_robot')
 DT = 0.01
 #: The guards' kernels (rrps_teleop.compiled_guards) compiled and interpreted.
-GUARDS = pytest.mark.parametrize('backend', ['numba', 'numpy'])
+GUARDS = pytest.mark.parametrize('backend', (['numba'] if use_numba('auto') else []) + ['numpy'])
 
 
 def rotated(q, rotation_vector):
@@ -478,6 +478,7 @@ def test_property_compiled_guards_give_the_reference_commands_and_codes(mode, sc
     """The guarded step compiled and interpreted: the same code, detail and command at every step,
     on master paths that run into the speed limits, the strokes and the joint cones; each
     command's margins those of an independent computation."""
+    require(use_numba('auto'), 'numba is not in use')
     config = TeleopConfig(mode=mode, translation_scale=scale, joint_scale=scale, rotation_mode=rotation,
                           max_linear_speed=2.0, max_angular_speed=10.0, collision_slowdown=0.02,
                           singularity_slowdown=0.05)
