@@ -151,7 +151,7 @@ def main(argv=None) -> int:
     P, Q = trajectory(g, n + 1)
     L = inverse_kinematics(g, P, Q).lengths
     PB, QB = trajectory(g, args.batch + 1, seed=1)
-    LB = leg_lengths(g, PB, QB, backend='numpy')
+    LB = inverse_kinematics(g, PB, QB).lengths
 
     # Warm up (numba compiles or loads its cache here, outside every timing).
     forward_kinematics(g, L[1], P[0], Q[0])

@@ -12,7 +12,8 @@ gripping a wall (its axis horizontal), rows:
   workspace plus the statics of every reachable point, compiled kernel), per payload on ring_b;
 * ``payload change``: the same with the plain workspace given (what the viewer's payload slider
   costs: the orientation did not change);
-* baseline for the loads: the NumPy statics over the same reachable points (``backend='numpy'``).
+* for the loads: the statics kernel interpreted over the same reachable points (``backend='numpy'``,
+  what ``RRPS_NUMBA=0`` runs).
 
 Times are the median of ``--repeats`` runs. Target: the load-feasible workspace within 0.5 s
 (the viewer's budget for the plain one): MET/MISSED per robot on its slowest payload.
@@ -62,7 +63,7 @@ def main(argv=None) -> int:
           f'{os.getloadavg()[0]:.1f}, grid {h * 1e3:.0f} mm, home orientation, ring_a on a wall, '
           f'median of {args.repeats}')
     header = (f'{"robot":15s} {"payload":>8s} {"volume [L]":>11s} {"of plain":>9s} {"plain [s]":>10s} '
-              f'{"load-feasible [s]":>18s} {"payload change [s]":>19s} {"NumPy loads [s]":>16s} {"verdict":>8s}')
+              f'{"load-feasible [s]":>18s} {"payload change [s]":>19s} {"interpreted [s]":>16s} {"verdict":>8s}')
     print(header)
     print('-' * len(header))
     verdicts = []
@@ -80,7 +81,7 @@ def main(argv=None) -> int:
                                                              payload=payload), args.repeats)
             ref, t_numpy = median_time(lambda: load_workspace(g, plain=plain, world_q_support=WALL, payload=payload,
                                                               backend='numpy'), 1)
-            assert np.array_equal(ref.labels, ws.labels), f'{name} {mass} kg: the NumPy path differs'
+            assert np.array_equal(ref.labels, ws.labels), f'{name} {mass} kg: the interpreted kernel differs'
             worst = max(worst, t_load)
             print(f'{name:15s} {mass:8g} {ws.volume * 1e3:11.2f} {ws.volume / plain.volume:9.1%} {t_plain:10.3f} '
                   f'{t_load:18.3f} {t_change:19.3f} {t_numpy:16.3f}')

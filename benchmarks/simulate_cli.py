@@ -1,20 +1,21 @@
 #!/usr/bin/env python3
-"""Benchmark of ``rrps-dynamics simulate --csv`` against the library call it wraps.
+"""Benchmark of ``rrps-dynamics simulate --npz`` (and ``--csv``) against the library call it wraps.
 
     python benchmarks/simulate_cli.py [--robot pole_climber] [--duration 0.5] [--long 10]
                                       [--dt 0.001] [--repeats 9]
 
 The paper's run (constant actuator forces from rest, hybrid RK4) through
 ``rrps_sim.dynamics.simulate`` and through the command line in this process (``run([...])``:
-parsing, the robot's YAML, the run, the CSV to a temporary file), every step written and every
-10th (``--output-every 10``), every step with the joint reactions (``--reactions``, 76 columns;
-not a target), and, as the same-run baseline, the command line writing its CSV as
-it did before (a ``csv.writer`` row of ``repr(float(x))`` per step). Runs alternate, best of
+parsing, the robot's YAML, the run, the output to a temporary file): the bulk output
+(``--npz``, NumPy's archive) every step and every 10th (``--output-every 10``), every step with
+the joint reactions (``--reactions``, 76 columns; not a target), the CSV (``--csv``, written by
+``numpy.savetxt``; not a target) and, as the same-run baseline, the command line writing its CSV
+as it did first (a ``csv.writer`` row of ``repr(float(x))`` per step). Runs alternate, best of
 ``--repeats`` each, timed in CPU time of this process (single-threaded; the 2 cores are shared),
-for a ``--duration`` s run and one ``--long`` times longer. Target: the command line within 10 %
-of the library call per step, i.e. the slope of the CPU time over the run's steps between the two
-runs; the whole runs' ratios and what the command line costs once per invocation whatever the
-run's length (its "own cost") are printed beside it.
+for a ``--duration`` s run and one ``--long`` times longer. Target: the command line's bulk
+output within 10 % of the library call per step, i.e. the slope of the CPU time over the run's
+steps between the two runs; the whole runs' ratios and what the command line costs once per
+invocation whatever the run's length (its "own cost") are printed beside it.
 """
 
 from __future__ import annotations
@@ -36,7 +37,6 @@ from rrps_description.geometry import load_robot
 from rrps_sim import cli
 from rrps_sim.dynamics import MultibodyDynamics, simulate
 from rrps_sim.figures import REPORT_EXTRA_FORCES
-from rrps_sim.float_text import csv_rows
 
 TARGET = 1.10            # command line / library, per step
 
@@ -69,16 +69,18 @@ def main(argv=None) -> int:
     position, quat = g.home_position, g.home_quaternion_xyzw
     quat = quat / np.linalg.norm(quat)
     forces = MultibodyDynamics(g).holding_forces(position, quat) + REPORT_EXTRA_FORCES
-    out = Path(tempfile.mkdtemp(prefix='rrps-simulate-cli-')) / 'run.csv'
+    folder = Path(tempfile.mkdtemp(prefix='rrps-simulate-cli-'))
+    out, npz = folder / 'run.csv', folder / 'run.npz'
 
     def library(duration, every, reactions=False):
         return lambda: simulate(g, position, quat, forces, duration=duration, dt=args.dt,
                                 output_every=every, reactions=reactions)
 
-    def command_line(duration, every, writer=None, reactions=False):
+    def command_line(duration, every, writer=None, reactions=False, csv_file=False):
         command = ['simulate', '--robot', args.robot, '--forces',
                    ','.join(map(repr, forces.tolist())), '--duration', repr(duration),
-                   '--dt', repr(args.dt), '--output-every', str(every), '--csv', str(out)]
+                   '--dt', repr(args.dt), '--output-every', str(every)]
+        command += ['--csv', str(out)] if csv_file or writer else ['--npz', str(npz)]
         command += ['--reactions'] if reactions else []
 
         def go():
@@ -100,7 +102,8 @@ def main(argv=None) -> int:
     for duration in durations:
         runs[duration, modes[0], 'library'] = library(duration, 1)
         runs[duration, modes[0], 'command line'] = command_line(duration, 1)
-        runs[duration, modes[0], 'command line before (per-row csv.writer)'] = \
+        runs[duration, modes[0], 'command line --csv (numpy.savetxt)'] = command_line(duration, 1, csv_file=True)
+        runs[duration, modes[0], 'command line --csv first (per-row csv.writer)'] = \
             command_line(duration, 1, per_row_writer)
         runs[duration, modes[1], 'library'] = library(duration, 10)
         runs[duration, modes[1], 'command line'] = command_line(duration, 10)
@@ -117,33 +120,37 @@ def main(argv=None) -> int:
 
     rows = cli.simulation_rows(simulate(g, position, quat, forces, duration=args.duration,
                                         dt=args.dt))
-    reprs = tuple(rows.ravel().tolist())
-    line = ','.join(['%r'] * rows.shape[1]) + '\r\n'
-    text = {'compiled (float_text.csv_rows)': lambda: csv_rows(rows),
-            "bulk '%r' formatting (the RRPS_NUMBA=0 path)": lambda: (line * len(rows)) % reprs,
-            'per-row csv.writer of repr (before)': lambda: per_row_writer(out, [], rows)}
+    text = {'NumPy archive (--npz)': lambda: cli._write_npz(npz, cli.SIMULATION_COLUMNS, rows),
+            'numpy.savetxt (--csv)': lambda: cli._write_csv(out, cli.SIMULATION_COLUMNS, rows),
+            'per-row csv.writer of repr (first)': lambda: per_row_writer(out, [], rows)}
     text_us = {name: 1e6 * min(timed(fn)[0] for _ in range(args.repeats)) / len(rows)
                for name, fn in text.items()}
-    same = csv_rows(rows).decode() == (line * len(rows)) % reprs
+    cli._write_csv(out, cli.SIMULATION_COLUMNS, rows)
+    with open(out, newline='') as fh:
+        lines = list(csv.reader(fh))[1:]
+    archive = np.load(npz)
+    same = (all(cell == repr(v) for line, row in zip(lines, rows.tolist()) for cell, v in zip(line, row))
+            and all(np.array_equal(archive[name], rows[:, k], equal_nan=True)
+                    for k, name in enumerate(cli.SIMULATION_COLUMNS)))
 
     print(f'# rrps-dynamics simulate --csv vs simulate(): {g.name}, hybrid RK4 at '
           f'{1e3 * args.dt:g} ms, {rows.shape[1]} columns; CPU time, best of {args.repeats}; '
           f'{platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python '
           f'{sys.version.split()[0]}')
-    print(f'{"run":6s} {"output":19s} {"what":42s} {"us/step":>8s} {"x library":>9s} '
+    print(f'{"run":6s} {"output":19s} {"what":46s} {"us/step":>8s} {"x library":>9s} '
           f'{"own cost":>9s}  wall us/step')
     ratios = {}
     for (duration, mode, what), sec in cpu.items():
         steps = int(round(duration / args.dt))
         base = cpu[duration, mode, 'library']
         ratios[duration, mode, what] = sec / base
-        print(f'{f"{duration:g} s":6s} {mode:19s} {what:42s} {1e6 * sec / steps:8.2f} '
+        print(f'{f"{duration:g} s":6s} {mode:19s} {what:46s} {1e6 * sec / steps:8.2f} '
               f'{sec / base:9.3f} {f"{1e3 * (sec - base):.2f} ms":>9s}  '
               f'{1e6 * wall[duration, mode, what] / steps:.2f}')
     print()
     for name, value in text_us.items():
-        print(f'CSV text of one step, {name}: {value:.2f} us')
-    print(f'compiled text equals repr of every value: {same}')
+        print(f'output of one step, {name}: {value:.2f} us')
+    print(f'the CSV holds repr of every value and the archive every value to the bit: {same}')
     print()
     short, long = durations
     steps = int(round(long / args.dt)) - int(round(short / args.dt))

@@ -13,7 +13,7 @@ interleaved round by round so that they share the machine's load. Scenarios:
   gripper's slipping and back (8 s period): in the band every step towards it is scaled (a second
   pose and its statics).
 
-Each with the compiled guards and statics (numba) and with the NumPy reference (``RRPS_NUMBA=0``'s
+Each with the guards' and the statics' kernels compiled (numba) and interpreted (``RRPS_NUMBA=0``'s
 path). Target (the budget of a guard on by default): a load-guarded compiled step's median within
 0.25 ms, 5 % of the 5 ms period of a 200 Hz master: MET/MISSED (the p99 is printed; on a shared
 machine it measures the other processes' preemptions more than the step).

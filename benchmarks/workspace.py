@@ -8,8 +8,8 @@ bounds, at its home orientation; every point is checked against every limit (str
 cones, interference, conditioning). Rows:
 
 * ``reachable_workspace`` with the numba kernel on every thread (auto backend), with the serial
-  kernel (baseline: the parallel one must classify every point alike), and with the vectorised
-  NumPy path (``backend='numpy'``, what ``RRPS_NUMBA=0`` runs), each over the whole grid;
+  kernel (baseline: the parallel one must classify every point alike), and with the same kernel
+  interpreted (``backend='numpy'``, what ``RRPS_NUMBA=0`` runs), each over the whole grid;
 * baseline: a plain Python loop over the points calling
   ``limits.margins(inverse_kinematics(...))`` per point, timed on ``--loop-sample`` random grid
   points and EXTRAPOLATED to the whole grid (labelled as such).
@@ -130,7 +130,7 @@ def main(argv=None) -> int:
           f'every limit, home orientation, load average {os.getloadavg()[0]:.1f}')
     rows = [('reachable_workspace, numba kernel on every thread (auto)', t_ours),
             ('baseline: the same, serial numba kernel', t_serial),
-            ('reachable_workspace, vectorised NumPy path (RRPS_NUMBA=0)', t_numpy),
+            ('reachable_workspace, the kernel interpreted (RRPS_NUMBA=0)', t_numpy),
             (f'baseline: margins() per point in a loop, EXTRAPOLATED from {len(sample):,}', t_loop)]
     width = max(len(name) for name, _ in rows)
     print(f'{"what":{width}s} {"time [s]":>10s} {"points/s":>12s} {"speed-up":>9s}')
@@ -139,9 +139,9 @@ def main(argv=None) -> int:
         print(f'{name:{width}s} {t:10.2f} {total / t:12,.0f} {t_loop / t:8.1f}x')
     print('-' * (width + 34))
     print(f'speed-up of the numba kernel over the per-point loop: {t_loop / t_ours:.1f}x; over the '
-          f'vectorised NumPy path: {t_numpy / t_ours:.1f}x')
+          f'kernel interpreted: {t_numpy / t_ours:.1f}x')
     print(f'same classification: parallel vs serial kernel on all {total:,} points: '
-          f'{"yes" if agree_serial else "NO"}; numba vs NumPy path: '
+          f'{"yes" if agree_serial else "NO"}; compiled vs interpreted: '
           f'{"yes" if agree_numpy else "NO"}; loop vs numba on the {len(sample):,} sampled points: '
           f'{"yes" if agree_loop == 0 else f"NO ({agree_loop} differ)"}')
     print(f'{g.name}: reachable {ours.volume:.6f} m^3, near-singular {ours.near_singular_volume:.6f} m^3 '

@@ -24,6 +24,7 @@ setup(
         'mcap',
         'numpy',
         'PyYAML',
+        'rosbags',
         'ros-jazzy-builtin-interfaces',
         'ros-jazzy-diagnostic-msgs',
         'ros-jazzy-geometry-msgs',

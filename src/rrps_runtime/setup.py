@@ -13,6 +13,7 @@ setup(
     install_requires=[
         'numpy',
         'PyYAML',
+        'rosbags',
         'ros-jazzy-diagnostic-msgs',
         'ros-jazzy-geometry-msgs',
         'ros-jazzy-nav-msgs',

@@ -48,6 +48,7 @@ ROSDEP_KEYS = {
     'pytest': 'python3-pytest',
     'python-can': 'python3-can',
     'pyyaml': 'python3-yaml',
+    'rosbags': 'python3-rosbags-pip',
     'ruckig': 'python3-ruckig-pip',
     'scipy': 'python3-scipy',
     'toppra': 'python3-toppra-pip',

@@ -5,8 +5,8 @@ sources of every kernel: :func:`rrps_kinematics.backend.jit`). Without this, the
 step's preview (the dynamics), the first FK and the teleop guards would each wait for numba to
 compile them in a running node. This runs each of them once, with the argument types the stack
 uses: IK and FK (single, and batches serial and on every thread), the reachable workspace
-(serial and parallel), the limits of one pose, the assembly modes' path tracker, the teleop guards,
-a short preview on either ring and the CSV text of ``rrps-dynamics simulate``.
+(serial and parallel), the limits of one pose and of a batch, the assembly modes' path tracker, the
+teleop guards, the statics and a short preview on either ring.
 Each group of kernels says when it is compiled, and how long it took (:func:`_say`): the first
 install compiles for minutes (docs/measurements.md), a later one loads them from the cache.
 Nothing is compiled when numba is off (``RRPS_NUMBA=0``) or missing.
@@ -58,7 +58,7 @@ def _say(what: str):
 
 def _kinematics_kernels(robot: str) -> None:
     """IK, FK (single; batches serial and parallel), the workspace, the limits, assembly modes."""
-    from rrps_kinematics import assembly_modes, forward_kinematics, leg_lengths
+    from rrps_kinematics import assembly_modes, forward_kinematics, inverse_kinematics, leg_lengths, margins
     from rrps_kinematics.backend import PARALLEL_BATCH
     from rrps_kinematics.limits import pose_margins
     from rrps_kinematics.workspace import reachable_workspace
@@ -76,13 +76,14 @@ def _kinematics_kernels(robot: str) -> None:
             reachable_workspace(g, resolution=resolution)
     with _say('the assembly modes (homotopy)'):
         assembly_modes(g, g.home_lengths)     # the homotopy kernels and the batch FK that polishes
-    with _say("a pose's limits"):
+    with _say("the limits of a pose and of a batch"):
         pose_margins(g, p, q)
+        margins(g, inverse_kinematics(g, p, q))
 
 
 def _dynamics_kernels(robot: str) -> None:
-    """The teleop guards, a short preview on either ring, the CSV text of rrps-dynamics."""
-    from rrps_sim.float_text import csv_rows
+    """The teleop guards, the statics, a short preview on either ring."""
+    from rrps_loads.loads import static_solution
     from rrps_sim.preview import PreviewMotion, preview_step
     from rrps_teleop.mapping import TeleopMapping
 
@@ -95,8 +96,8 @@ def _dynamics_kernels(robot: str) -> None:
         motions = [PreviewMotion(f'warm-up on {ring}', ring, np.array([0.0, 0.0, 0.0, 1.0]), path,
                                  np.tile(q, (3, 1)), 0.01) for ring in ('ring_a', 'ring_b')]
         preview_step(g, motions, settle=0.0)
-    with _say("rrps-dynamics' CSV text"):
-        csv_rows(np.zeros((1, 1)))
+    with _say('the statics'):
+        static_solution(g, (p[None], q[None]))
 
 
 def main() -> None:

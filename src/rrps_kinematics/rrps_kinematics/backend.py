@@ -1,12 +1,17 @@
-"""Choice between the numba-compiled kernels and the pure-NumPy/Python paths.
+"""The kernels, compiled by numba or interpreted: one source for both.
 
-``backend='auto'`` (the default everywhere) uses numba when it imports and the environment
-variable ``RRPS_NUMBA`` is not ``0``; ``'numba'`` insists on it; ``'numpy'`` never uses it.
-numba is imported on first use only, so ``import rrps_kinematics`` stays light.
+Every kernel (FK, IK lengths, limits, workspace, statics, the teleop guards, the multibody model,
+the dynamics) is written once and decorated with :func:`jit`: compiled by numba when it imports
+and the environment variable ``RRPS_NUMBA`` is not ``0``, otherwise left as the plain Python
+function it is, which runs the same arithmetic interpreted. ``RRPS_NUMBA`` is read once, on
+first use; numba is imported on first use only, so ``import rrps_kinematics`` stays light.
 
-Kernels written once for both (the multibody model, the dynamics) are decorated with
-:func:`jit`: compiled by numba when it is enabled, otherwise left as the plain Python functions
-they are, which run the same arithmetic interpreted. ``RRPS_NUMBA`` is read once, on first use.
+A ``backend`` argument chooses per call: ``'auto'`` (the default everywhere: compiled when numba
+is enabled), ``'numba'`` (insists on it) or ``'numpy'`` (the kernels interpreted, numba unused:
+what ``RRPS_NUMBA=0`` runs; :func:`interpreted`). Kernels index 2-D arrays as ``a[i][k]`` and
+take their scratch space from :func:`floats` and :func:`matrix`, so that interpreted they run
+on Python lists and floats (a fraction of the cost of indexing NumPy arrays one element at a
+time), compiled on arrays.
 
 Compiled kernels are cached on disk. numba checks only a kernel's own source file, while a
 compiled kernel contains the kernels it calls (and the layouts they assume); so the cache of
@@ -20,15 +25,16 @@ import hashlib
 import importlib.util
 import os
 import threading
+import types
 from pathlib import Path
 
-__all__ = ['BACKENDS', 'PARALLEL_BATCH', 'compiled_backend_available', 'jit', 'kernel_sources_stamp', 'kernels',
-           'numba_enabled', 'run_parallel', 'use_numba']
+__all__ = ['BACKENDS', 'PARALLEL_BATCH', 'compiled_backend_available', 'floats', 'interpreted', 'jit',
+           'kernel_sources_stamp', 'kernels_of', 'matrix', 'numba_enabled', 'parallel_range', 'run_parallel',
+           'use_numba']
 
 BACKENDS = ('auto', 'numba', 'numpy')
 #: Packages whose modules may hold :func:`jit` kernels.
 KERNEL_PACKAGES = ('rrps_kinematics', 'rrps_sim', 'rrps_teleop')
-_compiled = None
 _numba = None
 _stamp = None
 _parallel = threading.Lock()
@@ -44,10 +50,41 @@ def numba_enabled() -> bool:
         if os.environ.get('RRPS_NUMBA', '1') != '0':
             try:
                 import numba
-                _numba = numba
             except ImportError:
-                pass
+                return False
+            _numba = numba
+            _register_scratch(numba)
     return _numba is not False
+
+
+def floats(n):
+    """Scratch space of n floats: a list interpreted, an uninitialised array compiled."""
+    return [0.0] * n
+
+
+def matrix(rows, columns):
+    """Scratch space of rows x columns floats, indexed ``m[i][k]``: lists interpreted, an array
+    compiled."""
+    return [[0.0] * columns for _ in range(rows)]
+
+
+def _register_scratch(numba) -> None:
+    """The compiled :func:`floats` and :func:`matrix`: ``np.empty``."""
+    import numpy as np
+    from numba.extending import overload
+
+    @overload(floats)
+    def _floats(n):
+        return lambda n: np.empty(n)
+
+    @overload(matrix)
+    def _matrix(rows, columns):
+        return lambda rows, columns: np.empty((rows, columns))
+
+
+def parallel_range():
+    """``numba.prange`` when numba is enabled (the loop of a ``parallel=True`` kernel), else ``range``."""
+    return _numba.prange if numba_enabled() else range
 
 
 def kernel_sources_stamp() -> str:
@@ -69,16 +106,18 @@ def kernel_sources_stamp() -> str:
     return _stamp
 
 
-def jit(function=None, *, fastmath: bool = False):
-    """``numba.njit(cache=True, fastmath=...)`` when numba is enabled, else the function itself.
+def jit(function=None, *, signature=None, fastmath: bool = False, **options):
+    """``numba.njit(signature, cache=True, fastmath=..., **options)`` when numba is enabled, else
+    the function itself.
 
-    Use as ``@jit`` or ``@jit(fastmath=True)``. The decorated code must be valid both as numba
-    nopython code and as plain Python (scalars, tuples, NumPy arrays and NamedTuples of them).
+    Use as ``@jit`` or ``@jit(fastmath=True, error_model='numpy', ...)``. The decorated code must
+    be valid both as numba nopython code and as plain Python (scalars, tuples, lists, NumPy arrays
+    and NamedTuples of them; see the module docstring).
     """
     def decorate(f):
         if not numba_enabled():
             return f
-        dispatcher = _numba.njit(cache=True, fastmath=fastmath)(f)
+        dispatcher = _numba.njit(signature, cache=True, fastmath=fastmath, **options)(f)
         # numba's cache index (third-party internals of the pinned numba): stamp it with all
         # kernel sources too, so that a change to a callee invalidates this kernel's cache.
         index = getattr(dispatcher._cache, '_cache_file', None)
@@ -88,20 +127,44 @@ def jit(function=None, *, fastmath: bool = False):
     return decorate if function is None else decorate(function)
 
 
-def kernels():
-    """The :mod:`.compiled` module, imported on first use; None when unavailable or disabled."""
-    global _compiled
-    if _compiled is None:
-        _compiled = False
-        if numba_enabled():
-            from rrps_kinematics import compiled
-            _compiled = compiled
-    return _compiled or None
+_interpreted: dict = {}
+
+
+def interpreted(kernel):
+    """The plain Python function of a :func:`jit` kernel, every kernel it calls interpreted too
+    (the kernel itself when numba is disabled): ``backend='numpy'`` in a process that compiles."""
+    function = getattr(kernel, 'py_func', None)
+    if function is None:
+        return kernel
+    plain = _interpreted.get(function)
+    if plain is None:
+        namespace = dict(function.__globals__)
+        plain = _interpreted[function] = types.FunctionType(
+            function.__code__, namespace, function.__name__, function.__defaults__, function.__closure__)
+        for name in function.__code__.co_names:
+            if hasattr(namespace.get(name), 'py_func'):
+                namespace[name] = interpreted(namespace[name])
+    return plain
+
+
+_namespaces: dict = {}
+
+
+def kernels_of(module, backend: str = 'auto'):
+    """The kernels of ``module`` for ``backend``: the module itself when compiled, else a
+    namespace of its functions :func:`interpreted`."""
+    if use_numba(backend):
+        return module
+    namespace = _namespaces.get(module.__name__)
+    if namespace is None:
+        namespace = _namespaces[module.__name__] = types.SimpleNamespace(**{
+            name: interpreted(value) for name, value in vars(module).items() if not name.startswith('__')})
+    return namespace
 
 
 def compiled_backend_available() -> bool:
     """True when the numba backend can be used (numba importable, ``RRPS_NUMBA`` not ``0``)."""
-    return kernels() is not None
+    return numba_enabled()
 
 
 def use_numba(backend: str) -> bool:
@@ -110,7 +173,7 @@ def use_numba(backend: str) -> bool:
         raise ValueError(f'backend must be one of {BACKENDS}, got {backend!r}')
     if backend == 'numpy':
         return False
-    available = kernels() is not None
+    available = numba_enabled()
     if backend == 'numba' and not available:
         raise ValueError('backend "numba" requested but numba is not available (or RRPS_NUMBA=0)')
     return available

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rrps_description.geometry import RobotGeometry
-from rrps_kinematics.backend import use_numba
+from rrps_kinematics.backend import interpreted, use_numba
 from rrps_kinematics.inverse import inverse_kinematics
 from rrps_kinematics.limits import limit_arrays, margins
 
@@ -28,23 +28,25 @@ def pose_limits(geometry: RobotGeometry, position, quaternion_xyzw, *,
                 backend: str = 'auto') -> tuple[bool, np.ndarray, dict[str, float]]:
     """(within limits, lengths (6,), smallest margin of each kind) of one pose a_T_b.
 
-    The numbers of :func:`rrps_kinematics.limits.margins` (``Margins.minimum``, ``ok``), from a
-    numba kernel when available (a few microseconds). ``quaternion_xyzw`` must be unit.
+    The numbers of :func:`rrps_kinematics.limits.margins` (``Margins.minimum``, ``ok``), from its
+    kernel for one pose (a few microseconds compiled). ``quaternion_xyzw`` must be unit.
     """
+    from rrps_kinematics.compiled_limits import N_MARGINS, pose_margins
     # fresh writable copies: the kernel is compiled for one argument type only (a read-only array,
     # e.g. a robot's home quaternion, would be another type and compile again on first use)
     p = np.array(position, dtype=float)
     q = np.array(quaternion_xyzw, dtype=float)
     if use_numba(backend):
-        from rrps_kinematics.compiled_limits import N_MARGINS, pose_margins
         out = np.empty(N_MARGINS)
         lengths = np.empty(6)
         pose_margins(limit_arrays(geometry), p, q, out, lengths)
-        minimum = dict(zip(MARGIN_KINDS, (float(v) for v in out[:5])))
-        ok = bool(np.all(out[:5] >= 0.0) and out[5] > 0.0)
-        return ok, lengths, minimum
-    m = margins(geometry, inverse_kinematics(geometry, p, q))
-    return bool(m.ok), np.array(m.lengths), {k: float(v) for k, v in m.minimum.items()}
+    else:
+        out, lengths = [0.0] * N_MARGINS, [0.0] * 6
+        interpreted(pose_margins)(limit_arrays(geometry, lists=True), p.tolist(), q.tolist(), out, lengths)
+        out, lengths = np.array(out), np.array(lengths)
+    minimum = dict(zip(MARGIN_KINDS, (float(v) for v in out[:5])))
+    ok = bool(np.all(out[:5] >= 0.0) and out[5] > 0.0)
+    return ok, lengths, minimum
 
 
 class InvalidTarget(ValueError):
@@ -85,7 +87,7 @@ def validate_target(geometry: RobotGeometry, position, quaternion_xyzw, *, frame
         raise InvalidTarget(f'quaternion norm {norm:.6g} is not 1 (tolerance {quaternion_tolerance:g})')
     q = q / norm
     ok, lengths, minimum = pose_limits(geometry, p, q)
-    if not ok:  # word the reason with the reference implementation
+    if not ok:  # word the reason (every margin of the pose)
         reason = margins(geometry, inverse_kinematics(geometry, p, q)).reason
         raise InvalidTarget(f'pose outside the limits: {reason}')
     return ValidTarget(position=p, quaternion_xyzw=q, lengths=lengths, minimum=minimum)

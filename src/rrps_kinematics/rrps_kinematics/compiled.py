@@ -1,135 +1,154 @@
-"""Numba-compiled hot loops of the kinematics core: batch IK lengths and Newton FK.
+"""The kernels of IK lengths and Newton FK (paper eq. 1, section 2.2), written once.
 
-The same equations as the pure-NumPy paths in :mod:`.inverse` and :mod:`.forward` (which stay
-the reference and the fallback; the tests check both give the same numbers). Imported lazily
-by those modules on first use, so ``import rrps_kinematics`` does not pay numba's import.
-Compiled code is cached on disk (``cache=True``); set ``RRPS_NUMBA=0`` to use NumPy only.
+Compiled by numba when it is enabled, interpreted otherwise (:mod:`.backend`); imported on
+first use by :mod:`.inverse` and :mod:`.forward`. Compiled code is cached on disk.
 
-FK algorithm (both backends): unknowns the pose (r, A_c) of ring_b in ring_a; residual
-f_i = L_i - l_i with l_i = |r + A_c s'_i - s0_i| (eq. 1); Newton step J dx = f with J the
-inverse Jacobian (rows [u_i, (A_c s'_i) x u_i]); the angular columns are divided by the
-characteristic length before the LU factorisation (unit-consistent pivots); the rotation is
-updated multiplicatively, q <- exp(dtheta) (x) q. Steps whose rotation exceeds pi/2 are
-scaled down, and a step is halved (up to ``MAX_HALVINGS`` times) until the residual's 2-norm
-decreases; if it never does, the solve stops unconverged (constants in :mod:`.newton_settings`).
+FK: unknowns the pose (r, A_c) of ring_b in ring_a; residual f_i = L_i - l_i with
+l_i = |r + A_c s'_i - s0_i| (eq. 1); Newton step J dx = f with J the inverse Jacobian (rows
+[u_i, (A_c s'_i) x u_i]); the angular columns are divided by the characteristic length before
+the LU factorisation (unit-consistent pivots); the rotation is updated multiplicatively,
+q <- exp(dtheta) (x) q. Steps whose rotation exceeds pi/2 are scaled down, and a step is halved
+(up to ``MAX_HALVINGS`` times) until the residual's 2-norm decreases; if it never does, the
+solve stops unconverged (constants in :mod:`.newton_settings`). Anchors are indexed ``A[i][k]``:
+(6, 3) arrays compiled, lists of rows interpreted.
 """
 
 from __future__ import annotations
 
 import math
 
-import numba
-import numpy as np
-
+from rrps_kinematics.backend import floats, jit, parallel_range
 from rrps_kinematics.newton_settings import MAX_HALVINGS, MAX_ROTATION_STEP, PIVOT_TOLERANCE
 
 __all__ = ['ik_lengths_batch', 'ik_lengths_parallel', 'fk_single', 'fk_solve', 'fk_batch',
-           'fk_batch_parallel', 'quat_to_matrix']
+           'fk_batch_parallel', 'quat_to_matrix', 'quotient', 'PARALLEL_ROWS']
 
-_jit = numba.njit(cache=True, fastmath=False, nogil=True, error_model='numpy')
 #: Rows per task of the parallel batch kernels (the threads take the next task when done).
 PARALLEL_ROWS = 256
-_parallel_jit = numba.njit(cache=True, fastmath=False, nogil=True, parallel=True, error_model='numpy')
+_OPTIONS = dict(nogil=True, error_model='numpy')
+prange = parallel_range()
 
 
-@_jit
+@jit(**_OPTIONS)
+def quotient(a, b):
+    """a / b as IEEE 754 divides (inf or NaN for b = 0), compiled (numba's error model 'numpy') and
+    interpreted alike (Python's float division raises there)."""
+    if b != 0.0:
+        return a / b
+    if a != a or a == 0.0:
+        return math.nan
+    return math.copysign(math.inf, a) * math.copysign(1.0, b)
+
+
+@jit(**_OPTIONS)
 def quat_to_matrix(q, R):
-    """R <- the rotation matrix of the unit quaternion q (x, y, z, w), in place."""
+    """R <- the rotation matrix of the unit quaternion q (x, y, z, w), row by row (9,), in place."""
     x, y, z, w = q[0], q[1], q[2], q[3]
-    R[0, 0] = 1.0 - 2.0 * (y * y + z * z)
-    R[0, 1] = 2.0 * (x * y - z * w)
-    R[0, 2] = 2.0 * (x * z + y * w)
-    R[1, 0] = 2.0 * (x * y + z * w)
-    R[1, 1] = 1.0 - 2.0 * (x * x + z * z)
-    R[1, 2] = 2.0 * (y * z - x * w)
-    R[2, 0] = 2.0 * (x * z - y * w)
-    R[2, 1] = 2.0 * (y * z + x * w)
-    R[2, 2] = 1.0 - 2.0 * (x * x + y * y)
+    R[0] = 1.0 - 2.0 * (y * y + z * z)
+    R[1] = 2.0 * (x * y - z * w)
+    R[2] = 2.0 * (x * z + y * w)
+    R[3] = 2.0 * (x * y + z * w)
+    R[4] = 1.0 - 2.0 * (x * x + z * z)
+    R[5] = 2.0 * (y * z - x * w)
+    R[6] = 2.0 * (x * z - y * w)
+    R[7] = 2.0 * (y * z + x * w)
+    R[8] = 1.0 - 2.0 * (x * x + y * y)
 
 
-@_jit
+@jit(**_OPTIONS)
 def ik_lengths_batch(A, B, P, Q, out):
-    """out[n, i] = |P[n] + R(Q[n]) B[i] - A[i]| for unit quaternions Q (x, y, z, w) (eq. 1)."""
-    R = np.empty((3, 3))
-    for n in range(P.shape[0]):
+    """out[n][i] = |P[n] + R(Q[n]) B[i] - A[i]| for unit quaternions Q (x, y, z, w) (eq. 1)."""
+    R = floats(9)
+    for n in range(len(P)):
         quat_to_matrix(Q[n], R)
+        p = P[n]
+        row = out[n]
         for i in range(6):
+            a, b = A[i], B[i]
             s = 0.0
             for k in range(3):
-                d = P[n, k] + R[k, 0] * B[i, 0] + R[k, 1] * B[i, 1] + R[k, 2] * B[i, 2] - A[i, k]
+                d = p[k] + R[3 * k] * b[0] + R[3 * k + 1] * b[1] + R[3 * k + 2] * b[2] - a[k]
                 s += d * d
-            out[n, i] = math.sqrt(s)
+            row[i] = math.sqrt(s)
 
 
-@_parallel_jit
+@jit(parallel=True, **_OPTIONS)
 def ik_lengths_parallel(A, B, P, Q, out):
     """:func:`ik_lengths_batch` in runs of ``PARALLEL_ROWS`` rows on numba's threads: the same
-    numbers."""
+    numbers (compiled only: the runs are views of the arrays)."""
     n = P.shape[0]
-    for c in numba.prange((n + PARALLEL_ROWS - 1) // PARALLEL_ROWS):
+    for c in prange((n + PARALLEL_ROWS - 1) // PARALLEL_ROWS):
         start, stop = c * PARALLEL_ROWS, min(n, (c + 1) * PARALLEL_ROWS)
         ik_lengths_batch(A, B, P[start:stop], Q[start:stop], out[start:stop])
 
 
-@_jit
+@jit(**_OPTIONS)
 def _residual(A, B, L, p, q, R, rb, d, lengths, f):
-    """Leg vectors d, lengths, residual f = L - l; returns (max |f|, sum f^2)."""
+    """A_c s'_i (rb) and the leg vectors d (18,: leg i at 3 i), lengths, residual f = L - l;
+    returns (max |f|, sum f^2)."""
     quat_to_matrix(q, R)
     worst = 0.0
     ss = 0.0
     for i in range(6):
+        a, b = A[i], B[i]
         s = 0.0
         for k in range(3):
-            rb[i, k] = R[k, 0] * B[i, 0] + R[k, 1] * B[i, 1] + R[k, 2] * B[i, 2]
-            d[i, k] = p[k] + rb[i, k] - A[i, k]
-            s += d[i, k] * d[i, k]
+            j = 3 * i + k
+            rb[j] = R[3 * k] * b[0] + R[3 * k + 1] * b[1] + R[3 * k + 2] * b[2]
+            d[j] = p[k] + rb[j] - a[k]
+            s += d[j] * d[j]
         lengths[i] = math.sqrt(s)
-        f[i] = L[i] - lengths[i]
-        if not abs(f[i]) <= worst:
-            worst = abs(f[i]) if math.isfinite(f[i]) else math.inf  # NaN counts as infinite
-        ss += f[i] * f[i]
+        fi = L[i] - lengths[i]
+        f[i] = fi
+        if not abs(fi) <= worst:
+            worst = abs(fi) if math.isfinite(fi) else math.inf  # NaN counts as infinite
+        ss += fi * fi
     return worst, ss
 
 
-@_jit
-def _solve_step(rb, d, lengths, f, inv_scale, M, dx):  # noqa: C901 - a compiled kernel: flat loops for numba
-    """Solve J dx = f by LU with partial pivoting; False when J is singular."""
+@jit(**_OPTIONS)
+def _solve_step(rb, d, lengths, f, inv_scale, M, dx):  # noqa: C901 - a kernel: flat loops for numba
+    """Solve J dx = f by LU with partial pivoting on M (the 6 x 7 augmented matrix, row r at
+    7 r); False when J is singular."""
     for i in range(6):
         li = lengths[i]
         if not li > 0.0:
             return False
-        ux, uy, uz = d[i, 0] / li, d[i, 1] / li, d[i, 2] / li
-        M[i, 0] = ux
-        M[i, 1] = uy
-        M[i, 2] = uz
-        M[i, 3] = (rb[i, 1] * uz - rb[i, 2] * uy) * inv_scale
-        M[i, 4] = (rb[i, 2] * ux - rb[i, 0] * uz) * inv_scale
-        M[i, 5] = (rb[i, 0] * uy - rb[i, 1] * ux) * inv_scale
-        M[i, 6] = f[i]
+        j, r = 3 * i, 7 * i
+        ux, uy, uz = d[j] / li, d[j + 1] / li, d[j + 2] / li
+        M[r] = ux
+        M[r + 1] = uy
+        M[r + 2] = uz
+        M[r + 3] = (rb[j + 1] * uz - rb[j + 2] * uy) * inv_scale
+        M[r + 4] = (rb[j + 2] * ux - rb[j] * uz) * inv_scale
+        M[r + 5] = (rb[j] * uy - rb[j + 1] * ux) * inv_scale
+        M[r + 6] = f[i]
     for c in range(6):
         piv = c
-        best = abs(M[c, c])
+        best = abs(M[7 * c + c])
         for r in range(c + 1, 6):
-            if abs(M[r, c]) > best:
-                best = abs(M[r, c])
+            if abs(M[7 * r + c]) > best:
+                best = abs(M[7 * r + c])
                 piv = r
         if not best > PIVOT_TOLERANCE:
             return False
+        top = 7 * c
         if piv != c:
+            other = 7 * piv
             for k in range(c, 7):
-                tmp = M[c, k]
-                M[c, k] = M[piv, k]
-                M[piv, k] = tmp
+                M[top + k], M[other + k] = M[other + k], M[top + k]
         for r in range(c + 1, 6):
-            m = M[r, c] / M[c, c]
+            row = 7 * r
+            m = M[row + c] / M[top + c]
             if m != 0.0:
                 for k in range(c + 1, 7):
-                    M[r, k] -= m * M[c, k]
+                    M[row + k] -= m * M[top + k]
     for c in range(5, -1, -1):
-        s = M[c, 6]
+        row = 7 * c
+        s = M[row + 6]
         for k in range(c + 1, 6):
-            s -= M[c, k] * dx[k]
-        dx[c] = s / M[c, c]
+            s -= M[row + k] * dx[k]
+        dx[c] = s / M[row + c]
     for k in range(3, 6):
         dx[k] *= inv_scale
     for k in range(6):
@@ -138,7 +157,7 @@ def _solve_step(rb, d, lengths, f, inv_scale, M, dx):  # noqa: C901 - a compiled
     return True
 
 
-@_jit
+@jit(**_OPTIONS)
 def _apply_step(p, q, dx, t, p_out, q_out):
     """p_out = p + t dx[:3]; q_out = exp(t dx[3:]) (x) q, normalised."""
     for k in range(3):
@@ -162,7 +181,7 @@ def _apply_step(p, q, dx, t, p_out, q_out):
     q_out[3] = nw / n
 
 
-@_jit
+@jit(**_OPTIONS)
 def _fk(A, B, L, p, q, inv_scale, tolerance, max_iterations, work_p, work_q, R, rb, d, lengths, f,
         M, dx):
     """Newton FK in place on p, q; returns (converged, iterations, residual, singular)."""
@@ -199,29 +218,28 @@ def _fk(A, B, L, p, q, inv_scale, tolerance, max_iterations, work_p, work_q, R, 
         it += 1
 
 
-@_jit
+@jit(**_OPTIONS)
 def fk_single(A, B, L, p, q, inv_scale, tolerance, max_iterations):
     """One warm-started FK solve in place on p (3,) and q (4,)."""
-    return _fk(A, B, L, p, q, inv_scale, tolerance, max_iterations, np.empty(3), np.empty(4),
-               np.empty((3, 3)), np.empty((6, 3)), np.empty((6, 3)), np.empty(6), np.empty(6),
-               np.empty((6, 7)), np.empty(6))
+    return _fk(A, B, L, p, q, inv_scale, tolerance, max_iterations, floats(3), floats(4),
+               floats(9), floats(18), floats(18), floats(6), floats(6), floats(42), floats(6))
 
 
-#: The one signature of :func:`fk_solve`: writable C-contiguous float64 vectors (others raise
-#: TypeError instead of compiling a new specialisation in a real-time loop).
+#: The one signature of the compiled :func:`fk_solve`: writable C-contiguous float64 vectors
+#: (others raise TypeError instead of compiling a new specialisation in a real-time loop).
 _FK_SOLVE_SIGNATURE = ('(float64[:, ::1], float64[:, ::1], float64[::1], float64[::1], float64[::1], '
                        'float64, float64, int64)')
 
 
-@numba.njit(_FK_SOLVE_SIGNATURE, cache=True, nogil=True)
+@jit(signature=_FK_SOLVE_SIGNATURE, nogil=True)
 def fk_solve(A, B, L, seed_p, seed_q, inv_scale, tolerance, max_iterations):
     """One FK solve from the seed (p (3,), q (4,), left unchanged), its input checked here:
     returns (ok, p, q, converged, iterations, residual, singular); ok is False (and the rest
     meaningless) for a wrong shape, NaN/inf in the lengths or the seed, or a zero quaternion,
     which the caller reports. q is normalised on entry and has w >= 0 on return."""
-    p = np.empty(3)
-    q = np.empty(4)
-    if L.shape[0] != 6 or seed_p.shape[0] != 3 or seed_q.shape[0] != 4:
+    p = floats(3)
+    q = floats(4)
+    if len(L) != 6 or len(seed_p) != 3 or len(seed_q) != 4:
         return False, p, q, False, 0, math.inf, False
     finite = 0.0
     for i in range(6):
@@ -245,20 +263,20 @@ def fk_solve(A, B, L, seed_p, seed_q, inv_scale, tolerance, max_iterations):
     return True, p, q, c, it, res, sing
 
 
-@_jit
+@jit(**_OPTIONS)
 def fk_batch(A, B, L, P, Q, inv_scale, tolerance, max_iterations, converged, iterations, residual,
              singular):
     """FK for each row of L (N, 6) from seeds P (N, 3), Q (N, 4), in place."""
-    work_p = np.empty(3)
-    work_q = np.empty(4)
-    R = np.empty((3, 3))
-    rb = np.empty((6, 3))
-    d = np.empty((6, 3))
-    lengths = np.empty(6)
-    f = np.empty(6)
-    M = np.empty((6, 7))
-    dx = np.empty(6)
-    for n in range(L.shape[0]):
+    work_p = floats(3)
+    work_q = floats(4)
+    R = floats(9)
+    rb = floats(18)
+    d = floats(18)
+    lengths = floats(6)
+    f = floats(6)
+    M = floats(42)
+    dx = floats(6)
+    for n in range(len(L)):
         c, it, res, sing = _fk(A, B, L[n], P[n], Q[n], inv_scale, tolerance, max_iterations,
                                work_p, work_q, R, rb, d, lengths, f, M, dx)
         converged[n] = c
@@ -267,13 +285,13 @@ def fk_batch(A, B, L, P, Q, inv_scale, tolerance, max_iterations, converged, ite
         singular[n] = sing
 
 
-@_parallel_jit
+@jit(parallel=True, **_OPTIONS)
 def fk_batch_parallel(A, B, L, P, Q, inv_scale, tolerance, max_iterations, converged, iterations,
                       residual, singular):
     """:func:`fk_batch` in runs of ``PARALLEL_ROWS`` rows on numba's threads, each run solved by
-    the serial kernel: the same numbers bit for bit."""
+    the serial kernel: the same numbers bit for bit (compiled only)."""
     n = L.shape[0]
-    for c in numba.prange((n + PARALLEL_ROWS - 1) // PARALLEL_ROWS):
+    for c in prange((n + PARALLEL_ROWS - 1) // PARALLEL_ROWS):
         a, b = c * PARALLEL_ROWS, min(n, (c + 1) * PARALLEL_ROWS)
         fk_batch(A, B, L[a:b], P[a:b], Q[a:b], inv_scale, tolerance, max_iterations, converged[a:b],
                  iterations[a:b], residual[a:b], singular[a:b])

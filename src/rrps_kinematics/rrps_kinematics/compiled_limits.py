@@ -1,47 +1,49 @@
-"""Numba kernels for the real-time guards of one pose: every limit's smallest margin, det J.
+"""The kernels of a pose's limits (:mod:`.limits`), written once: every signed margin, det J.
 
-The same equations as :func:`rrps_kinematics.limits.margins` (the reference, which also words
-the reasons) and :func:`rrps_kinematics.jacobian.inverse_jacobian`, for a single pose without
-NumPy's per-call overhead: the IK node checks each target in a few microseconds instead of a
-few hundred. The tests check both paths give the same numbers. Imported lazily.
+Compiled by numba when it is enabled, interpreted otherwise (:mod:`.backend`): the IK node
+checks each target in a few microseconds, :func:`rrps_kinematics.limits.margins` runs the batch
+kernel, the workspace (:mod:`.compiled_workspace`) and the teleop guards build on the single-pose
+helpers. ``g`` is the robot as :class:`rrps_kinematics.limits.LimitArrays`. Imported lazily.
 """
 
 from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
-from rrps_kinematics.compiled import quat_to_matrix
+from rrps_kinematics.backend import floats, jit, matrix
+from rrps_kinematics.compiled import quat_to_matrix, quotient
 
-__all__ = ['pose_margins', 'pose_margin_arrays', 'jacobian_determinant', 'N_MARGINS', 'pose_in_ring_a', 'vector_angle',
-           'segment_distance', 'scaled_inverse_jacobian']
+__all__ = ['pose_margins', 'pose_margin_arrays', 'margins_batch', 'segment_distances_batch',
+           'jacobian_determinant', 'N_MARGINS', 'pose_in_ring_a', 'vector_angle', 'universal_angle',
+           'spherical_angle', 'segment_distance', 'scaled_inverse_jacobian', 'inverse_condition', 'PAIR_COUNT']
 
-_jit = numba.njit(cache=True, nogil=True)
-
+_OPTIONS = dict(nogil=True, error_model='numpy')
 #: Layout of :func:`pose_margins`' output: min stroke, universal, spherical, interference
 #: margins, conditioning margin, inverse condition number.
 N_MARGINS = 6
+#: Leg pairs, in the order of ``limits.PAIRS`` (i < j, i the slower index).
+PAIR_COUNT = 15
 
 
-@_jit
-def pose_in_ring_a(A, B, p, q, R, b_in_a, u, lengths):
-    """R(q), ring_b anchors in ring_a's frame, unit leg vectors and lengths (eq. 1)."""
-    quat_to_matrix(q, R)
+@jit(**_OPTIONS)
+def pose_in_ring_a(A, B, p, R, b_in_a, u, lengths):
+    """Ring_b's anchors in ring_a's frame, unit leg vectors and lengths (eq. 1) for the rotation R (9,)."""
     for i in range(6):
+        a, b, c, ui = A[i], B[i], b_in_a[i], u[i]
         s = 0.0
         for k in range(3):
-            b_in_a[i, k] = p[k] + R[k, 0] * B[i, 0] + R[k, 1] * B[i, 1] + R[k, 2] * B[i, 2]
-            d = b_in_a[i, k] - A[i, k]
-            u[i, k] = d
+            c[k] = p[k] + R[3 * k] * b[0] + R[3 * k + 1] * b[1] + R[3 * k + 2] * b[2]
+            d = c[k] - a[k]
+            ui[k] = d
             s += d * d
         lengths[i] = math.sqrt(s)
         for k in range(3):
-            u[i, k] /= lengths[i]
+            ui[k] = quotient(ui[k], lengths[i])
 
 
-@_jit
+@jit(**_OPTIONS)
 def vector_angle(u0, u1, u2, v0, v1, v2):
     """Angle between unit vectors: atan2(|u x v|, u . v)."""
     c0 = u1 * v2 - u2 * v1
@@ -50,15 +52,33 @@ def vector_angle(u0, u1, u2, v0, v1, v2):
     return math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), u0 * v0 + u1 * v1 + u2 * v2)
 
 
-@_jit
+@jit(**_OPTIONS)
+def universal_angle(u, axes_a, i):
+    """Leg i's angle from its universal joint's neutral axis (ring_a)."""
+    ui, a = u[i], axes_a[i]
+    return vector_angle(ui[0], ui[1], ui[2], a[0], a[1], a[2])
+
+
+@jit(**_OPTIONS)
+def spherical_angle(u, R, axes_b, i):
+    """Leg i seen from ring_b (towards ring_a, -R^T u): its angle from its spherical joint's
+    neutral axis."""
+    ui, b = u[i], axes_b[i]
+    t0 = -(R[0] * ui[0] + R[3] * ui[1] + R[6] * ui[2])
+    t1 = -(R[1] * ui[0] + R[4] * ui[1] + R[7] * ui[2])
+    t2 = -(R[2] * ui[0] + R[5] * ui[1] + R[8] * ui[2])
+    return vector_angle(t0, t1, t2, b[0], b[1], b[2])
+
+
+@jit(**_OPTIONS)
 def _clip01(x):
     return 0.0 if x < 0.0 else (1.0 if x > 1.0 else x)
 
 
-@_jit
+@jit(**_OPTIONS)
 def segment_distance(p0, p1, q0, q1):
-    """Closest distance of segments p0->p1 and q0->q1; the branches of limits.segment_distances
-    (on scalars: no temporary arrays)."""
+    """Closest distance of segments p0->p1 and q0->q1: the clamped closest-point problem in closed
+    form (Ericson, Real-Time Collision Detection, 5.1.9), degenerate and parallel segments included."""
     d10, d11, d12 = p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]
     d20, d21, d22 = q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]
     r0, r1, r2 = p0[0] - q0[0], p0[1] - q0[1], p0[2] - q0[2]
@@ -68,12 +88,13 @@ def segment_distance(p0, p1, q0, q1):
     c = d10 * r0 + d11 * r1 + d12 * r2
     f = d20 * r0 + d21 * r1 + d22 * r2
     tiny = 1e-30
-    a_pt = a <= tiny
-    e_pt = e <= tiny
+    a_pt = a <= tiny  # p is a point
+    e_pt = e <= tiny  # q is a point
     a_safe = 1.0 if a_pt else a
     e_safe = 1.0 if e_pt else e
     denom = a * e - b * b
     parallel = denom <= 1e-12 * a * e
+    # closest point of the infinite lines, s clamped, then t, then s re-clamped
     s = 0.0 if parallel else _clip01((b * f - c * e) / denom)
     t = (b * s + f) / e_safe
     if t < 0.0:
@@ -100,7 +121,7 @@ def segment_distance(p0, p1, q0, q1):
     return distance
 
 
-@_jit
+@jit(**_OPTIONS)
 def _point_segment_distance(x0, x1, x2, q0, d0, d1, d2, dd):
     """Distance from point x to segment q0 -> q0 + d (dd = d.d, 1 for a point segment)."""
     w0, w1, w2 = x0 - q0[0], x1 - q0[1], x2 - q0[2]
@@ -111,112 +132,151 @@ def _point_segment_distance(x0, x1, x2, q0, d0, d1, d2, dd):
     return math.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
 
 
-@_jit
+@jit(**_OPTIONS)
+def segment_distances_batch(p0, p1, q0, q1, out):
+    """out[n] = the closest distance of segments p0[n]->p1[n] and q0[n]->q1[n] ((N, 3) each)."""
+    for n in range(len(out)):
+        out[n] = segment_distance(p0[n], p1[n], q0[n], q1[n])
+
+
+@jit(**_OPTIONS)
 def scaled_inverse_jacobian(u, b_in_a, p, scale, J):
     """Rows [u_i, scale * (A_c s'_i) x u_i] (jacobian.inverse_jacobian, angular columns scaled)."""
     for i in range(6):
-        b0, b1, b2 = b_in_a[i, 0] - p[0], b_in_a[i, 1] - p[1], b_in_a[i, 2] - p[2]
-        J[i, 0], J[i, 1], J[i, 2] = u[i, 0], u[i, 1], u[i, 2]
-        J[i, 3] = scale * (b1 * u[i, 2] - b2 * u[i, 1])
-        J[i, 4] = scale * (b2 * u[i, 0] - b0 * u[i, 2])
-        J[i, 5] = scale * (b0 * u[i, 1] - b1 * u[i, 0])
+        ui, c, row = u[i], b_in_a[i], J[i]
+        b0, b1, b2 = c[0] - p[0], c[1] - p[1], c[2] - p[2]
+        row[0], row[1], row[2] = ui[0], ui[1], ui[2]
+        row[3] = scale * (b1 * ui[2] - b2 * ui[1])
+        row[4] = scale * (b2 * ui[0] - b0 * ui[2])
+        row[5] = scale * (b0 * ui[1] - b1 * ui[0])
 
 
-@_jit
-def pose_margins(g, p, q, out, lengths):
-    """Smallest margin of each limit of one pose (layout ``N_MARGINS``) and its lengths.
-
-    ``g``: the robot as :class:`rrps_kinematics.limits.LimitArrays`; q a unit quaternion
-    (x, y, z, w).
-    """
-    A, B, axes_a, axes_b, limits = (g.ring_a_anchors, g.ring_b_anchors, g.ring_a_joint_axes,
-                                    g.ring_b_joint_axes, g.limits)
-    R = np.empty((3, 3))
-    b_in_a = np.empty((6, 3))
-    u = np.empty((6, 3))
-    pose_in_ring_a(A, B, p, q, R, b_in_a, u, lengths)
-    stroke = np.inf
-    universal = np.inf
-    spherical = np.inf
-    for i in range(6):
-        stroke = min(stroke, min(lengths[i] - limits[0], limits[1] - lengths[i]))
-        universal = min(universal, limits[2] - vector_angle(u[i, 0], u[i, 1], u[i, 2],
-                                                      axes_a[i, 0], axes_a[i, 1], axes_a[i, 2]))
-        # the leg from the S-joint towards ring_a in ring_b's frame: -R^T u
-        t0 = -(R[0, 0] * u[i, 0] + R[1, 0] * u[i, 1] + R[2, 0] * u[i, 2])
-        t1 = -(R[0, 1] * u[i, 0] + R[1, 1] * u[i, 1] + R[2, 1] * u[i, 2])
-        t2 = -(R[0, 2] * u[i, 0] + R[1, 2] * u[i, 1] + R[2, 2] * u[i, 2])
-        spherical = min(spherical, limits[3] - vector_angle(t0, t1, t2, axes_b[i, 0], axes_b[i, 1], axes_b[i, 2]))
-    interference = np.inf
-    for i in range(6):
-        for j in range(i + 1, 6):
-            dist = segment_distance(A[i], b_in_a[i], A[j], b_in_a[j])
-            interference = min(interference, dist - 2.0 * limits[4])
-    J = np.empty((6, 6))
-    scaled_inverse_jacobian(u, b_in_a, p, 1.0 / limits[5], J)
-    inv_cond = 0.0
-    finite = True
+@jit(**_OPTIONS)
+def inverse_condition(J):  # noqa: C901 - a kernel: flat loops for numba
+    """sigma_min / sigma_max of J (6, 6), 0 when sigma_max is 0, NaN when J is not finite, by
+    one-sided Jacobi (Hestenes): plane rotations of J's columns until they are orthogonal, the
+    singular values then being their norms. Accurate to a few ulps relative even for small
+    singular values, and without LAPACK's allocations. Overwrites J."""
     for i in range(6):
         for k in range(6):
-            if not math.isfinite(J[i, k]):
-                finite = False
-    if finite:
-        sv = np.linalg.svd(J)[1]
-        if sv[0] > 0.0:
-            inv_cond = sv[5] / sv[0]
-    else:
-        inv_cond = np.nan
-    out[0] = stroke
-    out[1] = universal
-    out[2] = spherical
-    out[3] = interference
-    out[4] = inv_cond - limits[6]
-    out[5] = inv_cond
+            if not math.isfinite(J[i][k]):
+                return math.nan
+    for _ in range(60):
+        rotated = False
+        for i in range(5):
+            for j in range(i + 1, 6):
+                alpha = 0.0
+                beta = 0.0
+                gamma = 0.0
+                for k in range(6):
+                    row = J[k]
+                    alpha += row[i] * row[i]
+                    beta += row[j] * row[j]
+                    gamma += row[i] * row[j]
+                if not abs(gamma) > 1e-15 * math.sqrt(alpha * beta):
+                    continue
+                rotated = True
+                zeta = (beta - alpha) / (2.0 * gamma)
+                t = math.copysign(1.0, zeta) / (abs(zeta) + math.sqrt(1.0 + zeta * zeta))
+                c = 1.0 / math.sqrt(1.0 + t * t)
+                s = c * t
+                for k in range(6):
+                    row = J[k]
+                    a, b = row[i], row[j]
+                    row[i] = c * a - s * b
+                    row[j] = s * a + c * b
+        if not rotated:
+            break
+    smallest = math.inf
+    largest = 0.0
+    for i in range(6):
+        norm = 0.0
+        for k in range(6):
+            norm += J[k][i] * J[k][i]
+        smallest = min(smallest, norm)
+        largest = max(largest, norm)
+    return math.sqrt(smallest / largest) if largest > 0.0 else 0.0
 
 
-@_jit
-def pose_margin_arrays(g, p, q, lengths, stroke, universal, spherical, interference):
-    """Every margin of one pose, per leg (stroke, universal, spherical (6,)) and per leg pair
-    (interference (15,), in ``limits.PAIRS`` order), written in place; returns the inverse
-    condition number (NaN when the Jacobian is not finite). The numbers of ``limits.margins``."""
-    A, B, axes_a, axes_b, limits = (g.ring_a_anchors, g.ring_b_anchors, g.ring_a_joint_axes,
-                                    g.ring_b_joint_axes, g.limits)
-    R = np.empty((3, 3))
-    b_in_a = np.empty((6, 3))
-    u = np.empty((6, 3))
-    pose_in_ring_a(A, B, p, q, R, b_in_a, u, lengths)
+@jit(**_OPTIONS)
+def _limits_at(g, p, R, lengths, universal_angles, spherical_angles, distances, stroke, universal,
+               spherical, interference):
+    """Every margin of the pose (p, R), per leg and per leg pair (``limits.PAIRS`` order), with
+    the lengths, cone angles and leg distances behind them, written in place; returns the
+    inverse condition number (NaN when the Jacobian is not finite)."""
+    A, B, limits = g.ring_a_anchors, g.ring_b_anchors, g.limits
+    b_in_a = matrix(6, 3)
+    u = matrix(6, 3)
+    pose_in_ring_a(A, B, p, R, b_in_a, u, lengths)
     for i in range(6):
         stroke[i] = min(lengths[i] - limits[0], limits[1] - lengths[i])
-        universal[i] = limits[2] - vector_angle(u[i, 0], u[i, 1], u[i, 2],
-                                                axes_a[i, 0], axes_a[i, 1], axes_a[i, 2])
-        t0 = -(R[0, 0] * u[i, 0] + R[1, 0] * u[i, 1] + R[2, 0] * u[i, 2])
-        t1 = -(R[0, 1] * u[i, 0] + R[1, 1] * u[i, 1] + R[2, 1] * u[i, 2])
-        t2 = -(R[0, 2] * u[i, 0] + R[1, 2] * u[i, 1] + R[2, 2] * u[i, 2])
-        spherical[i] = limits[3] - vector_angle(t0, t1, t2, axes_b[i, 0], axes_b[i, 1], axes_b[i, 2])
+        ua = universal_angle(u, g.ring_a_joint_axes, i)
+        sa = spherical_angle(u, R, g.ring_b_joint_axes, i)
+        universal_angles[i] = ua
+        spherical_angles[i] = sa
+        universal[i] = limits[2] - ua
+        spherical[i] = limits[3] - sa
     k = 0
     for i in range(6):
         for j in range(i + 1, 6):
-            interference[k] = segment_distance(A[i], b_in_a[i], A[j], b_in_a[j]) - 2.0 * limits[4]
+            distances[k] = segment_distance(A[i], b_in_a[i], A[j], b_in_a[j])
+            interference[k] = distances[k] - 2.0 * limits[4]
             k += 1
-    J = np.empty((6, 6))
+    J = matrix(6, 6)
     scaled_inverse_jacobian(u, b_in_a, p, 1.0 / limits[5], J)
-    for i in range(6):
-        for c in range(6):
-            if not math.isfinite(J[i, c]):
-                return np.nan
-    sv = np.linalg.svd(J)[1]
-    return sv[5] / sv[0] if sv[0] > 0.0 else 0.0
+    return inverse_condition(J)
 
 
-@_jit
+@jit(**_OPTIONS)
+def margins_batch(g, P, R, lengths, universal_angles, spherical_angles, distances, stroke, universal,
+                  spherical, interference, inverse_conditions):
+    """:func:`_limits_at` of the poses (P[n], R[n]) ((N, 3), (N, 9): rotations row by row), row n of
+    each output."""
+    for n in range(len(P)):
+        inverse_conditions[n] = _limits_at(g, P[n], R[n], lengths[n], universal_angles[n], spherical_angles[n],
+                                           distances[n], stroke[n], universal[n], spherical[n], interference[n])
+
+
+@jit(**_OPTIONS)
+def pose_margin_arrays(g, p, q, lengths, stroke, universal, spherical, interference):
+    """Every margin of one pose (q a unit quaternion x, y, z, w), per leg (stroke, universal,
+    spherical (6,)) and per leg pair (interference (15,)), written in place; returns the inverse
+    condition number (NaN when the Jacobian is not finite)."""
+    R = floats(9)
+    quat_to_matrix(q, R)
+    return _limits_at(g, p, R, lengths, floats(6), floats(6), floats(PAIR_COUNT), stroke, universal, spherical,
+                      interference)
+
+
+@jit(**_OPTIONS)
+def _smallest(values):
+    smallest = math.inf
+    for v in values:
+        smallest = min(smallest, v)
+    return smallest
+
+
+@jit(**_OPTIONS)
+def pose_margins(g, p, q, out, lengths):
+    """Smallest margin of each limit of one pose (layout ``N_MARGINS``) and its lengths."""
+    stroke, universal, spherical, interference = floats(6), floats(6), floats(6), floats(PAIR_COUNT)
+    inv_cond = pose_margin_arrays(g, p, q, lengths, stroke, universal, spherical, interference)
+    out[0] = _smallest(stroke)
+    out[1] = _smallest(universal)
+    out[2] = _smallest(spherical)
+    out[3] = _smallest(interference)
+    out[4] = inv_cond - g.limits[6]
+    out[5] = inv_cond
+
+
+@jit(**_OPTIONS)
 def jacobian_determinant(g, p, q):
     """det J (unscaled inverse Jacobian, rows [u_i, (A_c s'_i) x u_i]) at one pose."""
-    A, B = g.ring_a_anchors, g.ring_b_anchors
-    R = np.empty((3, 3))
-    b_in_a = np.empty((6, 3))
-    u = np.empty((6, 3))
-    lengths = np.empty(6)
-    pose_in_ring_a(A, B, p, q, R, b_in_a, u, lengths)
-    J = np.empty((6, 6))
+    R = floats(9)
+    quat_to_matrix(q, R)
+    b_in_a = matrix(6, 3)
+    u = matrix(6, 3)
+    pose_in_ring_a(g.ring_a_anchors, g.ring_b_anchors, p, R, b_in_a, u, floats(6))
+    J = matrix(6, 6)
     scaled_inverse_jacobian(u, b_in_a, p, 1.0, J)
     return np.linalg.det(J)

@@ -7,12 +7,12 @@ Seeded from a previous pose it converges quadratically in 2-4 iterations. Far fr
 the step is damped (rotation <= pi/2, halved until the residual decreases), which makes the
 same solver usable for multi-start searches (:mod:`.assembly`).
 
-Two backends compute the same iterates: a numba-compiled one (:mod:`.compiled`, the default
-when numba is importable and ``RRPS_NUMBA`` is not ``0``) and the vectorised NumPy reference,
-whose single solves run on plain floats (:mod:`.forward_scalar`). Long compiled batches run on
-every thread (the same numbers as the serial kernel). A stream of solves for one robot (the FK
-node's tracker) goes through one :class:`ForwardSolver`: its settings checked once, each solve one
-call of a kernel that checks the input itself.
+The solver is one kernel (:mod:`.compiled`): compiled by numba when it is enabled, interpreted
+on Python floats otherwise (``RRPS_NUMBA=0`` or ``backend='numpy'``: for six legs the interpreter
+costs less than NumPy's per-call overhead). Long compiled batches run on every thread (the same
+numbers as the serial kernel). A stream of solves for one robot (the FK node's tracker) goes
+through one :class:`ForwardSolver`: its settings checked once, each solve one call of a kernel
+that checks the input itself.
 """
 
 from __future__ import annotations
@@ -24,11 +24,9 @@ from typing import NamedTuple
 import numpy as np
 
 from rrps_description.geometry import RobotGeometry
-from rrps_description.rotations import cross, quat_multiply_xyzw, quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
-from rrps_kinematics.backend import PARALLEL_BATCH, compiled_backend_available, kernels, run_parallel, use_numba
-from rrps_kinematics.forward_scalar import fk_python
+from rrps_description.rotations import quat_xyzw_to_matrix
+from rrps_kinematics.backend import PARALLEL_BATCH, compiled_backend_available, interpreted, run_parallel, use_numba
 from rrps_kinematics.inverse import pose_arrays
-from rrps_kinematics.newton_settings import MAX_HALVINGS, MAX_ROTATION_STEP, PIVOT_TOLERANCE
 
 __all__ = ['ForwardKinematicsResult', 'ForwardSolver', 'check_lengths', 'forward_kinematics',
            'compiled_backend_available']
@@ -119,8 +117,11 @@ class ForwardSolver:
         self.numba = use_numba(backend)
         self._A, self._B = (np.array(a, dtype=float, order='C') for a in (geometry.ring_a_anchors,
                                                                            geometry.ring_b_anchors))
+        if not self.numba:  # interpreted: rows of Python floats
+            self._A, self._B = self._A.tolist(), self._B.tolist()
         self._inv_scale = 1.0 / geometry.characteristic_length
-        self._kernel = kernels().fk_solve if self.numba else None
+        self._kernels = _kernels()
+        self._kernel = self._kernels.fk_solve if self.numba else None
 
     @cached_property
     def _home(self) -> tuple[np.ndarray, np.ndarray]:
@@ -156,12 +157,9 @@ class ForwardSolver:
         P = np.array(p.reshape(-1, 3), dtype=float, order='C')
         Q = np.array(q.reshape(-1, 4), dtype=float, order='C')
         Lf = np.ascontiguousarray(L.reshape(-1, 6))
-        if self.numba:
-            converged, iterations, residual, singular = _batch_numba(
-                self._A, self._B, Lf, P, Q, self._inv_scale, self.tolerance, self.max_iterations)
-        else:
-            converged, iterations, residual, singular = _newton_numpy(
-                self.geometry, Lf, P, Q, self.tolerance, self.max_iterations)
+        solve = _batch_numba if self.numba else _batch_interpreted
+        P, Q, converged, iterations, residual, singular = solve(
+            self._A, self._B, Lf, P, Q, self._inv_scale, self.tolerance, self.max_iterations)
         Q = np.where(Q[:, 3:4] < 0.0, -Q, Q)
         return ForwardKinematicsResult(P.reshape(batch + (3,)), Q.reshape(batch + (4,)),
                                        converged.reshape(batch), iterations.reshape(batch),
@@ -170,22 +168,27 @@ class ForwardSolver:
     def _single(self, L, p, q) -> ForwardKinematicsResult:
         """A single solve of checked input (p, unit q)."""
         if self.numba:
-            _, p, q, c, it, res, sing = kernels().fk_solve(
+            _, p, q, c, it, res, sing = self._kernels.fk_solve(
                 self._A, self._B, np.array(L), np.array(p), np.array(q), self._inv_scale, self.tolerance,
                 self.max_iterations)
             return ForwardKinematicsResult(p, q, c, it, res, sing)
-        p, q, c, it, res, sing = fk_python(self._A_rows, self._B_rows, L.tolist(), p.tolist(), q.tolist(),
-                                           self._inv_scale, self.tolerance, self.max_iterations)
+        p, q = p.tolist(), q.tolist()
+        c, it, res, sing = interpreted(self._kernels.fk_single)(self._A, self._B, L.tolist(), p, q, self._inv_scale,
+                                                           self.tolerance, self.max_iterations)
         q = np.array(q)
         return ForwardKinematicsResult(np.array(p), -q if q[3] < 0.0 else q, c, it, res, sing)
 
-    @cached_property
-    def _A_rows(self) -> list:
-        return self._A.tolist()
 
-    @cached_property
-    def _B_rows(self) -> list:
-        return self._B.tolist()
+def _batch_interpreted(A, B, L, P, Q, inv_scale, tolerance, max_iterations):
+    """The batch kernel interpreted, on lists: (P, Q, converged, iterations, residual, singular)."""
+    n = L.shape[0]
+    P, Q = P.tolist(), Q.tolist()
+    converged, iterations, residual, singular = [False] * n, [0] * n, [0.0] * n, [False] * n
+    interpreted(_kernels().fk_batch)(A, B, L.tolist(), P, Q, inv_scale, tolerance, max_iterations, converged,
+                                   iterations, residual, singular)
+    return (np.array(P, dtype=float).reshape(n, 3), np.array(Q, dtype=float).reshape(n, 4),
+            np.array(converged, dtype=np.bool_), np.array(iterations, dtype=np.int64),
+            np.array(residual, dtype=float), np.array(singular, dtype=np.bool_))
 
 
 def _batch_numba(A, B, L, P, Q, inv_scale, tolerance, max_iterations):
@@ -197,91 +200,13 @@ def _batch_numba(A, B, L, P, Q, inv_scale, tolerance, max_iterations):
     residual = np.zeros(n)
     singular = np.zeros(n, dtype=np.bool_)
     args = (A, B, L, P, Q, inv_scale, tolerance, max_iterations, converged, iterations, residual, singular)
-    if not (n >= PARALLEL_BATCH and run_parallel(kernels().fk_batch_parallel, *args)):
-        kernels().fk_batch(*args)
-    return converged, iterations, residual, singular
+    kernels = _kernels()
+    if not (n >= PARALLEL_BATCH and run_parallel(kernels.fk_batch_parallel, *args)):
+        kernels.fk_batch(*args)
+    return P, Q, converged, iterations, residual, singular
 
 
-def _residual_numpy(geometry, L, P, Q):
-    """Leg vectors, A_c s'_i, lengths, residual L - l, max |f| and sum f^2 for (n,) poses."""
-    R = quat_xyzw_to_matrix(Q)
-    rb = np.einsum('nkj,ij->nik', R, geometry.ring_b_anchors)
-    d = P[:, None, :] + rb - geometry.ring_a_anchors
-    lengths = np.sqrt(np.einsum('nik,nik->ni', d, d))
-    f = L - lengths
-    worst = np.max(np.abs(f), axis=1)
-    worst = np.where(np.isnan(worst), np.inf, worst)
-    return rb, d, lengths, f, worst, np.einsum('ni,ni->n', f, f)
-
-
-def _lu_solve_numpy(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Solve the (n, 6, 7) augmented systems by LU with partial pivoting; (dx, ok)."""
-    M = M.copy()
-    n = M.shape[0]
-    rows = np.arange(n)
-    ok = np.all(np.isfinite(M), axis=(1, 2))
-    for c in range(6):
-        piv = c + np.argmax(np.abs(M[:, c:, c]), axis=1)
-        ok &= np.abs(M[rows, piv, c]) > PIVOT_TOLERANCE
-        top = M[rows, c].copy()
-        M[rows, c] = M[rows, piv]
-        M[rows, piv] = top
-        with np.errstate(divide='ignore', invalid='ignore'):
-            m = M[:, c + 1:, c] / M[:, c:c + 1, c]
-        M[:, c + 1:, c + 1:] -= m[:, :, None] * M[:, c:c + 1, c + 1:]
-    dx = np.zeros((n, 6))
-    with np.errstate(divide='ignore', invalid='ignore'):
-        for c in range(5, -1, -1):
-            s = M[:, c, 6] - np.einsum('nk,nk->n', M[:, c, c + 1:6], dx[:, c + 1:])
-            dx[:, c] = s / M[:, c, c]
-    ok &= np.all(np.isfinite(dx), axis=1)
-    return dx, ok
-
-
-def _newton_numpy(geometry, L, P, Q, tolerance, max_iterations):
-    """The vectorised NumPy reference of the compiled solver; updates P, Q in place."""
-    n = L.shape[0]
-    inv_scale = 1.0 / geometry.characteristic_length
-    converged = np.zeros(n, dtype=bool)
-    singular = np.zeros(n, dtype=bool)
-    iterations = np.zeros(n, dtype=np.int64)
-    rb, d, lengths, f, worst, ss = _residual_numpy(geometry, L, P, Q)
-    residual = worst.copy()
-    active = np.ones(n, dtype=bool)
-    while True:
-        done = active & (residual <= tolerance)
-        converged |= done
-        active &= ~done
-        active &= (iterations < max_iterations) & np.isfinite(ss)
-        idx = np.flatnonzero(active)
-        if idx.size == 0:
-            break
-        u = d[idx] / lengths[idx, :, None]
-        M = np.concatenate([u, cross(rb[idx], u) * inv_scale, f[idx, :, None]], axis=2)
-        dx, ok = _lu_solve_numpy(M)
-        dx[:, 3:] *= inv_scale
-        singular[idx[~ok]] = True
-        active[idx[~ok]] = False
-        idx, dx = idx[ok], dx[ok]
-        rot = np.linalg.norm(dx[:, 3:], axis=1)
-        t = np.where(rot > MAX_ROTATION_STEP, MAX_ROTATION_STEP / np.maximum(rot, 1e-300), 1.0)
-        pending = np.ones(idx.size, dtype=bool)
-        for _ in range(MAX_HALVINGS + 1):
-            k = np.flatnonzero(pending)
-            if k.size == 0:
-                break
-            step = t[k, None] * dx[k]
-            Pn = P[idx[k]] + step[:, :3]
-            Qn = quat_multiply_xyzw(rotation_vector_to_quat_xyzw(step[:, 3:]), Q[idx[k]])
-            Qn /= np.linalg.norm(Qn, axis=1, keepdims=True)
-            rb2, d2, l2, f2, w2, s2 = _residual_numpy(geometry, L[idx[k]], Pn, Qn)
-            acc = s2 < ss[idx[k]]
-            j = idx[k[acc]]
-            P[j], Q[j] = Pn[acc], Qn[acc]
-            rb[j], d[j], lengths[j], f[j] = rb2[acc], d2[acc], l2[acc], f2[acc]
-            residual[j], ss[j] = w2[acc], s2[acc]
-            iterations[j] += 1
-            pending[k[acc]] = False
-            t[k[~acc]] *= 0.5
-        active[idx[pending]] = False  # no decrease: stalled, stop unconverged
-    return converged, iterations, residual, singular
+def _kernels():
+    """The FK kernels (:mod:`.compiled`), imported on first use (numba compiles or loads them)."""
+    from rrps_kinematics import compiled
+    return compiled

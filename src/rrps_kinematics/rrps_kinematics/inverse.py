@@ -16,7 +16,7 @@ import numpy as np
 
 from rrps_description.geometry import RobotGeometry
 from rrps_description.rotations import cross, matrix_to_euler313, matrix_to_euler_parameters, quat_xyzw_to_matrix
-from rrps_kinematics.backend import PARALLEL_BATCH, kernels, run_parallel, use_numba
+from rrps_kinematics.backend import PARALLEL_BATCH, interpreted, run_parallel, use_numba
 
 __all__ = [
     'InverseKinematicsResult',
@@ -190,16 +190,20 @@ def inverse_kinematics(geometry: RobotGeometry, position, quaternion_xyzw) -> In
 def leg_lengths(geometry: RobotGeometry, position, quaternion_xyzw, *, backend: str = 'auto') -> np.ndarray:
     """Actuator lengths only (the batch IK fast path): (3,), (4,) -> (6,); (N, 3), (N, 4) -> (N, 6).
 
-    Equal to ``inverse_kinematics(...).lengths``; with numba it skips every other quantity.
+    Equal to ``inverse_kinematics(...).lengths``, from a kernel that skips every other quantity
+    (:func:`rrps_kinematics.compiled.ik_lengths_batch`; long compiled batches on every thread).
     """
+    from rrps_kinematics import compiled
     p, q = pose_arrays(position, quaternion_xyzw)
-    if not use_numba(backend):
-        return InverseKinematicsResult(geometry, p, quat_xyzw_to_matrix(q)).lengths
     P = np.ascontiguousarray(p.reshape(-1, 3))
     Q = np.ascontiguousarray(q.reshape(-1, 4))
+    A, B = (np.ascontiguousarray(a, dtype=float) for a in (geometry.ring_a_anchors, geometry.ring_b_anchors))
+    if not use_numba(backend):
+        out = [[0.0] * 6 for _ in range(len(P))]
+        interpreted(compiled.ik_lengths_batch)(A.tolist(), B.tolist(), P.tolist(), Q.tolist(), out)
+        return np.array(out, dtype=float).reshape(p.shape[:-1] + (6,))
     out = np.empty((P.shape[0], 6))
-    args = (np.ascontiguousarray(geometry.ring_a_anchors), np.ascontiguousarray(geometry.ring_b_anchors),
-            P, Q, out)
-    if not (P.shape[0] >= PARALLEL_BATCH and run_parallel(kernels().ik_lengths_parallel, *args)):
-        kernels().ik_lengths_batch(*args)
+    args = (A, B, P, Q, out)
+    if not (P.shape[0] >= PARALLEL_BATCH and run_parallel(compiled.ik_lengths_parallel, *args)):
+        compiled.ik_lengths_batch(*args)
     return out.reshape(p.shape[:-1] + (6,))

@@ -27,7 +27,8 @@ Fields (a single pose drops the leading N):
 * ``conditioning`` (N,): ``inverse_condition - geometry.min_conditioning``.
 * ``ok`` (N,) bool: all margins >= 0 and ``inverse_condition > 0``; NaN counts as a violation.
 
-Pure NumPy, vectorised over the batch; no ROS import.
+Every margin is computed by one kernel (:mod:`.compiled_limits`; compiled by numba, or
+interpreted with ``RRPS_NUMBA=0`` or ``backend='numpy'``); no ROS import.
 """
 
 from __future__ import annotations
@@ -41,9 +42,8 @@ from typing import NamedTuple
 import numpy as np
 
 from rrps_description.geometry import RobotGeometry
-from rrps_kinematics.backend import use_numba
+from rrps_kinematics.backend import interpreted, use_numba
 from rrps_kinematics.inverse import InverseKinematicsResult, inverse_kinematics
-from rrps_kinematics.jacobian import inverse_jacobian
 
 __all__ = [
     'PAIRS',
@@ -123,12 +123,13 @@ class LimitArrays(NamedTuple):
     limits: np.ndarray
 
 
-_limit_arrays: dict[int, tuple[RobotGeometry, LimitArrays]] = {}
+_limit_arrays: dict[tuple[int, bool], tuple[RobotGeometry, LimitArrays]] = {}
 
 
-def limit_arrays(geometry: RobotGeometry) -> LimitArrays:
-    """The :class:`LimitArrays` of ``geometry`` (built once per geometry object)."""
-    entry = _limit_arrays.get(id(geometry))
+def limit_arrays(geometry: RobotGeometry, *, lists: bool = False) -> LimitArrays:
+    """The :class:`LimitArrays` of ``geometry`` (built once per geometry object); with ``lists``
+    as Python lists (what the interpreted kernels index quickest)."""
+    entry = _limit_arrays.get((id(geometry), lists))
     arrays = entry[1] if entry is not None and entry[0] is geometry else None
     if arrays is None:
         g = geometry
@@ -136,72 +137,37 @@ def limit_arrays(geometry: RobotGeometry) -> LimitArrays:
             g.ring_a_anchors, g.ring_b_anchors, g.ring_a_joint_axes, g.ring_b_joint_axes)),
             np.array([g.min_length, g.max_length, g.universal_max_angle, g.spherical_max_angle,
                       g.leg_radius, g.characteristic_length, g.min_conditioning]))
-        _limit_arrays[id(geometry)] = (geometry, arrays)
+        if lists:
+            arrays = LimitArrays(*(a.tolist() for a in arrays))
+        _limit_arrays[(id(geometry), lists)] = (geometry, arrays)
     return arrays
 
 
-def segment_distances(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
-    """Minimum distance between segments p0->p1 and q0->q1, broadcast over leading axes (..., 3).
-
-    Closed form of the clamped closest-point problem (as in Ericson, Real-Time Collision
-    Detection, 5.1.9); degenerate (zero-length) and parallel segments are handled.
-    """
-    d1 = p1 - p0
-    d2 = q1 - q0
-    r = p0 - q0
-    a = np.einsum('...k,...k->...', d1, d1)
-    e = np.einsum('...k,...k->...', d2, d2)
-    b = np.einsum('...k,...k->...', d1, d2)
-    c = np.einsum('...k,...k->...', d1, r)
-    f = np.einsum('...k,...k->...', d2, r)
-    tiny = 1e-30
-    a_pt = a <= tiny  # p is a point
-    e_pt = e <= tiny  # q is a point
-    a_safe = np.where(a_pt, 1.0, a)
-    e_safe = np.where(e_pt, 1.0, e)
-    denom = a * e - b * b
-    parallel = denom <= 1e-12 * a * e
-    # General case: closest point of the infinite lines, s clamped, then t, then s re-clamped.
-    s = np.where(parallel, 0.0, np.clip((b * f - c * e) / np.where(parallel, 1.0, denom), 0.0, 1.0))
-    t = (b * s + f) / e_safe
-    s = np.where(t < 0.0, np.clip(-c / a_safe, 0.0, 1.0), np.where(t > 1.0, np.clip((b - c) / a_safe, 0.0, 1.0), s))
-    t = np.clip(t, 0.0, 1.0)
-    # q a point: t = 0, s = projection of q0 on p; p a point: s = 0, t = projection of p0 on q.
-    s = np.where(e_pt, np.clip(-c / a_safe, 0.0, 1.0), s)
-    t = np.where(e_pt, 0.0, t)
-    s = np.where(a_pt, 0.0, s)
-    t = np.where(a_pt, np.where(e_pt, 0.0, np.clip(f / e_safe, 0.0, 1.0)), t)
-    gap = (p0 + s[..., None] * d1) - (q0 + t[..., None] * d2)
-    distance = np.sqrt(np.einsum('...k,...k->...', gap, gap))
-    if not np.any(parallel):
-        return distance
-    # (Nearly) parallel segments: s = 0 above is off by up to |d1| * 1e-6 when they are not
-    # exactly parallel; the minimum is attained at an endpoint of one of them.
-    ends = np.minimum(np.minimum(_point_segment_distance(p0, q0, d2, e_safe),
-                                 _point_segment_distance(p1, q0, d2, e_safe)),
-                      np.minimum(_point_segment_distance(q0, p0, d1, a_safe),
-                                 _point_segment_distance(q1, p0, d1, a_safe)))
-    return np.where(parallel, np.minimum(distance, ends), distance)
+def _kernels(backend: str):
+    """(the limits' kernels, their robot arrays as lists or not): compiled, or interpreted."""
+    from rrps_kinematics import compiled_limits
+    return compiled_limits, not use_numba(backend)
 
 
-def _point_segment_distance(x: np.ndarray, q0: np.ndarray, d: np.ndarray, dd: np.ndarray) -> np.ndarray:
-    """Distance from points x to segments q0 -> q0 + d (dd = d.d, 1 for a point segment)."""
-    t = np.clip(np.einsum('...k,...k->...', x - q0, d) / dd, 0.0, 1.0)
-    gap = x - (q0 + t[..., None] * d)
-    return np.sqrt(np.einsum('...k,...k->...', gap, gap))
+def segment_distances(p0, p1, q0, q1, *, backend: str = 'auto') -> np.ndarray:
+    """Minimum distance between segments p0->p1 and q0->q1, broadcast over leading axes (..., 3)
+    (the kernel :func:`rrps_kinematics.compiled_limits.segment_distance`)."""
+    p0, p1, q0, q1 = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (p0, p1, q0, q1)))
+    shape = p0.shape[:-1]
+    kernels, lists = _kernels(backend)
+    flat = [np.ascontiguousarray(x.reshape(-1, 3)) for x in (p0, p1, q0, q1)]
+    if lists:
+        out = [0.0] * len(flat[0])
+        interpreted(kernels.segment_distances_batch)(*(x.tolist() for x in flat), out)
+        return np.array(out, dtype=float).reshape(shape)
+    out = np.empty(len(flat[0]))
+    kernels.segment_distances_batch(*flat, out)
+    return out.reshape(shape)
 
 
 def inverse_condition_number(geometry: RobotGeometry, ik: InverseKinematicsResult) -> np.ndarray:
     """sigma_min / sigma_max of J with its angular columns divided by the characteristic length."""
-    J = inverse_jacobian(ik)
-    scale = np.array([1.0, 1.0, 1.0] + [1.0 / geometry.characteristic_length] * 3)
-    Js = J * scale
-    finite = np.all(np.isfinite(Js), axis=(-2, -1))
-    Js = np.where(finite[..., None, None], Js, 0.0)
-    sv = np.linalg.svd(Js, compute_uv=False)
-    with np.errstate(divide='ignore', invalid='ignore'):
-        inv = np.where(sv[..., 0] > 0.0, sv[..., -1] / sv[..., 0], 0.0)
-    return np.where(finite, inv, np.nan)
+    return margins(geometry, ik).inverse_condition
 
 
 @dataclass(frozen=True)
@@ -293,21 +259,28 @@ class Margins:
         return out
 
 
-def margins(geometry: RobotGeometry, ik: InverseKinematicsResult) -> Margins:
-    """Every signed margin of the pose(s) solved in ``ik`` (see the module docstring)."""
+def margins(geometry: RobotGeometry, ik: InverseKinematicsResult, *, backend: str = 'auto') -> Margins:
+    """Every signed margin of the pose(s) solved in ``ik`` (see the module docstring), from the
+    kernel :func:`rrps_kinematics.compiled_limits.margins_batch`."""
     g = geometry
-    L = ik.lengths
-    stroke = np.minimum(L - g.min_length, g.max_length - L)
-    ua = ik.universal_cone_angles
-    sa = ik.spherical_cone_angles
-    universal = g.universal_max_angle - ua
-    spherical = g.spherical_max_angle - sa
-    a = np.broadcast_to(g.ring_a_anchors, ik.leg_vectors.shape)
-    b = ik.ring_b_anchors_in_a
-    i, j = PAIRS[:, 0], PAIRS[:, 1]
-    dist = segment_distances(a[..., i, :], b[..., i, :], a[..., j, :], b[..., j, :])
-    interference = dist - 2.0 * g.leg_radius
-    inv_cond = inverse_condition_number(g, ik)
+    batch = np.shape(ik.position)[:-1]
+    P = np.ascontiguousarray(np.reshape(ik.position, (-1, 3)), dtype=float)
+    R = np.ascontiguousarray(np.reshape(ik.rotation, (-1, 9)), dtype=float)
+    n = len(P)
+    widths = (6, 6, 6, len(PAIRS), 6, 6, 6, len(PAIRS))
+    kernels, lists = _kernels(backend)
+    if lists:
+        outs = [[[0.0] * w for _ in range(n)] for w in widths]
+        inv = [0.0] * n
+        interpreted(kernels.margins_batch)(limit_arrays(g, lists=True), P.tolist(), R.tolist(), *outs, inv)
+        outs = [np.array(o, dtype=float).reshape(n, w) for o, w in zip(outs, widths)]
+        inv = np.array(inv, dtype=float)
+    else:
+        outs = [np.empty((n, w)) for w in widths]
+        inv = np.empty(n)
+        kernels.margins_batch(limit_arrays(g), P, R, *outs, inv)
+    L, ua, sa, dist, stroke, universal, spherical, interference = (o.reshape(batch + o.shape[1:]) for o in outs)
+    inv_cond = inv.reshape(batch)
     conditioning = inv_cond - g.min_conditioning
     ok = (np.all(stroke >= 0.0, axis=-1) & np.all(universal >= 0.0, axis=-1)
           & np.all(spherical >= 0.0, axis=-1) & np.all(interference >= 0.0, axis=-1)
@@ -354,23 +327,24 @@ class PoseMargins(NamedTuple):
 
 def pose_margins(geometry: RobotGeometry, position, quaternion_xyzw, *,
                  backend: str = 'auto') -> PoseMargins:
-    """Every margin of one pose a_T_b (unit quaternion): a numba kernel when available (a few
-    microseconds, no NumPy call per leg), else :func:`margins`; the same numbers."""
+    """Every margin of one pose a_T_b (unit quaternion): the kernel of :func:`margins` for one
+    pose, without NumPy's per-call overhead (a few microseconds compiled)."""
     p = np.ascontiguousarray(position, dtype=float)
     q = np.ascontiguousarray(quaternion_xyzw, dtype=float)
-    if use_numba(backend):
-        from rrps_kinematics.compiled_limits import pose_margin_arrays
+    kernels, lists = _kernels(backend)
+    if lists:
+        out = [[0.0] * 6 for _ in range(4)] + [[0.0] * len(PAIRS)]
+        inv_cond = interpreted(kernels.pose_margin_arrays)(limit_arrays(geometry, lists=True), p.tolist(),
+                                                           q.tolist(), *out)
+        lengths, stroke, universal, spherical, interference = (np.array(o, dtype=float) for o in out)
+    else:
         buffer = np.empty(39)  # one allocation; the record's arrays are views of it
         lengths, stroke, universal, spherical = (buffer[6 * k:6 * k + 6] for k in range(4))
         interference = buffer[24:]
-        inv_cond = pose_margin_arrays(limit_arrays(geometry), p, q, lengths, stroke, universal,
-                                      spherical, interference)
-        return PoseMargins(lengths, stroke, universal, spherical, interference, float(inv_cond),
-                           float(inv_cond) - geometry.min_conditioning)
-    m = margins(geometry, inverse_kinematics(geometry, p, q))
-    return PoseMargins(np.asarray(m.lengths), np.asarray(m.stroke), np.asarray(m.universal),
-                       np.asarray(m.spherical), np.asarray(m.interference),
-                       float(m.inverse_condition), float(m.conditioning))
+        inv_cond = kernels.pose_margin_arrays(limit_arrays(geometry), p, q, lengths, stroke, universal,
+                                              spherical, interference)
+    return PoseMargins(lengths, stroke, universal, spherical, interference, float(inv_cond),
+                       float(inv_cond) - geometry.min_conditioning)
 
 
 def check_pose(geometry: RobotGeometry, position, quaternion_xyzw) -> tuple[bool, str, Margins]:

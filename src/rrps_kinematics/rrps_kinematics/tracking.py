@@ -25,10 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from rrps_description.geometry import RobotGeometry
-from rrps_kinematics.backend import use_numba
+from rrps_kinematics.backend import interpreted, use_numba
 from rrps_kinematics.forward import ForwardKinematicsResult, ForwardSolver
 from rrps_kinematics.inverse import inverse_kinematics
-from rrps_kinematics.jacobian import inverse_jacobian
 from rrps_kinematics.limits import limit_arrays
 
 __all__ = ['PoseTracker', 'TrackingUpdate']
@@ -85,13 +84,13 @@ class PoseTracker:
 
     def jacobian_sign(self, position, quaternion_xyzw) -> float:
         """Sign of det J at a pose: +1 or -1 in an assembly mode's region, 0 when singular."""
+        from rrps_kinematics.compiled_limits import jacobian_determinant
+        p = np.ascontiguousarray(position, dtype=float)
+        q = np.ascontiguousarray(quaternion_xyzw, dtype=float)
         if use_numba('auto'):
-            from rrps_kinematics.compiled_limits import jacobian_determinant
-            return float(np.sign(jacobian_determinant(
-                limit_arrays(self.geometry), np.ascontiguousarray(position, dtype=float),
-                np.ascontiguousarray(quaternion_xyzw, dtype=float))))
-        return float(np.sign(np.linalg.det(inverse_jacobian(
-            inverse_kinematics(self.geometry, position, quaternion_xyzw)))))
+            return float(np.sign(jacobian_determinant(limit_arrays(self.geometry), p, q)))
+        return float(np.sign(interpreted(jacobian_determinant)(limit_arrays(self.geometry, lists=True),
+                                                               p.tolist(), q.tolist())))
 
     def distance(self, position, quaternion_xyzw) -> float:
         """Translation plus rotation angle times the characteristic length, from the estimate [m]."""

@@ -33,8 +33,8 @@ Definitions:
   stroke and inside their universal joints' cones, plus one cell on each side; their points lie
   on multiples of ``spacing``, so grids of the same spacing share their points.
 
-The numba kernel (:mod:`.compiled_workspace`) and the vectorised NumPy path (``RRPS_NUMBA=0`` or
-``backend='numpy'``) classify every point alike. Pure NumPy/numba, no ROS import.
+One kernel classifies the grid (:mod:`.compiled_workspace`: compiled by numba on every thread, or
+interpreted with ``RRPS_NUMBA=0`` or ``backend='numpy'``). No ROS import.
 """
 
 from __future__ import annotations
@@ -48,9 +48,8 @@ from scipy import ndimage
 
 from rrps_description.geometry import RobotGeometry
 from rrps_description.rotations import quat_multiply_xyzw, quat_xyzw_to_matrix, rotation_vector_to_quat_xyzw
-from rrps_kinematics.backend import PARALLEL_BATCH, run_parallel, use_numba
-from rrps_kinematics.inverse import inverse_kinematics
-from rrps_kinematics.limits import LIMIT_KINDS, limit_arrays, margins
+from rrps_kinematics.backend import PARALLEL_BATCH, interpreted, run_parallel, use_numba
+from rrps_kinematics.limits import LIMIT_KINDS, limit_arrays
 
 __all__ = [
     'LIMIT_KINDS',
@@ -79,7 +78,6 @@ MAX_GRID_POINTS = 20_000_000
 #: Largest number of orientations of a range.
 MAX_ORIENTATIONS = 10_000
 _WITHIN_LIMITS = len(LIMIT_KINDS)  # status of a point within every limit, as in compiled_workspace
-_CHUNK = 16_384                    # poses per vectorised margins() call of the NumPy path
 
 
 @dataclass(frozen=True, eq=False)
@@ -257,39 +255,24 @@ def _check_bounds(bounds) -> np.ndarray:
     return b
 
 
-def _classify_numpy(geometry: RobotGeometry, axes, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Status (first limit broken, or _WITHIN_LIMITS) and smallest 1/cond of every grid point, by
-    :func:`limits.margins` in vectorised chunks; points leave at their first unreachable orientation."""
-    P = np.stack(np.meshgrid(*axes, indexing='ij'), axis=-1).reshape(-1, 3)
-    status = np.full(len(P), _WITHIN_LIMITS, dtype=np.int8)
-    inv_cond = np.full(len(P), math.inf)
-    alive = np.arange(len(P))
-    for q in Q:
-        for start in range(0, len(alive), _CHUNK):
-            idx = alive[start:start + _CHUNK]
-            m = margins(geometry, inverse_kinematics(geometry, P[idx], np.broadcast_to(q, (len(idx), 4))))
-            broken = np.stack([~np.all(m.stroke >= 0.0, axis=-1), ~np.all(m.universal >= 0.0, axis=-1),
-                               ~np.all(m.spherical >= 0.0, axis=-1),
-                               ~np.all(m.interference >= 0.0, axis=-1),
-                               ~((m.conditioning >= 0.0) & (m.inverse_condition > 0.0))])
-            out = broken.any(axis=0)
-            status[idx[out]] = np.argmax(broken[:, out], axis=0)
-            inv_cond[idx[~out]] = np.minimum(inv_cond[idx[~out]], m.inverse_condition[~out])
-        alive = alive[status[alive] == _WITHIN_LIMITS]
-    inv_cond[status != _WITHIN_LIMITS] = math.nan
+def _classify(geometry: RobotGeometry, axes, Q: np.ndarray, numba: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Status (first limit broken, or _WITHIN_LIMITS) and smallest 1/cond of every grid point:
+    the kernel of :mod:`.compiled_workspace`, compiled (on every thread when large enough) or
+    interpreted on lists."""
+    from rrps_kinematics import compiled_workspace as kernels
     shape = tuple(len(a) for a in axes)
-    return status.reshape(shape), inv_cond.reshape(shape)
-
-
-def _classify_numba(geometry: RobotGeometry, axes, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    from rrps_kinematics.compiled_workspace import classify_grid, classify_grid_parallel
-    shape = tuple(len(a) for a in axes)
+    if not numba:
+        status = [[[0] * shape[2] for _ in range(shape[1])] for _ in range(shape[0])]
+        inv_cond = [[[0.0] * shape[2] for _ in range(shape[1])] for _ in range(shape[0])]
+        interpreted(kernels.classify_grid)(limit_arrays(geometry, lists=True), *(a.tolist() for a in axes),
+                                           Q.tolist(), status, inv_cond)
+        return np.array(status, dtype=np.int8).reshape(shape), np.array(inv_cond, dtype=float).reshape(shape)
     status = np.empty(shape, dtype=np.int8)
     inv_cond = np.empty(shape)
     args = (limit_arrays(geometry), *(np.ascontiguousarray(a) for a in axes), np.ascontiguousarray(Q),
             status, inv_cond)
-    if not (status.size * len(Q) >= PARALLEL_BATCH and run_parallel(classify_grid_parallel, *args)):
-        classify_grid(*args)
+    if not (status.size * len(Q) >= PARALLEL_BATCH and run_parallel(kernels.classify_grid_parallel, *args)):
+        kernels.classify_grid(*args)
     return status, inv_cond
 
 
@@ -322,8 +305,7 @@ def reachable_workspace(geometry: RobotGeometry, orientations=None, *, resolutio
     if total > MAX_GRID_POINTS:
         raise ValueError(f'the grid would have {total:,} points > {MAX_GRID_POINTS:,}: '
                          'use a coarser resolution or smaller bounds')
-    classify = _classify_numba if use_numba(backend) else _classify_numpy
-    status, inv_cond = classify(geometry, _axes(origin, resolution, shape), Q)
+    status, inv_cond = _classify(geometry, _axes(origin, resolution, shape), Q, use_numba(backend))
     within = status == _WITHIN_LIMITS
     labels = np.where(within, np.where(inv_cond < threshold, NEAR_SINGULAR, REACHABLE),
                       UNREACHABLE).astype(np.int8)

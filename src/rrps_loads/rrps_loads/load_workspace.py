@@ -12,8 +12,8 @@ unreachable, counted in ``excluded_by`` under 'actuator_force' (a singular pose 
 'holding' (the first broken, in that order). It is a subset of the reachable workspace; the
 forces and the support's wrench are affine in the payload's mass, so the masses at which a
 point is feasible form an interval: with a growing payload the set only shrinks, as long as the
-unloaded robot is feasible there. The compiled kernel (:func:`rrps_loads.compiled_statics.grid_statics`)
-evaluates the reachable points only; without numba the NumPy statics does.
+unloaded robot is feasible there. The kernel :func:`rrps_loads.compiled_statics.grid_statics`
+(compiled, or interpreted) evaluates the reachable points only.
 """
 
 from __future__ import annotations
@@ -23,36 +23,33 @@ import dataclasses
 import numpy as np
 
 from rrps_description.geometry import RobotGeometry
-from rrps_kinematics.backend import use_numba
+from rrps_kinematics.backend import kernels_of, use_numba
 from rrps_kinematics.workspace import UNREACHABLE, Workspace, reachable_workspace
-from rrps_loads.compiled_statics import grid_statics, statics_arrays
-from rrps_loads.loads import static_solution
+from rrps_loads import compiled_statics
 from rrps_loads.support import support_of
 
 __all__ = ['LOAD_LIMITS', 'load_margins', 'load_workspace']
 
 #: The load limits in the order in which they exclude a point.
 LOAD_LIMITS = ('actuator_force', 'holding')
-_CHUNK = 16_384
 
 
 def load_margins(geometry: RobotGeometry, points: np.ndarray, quaternion_xyzw, support,
                  *, backend: str = 'auto') -> np.ndarray:
     """(N, 2): max_i |f_i| / max_force and the holding margin (NaN without a capacity) of the
     robot at rest with ring_b at ``points`` (N, 3) and one orientation, on ``support`` (a
-    :class:`rrps_loads.support.Support`); NaN forces at a singular pose (compiled path)."""
+    :class:`rrps_loads.support.Support`); NaN forces at a singular pose."""
     q = np.ascontiguousarray(quaternion_xyzw, dtype=float)
-    out = np.empty((len(points), 2))
+    s = compiled_statics.statics_arrays(geometry, support)
+    points = np.ascontiguousarray(points, dtype=float)
     if use_numba(backend):
-        grid_statics(statics_arrays(geometry, support), np.ascontiguousarray(points, dtype=float), q,
-                     float(geometry.max_force), out)
+        out = np.empty((len(points), 2))
+        compiled_statics.grid_statics(s, points, q, float(geometry.max_force), out)
         return out
-    for start in range(0, len(points), _CHUNK):
-        chunk = points[start:start + _CHUNK]
-        sol = static_solution(geometry, (chunk, np.broadcast_to(q, (len(chunk), 4))), support=support)
-        out[start:start + len(chunk), 0] = np.abs(sol.actuator_forces).max(axis=-1) / geometry.max_force
-        out[start:start + len(chunk), 1] = sol.holding_margin
-    return out
+    out = [[0.0, 0.0] for _ in range(len(points))]
+    kernels_of(compiled_statics, backend).grid_statics(type(s)(*(a.tolist() for a in s)), points.tolist(),
+                                                       q.tolist(), float(geometry.max_force), out)
+    return np.array(out, dtype=float).reshape(len(points), 2)
 
 
 def load_workspace(geometry: RobotGeometry, orientations=None, *, resolution: float | None = None,

@@ -26,11 +26,11 @@ import numpy as np
 from rrps_description.geometry import RobotGeometry
 from rrps_description.loads import GripperCapacity
 from rrps_description.pose import Pose
-from rrps_description.rotations import cross
-from rrps_kinematics.jacobian import inverse_jacobian
+from rrps_kinematics.backend import kernels_of
+from rrps_loads import compiled_statics
 from rrps_loads.reduced import assembled_pose
-from rrps_loads.statics import leg_weight_shares, solve_transposed, static_load
-from rrps_loads.support import Support, support_of, tool_wrench_in_support, world_loads
+from rrps_loads.statics import rest_statics
+from rrps_loads.support import Support, support_of
 
 __all__ = ['StaticSolution', 'static_solution', 'support_wrench', 'holding_margin']
 
@@ -70,22 +70,23 @@ def support_wrench(geometry: RobotGeometry, support: Support, joint_reactions: n
     """The structure's wrench (N, 6) on the supporting ring, from that ring's balance: the
     ``joint_reactions`` (N, 6, 3) its joints exert on the legs (universal joints for ring_a,
     spherical for ring_b) and their ``joint_torques`` (N, 6, 3) if any, its weight and, for
-    ring_b, the tool wrench. Everything in the supporting ring's frame."""
-    g = support.gravity_in_support
-    if support.index == 0:
-        body, anchors = geometry.ring_a_body, geometry.ring_a_anchors
-        force = joint_reactions.sum(axis=-2) - body.mass * g
-        moment = cross(anchors, joint_reactions).sum(axis=-2) - body.mass * cross(body.com, g)
+    ring_b, the tool wrench. Everything in the supporting ring's frame (the kernel
+    :func:`rrps_loads.compiled_statics.support_wrenches`)."""
+    reactions = np.ascontiguousarray(joint_reactions, dtype=float)
+    flat = reactions.reshape(-1, 6, 3)
+    s = compiled_statics.statics_arrays(geometry, support)
+    out = np.zeros((len(flat), 6))
+    kernels = kernels_of(compiled_statics)
+    if kernels is compiled_statics:
+        kernels.support_wrenches(s, flat, out)
     else:
-        body, anchors = geometry.ring_b_body, geometry.ring_b_anchors
-        tool_force, tool_torque = tool_wrench_in_support(geometry, support, np.eye(3)[None])
-        tcp = np.zeros(3) if geometry.tool is None else geometry.tool.position
-        force = joint_reactions.sum(axis=-2) - body.mass * g - tool_force
-        moment = (cross(anchors, joint_reactions).sum(axis=-2) - body.mass * cross(body.com, g)
-                  - cross(tcp, tool_force) - tool_torque)
+        out = out.tolist()
+        kernels.support_wrenches(type(s)(*(a.tolist() for a in s)), flat.tolist(), out)
+        out = np.array(out, dtype=float)
+    wrench = out.reshape(reactions.shape[:-2] + (6,))
     if joint_torques is not None:
-        moment = moment + joint_torques.sum(axis=-2)
-    return np.concatenate([force, moment], axis=-1)
+        wrench[..., 3:] += np.asarray(joint_torques, dtype=float).sum(axis=-2)
+    return wrench
 
 
 def static_solution(geometry: RobotGeometry, a_T_b, *, support='ring_a', world_q_support=None,
@@ -103,34 +104,27 @@ def static_solution(geometry: RobotGeometry, a_T_b, *, support='ring_a', world_q
                                   tool_wrench=tool_wrench or geometry.tool_wrench)
     position, quaternion, single = _pose_batch(a_T_b)
     ik, _, _ = assembled_pose(geometry, position, quaternion)
-    loads = world_loads(geometry, world, ik.position, ik.rotation)
-    forces = solve_transposed(inverse_jacobian(ik), geometry, static_load(geometry, ik, world, loads))
-    w_b, w_a = leg_weight_shares(geometry, ik, loads.gravity)
-    push = forces[..., None] * ik.unit_vectors
-    universal, spherical = push - w_a, -(push + w_b)
-    if world.index == 1:                                  # ring_a's frame -> ring_b's
-        universal = np.einsum('nji,nkj->nki', ik.rotation, universal)
-        spherical = np.einsum('nji,nkj->nki', ik.rotation, spherical)
-    wrench = support_wrench(geometry, world, universal if world.index == 0 else spherical)
-    margin = (np.full(len(forces), np.nan) if world.ring not in geometry.holding
-              else holding_margin(geometry.holding[world.ring], wrench))
-    fields = (forces, universal, spherical, wrench, margin)
+    rest = rest_statics(geometry, world, ik)
+    fields = (rest.forces, rest.universal, rest.spherical, rest.wrench, rest.margin)
     return StaticSolution(world, *(f[0] if single else f for f in fields))
 
 
 def holding_margin(capacity: GripperCapacity, wrench) -> np.ndarray:
     """1 - the utilisation of a gripper holding ``wrench`` (..., 6): the force and moment (about
     the ring's origin, in its frame) the structure exerts on the gripping ring. 1: unloaded,
-    0: at its capacity, < 0: it slips or lets go (:class:`GripperCapacity` gives the models)."""
+    0: at its capacity, < 0: it slips or lets go (:class:`GripperCapacity` gives the models;
+    the kernel :func:`rrps_loads.compiled_statics.holding_margins`)."""
     w = np.asarray(wrench, dtype=float)
     if w.shape[-1:] != (6,) or not np.all(np.isfinite(w)):
         raise ValueError(f'wrench: expected finite (..., 6) force and moment, got shape {w.shape}')
-    force = w[..., :3]
-    moment = w[..., 3:] - cross(capacity.contact, force)
-    if capacity.kind == 'friction':
-        demand = np.hypot(force[..., 2], moment[..., 2] / capacity.radius)
-        return 1.0 - demand / (capacity.friction * capacity.clamp_force)
-    use = np.stack([np.maximum(-force[..., 2], 0.0) / capacity.axial_force,
-                    np.hypot(force[..., 0], force[..., 1]) / capacity.shear_force,
-                    np.linalg.norm(moment, axis=-1) / capacity.torque])
-    return 1.0 - use.max(axis=0)
+    flat = np.ascontiguousarray(w.reshape(-1, 6))
+    capacity = compiled_statics.capacity_array(capacity)
+    kernels = kernels_of(compiled_statics)
+    if kernels is compiled_statics:
+        out = np.empty(len(flat))
+        kernels.holding_margins(capacity, flat, out)
+    else:
+        out = [0.0] * len(flat)
+        kernels.holding_margins(capacity.tolist(), flat.tolist(), out)
+        out = np.array(out, dtype=float)
+    return out.reshape(w.shape[:-1])

@@ -15,22 +15,25 @@ at the universal joint (on ring_a), w_i + w'_i = (m_l + m_u) g: the links' momen
 their joints (the prismatic pair turns the leg as one body, the spherical joint carries no
 moment, and the universal joint's torque has no part along the leg: it vanishes at rest).
 Gravity is the world's, in ring_a's frame at each pose (:mod:`rrps_loads.support`). Forces are
-positive when they push the rings apart; :mod:`rrps_loads.loads` adds the joint reactions.
+positive when they push the rings apart; :mod:`rrps_loads.loads` adds the joint reactions. The
+equations are the kernels of :mod:`rrps_loads.compiled_statics` (compiled, or interpreted).
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from rrps_description.geometry import RobotGeometry
-from rrps_description.rotations import cross
+from rrps_kinematics.backend import kernels_of, use_numba
 from rrps_kinematics.errors import SingularPoseError
 from rrps_kinematics.inverse import InverseKinematicsResult
-from rrps_kinematics.jacobian import inverse_jacobian
+from rrps_loads import compiled_statics
 from rrps_loads.reduced import PlatformPose, assembled_pose
-from rrps_loads.support import Support, WorldLoads, support_of, world_loads
+from rrps_loads.support import Support, support_of
 
-__all__ = ['leg_weight_shares', 'static_load', 'holding_forces', 'solve_actuator_forces',
+__all__ = ['RestStatics', 'rest_statics', 'static_load', 'holding_forces', 'solve_actuator_forces',
            'SINGULAR_CONDITIONING']
 
 # Inverse condition number of the unit-consistent Jacobian below which a pose counts as singular.
@@ -56,37 +59,48 @@ def solve_transposed(J: np.ndarray, geometry: RobotGeometry, load: np.ndarray) -
     return np.linalg.solve(np.swapaxes(J, -1, -2), np.asarray(load, dtype=float)[..., None])[..., 0]
 
 
-def leg_weight_shares(geometry: RobotGeometry, ik: InverseKinematicsResult,
-                      gravity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(w, w') (N, 6, 3) [N]: each leg's weight as forces at its spherical joint (on ring_b) and
-    at its universal joint (on ring_a), for gravity (N, 3) in ring_a's frame."""
-    u, lengths = ik.unit_vectors, ik.lengths
-    lo, up = geometry.lower_link, geometry.upper_link
-    g = gravity[:, None, :]
-    g_normal = g - u * np.einsum('nij,nj->ni', u, gravity)[..., None]
-    k = ((lo.mass * lo.com_from_joint - up.mass * up.com_from_joint) / lengths)[..., None]
-    return up.mass * g + k * g_normal, lo.mass * g - k * g_normal
+class RestStatics(NamedTuple):
+    """The statics kernel at N poses: ``forces`` (N, 6) [N], the reactions on the legs at the
+    ``universal`` and ``spherical`` joints (N, 6, 3) [N] and the structure's ``wrench`` on the
+    supporting ring (N, 6), in the supporting ring's frame; the ``load`` Q of J^T f = Q (N, 6)
+    (ring_a's frame, about ring_b's origin); the holding ``margin`` (N,) (NaN without a capacity)."""
+
+    forces: np.ndarray
+    universal: np.ndarray
+    spherical: np.ndarray
+    wrench: np.ndarray
+    load: np.ndarray
+    margin: np.ndarray
 
 
-def static_load(geometry: RobotGeometry, ik: InverseKinematicsResult, support: Support,
-                loads: WorldLoads) -> np.ndarray:
-    """The load Q (N, 6) [N, N m] with J^T f = Q at rest (module docstring), for the world's
-    ``loads`` in ring_a's frame at the poses of ``ik``."""
-    g = loads.gravity
-    p = ik.position
-    w_b, w_a = leg_weight_shares(geometry, ik, g)
-    if support.index == 0:
-        body = geometry.ring_b_body
-        com = np.einsum('nij,j->ni', ik.rotation, body.com)                     # about p
-        force = body.mass * g + w_b.sum(axis=1) + loads.tool_force
-        moment = (body.mass * cross(com, g) + cross(ik.ring_b_anchors_in_a - p[:, None, :], w_b).sum(axis=1)
-                  + cross(loads.tool_point - p, loads.tool_force) + loads.tool_torque)
-        return -np.concatenate([force, moment], axis=-1)
-    body = geometry.ring_a_body
-    force = body.mass * g + w_a.sum(axis=1)
-    moment = (body.mass * cross(body.com - p, g)
-              + cross(geometry.ring_a_anchors - p[:, None, :], w_a).sum(axis=1))
-    return np.concatenate([force, moment], axis=-1)
+def rest_statics(geometry: RobotGeometry, support: Support, ik: InverseKinematicsResult, *,
+                 backend: str = 'auto') -> RestStatics:
+    """The robot at rest on ``support`` at the poses of ``ik`` (N of them), by
+    :func:`rrps_loads.compiled_statics.statics_batch`; SingularPoseError at a singular pose."""
+    s = compiled_statics.statics_arrays(geometry, support)
+    P = np.ascontiguousarray(np.reshape(ik.position, (-1, 3)), dtype=float)
+    R = np.ascontiguousarray(np.reshape(ik.rotation, (-1, 9)), dtype=float)
+    n = len(P)
+    shapes = ((n, 6), (n, 6, 3), (n, 6, 3), (n, 6), (n, 6), (n,))
+    if use_numba(backend):
+        out = [np.empty(shape) for shape in shapes]
+        compiled_statics.statics_batch(s, P, R, *out)
+    else:
+        out = [np.zeros(shape).tolist() for shape in shapes]
+        kernels_of(compiled_statics, backend).statics_batch(type(s)(*(a.tolist() for a in s)), P.tolist(),
+                                                            R.tolist(), *out)
+        out = [np.array(o, dtype=float).reshape(shape) for o, shape in zip(out, shapes)]
+    result = RestStatics(*out)
+    bad = np.flatnonzero(~np.all(np.isfinite(result.forces), axis=1))
+    if bad.size:
+        raise SingularPoseError(f'singular pose (sample {int(bad[0])}): no finite actuator forces hold it')
+    return result
+
+
+def static_load(geometry: RobotGeometry, ik: InverseKinematicsResult, support: Support) -> np.ndarray:
+    """The load Q (N, 6) [N, N m] with J^T f = Q at rest (module docstring) on ``support``, at the
+    poses of ``ik``."""
+    return rest_statics(geometry, support, ik).load
 
 
 def holding_forces(geometry: RobotGeometry, position, quaternion_xyzw, *, support='ring_a',
@@ -102,6 +116,5 @@ def holding_forces(geometry: RobotGeometry, position, quaternion_xyzw, *, suppor
     world = support_of(support, world_q_support, gravity)
     single = np.ndim(position) == 1
     ik, _, _ = assembled_pose(geometry, position, quaternion_xyzw)
-    load = static_load(geometry, ik, world, world_loads(geometry, world, ik.position, ik.rotation))
-    forces = solve_transposed(inverse_jacobian(ik), geometry, load)
+    forces = rest_statics(geometry, world, ik).forces
     return forces[0] if single else forces

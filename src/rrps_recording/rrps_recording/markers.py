@@ -23,7 +23,6 @@ the climbed structure (``structure``, :func:`structure_marker`).
 from __future__ import annotations
 
 import dataclasses
-import struct
 
 import numpy as np
 
@@ -32,7 +31,7 @@ from rrps_description.names import BASE_FRAME, ODOM_FRAME, RING_A_FRAME, prefixe
 from rrps_description.pose import Pose
 from rrps_kinematics.scene import robot_figure, world_ring_poses
 from rrps_kinematics.urdf_joints import joint_values, robot_model
-from rrps_runtime.cdr import ENCAPSULATION, append_string, pad
+from rrps_runtime.cdr import tf_message_cdr as frames_cdr
 
 __all__ = ['MarkerSpec', 'robot_markers', 'robot_transforms', 'fixed_transforms', 'tf_message_cdr',
            'structure_marker', 'ring_radius', 'world_pose_of_ring_a']
@@ -94,29 +93,12 @@ def fixed_transforms(geometry: RobotGeometry, frame_prefix: str = '') -> list[tu
     return _named(robot_model(geometry).transforms({}), frame_prefix)
 
 
-_STAMP = struct.Struct('<iI')
-_TRANSFORM = struct.Struct('<7d')
-_COUNT = struct.Struct('<I')
-
-
 def tf_message_cdr(stamp_ns: int, transforms: list[tuple[str, str, Pose]]) -> bytes:
-    """CDR bytes (little-endian XCDR1, as rclpy serialises) of a ``tf2_msgs/msg/TFMessage`` of
-    ``transforms`` (parent, child, parent_T_child), all stamped ``stamp_ns``, without the
-    tf2_msgs package: a sequence of TransformStamped (header: stamp, frame_id; child_frame_id;
-    translation and rotation as float64). The same bytes as mcap-ros2's dynamic encoder
-    (tested), without its cost."""
-    sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
-    out = bytearray(ENCAPSULATION)
-    out += _COUNT.pack(len(transforms))
-    stamp = _STAMP.pack(sec, nanosec)
-    for parent, child, pose in transforms:
-        pad(out, 4)
-        out += stamp
-        append_string(out, parent)
-        append_string(out, child)
-        pad(out, 8)
-        out += _TRANSFORM.pack(*pose.position, *pose.quaternion_xyzw)
-    return bytes(out)
+    """CDR bytes of a ``tf2_msgs/msg/TFMessage`` of ``transforms`` (parent, child,
+    parent_T_child), all stamped ``stamp_ns``, without the tf2_msgs package
+    (:func:`rrps_runtime.cdr.tf_message_cdr`)."""
+    return frames_cdr(stamp_ns, [(parent, child, pose.position, pose.quaternion_xyzw)
+                                 for parent, child, pose in transforms])
 
 
 def world_pose_of_ring_a(a_T_b: Pose, grippers: dict | None,

@@ -2,7 +2,7 @@
 
     rrps-dynamics simulate --robot R [--position x,y,z] [--quaternion qx,qy,qz,qw]
         --forces f1,...,f6|hold --duration 0.5 --dt 0.001 --method {baumgarte,partitioning,hybrid}
-        --csv out.csv [--plot out.png] [--output-every N] [--reactions] [WORLD]
+        [--npz out.npz] [--csv out.csv] [--plot out.png] [--output-every N] [--reactions] [WORLD]
     rrps-dynamics statics --robot R [--position x,y,z] [--quaternion qx,qy,qz,qw] [--json] [WORLD]
     rrps-dynamics inverse --robot R --trajectory traj.csv --csv forces.csv [WORLD]
     rrps-dynamics report  --robot R [--out-dir DIR] [--method M]     (Figures 6 and 7)
@@ -13,8 +13,10 @@ payload and the tool wrench (:mod:`rrps_sim.cli_world`); the default is ring_a g
 ``--robot`` takes a shipped robot name (default ``pole_climber``) or a YAML path; the pose
 defaults to the robot's home pose. Poses are a_T_b (ring_b in ring_a's frame), SI units, ROS
 (x, y, z, w) quaternions; forces are positive when they push the rings apart. Long runs show
-their progress on stderr. The CSVs written have a header row and each value as Python's ``repr``
-writes it (the shortest decimal that reads back to the same double). The ``inverse`` trajectory
+their progress on stderr. ``simulate --npz`` writes NumPy's ``.npz`` archive, one float64 array
+per column named as the CSV's header (``numpy.load(path)['t']``): the bulk output, a binary
+dump of the run. The CSVs written (``numpy.savetxt``) have a header row and each value as
+Python's ``repr`` writes it (the shortest decimal that reads back to the same double). The ``inverse`` trajectory
 is a CSV with a header row: columns t,x,y,z,qx,qy,qz,qw (a_T_b at time t), optionally ring_b's
 velocity vx,vy,vz,wx,wy,wz (origin velocity [m/s] and angular velocity [rad/s], ring_a's frame)
 and acceleration ax,ay,az,dwx,dwy,dwz (their rates); what is missing is differentiated from the
@@ -62,7 +64,6 @@ from rrps_sim.cli_world import (
 )
 from rrps_sim.dynamics import METHODS, MultibodyDynamics, SimulationResult, simulate
 from rrps_sim.figures import figure6, figure7, format_vector, plot_simulation
-from rrps_sim.float_text import write_rows
 
 PROG = 'rrps-dynamics'
 _VECTOR_OPTIONS = ('--position', '--quaternion', '--forces') + WORLD_VECTOR_OPTIONS
@@ -113,10 +114,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help='DAE integrator (default: hybrid, as in the paper)')
     p.add_argument('--output-every', type=count, default=1, metavar='N',
                    help='write every N-th step (default 1)')
-    p.add_argument('--csv', required=True, type=Path, help='output CSV, one row per output step')
+    p.add_argument('--npz', type=Path, help='output NumPy archive, one array per column')
+    p.add_argument('--csv', type=Path, help='output CSV, one row per output step')
     p.add_argument('--plot', type=Path, help='output PNG of the run')
     p.add_argument('--reactions', action='store_true',
-                   help="add the joint reactions and the support's wrench to the CSV")
+                   help="add the joint reactions and the support's wrench to the output")
     add_world_options(p)
 
     p = sub.add_parser('statics', help='actuator forces, joint reactions and the support holding a pose')
@@ -182,11 +184,17 @@ def _writing(path: Path):
 
 
 def _write_csv(path: Path, header: Sequence[str], rows: np.ndarray) -> None:
-    """A header row, then each value as ``repr(float(value))`` (reads back exactly), rows ended
-    by CRLF as :class:`csv.writer` ends them; the text compiled a chunk of rows at a time."""
+    """A header row, then each value as ``repr(float(value))`` writes it (NumPy's ``str`` of a
+    float64: the shortest decimal that reads back exactly), rows ended by CRLF as
+    :class:`csv.writer` ends them."""
     with _writing(path), open(path, 'wb') as fh:
-        fh.write((','.join(header) + '\r\n').encode('ascii'))
-        write_rows(fh, rows)
+        np.savetxt(fh, rows, fmt='%s', delimiter=',', newline='\r\n', header=','.join(header), comments='')
+
+
+def _write_npz(path: Path, header: Sequence[str], rows: np.ndarray) -> None:
+    """NumPy's ``.npz`` archive of the columns of ``rows``, each named by its ``header``."""
+    with _writing(path), open(path, 'wb') as fh:
+        np.savez(fh, **{name: np.ascontiguousarray(rows[:, k]) for k, name in enumerate(header)})
 
 
 def _read_trajectory(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
@@ -237,6 +245,8 @@ def _simulate(g: RobotGeometry, args) -> list[str]:
     position, quat = _pose(g, args)
     if args.dt > args.duration:
         raise UsageError(f'--dt ({args.dt}) must not exceed --duration ({args.duration})')
+    if args.npz is None and args.csv is None:
+        raise UsageError('give the output: --npz and/or --csv')
     world = world_of(args)
     forces = args.forces
     if isinstance(forces, str):
@@ -247,11 +257,14 @@ def _simulate(g: RobotGeometry, args) -> list[str]:
                    progress=_Progress(f'simulate ({args.method})'), reactions=args.reactions,
                    support=world)
     wall = time.perf_counter() - t0
+    header, rows = SIMULATION_COLUMNS, simulation_rows(res)
     if args.reactions:
-        _write_csv(args.csv, SIMULATION_COLUMNS + REACTION_COLUMNS,
-                   np.column_stack([simulation_rows(res), reaction_rows(res)]))
-    else:
-        _write_csv(args.csv, SIMULATION_COLUMNS, simulation_rows(res))
+        header, rows = header + REACTION_COLUMNS, np.column_stack([rows, reaction_rows(res)])
+    written = []
+    for path, write in ((args.npz, _write_npz), (args.csv, _write_csv)):
+        if path is not None:
+            write(path, header, rows)
+            written.append(str(path))
     if args.plot is not None:
         with _writing(args.plot):
             plot_simulation(res, args.plot,
@@ -266,7 +279,7 @@ def _simulate(g: RobotGeometry, args) -> list[str]:
              f'{np.max(np.abs(res.energy_balance)):.3e} J',
              f'hybrid corrections: {res.corrections}' if args.method == 'hybrid' else '',
              f'wall time: {wall:.3f} s ({args.duration / wall:.1f}x real time)',
-             f'wrote {len(res.t)} rows to {args.csv}' + (f', plot to {args.plot}' if args.plot else '')]
+             f'wrote {len(res.t)} rows to {" and ".join(written)}' + (f', plot to {args.plot}' if args.plot else '')]
     out_of_stroke = (res.lengths < g.min_length) | (res.lengths > g.max_length)
     if np.any(out_of_stroke):
         first = res.t[np.argmax(np.any(out_of_stroke, axis=1))]

@@ -1,10 +1,9 @@
-"""Numba kernels of the teleop guards: one whole guarded step, with no Python between its solves.
+"""The kernels of the teleop guards: one whole guarded step, with no Python between its solves.
 
-The same steps as the reference in :mod:`rrps_teleop.mapping` (which stays the fallback when
-numba is off; the tests check both give the same commands and codes): the speed limits, the
-warm-started FK of the candidate lengths (joint mode), the leg-speed re-scaling (Cartesian mode),
-the deceleration near a singularity or leg-leg interference, and the refusal of a step that
-makes a margin negative or a negative one smaller. Imported lazily, only when numba is enabled.
+The steps of :mod:`rrps_teleop.mapping`: the speed limits, the warm-started FK of the candidate
+lengths (joint mode), the leg-speed re-scaling (Cartesian mode), the deceleration near a
+singularity or leg-leg interference, and the refusal of a step that makes a margin negative or a
+negative one smaller. Compiled by numba, or interpreted (:mod:`rrps_kinematics.backend`).
 
 A command lives in one flat float64 buffer (layout ``COMMAND_SIZE`` and the slices below):
 ring_b's position in ring_a [m], its unit quaternion (x, y, z, w), the leg lengths [m], then
@@ -15,9 +14,7 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
-from rrps_kinematics.backend import jit
+from rrps_kinematics.backend import floats, jit
 from rrps_kinematics.compiled import fk_single
 from rrps_kinematics.compiled_limits import pose_margin_arrays
 from rrps_teleop.command_layout import (
@@ -46,7 +43,8 @@ from rrps_teleop.command_layout import (
     UNIVERSAL,
 )
 
-__all__ = ['evaluate_pose', 'guarded_joint_step', 'guarded_cartesian_step', 'mapped_pose', 'scaled_step']
+__all__ = ['evaluate_pose', 'guarded_joint_step', 'guarded_cartesian_step', 'mapped_pose', 'scaled_step',
+           'interpolated_pose', 'rotation_vector']
 
 #: FK of the candidate lengths: the defaults of :func:`rrps_kinematics.forward_kinematics`.
 FK_TOLERANCE = 1e-12
@@ -102,8 +100,11 @@ def evaluate_pose(g, p, q, out):
 def _evaluate_lengths(g, inv_scale, prev, lengths, out):
     """out <- the command of leg lengths ``lengths``: FK warm-started at prev's pose, the margins
     there, and the commanded lengths. False when the FK does not converge."""
-    p = prev[0:3].copy()
-    q = prev[QUATERNION:QUATERNION + 4].copy()
+    p, q = floats(3), floats(4)
+    for k in range(3):
+        p[k] = prev[k]
+    for k in range(4):
+        q[k] = prev[QUATERNION + k]
     converged = fk_single(g.ring_a_anchors, g.ring_b_anchors, lengths, p, q, inv_scale, FK_TOLERANCE,
                           FK_MAX_ITERATIONS)[0]
     if not converged:
@@ -169,7 +170,7 @@ def guarded_joint_step(g, inv_scale, prev, target, max_leg_step, slowdown, halt,
     """Joint mode: the step from command ``prev`` towards leg lengths ``target``, guarded, into
     ``out``. Returns (STEP_*, LIMIT_*, CHECK_*, index): ``out`` is the new command when
     STEP_ACCEPTED. ``max_leg_step``: the largest |ΔL_i| of this step [m]."""
-    dL = np.empty(6)
+    dL = floats(6)
     largest = 0.0
     for i in range(6):
         dL[i] = target[i] - prev[LENGTHS + i]
@@ -179,7 +180,7 @@ def guarded_joint_step(g, inv_scale, prev, target, max_leg_step, slowdown, halt,
     fraction, limit = 1.0, LIMIT_NONE
     if largest > max_leg_step * (1.0 + SPEED_TOLERANCE):
         fraction, limit = max_leg_step / largest, LIMIT_SPEED
-    lengths = np.empty(6)
+    lengths = floats(6)
     for i in range(6):
         lengths[i] = prev[LENGTHS + i] + fraction * dL[i]
     if not _evaluate_lengths(g, inv_scale, prev, lengths, out):
@@ -199,33 +200,36 @@ def guarded_joint_step(g, inv_scale, prev, target, max_leg_step, slowdown, halt,
 
 
 @jit
-def _pose_step(g, prev, p1, rv, fraction, out):
-    """out <- the command a ``fraction`` of the way from prev's pose to (p1, exp(rv) ⊗ q_prev)
-    (guards.pose_step: straight line, constant-axis rotation)."""
-    p = np.empty(3)
+def interpolated_pose(p0, q0, p1, rv, fraction, p, q):
+    """p, q <- the pose a ``fraction`` of the way from (p0, q0) to (p1, exp(rv) ⊗ q0): straight
+    line, constant-axis rotation; q canonical (w >= 0)."""
     for k in range(3):
-        p[k] = prev[k] + fraction * (p1[k] - prev[k])
+        p[k] = p0[k] + fraction * (p1[k] - p0[k])
     vx, vy, vz = fraction * rv[0], fraction * rv[1], fraction * rv[2]
     angle = math.sqrt(vx * vx + vy * vy + vz * vz)
     s = 0.5 - angle * angle / 48.0 if angle < 1e-6 else math.sin(0.5 * angle) / angle
-    q = np.empty(4)
-    q[0], q[1], q[2], q[3] = _multiply(vx * s, vy * s, vz * s, math.cos(0.5 * angle),
-                                       prev[QUATERNION], prev[QUATERNION + 1], prev[QUATERNION + 2],
-                                       prev[QUATERNION + 3])
+    q[0], q[1], q[2], q[3] = _multiply(vx * s, vy * s, vz * s, math.cos(0.5 * angle), q0[0], q0[1], q0[2], q0[3])
     _canonical_quaternion(q)
+
+
+@jit
+def _pose_step(g, prev, p1, rv, fraction, out):
+    """out <- the command a ``fraction`` of the way from prev's pose to (p1, exp(rv) ⊗ q_prev)."""
+    p, q = floats(3), floats(4)
+    interpolated_pose(prev[0:3], prev[QUATERNION:QUATERNION + 4], p1, rv, fraction, p, q)
     evaluate_pose(g, p, q, out)
 
 
 @jit
-def _rotation_vector(prev, q1):
-    """The rotation from prev's orientation to q1 as a rotation vector (angle in [0, pi])."""
-    x, y, z, w = _multiply(q1[0], q1[1], q1[2], q1[3], -prev[QUATERNION], -prev[QUATERNION + 1],
-                           -prev[QUATERNION + 2], prev[QUATERNION + 3])
+def rotation_vector(q0, q1):
+    """The rotation from orientation q0 to q1 (q1 = exp(rv) ⊗ q0) as a rotation vector (angle in
+    [0, pi])."""
+    x, y, z, w = _multiply(q1[0], q1[1], q1[2], q1[3], -q0[0], -q0[1], -q0[2], q0[3])
     if w < 0.0:
         x, y, z, w = -x, -y, -z, -w
     s = math.sqrt(x * x + y * y + z * z)
     k = 2.0 / max(w, 1e-300) if s < 1e-9 else 2.0 * math.atan2(s, w) / s
-    rv = np.empty(3)
+    rv = floats(3)
     rv[0], rv[1], rv[2] = x * k, y * k, z * k
     return rv
 
@@ -237,13 +241,14 @@ def scaled_step(g, inv_scale, prev, cand, factor, joint, halt, out):
     guards' slow-down). Returns STEP_ACCEPTED, STEP_REFUSED (it breaks or worsens a kinematic
     margin) or STEP_FK_FAILED."""
     if joint:
-        lengths = np.empty(6)
+        lengths = floats(6)
         for i in range(6):
             lengths[i] = prev[LENGTHS + i] + factor * (cand[LENGTHS + i] - prev[LENGTHS + i])
         if not _evaluate_lengths(g, inv_scale, prev, lengths, out):
             return STEP_FK_FAILED
     else:
-        _pose_step(g, prev, cand[0:3], _rotation_vector(prev, cand[QUATERNION:QUATERNION + 4]), factor, out)
+        _pose_step(g, prev, cand[0:3], rotation_vector(prev[QUATERNION:QUATERNION + 4],
+                                                       cand[QUATERNION:QUATERNION + 4]), factor, out)
     return STEP_REFUSED if _refusal(prev, out, halt)[0] >= 0 else STEP_ACCEPTED
 
 
@@ -262,7 +267,7 @@ def guarded_cartesian_step(g, prev, p1, q1, max_linear_step, max_angular_step, m
                 max_angular_step / dth if dth > 0.0 else math.inf)
     if bound < 1.0 - SPEED_TOLERANCE:
         fraction, limit = bound, LIMIT_SPEED
-    rv = _rotation_vector(prev, q1)
+    rv = rotation_vector(prev[QUATERNION:QUATERNION + 4], q1)
     _pose_step(g, prev, p1, rv, fraction, out)
     for _ in range(leg_iterations):  # lengths are nearly linear in the fraction: 1-2 passes
         leg_step = 0.0

@@ -12,8 +12,8 @@ wrench. Two margins, as fractions:
 When the step lowers a margin that is already inside its band (``force_slowdown``,
 ``holding_slowdown``), the step is scaled by the remaining fraction of the band (moving back
 out is at full speed), down to a halt at zero; a step that makes a margin negative, or a
-negative one smaller, is refused. With numba one pose's statics is the compiled kernel
-:func:`rrps_loads.compiled_statics.pose_statics`, else the NumPy statics; the tests check both agree.
+negative one smaller, is refused. One pose's statics is the kernel
+:func:`rrps_loads.compiled_statics.pose_statics` (compiled, or interpreted: :mod:`rrps_kinematics.backend`).
 """
 
 from __future__ import annotations
@@ -24,17 +24,15 @@ from typing import NamedTuple
 import numpy as np
 
 from rrps_description.geometry import RobotGeometry
-from rrps_description.pose import Pose
 from rrps_interfaces.teleop import TeleopCode
-from rrps_kinematics import forward_kinematics
-from rrps_kinematics.backend import use_numba
-from rrps_kinematics.errors import SingularPoseError
-from rrps_kinematics.limits import limit_arrays, pose_margins
-from rrps_loads.compiled_statics import pose_statics, statics_arrays
-from rrps_loads.loads import static_solution
+from rrps_kinematics.backend import kernels_of, use_numba
+from rrps_kinematics.limits import limit_arrays
+from rrps_loads import compiled_statics
+from rrps_loads.compiled_statics import statics_arrays
 from rrps_loads.support import Support
+from rrps_teleop import compiled_guards
 from rrps_teleop.command_layout import COMMAND_SIZE, STEP_ACCEPTED, STEP_FK_FAILED
-from rrps_teleop.guards import GuardedCommand, pose_step, refusal
+from rrps_teleop.guards import GuardedCommand
 from rrps_teleop.teleop_config import TeleopConfig
 
 __all__ = ['LoadMargins', 'LoadGuard']
@@ -58,40 +56,39 @@ def _worse(new: float, old: float) -> bool:
 class LoadGuard:
     """The load limits of ``slave`` (its payload and tool wrench) on ``support``.
 
-    ``backend``: 'auto' (the compiled statics with numba), 'numba' or 'numpy'.
+    ``backend``: 'auto' (the kernels compiled with numba), 'numba' or 'numpy' (interpreted).
     """
 
     def __init__(self, slave: RobotGeometry, support: Support | None = None, *, backend: str = 'auto'):
         self.slave = slave
         self.support = Support.of() if support is None else support
         compiled = use_numba(backend)
-        self._arrays = statics_arrays(slave, self.support) if compiled else None
-        #: the compiled guards (:mod:`.compiled_guards`) scale a step with numba
-        self._kernels = _compiled_guards() if compiled else None
-        self._limits = limit_arrays(slave)
+        self._lists = not compiled
+        self._arrays = self._statics_arrays(self.support)
+        self._statics = kernels_of(compiled_statics, backend)
+        #: the guards' kernels (:mod:`.compiled_guards`) scale a step
+        self._kernels = kernels_of(compiled_guards, backend)
+        self._limits = limit_arrays(slave, lists=not compiled)
         self._forces, self._wrench = np.empty(6), np.empty(6)
         self._cached: tuple[GuardedCommand, LoadMargins] | None = None
 
     def set_support(self, support: Support) -> None:
         """Guard on ``support`` from now on (the ring that grips, its attitude in the world)."""
         self.support = support
-        if self._arrays is not None:
-            self._arrays = statics_arrays(self.slave, support)
+        self._arrays = self._statics_arrays(support)
         self._cached = None
+
+    def _statics_arrays(self, support: Support):
+        """The statics kernels' arrays of the slave on ``support`` (lists when interpreted)."""
+        arrays = statics_arrays(self.slave, support)
+        return type(arrays)(*(a.tolist() for a in arrays)) if self._lists else arrays
 
     def margins_at(self, position, quaternion_xyzw) -> LoadMargins:
         """The load margins with ring_b at (position, quaternion) in ring_a (NaN forces and
         margins at a singular pose)."""
-        if self._arrays is not None:
-            holding = pose_statics(self._arrays, np.asarray(position, dtype=float),
-                                   np.asarray(quaternion_xyzw, dtype=float), self._forces, self._wrench)
-            forces = self._forces.copy()
-        else:
-            try:
-                sol = static_solution(self.slave, Pose(position, quaternion_xyzw), support=self.support)
-                forces, holding = sol.actuator_forces, float(sol.holding_margin)
-            except SingularPoseError:
-                forces, holding = np.full(6, math.nan), math.nan
+        holding = self._statics.pose_statics(self._arrays, np.asarray(position, dtype=float),
+                                             np.asarray(quaternion_xyzw, dtype=float), self._forces, self._wrench)
+        forces = self._forces.copy()
         if not np.all(np.isfinite(forces)):
             return LoadMargins(math.nan, math.nan, forces, 0)
         if self.support.ring not in self.slave.holding:
@@ -102,8 +99,7 @@ class LoadGuard:
     def warm_up(self, command: GuardedCommand, halt: float) -> None:
         """Load (or compile) the kernels now, for the argument types of a real step."""
         self.margins_at(command.position, command.quaternion)
-        if self._kernels is not None:
-            self._scaled(command, command, 0.5, False, halt)
+        self._scaled(command, command, 0.5, False, halt)
 
     def margins(self, command: GuardedCommand) -> LoadMargins:
         """:meth:`margins_at` the command's pose (the last command's are kept)."""
@@ -148,25 +144,7 @@ class LoadGuard:
         lengths (an FK warm-started at prev) or along the pose (straight line, constant-axis
         rotation); refused when it breaks or worsens a kinematic margin."""
         g = self.slave
-        if self._kernels is not None:
-            out = np.empty(COMMAND_SIZE)
-            outcome = self._kernels.scaled_step(self._limits, 1.0 / g.characteristic_length, prev.buffer,
-                                                cand.buffer, factor, joint, halt, out)
-            return outcome, GuardedCommand(out, g.min_conditioning)
-        if joint:
-            lengths = prev.lengths + factor * (cand.lengths - prev.lengths)
-            fk = forward_kinematics(g, lengths, prev.position, prev.quaternion, backend='numpy')
-            if not fk.converged:
-                return STEP_FK_FAILED, prev
-            p, q = fk.position, fk.quaternion_xyzw
-        else:
-            p, q = pose_step(prev.position, prev.quaternion, cand.position, cand.quaternion, factor)
-            lengths = None
-        m = pose_margins(g, p, q, backend='numpy')
-        scaled = GuardedCommand.at(p, q, m.lengths if lengths is None else lengths, m, g.min_conditioning)
-        return refusal(prev, scaled, 0, halt)[0], scaled
-
-
-def _compiled_guards():
-    from rrps_teleop import compiled_guards
-    return compiled_guards
+        out = np.empty(COMMAND_SIZE)
+        outcome = self._kernels.scaled_step(self._limits, 1.0 / g.characteristic_length, prev.buffer,
+                                            cand.buffer, factor, joint, halt, out)
+        return outcome, GuardedCommand(out, g.min_conditioning)

@@ -37,9 +37,9 @@ Guards, applied to the step from the last command towards the mapped target:
 4. loads (``load_guards``, on by default): the same slow-down and halt at the actuator force
    limit and at a holding margin of zero of the supporting gripper (:mod:`rrps_teleop.load_guard`).
 
-With numba, a whole guarded step (FK, margins, bands, refusal) runs as one compiled kernel of
-:mod:`rrps_teleop.compiled_guards`; the NumPy implementation below is the reference and the
-fallback (``backend='numpy'`` or ``RRPS_NUMBA=0``), and the tests check both agree.
+A whole guarded step (FK, margins, bands, refusal) is one kernel of
+:mod:`rrps_teleop.compiled_guards`: compiled by numba, or interpreted (``backend='numpy'`` or
+``RRPS_NUMBA=0``).
 """
 
 from __future__ import annotations
@@ -51,16 +51,12 @@ import numpy as np
 
 from rrps_description.geometry import RobotGeometry
 from rrps_description.pose import Pose, validate_pose
-from rrps_description.rotations import (
-    normalize_quat,
-    quat_conjugate_xyzw,
-    quat_multiply_xyzw,
-    rotation_angle_between,
-)
+from rrps_description.rotations import rotation_angle_between
 from rrps_description.tool import b_T_tool, ring_b_pose, tool_pose
 from rrps_interfaces.teleop import TeleopCode
-from rrps_kinematics.backend import use_numba
+from rrps_kinematics.backend import kernels_of, use_numba
 from rrps_kinematics.limits import limit_arrays, pose_margins
+from rrps_teleop import compiled_guards
 from rrps_teleop.command_layout import (
     CHECK_CONDITIONING,
     COMMAND_SIZE,
@@ -68,7 +64,7 @@ from rrps_teleop.command_layout import (
     STEP_REFUSED,
     STEP_UNCHANGED,
 )
-from rrps_teleop.guards import CHECK_STARTS, LEG_SPEED_ITERATIONS, GuardedCommand, ReferenceGuards
+from rrps_teleop.guards import CHECK_STARTS, LEG_SPEED_ITERATIONS, GuardedCommand
 from rrps_teleop.load_guard import LoadGuard, LoadMargins
 from rrps_teleop.teleop_config import MODES, ROTATION_MODES, TeleopConfig, validate_scale
 
@@ -120,7 +116,7 @@ class TeleopOutput:
 class TeleopMapping:
     """The teleop state machine: feed it samples (with their receive time, s) and call :meth:`step`.
 
-    ``backend``: 'auto' (the compiled guards when numba is available), 'numba' or 'numpy';
+    ``backend``: 'auto' (the guards compiled when numba is available), 'numba' or 'numpy';
     ``support``: the gripping ring and its attitude, for the load guards (default ring_a upright).
     """
 
@@ -128,10 +124,10 @@ class TeleopMapping:
                  backend: str = 'auto', support=None):
         self.slave = slave
         self.loads = LoadGuard(slave, support, backend=backend)
-        #: the compiled guards (:mod:`.compiled_guards`) with numba, else the NumPy reference
-        self._kernels = _compiled_guards() if use_numba(backend) else None
-        self._reference = ReferenceGuards(slave)
-        self._limit_arrays = limit_arrays(slave)
+        compiled = use_numba(backend)
+        #: the guards' kernels (:mod:`.compiled_guards`), compiled or interpreted
+        self._kernels = kernels_of(compiled_guards, backend)
+        self._limit_arrays = limit_arrays(slave, lists=not compiled)
         self.config = self._checked(config or TeleopConfig())
         self._enable_value = False
         self._enable_time = -math.inf
@@ -157,7 +153,7 @@ class TeleopMapping:
         self._master_ref = None
         self._slave_ref: tuple[np.ndarray, np.ndarray] | None = None
         self._offsets: np.ndarray | None = None
-        if self._kernels is not None:
+        if compiled:
             self._warm_up()
 
     def _warm_up(self) -> None:
@@ -385,20 +381,12 @@ class TeleopMapping:
         pm, qm = self._master_pose
         pm0, qm0 = self._master_ref
         ps0, qs0 = self._slave_ref
-        if self._kernels is not None and c.control_frame == 'ring_b':
-            p, q = np.empty(3), np.empty(4)
-            self._kernels.mapped_pose(pm, qm, pm0, qm0, ps0, qs0, c.translation_scale,
-                                      c.rotation_mode == 'absolute', p, q)
-            return p, q
         if c.control_frame == 'tool':  # move the tool-centre point; ring_b follows rigidly
             tcp0 = tool_pose(self.slave, Pose(ps0, qs0))
             ps0, qs0 = tcp0.position, tcp0.quaternion_xyzw
-        p = ps0 + c.translation_scale * (pm - pm0)
-        if c.rotation_mode == 'absolute':
-            q = qm
-        else:
-            q = quat_multiply_xyzw(quat_multiply_xyzw(qm, quat_conjugate_xyzw(qm0)), qs0)
-        q = normalize_quat(q)
+        p, q = np.empty(3), np.empty(4)
+        self._kernels.mapped_pose(pm, qm, pm0, qm0, ps0, qs0, c.translation_scale, c.rotation_mode == 'absolute',
+                                  p, q)
         if c.control_frame == 'tool':
             a_T_b = ring_b_pose(self.slave, Pose(p, q))
             return a_T_b.position, a_T_b.quaternion_xyzw
@@ -435,32 +423,21 @@ class TeleopMapping:
     def _cartesian_step(self, dt: float) -> tuple[TeleopCode, str]:
         c = self.config
         p1, q1 = self.desired()
-        if self._kernels is None:
-            outcome, limit, check, index, cand = self._reference.cartesian_step(
-                self._command, p1, q1, dt, c, self._halt)
-        else:
-            buffer = np.empty(COMMAND_SIZE)
-            outcome, limit, check, index = self._kernels.guarded_cartesian_step(
-                self._limit_arrays, self._command.buffer, p1, q1, c.max_linear_speed * dt,
-                c.max_angular_speed * dt, self.slave.max_speed * dt, LEG_SPEED_ITERATIONS,
-                c.singularity_slowdown, self._halt, c.collision_slowdown, buffer)
-            cand = GuardedCommand(buffer, self.slave.min_conditioning)
-        return self._conclude(outcome, limit, check, index, cand)
+        buffer = np.empty(COMMAND_SIZE)
+        outcome, limit, check, index = self._kernels.guarded_cartesian_step(
+            self._limit_arrays, self._command.buffer, p1, q1, c.max_linear_speed * dt,
+            c.max_angular_speed * dt, self.slave.max_speed * dt, LEG_SPEED_ITERATIONS,
+            c.singularity_slowdown, self._halt, c.collision_slowdown, buffer)
+        return self._conclude(outcome, limit, check, index, GuardedCommand(buffer, self.slave.min_conditioning))
 
     def _joint_step(self, dt: float) -> tuple[TeleopCode, str]:
         c = self.config
         L1 = self.desired()
-        if self._kernels is None:
-            outcome, limit, check, index, cand = self._reference.joint_step(
-                self._command, L1, dt, c, self._halt)
-        else:
-            buffer = np.empty(COMMAND_SIZE)
-            outcome, limit, check, index = self._kernels.guarded_joint_step(
-                self._limit_arrays, 1.0 / self.slave.characteristic_length, self._command.buffer, L1,
-                self.slave.max_speed * dt, c.singularity_slowdown, self._halt, c.collision_slowdown,
-                buffer)
-            cand = GuardedCommand(buffer, self.slave.min_conditioning)
-        return self._conclude(outcome, limit, check, index, cand)
+        buffer = np.empty(COMMAND_SIZE)
+        outcome, limit, check, index = self._kernels.guarded_joint_step(
+            self._limit_arrays, 1.0 / self.slave.characteristic_length, self._command.buffer, L1,
+            self.slave.max_speed * dt, c.singularity_slowdown, self._halt, c.collision_slowdown, buffer)
+        return self._conclude(outcome, limit, check, index, GuardedCommand(buffer, self.slave.min_conditioning))
 
     def _conclude(self, outcome: int, limit: int, check: int, index: int,
                   cand: GuardedCommand) -> tuple[TeleopCode, str]:
@@ -493,8 +470,3 @@ _CHECKS = (('stroke', TeleopCode.JOINT_BOUND), ('universal joint', TeleopCode.JO
 _LIMIT_CODES = (TeleopCode.NO_WARNING, TeleopCode.SPEED_LIMITED,
                 TeleopCode.DECELERATE_FOR_APPROACHING_SINGULARITY, TeleopCode.HALT_FOR_SINGULARITY,
                 TeleopCode.DECELERATE_FOR_COLLISION, TeleopCode.HALT_FOR_COLLISION)
-
-
-def _compiled_guards():
-    from rrps_teleop import compiled_guards
-    return compiled_guards

@@ -5,9 +5,10 @@ zstd-compresses every window of messages it sends: with N browsers, a pose updat
 times. Clients that keep up receive the same windows (the same message objects, in the same
 order), so :func:`install` replaces viser's producer with one that looks the window up in a
 small cache keyed by the identity of its messages and encodes it only on a miss. What is left per
-client is the websocket send itself.
+client is the websocket send itself. viser has no public hook for this: the producer is set
+through :mod:`._viser_shim`.
 
-The wire format is viser's, byte for byte (see ``viser.infra._infra._message_producer``):
+The wire format is viser's, byte for byte (viser's own producer, checked by the shim's test):
 [8 bytes] msgpack size, [8 bytes] compressed size, the zstd-compressed msgpack of
 ``{messages, timestampSec, binaryBufferLengths}``, then the 8-byte aligned binary buffers.
 ``timestampSec`` is the time the window was encoded, the same for every client, which is what
@@ -28,8 +29,9 @@ from collections import OrderedDict
 from collections.abc import Sequence
 
 import msgspec.msgpack
-import viser.infra._infra as _infra
 import zstandard
+
+from rrps_viewer._viser_shim import append_aligned_buffers, set_message_producer
 
 __all__ = ['EncodedWindows', 'install', 'windows_of']
 
@@ -78,7 +80,7 @@ class EncodedWindows:
         compressed = self._zstd.compress(inner)
         parts: list[bytes | memoryview] = [len(inner).to_bytes(8, 'little'),
                                            len(compressed).to_bytes(8, 'little'), compressed]
-        _infra._append_aligned_buffers(parts, binary_buffers, 16 + len(compressed))
+        append_aligned_buffers(parts, binary_buffers, 16 + len(compressed))
         return b''.join(parts)
 
 
@@ -111,4 +113,4 @@ async def _shared_message_producer(websocket, buffer, client_id: int, backlog_do
 
 def install() -> None:
     """Make every viser server of this process encode a window once for all its clients."""
-    _infra._message_producer = _shared_message_producer
+    set_message_producer(_shared_message_producer)

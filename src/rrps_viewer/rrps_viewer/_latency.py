@@ -6,10 +6,10 @@ the link's round trip (proxies, Wi-Fi, a VPN) and not the page's frame rate. Whi
 unanswered its age is a lower bound of the round trip, so a stalled link reads as slow at
 once instead of keeping its last good value.
 
-viser 1.1.1 has no public round-trip API: the connections are read from its websocket server
-(``ViserServer._websock_server._live_connections``, ``websockets`` ServerConnection objects
-whose ``ping()`` resolves to the latency). The version is pinned; tests/node/teleop/test_viewer_node.py
-checks the measurement works.
+viser 1.1.1 has no public round-trip API: the clients and viser's event loop come from its
+public API, each client's websocket (``websockets`` ServerConnection, whose ``ping()``
+resolves to the latency) from :func:`._viser_shim.client_connection`.
+tests/node/teleop/test_viewer_node.py checks the measurement works.
 """
 
 from __future__ import annotations
@@ -18,6 +18,8 @@ import asyncio
 import math
 import threading
 import time
+
+from rrps_viewer._viser_shim import client_connection
 
 __all__ = ['LinkMonitor']
 
@@ -28,12 +30,12 @@ class LinkMonitor:
     def __init__(self, server, *, period: float = 0.25):
         if not period > 0.0:
             raise ValueError(f'period must be > 0 s, got {period}')
-        self._websock = server._websock_server
+        self._server = server
         self._period = period
         self._lock = threading.Lock()
         self._last: dict[int, float] = {}
         self._pending: dict[int, float] = {}
-        loop = self._websock._background_event_loop
+        loop = server.get_event_loop()
         self._task = asyncio.run_coroutine_threadsafe(self._run(), loop) if loop else None
 
     async def _ping(self, client_id: int, connection) -> None:
@@ -51,7 +53,9 @@ class LinkMonitor:
 
     async def _run(self) -> None:
         while True:
-            live = dict(self._websock._live_connections)
+            live = {client_id: client_connection(self._server, client_id)
+                    for client_id in self._server.get_clients()}
+            live = {client_id: connection for client_id, connection in live.items() if connection is not None}
             with self._lock:
                 for gone in set(self._last) - set(live):
                     self._last.pop(gone, None)

@@ -23,6 +23,7 @@ from rrps_kinematics import inverse_kinematics, margins
 from rrps_kinematics.backend import use_numba
 from rrps_kinematics.commands import InvalidTarget, limit_velocity, pose_limits, validate_target
 from rrps_testing.ci import require
+from rrps_testing.reference_limits import reference_margins
 
 
 @pytest.fixture(scope='module')
@@ -89,6 +90,13 @@ def test_compiled_pose_limits_match_the_reference_margins(robot, dp, rv):
     for kind, value in m.minimum.items():
         assert minimum[kind] == pytest.approx(float(value), abs=1e-12), kind
     assert pose_limits(robot, p, q, backend='numpy')[0] == ok
+    ref = reference_margins(robot, p, q)       # independent: arccos, KKT, SVD
+    np.testing.assert_allclose(lengths, ref['lengths'], rtol=0, atol=1e-12)
+    for kind in ('stroke', 'interference'):
+        assert minimum[kind] == pytest.approx(float(np.min(ref[kind])), abs=1e-12), kind
+    for kind in ('universal', 'spherical'):
+        assert minimum[kind] == pytest.approx(float(np.min(ref[kind])), abs=1e-7), kind
+    assert minimum['conditioning'] == pytest.approx(ref['conditioning'], rel=1e-9, abs=1e-12)
 
 
 def test_the_warm_up_compiles_the_signature_targets_use():

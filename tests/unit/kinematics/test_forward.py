@@ -9,12 +9,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
+from scipy.optimize import fsolve
 
 from rrps_description.geometry import load_robot, shipped_robots
 from rrps_description.rotations import (
     quat_multiply_xyzw,
     quat_xyzw_to_matrix,
     rotation_angle_between,
+    rotation_vector_to_matrix,
     rotation_vector_to_quat_xyzw,
 )
 from rrps_kinematics import compiled_backend_available, forward_kinematics, inverse_kinematics, margins
@@ -37,6 +39,31 @@ def _workspace_sample(g, n, seed, *, within_limits=True):
     ik = inverse_kinematics(g, P, Q)
     keep = margins(g, ik).ok if within_limits else np.ones(n, dtype=bool)
     return P[keep], Q[keep], ik.lengths[keep]
+
+
+def _fsolve_pose(g, L, seed_p, seed_q):
+    """Independent FK: scipy.optimize.fsolve on |p + exp(v) R_seed b_i - a_i| - L_i = 0;
+    (position, rotation, max |residual|)."""
+    R0 = quat_xyzw_to_matrix(seed_q)
+
+    def legs(x):
+        R = rotation_vector_to_matrix(x[3:]) @ R0
+        return np.linalg.norm(x[:3] + g.ring_b_anchors @ R.T - g.ring_a_anchors, axis=1) - L
+
+    x = fsolve(legs, np.concatenate([seed_p, np.zeros(3)]), xtol=1e-14)
+    return x[:3], rotation_vector_to_matrix(x[3:]) @ R0, float(np.max(np.abs(legs(x))))
+
+
+def _agrees_with_fsolve(g, fk, L) -> bool:
+    """Whether fsolve, seeded 1 mm and 0.01 rad from the pose FK found (the same assembly mode),
+    finds a solution; when it does, it is FK's pose."""
+    seed_q = quat_multiply_xyzw(rotation_vector_to_quat_xyzw(np.array([0.01, -0.005, 0.007])), fk.quaternion_xyzw)
+    p, R, residual = _fsolve_pose(g, L, fk.position + [1e-3, -1e-3, 5e-4], seed_q)
+    if residual > 1e-10:
+        return False
+    np.testing.assert_allclose(fk.position, p, atol=1e-9)
+    assert rotation_angle_between(quat_xyzw_to_matrix(fk.quaternion_xyzw), R) < 1e-9
+    return True
 
 
 @st.composite
@@ -97,6 +124,12 @@ def test_backends_compute_the_same_iterates(name):
     np.testing.assert_allclose(a.position[ok], b.position[ok], atol=1e-12)
     np.testing.assert_allclose(a.quaternion_xyzw[ok], b.quaternion_xyzw[ok], atol=1e-12)
     np.testing.assert_allclose(a.residual[ok], b.residual[ok], atol=1e-12)
+    # Independently of the kernel: the lengths of the pose found, and fsolve's solution.
+    legs = (b.position[:, None, :] + np.einsum('nkj,ij->nik', quat_xyzw_to_matrix(b.quaternion_xyzw),
+                                               g.ring_b_anchors) - g.ring_a_anchors)
+    assert np.all(np.abs(np.linalg.norm(legs, axis=-1) - L)[b.converged] <= 1e-12)
+    found = [_agrees_with_fsolve(g, forward_kinematics(g, L[k]), L[k]) for k in np.flatnonzero(ok)[:40]]
+    assert np.mean(found) > 0.9
 
 
 @pytest.mark.parametrize('backend', BACKENDS)
@@ -224,11 +257,12 @@ def test_parallel_batches_equal_the_serial_kernels_bit_for_bit(monkeypatch):
 
 @pytest.mark.parametrize('name', sorted(ROBOTS))
 def test_numpy_single_solve_follows_the_compiled_iterates(name):
-    """The plain-float single solve of the NumPy fallback takes the compiled kernel's steps."""
+    """The kernel interpreted (the fallback) takes the compiled kernel's steps, to fsolve's pose."""
     require(compiled_backend_available(), 'numba not available')
     g = ROBOTS[name]
     P, Q, L = _workspace_sample(g, 60, 9, within_limits=False)
     L = np.vstack([L, np.random.default_rng(10).uniform(0.2, 3.0, (10, 6)) * g.home_lengths])
+    found = 0
     for k, lengths in enumerate(L):
         a = forward_kinematics(g, lengths, backend='numpy')
         b = forward_kinematics(g, lengths, backend='numba')
@@ -236,6 +270,8 @@ def test_numpy_single_solve_follows_the_compiled_iterates(name):
         if a.converged:
             np.testing.assert_allclose(a.position, b.position, atol=1e-14)
             np.testing.assert_allclose(a.quaternion_xyzw, b.quaternion_xyzw, atol=1e-14)
+            found += _agrees_with_fsolve(g, a, lengths)
+    assert found >= 20
 
 
 @pytest.mark.parametrize('backend', BACKENDS)

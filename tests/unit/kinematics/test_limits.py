@@ -180,12 +180,16 @@ def test_nearly_antiparallel_segments_that_share_an_endpoint_touch(tilt):
     closest points must still come from the shared endpoint, not from s = 0."""
     p0, p1 = np.zeros(3), np.array([0.0, 0.0, 1.0])
     q0, q1 = p1.copy(), np.array([0.0, tilt, 0.0])
+    from rrps_testing.reference_limits import segment_distance
     assert segment_distances(p0, p1, q0, q1) == 0.0
+    assert segment_distances(p0, p1, q0, q1, backend='numpy') == 0.0
     require(use_numba('auto'), 'numba is not in use')
     from rrps_kinematics import compiled_limits as compiled
     assert compiled.segment_distance(p0, p1, q0, q1) == 0.0
     assert compiled.segment_distance(p0, p1, q0 + [1e-3, 0, 0], q1) == pytest.approx(
         segment_distances(p0, p1, q0 + [1e-3, 0, 0], q1), abs=1e-15)
+    assert compiled.segment_distance(p0, p1, q0 + [1e-3, 0, 0], q1) == pytest.approx(
+        segment_distance(p0, p1, q0 + [1e-3, 0, 0], q1), abs=1e-15)
 
 
 @settings(max_examples=50, deadline=None)
@@ -212,10 +216,23 @@ def test_margin_signs_match_direct_checks(dp, rv):
                       and np.all(m.interference >= 0) and m.conditioning >= 0)
 
 
+def _assert_reference(m, ref):
+    """Margins m (PoseMargins or a single pose's Margins) against the independent reference."""
+    np.testing.assert_allclose(m.lengths, ref['lengths'], atol=1e-12)
+    np.testing.assert_allclose(m.stroke, ref['stroke'], atol=1e-12)
+    np.testing.assert_allclose(m.universal, ref['universal'], atol=1e-7)   # arccos near 0: ~1e-8
+    np.testing.assert_allclose(m.spherical, ref['spherical'], atol=1e-7)
+    np.testing.assert_allclose(m.interference, ref['interference'], atol=1e-12)
+    assert m.inverse_condition == pytest.approx(ref['inverse_condition'], rel=1e-9)
+
+
 @pytest.mark.parametrize('robot', ['pole_climber', 'frame_climber', 'facade_climber'])
 def test_pose_margins_compiled_equals_the_reference(robot):
+    """The compiled kernel, the same kernel interpreted and the batch margins give the numbers of
+    an independent computation (rrps_testing.reference_limits: arccos, KKT, SVD)."""
     from rrps_description.rotations import rotation_vector_to_quat_xyzw
     from rrps_kinematics.limits import pose_margins
+    from rrps_testing.reference_limits import reference_margins
     g = load_robot(robot)
     rng = np.random.default_rng(3)
     verdicts = set()
@@ -228,5 +245,12 @@ def test_pose_margins_compiled_equals_the_reference(robot):
             np.testing.assert_allclose(a, b, atol=1e-12)
         assert fast.minimum == pytest.approx({k: float(v) for k, v in m.minimum.items()}, abs=1e-12)
         assert fast.ok == ref.ok == m.ok
+        independent = reference_margins(g, p, q)
+        _assert_reference(fast, independent)
+        _assert_reference(m, independent)
+        if min(np.min(np.abs(independent[k])) for k in ('stroke', 'universal', 'spherical', 'interference')) > 1e-6:
+            assert m.ok == (all(np.all(independent[k] >= 0) for k in ('stroke', 'universal', 'spherical',
+                                                                     'interference'))
+                            and independent['conditioning'] >= 0)
         verdicts.add(m.ok)
     assert verdicts == {True, False}  # both within and beyond the limits were tried

@@ -9,6 +9,7 @@ from rrps_description.geometry import load_robot
 from rrps_description.rotations import normalize_quat, rotation_vector_to_quat_xyzw
 from rrps_kinematics import inverse_kinematics
 from rrps_kinematics.tracking import PoseTracker
+from rrps_testing.virtual_work import quaternion_matrix
 
 POLE = load_robot('pole_climber')
 
@@ -74,6 +75,13 @@ def test_jacobian_sign_backends_agree(monkeypatch):
     monkeypatch.setattr('rrps_kinematics.tracking.use_numba', lambda backend: False)
     assert [tracker.jacobian_sign(p, q) for p, q in poses] == compiled
     assert {-1.0, 1.0} <= set(compiled)
+    # independently: the sign of det J of the test's own inverse Jacobian (eq. 1)
+    for (p, q), sign in zip(poses, compiled):
+        R = quaternion_matrix(q)
+        b = POLE.ring_b_anchors @ R.T
+        legs = p + b - POLE.ring_a_anchors
+        u = legs / np.linalg.norm(legs, axis=1, keepdims=True)
+        assert np.sign(np.linalg.det(np.hstack([u, np.cross(b, u)]))) == sign
 
 
 def test_solver_settings_are_checked_when_set():

@@ -28,6 +28,7 @@ from rrps_kinematics.workspace import (
 )
 from rrps_teleop.mapping import TeleopConfig
 from rrps_testing.ci import require
+from rrps_testing.reference_limits import KINDS, reference_margins
 
 POLE = load_robot('pole_climber')
 #: The pole climber with wide joint cones, a long stroke and thin legs: its workspace reaches
@@ -60,6 +61,31 @@ def reference(geometry, points, quaternions, threshold):
     return labels, first
 
 
+def independent(geometry, points, quaternions, threshold, tolerance=1e-6):
+    """Labels and first broken limit of each point from rrps_testing.reference_limits (nothing of
+    rrps_kinematics), and which points lie within ``tolerance`` of a limit or of the threshold
+    (where two correct computations may round to different sides)."""
+    labels = np.full(len(points), REACHABLE)
+    first = np.full(len(points), -1)
+    unsure = np.zeros(len(points), dtype=bool)
+    for n, p in enumerate(points):
+        worst = np.inf
+        for q in np.atleast_2d(quaternions):
+            ref = reference_margins(geometry, p, q)
+            values = [np.min(ref[k]) for k in KINDS[:4]] + [min(ref['conditioning'], ref['inverse_condition'])]
+            unsure[n] |= min(abs(v) for v in values) < tolerance
+            broken = [not (v >= 0.0) for v in values]
+            if any(broken):
+                labels[n], first[n] = UNREACHABLE, broken.index(True)
+                break
+            worst = min(worst, ref['inverse_condition'])
+        if labels[n] == REACHABLE:
+            unsure[n] |= abs(worst - threshold) < tolerance
+            if worst < threshold:
+                labels[n] = NEAR_SINGULAR
+    return labels, first, unsure
+
+
 def test_default_threshold_is_the_teleop_slowdown():
     assert SINGULAR_THRESHOLD == TeleopConfig().singularity_slowdown
 
@@ -80,6 +106,8 @@ def test_classification_equals_the_margins(robot, rv, centre, threshold, backend
     np.testing.assert_array_equal(ws.labels.ravel(), labels)
     assert ws.excluded_by == {k: int(np.sum(first == i)) for i, k in enumerate(LIMIT_KINDS)}
     assert sum(ws.excluded_by.values()) == ws.counts['unreachable']
+    labels, first, unsure = independent(robot, grid_points(ws), q, threshold)
+    np.testing.assert_array_equal(ws.labels.ravel()[~unsure], labels[~unsure])
 
 
 @pytest.mark.parametrize('name', ROBOTS)
@@ -94,6 +122,9 @@ def test_compiled_kernel_equals_the_numpy_path(name):
         np.testing.assert_array_equal(a.labels, b.labels)
         assert a.excluded_by == b.excluded_by
         np.testing.assert_array_equal(a.origin, b.origin)
+        labels, _, unsure = independent(g, grid_points(a), a.orientations, 0.2)
+        assert np.mean(unsure) < 0.05
+        np.testing.assert_array_equal(a.labels.ravel()[~unsure], labels[~unsure])
 
 
 def test_without_numba_the_numpy_path_gives_the_same_workspace():
@@ -370,7 +401,6 @@ def test_parallel_kernel_equals_the_serial_one(monkeypatch):
 
 
 def test_jacobi_inverse_condition_equals_the_svd():
-    require(compiled_backend_available(), 'numba is not available')
     from rrps_kinematics.compiled_workspace import inverse_condition
     rng = np.random.default_rng(11)
     for k in range(300):

@@ -1,7 +1,8 @@
-"""The compiled statics kernel (rrps_loads.compiled_statics): the same numbers as the NumPy statics
-of rrps_loads.loads, and actuator forces that do the work of the potential energy (virtual work by
-finite differences, written here from the robot description's parts), a support wrench that
-balances the whole robot, on either ring, at any attitude, with a payload and a tool wrench."""
+"""The statics kernel (rrps_loads.compiled_statics): one pose's numbers are those of the batch
+(rrps_loads.loads), its actuator forces do the work of the potential energy (virtual work by
+finite differences, written here from the robot description's parts), its support wrench
+balances the whole robot and its holding margin is the gripper's model applied by hand to that
+wrench, on either ring, at any attitude, with a payload and a tool wrench."""
 
 from __future__ import annotations
 
@@ -63,6 +64,24 @@ def test_the_kernel_gives_the_numbers_of_the_numpy_statics(robot, support, attit
         assert np.isnan(margin)
     else:
         assert margin == pytest.approx(float(ref.holding_margin), rel=1e-9, abs=1e-9)
+    # independently: the whole robot's balance, and the gripper's model by hand
+    if frame == 'tool':
+        np.testing.assert_allclose(wrench, _whole_robot_wrench(geom, support, ATTITUDES[attitude], p, q),
+                                   atol=1e-9 * scale)
+    capacity = geom.holding.get(support)
+    if capacity is None:
+        assert np.isnan(margin)
+    else:
+        assert margin == pytest.approx(_hand_margin(capacity, wrench), rel=1e-9, abs=1e-9)
+
+
+def _hand_margin(c, w) -> float:
+    """1 - the gripper's utilisation under the wrench w, from GripperCapacity's definitions."""
+    force, moment = w[:3], w[3:] - np.cross(c.contact, w[:3])
+    if c.kind == 'friction':
+        return 1.0 - np.sqrt(force[2] ** 2 + (moment[2] / c.radius) ** 2) / (c.friction * c.clamp_force)
+    return 1.0 - max(max(-force[2], 0.0) / c.axial_force, np.linalg.norm(force[:2]) / c.shear_force,
+                     np.linalg.norm(moment) / c.torque)
 
 
 def _potential(geom, p, q, support, world_q):
@@ -125,6 +144,13 @@ def test_the_support_wrench_balances_the_whole_robot(robot, support, attitude):
     p, q = _pose(geom)
     world_q = ATTITUDES[attitude]
     _, wrench, _ = _kernel(geom, support, world_q, p, q)
+    np.testing.assert_allclose(wrench, _whole_robot_wrench(geom, support, world_q, p, q),
+                               atol=1e-9 * 9.81 * geom.total_mass)
+
+
+def _whole_robot_wrench(geom, support, world_q, p, q):
+    """Minus every weight and the tool wrench (frame 'tool'), summed over the parts in the
+    supporting ring's frame (moments about its origin)."""
     R = quat_xyzw_to_matrix(q)
     Rb, tb = (R, p) if support == 'ring_a' else (np.eye(3), np.zeros(3))
     Ra, ta = (np.eye(3), np.zeros(3)) if support == 'ring_a' else (R.T, -R.T @ p)
@@ -145,7 +171,7 @@ def test_the_support_wrench_balances_the_whole_robot(robot, support, attitude):
         F, T = R_tool @ geom.tool_wrench.force, R_tool @ geom.tool_wrench.torque
         force = force + geom.tool.mass * g + F
         moment = moment + np.cross(tcp + R_tool @ geom.tool.com, geom.tool.mass * g) + np.cross(tcp, F) + T
-    np.testing.assert_allclose(wrench, -np.concatenate([force, moment]), atol=1e-9 * 9.81 * geom.total_mass)
+    return -np.concatenate([force, moment])
 
 
 def test_a_singular_pose_gives_nan_and_the_grid_kernel_reports_it():

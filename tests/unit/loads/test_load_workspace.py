@@ -10,9 +10,12 @@ import pytest
 from rrps_description.geometry import load_robot
 from rrps_description.loads import Payload
 from rrps_description.rotations import rotation_vector_to_quat_xyzw
+from rrps_kinematics.backend import use_numba
 from rrps_kinematics.workspace import UNREACHABLE, reachable_workspace
 from rrps_loads.load_workspace import load_workspace
 from rrps_loads.loads import static_solution
+from rrps_testing.ci import require
+from rrps_testing.virtual_work import quaternion_matrix, virtual_work_forces
 
 WALL = rotation_vector_to_quat_xyzw(np.array([np.pi / 2, 0.0, 0.0]))
 RESOLUTION = 0.02        # the viewer's
@@ -60,9 +63,16 @@ def test_sampled_points_agree_with_the_numpy_statics(pole):
         got = ws.labels[index[:, 0], index[:, 1], index[:, 2]] != UNREACHABLE
         np.testing.assert_array_equal(got, feasible)
         assert 0 < feasible.sum() < len(points)
+        # the forces independently, by virtual work (rrps_testing.virtual_work)
+        gravity = quaternion_matrix(WALL).T @ np.array([0.0, 0.0, -9.81])
+        for k in range(0, len(points), 10):
+            ref = virtual_work_forces(geom, points[k], quaternion_matrix(q), gravity, payload_mass=m,
+                                      payload_com=_payload(m).com)
+            np.testing.assert_allclose(sol.actuator_forces[k], ref, rtol=1e-5, atol=1e-6 * 9.81 * heavy.total_mass)
 
 
 def test_the_compiled_and_the_numpy_paths_agree_on_either_support():
+    require(use_numba('auto'), 'numba is not in use')
     geom = load_robot('facade_climber')
     for support in ('ring_a', 'ring_b'):
         kwargs = dict(resolution=0.04, support=support, world_q_support=WALL, payload=_payload(60.0))

@@ -173,6 +173,6 @@ def test_closed_form_static_load_equals_the_reduced_models(name, dx, dy, dz, rx,
     quaternion = rotation_vector_to_quat_xyzw(0.1 * np.array([rx, ry, rz]))
     pose = PlatformPose(robot, position, quaternion)
     zero = np.zeros((1, 6))
-    np.testing.assert_allclose(static_load(robot, pose.ik, pose.support, pose.loads),
+    np.testing.assert_allclose(static_load(robot, pose.ik, pose.support),
                                generalized_forces(pose, zero, zero),
                                rtol=1e-10, atol=1e-10)

@@ -28,7 +28,7 @@ from rrps_recording.storage.qos import (
     parse_offered_qos,
     request_for_offers,
 )
-from rrps_recording.storage.schemas import SEPARATOR, dependencies, generated_definition, message_schema, type_hash
+from rrps_recording.storage.schemas import SEPARATOR, dependencies, message_schema, type_hash
 from rrps_recording.transport.replay import RecordingSet, ReplayClock, is_command_topic, replay_topic
 from rrps_recording.transport.ring import MessageRing
 from rrps_recording.transport.triggers import ERROR, OK, STALE, WARN, FaultWatch, StatusEvent
@@ -117,28 +117,28 @@ def test_schema_text_concatenates_dependencies_as_rosbag2_does():
     assert type_hash('geometry_msgs/msg/PoseStamped').startswith('RIHS01_')
 
 
-def test_definitions_generated_from_introspection_decode_like_the_msg_files(tmp_path):
-    """The fallback for a type without a .msg file gives the same wire format."""
-    from mcap.writer import Writer
+def test_a_type_rosbags_does_not_know_is_read_from_its_installed_msg_file(tmp_path):
+    """nav_msgs/Goals is installed but not in rosbags' Jazzy typestore: its schema comes from the
+    .msg files, decodes rclpy's bytes, and its hash is the installed type description's."""
+    import json
+    import sys
+    from pathlib import Path
+
+    from geometry_msgs.msg import PoseStamped
+    from nav_msgs.msg import Goals
     from rclpy.serialization import serialize_message
 
-    messages = _messages()
-    path = tmp_path / 'generated.mcap'
-    with open(path, 'wb') as stream:
-        writer = Writer(stream)
-        writer.start(profile='ros2')
-        for i, (name, msg) in enumerate(messages.items()):
-            text = generated_definition(name)
-            for dep in dependencies(name):
-                package, _, short = dep.split('/')
-                text += f'{SEPARATOR}\nMSG: {package}/{short}\n{generated_definition(dep)}'
-            schema = writer.register_schema(name, 'ros2msg', text.encode())
-            channel = writer.register_channel(f'/t{i}', 'cdr', schema)
-            writer.add_message(channel, log_time=i, data=serialize_message(msg), publish_time=i)
-        writer.finish()
-    decoded = {schema: value for _, schema, _, value in _decoded(path)}
-    for name, original in messages.items():
-        assert _plain(decoded[name]) == _plain(original), name
+    name = 'nav_msgs/msg/Goals'
+    goal = PoseStamped()
+    goal.header.frame_id, goal.pose.position.x, goal.pose.orientation.w = 'map', 2.5, 1.0
+    message = Goals(goals=[goal, goal])
+    message.header.frame_id = 'map'
+    path = write_recording(tmp_path / 'goals.mcap', [TopicInfo('/goals', name)],
+                           [('/goals', 7, serialize_message(message))])
+    [(_, schema, _, value)] = _decoded(path)
+    assert schema == name and _plain(value) == _plain(message)
+    description = json.loads((Path(sys.prefix) / 'share/nav_msgs/msg/Goals.json').read_text())
+    assert type_hash(name) == next(h['hash_string'] for h in description['type_hashes'] if h['type_name'] == name)
 
 
 def test_tf_schema_without_tf2_msgs_encodes_and_decodes(tmp_path):

@@ -92,6 +92,33 @@ def test_simulate_csv_is_the_library_run_to_the_last_bit(tmp_path, every):
     assert float(rows[-2][0]) == pytest.approx(0.049)
 
 
+@pytest.mark.parametrize('reactions', [False, True])
+def test_simulate_npz_holds_every_column_of_the_library_run_to_the_bit(tmp_path, reactions):
+    """The bulk output: one float64 array per CSV column, named as its header, equal to the
+    library's values (the wall time per step aside); with --csv too, the same rows in the CSV."""
+    forces = MultibodyDynamics(GEOM).holding_forces(POSITION, QUAT) + [2.0, -1.0, 0.5, 1.0, -2.0, 0.0]
+    npz, out = tmp_path / 'run.npz', tmp_path / 'run.csv'
+    argv = ['simulate', '--position', POS_ARG, '--quaternion', QUAT_ARG, '--forces',
+            ','.join(map(repr, forces.tolist())), '--duration', '0.02', '--dt', '0.001', '--npz', str(npz),
+            '--csv', str(out)]
+    assert run(argv + (['--reactions'] if reactions else [])) == 0
+    ref = simulate(GEOM, POSITION, QUAT / np.linalg.norm(QUAT), forces, duration=0.02, dt=0.001,
+                   reactions=reactions)
+    expected = cli.simulation_rows(ref)
+    columns = list(SIMULATION_COLUMNS)
+    if reactions:
+        expected, columns = np.column_stack([expected, cli.reaction_rows(ref)]), columns + list(cli.REACTION_COLUMNS)
+    archive = np.load(npz)
+    assert list(archive.files) == columns
+    header, data = read_csv(out)
+    assert header == columns
+    for k, name in enumerate(columns):
+        assert archive[name].dtype == np.float64 and archive[name].shape == (len(ref.t),)
+        np.testing.assert_array_equal(archive[name], data[:, k])
+        if name != 'step_seconds':                      # the wall time differs from run to run
+            np.testing.assert_array_equal(archive[name], expected[:, k])
+
+
 def test_statics_prints_the_six_holding_forces(capsys):
     assert run(['statics', '--position', POS_ARG, '--quaternion', QUAT_ARG]) == 0
     lines = capsys.readouterr().out.strip().splitlines()
@@ -179,6 +206,7 @@ def test_climb_is_800_mm_in_11_phases():
     (['simulate', '--forces', 'hold', '--dt', '0.1', '--duration', '0.01', '--csv', 'x.csv'],
      'must not exceed'),
     (['simulate', '--forces', 'hold', '--dt', '-1', '--csv', 'x.csv'], 'positive'),
+    (['simulate', '--forces', 'hold'], 'give the output: --npz and/or --csv'),
     (['statics', '--robot', 'no_such_robot'], 'unknown robot'),
     (['statics', '--quaternion', '0,0,0,0'], 'zero quaternion'),
     (['inverse', '--trajectory', '/nonexistent/traj.csv', '--csv', 'f.csv'], 'cannot read'),

@@ -1,6 +1,7 @@
 """The teleop load guards (rrps_teleop.load_guard): a motion towards an actuator's force limit or
 a holding margin of zero slows down and halts, a motion away moves at full speed, both with the
-compiled statics and the NumPy statics; and the load margins are those of the NumPy statics."""
+statics compiled and interpreted; and the load margins are those of the statics, whose forces
+are checked by virtual work."""
 
 from __future__ import annotations
 
@@ -14,11 +15,14 @@ from rrps_description.rotations import rotation_vector_to_quat_xyzw
 from rrps_description.world import Support
 from rrps_interfaces.teleop import TeleopCode
 from rrps_kinematics import inverse_kinematics
+from rrps_kinematics.backend import use_numba
 from rrps_loads.loads import static_solution
 from rrps_teleop.load_guard import LoadGuard
 from rrps_teleop.mapping import TeleopConfig, TeleopMapping
+from rrps_testing.ci import require
+from rrps_testing.virtual_work import quaternion_matrix, virtual_work_forces
 
-BACKENDS = pytest.mark.parametrize('backend', ['numba', 'numpy'])
+BACKENDS = pytest.mark.parametrize('backend', (['numba'] if use_numba('auto') else []) + ['numpy'])
 BASE = load_robot('pole_climber').with_(payload=Payload(ring='ring_b', mass=20.0, com=np.array([0.1, 0.0, 0.05])))
 WALL = Support.of('ring_a', rotation_vector_to_quat_xyzw(np.array([np.pi / 2, 0.0, 0.0])))
 DT = 0.01
@@ -122,6 +126,7 @@ def test_beyond_the_limit_a_motion_further_halts_and_a_motion_back_is_free(limit
 
 
 def test_the_compiled_and_the_numpy_load_margins_agree_with_the_statics():
+    require(use_numba('auto'), 'numba is not in use')
     geom, _ = _near_force_limit(0.05)
     guards = [LoadGuard(geom, WALL, backend=b) for b in ('numba', 'numpy')]
     rng = np.random.default_rng(3)
@@ -129,6 +134,9 @@ def test_the_compiled_and_the_numpy_load_margins_agree_with_the_statics():
         p = geom.home_position + 0.03 * rng.standard_normal(3)
         q = rotation_vector_to_quat_xyzw(0.1 * rng.standard_normal(3))
         sol = static_solution(geom, Pose(p, q), support=WALL)
+        gravity = quaternion_matrix(WALL.world_q_support).T @ np.array([0.0, 0.0, -9.81])   # in ring_a
+        independent = virtual_work_forces(geom, p, quaternion_matrix(q), gravity)
+        np.testing.assert_allclose(sol.actuator_forces, independent, rtol=1e-5, atol=1e-6 * 9.81 * geom.total_mass)
         for guard in guards:
             m = guard.margins_at(p, q)
             np.testing.assert_allclose(m.forces, sol.actuator_forces, rtol=1e-9, atol=1e-9)
@@ -157,6 +165,7 @@ def _drive_joint(geom, direction, backend, steps=STEPS):
 
 
 def test_both_backends_guard_alike_in_cartesian_and_joint_mode():
+    require(use_numba('auto'), 'numba is not in use')
     geom, towards = _near_holding_limit(0.05)
     runs = {b: _drive(geom, towards, b, steps=120) for b in ('numba', 'numpy')}
     np.testing.assert_allclose(runs['numba'][1], runs['numpy'][1], atol=1e-9)

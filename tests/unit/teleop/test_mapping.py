@@ -15,12 +15,13 @@ from rrps_kinematics.backend import use_numba
 from rrps_teleop.mapping import TeleopConfig, TeleopMapping, validate_scale
 from rrps_teleop.master import MasterModel, scripted_pose
 from rrps_testing.ci import require
+from rrps_testing.reference_limits import reference_margins
 
 SLAVE = load_robot('pole_climber')
 MASTER = load_robot('master_robot')
 DT = 0.01
-#: The guards' two paths: the compiled kernels (rrps_teleop.compiled_guards) and the NumPy reference.
-GUARDS = pytest.mark.parametrize('backend', ['numba', 'numpy'])
+#: The guards' kernels (rrps_teleop.compiled_guards) compiled and interpreted.
+GUARDS = pytest.mark.parametrize('backend', (['numba'] if use_numba('auto') else []) + ['numpy'])
 
 
 def rotated(q, rotation_vector):
@@ -474,8 +475,10 @@ def test_samples_bunched_by_the_transport_keep_the_masters_time_budget():
          moves=[(0.0, 0.0, 0.0, 0.0, 0.0, 0.0625), (0.0, 0.0, 0.03125, 0.0, 0.0, 0.0),
                 (0.0, 0.0, -0.01171875, 0.0, -0.5, 0.5), (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)])
 def test_property_compiled_guards_give_the_reference_commands_and_codes(mode, scale, rotation, moves):
-    """The compiled guarded step and the NumPy reference: the same code, detail and command at
-    every step, on master paths that run into the speed limits, the strokes and the joint cones."""
+    """The guarded step compiled and interpreted: the same code, detail and command at every step,
+    on master paths that run into the speed limits, the strokes and the joint cones; each
+    command's margins those of an independent computation."""
+    require(use_numba('auto'), 'numba is not in use')
     config = TeleopConfig(mode=mode, translation_scale=scale, joint_scale=scale, rotation_mode=rotation,
                           max_linear_speed=2.0, max_angular_speed=10.0, collision_slowdown=0.02,
                           singularity_slowdown=0.05)
@@ -489,6 +492,12 @@ def test_property_compiled_guards_give_the_reference_commands_and_codes(mode, sc
             assert a.detail.split(' margin ')[0] == b.detail.split(' margin ')[0]
             if a.has_command:
                 np.testing.assert_allclose(a.command.buffer, b.command.buffer, rtol=1e-9, atol=1e-9)
+                # the command's margins, independently (rrps_testing.reference_limits)
+                ref, m = reference_margins(fast, a.command.position, a.command.quaternion), a.command.margins
+                for name, atol in (('stroke', 1e-12), ('universal', 1e-7), ('spherical', 1e-7),
+                                   ('interference', 1e-12)):
+                    np.testing.assert_allclose(getattr(m, name), ref[name], atol=atol)
+                assert m.inverse_condition == pytest.approx(ref['inverse_condition'], rel=1e-9)
 
 
 @pytest.mark.parametrize('mode, rotation', [('cartesian', 'relative'), ('cartesian', 'absolute'),

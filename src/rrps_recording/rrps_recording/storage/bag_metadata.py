@@ -14,15 +14,13 @@ In version 9 ``offered_qos_profiles`` is a nested YAML sequence with the policie
 ``nanoseconds_since_epoch`` 2**63 - 1 (rosbag2's ``nanoseconds::max()``); an empty
 ``custom_data`` is ``~``. ``metadata.yaml`` wraps it in ``rosbag2_bagfile_information``; the
 MCAP record ``rosbag2`` holds it unwrapped under ``serialized_metadata``. :func:`yaml_text`
-writes both in yaml-cpp's block style. Pure Python, no rclpy.
+writes both in yaml-cpp's block style (PyYAML's emitter). Pure Python, no rclpy.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import json
 import os
-import re
 from pathlib import Path
 from typing import Sequence
 
@@ -114,59 +112,25 @@ def bag_metadata(topic_counts: Sequence[tuple[TopicInfo, int]], files: Sequence[
     }
 
 
-_PLAIN = re.compile(r'[A-Za-z_/][A-Za-z0-9_./-]*')
-_RESERVED = frozenset({'true', 'false', 'yes', 'no', 'on', 'off', 'null', 'y', 'n'})
+class _YamlCppStyle(yaml.SafeDumper):
+    """PyYAML's emitter in yaml-cpp's block style: sequences indented under their key, '~' for
+    null, an empty string as "" (the rest of rosbag2's metadata it writes alike)."""
+
+    def increase_indent(self, flow=False, indentless=False):
+        return super().increase_indent(flow, False)
 
 
-def _scalar(value) -> str:
-    """A scalar, or an empty sequence or mapping, on one line."""
-    if value is None:
-        return '~'
-    if isinstance(value, bool):
-        return 'true' if value else 'false'
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, (list, tuple)):
-        return '[]'
-    if isinstance(value, dict):
-        return '{}'
-    text = str(value)
-    if _PLAIN.fullmatch(text) and text.lower() not in _RESERVED:
-        return text
-    return json.dumps(text)  # a YAML double-quoted scalar ("" when empty)
-
-
-def _nested(value) -> bool:
-    return isinstance(value, (dict, list, tuple)) and len(value) > 0
-
-
-def _lines(value, indent: int) -> list[str]:
-    """Block lines of a non-empty mapping or sequence at ``indent`` spaces."""
-    pad = ' ' * indent
-    out = []
-    if isinstance(value, dict):
-        for key, item in value.items():
-            if _nested(item):
-                out.append(f'{pad}{key}:')
-                out += _lines(item, indent + 2)
-            else:
-                out.append(f'{pad}{key}: {_scalar(item)}')
-        return out
-    for item in value:
-        if _nested(item):
-            inner = _lines(item, indent + 2)
-            out.append(f'{pad}- {inner[0][indent + 2:]}')
-            out += inner[1:]
-        else:
-            out.append(f'{pad}- {_scalar(item)}')
-    return out
+_YamlCppStyle.add_representer(type(None), lambda dumper, _: dumper.represent_scalar('tag:yaml.org,2002:null', '~'))
+_YamlCppStyle.add_representer(str, lambda dumper, text: dumper.represent_scalar(
+    'tag:yaml.org,2002:str', text, style='"' if text == '' else None))
 
 
 def yaml_text(value) -> str:
-    """``value`` (dicts, lists, str, int, bool, None) in yaml-cpp's block style: two-space
-    indents, sequences indented under their key, '~' for null, quoted only when needed, no
-    final newline."""
-    return '\n'.join(_lines(value, 0)) if _nested(value) else _scalar(value)
+    """The mapping ``value`` (of dicts, lists, str, int, bool, None) as yaml-cpp writes rosbag2's metadata:
+    two-space indents, sequences indented under their key, '~' for null, quoted only when
+    needed, no final newline."""
+    return yaml.dump(value, Dumper=_YamlCppStyle, sort_keys=False, default_flow_style=False,
+                     width=float('inf')).rstrip('\n')
 
 
 def metadata_file_text(metadata: dict) -> str:

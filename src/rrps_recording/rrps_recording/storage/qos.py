@@ -75,11 +75,6 @@ class QosSpec:
 TF_QOS = QosSpec(depth=100)
 
 
-def _duration(ns: int) -> str:
-    sec, nsec = divmod(int(ns), 1_000_000_000)
-    return f'sec: {sec}\n    nsec: {nsec}'
-
-
 def _sec_nsec(ns: int) -> dict:
     sec, nsec = divmod(int(ns), 1_000_000_000)
     return {'sec': sec, 'nsec': nsec}
@@ -98,23 +93,11 @@ def offered_qos_profiles(profiles: Sequence[QosSpec]) -> list[dict]:
 
 
 def offered_qos_yaml(profiles: Sequence[QosSpec]) -> str:
-    """The ``offered_qos_profiles`` text of ``profiles``, as yaml-cpp dumps it for rosbag2."""
+    """The ``offered_qos_profiles`` text of ``profiles``, as rosbag2 writes it on an MCAP channel
+    (the block style of yaml-cpp, which PyYAML's emitter writes alike for this sequence)."""
     if not profiles:
         return '[]'
-    items = []
-    for p in profiles:
-        items.append(
-            f'- history: {_HISTORY[p.history]}\n'
-            f'  depth: {int(p.depth)}\n'
-            f'  reliability: {_RELIABILITY[p.reliability]}\n'
-            f'  durability: {_DURABILITY[p.durability]}\n'
-            f'  deadline:\n    {_duration(p.deadline_ns)}\n'
-            f'  lifespan:\n    {_duration(p.lifespan_ns)}\n'
-            f'  liveliness: {_LIVELINESS[p.liveliness]}\n'
-            f'  liveliness_lease_duration:\n    {_duration(p.liveliness_lease_duration_ns)}\n'
-            f'  avoid_ros_namespace_conventions: '
-            f'{"true" if p.avoid_ros_namespace_conventions else "false"}')
-    return '\n'.join(items)
+    return yaml.safe_dump(offered_qos_profiles(profiles), sort_keys=False, default_flow_style=False).rstrip('\n')
 
 
 def _policy(value, table: dict, name: str) -> int:
