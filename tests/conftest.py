@@ -124,7 +124,10 @@ def pytest_sessionfinish(session, exitstatus):
     while left and time.monotonic() < deadline:  # give stopping processes a moment
         time.sleep(0.2)
         left = _processes_started_since(t0)
-    left = [p for p in left if 'load_flood' not in p[2] and 'while True' not in p[2]]
+    # ...but this process's own multiprocessing resource tracker (a WorkerProcess's pool started
+    # it; it ends with this process, as it does with a node's)
+    left = [p for p in left if 'load_flood' not in p[2] and 'while True' not in p[2]
+            and not (p[1] == os.getpid() and 'multiprocessing.resource_tracker' in p[2])]
     if left:
         print('\nprocesses left behind by the tests (killed now):')
         for pid, ppid, cmd in left:
