@@ -44,6 +44,9 @@ MAX_LINEAR_SPEED = 0.05    # m/s, teleop's slave speed limit (default)
 COMMAND_TIMEOUT = 0.1      # s, the IK node's command timeout (default)
 ENGAGE_GRACE = 1.5         # s after a link returns before teleop must be engaged again
 ROBOT_STALL = 0.1          # s: a longer gap in the robot's own pose stream is a stall of its processes
+#: s: the discovered graph is settled once both agents saw it unchanged this long
+GRAPH_SETTLE = 3.0
+_GRAPH = ('nodes', 'topics', 'services', 'endpoints')
 #: teleop codes of an engaged mapping
 ENGAGED = frozenset(TeleopCode) - DISENGAGED_CODES
 
@@ -152,6 +155,27 @@ class FieldSession:
         if not wait(lambda: self.robot.records('pose') and self.operator.records('teleop/status')
                     and self.robot.records('climb/status') and self.viewer_statuses(), DEADLINE):
             raise RuntimeError('the stack did not come up:\n' + self.logs())
+        self.graph = self._settle()
+
+    def _settle(self) -> dict:
+        """Wait until DDS discovery has settled: both agents' graphs unchanged for GRAPH_SETTLE s.
+        The stack's data flows before every endpoint is discovered across the link; a profile
+        started then would judge the start-up's discovery (its SEDP exchange, resent on a lossy
+        link) rather than the link's steady use. The graph the operator agent saw."""
+        def graph() -> tuple:
+            replies = [agent.send({'graph': True}) for agent in (self.robot, self.operator)]
+            return tuple(tuple((k, r[k]) for k in _GRAPH) for r in replies)
+        last, since = graph(), time.monotonic()
+
+        def settled() -> bool:
+            nonlocal last, since
+            now = graph()
+            if now != last:
+                last, since = now, time.monotonic()
+            return time.monotonic() - since >= GRAPH_SETTLE
+        if not wait(settled, DEADLINE, period=0.5):
+            raise RuntimeError(f'discovery did not settle in {DEADLINE} s: {last}')
+        return dict(last[1])
 
     def logs(self) -> str:
         return '\n'.join(f'--- {n}\n{self.rig.log_tail(n, 12)}' for n in self.rig.processes)
@@ -193,6 +217,7 @@ class FieldSession:
             link.limit(robot_to_operator=profile.robot_to_operator, operator_to_robot=profile.operator_to_robot)
             link.loss(profile.loss)
             time.sleep(1.0)  # the queues settle
+            pressed = time.time()
             self.operator.send({'deadman': True})
             wait(lambda: self._engaged(time.time() - 0.2), 10.0)
             t0, tx0, rx0 = self.bytes()
@@ -202,6 +227,7 @@ class FieldSession:
             result.robot_to_operator = 8.0 * (tx1 - tx0) / (t1 - t0)
             result.operator_to_robot = 8.0 * (rx1 - rx0) / (t1 - t0)
             self._judge_teleop(result, t0, t1, outages)
+            result.clutch_mm.insert(0, self._clutch(pressed))
             if climb_step:
                 result.climb, switched = self._climb(link, profile, outages)
                 result.outage_gripper_switches += switched
@@ -269,11 +295,13 @@ class FieldSession:
             result.outage_holds.append(last - down)
             result.outage_gripper_switches += gripper_openings(self.robot.records('grippers/state'), down, up)
             result.clutch_mm.append(self._clutch(up))
-        result.clutch_mm.insert(0, self._clutch(t0 - 10.0))
 
     def _clutch(self, since: float) -> tuple[float, float]:
-        """The first actuators/command after ``since`` against the legs then, and what the
-        slave's speed limit allows since teleop engaged (+ 0.5 mm) [mm]."""
+        """The first actuators/command after ``since`` (the deadman pressed, or the link back)
+        against the legs then, and what the slave's speed limit allows since teleop engaged
+        (+ 0.5 mm) [mm]. Only this engagement's commands count: one streamed before it (a
+        previous engagement's, its stop) is a planned motion the driver's jerk-limited
+        setpoints follow with a lag, not a jump."""
         command = first(self.robot.records('actuators/command'), lambda r: True, since)
         engaged = first(self.operator.records('teleop/status'), lambda r: teleop(r).engaged, since)
         legs = [r for r in self.robot.records('actuators/state') if command and r['t'] <= command['t']]

@@ -37,6 +37,8 @@ Commands, one JSON object per line on stdin, each answered by ``{"reply": id, ..
     {"id": 7, "round_trip": 0.4}          operator/round_trip_time 0.4 s at 4 Hz (what the
                                           viewer reports for its browser); null stops
     {"id": 5, "ping": true}               answered at once (the agent is alive and spinning)
+    {"id": 9, "graph": true}              the ROS graph this agent has discovered: nodes, topics,
+                                          services and topic endpoints (publishers + subscribers)
     {"id": 8, "parameter": {"node": "teleop_node", "name": "robot_namespace", "value": "/robot_2"}}
                                           a string parameter of a node of this namespace, set
                                           through its set_parameters_atomically (as the viewer
@@ -262,6 +264,11 @@ class Agent(Node):
                 lambda r: {'successful': r.result.successful, 'reason': r.result.reason})
         elif 'ping' in command:
             self._reply(command, ok=True)
+        elif 'graph' in command:
+            topics = self.get_topic_names_and_types()
+            self._reply(command, nodes=len(self.get_node_names()), topics=len(topics),
+                        services=len(self.get_service_names_and_types()),
+                        endpoints=sum(self.count_publishers(t) + self.count_subscribers(t) for t, _ in topics))
         else:
             self._reply(command, ok=False, error=f'unknown command {command}')
 
