@@ -167,9 +167,14 @@ def playwright_dir() -> str:
 SERIAL_LEVELS = ('tests/system/', 'tests/browser/')
 #: Run last on their worker: the CANopen tests starve under a concurrent browser.
 LAST = ('tests/system/test_canopen',)
+#: System tests that time nothing and share nothing (builds and installs into their own
+#: directories): each module on whichever worker is free, as a whole (its build made once).
+SPREAD = ('tests/system/test_clean_install.py', 'tests/system/test_install_tree.py')
 
 
 def _level(nodeid: str) -> str | None:
+    if nodeid.startswith(SPREAD):
+        return None
     return next((level for level in SERIAL_LEVELS if nodeid.startswith(level)), None)
 
 
@@ -188,11 +193,14 @@ def pytest_collection_modifyitems(config, items):
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_make_scheduler(config, log):
     """xdist's load-scope scheduling with our scopes: the serial levels are one scope (one worker,
-    in order: browser, system), every other test its own scope (spread over the workers)."""
+    in order: browser, system), each SPREAD module one, every other test its own scope (spread
+    over the workers)."""
     from xdist.scheduler import LoadScopeScheduling
 
     class LevelScheduling(LoadScopeScheduling):
         def _split_scope(self, nodeid: str) -> str:
+            if nodeid.startswith(SPREAD):
+                return nodeid.split('::')[0]
             return 'serial' if _level(nodeid) else nodeid
 
     return LevelScheduling(config, log)
