@@ -4,7 +4,7 @@
     python benchmarks/field_link.py [--profiles clean,2M,500k_loss,outages] [--fleet 1,3,6]
                                     [--skip-profiles] [--skip-fleet] [--log-dir DIR]
 
-**Profiles** (rrps_testing.field_link): the README's two-host split (driver at 500 Hz, master at
+**Profiles** (rrps_testing.field_link): the two-host split of docs/deployment.md (driver at 500 Hz, master at
 200 Hz), teleop engaged for 12 s on the master's circle, then a climbing step, on each link
 profile: clean; 2 Mbit/s robot -> operator and 500 kbit/s back; 500 kbit/s each way with 5 %
 random loss; 2 Mbit/s and 500 kbit/s back with a 1 s outage every 10 s. Three operator-station

@@ -13,7 +13,7 @@ import pytest
 
 from rrps_testing.ci import next_domain_id
 
-# Every process that starts rclpy here keeps DDS on this machine (README: deployment).
+# Every process that starts rclpy here keeps DDS on this machine (docs/deployment.md).
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 # Inherited by every process this session starts: how an orphan it left is told from another
 # job's process that happens to be reparented to init (never kill those).

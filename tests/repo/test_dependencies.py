@@ -35,7 +35,7 @@ SRC = ROOT / 'src'
 ROS_WHEEL_PREFIX = 'ros-jazzy-'
 #: The rosdep key of each Python distribution the packages declare (normalised name -> key):
 #: rosdistro's keys (rosdep/python.yaml, read at rosdistro commit 8468e88c), or where rosdistro
-#: has none this repository's rosdep.yaml (a rosdep source: README, "Packages").
+#: has none this repository's rosdep.yaml (a rosdep source: docs/architecture.md, "Packages").
 ROSDEP_KEYS = {
     'canopen': 'canopen-pip',
     'foxglove-sdk': 'python3-foxglove-sdk-pip',

@@ -3,7 +3,7 @@ teleoperation session and of a climbing step: every drive holds, driver_node rep
 and why (ERROR on /diagnostics, DriverStatus.faults), no gripper output switches, and after the
 operator's fault reset and activation the robot works again. Real processes, real CANopen
 traffic on a loopback bus of the test's own. ``-s`` prints each episode (the fault table of
-README: Connecting a robot)."""
+docs/connecting-a-robot.md)."""
 
 from __future__ import annotations
 

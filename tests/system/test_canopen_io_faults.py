@@ -3,7 +3,7 @@ processes, real CANopen traffic on a loopback bus of the test's own): a clamp se
 open under a closed clamp, and a bus-off reported by an error frame. Each time the driver holds,
 reports which device and why (ERROR on /diagnostics, DriverStatus.faults), switches no gripper
 output, and works again after the operator's fault reset and activation. ``-s`` prints each
-episode (the fault table of README: Connecting a robot)."""
+episode (the fault table of docs/connecting-a-robot.md)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The operator link as it is in the field: the README's two-host split with the link relay
+"""The operator link as it is in the field: the two-host split of docs/deployment.md with the link relay
 (rrps_testing.field_link) on a rig whose veth pair is shaped with ``tc tbf`` and nftables drops
 (rrps_testing.link_shaping), teleop engaged and then a climbing step.
 
@@ -31,8 +31,8 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.netns]
 
 #: the operator station's link profile: teleop commands at 50 Hz (docs/deployment.md)
 COMMAND_RATE = 50.0
-#: the driver and the master slower than the README's 500 and 200 Hz: both hosts and both agents
-#: share two cores (the benchmark runs the README's rates)
+#: the driver and the master slower than the demo's 500 and 200 Hz: both hosts and both agents
+#: share two cores (the benchmark runs the demo's rates)
 DRIVER_RATE = 100.0
 MASTER_RATE = 50.0
 #: a profile is run again (up to ATTEMPTS times) when the robot's own processes stalled during
@@ -49,7 +49,7 @@ def _require_rig() -> None:
 
 @pytest.fixture(scope='module')
 def session(tmp_path_factory):
-    """The README's two-host split with the link relay, one for the module's tests."""
+    """The two-host split of docs/deployment.md with the link relay, one for the module's tests."""
     _require_rig()
     log_dir = tmp_path_factory.mktemp('field_link')
     rig = Rig(next_domain_id(), discovery='subnet', log_dir=log_dir)

@@ -51,7 +51,7 @@ class CanopenMaster(MasterInterface):
         g = config.geometry
         if g.bus is None or g.bus.force_output is None:
             return Transition(CallbackReturn.FAILURE, f'robot {g.name!r} has no bus section with force_output: '
-                                                      'the canopen master needs one (README: Connecting a robot)')
+                                                      'the canopen master needs one (docs/connecting-a-robot.md)')
         self.stroke = (g.min_length - STROKE_MARGIN, g.max_length + STROKE_MARGIN)
         fo = g.bus.force_output
         self.output = PassiveForceOutput(6, limit=fo.limit, damping=fo.damping)

@@ -110,7 +110,7 @@ class CanopenRobot(SystemInterface):
         g = config.geometry
         if g.bus is None:
             return _failure(f'robot {g.name!r} has no bus section: the canopen hardware needs one '
-                            '(README: Connecting a robot)')
+                            '(docs/connecting-a-robot.md)')
         if ring_joints(g):
             return _failure(f'the canopen hardware drives the six legs; {", ".join(ring_joints(g))} have no drive')
         try:

@@ -2,7 +2,7 @@
 
 Two rings joined by six legs. Leg i has its universal joint on ring_a at ``ring_a_anchors[i]``
 (ring_a frame) and its spherical joint on ring_b at ``ring_b_anchors[i]`` (ring_b frame).
-All kinematics is written for ``a_T_b``, the pose of ring_b in ring_a's frame (README: the robot model).
+All kinematics is written for ``a_T_b``, the pose of ring_b in ring_a's frame (docs/robot-model.md).
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 A :class:`Pose` is a rigid transform ``parent_T_child``: position [m] and unit quaternion
 (x, y, z, w), the ROS order on the wire (viser wants (w, x, y, z): :attr:`Pose.wxyz`). The
 kinematics works on ``a_T_b`` (ring_b in ring_a's frame); the world placement of the rings is
-``world_T_a`` / ``world_T_b`` (README: the robot model)::
+``world_T_a`` / ``world_T_b`` (docs/robot-model.md)::
 
     a_T_b = Pose([0, 0, 0.42], [0, 0, 0, 1])
     world_T_b = world_T_a @ a_T_b                  # composition, parent_T_child @ child_T_x

@@ -1,4 +1,4 @@
-"""World odometry of both rings across climbing steps (README: the robot model).
+"""World odometry of both rings across climbing steps (docs/robot-model.md).
 
 The kinematics only knows ``a_T_b``. Which ring grips decides how it is placed in the world:
 ``world_T_b = world_T_a · a_T_b`` while ring_a grips, ``world_T_a = world_T_b · inv(a_T_b)``

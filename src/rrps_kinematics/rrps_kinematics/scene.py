@@ -1,6 +1,6 @@
 """Pure scene logic of the viewer: where the rings and legs are in the world and how to colour them.
 
-No rclpy and no viser here. Frames (README: the robot model): the kinematics gives ``a_T_b``
+No rclpy and no viser here. Frames (docs/robot-model.md): the kinematics gives ``a_T_b``
 (ring_b in ring_a); the gripping ring is fixed in ``world`` and places the robot there:
 ``world_T_b = world_T_a · a_T_b`` while ring_a grips, ``world_T_a = world_T_b · inv(a_T_b)``
 while ring_b grips.

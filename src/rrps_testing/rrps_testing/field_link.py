@@ -1,4 +1,4 @@
-"""The operator link as it is in the field: the README's two-host split on a rig whose link is
+"""The operator link as it is in the field: the two-host split of docs/deployment.md on a rig whose link is
 shaped (rrps_testing.link_shaping), teleop engaged and a climbing step, judged from the records.
 
 Two subscription patterns of the operator station:
@@ -125,9 +125,9 @@ def _outage(link: LinkShaping, length: float) -> tuple[float, float]:
 
 
 class FieldSession:
-    """The README's two-host split on ``rig`` in ``pattern`` (module docstring).
+    """The two-host split of docs/deployment.md on ``rig`` in ``pattern`` (module docstring).
 
-    ``driver_rate`` [Hz]: the driver's (500 in the README); ``master_rate`` [Hz]: the master's;
+    ``driver_rate`` [Hz]: the driver's (500 in the demo); ``master_rate`` [Hz]: the master's;
     ``command_rate`` [Hz]: teleop's commands on a timer (None: one per master sample, teleop's
     default); ``render_rate``: the viewer's; ``relay``: link_relay_node's parameters."""
 

@@ -271,7 +271,7 @@ def test_a_state_file_that_cannot_be_written_is_reported(ros_context, tmp_path):
 
 
 def test_a_sensor_data_reader_matches_the_reliable_state_stream(ros_context):
-    """The 500 Hz actuators/state is offered reliable (README, the ROS interface: so that the
+    """The 500 Hz actuators/state is offered reliable (docs/usage.md, the ROS interface: so that the
     stack's reliable readers and a ROS user's sensor-data reader both match it); a reader with
     rclpy's sensor-data profile (best effort, as RViz2 and PlotJuggler read sensors) gets it."""
     from rclpy.node import Node

@@ -1,4 +1,4 @@
-"""Smoke test of the public Python API (README: Python API; the detailed suites live beside it)."""
+"""Smoke test of the public Python API (docs/usage.md: Python API; the detailed suites live beside it)."""
 
 import numpy as np
 

@@ -2,7 +2,7 @@
 states of a pose, matplotlib draws them headless (no OpenGL here). The picture must show the
 robot: its pixels where its meshes project, the legs' green, the tool's orange, the rings' grey.
 
-``RRPS_UPDATE_DOCS_IMAGES=1`` writes it to docs/images/urdf-robot.png (the README's picture);
+``RRPS_UPDATE_DOCS_IMAGES=1`` writes it to docs/images/urdf-robot.png (the picture of docs/recording.md);
 ``RRPS_SCREENSHOT_DIR=dir`` keeps a copy there.
 """
 

@@ -15,8 +15,8 @@ Recording taps (``use_taps``, default on): the stack's nodes send their high-rat
 in bundles on ``<node>/recording_tap`` while a recorder listens
 (:mod:`rrps_runtime.recording_tap`). A topic whose every publisher taps it is
 recorded from the bundles and not subscribed to: one DDS delivery per node every 0.1 s instead
-of one per message, which is what keeps the recorder's cost within its budget (README,
-*Recording*). A topic with any other publisher is subscribed to as above; the switch between
+of one per message, which is what keeps the recorder's cost within its budget (docs/recording.md,
+*Recording taps*). A topic with any other publisher is subscribed to as above; the switch between
 the two loses and doubles nothing (:class:`rrps_recording.transport.taps.TapRouter`). A tapped
 message is logged at its publish time plus the node's smallest bundle delay.
 

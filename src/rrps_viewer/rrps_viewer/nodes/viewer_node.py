@@ -24,7 +24,7 @@ Safety: the server binds ``host`` (default 127.0.0.1); every browser is read-onl
 ``token`` (generated with ``secrets`` and printed when empty); one operator at a time; a
 disconnected operator loses control, the deadman stops and the teleop mapping holds the robot.
 
-Deadman (README, "Driving the robot from the browser"): ``teleop/enable`` is true while the controlling operator
+Deadman (docs/viewer.md, "Driving the robot from the browser"): ``teleop/enable`` is true while the controlling operator
 has "Engage (clutch)" ticked and holds "Hold to move" (20 Hz hold events, expiring after
 ``deadman_timeout``) or drags the master's gizmo; releasing stops the stream.
 """
