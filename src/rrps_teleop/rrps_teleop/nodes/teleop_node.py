@@ -92,18 +92,14 @@ from rrps_runtime.recording_tap import RecordingTap
 from rrps_teleop.fixture import FixtureConfig, fixture_wrench, master_wrench
 from rrps_teleop.mapping import TeleopConfig, TeleopMapping, TeleopOutput
 from rrps_teleop.support_input import SupportInput
-from rrps_teleop.teleop_config import PARAMETERS
+from rrps_teleop.teleop_config import CONFIG_PARAMETERS, PARAMETERS
 from rrps_teleop.teleop_stream import StreamOutput
 
 __all__ = ['TeleopNode', 'main']
 
 WATCHDOG_PERIOD = 0.02
-#: Parameters that map onto TeleopConfig fields (settable at run time).
-CONFIG_PARAMETERS = ('mode', 'translation_scale', 'rotation_mode', 'joint_scale', 'enable_timeout',
-                     'master_timeout', 'max_linear_speed', 'max_angular_speed', 'singularity_slowdown',
-                     'singularity_halt', 'collision_slowdown', 'align_tolerance', 'state_timeout',
-                     'slow_latency', 'hold_latency', 'control_frame', 'load_guards', 'force_slowdown',
-                     'holding_slowdown')
+#: the names of the parameters that are TeleopConfig's fields.
+_CONFIG_NAMES = frozenset(p.name for p in CONFIG_PARAMETERS)
 _LEVELS = {
     TeleopCode.NO_WARNING: OK, TeleopCode.SPEED_LIMITED: OK, TeleopCode.DEADMAN_RELEASED: OK,
     TeleopCode.CLIMB_EXECUTING: OK, TeleopCode.MASTER_STALE: STALE,
@@ -128,7 +124,7 @@ class TeleopNode(Node):
         self.control = values['control']
         self.feedback_scale = values['feedback_scale']
         self.fixture = FixtureConfig(stiffness=values['fixture_stiffness'])
-        config = {name: values[name] for name in CONFIG_PARAMETERS}
+        config = {name: values[name] for name in _CONFIG_NAMES}
         if config['singularity_halt'] is None:  # unset: the robot's, which the parameter then shows
             config['singularity_halt'] = float(self.geometry.min_conditioning)
             self.set_parameters([Parameter('singularity_halt', value=config['singularity_halt'])])
@@ -172,8 +168,8 @@ class TeleopNode(Node):
                     normalize_namespace(p.value)
                 except ValueError as exc:
                     return SetParametersResult(successful=False, reason=str(exc))
-        changes = {p.name: (list(p.value) if p.name == 'joint_scale' else p.value)
-                   for p in parameters if p.name in CONFIG_PARAMETERS}
+        changes = {p.name: (list(p.value) if PARAMETERS[p.name].type is tuple else p.value)
+                   for p in parameters if p.name in _CONFIG_NAMES}
         if not changes:
             return SetParametersResult(successful=True)
         try:
@@ -186,7 +182,7 @@ class TeleopNode(Node):
         for p in parameters:
             if p.name == 'robot_namespace':
                 self._switch_robot(p.value)
-        if self._pending is not None and any(p.name in CONFIG_PARAMETERS for p in parameters):
+        if self._pending is not None and any(p.name in _CONFIG_NAMES for p in parameters):
             self.mapping.configure(self._pending)  # a clutch: the next engage re-indexes
             self._pending = None
             self._subscribe_master_input()
