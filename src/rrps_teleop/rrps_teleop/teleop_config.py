@@ -23,7 +23,8 @@ from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.scheduling import scheduling_parameters
 from rrps_runtime.supervision import OPERATOR_RT_PRIORITY
 
-__all__ = ['CONFIG_PARAMETERS', 'CONTROL_TRIGGERS', 'MODES', 'PARAMETERS', 'ROTATION_MODES', 'TeleopConfig', 'validate_scale']
+__all__ = ['CONFIG_PARAMETERS', 'CONTROL_TRIGGERS', 'MODES', 'PARAMETERS', 'ROTATION_MODES', 'TeleopConfig',
+           'validate_scale']
 
 MODES = ('cartesian', 'joint')
 ROTATION_MODES = ('relative', 'absolute')
