@@ -24,7 +24,8 @@ class NoRos(importlib.abc.MetaPathFinder):
 sys.meta_path.insert(0, NoRos())
 ROS_MODULES = {{'rrps_runtime.' + m for m in ('action_host', 'command_path', 'diagnostics', 'messages', 'parameters',
                                                'process', 'qos', 'recording_tap')}} | {{
-    'rrps_teleop.support_input', 'rrps_teleop.teleop_stream', 'rrps_viewer.operator_requests',
+    'rrps_teleop.support_input', 'rrps_teleop.teleop_stream', 'rrps_teleop.master_feedback',
+    'rrps_viewer.operator_requests',
     'rrps_viewer.robot_subscriptions', 'rrps_viewer.recording_clients', 'rrps_recording.topic_graph',
     'rrps_climbing.climb_action', 'rrps_viewer.climb_step_client'}}
 imported = []

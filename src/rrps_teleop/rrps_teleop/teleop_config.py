@@ -2,8 +2,9 @@
 configuration (SI units).
 
 :data:`PARAMETERS` declares every parameter of the teleop node once (name, default, unit, range,
-description); :class:`TeleopConfig` is what :class:`rrps_teleop.mapping.TeleopMapping` runs with,
-its field defaults taken from that schema; an invalid value raises ValueError naming the parameter.
+description); :class:`TeleopConfig` is what :class:`rrps_teleop.mapping.TeleopMapping` runs with:
+its fields are the parameters of :data:`CONFIG_PARAMETERS` (part of that schema), with their
+defaults, choices and positive ranges; an invalid value raises ValueError naming the parameter.
 """
 
 from __future__ import annotations
@@ -22,42 +23,26 @@ from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.scheduling import scheduling_parameters
 from rrps_runtime.supervision import OPERATOR_RT_PRIORITY
 
-__all__ = ['CONTROL_TRIGGERS', 'MODES', 'PARAMETERS', 'ROTATION_MODES', 'TeleopConfig', 'validate_scale']
+__all__ = ['CONFIG_PARAMETERS', 'CONTROL_TRIGGERS', 'MODES', 'PARAMETERS', 'ROTATION_MODES', 'TeleopConfig',
+           'validate_scale']
 
 MODES = ('cartesian', 'joint')
 ROTATION_MODES = ('relative', 'absolute')
 #: when the teleop node runs a control step: on each master sample or on a timer.
 CONTROL_TRIGGERS = ('message', 'timer')
 
-#: teleop_node's parameters (descriptors, the shipped file, the docs' table and the defaults of
-#: TeleopConfig and of the fixture's stiffness come from here).
-PARAMETERS = NodeParameters('teleop_node', 'rrps_teleop', [
-    ROBOT,
-    Parameter('frame_id', RING_A_FRAME, 'frame of pose and target_pose'),
-    Parameter('master_frame_id', MASTER_FRAME, 'frame of master/pose'),
-    Parameter('robot_topics', 'direct', "read the robot's state from its own topics (direct) or from its "
-              'link relay (link: link/pose, link/diagnostics; docs/deployment.md, field links)', choices=SOURCES),
-    Parameter('robot_namespace', '', "namespace of the driven robot's topics (pose, target_pose, "
-              "teleop/status, ...; empty: this node's own); a change switches robots: the clutch is "
-              'released and the deadman must be released and pressed again', dynamic=True),
-    Parameter('control', 'message', 'run the control step on each master sample or on a timer',
-              choices=CONTROL_TRIGGERS),
-    Parameter('control_rate', 200.0, 'control rate in timer mode', unit='Hz', range=(1.0, 2000.0)),
-    Parameter('jerk_limited', True, "stream the targets jerk-limited within the legs' speed, acceleration and "
-              'jerk limits, stopping with the fastest jerk-limited stop (rrps_teleop.target_stream); false: each '
-              'guarded command as it is'),
-    Parameter('status_rate', 10.0, 'teleop/status rate when unchanged', unit='Hz', range=(0.1, 100.0)),
-    Parameter('feedback_rate', 20.0, 'master/feedback (the virtual fixture) rate', unit='Hz',
-              range=(1.0, 200.0)),
-    Parameter('feedback_scale', 1.0, 'master force per newton of the fixture on the slave', range=(0.0, 100.0)),
-    Parameter('fixture_stiffness', 10.0, 'the fixture push of one limit at the limit', unit='N',
-              range=(1e-3, 1e4)),
+#: teleop_node's parameters that are the fields of :class:`TeleopConfig` (settable at run time;
+#: validated by TeleopConfig, and any change is a clutch).
+CONFIG_PARAMETERS = (
     Parameter('mode', 'cartesian', 'map master poses (cartesian) or leg lengths (joint)', choices=MODES,
               dynamic=True),
     Parameter('translation_scale', 4.0, 'slave translation = scale x master translation since engage',
               range=(1e-3, 1e3), dynamic=True),
     Parameter('rotation_mode', 'relative', 'master rotation since engage (relative) or its orientation '
               '(absolute)', choices=ROTATION_MODES, dynamic=True),
+    Parameter('control_frame', 'ring_b', "the frame the master moves in cartesian mode: ring_b's origin or "
+              'the tool-centre point (translations move the tool tip, rotations turn about it)',
+              choices=TARGET_FRAMES, dynamic=True),
     Parameter('joint_scale', (4.0,) * 6, 'joint mode: a_i of L_slave,i = a_i L_master,i + b_i (6 values > 0; '
               'b_i set at engage)', dynamic=True),
     Parameter('enable_timeout', 0.2, 'hold when teleop/enable was not true for this long', unit='s',
@@ -88,6 +73,32 @@ PARAMETERS = NodeParameters('teleop_node', 'rrps_teleop', [
               'slows down', range=(1e-4, 1.0), dynamic=True),
     Parameter('holding_slowdown', 0.1, "holding margin (1 - the supporting gripper's utilisation) below which "
               'motion towards zero slows down', range=(1e-4, 1.0), dynamic=True),
+)
+
+#: teleop_node's parameters (descriptors, the shipped file, the docs' table and the defaults of
+#: TeleopConfig and of the fixture's stiffness come from here).
+PARAMETERS = NodeParameters('teleop_node', 'rrps_teleop', [
+    ROBOT,
+    Parameter('frame_id', RING_A_FRAME, 'frame of pose and target_pose'),
+    Parameter('master_frame_id', MASTER_FRAME, 'frame of master/pose'),
+    Parameter('robot_topics', 'direct', "read the robot's state from its own topics (direct) or from its "
+              'link relay (link: link/pose, link/diagnostics; docs/deployment.md, field links)', choices=SOURCES),
+    Parameter('robot_namespace', '', "namespace of the driven robot's topics (pose, target_pose, "
+              "teleop/status, ...; empty: this node's own); a change switches robots: the clutch is "
+              'released and the deadman must be released and pressed again', dynamic=True),
+    Parameter('control', 'message', 'run the control step on each master sample or on a timer',
+              choices=CONTROL_TRIGGERS),
+    Parameter('control_rate', 200.0, 'control rate in timer mode', unit='Hz', range=(1.0, 2000.0)),
+    Parameter('jerk_limited', True, "stream the targets jerk-limited within the legs' speed, acceleration and "
+              'jerk limits, stopping with the fastest jerk-limited stop (rrps_teleop.target_stream); false: each '
+              'guarded command as it is'),
+    Parameter('status_rate', 10.0, 'teleop/status rate when unchanged', unit='Hz', range=(0.1, 100.0)),
+    Parameter('feedback_rate', 20.0, 'master/feedback (the virtual fixture) rate', unit='Hz',
+              range=(1.0, 200.0)),
+    Parameter('feedback_scale', 1.0, 'master force per newton of the fixture on the slave', range=(0.0, 100.0)),
+    Parameter('fixture_stiffness', 10.0, 'the fixture push of one limit at the limit', unit='N',
+              range=(1e-3, 1e4)),
+    *CONFIG_PARAMETERS,
     Parameter('support', 'ring_a', 'the ring gripping the structure while teleoperated (the support of the '
               'load guards)', choices=RINGS),
     Parameter('world_q_support', IDENTITY_QUATERNION, "the supporting ring's attitude in the world "
@@ -96,15 +107,8 @@ PARAMETERS = NodeParameters('teleop_node', 'rrps_teleop', [
               type=float, unset_note="the robot's payload (none unless its YAML gives one)"),
     Parameter('payload_com', (0.0, 0.0, 0.0), "the payload's centre of mass in its ring's frame", unit='m'),
     Parameter('payload_ring', 'ring_b', 'the ring carrying the payload', choices=RINGS),
-    Parameter('control_frame', 'ring_b', "the frame the master moves in cartesian mode: ring_b's origin or "
-              'the tool-centre point (translations move the tool tip, rotations turn about it)',
-              choices=TARGET_FRAMES, dynamic=True),
     *scheduling_parameters(OPERATOR_RT_PRIORITY),
 ])
-
-
-def _default(name: str):
-    return PARAMETERS[name].default
 
 
 def validate_scale(value, name: str = 'translation_scale') -> float:
@@ -118,52 +122,44 @@ def validate_scale(value, name: str = 'translation_scale') -> float:
     return v
 
 
-@dataclass(frozen=True)
-class TeleopConfig:
-    """Mapping and guard parameters (SI units; the teleop node's, described in :data:`PARAMETERS`);
-    validated on construction (ValueError)."""
+def _schema_fields(parameters):
+    """A class decorator: one annotated field per parameter, its default the schema's (before
+    :func:`dataclasses.dataclass` makes them the dataclass's fields)."""
+    def add(cls):
+        for p in parameters:
+            cls.__annotations__[p.name] = p.type if p.default is not None else p.type | None
+            setattr(cls, p.name, p.default)
+        return cls
+    return add
 
-    mode: str = _default('mode')
-    translation_scale: float = _default('translation_scale')
-    rotation_mode: str = _default('rotation_mode')
-    #: a_i of the joint-space map, one per leg (a scalar is broadcast).
-    joint_scale: tuple = _default('joint_scale')
-    enable_timeout: float = _default('enable_timeout')
-    master_timeout: float = _default('master_timeout')
-    max_linear_speed: float = _default('max_linear_speed')
-    max_angular_speed: float = _default('max_angular_speed')
-    singularity_slowdown: float = _default('singularity_slowdown')
-    #: None: the robot's min_conditioning.
-    singularity_halt: float | None = _default('singularity_halt')
-    collision_slowdown: float = _default('collision_slowdown')
-    align_tolerance: float = _default('align_tolerance')
+
+#: the float parameters whose range says they are positive: each validated finite and > 0.
+_POSITIVE = tuple(p.name for p in CONFIG_PARAMETERS if p.type is float and p.range and p.range[0] > 0.0)
+
+
+@dataclass(frozen=True, kw_only=True)
+@_schema_fields(CONFIG_PARAMETERS)
+class TeleopConfig:
+    """Mapping and guard parameters (SI units): one field per parameter of
+    :data:`CONFIG_PARAMETERS`, its default the schema's, and ``max_period``; validated on
+    construction (ValueError naming the parameter). ``joint_scale`` is a_i of the joint-space
+    map, one per leg (a scalar is broadcast); ``singularity_halt`` None is the robot's
+    min_conditioning."""
+
     #: longest time step [s] the speed limits allow (a late step never gets a large jump).
     max_period: float = 0.05
-    state_timeout: float = _default('state_timeout')
-    slow_latency: float = _default('slow_latency')
-    hold_latency: float = _default('hold_latency')
-    control_frame: str = _default('control_frame')
-    load_guards: bool = _default('load_guards')
-    force_slowdown: float = _default('force_slowdown')
-    holding_slowdown: float = _default('holding_slowdown')
 
     def __post_init__(self) -> None:
-        if self.mode not in MODES:
-            raise ValueError(f'mode must be one of {MODES}, got {self.mode!r}')
-        if self.control_frame not in TARGET_FRAMES:
-            raise ValueError(f'control_frame must be one of {TARGET_FRAMES}, got {self.control_frame!r}')
-        if self.rotation_mode not in ROTATION_MODES:
-            raise ValueError(f'rotation_mode must be one of {ROTATION_MODES}, got {self.rotation_mode!r}')
-        object.__setattr__(self, 'translation_scale', validate_scale(self.translation_scale))
+        for p in CONFIG_PARAMETERS:
+            if p.choices and getattr(self, p.name) not in p.choices:
+                raise ValueError(f'{p.name} must be one of {p.choices}, got {getattr(self, p.name)!r}')
+        for name in (*_POSITIVE, 'max_period'):
+            object.__setattr__(self, name, validate_scale(getattr(self, name), name))
         a = np.broadcast_to(np.asarray(self.joint_scale, dtype=float), (6,)) if np.ndim(self.joint_scale) == 0 \
             else np.asarray(self.joint_scale, dtype=float)
         if a.shape != (6,):
             raise ValueError(f'joint_scale must be a scalar or 6 values, got shape {a.shape}')
         object.__setattr__(self, 'joint_scale', tuple(validate_scale(v, 'joint_scale') for v in a))
-        for name in ('enable_timeout', 'master_timeout', 'max_linear_speed', 'max_angular_speed',
-                     'singularity_slowdown', 'collision_slowdown', 'align_tolerance', 'max_period',
-                     'state_timeout', 'slow_latency', 'hold_latency', 'force_slowdown', 'holding_slowdown'):
-            validate_scale(getattr(self, name), name)
         if not self.slow_latency < self.hold_latency:
             raise ValueError(f'slow_latency must be < hold_latency, got {self.slow_latency!r}, '
                              f'{self.hold_latency!r}')

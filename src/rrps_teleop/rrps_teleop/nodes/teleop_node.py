@@ -22,12 +22,12 @@ gone), the driver not active (its typed status on /diagnostics) or the operator'
 mapping: no command goes out and the robot holds. Above ``slow_latency`` every speed limit is
 scaled down.
 
-Limits felt on the master (paper section 3.1): at ``feedback_rate`` the node publishes
-``master/feedback`` (geometry_msgs/WrenchStamped, frame master_ring_a, torque about the master's
-ring_b): the virtual fixture of :mod:`rrps_teleop.fixture` at the guarded command, pushing back
-along the gradient of the limits the slave approaches, scaled to the master
-(``feedback_scale``); zero while disengaged. A master with actuators renders it; the simulated
-master yields to it.
+Limits felt on the master (paper section 3.1, :mod:`rrps_teleop.master_feedback`): at
+``feedback_rate`` the node publishes ``master/feedback`` (geometry_msgs/WrenchStamped, frame
+master_ring_a, torque about the master's ring_b): the virtual fixture of
+:mod:`rrps_teleop.fixture` at the guarded command, pushing back along the gradient of the limits
+the slave approaches, scaled to the master (``feedback_scale``); zero while disengaged. A master
+with actuators renders it; the simulated master yields to it.
 
 The targets are streamed jerk-limited (``jerk_limited``, :mod:`rrps_teleop.target_stream`): the
 guarded commands reached within the legs' speed, acceleration and jerk limits; a hold (the
@@ -57,7 +57,7 @@ import time
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import PoseStamped, WrenchStamped
+from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -73,7 +73,6 @@ from rrps_interfaces.kinematics import ACTUATORS_COMMAND, POSE, TARGET_POSE
 from rrps_interfaces.link import namespaced, normalize_namespace, robot_topic
 from rrps_interfaces.status import DIAGNOSTICS, source_node
 from rrps_interfaces.teleop import (
-    MASTER_FEEDBACK,
     MASTER_POSE,
     MASTER_STATE,
     OPERATOR_ROUND_TRIP,
@@ -89,21 +88,18 @@ from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATEST_QOS, LINK_EVENT_QOS, LINK_STATE_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
-from rrps_teleop.fixture import FixtureConfig, fixture_wrench, master_wrench
+from rrps_teleop.fixture import FixtureConfig
 from rrps_teleop.mapping import TeleopConfig, TeleopMapping, TeleopOutput
+from rrps_teleop.master_feedback import MasterFeedback
 from rrps_teleop.support_input import SupportInput
-from rrps_teleop.teleop_config import PARAMETERS
+from rrps_teleop.teleop_config import CONFIG_PARAMETERS, PARAMETERS
 from rrps_teleop.teleop_stream import StreamOutput
 
 __all__ = ['TeleopNode', 'main']
 
 WATCHDOG_PERIOD = 0.02
-#: Parameters that map onto TeleopConfig fields (settable at run time).
-CONFIG_PARAMETERS = ('mode', 'translation_scale', 'rotation_mode', 'joint_scale', 'enable_timeout',
-                     'master_timeout', 'max_linear_speed', 'max_angular_speed', 'singularity_slowdown',
-                     'singularity_halt', 'collision_slowdown', 'align_tolerance', 'state_timeout',
-                     'slow_latency', 'hold_latency', 'control_frame', 'load_guards', 'force_slowdown',
-                     'holding_slowdown')
+#: the names of the parameters that are TeleopConfig's fields.
+_CONFIG_NAMES = frozenset(p.name for p in CONFIG_PARAMETERS)
 _LEVELS = {
     TeleopCode.NO_WARNING: OK, TeleopCode.SPEED_LIMITED: OK, TeleopCode.DEADMAN_RELEASED: OK,
     TeleopCode.CLIMB_EXECUTING: OK, TeleopCode.MASTER_STALE: STALE,
@@ -126,9 +122,7 @@ class TeleopNode(Node):
         self.frame_id = values['frame_id']
         self.master_frame_id = values['master_frame_id']
         self.control = values['control']
-        self.feedback_scale = values['feedback_scale']
-        self.fixture = FixtureConfig(stiffness=values['fixture_stiffness'])
-        config = {name: values[name] for name in CONFIG_PARAMETERS}
+        config = {name: values[name] for name in _CONFIG_NAMES}
         if config['singularity_halt'] is None:  # unset: the robot's, which the parameter then shows
             config['singularity_halt'] = float(self.geometry.min_conditioning)
             self.set_parameters([Parameter('singularity_halt', value=config['singularity_halt'])])
@@ -155,9 +149,9 @@ class TeleopNode(Node):
         self.create_subscription(Float64, OPERATOR_ROUND_TRIP, self._on_round_trip, COMMAND_QOS)
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
-        self._feedback_pub = self._tap.create_publisher(WrenchStamped, MASTER_FEEDBACK, COMMAND_QOS)
-        self._feedback = (0.0, '')
-        self.create_timer(1.0 / values['feedback_rate'], self._publish_feedback)
+        self._feedback = MasterFeedback(self, self._tap, self.mapping, self.geometry, frame_id=self.master_frame_id,
+                                        fixture=FixtureConfig(stiffness=values['fixture_stiffness']),
+                                        scale=values['feedback_scale'], rate=values['feedback_rate'])
         self.create_timer(WATCHDOG_PERIOD, self._watchdog)
         if self.control == 'timer':
             self.create_timer(1.0 / values['control_rate'], self._control)
@@ -172,8 +166,8 @@ class TeleopNode(Node):
                     normalize_namespace(p.value)
                 except ValueError as exc:
                     return SetParametersResult(successful=False, reason=str(exc))
-        changes = {p.name: (list(p.value) if p.name == 'joint_scale' else p.value)
-                   for p in parameters if p.name in CONFIG_PARAMETERS}
+        changes = {p.name: (list(p.value) if PARAMETERS[p.name].type is tuple else p.value)
+                   for p in parameters if p.name in _CONFIG_NAMES}
         if not changes:
             return SetParametersResult(successful=True)
         try:
@@ -186,7 +180,7 @@ class TeleopNode(Node):
         for p in parameters:
             if p.name == 'robot_namespace':
                 self._switch_robot(p.value)
-        if self._pending is not None and any(p.name in CONFIG_PARAMETERS for p in parameters):
+        if self._pending is not None and any(p.name in _CONFIG_NAMES for p in parameters):
             self.mapping.configure(self._pending)  # a clutch: the next engage re-indexes
             self._pending = None
             self._subscribe_master_input()
@@ -350,25 +344,6 @@ class TeleopNode(Node):
         self._stream.send(out, self.mapping.config.mode)
         self._publish_status(out)
 
-    def _publish_feedback(self) -> None:
-        """The virtual fixture: the slave's limits near the guarded command, felt on the master
-        (zero while disengaged). Off the control path, at ``feedback_rate``."""
-        cmd = self.mapping.command if self.mapping.engaged else None
-        force = torque = np.zeros(3)
-        limit = ''
-        if cmd is not None and self.feedback_scale > 0.0:
-            wrench = fixture_wrench(self.geometry, cmd.position, cmd.quaternion, self.fixture)
-            force, torque = master_wrench(wrench, translation_scale=self.mapping.config.translation_scale,
-                                          force_scale=self.feedback_scale)
-            limit = wrench.dominant or ''
-        msg = WrenchStamped()
-        msg.header.stamp = self.get_clock().now().to_msg()
-        msg.header.frame_id = self.master_frame_id
-        (msg.wrench.force.x, msg.wrench.force.y, msg.wrench.force.z) = (float(v) for v in force)
-        (msg.wrench.torque.x, msg.wrench.torque.y, msg.wrench.torque.z) = (float(v) for v in torque)
-        self._feedback_pub.publish(msg)
-        self._feedback = (float(np.linalg.norm(force)), limit)
-
     def _watchdog(self) -> None:
         blocked = self.mapping.check(time.monotonic())
         if blocked is not None:
@@ -400,7 +375,7 @@ class TeleopNode(Node):
                               joint_scale=tuple(c.joint_scale), detail=out.detail,
                               round_trip_time=self.mapping.round_trip(t),
                               speed_factor=self.mapping.speed_factor(t),
-                              feedback_force=self._feedback[0], feedback_limit=self._feedback[1],
+                              feedback_force=self._feedback.force, feedback_limit=self._feedback.limit,
                               robot=self.robot_namespace, slave_age_ms=self._slave_age_ms(), **self._support.values(),
                               **{f'margin_{k}': v for k, v in out.margins.items()})
         status = DiagnosticStatus(level=level, name=self.get_name(), message=out.code.name,
