@@ -8,7 +8,7 @@ import argparse
 import re
 import sys
 import traceback
-from typing import Callable, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -16,8 +16,8 @@ from rrps_description.geometry import RobotDescriptionError, RobotGeometry, load
 from rrps_kinematics.errors import ComputationError
 
 __all__ = ['UsageError', 'OneLineParser', 'vector', 'positive', 'count', 'join_negative_vectors',
-           'load_robot_or_usage_error', 'run_command', 'EXIT_OK', 'EXIT_FAILED', 'EXIT_USAGE',
-           'EXIT_BUG']
+           'load_robot_or_usage_error', 'checked', 'format_vector', 'run_command', 'EXIT_OK',
+           'EXIT_FAILED', 'EXIT_USAGE', 'EXIT_BUG']
 
 #: Exit statuses of :func:`run_command`.
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_BUG = 0, 1, 2, 3
@@ -92,6 +92,22 @@ def load_robot_or_usage_error(robot: str) -> RobotGeometry:
         return load_robot(robot)
     except RobotDescriptionError as exc:
         raise UsageError(str(exc)) from None
+
+
+def checked(what: str, check, *args, **kwargs):
+    """Validate a command-line input with the core's own check: its ValueError is a usage error."""
+    try:
+        return check(*args, **kwargs)
+    except ComputationError:
+        raise
+    except ValueError as exc:
+        raise UsageError(f'{what}: {exc}') from None
+
+
+
+def format_vector(v: Any, digits: int = 6) -> str:
+    """'[a, b, ...]' with ``digits`` decimals: a vector in a command's text output."""
+    return '[' + ', '.join(f'{x:.{digits}f}' for x in np.ravel(v)) + ']'
 
 
 def run_command(prog: str, body: Callable[[], Sequence[str]]) -> int:

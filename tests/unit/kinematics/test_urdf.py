@@ -22,8 +22,13 @@ import yourdfpy
 
 from rrps_description.geometry import RobotGeometry, load_robot, robot_path, shipped_robots
 from rrps_description.pose import Pose
-from rrps_description.rotations import rotation_angle_between, rotation_vector_to_quat_xyzw
-from rrps_description.urdf import UNBOUNDED, leg_chain, matrix_to_rpy, rpy_to_matrix
+from rrps_description.rotations import (
+    matrix_to_rpy,
+    rotation_angle_between,
+    rotation_vector_to_quat_xyzw,
+    rpy_to_matrix,
+)
+from rrps_description.urdf import UNBOUNDED, leg_chain
 from rrps_kinematics import forward_kinematics, inverse_kinematics
 from rrps_kinematics.cli import run
 from rrps_kinematics.limits import margins
