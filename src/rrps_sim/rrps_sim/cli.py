@@ -46,6 +46,7 @@ from rrps_kinematics.cli_support import (
     OneLineParser,
     UsageError,
     count,
+    format_vector,
     join_negative_vectors,
     load_robot_or_usage_error,
     positive,
@@ -63,7 +64,7 @@ from rrps_sim.cli_world import (
     world_of,
 )
 from rrps_sim.dynamics import METHODS, MultibodyDynamics, SimulationResult, simulate
-from rrps_sim.figures import figure6, figure7, format_vector, plot_simulation
+from rrps_sim.figures import figure6, figure7, plot_simulation
 
 PROG = 'rrps-dynamics'
 _VECTOR_OPTIONS = ('--position', '--quaternion', '--forces') + WORLD_VECTOR_OPTIONS

@@ -21,12 +21,13 @@ from rrps_description.rotations import (
     rotation_angle_between,
     rotation_vector_to_matrix,
 )
+from rrps_kinematics.cli_support import format_vector
 from rrps_kinematics.inverse import inverse_kinematics
 from rrps_kinematics.multibody import MultibodyModel
 from rrps_sim.dynamics import MultibodyDynamics, SimulationResult, simulate
 
 __all__ = ['CLIMB_CURVATURE', 'CLIMB_DISTANCE', 'CLIMB_PHASES', 'CLIMB_SHORT_GAP',
-           'REPORT_EXTRA_FORCES', 'climb_poses', 'figure6', 'figure7', 'format_vector',
+           'REPORT_EXTRA_FORCES', 'climb_poses', 'figure6', 'figure7',
            'plot_simulation']
 
 # Figure 6: the climb. Figure 7: the constant-force run (holding forces plus this pattern).
@@ -35,11 +36,6 @@ CLIMB_PHASES = 11
 CLIMB_SHORT_GAP = 0.36        # [m] ring separation along the trunk when contracted
 CLIMB_CURVATURE = (0.0, 0.5)  # trunk curvature κ(s) = κ0 + κ1 s [1/m, 1/m^2]
 REPORT_EXTRA_FORCES = np.array([1.2, 1.2, 1.0, 0.8, 0.8, 1.0])   # [N] over the holding forces
-
-
-def format_vector(v, digits: int) -> str:
-    """'[a, b, ...]' with ``digits`` decimals."""
-    return '[' + ', '.join(f'{x:.{digits}f}' for x in np.asarray(v, dtype=float)) + ']'
 
 
 def _plt():
