@@ -29,6 +29,7 @@ import rrps_testing.netns_rig as netns_rig
 from rrps_interfaces.climb import ClimbState, PauseReason, PhaseAction
 from rrps_interfaces.teleop import TeleopCode
 from rrps_runtime.supervision import start_child
+from rrps_testing.agent_handle import AgentHandle
 from rrps_testing.ci import require
 from rrps_testing.fault_metrics import (
     both_open,
@@ -42,7 +43,7 @@ from rrps_testing.fault_metrics import (
     teleop,
 )
 from rrps_testing.netns import netns_supported, rig_namespaces, wait
-from rrps_testing.netns_rig import AgentHandle, Rig
+from rrps_testing.netns_rig import Rig
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.netns]
 rig_factory = netns_rig.rig_factory  # the fixture
