@@ -24,9 +24,9 @@ def main() -> None:
     from rclpy.node import Node
 
     from rrps_interfaces.status import DIAGNOSTICS
-    from rrps_recording.nodes.recorder_node import qos_spec, subscription_qos
     from rrps_recording.storage.qos import request_for_offers
     from rrps_recording.storage.schemas import message_class
+    from rrps_recording.topic_graph import qos_spec, subscription_qos
     from rrps_runtime.process import run_nodes
 
     class RawListener(Node):

@@ -116,7 +116,7 @@ def main() -> int:
     from std_msgs.msg import Bool
     from std_srvs.srv import Trigger
 
-    from rrps_bringup.demo import start_driver, start_robot_nodes
+    from rrps_bringup.demo_processes import start_driver, start_robot_nodes
     from rrps_bringup.params import params_file_arguments
     from rrps_runtime.messages import stamp_to_seconds
     from rrps_runtime.process import make_executor, spin_until_shutdown

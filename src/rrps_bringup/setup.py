@@ -9,9 +9,9 @@ NODES = {
 }
 
 #: What this package needs at run time without importing it (tests/repo/test_dependencies.py
-#: expects each one here, and only those): rrps_recording, whose recorder_node and markers_node
-#: the demo starts (rrps.nodes entry points).
-USED_WITHOUT_IMPORT = ['rrps_recording']
+#: expects each one here, and only those): rrps_hardware and rrps_recording, whose driver_node,
+#: recorder_node and markers_node the demo starts (by module name and rrps.nodes entry points).
+USED_WITHOUT_IMPORT = ['rrps_hardware', 'rrps_recording']
 
 setup(
     name=package_name,

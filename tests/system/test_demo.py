@@ -175,7 +175,7 @@ def test_the_driver_command_line_parses_with_and_without_a_state_file(ros_domain
     """rcl refuses an empty '-p name:=' (the recorder benchmark's driver did not start)."""
     import rclpy
 
-    from rrps_bringup.demo import driver_command
+    from rrps_bringup.demo_processes import driver_command
     argv = driver_command(robot='pole_climber', state_file=state_file, activate=True)
     context = rclpy.Context()
     rclpy.init(args=argv[2:], context=context)  # what the driver process's rclpy.init parses

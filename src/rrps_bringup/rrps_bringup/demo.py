@@ -9,10 +9,11 @@ The demo runs as the system would on a robot and an operator station, in five pr
 * the robot computer's nodes, IK, FK and climbing, composed in one process (``rrps-compose``);
 * the operator station: master and teleop composed in one process, the viewer (and the
   headless script) in this one, so that its drawing never holds their interpreter;
-* the observers (:func:`start_recorder`): the flight recorder (the last 60 s, written on a fault
-  or on the viewer's "Save last 60 s", in ``--recordings``; ``--record`` also records the whole
-  session there), ``markers_node`` and ``robot_description_node`` (the robot for RViz2 and
-  Foxglove: markers, /tf, robot_description and joint_states).
+* the observers (:func:`~rrps_bringup.demo_processes.start_recorder`): the flight recorder (the
+  last 60 s, written on a fault or on the viewer's "Save last 60 s", in ``--recordings``;
+  ``--record`` also records the whole session there), ``markers_node`` and
+  ``robot_description_node`` (the robot for RViz2 and Foxglove: markers, /tf, robot_description
+  and joint_states).
 
 A robot process that dies is restarted (at most 3 times a minute); the children die with this
 process (a parent-death signal), and Ctrl-C or SIGTERM stops them all. The viewer's URL and
@@ -52,16 +53,20 @@ import time
 from collections.abc import Mapping
 
 from rrps_bringup.demo_arguments import demo_parser
-from rrps_bringup.scenarios import SCENARIOS, ros_arguments, scenario
+from rrps_bringup.demo_processes import (
+    NAMESPACE,
+    OBSERVER_NODES,
+    OPERATOR_NODES,
+    ROBOT_NODES,
+    start_driver,
+    start_drives,
+    start_operator_nodes,
+    start_recorder,
+    start_robot_nodes,
+)
+from rrps_bringup.scenarios import SCENARIOS, scenario
 
-__all__ = ['main', 'build_stack', 'start_driver', 'start_robot_nodes', 'start_operator_nodes', 'start_recorder',
-           'ROBOT_NODES', 'OPERATOR_NODES', 'OBSERVER_NODES']
-
-NAMESPACE = '/rrps'
-#: The robot computer's nodes (one process) and the operator station's command path (another);
-#: the viewer runs in the demo's own process.
-ROBOT_NODES = ('ik_node', 'fk_node', 'climb_node')
-OPERATOR_NODES = ('master_node', 'teleop_node')
+__all__ = ['main', 'build_stack']
 
 
 def build_stack(context, *, robot: str, host: str, port: int, token: str,
@@ -70,10 +75,11 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
                 namespace: str = NAMESPACE, parameters: Mapping[str, Mapping] | None = None) -> dict:
     """Create nodes of the demo on ``context`` under ``namespace``; returns name -> node.
 
+    Each node's class comes from the node registry (:mod:`rrps_bringup.registry`) by its name.
     Every node by default (one process, as the tests use it). ``viewer=False`` / ``climb=False``
     / ``driver=False`` / ``kinematics=False`` / ``teleop=False`` leave out the viewer / climbing
     node / simulated driver / IK and FK nodes / master and teleop (the demo runs them in processes
-    of their own: :func:`start_driver`, :func:`start_robot_nodes`, :func:`start_operator_nodes`); ``driver_rate`` is the
+    of their own: :mod:`rrps_bringup.demo_processes`); ``driver_rate`` is the
     simulated driver's actuators/state rate [Hz]. ``parameters``: node name -> {name: value}
     that node gets on top (a scenario's, :func:`scenario_parameters`).
     Each node reads its parameter file first (:func:`rrps_bringup.params.parameter_overrides`).
@@ -82,36 +88,34 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
     """
     from rclpy.parameter import Parameter
 
-    from rrps_hardware.nodes.driver_node import DriverNode
-    from rrps_kinematics.nodes.fk_node import FkNode
-    from rrps_kinematics.nodes.ik_node import IkNode
-    from rrps_teleop.nodes.master_node import MasterNode
-    from rrps_teleop.nodes.teleop_node import TeleopNode
+    from rrps_bringup.registry import node_class
 
     robot_param = [Parameter('robot', value=robot)]
-    plan = [('driver_node', DriverNode, robot_param + [Parameter('rate', value=float(driver_rate)),
-                                                       Parameter('auto_activate', value=True)])
+    plan = [('driver_node', robot_param + [Parameter('rate', value=float(driver_rate)),
+                                           Parameter('auto_activate', value=True)])
             ] if driver else []
     if kinematics:
-        plan += [('ik_node', IkNode, robot_param), ('fk_node', FkNode, robot_param)]
+        plan += [('ik_node', robot_param), ('fk_node', robot_param)]
     if teleop:
-        plan += [('master_node', MasterNode, []), ('teleop_node', TeleopNode, robot_param)]
+        plan += [('master_node', []), ('teleop_node', robot_param)]
     if climb:
-        try:
-            from rrps_climbing.nodes.climb_node import ClimbNode
-        except ImportError as exc:  # the climbing node is optional for the teleop part
-            print(f'rrps demo: warning: no climb node ({exc}); climbing is unavailable',
-                  file=sys.stderr)
-        else:
-            plan.append(('climb_node', ClimbNode, robot_param))
+        plan.append(('climb_node', robot_param))
     if viewer:
-        from rrps_viewer.nodes.viewer_node import ViewerNode
-        plan.append(('viewer_node', ViewerNode, robot_param + [
+        plan.append(('viewer_node', robot_param + [
             Parameter('host', value=host), Parameter('port', value=port),
             Parameter('token', value=token)]))
     nodes: dict = {}
     try:
-        for name, cls, overrides in plan:
+        for name, overrides in plan:
+            try:
+                cls = node_class(name)
+            except (ValueError, ImportError) as exc:
+                if name != 'climb_node':
+                    raise
+                # the climbing node is optional for the teleop part
+                print(f'rrps demo: warning: no climb node ({exc}); climbing is unavailable',
+                      file=sys.stderr)
+                continue
             extra = [Parameter(k, value=list(v) if isinstance(v, tuple) else v)
                      for k, v in (parameters or {}).get(name, {}).items()]
             nodes[name] = cls(context=context, namespace=namespace,
@@ -138,100 +142,11 @@ def scenario_parameters(name: str | None, *nodes: str) -> dict[str, dict]:
     return out
 
 
-def _process_arguments(parameters: Mapping[str, Mapping], *nodes: str) -> list[str]:
-    """``-p`` arguments of the nodes of one process (rcl gives them to each of its nodes)."""
-    merged: dict = {}
-    for node in nodes:
-        merged.update(parameters.get(node, {}))
-    return ros_arguments(merged)
-
-
 def _with_file(node: str, overrides: list) -> list:
     """The node's parameter file, then ``overrides`` (which win)."""
     from rrps_bringup.params import parameter_overrides
     explicit = {p.name for p in overrides}
     return [p for p in parameter_overrides(node) if p.name not in explicit] + list(overrides)
-
-
-def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
-                 state_file: str = '', activate: bool = False, hardware: str = 'simulated',
-                 parameters: Mapping[str, Mapping] | None = None) -> subprocess.Popen:
-    """The simulated hardware (driver_node) in a process of its own, as a real robot's driver.
-
-    Its 500 Hz loop has an interpreter to itself and claims its real-time priority itself
-    (``rt_priority``). It keeps the robot's physical
-    state in ``state_file`` (a restart resumes it) and starts inactive unless ``activate``.
-    It inherits the environment (domain id, discovery range) and dies with this process; stop
-    it with :func:`rrps_runtime.supervision.stop_children`.
-    """
-    from rrps_runtime.supervision import CONTROL_NICE, start_child
-    return start_child(driver_command(robot=robot, rate=rate, namespace=namespace, state_file=state_file,
-                                      activate=activate, hardware=hardware, parameters=parameters),
-                       nice=CONTROL_NICE)
-
-
-def start_drives(*, robot: str) -> subprocess.Popen:
-    """The simulated CANopen drives of ``robot``'s bus (``rrps-drive-sim``), above the driver's
-    priority as real drives are hardware of their own; on the bus port of ``RRPS_CAN_PORT``."""
-    from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child
-    return start_child([sys.executable, '-m', 'rrps_canopen_sim.process', '--robot', robot],
-                       nice=CONTROL_NICE, realtime=CONTROL_RT_PRIORITY + 10)
-
-
-def driver_command(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
-                   state_file: str = '', activate: bool = False, hardware: str = 'simulated',
-                   parameters: Mapping[str, Mapping] | None = None) -> list[str]:
-    """The command line of :func:`start_driver` (no state file: the parameter's default;
-    ``parameters``: a scenario's, :func:`scenario_parameters`)."""
-    from rrps_bringup.params import params_file_arguments
-    return [sys.executable, '-m', 'rrps_hardware.nodes.driver_node', '--ros-args',
-            *params_file_arguments('driver_node'), '-r', f'__ns:={namespace}',
-            '-p', f'robot:={robot}', '-p', f'rate:={float(rate)}', '-p', f'hardware:={hardware}',
-            *(['-p', f'state_file:={state_file}'] if state_file else []),
-            '-p', f'auto_activate:={str(activate).lower()}',
-            *_process_arguments(parameters or {}, 'driver_node')]
-
-
-def start_robot_nodes(*, robot: str, namespace: str = NAMESPACE,
-                      parameters: Mapping[str, Mapping] | None = None) -> subprocess.Popen:
-    """The robot computer's nodes (:data:`ROBOT_NODES`) composed in one process of their own
-    (their command path claims its real-time priority itself)."""
-    from rrps_bringup.params import params_file_arguments
-    from rrps_runtime.supervision import CONTROL_NICE, start_child
-    return start_child([sys.executable, '-m', 'rrps_bringup.compose', *ROBOT_NODES, '--ros-args',
-                        *params_file_arguments(*ROBOT_NODES),
-                        '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
-                        *_process_arguments(parameters or {}, *ROBOT_NODES)], nice=CONTROL_NICE)
-
-
-def start_operator_nodes(*, robot: str, namespace: str = NAMESPACE,
-                         parameters: Mapping[str, Mapping] | None = None) -> subprocess.Popen:
-    """The operator station's command path (:data:`OPERATOR_NODES`: master, teleop) composed in
-    one process of their own, which claims its real-time priority itself."""
-    from rrps_bringup.params import params_file_arguments
-    from rrps_runtime.supervision import OPERATOR_NICE, start_child
-    return start_child([sys.executable, '-m', 'rrps_bringup.compose', *OPERATOR_NODES, '--ros-args',
-                        *params_file_arguments(*OPERATOR_NODES), '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
-                        *_process_arguments(parameters or {}, *OPERATOR_NODES)], nice=OPERATOR_NICE)
-
-
-#: The observers: the flight recorder and the robot's markers for RViz2 / Foxglove.
-OBSERVER_NODES = ('recorder_node', 'markers_node', 'robot_description_node')
-
-
-def start_recorder(*, robot: str, output_dir: str, record: bool = False,
-                   namespace: str = NAMESPACE, parameters: Mapping[str, Mapping] | None = None) -> subprocess.Popen:
-    """The observers (:data:`OBSERVER_NODES`) in a process of their own, off the command path:
-    the flight recorder (the last 60 s, written on a fault or on the viewer's "Save last 60 s";
-    with ``record`` the whole session too), markers_node and robot_description_node."""
-    from rrps_bringup.params import params_file_arguments
-    from rrps_runtime.supervision import OBSERVER_NICE, start_child
-    return start_child([sys.executable, '-m', 'rrps_bringup.compose', *OBSERVER_NODES,
-                        '--ros-args', *params_file_arguments(*OBSERVER_NODES),
-                        '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
-                        '-p', f'output_dir:={output_dir}',
-                        '-p', f'record:={"true" if record else "false"}',
-                        *_process_arguments(parameters or {}, *OBSERVER_NODES)], nice=OBSERVER_NICE)
 
 
 def wait_for_robot(executor, context, node, children: list[subprocess.Popen],

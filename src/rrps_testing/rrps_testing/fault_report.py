@@ -53,10 +53,11 @@ import tempfile
 import time
 from pathlib import Path
 
-from rrps_testing.fault_scenarios import climb_faults, demo_kill, teleop_faults
+from rrps_testing.fault_scenarios import climb_faults, demo_kill
 from rrps_testing.fault_session import CLIMB_FAULTS, FAULTS, LINK_FAULTS, TELEOP_FAULTS, Row, Session
 from rrps_testing.netns import netns_supported
 from rrps_testing.netns_rig import Rig
+from rrps_testing.teleop_faults import teleop_faults
 
 # --- the report -----------------------------------------------------------------------------
 

@@ -6,7 +6,7 @@ Every connection accepted on ``--listen`` is forwarded to ``--target``. Each chu
 either side is written to the other at ``max(now + delay, the previous chunk's send time,
 the end of a stall)``: ``delay`` is drawn uniformly from [lo, hi] ms per chunk, and the order
 of the bytes in each direction is kept (TCP cannot reorder), so a chunk never overtakes the
-one before it. Used by tests/system/test_multihost.py between a browser and the viewer (a websocket
+one before it. Used by tests/system/test_multihost_browser.py between a browser and the viewer (a websocket
 is TCP): the viewer's Ping/Pong round trip then measures the added delay of both directions.
 
 Control, one command per line on stdin (each answered by one JSON line on stdout)::

@@ -210,7 +210,7 @@ def test_tf_static_is_latched_and_tf_turns_the_grippers_of_the_extra_ring_dof(ro
 def test_tf2_msgs_type_hash_is_the_official_jazzy_one(ros_context):
     _require_tf2_msgs()
     from rrps_recording.nodes.markers_node import MarkersNode
-    from rrps_recording.nodes.recorder_node import type_hash_text
+    from rrps_recording.topic_graph import type_hash_text
 
     node = MarkersNode(context=ros_context, namespace=NS)
     probe = Probe(context=ros_context, namespace=NS)

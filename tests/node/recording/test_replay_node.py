@@ -259,7 +259,7 @@ def test_the_recorders_tf_is_replayed_as_tf2_msgs(ros_context, tmp_path):
     from rrps_description.geometry import load_robot
     from rrps_description.pose import Pose
     from rrps_recording.markers import robot_transforms, tf_message_cdr
-    from rrps_recording.nodes.recorder_node import TF_TYPE
+    from rrps_recording.robot_tf import TF_TYPE
     from rrps_recording.storage.mcap_files import TopicInfo, write_recording
     from rrps_recording.storage.qos import TF_QOS
     from rrps_testing.transform_tree import pose_in

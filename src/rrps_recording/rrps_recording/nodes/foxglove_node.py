@@ -35,7 +35,7 @@ from rrps_interfaces.kinematics import ROBOT_DESCRIPTION
 from rrps_interfaces.recording import RECORDING_TAP, TF, TF_STATIC
 from rrps_interfaces.status import DIAGNOSTICS
 from rrps_recording.storage.schemas import message_class, message_schema
-from rrps_recording.topic_graph import offered, subscription_for
+from rrps_recording.topic_graph import offered, selected, subscription_for
 from rrps_recording.transport.throttle import Throttle
 from rrps_runtime.diagnostics import OK, OPERATOR_STATION, WARN, Diagnostics
 from rrps_runtime.parameter_schema import NodeParameters, Parameter
@@ -44,7 +44,6 @@ from rrps_runtime.process import run_nodes
 
 __all__ = ['FoxgloveNode', 'main']
 
-_IGNORED = ('/rosout', '/parameter_events')
 #: The absolute topics bridged with the namespace's.
 _ABSOLUTE = (DIAGNOSTICS, TF, TF_STATIC, f'/{ROBOT_DESCRIPTION}')
 
@@ -116,16 +115,8 @@ class FoxgloveNode(Node):
                                '(read-only: no client publishing)')
 
     def _selected(self, name: str) -> bool:
-        if name in _IGNORED or name.endswith('/' + RECORDING_TAP):
-            return False
-        ns = self.get_namespace().rstrip('/')
-        for entry in self.topics:
-            if entry == '':
-                if name in _ABSOLUTE or not ns or name.startswith(ns + '/'):
-                    return True
-            elif name == entry or name.startswith(entry.rstrip('/') + '/'):
-                return True
-        return False
+        return (not name.endswith('/' + RECORDING_TAP)
+                and selected(name, self.get_namespace(), self.topics, _ABSOLUTE))
 
     def _discover(self) -> None:
         """A channel and a raw subscription for every selected topic that has a publisher."""

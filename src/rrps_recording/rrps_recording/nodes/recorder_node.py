@@ -20,23 +20,19 @@ of one per message, which is what keeps the recorder's cost within its budget (d
 the two loses and doubles nothing (:class:`rrps_recording.transport.taps.TapRouter`). A tapped
 message is logged at its publish time plus the node's smallest bundle delay.
 
-The transforms ``odom -> base_link`` (REP-105) and the URDF's, fixed joints included
-(:func:`rrps_recording.markers.robot_transforms`), are written to ``/tf`` as
-``tf2_msgs/msg/TFMessage`` at ``tf_rate`` Hz from the newest ``pose``, ``odometry/*`` and
-``grippers/state`` (:func:`rrps_recording.markers.tf_message_cdr`: tf2_msgs is not
-needed); the live ``/tf`` and ``/tf_static`` are then not subscribed to, so the recording has no
-duplicate transforms, and any part of it shows the whole robot. With ``tf_rate`` 0 the live
-``/tf`` and ``/tf_static`` are recorded like any topic (where tf2_msgs is installed).
+The robot's transforms, ``odom -> base_link`` (REP-105) and the URDF's, are written to ``/tf``
+at ``tf_rate`` Hz from the newest ``pose``, ``odometry/*`` and ``grippers/state``
+(:class:`rrps_recording.robot_tf.RobotTf`); the live ``/tf`` and ``/tf_static`` are then not
+subscribed to, so the recording has no duplicate transforms, and any part of it shows the whole
+robot. With ``tf_rate`` 0 the live ``/tf`` and ``/tf_static`` are recorded like any topic (where
+tf2_msgs is installed).
 
 Flight recorder (``flight_recorder``, default on): the last ``buffer_seconds`` of the same
-messages in memory (:class:`rrps_recording.transport.ring.MessageRing`), written to
-the bag folder ``<output_dir>/flight_<time>_<trigger>/`` ``post_trigger`` s after a fault
-(:class:`rrps_recording.transport.triggers.FaultWatch`: a node's ERROR, a gripper refusal, a lost
-teleop or climb link; at most one every ``min_dump_interval`` s) and when the service
+messages, written to a bag folder ``<output_dir>/flight_<time>_<trigger>/`` after a fault (a
+node's ERROR, a gripper refusal, a lost teleop or climb link) and when the service
 ``flight_recorder/save`` (std_srvs/Trigger) is called (0.2 s later, so that the recording taps'
-last bundles are in); the answer's ``message`` is the path of its MCAP file
-(:class:`rrps_recording.transport.dumps.FlightDumps`: the folder is written as ``<folder>.part``
-and renamed when complete, so it exists only whole).
+last bundles are in), whose answer's ``message`` is the path of its MCAP file
+(:class:`rrps_recording.transport.flight_recorder.FlightRecorder`).
 
     recorder_node --ros-args -r __ns:=/rrps -p output_dir:=recordings
     rrps-record -o recordings --namespace /rrps          (the same, as a command)
@@ -49,17 +45,12 @@ import time
 from pathlib import Path
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
-from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
 from rrps_description.geometry import load_robot
-from rrps_description.pose import Pose
-from rrps_interfaces.climb import CLIMB_STATUS, odometry_topic
-from rrps_interfaces.driver import GRIPPERS_STATE, gripper_states
-from rrps_interfaces.kinematics import POSE
+from rrps_interfaces.climb import CLIMB_STATUS
 from rrps_interfaces.recording import (
     FLIGHT_RECORDER_SAVE,
     RECORDING_TAP,
@@ -70,19 +61,16 @@ from rrps_interfaces.recording import (
 )
 from rrps_interfaces.status import DIAGNOSTICS
 from rrps_interfaces.teleop import TELEOP_STATUS
-from rrps_recording.markers import robot_transforms, tf_message_cdr, world_pose_of_ring_a
+from rrps_recording.robot_tf import TF_TOPIC, RobotTf
 from rrps_recording.storage.bag import BagRecording, free_name
 from rrps_recording.storage.bag_metadata import TopicInfo
 from rrps_recording.storage.mcap_files import COMPRESSIONS
-from rrps_recording.storage.qos import TF_QOS
-from rrps_recording.storage.schemas import message_class, message_schema
-from rrps_recording.topic_graph import offered, qos_spec, subscription_for, subscription_qos, type_hash_text
-from rrps_recording.transport.dumps import FlightDumps
-from rrps_recording.transport.ring import MessageRing
+from rrps_recording.storage.schemas import message_class
+from rrps_recording.topic_graph import recorded_topic, selected, subscription_for
+from rrps_recording.transport.flight_recorder import FlightRecorder
 from rrps_recording.transport.taps import TapRouter, fully_qualified_node
 from rrps_recording.transport.triggers import FaultWatch, StatusEvent
 from rrps_runtime.diagnostics import OBSERVER, OK, WARN, Diagnostics
-from rrps_runtime.messages import pose_from_msg
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
@@ -91,10 +79,7 @@ from rrps_runtime.recording_bundle import BUNDLE_TYPE, decode_bundle
 from rrps_runtime.recording_tap import FLUSH_PERIOD as TAP_FLUSH_PERIOD
 from rrps_runtime.recording_tap import TAP_QOS
 
-__all__ = ['RecorderNode', 'main', 'qos_spec', 'subscription_qos', 'type_hash_text', 'TF_TYPE']
-
-TF_TYPE = 'tf2_msgs/msg/TFMessage'
-_IGNORED = ('/rosout', '/parameter_events')
+__all__ = ['RecorderNode', 'main']
 
 #: recorder_node's parameters (descriptors, the shipped file and the docs' table come from here).
 PARAMETERS = NodeParameters('recorder_node', 'rrps_recording', [
@@ -136,15 +121,11 @@ class RecorderNode(Node):
         self.output_dir = Path(values['output_dir'])
         prefix = values['prefix']
         self.record = values['record']
-        self.flight_recorder = values['flight_recorder']
-        buffer_seconds = values['buffer_seconds']
         self.topics = list(values['topics'])
         self.discovery_period = values['discovery_period']
         self.depth = values['depth']
         self.use_taps = values['use_taps']
         tf_rate = values['tf_rate']
-        self.post_trigger = values['post_trigger']
-        self.min_dump_interval = values['min_dump_interval']
         self.prefix = prefix or free_name(self.output_dir, time.strftime('rrps_%Y%m%d_%H%M%S'))
         self._lock = threading.Lock()
         self._topics: dict[str, TopicInfo] = {}
@@ -154,12 +135,8 @@ class RecorderNode(Node):
         self._graph_signature: tuple = ()
         self.bad_bundles = 0
         self.dropped_topics: dict[str, str] = {}
-        self._latest: dict[str, bytes] = {}
-        self._tf_cache: tuple[tuple, list] | None = None  # (inputs, transforms)
+        self._tf = RobotTf(self.geometry, self.get_namespace())
         ns = self.get_namespace().rstrip('/')
-        self._tf_inputs = {f'{ns}/{POSE}': POSE, f'{ns}/{GRIPPERS_STATE}': GRIPPERS_STATE,
-                           f'{ns}/{odometry_topic("ring_a")}': 'ring_a',
-                           f'{ns}/{odometry_topic("ring_b")}': 'ring_b'}
         try:
             self.recording = (BagRecording(self.output_dir / self.prefix,
                                            max_bytes=int(values['max_file_size_mb'] * 2**20),
@@ -169,18 +146,17 @@ class RecorderNode(Node):
                               if self.record else None)
         except FileExistsError as exc:
             raise ValueError(f'prefix: {exc}') from None
-        self.ring = (MessageRing(buffer_seconds, max_bytes=int(values['buffer_max_mb'] * 2**20))
-                     if self.flight_recorder else None)
-        self.buffer_seconds = buffer_seconds
+        self.flight = (FlightRecorder(self.output_dir, self.get_logger().error,
+                                      buffer_seconds=values['buffer_seconds'],
+                                      max_bytes=int(values['buffer_max_mb'] * 2**20),
+                                      post_trigger=values['post_trigger'],
+                                      min_dump_interval=values['min_dump_interval'])
+                       if values['flight_recorder'] else None)
         self.messages = 0
-        self.dumps = FlightDumps(self.output_dir, self.get_logger().error)
-        self.last_trigger: RecorderTrigger | None = None
-        self._pending_dump: tuple[float, RecorderTrigger] | None = None
-        self._last_dump_time = -1e18
         self._faults = FaultWatch()
         self._writes_tf = tf_rate > 0.0
         if self._writes_tf:
-            self._add_topic(TopicInfo(TF, TF_TYPE, (TF_QOS,)))
+            self._add_topic(TF_TOPIC)
             self.create_timer(1.0 / tf_rate, self._write_tf)
         self._diag = Diagnostics(self, 'recorder', hardware_id=OBSERVER)
         # The fault triggers' topics (full name: event source, type): heard through their
@@ -201,21 +177,12 @@ class RecorderNode(Node):
         where = f'recording to {self.recording.path}' if self.recording else 'not recording'
         self.get_logger().info(
             f'{where}; flight recorder '
-            + (f'on ({buffer_seconds:g} s)' if self.ring is not None else 'off'))
+            + (f'on ({self.flight.buffer_seconds:g} s)' if self.flight is not None else 'off'))
 
     # --- topics ------------------------------------------------------------------------------
 
     def _selected(self, name: str) -> bool:
-        if name in _IGNORED:
-            return False
-        ns = self.get_namespace().rstrip('/')
-        for entry in self.topics:
-            if entry == '':
-                if name in (DIAGNOSTICS, TF, TF_STATIC) or (ns and name.startswith(ns + '/')) or not ns:
-                    return True
-            elif name == entry or name.startswith(entry.rstrip('/') + '/'):
-                return True
-        return False
+        return selected(name, self.get_namespace(), self.topics, (DIAGNOSTICS, TF, TF_STATIC))
 
     def _add_topic(self, topic: TopicInfo) -> None:
         with self._lock:
@@ -253,13 +220,11 @@ class RecorderNode(Node):
             type_name = types[0]
             if name not in self._topics:
                 try:
-                    message_class(type_name)
-                    message_schema(type_name)
-                except (ImportError, AttributeError, ValueError, LookupError) as exc:
-                    self.dropped_topics[name] = f'{type_name}: {exc}'
+                    topic = recorded_topic(name, type_name, infos)
+                except ValueError as exc:
+                    self.dropped_topics[name] = str(exc)
                     continue
-                self._add_topic(TopicInfo(name, type_name, offered(infos),
-                                          type_hash_text(infos[0].topic_type_hash)))
+                self._add_topic(topic)
                 self.dropped_topics.pop(name, None)
             tapped = self.use_taps and self._taps.covers(
                 name, (fully_qualified_node(i.node_namespace, i.node_name) for i in infos))
@@ -323,48 +288,25 @@ class RecorderNode(Node):
         """Record messages (topic, log time [ns], CDR bytes) to the file and the ring; keep
         the newest of /tf's inputs."""
         self.messages += len(messages)
-        tf_inputs = self._tf_inputs
+        tf_inputs, latest = self._tf.inputs, self._tf.latest
         for topic, _, data in messages:
             if topic in tf_inputs:
-                self._latest[topic] = data
+                latest[topic] = data
         if self.recording is not None:
             self.recording.write_many(messages)
-        if self.ring is not None:
-            self.ring.add_many(messages)
+        if self.flight is not None:
+            self.flight.ring.add_many(messages)
 
     # --- /tf -----------------------------------------------------------------------------------
 
     def _write_tf(self) -> None:
-        pose_data = self._latest.get(next(k for k, v in self._tf_inputs.items() if v == POSE))
-        if pose_data is None:
-            return
-        # The inputs without their stamps: each is a stamped message whose CDR starts with the
-        # 4-byte encapsulation and header.stamp (8 bytes); a resting robot keeps the rest.
-        inputs = tuple(None if d is None else d[12:]
-                       for d in (self._latest.get(k) for k in self._tf_inputs))
-        if self._tf_cache is not None and self._tf_cache[0] == inputs:
-            t = time.time_ns()  # a robot at rest: the same transforms, stamped now
-            self._store(TF, t, tf_message_cdr(t, self._tf_cache[1]))
-            return
         try:
-            a_T_b = Pose(*pose_from_msg(deserialize_message(pose_data, PoseStamped)))
-            odometry = {ring: Pose(*pose_from_msg(deserialize_message(data, PoseStamped)))
-                        for key, ring in self._tf_inputs.items()
-                        if ring in ('ring_a', 'ring_b') and (data := self._latest.get(key)) is not None}
-            gripper_data = self._latest.get(next(k for k, v in self._tf_inputs.items()
-                                                 if v == GRIPPERS_STATE))
-            closed = None
-            if gripper_data is not None:
-                g = deserialize_message(gripper_data, JointState)
-                closed = gripper_states(list(g.name), list(g.position))
-            world_T_a = world_pose_of_ring_a(a_T_b, closed, odometry)
-            transforms = robot_transforms(self.geometry, a_T_b, world_T_a)
-            self._tf_cache = (inputs, transforms)
+            stamped = self._tf.message()
         except ValueError as exc:
             self.get_logger().warning(f'no /tf for this pose: {exc}', throttle_duration_sec=5.0)
             return
-        t = time.time_ns()
-        self._store(TF, t, tf_message_cdr(t, transforms))
+        if stamped is not None:
+            self._store(TF, *stamped)
 
     # --- flight recorder ----------------------------------------------------------------------
 
@@ -378,41 +320,32 @@ class RecorderNode(Node):
                                       throttle_duration_sec=5.0)
             return
         for status in (msg.status if msg_type is DiagnosticArray else [msg]):
-            level = status.level
-            self._event(StatusEvent(source, int.from_bytes(level, 'little')
-                                    if isinstance(level, bytes) else int(level), status.name,
-                                    {kv.key: kv.value for kv in status.values}))
+            self._event(StatusEvent.of(source, status))
 
     def _event(self, event: StatusEvent) -> None:
         trigger = self._faults.check(event)
-        if trigger is None or self.ring is None or self._pending_dump is not None:
-            return
-        now = time.monotonic()
-        if now - self._last_dump_time < self.min_dump_interval:
+        flight = self.flight
+        if trigger is None or flight is None or not flight.schedule(trigger, time.monotonic()):
             return
         self.get_logger().warning(f'flight recorder: {trigger.value} ({event.name or event.source})'
-                                  f'; writing the last {self.buffer_seconds:g} s in '
-                                  f'{self.post_trigger:g} s')
-        self._pending_dump = (now + self.post_trigger, trigger)
+                                  f'; writing the last {flight.buffer_seconds:g} s in '
+                                  f'{flight.post_trigger:g} s')
 
     def _housekeeping(self) -> None:
-        pending = self._pending_dump
-        if pending is not None and time.monotonic() >= pending[0]:
-            self._pending_dump = None
-            self.dump(pending[1])
+        trigger = self.flight.due(time.monotonic()) if self.flight is not None else None
+        if trigger is not None:
+            self.dump(trigger)
 
     def dump(self, trigger: RecorderTrigger, *, settle: float = 0.0) -> Path:
-        """Write the buffer (in a thread, ``settle`` s from now) to a new bag folder; returns
-        the path its MCAP file will have."""
-        if self.ring is None:
+        """Write the flight recorder's window (in a thread, ``settle`` s from now) to a new bag
+        folder; returns the path its MCAP file will have."""
+        if self.flight is None:
             raise RuntimeError('the flight recorder is off (flight_recorder:=false)')
-        self._last_dump_time = time.monotonic()
-        self.last_trigger = trigger
 
         def topics() -> list[TopicInfo]:
             with self._lock:
                 return list(self._topics.values())
-        return self.dumps.start(trigger.value, self.ring.snapshot, topics, settle=settle)
+        return self.flight.dump(trigger, topics, settle=settle)
 
     def _on_save(self, request, response):
         try:
@@ -427,22 +360,20 @@ class RecorderNode(Node):
 
     def wait_for_dumps(self, timeout: float = 30.0) -> None:
         """Wait until every dump started so far is written (tests, shutdown)."""
-        self.dumps.wait(timeout)
+        if self.flight is not None:
+            self.flight.dumps.wait(timeout)
 
     # --- status ------------------------------------------------------------------------------
 
     def _report(self) -> None:
         status = RecorderStatus(
-            recording=self.recording is not None, flight_recorder=self.ring is not None,
+            recording=self.recording is not None, flight_recorder=self.flight is not None,
             topics=len(self._topics), tapped_topics=len(self._taps.tapped_topics),
             bad_bundles=self.bad_bundles, messages=self.messages,
             bytes_written=self.recording.bytes_written if self.recording is not None else 0,
             file=str(self.recording.path) if self.recording is not None else '',
-            buffered_messages=len(self.ring) if self.ring is not None else 0,
-            buffer_seconds=self.ring.span if self.ring is not None else 0.0,
-            dumps=len(self.dumps.folders),
-            last_dump=str(self.dumps.folders[-1]) if self.dumps.folders else '',
-            last_trigger=self.last_trigger, dropped_topics=tuple(sorted(self.dropped_topics)))
+            dropped_topics=tuple(sorted(self.dropped_topics)),
+            **(self.flight.status_values() if self.flight is not None else {}))
         level = WARN if self.dropped_topics or self.bad_bundles else OK
         message = (f'{len(self._topics)} topics ({len(self._taps.tapped_topics)} from taps), '
                    f'{self.messages} messages'

@@ -44,6 +44,13 @@ class StatusEvent:
     name: str
     values: dict[str, str]
 
+    @classmethod
+    def of(cls, source: str, status) -> StatusEvent:
+        """The event of a diagnostic_msgs DiagnosticStatus (its level a byte or an int)."""
+        level = status.level
+        return cls(source, int.from_bytes(level, 'little') if isinstance(level, bytes) else int(level),
+                   status.name, {kv.key: kv.value for kv in status.values})
+
 
 class FaultWatch:
     """Turns status events into flight-recorder triggers (see the module docstring)."""
