@@ -236,7 +236,7 @@ class CanopenRobot(SystemInterface):
             if outside:
                 return _error(f'outside the soft limits: {", ".join(outside)}')
             if command is not self._commanded:   # a new command arrived
-                self.setpoints.command(lengths, time)
+                self.setpoints.command(lengths, time, command.stamp)
                 self._commanded = command
             for drive, x in zip(d.drives, self.setpoints.step(time, period)):
                 drive.target = drive.scale.counts(float(x))

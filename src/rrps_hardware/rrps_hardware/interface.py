@@ -123,10 +123,12 @@ class ActuatorStatus:
 @dataclass(frozen=True)
 class Command:
     """Commanded leg lengths (6,) [m] and, for robots with them, the rings' extra-DOF angles
-    [rad] in the order of the state's ring joints (None: keep their targets)."""
+    [rad] in the order of the state's ring joints (None: keep their targets); ``stamp`` [s]: the
+    time of the command's sample in its stream (its message's stamp; None: unstamped)."""
 
     lengths: np.ndarray
     rings: np.ndarray | None = None
+    stamp: float | None = None
 
 
 @dataclass(frozen=True)

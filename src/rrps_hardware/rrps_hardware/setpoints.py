@@ -8,17 +8,25 @@ every driver period (500 Hz). :class:`JerkLimitedSetpoints` makes those setpoint
 States*, RSS 2021; the ``ruckig`` library): each period it plans, from the setpoints' position,
 velocity and acceleration, the time-optimal motion to the command within each leg's speed,
 acceleration and jerk limits (:attr:`RobotGeometry.motion_limits`), and takes its state one
-period later: to a command at rest, the time-optimal motion there (Ruckig's position interface);
-along a stream, the velocity that follows it (its interpolated velocity plus :data:`GAIN` times
-the position error, less what the present acceleration adds before it is shed, reached at zero
-acceleration: Ruckig's velocity interface, whose motions stay within the speed limit so). The
-stream is followed one command period behind: the parabola through its last three commands (by
-their arrival times), evaluated one period back, gives the position and velocity to follow; the
-newest command at rest once no new one came for :data:`STALE_PERIODS` periods. So a stream is
-followed without stopping at every sample, and a stream that stops, stops without a velocity
-jump. Any stream, however it jumps, reaches the legs within the limits. :func:`stream_setpoints`
-is the same for a whole command stream at once (the preview of a climbing step). Pure Python and
-NumPy (and ruckig); no ROS import.
+period later: to a command at rest, the time-optimal motion there (Ruckig's position interface,
+the legs synchronised in time); along a stream, the velocity that follows it (its interpolated
+velocity v, plus a |a| / 2j for its acceleration a, the velocity it reaches once a is shed at
+the jerk limit j, so that the setpoints keep the stream's acceleration instead of lagging it into
+a stop, plus :data:`GAIN` times the position error, less what the present acceleration adds
+before it is shed, reached at zero acceleration: Ruckig's velocity interface, whose motions stay
+within the speed limit so, each leg reaching its own velocity time-optimally: the stream already
+times the legs together, and synchronising their velocity changes in time turns differences of
+um/s between legs that follow one stream into mm of leg length). The stream is followed one
+command period behind: the parabola through its last three commands, evaluated one period back,
+gives the position and velocity to follow; the newest command at rest once no new one came for
+:data:`STALE_PERIODS` periods. The commands are placed in time by their stamps (the times of the
+stream's samples: a command delivered late or two delivered together keep the stream's own
+spacing and speed), carried to the driver's clock by the shortest delay seen among the last
+three; unstamped commands by their arrival. So a stream is followed without stopping at every
+sample, and a stream that stops, stops without a velocity jump. Any stream, however it jumps,
+reaches the legs within the limits. :func:`stream_setpoints` is the same for a whole command
+stream at once (the preview of a climbing step). Pure Python and NumPy (and ruckig); no ROS
+import.
 """
 
 from __future__ import annotations
@@ -51,19 +59,28 @@ class JerkLimitedSetpoints:
         self._input.max_velocity = [limits.speed] * self.n
         self._input.max_acceleration = [limits.acceleration] * self.n
         self._input.max_jerk = [limits.jerk] * self.n
-        self.gain = GAIN
         self.reset(positions)
 
     def reset(self, positions) -> None:
         """At rest at ``positions`` (the legs hold there); the command is forgotten."""
         positions = np.asarray(positions, dtype=float)
         self.position, self.velocity, self.acceleration = positions.copy(), np.zeros(self.n), np.zeros(self.n)
-        self._history: list = []   # the last three commands (arrival time, positions)
+        self._commands: list = []   # the last three commands (arrival time, stamp or None, positions)
+        self._history: list = []    # the same in the stream's time on the driver's clock (time, positions)
+        self._arrived = -np.inf     # when the newest command arrived [s]
 
-    def command(self, positions, time: float) -> None:
-        """A new command of ``positions`` arrived at ``time`` [s]."""
-        self._history = [h for h in self._history if h[0] < time][-2:] + [(float(time),
-                                                                             np.asarray(positions, dtype=float).copy())]
+    def command(self, positions, time: float, stamp: float | None = None) -> None:
+        """A new command of ``positions`` arrived at ``time`` [s] (the driver's clock), stamped
+        ``stamp`` [s] (the time of its sample in its stream, on any clock; None: unstamped)."""
+        stamp = None if stamp is None else float(stamp)
+        kept = [c for c in self._commands if c[0] < time and (stamp is None or c[1] is None or c[1] < stamp)]
+        self._commands = kept[-2:] + [(float(time), stamp, np.asarray(positions, dtype=float).copy())]
+        self._arrived = float(time)
+        if any(c[1] is None for c in self._commands):
+            self._history = [(t, p) for t, _, p in self._commands]
+            return
+        delay = min(t - s for t, s, _ in self._commands)   # the stamps' clock to the driver's
+        self._history = [(s + delay, p) for _, s, p in self._commands]
 
     def _target(self, time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The commands one period behind at ``time``: position, velocity and acceleration of the
@@ -75,7 +92,7 @@ class JerkLimitedSetpoints:
         if len(self._history) < 2:
             return newest, zero, zero
         period = t_new - self._history[-2][0]
-        if time - t_new > STALE_PERIODS * period:
+        if time - self._arrived > STALE_PERIODS * period:
             return newest, zero, zero
         tau = min(max(time - period, self._history[0][0]), t_new)
         (t1, p1), (t2, p2) = self._history[-2:]
@@ -93,21 +110,27 @@ class JerkLimitedSetpoints:
             return self.position.copy()
         target, velocity, acceleration = self._target(time)
         lim = self.limits
+        streaming = bool(np.any(velocity) or np.any(acceleration))
         velocity = np.clip(velocity, -lim.speed, lim.speed)
         # the wanted velocity leaves room to shed the present acceleration below the speed limit
         brake = self.acceleration * np.abs(self.acceleration) / (2.0 * lim.jerk)
-        wanted = np.clip(velocity + self.gain * (target - self.position), -lim.speed - np.minimum(brake, 0.0),
+        # the stream's velocity once its acceleration is shed at the jerk limit (a |a| / 2j): reached at
+        # zero acceleration, it keeps the setpoints' acceleration on the stream's (no lag into a stop)
+        ahead = velocity + acceleration * np.abs(acceleration) / (2.0 * lim.jerk)
+        wanted = np.clip(ahead + GAIN * (target - self.position), -lim.speed - np.minimum(brake, 0.0),
                          lim.speed - np.maximum(brake, 0.0))
         inp, out = self._input, self._output
         inp.current_position, inp.current_velocity = self.position.tolist(), self.velocity.tolist()
         inp.current_acceleration = self.acceleration.tolist()
-        if np.any(velocity) or np.any(acceleration):   # a stream: steered along it
+        if streaming:   # a stream: steered along it
             inp.control_interface = ruckig.ControlInterface.Velocity
             inp.target_velocity, inp.target_acceleration = wanted.tolist(), [0.0] * self.n
-        else:                                            # a command at rest: reached time-optimally
+            inp.synchronization = ruckig.Synchronization.No
+        else:           # a command at rest: reached time-optimally
             inp.control_interface = ruckig.ControlInterface.Position
             inp.target_position = target.tolist()
             inp.target_velocity = inp.target_acceleration = [0.0] * self.n
+            inp.synchronization = ruckig.Synchronization.Time
         self._otg.delta_time = dt
         try:
             result = self._otg.update(inp, out)
@@ -117,7 +140,7 @@ class JerkLimitedSetpoints:
         self.position = np.array(out.new_position)
         self.velocity = np.array(out.new_velocity)
         self.acceleration = np.array(out.new_acceleration)
-        if result == ruckig.Result.Finished and inp.control_interface == ruckig.ControlInterface.Position:
+        if result == ruckig.Result.Finished and not streaming:
             self.position = target.copy()   # arrived: exactly at the command (not a rounding off it)
         return self.position.copy()
 

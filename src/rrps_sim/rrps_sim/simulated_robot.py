@@ -259,7 +259,7 @@ class SimulatedRobot(SystemInterface):
             self.ring_reference = rings
         self.reference = lengths
         if self.setpoints is not None and command is not self._commanded:   # a new command arrived
-            self.setpoints.command(lengths, time)
+            self.setpoints.command(lengths, time, command.stamp)
         self._commanded = command
         return OK
 

@@ -269,8 +269,9 @@ class DriverNode(LifecycleNode):
         except ValueError as exc:
             raise RejectedCommand(str(exc)) from None
         rings = {name: p for name, p in zip(msg.name, msg.position) if name in self.ring_names}
-        command = checked_command(self.geometry, lengths, rings, self.state.ring_targets)
-        self.freshness.check(stamp_to_seconds(msg.header.stamp), self._now())  # content errors first
+        stamp = stamp_to_seconds(msg.header.stamp)
+        command = checked_command(self.geometry, lengths, rings, self.state.ring_targets, stamp=stamp or None)
+        self.freshness.check(stamp, self._now())  # content errors first
         return command
 
     def _now(self) -> float:
