@@ -116,9 +116,9 @@ def test_write_then_read_moves_to_a_step_command_within_the_speed_acceleration_a
 
 
 def test_a_command_stream_is_followed_one_period_behind_within_the_limits():
-    """A stream at 50 Hz along a smooth ramp (a leg's planned motion): the legs follow it one
-    command period behind, within 3 mm while it accelerates and 0.5 mm once it cruises, every
-    sample within the limits."""
+    """A stream at 50 Hz along a smooth ramp (a leg's planned motion), each command stamped with its
+    sample's time: the legs follow it one command period behind, within 3 mm while it accelerates
+    and 0.5 mm once it cruises, every sample within the limits."""
     robot = active()
     start, limits = POLE.home_lengths, POLE.motion_limits.legs
     ramp = 0.9 * limits.speed
@@ -134,7 +134,8 @@ def test_a_command_stream_is_followed_one_period_behind_within_the_limits():
     x = []
     for n in range(200):   # 2 s (0.09 m, within the stroke), a command every other cycle
         t = n * DT
-        command = Command(planned(t - t % 0.02))
+        sample = t - t % 0.02   # the stream's sample time, its stamp (driver_node stamps commands so)
+        command = Command(planned(sample), stamp=sample)
         if n % 2 == 0:
             stream = command
         robot.write(t, DT, stream)
