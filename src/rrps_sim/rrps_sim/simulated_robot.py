@@ -31,7 +31,7 @@ import numpy as np
 
 from rrps_description.loads import payload_from_parameters
 from rrps_description.names import LEG_NAMES, RINGS
-from rrps_description.world import IDENTITY_QUATERNION, Support
+from rrps_description.world import Support
 from rrps_hardware.commands import ring_joints
 from rrps_hardware.interface import (
     OK,
@@ -51,10 +51,10 @@ from rrps_hardware.interface import (
 )
 from rrps_hardware.setpoints import JerkLimitedSetpoints
 from rrps_interfaces.driver import ActuatorMode
-from rrps_runtime.parameter_schema import PAYLOAD, Parameter
 from rrps_sim.actuators import DynamicActuators, KinematicActuators, QuasiStaticEfforts, SensorFaults
 from rrps_sim.grippers import Grippers
 from rrps_sim.hardware_state import HardwareState, StateFileWriter, load_state
+from rrps_sim.simulated_parameters import SIMULATED_ROBOT_PARAMETERS
 
 __all__ = ['SimulatedRobot']
 
@@ -71,33 +71,7 @@ def _error(message: str) -> Result:
 class SimulatedRobot(SystemInterface):
     """The simulated hardware of one robot (see the module docstring)."""
 
-    PARAMETERS = (
-        Parameter('mode', ActuatorMode.KINEMATIC.value, 'actuator fidelity',
-                  choices=tuple(m.value for m in ActuatorMode)),
-        Parameter('time_constant', 0.02, 'first-order lag of the actuators; 0 = none', unit='s', range=(0.0, 10.0)),
-        Parameter('limit_speed', True, "limit the actuators to the robot's max_speed"),
-        Parameter('jerk_limited', True, "the legs follow the commands' jerk-limited setpoints (Ruckig, the limits')"),
-        Parameter('kp', 1.0e5, 'dynamic mode: PD stiffness per leg', unit='N/m', range=(0.0, 1e8)),
-        Parameter('kd', 1.0e3, 'dynamic mode: PD damping per leg', unit='N s/m', range=(0.0, 1e6)),
-        Parameter('dynamics_step', 1e-3, 'dynamic mode: largest integration step', unit='s', range=(1e-5, 0.01)),
-        Parameter('ring_rotation_speed', 1.0, 'speed of the extra ring DOF (robots that have one)', unit='rad/s',
-                  range=(1e-3, 100.0)),
-        Parameter('initial_lengths', None, 'initial leg lengths (6)', unit='m', type=tuple,
-                  unset_note='the home pose (or the state file)'),
-        Parameter('stuck_legs', None, 'fault: legs (1..6) that ignore commands and keep their length',
-                  type=tuple, item_type=int, range=(1, 6), dynamic=True, unset_note='none'),
-        Parameter('sensor_noise', 0.0, 'fault: std of Gaussian noise on the published lengths', unit='m',
-                  range=(0.0, 0.1), dynamic=True),
-        Parameter('drop_probability', 0.0, 'fault: probability of dropping an actuators/state message',
-                  range=(0.0, 1.0), dynamic=True),
-        Parameter('fault_seed', 0, 'seed of the fault injection', range=(0, 2**31 - 1)),
-        Parameter('state_file', '', "file that keeps the robot's physical state across driver restarts "
-                  '(lengths, ring angles, grippers); empty: none'),
-        Parameter('world_q_support', IDENTITY_QUATERNION, "ring_a's attitude in the world at the start "
-                  '(x, y, z, w): the gravity of efforts and dynamics; handed over at each grip change, then '
-                  'the odometry/support attitude'),
-        *PAYLOAD,
-    )
+    PARAMETERS = SIMULATED_ROBOT_PARAMETERS
 
     def __init__(self):
         self.actuators: KinematicActuators | DynamicActuators | None = None

@@ -21,7 +21,8 @@ massless spin; ``tests/unit/sim/test_world_dynamics.py`` shows the error it make
 * :mod:`.bundles`: the typed bundles the kernels take (robot, workspace, observations).
 * :mod:`.constraints`: a leg's rows of Φ_x and γ (eqs. 3-10).
 * :mod:`.kernels`: eq. 19 at one state, solved by the robot's structure, its multipliers as
-  joint reactions, and what is observed of a state (compiled).
+  joint reactions (compiled).
+* :mod:`.observation`: what is observed of a state: lengths, drift, energies (compiled).
 * :mod:`.integrators`: RK4 with Baumgarte stabilisation, coordinate partitioning or the hybrid
   of both, a whole step and a whole run compiled.
 * :mod:`.frames`: the coordinates in the supporting ring's frame, the pose a_T_b back.

@@ -19,7 +19,7 @@ from rrps_kinematics.backend import jit
 from rrps_kinematics.multibody import rotation_into
 from rrps_sim.dynamics.constraints import angular_velocity
 from rrps_sim.dynamics.integrators import step
-from rrps_sim.dynamics.kernels import leg_length_rate
+from rrps_sim.dynamics.observation import leg_length_rate
 
 __all__ = ['DriveLoop', 'driven_run']
 

@@ -26,14 +26,8 @@ from rrps_kinematics.backend import jit
 from rrps_kinematics.multibody import JointGeometry, leg_jacobian, leg_residual_with_rotations, rotation, rotation_into
 from rrps_sim.dynamics.bundles import workspace
 from rrps_sim.dynamics.constraints import leg_blocks, matvec3, ring_b_grounded_residual
-from rrps_sim.dynamics.kernels import (
-    accelerations,
-    actuator_power,
-    drift_and_norm,
-    lu_solve,
-    observe_into,
-    reactions_into,
-)
+from rrps_sim.dynamics.kernels import accelerations, lu_solve, reactions_into
+from rrps_sim.dynamics.observation import actuator_power, drift_and_norm, observe_into
 
 __all__ = ['METHODS', 'NOT_CONVERGED', 'SINGULAR', 'rk4_full', 'rk4_partitioned', 'run',
            'solve_dependent', 'step']

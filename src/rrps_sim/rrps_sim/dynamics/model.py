@@ -25,7 +25,8 @@ from rrps_sim.dynamics.driven import DriveLoop, driven_run
 from rrps_sim.dynamics.flops import step_flops
 from rrps_sim.dynamics.frames import grounded_coordinates, supported_pose
 from rrps_sim.dynamics.integrators import METHODS, NOT_CONVERGED, run, step
-from rrps_sim.dynamics.kernels import applied_forces, observe, reactions_into
+from rrps_sim.dynamics.kernels import applied_forces, reactions_into
+from rrps_sim.dynamics.observation import observe
 
 __all__ = ['MultibodyDynamics', 'RunRecord']
 
