@@ -26,7 +26,7 @@ ROS_MODULES = {{'rrps_runtime.' + m for m in ('action_host', 'command_path', 'di
                                                'process', 'qos', 'recording_tap')}} | {{
     'rrps_teleop.support_input', 'rrps_teleop.teleop_stream', 'rrps_viewer.operator_requests',
     'rrps_viewer.robot_subscriptions', 'rrps_viewer.recording_clients', 'rrps_recording.topic_graph',
-    'rrps_climbing.climb_action', 'rrps_viewer.climb_step_client'}}
+    'rrps_climbing.climb_action', 'rrps_viewer.climb_step_client', 'rrps_viewer.picture'}}
 imported = []
 for package in ('rrps_description', 'rrps_interfaces', 'rrps_runtime', 'rrps_kinematics', 'rrps_hardware',
                 'rrps_loads', 'rrps_sim', 'rrps_teleop', 'rrps_climbing', 'rrps_viewer', 'rrps_recording'):
