@@ -28,9 +28,7 @@ import math
 import time
 from collections.abc import Callable
 
-import numpy as np
-
-from rrps_climbing.climb_watch import InputWatch
+from rrps_climbing.climb_inputs import ClimbInputs
 from rrps_climbing.gait import GaitPlanner
 from rrps_climbing.phase_run import PhaseRun, arrived
 from rrps_climbing.plan import Phase, PlanError
@@ -56,13 +54,14 @@ IDLE, EXECUTING, PAUSED, FAILED = (ClimbState.IDLE, ClimbState.EXECUTING, ClimbS
 RESUME_TOLERANCE_FACTOR = 10.0
 
 
-class ClimbStepMachine:
+class ClimbStepMachine(ClimbInputs):
     """Executes climbs of ``planner``'s robot on its structure (see the module docstring).
 
     ``start``: route position [m] of ring_a's gripper (None: the lowest that fits);
     ``step_length`` [m] of step_up/step_down (None: the planner's default); ``auto_steps`` > 0
     climbs that many steps up once the pose and the gripper states are known. ``clock``: the
     receipt clock of the input watch [s]. ``preview``: each step is previewed before it starts.
+    The inputs (pose, grippers, driver, operator station) and their watch: :class:`.ClimbInputs`.
     """
 
     def __init__(self, planner: GaitPlanner, config: StepConfig | None = None, *,
@@ -70,6 +69,7 @@ class ClimbStepMachine:
                  clock: Callable[[], float] = time.monotonic, preview: bool = False):
         self.planner = planner
         self.config = config or StepConfig()
+        super().__init__(self.config, clock)
         self.structure = planner.structure
         self.step_length = float(step_length or planner.default_step)
         if not (math.isfinite(self.step_length) and self.step_length > 0.0):
@@ -84,8 +84,6 @@ class ClimbStepMachine:
                              f'(route 0 .. {self.structure.length:.3f} m)')
         #: route positions [m] of the rings' grippers and their extra-DOF angle [rad] at rest
         self.s_a, self.s_b, self.theta = s_a, s_a + sep, 0.0
-        self.watch = InputWatch(state_timeout=self.config.state_timeout,
-                                operator_timeout=self.config.operator_timeout, clock=clock)
         self.mode = IDLE
         self.pause_reason: PauseReason | None = None
         self.detail = 'waiting for pose and grippers/state'
@@ -96,12 +94,6 @@ class ClimbStepMachine:
         self.steps_done = 0
         self.timing = (math.nan, math.nan)  # the last planned step's duration [s] and climbing speed [m/min]
         self.plan_duration = math.nan  # the executing (or last executed) climb's planned duration [s]
-        self.pose: Pose | None = None
-        self.grippers: dict[str, bool] | None = None
-        self.driver_active: bool | None = None
-        self.teleop_engaged = False
-        self.engagements = self.driver_changes = 0  # teleop engaged / driver state changed, counted
-        self.measured_angles: np.ndarray | None = None
         self.odometry: RingOdometry | None = None
         self._phases: list[Phase] = []
         self._index = 0
@@ -111,10 +103,6 @@ class ClimbStepMachine:
         self._out = ClimbOutput()
 
     # --- inputs ---------------------------------------------------------------------------------
-
-    def pose_received(self) -> None:
-        """A measured pose arrived (its receipt counts for the watch; :meth:`on_pose` uses it)."""
-        self.watch.received('pose')
 
     def on_pose(self, pose: Pose) -> ClimbOutput:
         """Use the newest measured pose a_T_b: chain the odometry (fails the climb when the
@@ -135,29 +123,6 @@ class ClimbStepMachine:
             return out
         out.odometry = (self.odometry.world_T_a, self.odometry.world_T_b)
         return out
-
-    def on_grippers(self, closed: dict[str, bool]) -> None:
-        """The gripper states {ring: closed} (both rings)."""
-        self.grippers = dict(closed)
-        self.watch.received('grippers/state')
-
-    def on_teleop(self, engaged: bool | None) -> None:
-        """The operator station was heard; ``engaged``: whether teleoperation is engaged (None:
-        its status was unreadable, the last value stands)."""
-        self.watch.received('teleop/status')
-        if engaged is not None:
-            self.engagements += bool(engaged) and not self.teleop_engaged
-            self.teleop_engaged = bool(engaged)
-
-    def on_driver_active(self, active: bool) -> None:
-        """The driver's lifecycle state (from its status)."""
-        self.driver_changes += self.driver_active is not None and bool(active) != self.driver_active
-        self.driver_active = bool(active)
-
-    def on_ring_angles(self, theta_a: float, theta_b: float) -> None:
-        """The measured extra-DOF angles [rad] (robots that have them); non-finite ones are ignored."""
-        if math.isfinite(theta_a) and math.isfinite(theta_b):
-            self.measured_angles = np.array([theta_a, theta_b], dtype=float)
 
     def on_gripper_answer(self, request: GripperRequest, success: bool, message: str = '') -> None:
         """The driver's answer to ``request`` (used at the next tick; an answer to another request
@@ -207,8 +172,7 @@ class ClimbStepMachine:
         self.timing, detail = plan.step_timing, plan.describe()
         self.plan_refused, self.refusal = False, None
         if self.preview:
-            self._pending = (phases, detail, StepSnapshot(self.pose, dict(self.grippers), self.engagements,
-                                                          self.driver_changes))
+            self._pending = (phases, detail, self.snapshot())
             self.detail = f'previewing {detail}'
             out.preview = phases
             self._report(force=True)
@@ -230,11 +194,7 @@ class ClimbStepMachine:
             kind = StepRefusal.PREVIEW_LIMIT if preview.limit is not None else StepRefusal.PREVIEW_FAILED
             self._refuse(kind, f'preview refused the step: {preview.detail}')
             return out
-        c = self.config
-        changed = snapshot.changed(pose=self.pose, grippers=self.grippers, engagements=self.engagements,
-                                   driver_changes=self.driver_changes, driver_active=self.driver_active,
-                                   position_tolerance=c.position_tolerance,
-                                   orientation_tolerance=c.orientation_tolerance)
+        changed = self.changed_since(snapshot, self.config)
         if changed is not None:
             self._refuse(changed[0], f'step refused: {changed[1]}')
             return out
@@ -257,7 +217,7 @@ class ClimbStepMachine:
         if self.mode is not PAUSED:
             out.reply = (False, f'refused: the climb is {self.mode.value}')
             return out
-        reason = self.watch.hold_reason(driver_active=self.driver_active)
+        reason = self.hold_reason()
         if reason is not None:
             out.reply = (False, f'refused: {reason.value} ({self.watch.ages()})')
             return out
@@ -347,7 +307,7 @@ class ClimbStepMachine:
             return 'teleoperation is engaged'
         if self.pose is None or self.grippers is None:
             return 'no pose or grippers/state received yet'
-        reason = self.watch.hold_reason(driver_active=self.driver_active)
+        reason = self.hold_reason()
         if reason is not None:
             return f'{reason.value} ({self.watch.ages()})'
         return ''
@@ -382,7 +342,7 @@ class ClimbStepMachine:
             return started  # planning took this tick: the inputs are judged at the next one
         if self.mode is not EXECUTING:
             return out
-        reason = self.watch.hold_reason(driver_active=self.driver_active) if self.watch.judged() else None
+        reason = self.hold_reason() if self.watch.judged() else None
         if reason is not None:
             self._pause(reason)
             return out

@@ -38,8 +38,8 @@ Guards, applied to the step from the last command towards the mapped target:
    limit and at a holding margin of zero of the supporting gripper (:mod:`rrps_teleop.load_guard`).
 
 A whole guarded step (FK, margins, bands, refusal) is one kernel of
-:mod:`rrps_teleop.compiled_guards`: compiled by numba, or interpreted (``backend='numpy'`` or
-``RRPS_NUMBA=0``).
+:mod:`rrps_teleop.compiled_guards`, run by :mod:`rrps_teleop.guarded_step`: compiled by numba, or
+interpreted (``backend='numpy'`` or ``RRPS_NUMBA=0``).
 """
 
 from __future__ import annotations
@@ -54,17 +54,9 @@ from rrps_description.pose import Pose, validate_pose
 from rrps_description.rotations import rotation_angle_between
 from rrps_description.tool import b_T_tool, ring_b_pose, tool_pose
 from rrps_interfaces.teleop import TeleopCode
-from rrps_kinematics.backend import kernels_of, use_numba
-from rrps_kinematics.limits import limit_arrays, pose_margins
-from rrps_teleop import compiled_guards
-from rrps_teleop.command_layout import (
-    CHECK_CONDITIONING,
-    COMMAND_SIZE,
-    STEP_FK_FAILED,
-    STEP_REFUSED,
-    STEP_UNCHANGED,
-)
-from rrps_teleop.guards import CHECK_STARTS, LEG_SPEED_ITERATIONS, GuardedCommand
+from rrps_kinematics.limits import pose_margins
+from rrps_teleop.guarded_step import GuardedStep
+from rrps_teleop.guards import GuardedCommand
 from rrps_teleop.load_guard import LoadGuard, LoadMargins
 from rrps_teleop.teleop_config import MODES, ROTATION_MODES, TeleopConfig, validate_scale
 
@@ -124,10 +116,8 @@ class TeleopMapping:
                  backend: str = 'auto', support=None):
         self.slave = slave
         self.loads = LoadGuard(slave, support, backend=backend)
-        compiled = use_numba(backend)
-        #: the guards' kernels (:mod:`.compiled_guards`), compiled or interpreted
-        self._kernels = kernels_of(compiled_guards, backend)
-        self._limit_arrays = limit_arrays(slave, lists=not compiled)
+        #: the guarded steps (:mod:`.guarded_step`), compiled or interpreted
+        self.guards = GuardedStep(slave, self.loads, backend)
         self.config = self._checked(config or TeleopConfig())
         self._enable_value = False
         self._enable_time = -math.inf
@@ -153,26 +143,8 @@ class TeleopMapping:
         self._master_ref = None
         self._slave_ref: tuple[np.ndarray, np.ndarray] | None = None
         self._offsets: np.ndarray | None = None
-        if compiled:
-            self._warm_up()
-
-    def _warm_up(self) -> None:
-        """Load (or compile) the guard kernels now, for the argument types of a real step, so
-        that the first engaged step does not wait for numba."""
-        g = self.slave
-        p, q = np.array(g.home_position, dtype=float), np.array(g.home_quaternion_xyzw, dtype=float)
-        m = pose_margins(g, p, q)
-        home = GuardedCommand.at(p, q, m.lengths, m, g.min_conditioning)
-        self.loads.warm_up(home, self._halt)
-        c = self.config
-        self._kernels.mapped_pose(p, q, p.copy(), q.copy(), p.copy(), q.copy(), c.translation_scale,
-                                  False, np.empty(3), np.empty(4))
-        self._kernels.guarded_cartesian_step(
-            self._limit_arrays, home.buffer, p, q, 0.0, 0.0, 0.0, LEG_SPEED_ITERATIONS,
-            c.singularity_slowdown, self._halt, c.collision_slowdown, np.empty(COMMAND_SIZE))
-        self._kernels.guarded_joint_step(
-            self._limit_arrays, 1.0 / g.characteristic_length, home.buffer, m.lengths * 1.0, 0.0,
-            c.singularity_slowdown, self._halt, c.collision_slowdown, np.empty(COMMAND_SIZE))
+        if self.guards.compiled:
+            self.guards.warm_up(self.config)
 
     # --- inputs -------------------------------------------------------------------------
 
@@ -211,11 +183,10 @@ class TeleopMapping:
 
         ``stamp``: when the master sampled it (its header), for the step's time budget. ``age``:
         how old the sample was on receipt (the receiver's clock minus its stamp) [s]; a sample
-        delivered late is as fresh as when it was taken, so it cannot extend ``master_timeout`` (a
-        negative or NaN age, from a clock ahead of ours, counts as none).
+        delivered late is as fresh as when it was taken, so it cannot extend ``master_timeout``.
         """
         self._master_pose = validate_pose(position, quaternion_xyzw, what='master pose')
-        self._master_pose_time = float(t) - (float(age) if age > 0.0 else 0.0)
+        self._master_pose_time = _taken_at(t, age)
         if self.config.mode == 'cartesian':
             self._sample_stamp = stamp
 
@@ -231,7 +202,7 @@ class TeleopMapping:
         if L.shape != (6,) or not (L.min() > 0.0 and L.max() < math.inf):  # NaN fails both
             raise ValueError(f'master lengths must be 6 finite positive values, got {lengths!r}')
         self._master_lengths = L
-        self._master_lengths_time = float(t) - (float(age) if age > 0.0 else 0.0)
+        self._master_lengths_time = _taken_at(t, age)
         if self.config.mode == 'joint':
             self._sample_stamp = stamp
 
@@ -339,9 +310,10 @@ class TeleopMapping:
         factor = self.speed_factor(t)
         dt = factor * self._time_budget(t)  # every speed limit scaled by the link's factor
         if self.config.mode == 'cartesian':
-            code, detail = self._cartesian_step(dt)
+            p1, q1 = self.desired()
+            self._command, code, detail = self.guards.cartesian(self._command, p1, q1, dt, self.config)
         else:
-            code, detail = self._joint_step(dt)
+            self._command, code, detail = self.guards.joint(self._command, self.desired(), dt, self.config)
         if factor < 1.0 and code in (TeleopCode.NO_WARNING, TeleopCode.SPEED_LIMITED):
             code, detail = TeleopCode.LATENCY_SLOWED, f'speeds x {factor:.2f} for the link latency'
         loads = self.loads.margins(self._command) if self.config.load_guards else None
@@ -385,8 +357,8 @@ class TeleopMapping:
             tcp0 = tool_pose(self.slave, Pose(ps0, qs0))
             ps0, qs0 = tcp0.position, tcp0.quaternion_xyzw
         p, q = np.empty(3), np.empty(4)
-        self._kernels.mapped_pose(pm, qm, pm0, qm0, ps0, qs0, c.translation_scale, c.rotation_mode == 'absolute',
-                                  p, q)
+        self.guards.kernels.mapped_pose(pm, qm, pm0, qm0, ps0, qs0, c.translation_scale,
+                                       c.rotation_mode == 'absolute', p, q)
         if c.control_frame == 'tool':
             a_T_b = ring_b_pose(self.slave, Pose(p, q))
             return a_T_b.position, a_T_b.quaternion_xyzw
@@ -412,61 +384,8 @@ class TeleopMapping:
         self._last_step_time = self._last_step_stamp = None
         return None
 
-    # --- guarded steps -------------------------------------------------------------------
 
-    @property
-    def _halt(self) -> float:
-        """Inverse condition number where motion towards a singularity halts."""
-        c = self.config
-        return self.slave.min_conditioning if c.singularity_halt is None else c.singularity_halt
-
-    def _cartesian_step(self, dt: float) -> tuple[TeleopCode, str]:
-        c = self.config
-        p1, q1 = self.desired()
-        buffer = np.empty(COMMAND_SIZE)
-        outcome, limit, check, index = self._kernels.guarded_cartesian_step(
-            self._limit_arrays, self._command.buffer, p1, q1, c.max_linear_speed * dt,
-            c.max_angular_speed * dt, self.slave.max_speed * dt, LEG_SPEED_ITERATIONS,
-            c.singularity_slowdown, self._halt, c.collision_slowdown, buffer)
-        return self._conclude(outcome, limit, check, index, GuardedCommand(buffer, self.slave.min_conditioning))
-
-    def _joint_step(self, dt: float) -> tuple[TeleopCode, str]:
-        c = self.config
-        L1 = self.desired()
-        buffer = np.empty(COMMAND_SIZE)
-        outcome, limit, check, index = self._kernels.guarded_joint_step(
-            self._limit_arrays, 1.0 / self.slave.characteristic_length, self._command.buffer, L1,
-            self.slave.max_speed * dt, c.singularity_slowdown, self._halt, c.collision_slowdown, buffer)
-        return self._conclude(outcome, limit, check, index, GuardedCommand(buffer, self.slave.min_conditioning))
-
-    def _conclude(self, outcome: int, limit: int, check: int, index: int,
-                  cand: GuardedCommand) -> tuple[TeleopCode, str]:
-        """Take the candidate of an accepted step; the status code and detail of any step."""
-        if outcome == STEP_UNCHANGED:
-            return TeleopCode.NO_WARNING, ''
-        if outcome == STEP_FK_FAILED:
-            return TeleopCode.INVALID, 'FK of the mapped leg lengths did not converge: holding'
-        if outcome == STEP_REFUSED:
-            name, halt_code = _CHECKS[check]
-            if check == CHECK_CONDITIONING:
-                value = cand.margins.inverse_condition - self._halt
-            else:
-                value = cand.buffer[CHECK_STARTS[check] + index]
-            return halt_code, f'{name} margin {float(value):.4g} would be negative: holding'
-        code = _LIMIT_CODES[limit]
-        if self.config.load_guards:
-            cand, code, detail = self.loads.step(self._command, cand, code, self.config, self._halt,
-                                                 joint=self.config.mode == 'joint')
-            if cand is None:
-                return code, detail
-        self._command = cand
-        return code, ''
-
-#: Name and halt code of each check (CHECK_* order).
-_CHECKS = (('stroke', TeleopCode.JOINT_BOUND), ('universal joint', TeleopCode.JOINT_BOUND),
-           ('spherical joint', TeleopCode.JOINT_BOUND), ('interference', TeleopCode.HALT_FOR_COLLISION),
-           ('conditioning', TeleopCode.HALT_FOR_SINGULARITY))
-#: The status code of an accepted step, by what limited it (LIMIT_* order).
-_LIMIT_CODES = (TeleopCode.NO_WARNING, TeleopCode.SPEED_LIMITED,
-                TeleopCode.DECELERATE_FOR_APPROACHING_SINGULARITY, TeleopCode.HALT_FOR_SINGULARITY,
-                TeleopCode.DECELERATE_FOR_COLLISION, TeleopCode.HALT_FOR_COLLISION)
+def _taken_at(t: float, age: float) -> float:
+    """When a sample received at ``t`` was taken, ``age`` earlier (a negative or NaN age, from
+    a clock ahead of ours, counts as none)."""
+    return float(t) - (float(age) if age > 0.0 else 0.0)

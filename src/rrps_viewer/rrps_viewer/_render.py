@@ -26,12 +26,13 @@ import viser.uplot
 
 from rrps_description.geometry import RobotGeometry
 from rrps_description.pose import Pose
-from rrps_kinematics.scene import RobotFigure, torus_mesh
+from rrps_kinematics.scene import RobotFigure
 from rrps_viewer._broadcast import install as install_shared_encoding
 from rrps_viewer._camera import FirstView
 from rrps_viewer._control import OperatorControl
 from rrps_viewer._latency import LinkMonitor
 from rrps_viewer._operator_panel import ClientControls, OperatorActions
+from rrps_viewer._scene import build_scene, draw_robot
 from rrps_viewer._workspace import WorkspaceSnapshot
 
 __all__ = ['Frame', 'ViewerServer']
@@ -112,7 +113,7 @@ class ViewerServer:
         self.first_view = FirstView(self.server, None if structure is None else structure[0],
                                     reach=1.5 * geometry.characteristic_length)
         self.nodes: dict[str, object] = {}
-        self._build_scene(geometry, master_geometry, structure)
+        build_scene(self.server.scene, self.nodes, geometry, master_geometry, structure, master_origin)
         self._build_panel()
         self.server.on_client_connect(self._on_connect)
         self.server.on_client_disconnect(self._on_disconnect)
@@ -126,93 +127,6 @@ class ViewerServer:
         return self.server.get_port()
 
     # --- scene -------------------------------------------------------------------------------
-
-    def _ring_mesh(self, geometry: RobotGeometry, anchors: np.ndarray):
-        radius = float(np.mean(np.linalg.norm(anchors[:, :2], axis=1)))
-        return torus_mesh(radius=radius, tube=max(0.08 * radius, 1e-3))
-
-    def _build_scene(self, geometry, master_geometry, structure) -> None:
-        scene = self.server.scene
-        n = self.nodes
-        if structure is not None:
-            vertices, faces = structure
-            n['/structure'] = scene.add_mesh_simple(
-                '/structure', np.asarray(vertices, dtype=np.float32),
-                np.asarray(faces, dtype=np.uint32), color=(150, 110, 70), side='double')
-        n['/grid'] = scene.add_grid('/grid', width=4.0, height=4.0, cell_size=0.25,
-                                    plane='xy', position=(0.0, 0.0, 0.0))
-        self._add_robot('/robot', geometry, (120, 130, 150), opacity=None)
-        n['/ghost/ring_b'] = scene.add_mesh_simple(
-            '/ghost/ring_b', *self._ring_mesh(geometry, geometry.ring_b_anchors),
-            color=(90, 170, 255), opacity=0.35, visible=False)
-        for ring, colour in (('ring_a', (230, 120, 20)), ('ring_b', (20, 140, 230))):
-            n[f'/trail/{ring}'] = scene.add_line_segments(
-                f'/trail/{ring}', points=np.zeros((1, 2, 3)), colors=colour, thickness=0.006,
-                visible=False)
-        if master_geometry is not None:
-            self._add_robot('/master', master_geometry, (160, 160, 160), opacity=None)
-            n['/master/feedback'] = scene.add_line_segments(
-                '/master/feedback', points=np.zeros((1, 2, 3)), colors=(220, 40, 40),
-                thickness=4.0, visible=False)
-            n['/master/label'] = scene.add_label('/master/label', 'master robot',
-                                                 position=self.master_origin.position + [0, 0, 0.2])
-        n['/robot/label'] = scene.add_label('/robot/ring_b/label', 'ring_b', position=(0, 0, 0.05))
-
-    def _add_robot(self, prefix: str, geometry: RobotGeometry, colour, *, opacity) -> None:
-        scene = self.server.scene
-        n = self.nodes
-        for ring, anchors in (('ring_a', geometry.ring_a_anchors),
-                              ('ring_b', geometry.ring_b_anchors)):
-            radius = float(np.mean(np.linalg.norm(anchors[:, :2], axis=1)))
-            n[f'{prefix}/{ring}'] = scene.add_frame(f'{prefix}/{ring}', axes_length=0.4 * radius,
-                                                    axes_radius=0.02 * radius)
-            n[f'{prefix}/{ring}/body'] = scene.add_mesh_simple(
-                f'{prefix}/{ring}/body', *self._ring_mesh(geometry, anchors), color=colour,
-                opacity=opacity)
-            if prefix == '/robot':
-                n[f'{prefix}/grippers/{ring}'] = scene.add_mesh_simple(
-                    f'{prefix}/{ring}/gripper', *torus_mesh(radius=0.45 * radius,
-                                                            tube=0.06 * radius),
-                    color=(200, 200, 200))
-        if geometry.tool is not None:
-            self._add_tool(prefix, geometry.tool, colour=(200, 90, 40) if prefix == '/robot'
-                           else (150, 150, 150))
-        thickness = 2.0 * max(geometry.leg_radius, 0.004 * geometry.characteristic_length)
-        n[f'{prefix}/legs'] = scene.add_line_segments(
-            f'{prefix}/legs', points=np.zeros((6, 2, 3)), colors=(40, 170, 70), thickness=thickness)
-
-    def _add_tool(self, prefix: str, tool, *, colour) -> None:
-        """The tool on ring_b (its frame ``b_T_tool``, the shape ending at the tool-centre point)."""
-        scene = self.server.scene
-        x, y, z, w = tool.quaternion_xyzw
-        frame = f'{prefix}/ring_b/tool'
-        self.nodes[frame] = scene.add_frame(frame, position=tool.position, wxyz=(w, x, y, z),
-                                            axes_length=0.05, axes_radius=0.002)
-        if tool.shape == 'cylinder':
-            radius, length = tool.size
-            self.nodes[f'{frame}/shape'] = scene.add_cylinder(
-                f'{frame}/shape', radius=radius, height=length, color=colour,
-                position=(0.0, 0.0, -0.5 * length))
-        elif tool.shape == 'box':
-            self.nodes[f'{frame}/shape'] = scene.add_box(
-                f'{frame}/shape', dimensions=tool.size, color=colour,
-                position=(0.0, 0.0, -0.5 * tool.size[2]))
-        else:
-            self.nodes[f'{frame}/shape'] = scene.add_icosphere(
-                f'{frame}/shape', radius=tool.size[0], color=colour)
-
-    def _draw_robot(self, prefix: str, figure: RobotFigure) -> None:
-        n = self.nodes
-        for ring, pose in (('ring_a', figure.world_T_a), ('ring_b', figure.world_T_b)):
-            n[f'{prefix}/{ring}'].position = pose.position
-            n[f'{prefix}/{ring}'].wxyz = pose.wxyz
-        legs = n[f'{prefix}/legs']
-        points = figure.leg_points.astype(np.float32)
-        if not np.array_equal(points, legs.points):  # arrays are not de-duplicated by viser
-            legs.points = points
-        colours = np.repeat(figure.leg_colours[:, None, :], 2, axis=1)
-        if not np.array_equal(colours, legs.colors):
-            legs.colors = colours
 
     def _scene_key(self, frame: Frame) -> tuple:
         """What the 3-D scene of ``frame`` depends on: figures are cached by the node (the same
@@ -245,9 +159,9 @@ class ViewerServer:
         n = self.nodes
         with self.server.atomic():
             if frame.slave is not None:
-                self._draw_robot('/robot', frame.slave)
+                draw_robot(self.nodes, '/robot', frame.slave)
             if frame.master is not None and '/master/legs' in n:
-                self._draw_robot('/master', frame.master)
+                draw_robot(self.nodes, '/master', frame.master)
             for ring in ('ring_a', 'ring_b'):
                 closed = frame.grippers.get(ring)
                 handle = n[f'/robot/grippers/{ring}']

@@ -28,19 +28,15 @@ The action ``climb/step`` (rrps_msgs/action/ClimbStep: feedback, cancel;
 ``auto_steps`` > 0 climbs that many steps up once the robot's state is known.
 
 With ``preview`` (default), each planned step is first simulated on the dynamics in a worker
-process (:func:`rrps_climbing.step_preview.run_preview` in a
-:class:`~rrps_runtime.worker.WorkerProcess`: the node and those composed with it keep their
-rate, docs/deployment.md), its
-peaks published on ``climb/preview`` (values :class:`~rrps_interfaces.climb.ClimbPreview`,
-latched); the machine then starts or refuses it.
+process (:class:`rrps_climbing.preview_worker.PreviewWorker`: the node keeps its rate), its peaks
+published on ``climb/preview`` (values :class:`~rrps_interfaces.climb.ClimbPreview`, latched);
+the machine then starts or refuses it.
 """
 
 from __future__ import annotations
 
 import logging
 import math
-from concurrent.futures import Future
-from functools import partial
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, TransformStamped
@@ -50,20 +46,19 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 
 from rrps_climbing.climb_action import ClimbAction
+from rrps_climbing.climb_planner import climb_planner, preview_config, start_position, step_config
 from rrps_climbing.frame_crossing import FrameNodePlanner
 from rrps_climbing.gait import GaitPlanner
-from rrps_climbing.load_check import LoadCheck
-from rrps_climbing.odometry_attitude import SupportPublisher, anchor_phases, support_of_odometry
+from rrps_climbing.odometry_attitude import SupportPublisher, support_of_odometry
+from rrps_climbing.preview_worker import PreviewWorker
 from rrps_climbing.route import ROUTES
-from rrps_climbing.route_steps import ROUTE_START, RouteSteps, route_planner
-from rrps_climbing.step_io import ClimbOutput, ClimbTarget, StepConfig
+from rrps_climbing.step_io import ClimbOutput, ClimbTarget
 from rrps_climbing.step_machine import ClimbStepMachine
-from rrps_climbing.step_preview import PreviewConfig, run_preview, warm_up
 from rrps_description.geometry import load_robot
 from rrps_description.loads import payload_from_parameters
 from rrps_description.names import BASE_FRAME, ODOM_FRAME, RING_A_FRAME, RINGS, WORLD_FRAME, prefixed, ring_joint
 from rrps_description.pose import QUATERNION_TOLERANCE, InvalidPose, Pose
-from rrps_description.structures import STRUCTURES, structure_from_parameters
+from rrps_description.structures import STRUCTURES
 from rrps_interfaces.climb import (
     CLIMB_PREVIEW,
     CLIMB_RESUME,
@@ -73,7 +68,6 @@ from rrps_interfaces.climb import (
     CLIMB_STEP_UP,
     ODOMETRY,
     SUPPORT_POSE,
-    ClimbPreview,
     ClimbState,
     ClimbStatus,
     odometry_topic,
@@ -99,7 +93,6 @@ from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, LATEST_QOS, LINK_STATE_QO
 from rrps_runtime.recording_tap import RecordingTap
 from rrps_runtime.scheduling import scheduling_parameters
 from rrps_runtime.supervision import CONTROL_RT_PRIORITY
-from rrps_runtime.worker import WorkerProcess
 
 __all__ = ['PARAMETERS', 'ClimbNode', 'main']
 
@@ -168,27 +161,13 @@ class ClimbNode(Node):
         self.geometry = load_robot(values['robot'])
         if payload is not None:
             self.geometry = self.geometry.with_(payload=payload)
-        planner = self._planner(values)
-        start = values['start'] if values['start'] >= 0.0 else None
-        if isinstance(planner, FrameNodePlanner) and planner.crossing is not None and start is None:
-            start = planner.crossing.candidate.s_pre
-        if isinstance(planner, RouteSteps) and start is None:
-            start = ROUTE_START
-        config = StepConfig(period=1.0 / values['rate'],
-                            **{k: values[k] for k in ('position_tolerance', 'orientation_tolerance',
-                                                      'settle_timeout', 'settle_time', 'state_timeout',
-                                                      'operator_timeout')})
-        self.machine = ClimbStepMachine(planner, config, start=start,
+        planner = climb_planner(self.geometry, values)
+        self._log_crossing(planner)
+        config = step_config(values)
+        self.machine = ClimbStepMachine(planner, config, start=start_position(planner, values),
                                         step_length=values['step_length'] or None,
                                         auto_steps=values['auto_steps'], preview=values['preview'])
-        if len(values['gravity']) != 3:
-            raise ValueError(f"gravity: expected 3 numbers [m/s^2], got {values['gravity']}")
-        self._preview_config = PreviewConfig(gravity=tuple(values['gravity']),
-                                             min_margin=values['preview_min_margin'])
-        # never in this process' interpreter; its kernels loaded there at start, not at the first step
-        self._preview_worker = WorkerProcess('climb_preview', warm_up=partial(warm_up, self.geometry,
-                                                                              self._preview_config))
-        self._preview_job: Future | None = None
+        self._previews = PreviewWorker(self.geometry, preview_config(values))
         self._pose_msg: PoseStamped | None = None
         self._odometry = None  # (world_T_a, world_T_b, stamp) not yet published
         self._gripper_call = None  # (GripperRequest, Future) awaiting the driver's answer
@@ -232,30 +211,16 @@ class ClimbNode(Node):
         self.create_timer(config.period, self._on_tick)
         self.create_timer(0.5, lambda: self._publish_status(self.machine.report()))
 
-    def _planner(self, values: dict) -> GaitPlanner:
-        """The inchworm gait on the structure, or with ``junction_deg`` the frame-node crossing
-        (its search's refusal is logged; every step then refuses it)."""
-        if values['structure'] in ROUTES:
-            return route_planner(self.geometry, values['structure'], loads=LoadCheck(speed=values['speed'] or None),
-                                 corner_deg=values['corner_deg'], bends_deg=values['route_bends_deg'],
-                                 use_extra_dof=values['use_extra_dof'])
-        if values['junction_deg'] <= 0.0:
-            if values['out_of_plane']:
-                raise ValueError('out_of_plane needs junction_deg > 0')
-            structure = structure_from_parameters(values)
-            return GaitPlanner(self.geometry, structure, use_extra_dof=values['use_extra_dof'],
-                               loads=LoadCheck(speed=values['speed'] or None))
-        if values['structure'] != 'frame':
-            raise ValueError(f"junction_deg needs structure 'frame', got {values['structure']!r}")
-        planner = FrameNodePlanner(self.geometry, values['junction_deg'], values['out_of_plane'],
-                                   use_extra_dof=values['use_extra_dof'])
+    def _log_crossing(self, planner: GaitPlanner) -> None:
+        """A frame-node crossing's search: its refusal (every step then refuses it) or its stance."""
+        if not isinstance(planner, FrameNodePlanner):
+            return
         if planner.refusal is not None:
             self.get_logger().error(f'frame node refused: {planner.refusal}')
         else:
             c = planner.crossing
             self.get_logger().info(f'{planner.title}: crossing from s={c.candidate.s_pre:.3f} m '
                                    f'(score {c.score:.3f}, {c.evaluated} candidates)')
-        return planner
 
     # --- the machine's state, for tests and tools ------------------------------------------------
 
@@ -337,14 +302,9 @@ class ClimbNode(Node):
 
     def _take_preview(self) -> None:
         """Publish a finished preview and hand it to the machine."""
-        if self._preview_job is None or not self._preview_job.done():
+        preview = self._previews.result()
+        if preview is None:
             return
-        job, self._preview_job = self._preview_job, None
-        try:
-            preview = job.result()
-        except Exception as exc:  # noqa: BLE001 - a preview that raised refuses its step, logged
-            preview = ClimbPreview(accepted=False, max_force=float(self.geometry.max_force),
-                                   detail=f'preview failed: {type(exc).__name__}: {exc}')
         msg = DiagnosticStatus(level=OK if preview.accepted else WARN, name=f'{self.get_name()}: preview',
                                message=preview.detail, hardware_id=self.geometry.name)
         msg.values = [KeyValue(key=k, value=v) for k, v in preview.to_values().items()]
@@ -380,11 +340,9 @@ class ClimbNode(Node):
             request = SetBool.Request(data=out.gripper.close)
             self._gripper_call = (out.gripper, self._gripper_clients[out.gripper.ring].call_async(request))
         if out.preview is not None:
-            c = self.machine.config
             odometry = self.machine.odometry  # the step previewed where the odometry stands
-            phases = anchor_phases(out.preview, None if odometry is None else odometry.world_T_a)
-            self._preview_job = self._preview_worker.submit(
-                run_preview, self.geometry, phases, period=c.period, config=self._preview_config)
+            self._previews.submit(out.preview, None if odometry is None else odometry.world_T_a,
+                                  self.machine.config.period)
         if out.status is not None:
             self._publish_status(out.status)
 
@@ -425,11 +383,10 @@ class ClimbNode(Node):
         self._status_pub.publish(msg)
         self._diag.report(level, f'{status.state.value}: {status.detail}', status)
 
-
     def destroy_node(self) -> None:
         if self._action is not None:
             self._action.close()
-        self._preview_worker.shutdown()
+        self._previews.shutdown()
         super().destroy_node()
 
 

@@ -18,7 +18,8 @@ Drawing runs in the viewer's own thread at ``render_rate`` Hz, whatever the cont
 callbacks only store the latest messages (state streams are read with keep-last-1, so a 500 Hz
 stream costs the executor one cheap store per sample and never queues up). Requests from the
 browser are queued and executed on the executor's thread by the ``enable_rate`` timer, so every
-rclpy call stays on one thread. The status panel's text comes from ``viewer/status_text``.
+rclpy call stays on one thread. The picture comes from ``rrps_viewer.picture``, the status
+panel's text from ``viewer/status_text``.
 
 Safety: the server binds ``host`` (default 127.0.0.1); every browser is read-only until it enters
 ``token`` (generated with ``secrets`` and printed when empty); one operator at a time; a
@@ -31,7 +32,6 @@ has "Engage (clutch)" ticked and holds "Hold to move" (20 Hz hold events, expiri
 
 from __future__ import annotations
 
-import collections
 import math
 import queue
 import secrets
@@ -60,9 +60,8 @@ from rrps_interfaces.teleop import (
     TELEOP_STATUS,
     ViewerStatus,
 )
-from rrps_kinematics.scene import FigureCache, Trail, world_ring_poses
 from rrps_runtime.diagnostics import OK, OPERATOR_STATION, Diagnostics
-from rrps_runtime.messages import lengths_from_joint_state, pose_from_msg, pose_to_msg, stamp_to_seconds
+from rrps_runtime.messages import pose_to_msg, stamp_to_seconds
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
@@ -73,13 +72,10 @@ from rrps_viewer import Frame, ViewerServer, send_file
 from rrps_viewer import status_text as panel
 from rrps_viewer._workspace import WorkspaceView
 from rrps_viewer.operator_requests import OperatorRequest, ViewerRequests
+from rrps_viewer.picture import Picture
 from rrps_viewer.recording_clients import ViewerRecording
 from rrps_viewer.robot_subscriptions import DRIVER, FK, ViewerRobots
 
-#: Length of the drawn master/feedback arrow per newton [m/N].
-FEEDBACK_ARROW = 0.01
-#: The leg-length plot is redrawn this often [s] (its arrays are built only then).
-PLOT_PERIOD = 0.2
 #: Queued browser requests for the recording side (the others are OperatorRequests).
 _RECORDING = object()
 
@@ -125,7 +121,6 @@ class ViewerNode(Node):
         render_rate, enable_rate = values['render_rate'], values['enable_rate']
         deadman_timeout, origin = values['deadman_timeout'], values['master_origin']
         resolution = values['workspace_resolution']
-        self._plot_window = values['plot_window']
         if len(origin) != 3 or not all(math.isfinite(v) for v in origin):
             raise ValueError(f'master_origin must be 3 finite numbers, got {list(origin)}')
         self.workspace = WorkspaceView(self.geometry, resolution=resolution) if resolution else None
@@ -137,12 +132,7 @@ class ViewerNode(Node):
         self.control = OperatorControl(token=self.token, deadman_timeout=deadman_timeout)
         self._lock = threading.Lock()
         self._latest: dict[str, object] = {}
-        self._t0 = time.monotonic()
-        self._plot_t: collections.deque = collections.deque()
-        self._plot_l: collections.deque = collections.deque()
-        self._plot_time = -math.inf
-        self._trails = {'ring_a': Trail(), 'ring_b': Trail()}
-        self._odometry_rings = {odometry_topic(ring): ring for ring in self._trails}
+        self._odometry_rings = {odometry_topic(ring): ring for ring in ('ring_a', 'ring_b')}
         self._pose_count = 0
         self._report_window = (time.monotonic(), 0, 0)
         self._actions: queue.SimpleQueue = queue.SimpleQueue()
@@ -150,9 +140,10 @@ class ViewerNode(Node):
         self._enable_was = False
         self._false_left = 0
         self._master_origin = Pose(np.asarray(origin, dtype=float))
-        self._figure = FigureCache()
+        #: the picture, drawn in the viewer's thread (:mod:`rrps_viewer.picture`)
+        self.picture = Picture(self.geometry, self.master_geometry, self._master_origin, self.workspace,
+                               values['plot_window'], self.get_logger())
         self._panel_text, self._panel_time = '', -1.0
-        self._state_read: tuple = (None, None)
 
         self._enable_pub = self.create_publisher(Bool, TELEOP_ENABLE, COMMAND_QOS)
         self._master_pub = self.create_publisher(PoseStamped, MASTER_TARGET_POSE, COMMAND_QOS)
@@ -189,10 +180,7 @@ class ViewerNode(Node):
             self._latest[key] = msg
         ring = self._odometry_rings.get(key)
         if ring is not None:
-            position, _ = pose_from_msg(msg)
-            if np.all(np.isfinite(position)):
-                with self._lock:
-                    self._trails[ring].add(position)
+            self.picture.add_to_trail(ring, msg)
 
     def _on_drawn(self, topic: str, msg) -> None:
         """A message of the drawn robot (``nodes/viewer_robots``)."""
@@ -204,38 +192,9 @@ class ViewerNode(Node):
         self._store(topic, msg)
 
     def _on_state(self, msg: JointState) -> None:
-        """Keep the newest actuators/state; it is read at the drawing rate (:meth:`_read_state`)."""
+        """Keep the newest actuators/state; it is read at the drawing rate (``Picture.read_state``)."""
         with self._lock:
             self._latest[ACTUATORS_STATE] = msg
-
-    def _read_state(self, msg: JointState | None):
-        """(lengths, efforts or None, stamp [s]) of an actuators/state, or None; the leg-length
-        plot takes a sample every 0.05 s. Called by the drawing thread only."""
-        if msg is None:
-            return None
-        if msg is self._state_read[0]:
-            return self._state_read[1]
-        try:
-            lengths = lengths_from_joint_state(msg)
-        except ValueError as exc:
-            self.get_logger().warn(f'actuators/state ignored: {exc}', throttle_duration_sec=5.0)
-            self._state_read = (msg, None)
-            return None
-        efforts = None
-        if len(msg.effort) == len(msg.name) and msg.name:
-            index = {n: i for i, n in enumerate(msg.name)}
-            efforts = np.array([msg.effort[index[f'leg_{i}']] for i in range(1, 7)])
-        state = (lengths, efforts, stamp_to_seconds(msg.header.stamp))
-        self._state_read = (msg, state)
-        now = time.monotonic() - self._t0
-        with self._lock:
-            if not self._plot_t or now - self._plot_t[-1] >= 0.05:
-                self._plot_t.append(now)
-                self._plot_l.append(lengths)
-                while self._plot_t and now - self._plot_t[0] > self._plot_window:
-                    self._plot_t.popleft()
-                    self._plot_l.popleft()
-        return state
 
     def _switched(self, namespace: str) -> None:
         """The teleop node drives the robot in ``namespace`` now: draw it, send its requests to
@@ -249,9 +208,7 @@ class ViewerNode(Node):
         with self._lock:
             for key in (POSE, TARGET_POSE, ACTUATORS_STATE, *self._odometry_rings):
                 self._latest.pop(key, None)
-            self._trails = {ring: Trail() for ring in self._trails}
-            self._plot_t.clear()
-            self._plot_l.clear()
+        self.picture.clear()
         self.viewer.refresh_all()
 
     def _report(self) -> None:
@@ -273,92 +230,20 @@ class ViewerNode(Node):
 
     # --- the picture (drawing thread) ---------------------------------------------------------
 
-    def _gripping(self, grippers: dict) -> str:
-        if grippers.get('ring_a', 1.0) is not None and grippers.get('ring_a', 1.0) >= 0.5:
-            return 'ring_a'
-        return 'ring_b' if (grippers.get('ring_b') or 0.0) >= 0.5 else 'ring_a'
-
     def frame(self) -> Frame:
         """The latest picture: robot, ghost, master, grippers, trails, panel and plot."""
         with self._lock:
             latest = dict(self._latest)
-        latest[ACTUATORS_STATE] = self._read_state(latest.get(ACTUATORS_STATE))
-        now = time.monotonic()
-        with self._lock:
-            plot = None  # the plot is redrawn at 5 Hz: its arrays only then
-            if now - self._plot_time >= PLOT_PERIOD and len(self._plot_t) >= 2:
-                plot, self._plot_time = (np.array(self._plot_t), np.array(self._plot_l)), now
-            trails = {ring: trail.points for ring, trail in self._trails.items()}
+        latest[ACTUATORS_STATE] = self.picture.read_state(latest.get(ACTUATORS_STATE))
         summary = self.robots.latest()
         latest.update({key: summary.get(key) for key in (TELEOP_STATUS, CLIMB_STATUS, CLIMB_PREVIEW, GRIPPERS_STATE)})
         latest['driver'], fk_status = summary.get(DRIVER), summary.get(FK)
-        grippers: dict[str, float | None] = {'ring_a': None, 'ring_b': None}
-        gmsg = latest.get(GRIPPERS_STATE)
-        if gmsg is not None:
-            for name, value in zip(gmsg.name, gmsg.position):
-                if name in grippers and math.isfinite(value):
-                    grippers[name] = float(value)
-        frame = Frame(grippers=grippers, trails=trails, plot=plot,
-                      replay=self.recording.replay_status())
-        state = latest.get(ACTUATORS_STATE)
-        efforts = state[1] if state is not None else None
-        pose_msg = latest.get(POSE)
-        world_T_a = None
-        if pose_msg is not None:
-            try:
-                a_T_b = Pose(*pose_from_msg(pose_msg))
-                gripping = self._gripping(grippers)
-                odom = latest.get(odometry_topic(gripping))
-                world_T_g = Pose(*pose_from_msg(odom)) if odom is not None else None
-                if world_T_g is None:  # no odometry yet: ring_a at the world origin
-                    gripping, world_T_g = 'ring_a', Pose()
-                world_T_a, _ = world_ring_poses(a_T_b=a_T_b, gripping=gripping,
-                                                world_T_gripping=world_T_g)
-                frame.slave = self._figure('slave', self.geometry, a_T_b, world_T_a, efforts)
-            except ValueError as exc:
-                self.get_logger().warn(f'cannot draw pose: {exc}', throttle_duration_sec=5.0)
-        target = latest.get(TARGET_POSE)
-        if target is not None and world_T_a is not None:
-            try:
-                frame.ghost_world_T_b = world_T_a.compose(Pose(*pose_from_msg(target)))
-            except ValueError:
-                pass
-        master_msg = latest.get(MASTER_POSE)
-        if master_msg is not None and self.master_geometry is not None:
-            try:
-                m_pose = Pose(*pose_from_msg(master_msg))
-                frame.master = self._figure('master', self.master_geometry, m_pose,
-                                            self._master_origin, None)
-                frame.master_handle = frame.master.world_T_b
-                feedback = latest.get(MASTER_FEEDBACK)
-                if feedback is not None:
-                    f = feedback.wrench.force
-                    force = self._master_origin.rotation @ np.array([f.x, f.y, f.z])
-                    start = frame.master.world_T_b.position
-                    frame.master_feedback = np.stack([start, start + FEEDBACK_ARROW * force])
-            except ValueError:
-                pass
-        self._add_workspace(frame, latest)
+        frame = self.picture.draw(latest, self.recording.replay_status())
+        now = time.monotonic()
         if now - self._panel_time >= 0.25:  # text for people: 4 Hz
             self._panel_text, self._panel_time = self._panel(latest, frame, fk_status), now
         frame.panel = self._panel_text
         return frame
-
-    def _add_workspace(self, frame: Frame, latest: dict) -> None:
-        """The reachable workspace at the slave's orientation (computed in the background), and
-        its copy on the master through the Cartesian mapping: a slave position p is reached
-        when the master is at pm + (p - ps) / scale (pm, ps the current poses)."""
-        if self.workspace is None or frame.slave is None:
-            return
-        a_T_b = frame.slave.world_T_a.inverse() @ frame.slave.world_T_b
-        self.workspace.request(a_T_b.quaternion_xyzw, frame.slave.world_T_a.quaternion_xyzw)
-        frame.workspace = self.workspace.latest()
-        master_msg = latest.get(MASTER_POSE)
-        if frame.workspace is None or master_msg is None or self.master_geometry is None:
-            return
-        scale = panel.translation_scale(latest.get(TELEOP_STATUS))
-        pm, _ = pose_from_msg(master_msg)
-        frame.master_workspace = (pm - a_T_b.position / scale, scale)
 
     def _panel(self, latest: dict, frame: Frame, fk_status) -> str:
         """The status panel (markdown), from the typed statuses (viewer/status_text)."""
