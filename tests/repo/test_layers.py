@@ -1,5 +1,5 @@
-"""The package layers of .importlinter hold (import-linter), they fail when broken, and no module
-in src/ is longer than 500 lines."""
+"""The package layers of .importlinter hold (import-linter), they fail when broken, no module in
+src/ is longer than 400 lines and no test module longer than 500."""
 
 from __future__ import annotations
 
@@ -14,7 +14,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 SRC = ROOT / 'src'
 LINT_IMPORTS = Path(sys.executable).parent / 'lint-imports'
-MAX_LINES = 500
+TESTS = ROOT / 'tests'
+MAX_LINES = 400
+MAX_TEST_LINES = 500
 
 
 def _lint_imports(pythonpath: list[Path] | None = None) -> subprocess.CompletedProcess:
@@ -59,7 +61,16 @@ def test_a_broken_layer_fails_the_check(tmp_path, module, line, broken):
     assert f'{broken}' in out.stdout and 'BROKEN' in out.stdout, out.stdout[-3000:]
 
 
-def test_no_module_in_src_is_longer_than_500_lines():
-    long = {str(p.relative_to(SRC)): n for p in SRC.rglob('*.py')
-            if (n := len(p.read_text().splitlines())) > MAX_LINES}
-    assert not long, long
+def _longer_than(root: Path, limit: int) -> dict[str, int]:
+    """The Python modules under ``root`` (not in build trees or node_modules) over ``limit`` lines."""
+    return {str(p.relative_to(root)): n for p in root.rglob('*.py')
+            if not {'build', 'node_modules'} & set(p.relative_to(root).parts)
+            and (n := len(p.read_text().splitlines())) > limit}
+
+
+def test_no_module_in_src_is_longer_than_400_lines():
+    assert not _longer_than(SRC, MAX_LINES)
+
+
+def test_no_test_module_is_longer_than_500_lines():
+    assert not _longer_than(TESTS, MAX_TEST_LINES)
