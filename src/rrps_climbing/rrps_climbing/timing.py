@@ -41,7 +41,7 @@ from rrps_description.geometry import RobotGeometry
 from rrps_description.motion_limits import ActuatorLimits
 from rrps_description.pose import Pose
 from rrps_loads.loads import holding_margin
-from rrps_loads.path_loads import loads_at
+from rrps_loads.path_loads import loads_at, min_margin, peak_force, peak_leg
 
 __all__ = ['SAMPLE_PERIOD', 'GRID_SPACING', 'PLAN_SHARE', 'TimedLoads', 'TimedMotion', 'time_motion', 'rest_loads',
            'check_speed']
@@ -73,16 +73,15 @@ class TimedLoads(NamedTuple):
 
     @property
     def peak_force(self) -> float:
-        return float(np.max(np.abs(self.actuator_forces)))
+        return peak_force(self.actuator_forces)
 
     @property
     def peak_leg(self) -> int:
-        return int(np.argmax(np.max(np.abs(self.actuator_forces), axis=0)))
+        return peak_leg(self.actuator_forces)
 
     @property
     def min_holding_margin(self) -> float:
-        m = self.holding_margin
-        return math.nan if np.all(np.isnan(m)) else float(np.nanmin(m))
+        return min_margin(self.holding_margin)
 
 
 class TimedMotion:

@@ -42,6 +42,21 @@ ACTUATOR_FORCE = 'actuator_force'
 HOLDING = 'holding'
 
 
+def peak_force(actuator_forces: np.ndarray) -> float:
+    """The largest |actuator force| of (K, 6) samples [N]."""
+    return float(np.max(np.abs(actuator_forces)))
+
+
+def peak_leg(actuator_forces: np.ndarray) -> int:
+    """Index (0-5) of the leg with the largest |force| over (K, 6) samples."""
+    return int(np.argmax(np.max(np.abs(actuator_forces), axis=0)))
+
+
+def min_margin(holding_margin: np.ndarray) -> float:
+    """The smallest holding margin of (K,) samples (NaN when all are NaN: no capacity)."""
+    return math.nan if np.all(np.isnan(holding_margin)) else float(np.nanmin(holding_margin))
+
+
 @dataclass(frozen=True)
 class PathLoads:
     """Loads at K samples of a path: ``actuator_forces`` (K, 6) [N] (+ = pushing the rings apart);
@@ -57,18 +72,17 @@ class PathLoads:
     @property
     def peak_force(self) -> float:
         """The largest |actuator force| over the path [N]."""
-        return float(np.max(np.abs(self.actuator_forces)))
+        return peak_force(self.actuator_forces)
 
     @property
     def peak_leg(self) -> int:
         """Index (0-5) of the leg with the largest |force|."""
-        return int(np.argmax(np.max(np.abs(self.actuator_forces), axis=0)))
+        return peak_leg(self.actuator_forces)
 
     @property
     def min_holding_margin(self) -> float:
         """The smallest holding margin over the path (NaN without a capacity)."""
-        m = self.holding_margin
-        return math.nan if np.all(np.isnan(m)) else float(np.nanmin(m))
+        return min_margin(self.holding_margin)
 
 
 @dataclass(frozen=True)
