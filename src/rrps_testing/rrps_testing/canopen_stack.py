@@ -294,7 +294,9 @@ def finish_step(stack: Stack, resumes: int = 30) -> None:
                         timeout=120), climb_state(stack)
         if climb_state(stack).state is not ClimbState.PAUSED:
             break
-        assert wait_for(lambda: call(stack, CLIMB_RESUME)[0], period=0.5), (climb_state(stack), stack.probe.latest())
+        answers = []
+        assert wait_for(lambda: answers.append(call(stack, CLIMB_RESUME)) or answers[-1][0], period=0.5), (
+            answers[-1], climb_state(stack), stack.probe.latest())
         resumed = time.monotonic()
         assert wait_for(lambda: stack.climb_status[-1][0] > resumed), climb_state(stack)
     assert climb_state(stack).state is ClimbState.IDLE, climb_state(stack)
