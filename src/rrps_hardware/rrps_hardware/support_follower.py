@@ -59,6 +59,14 @@ class SupportReport:
     def stale(self) -> bool:
         return self.source is SupportSource.STALE
 
+    def status_values(self, support: Support | None = None) -> dict:
+        """The support fields of a driver's status (``DriverStatus``), of ``support`` (default:
+        the one in use)."""
+        support = self.support if support is None else support
+        return {'support_ring': support.ring, 'world_q_support': tuple(float(v) for v in support.world_q_support),
+                'support_source': self.source, 'support_age': None if self.age is None else round(self.age, 3),
+                'support_rejected': self.rejected}
+
     def text(self) -> str:
         """One line for a status message: the ring, the source and the age."""
         age = '' if self.age is None else f', {self.age:.1f} s old'

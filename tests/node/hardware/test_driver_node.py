@@ -286,3 +286,27 @@ def test_a_sensor_data_reader_matches_the_reliable_state_stream(ros_context):
     assert [i.qos_profile.reliability for i in offered] == [ReliabilityPolicy.RELIABLE]
     assert list(got[-1].name) == list(LEG_NAMES) and len(got[-1].position) == 6
     reader.destroy_node()
+
+
+def test_a_hardware_verb_that_raises_is_an_error_with_its_reason(ros_context, monkeypatch):
+    """An exception out of the hardware's activation (a library error it did not expect) leaves the
+    driver inactive, with the exception's text in the log and in its ERROR status: rclpy's
+    lifecycle alone would turn it into an error state without a word."""
+    from rrps_sim.simulated_robot import SimulatedRobot
+
+    def raising(self):
+        raise RuntimeError('the bus went away mid-homing')
+    monkeypatch.setattr(SimulatedRobot, 'on_activate', raising)
+    node = driver(ros_context)
+    probe, _, diagnostics, pub = setup(ros_context, node)
+    try:
+        with Spinner(ros_context, [node, probe]):
+            assert not node.active
+            expected = 'on_activate failed: RuntimeError: the bus went away mid-homing'
+            assert wait_for(lambda: any(s.level == DiagnosticStatus.ERROR and expected in s.message
+                                        for s in statuses(diagnostics, 'driver_node'))), [
+                s.message for s in statuses(diagnostics, 'driver_node')][-3:]
+            pub.publish(command(probe, POLE.home_lengths))
+            assert wait_for(lambda: node.rejected >= 1)   # nothing moves
+    finally:
+        node.destroy_node()

@@ -32,6 +32,7 @@ status says so (WARN, ``support_source`` STALE); a malformed one is rejected and
 from __future__ import annotations
 
 import time
+import traceback
 
 import numpy as np
 from geometry_msgs.msg import TransformStamped
@@ -43,7 +44,7 @@ from std_srvs.srv import SetBool, Trigger
 from rrps_description.geometry import load_robot
 from rrps_description.names import LEG_NAMES, RINGS
 from rrps_hardware.commands import checked_command, ring_joints
-from rrps_hardware.interface import BusState, Command, HardwareConfig, Result, ReturnType, Transition
+from rrps_hardware.interface import BusState, CallbackReturn, Command, HardwareConfig, Result, ReturnType, Transition
 from rrps_hardware.registry import hardware_class, hardware_parameters, registered_hardware
 from rrps_hardware.support_follower import DEFAULT_TIMEOUT, SupportFollower
 from rrps_interfaces.climb import SUPPORT_POSE
@@ -145,9 +146,16 @@ class DriverNode(LifecycleNode):
 
     # --- lifecycle: the hardware's verbs ---
 
-    def _transition(self, outcome: Transition) -> TransitionCallbackReturn:
-        """The lifecycle return of a hardware verb; a refusal's reason is logged and kept, as is
-        what a successful verb had to say (what it skipped) as a warning."""
+    def _transition(self, verb: str, *args) -> TransitionCallbackReturn:
+        """The lifecycle return of the hardware's verb ``verb`` called with ``args``: a refusal's
+        reason is logged and kept, as is what a successful verb had to say (what it skipped) as a
+        warning; an exception it raises is an ERROR with its text, its traceback logged (rclpy's
+        lifecycle would turn it into an error without a word)."""
+        try:
+            outcome = getattr(self.hardware, verb)(*args)
+        except Exception as exc:
+            self.get_logger().error(f'{self.label} {verb} raised:\n{traceback.format_exc()}')
+            outcome = Transition(CallbackReturn.ERROR, f'{verb} failed: {type(exc).__name__}: {exc}')
         if outcome.ok:
             if outcome.reason:
                 self.get_logger().warning(outcome.reason)
@@ -157,13 +165,13 @@ class DriverNode(LifecycleNode):
         return getattr(TransitionCallbackReturn, outcome.code.name)  # FAILURE, or ERROR: on to on_error
 
     def on_configure(self, state: State) -> TransitionCallbackReturn:
-        result = self._transition(self.hardware.on_configure(self._config))
+        result = self._transition('on_configure', self._config)
         if result == TransitionCallbackReturn.SUCCESS:
             self.state = self.hardware.read(time.monotonic(), 0.0)
         return result
 
     def on_activate(self, state: State) -> TransitionCallbackReturn:
-        result = self._transition(self.hardware.on_activate())
+        result = self._transition('on_activate')
         if result != TransitionCallbackReturn.SUCCESS:
             self._set_status(ERROR, f'activation refused: {self._refusal}')
             return result
@@ -176,19 +184,19 @@ class DriverNode(LifecycleNode):
         self.active = False
         self._drop_command()
         self._set_status(WARN, f'inactive: holding; activate through {self.get_name()}/change_state')
-        self._transition(self.hardware.on_deactivate())
+        self._transition('on_deactivate')
         return super().on_deactivate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
-        return self._transition(self.hardware.on_cleanup())
+        return self._transition('on_cleanup')
 
     def on_shutdown(self, state: State) -> TransitionCallbackReturn:
         self.active = False
-        return self._transition(self.hardware.on_shutdown())
+        return self._transition('on_shutdown')
 
     def on_error(self, state: State) -> TransitionCallbackReturn:
         self.active = False
-        return self._transition(self.hardware.on_error())
+        return self._transition('on_error')
 
     def destroy_node(self) -> None:
         self.hardware.on_shutdown()  # the hardware keeps its last state before the process ends
@@ -256,10 +264,7 @@ class DriverNode(LifecycleNode):
             result = self.hardware.set_support(new)
             if not result.ok:
                 self.get_logger().warning(f'{SUPPORT_POSE} not followed: {result.message}', throttle_duration_sec=5.0)
-        r, support = self._support.report(time.monotonic()), self.hardware.support
-        return {'support_ring': support.ring, 'world_q_support': tuple(float(v) for v in support.world_q_support),
-                'support_source': r.source, 'support_age': None if r.age is None else round(r.age, 3),
-                'support_rejected': r.rejected}
+        return self._support.report(time.monotonic()).status_values(self.hardware.support)
 
     # --- commands ---
 
