@@ -24,6 +24,7 @@ setup(
         'ros-jazzy-std-srvs',
         'rrps_bringup',
         'rrps_canopen',
+        'rrps_climbing',
         'rrps_description',
         'rrps_hardware',
         'rrps_interfaces',

@@ -42,6 +42,16 @@ class PhasePath:
         """Time [s] to stream the whole path."""
         return float(self.times[-1])
 
+    def nearest(self, pose: Pose, until: float, position_scale: float, orientation_scale: float) -> float:
+        """The time [s] of the sample, among those up to time ``until``, nearest ``pose``: the least
+        position error over ``position_scale`` [m] plus orientation error over ``orientation_scale`` [rad]."""
+        n = max(int(np.searchsorted(self.times, until, side='right')), 1)
+        dp = np.linalg.norm(self.positions[:n] - np.asarray(pose.position), axis=1)
+        q = np.asarray(pose.quaternion_xyzw, dtype=float)
+        cos = np.abs(self.quaternions_xyzw[:n] @ (q / np.linalg.norm(q)))
+        da = 2.0 * np.arccos(np.clip(cos, 0.0, 1.0))
+        return float(self.times[np.argmin(dp / position_scale + da / orientation_scale)])
+
     def at(self, t: float) -> tuple[Pose, np.ndarray]:
         """The planned a_T_b and ring angles (theta_a, theta_b) at time ``t`` [s] of the phase."""
         times = self.times
@@ -69,6 +79,8 @@ class PlayClock:
         self._last, self.t = now, self.t + step
         return self.t
 
-    def restart(self) -> None:
-        """After a pause: the next tick advances one period."""
+    def restart(self, at: float | None = None) -> None:
+        """After a pause: the next tick advances one period (from path time ``at`` [s] if given)."""
         self._last = None
+        if at is not None:
+            self.t = float(at)

@@ -63,14 +63,19 @@ class PhaseRun:
         if request is self.request:
             self.answer = (bool(success), message)
 
-    def restart(self, now: float) -> None:
-        """Go on after a pause at time ``now`` [s]: the path's clock restarts, the deadline anew."""
+    def restart(self, now: float, at: float | None = None) -> None:
+        """Go on after a pause at time ``now`` [s]: the path's clock restarts (from path time ``at``
+        [s] if given), the deadline anew."""
         self.deadline = now + self.config.settle_timeout
-        self.clock.restart()
+        self.clock.restart(at)
 
-    def path_target(self) -> Pose:
-        """The streamed path's pose now (the stream stage)."""
-        return self.path.at(self.clock.t)[0]
+    def played_nearest(self, pose: Pose) -> tuple[float, float, float]:
+        """(the time [s] of the streamed path's sample nearest ``pose`` among those played so far,
+        its position [m] and orientation [rad] errors): a robot stopped by a fault stands behind
+        the stream, which ran on until the pause was known."""
+        c = self.config
+        t = self.path.nearest(pose, self.clock.t, c.position_tolerance, c.orientation_tolerance)
+        return (t, *pose_error(pose, self.path.at(t)[0]))
 
     def advance(self, now: float, pose: Pose | None, grippers: dict[str, bool], watch: InputWatch,
                 out: ClimbOutput) -> str:

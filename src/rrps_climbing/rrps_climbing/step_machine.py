@@ -34,7 +34,7 @@ from rrps_climbing.phase_run import PhaseRun, arrived
 from rrps_climbing.plan import Phase, PlanError
 from rrps_climbing.step_io import ClimbOutput, GripperRequest, StepConfig
 from rrps_climbing.step_preview import StepSnapshot
-from rrps_description.pose import Pose, pose_error
+from rrps_description.pose import Pose
 from rrps_interfaces.climb import (
     CLIMB_RESUME,
     ClimbPreview,
@@ -212,7 +212,8 @@ class ClimbStepMachine(ClimbInputs):
 
     def resume(self, now: float) -> ClimbOutput:
         """Resume a paused step at time ``now`` [s] once the cause of the pause is gone and the
-        robot is still on the paused path."""
+        robot is still on the paused path; a motion goes on from the point of its path where the robot
+        stands (:meth:`.PhaseRun.played_nearest`)."""
         out = self._begin()
         if self.mode is not PAUSED:
             out.reply = (False, f'refused: the climb is {self.mode.value}')
@@ -221,14 +222,15 @@ class ClimbStepMachine(ClimbInputs):
         if reason is not None:
             out.reply = (False, f'refused: {reason.value} ({self.watch.ages()})')
             return out
-        if self._run.stage == 'stream':
-            dp, da = pose_error(self.pose, self._run.path_target())
+        at = None
+        if self._run.stage == 'stream':   # on from the path's point where the robot stands
+            at, dp, da = self._run.played_nearest(self.pose)
             if (dp > RESUME_TOLERANCE_FACTOR * self.config.position_tolerance
                     or da > RESUME_TOLERANCE_FACTOR * self.config.orientation_tolerance):
                 out.reply = (False, f'refused: the robot is {dp * 1e3:.1f} mm / {math.degrees(da):.2f} '
                              'deg off the paused path')
                 return out
-        self._run.restart(now)
+        self._run.restart(now, at)
         self.mode, self.pause_reason = EXECUTING, None
         ph = self._phases[self._index]
         self.detail = f'resumed at step {ph.step}, phase {ph.phase}'

@@ -1,10 +1,7 @@
-"""ClimbStepMachine without ROS: a whole step, the interlock, the release gate, pauses and resumes,
-failures and refusals, the preview before a step starts, and what the machine outputs at each point.
-
-The rig around the machine stands for the rest of the system: a robot that reaches every target
-at once (its measured pose is the last target), a driver that answers a gripper request at the
-next tick and switches the gripper then, and an operator station heard every tick; a fake clock
-drives both the machine's time and its input watch.
+"""ClimbStepMachine without ROS: a whole step, the interlock, failures and refusals, the preview
+before a step starts, and what the machine outputs at each point, in the simulated system of
+:class:`rrps_testing.climb_rig.ClimbRig` (its docstring says what it stands for). Pauses and
+resumes: test_climb_step_pauses.py.
 """
 
 from __future__ import annotations
@@ -14,98 +11,28 @@ import logging
 import numpy as np
 import pytest
 
-from rrps_climbing.gait import GaitPlanner
 from rrps_climbing.step_io import GripperRequest, StepConfig
 from rrps_climbing.step_machine import ClimbStepMachine
-from rrps_description.geometry import load_robot
 from rrps_description.pose import Pose, pose_error
-from rrps_description.structures import pole
-from rrps_interfaces.climb import ClimbPreview, ClimbState, PauseReason, PhaseAction, PreviewLimit, StepRefusal
-
-POLE = load_robot('pole_climber')
-PLANNER = GaitPlanner(POLE, pole(3.0))
-HOME = Pose(POLE.home_position, POLE.home_quaternion_xyzw)
-DT = 0.02       # tick period [s]
-STEP = 0.06     # [m]
-START = 0.2     # ring_a's route position [m]
-EXECUTING, PAUSED, IDLE, FAILED = ClimbState.EXECUTING, ClimbState.PAUSED, ClimbState.IDLE, ClimbState.FAILED
-
-
-class Rig:
-    """The machine in a simulated system (see the module docstring)."""
-
-    def __init__(self, *, pose: Pose = HOME, step_length: float = STEP, auto_steps: int = 0,
-                 preview: bool = False, **config):
-        self.t = 100.0
-        config = {'period': DT, **config}
-        self.machine = ClimbStepMachine(PLANNER, StepConfig(**config), start=START, step_length=step_length,
-                                        auto_steps=auto_steps, clock=lambda: self.t, preview=preview)
-        self.pose = pose
-        self.grippers = {'ring_a': True, 'ring_b': True}
-        self.state = self.operator = self.driver_active = self.track = self.switch = True
-        self.engaged = False
-        self.answer = (True, '')
-        self.pending: list[GripperRequest] = []
-        self.outputs: list = []     # (t, output) of every call
-        self.both_open = False
-
-    def tick(self):
-        self.t += DT
-        m = self.machine
-        for request in self.pending:   # the driver answers last tick's requests and switches
-            m.on_gripper_answer(request, *self.answer)
-            if self.answer[0] and self.switch:
-                self.grippers[request.ring] = request.close
-        self.pending = []
-        self.both_open |= not any(self.grippers.values())
-        if self.state:
-            m.pose_received()
-            m.on_grippers(self.grippers)
-            self.outputs.append((self.t, m.on_pose(self.pose)))
-        if self.operator:
-            m.on_teleop(self.engaged)
-        m.on_driver_active(self.driver_active)
-        out = m.tick(self.t)
-        self.outputs.append((self.t, out))
-        if out.target is not None and self.track:
-            self.pose = out.target.a_T_b
-        if out.gripper is not None:
-            self.pending.append(out.gripper)
-        return out
-
-    def call(self, request, *args):
-        out = request(*args, self.t)
-        self.outputs.append((self.t, out))
-        return out
-
-    def run_until(self, done, max_ticks: int = 3000) -> list:
-        outs = []
-        for _ in range(max_ticks):
-            outs.append(self.tick())
-            if done(self.machine.status()):
-                return outs
-        raise AssertionError(f'not reached in {max_ticks} ticks: {self.machine.status()}')
-
-    def statuses(self) -> list:
-        return [(t, out.status) for t, out in self.outputs if out.status is not None]
-
-    def requests(self) -> list:
-        return [(t, out.gripper) for t, out in self.outputs if out.gripper is not None]
-
-
-def _in_phase(name: str):
-    return lambda s: s.state is EXECUTING and s.phase == name
-
-
-def _started(rig: Rig, direction: int = +1):
-    rig.tick()
-    out = rig.call(rig.machine.step, direction)
-    assert out.reply[0], out.reply
-    return out
+from rrps_interfaces.climb import ClimbPreview, PauseReason, PhaseAction, PreviewLimit, StepRefusal
+from rrps_testing.climb_rig import (
+    DT,
+    EXECUTING,
+    FAILED,
+    HOME,
+    IDLE,
+    PAUSED,
+    PLANNER,
+    START,
+    STEP,
+    ClimbRig,
+    in_phase,
+    started,
+)
 
 
 def test_a_whole_step_goes_through_every_phase_and_ends_where_the_plan_says():
-    rig = Rig()
+    rig = ClimbRig()
     rig.tick()
     assert rig.outputs[-1][1].target is None                # idle: nothing commanded
     out = rig.call(rig.machine.step, +1)
@@ -153,8 +80,8 @@ def test_a_whole_step_goes_through_every_phase_and_ends_where_the_plan_says():
 
 
 def test_a_step_down_after_a_step_up_comes_back():
-    rig = Rig()
-    _started(rig, +1)
+    rig = ClimbRig()
+    started(rig, +1)
     rig.run_until(lambda s: s.state is IDLE)
     assert rig.call(rig.machine.step, -1).reply[0]
     rig.run_until(lambda s: s.state is IDLE)
@@ -162,9 +89,9 @@ def test_a_step_down_after_a_step_up_comes_back():
 
 
 def test_a_release_is_refused_while_the_other_ring_is_open():
-    rig = Rig()
-    _started(rig)
-    rig.run_until(_in_phase('release_b'))
+    rig = ClimbRig()
+    started(rig)
+    rig.run_until(in_phase('release_b'))
     rig.grippers['ring_a'] = False                   # the driver shows ring_a open
     rig.run_until(lambda s: s.state is not EXECUTING)
     status = rig.machine.status()
@@ -178,7 +105,7 @@ def test_a_release_is_refused_while_the_other_ring_is_open():
 
 
 def test_both_grippers_shown_open_fail_the_climb():
-    rig = Rig()
+    rig = ClimbRig()
     rig.tick()
     rig.grippers = {'ring_a': False, 'ring_b': False}
     rig.tick()
@@ -186,80 +113,10 @@ def test_both_grippers_shown_open_fail_the_climb():
     assert status.state is FAILED and 'both grippers open' in status.detail
 
 
-@pytest.mark.parametrize('cause, reason, timeout', [
-    ('state', PauseReason.ROBOT_STATE_LOST, 0.2),
-    ('operator', PauseReason.OPERATOR_LINK_LOST, 0.5),
-    ('driver_active', PauseReason.DRIVER_INACTIVE, 0.0),
-])
-def test_a_lost_input_pauses_the_step_until_it_is_resumed(cause, reason, timeout):
-    rig = Rig()                                          # step 1's move_b takes about 1.4 s
-    _started(rig)
-    rig.run_until(lambda s: _in_phase('move_b')(s) and s.step == 1)
-    for _ in range(5):
-        rig.tick()
-    setattr(rig, cause, False)
-    t_lost = rig.t
-    rig.run_until(lambda s: s.state is not EXECUTING)
-    paused = rig.outputs[-1][1].status
-    held_at = rig.pose                                   # the last target before the pause
-    assert paused.state is PAUSED and paused.pause_reason is reason and paused.phase == 'move_b'
-    assert timeout <= rig.t - t_lost <= timeout + 2 * DT
-    assert rig.outputs[-1][1].log[0][0] == logging.ERROR and reason.value in paused.detail
-    held = [rig.tick() for _ in range(50)]               # 1 s: holding, no target, no gripper
-    assert all(out.target is None and out.gripper is None for out in held)
-    refused = rig.call(rig.machine.resume)
-    assert not refused.reply[0] and reason.value in refused.reply[1]
-
-    setattr(rig, cause, True)                            # the cause is gone: still paused
-    assert all(out.target is None for out in [rig.tick() for _ in range(20)])
-    assert rig.machine.status().state is PAUSED
-    resumed = rig.call(rig.machine.resume)
-    assert resumed.reply == (True, 'resumed at step 1, phase move_b')
-    assert resumed.status.state is EXECUTING and resumed.status.pause_reason is None
-    first = rig.tick().target.a_T_b
-    # on from there, at most at the path speed of the legs' speed limit (ring_b moves along the
-    # pole, the legs within 25 deg of it)
-    assert 0.0 < np.linalg.norm(first.position - held_at.position) <= POLE.max_speed / np.cos(np.radians(25)) * DT
-    rig.run_until(lambda s: s.state is IDLE)
-    assert rig.machine.steps_done == 1 and not rig.both_open
-
-
-def test_a_robot_moved_while_paused_is_not_resumed():
-    rig = Rig()
-    _started(rig)
-    rig.run_until(_in_phase('move_b'))
-    rig.driver_active = False
-    rig.run_until(lambda s: s.state is PAUSED)
-    rig.driver_active = True
-    rig.pose = Pose(rig.pose.position + [0.02, 0.0, 0.0], rig.pose.quaternion_xyzw)
-    rig.tick()
-    refused = rig.call(rig.machine.resume)
-    assert not refused.reply[0] and 'off the paused path' in refused.reply[1]
-    assert rig.machine.status().state is PAUSED
-    idle = Rig()
-    assert idle.call(idle.machine.resume).reply == (False, 'refused: the climb is idle')
-
-
-def test_a_release_waits_for_the_operator_link_heard_since_the_robot_settled():
-    rig = Rig()
-    _started(rig)
-    rig.run_until(_in_phase('release_b'))
-    rig.operator = False                                 # the link drops as the release phase starts
-    rig.run_until(lambda s: s.state is not EXECUTING)
-    assert rig.machine.status().pause_reason is PauseReason.OPERATOR_LINK_LOST
-    assert rig.machine.status().phase == 'release_b'     # held in the release, not after it
-    assert rig.requests() == [] and rig.grippers['ring_b']
-    rig.operator = True
-    rig.tick()
-    assert rig.call(rig.machine.resume).reply[0]
-    rig.run_until(lambda s: s.state is not EXECUTING or not rig.grippers['ring_b'])
-    assert [(r.ring, r.close) for _, r in rig.requests()] == [('ring_b', False)]
-
-
 def test_a_refused_gripper_fails_the_step_and_the_robot_holds():
-    rig = Rig()
+    rig = ClimbRig()
     rig.answer = (False, 'jammed')
-    _started(rig)
+    started(rig)
     rig.run_until(lambda s: s.state is not EXECUTING)
     status = rig.machine.status()
     assert status.state is FAILED and status.detail == 'step 0, phase release_b: ring_b gripper refused: jammed'
@@ -269,24 +126,24 @@ def test_a_refused_gripper_fails_the_step_and_the_robot_holds():
 
 
 def test_a_gripper_that_does_not_switch_or_a_pose_that_does_not_arrive_fails_after_settle_timeout():
-    rig = Rig(settle_timeout=0.5)
+    rig = ClimbRig(settle_timeout=0.5)
     rig.switch = False
-    _started(rig)
-    rig.run_until(_in_phase('release_b'))
+    started(rig)
+    rig.run_until(in_phase('release_b'))
     t0 = rig.t
     rig.run_until(lambda s: s.state is not EXECUTING)
     assert 'ring_b gripper did not switch within 0.5 s' in rig.machine.detail
     assert 0.5 + 0.1 <= rig.t - t0 <= 0.5 + 0.1 + 3 * DT   # settle, then the gripper's timeout
-    rig = Rig(settle_timeout=0.5)
+    rig = ClimbRig(settle_timeout=0.5)
     rig.track = False
-    _started(rig)
+    started(rig)
     rig.run_until(lambda s: s.state is not EXECUTING)
     assert 'phase move_b: the pose did not arrive within 0.5 s' in rig.machine.detail
     assert rig.machine.status().state is FAILED
 
 
 def test_a_bad_plan_and_a_climb_at_the_wrong_time_are_refused():
-    rig = Rig(step_length=0.6)
+    rig = ClimbRig(step_length=0.6)
     out = rig.call(rig.machine.step, +1)
     assert out.reply == (False, 'refused: no pose or grippers/state received yet') and out.status is None
     rig.tick()
@@ -297,7 +154,7 @@ def test_a_bad_plan_and_a_climb_at_the_wrong_time_are_refused():
     assert out.log == [(logging.WARNING, out.status.detail)]
     assert all(o.target is None for o in [rig.tick() for _ in range(5)])
 
-    rig = Rig()
+    rig = ClimbRig()
     rig.engaged = True
     rig.tick()
     assert rig.call(rig.machine.step, +1).reply == (False, 'refused: teleoperation is engaged')
@@ -312,7 +169,7 @@ def test_a_bad_plan_and_a_climb_at_the_wrong_time_are_refused():
 
 
 def test_a_scripted_climb_starts_once_the_state_is_known():
-    rig = Rig(auto_steps=1)
+    rig = ClimbRig(auto_steps=1)
     out = rig.tick()
     assert out.status.state is EXECUTING
     assert out.log[-1][0] == logging.INFO and out.log[-1][1].startswith('scripted climb of 1 steps: started')
@@ -323,8 +180,8 @@ def test_a_scripted_climb_starts_once_the_state_is_known():
 
 def test_a_robot_off_the_gait_is_brought_back_first():
     off = Pose(HOME.position + [0.015, 0.0, 0.0], HOME.quaternion_xyzw)
-    rig = Rig(pose=off, step_length=0.04)
-    _started(rig)
+    rig = ClimbRig(pose=off, step_length=0.04)
+    started(rig)
     rig.run_until(lambda s: s.state is IDLE)
     seen = [(s.step, s.phase) for _, s in rig.statuses() if s.state is EXECUTING]
     assert seen[:3] == [(0, 'release_b'), (0, 'move_b'), (0, 'grip_b')]
@@ -334,8 +191,8 @@ def test_a_robot_off_the_gait_is_brought_back_first():
 
 
 def test_an_answer_to_another_request_is_ignored():
-    rig = Rig()
-    _started(rig)
+    rig = ClimbRig()
+    started(rig)
     rig.run_until(lambda s: rig.pending != [])
     [request], rig.pending = rig.pending, []             # the driver has not answered yet
     rig.machine.on_gripper_answer(GripperRequest('ring_b', False), False, 'not ours')
@@ -343,22 +200,7 @@ def test_an_answer_to_another_request_is_ignored():
     assert rig.machine.status().state is EXECUTING and rig.machine.status().phase == 'release_b'
     rig.machine.on_gripper_answer(request, True)
     rig.grippers['ring_b'] = False
-    rig.run_until(_in_phase('move_b'))
-
-
-def test_a_pause_longer_than_settle_timeout_does_not_fail_the_phase_on_resume():
-    rig = Rig(settle_timeout=0.5)
-    _started(rig)
-    rig.run_until(_in_phase('release_b'))
-    rig.driver_active = False
-    rig.run_until(lambda s: s.state is PAUSED)
-    for _ in range(50):                                  # paused 1 s, twice settle_timeout
-        rig.tick()
-    rig.driver_active = True
-    rig.tick()
-    assert rig.call(rig.machine.resume).reply[0]
-    rig.run_until(lambda s: s.state is not EXECUTING)
-    assert rig.machine.status().state is IDLE and rig.machine.steps_done == 1
+    rig.run_until(in_phase('move_b'))
 
 
 def test_bad_settings_are_refused():
@@ -376,8 +218,8 @@ ACCEPTED = ClimbPreview(accepted=True, peak_force=50.0, peak_leg=2, max_force=20
                         detail='peak force 50.0 N (leg_2)')
 
 
-def _previewing() -> tuple[Rig, object]:
-    rig = Rig(preview=True)
+def _previewing() -> tuple[ClimbRig, object]:
+    rig = ClimbRig(preview=True)
     rig.tick()
     return rig, rig.call(rig.machine.step, +1)
 
@@ -466,9 +308,9 @@ def test_a_step_accepted_by_its_preview_starts_only_if_nothing_changed(change, r
 def test_a_cancel_holds_the_step_as_a_pause_and_a_previewed_step_never_starts():
     """cancel (the climb/step action's): no target and no gripper request after it, the grippers
     as they are; climb/resume goes on from there to the end of the step."""
-    rig = Rig()
-    _started(rig)
-    rig.run_until(_in_phase('move_b'))
+    rig = ClimbRig()
+    started(rig)
+    rig.run_until(in_phase('move_b'))
     index = rig.machine.status().phase_index
     assert 0 < index < rig.machine.status().phases
     n = len(rig.outputs)
@@ -481,8 +323,8 @@ def test_a_cancel_holds_the_step_as_a_pause_and_a_previewed_step_never_starts():
     assert rig.call(rig.machine.resume).reply[0]
     rig.run_until(lambda s: s.state is IDLE)
     assert rig.machine.steps_done == 1 and not rig.both_open
-    previewed = Rig(preview=True)
-    _started(previewed)
+    previewed = ClimbRig(preview=True)
+    started(previewed)
     assert previewed.machine.status().previewing
     previewed.machine.cancel()
     assert not previewed.machine.status().previewing

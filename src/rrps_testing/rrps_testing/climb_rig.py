@@ -1,0 +1,105 @@
+"""A :class:`~rrps_climbing.step_machine.ClimbStepMachine` in a simulated system, without ROS (the
+step machine's unit tests).
+
+The rig around the machine stands for the rest of the system: a robot that reaches every target
+at once (its measured pose is the last target; ``track`` False stops it), a driver that answers a
+gripper request at the next tick and switches the gripper then, and an operator station heard
+every tick; a fake clock drives both the machine's time and its input watch. The pole climber on
+a 3 m pole, ticks of :data:`DT`, steps of :data:`STEP` from :data:`START`.
+"""
+
+from __future__ import annotations
+
+from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.step_io import GripperRequest, StepConfig
+from rrps_climbing.step_machine import ClimbStepMachine
+from rrps_description.geometry import load_robot
+from rrps_description.pose import Pose
+from rrps_description.structures import pole
+from rrps_interfaces.climb import ClimbState
+
+__all__ = ['POLE', 'PLANNER', 'HOME', 'DT', 'STEP', 'START', 'EXECUTING', 'PAUSED', 'IDLE', 'FAILED',
+           'ClimbRig', 'in_phase', 'started']
+
+POLE = load_robot('pole_climber')
+PLANNER = GaitPlanner(POLE, pole(3.0))
+HOME = Pose(POLE.home_position, POLE.home_quaternion_xyzw)
+DT = 0.02       # tick period [s]
+STEP = 0.06     # [m]
+START = 0.2     # ring_a's route position [m]
+EXECUTING, PAUSED, IDLE, FAILED = ClimbState.EXECUTING, ClimbState.PAUSED, ClimbState.IDLE, ClimbState.FAILED
+
+
+class ClimbRig:
+    """The machine in a simulated system (see the module docstring)."""
+
+    def __init__(self, *, pose: Pose = HOME, step_length: float = STEP, auto_steps: int = 0,
+                 preview: bool = False, **config):
+        self.t = 100.0
+        config = {'period': DT, **config}
+        self.machine = ClimbStepMachine(PLANNER, StepConfig(**config), start=START, step_length=step_length,
+                                        auto_steps=auto_steps, clock=lambda: self.t, preview=preview)
+        self.pose = pose
+        self.grippers = {'ring_a': True, 'ring_b': True}
+        self.state = self.operator = self.driver_active = self.track = self.switch = True
+        self.engaged = False
+        self.answer = (True, '')
+        self.pending: list[GripperRequest] = []
+        self.outputs: list = []     # (t, output) of every call
+        self.both_open = False
+
+    def tick(self):
+        self.t += DT
+        m = self.machine
+        for request in self.pending:   # the driver answers last tick's requests and switches
+            m.on_gripper_answer(request, *self.answer)
+            if self.answer[0] and self.switch:
+                self.grippers[request.ring] = request.close
+        self.pending = []
+        self.both_open |= not any(self.grippers.values())
+        if self.state:
+            m.pose_received()
+            m.on_grippers(self.grippers)
+            self.outputs.append((self.t, m.on_pose(self.pose)))
+        if self.operator:
+            m.on_teleop(self.engaged)
+        m.on_driver_active(self.driver_active)
+        out = m.tick(self.t)
+        self.outputs.append((self.t, out))
+        if out.target is not None and self.track:
+            self.pose = out.target.a_T_b
+        if out.gripper is not None:
+            self.pending.append(out.gripper)
+        return out
+
+    def call(self, request, *args):
+        out = request(*args, self.t)
+        self.outputs.append((self.t, out))
+        return out
+
+    def run_until(self, done, max_ticks: int = 3000) -> list:
+        outs = []
+        for _ in range(max_ticks):
+            outs.append(self.tick())
+            if done(self.machine.status()):
+                return outs
+        raise AssertionError(f'not reached in {max_ticks} ticks: {self.machine.status()}')
+
+    def statuses(self) -> list:
+        return [(t, out.status) for t, out in self.outputs if out.status is not None]
+
+    def requests(self) -> list:
+        return [(t, out.gripper) for t, out in self.outputs if out.gripper is not None]
+
+
+def in_phase(name: str):
+    """Whether a status shows phase ``name`` executing."""
+    return lambda s: s.state is EXECUTING and s.phase == name
+
+
+def started(rig: ClimbRig, direction: int = +1):
+    """One tick, then a step in ``direction`` (+1 up) asked for and started; its output."""
+    rig.tick()
+    out = rig.call(rig.machine.step, direction)
+    assert out.reply[0], out.reply
+    return out
