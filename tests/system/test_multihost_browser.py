@@ -153,9 +153,13 @@ def test_a_browser_on_the_operator_station_drives_the_robot_through_latency_and_
         *held('slow'),
         {'text': True},
     ]
+    # the browser's profile and temporary files in the test's own directory (removed with it)
+    browser_tmp = rig.log_dir / 'browser-tmp'
+    browser_tmp.mkdir(exist_ok=True)
     browser = _Lines(rig.start('operator', 'browser', ['node', 'drive.js', f'http://127.0.0.1:{port}',
                                                        json.dumps(steps)],
-                               env=rig.env(CHROMIUM=CHROMIUM), pipes=True, cwd=BROWSER_DIR))
+                               env=rig.env(CHROMIUM=CHROMIUM, TMPDIR=str(browser_tmp)), pipes=True,
+                               cwd=BROWSER_DIR))
 
     session = _BrowserSession(operator, robot, proxy)
     index = 0
