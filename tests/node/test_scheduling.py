@@ -57,12 +57,14 @@ def _start(ros_domain_id: int, *params: str, prefix: tuple[str, ...] = ()) -> su
 
 
 def _statuses(ros_context, child):
-    """The ik_node and fk_node statuses (their key-values) once both were heard."""
+    """The ik_node and fk_node statuses (their key-values) once both were heard saying what
+    scheduling they got (a status sent before the spinning thread claimed it has none)."""
     probe = Probe(context=ros_context, namespace=NS)
     arrays = probe.collect(DiagnosticArray, '/diagnostics')
     with Spinner(ros_context, [probe]):
         def heard():
-            names = {source_node(s.name): s for a in list(arrays) for s in a.status}
+            names = {source_node(s.name): s for a in list(arrays) for s in a.status
+                     if any(kv.key == 'scheduling_policy' for kv in s.values)}
             return names if {'ik_node', 'fk_node'} <= set(names) else None
         assert wait_for(heard, timeout=60.0), child.poll()
         return {name: s.values for name, s in heard().items() if name in ('ik_node', 'fk_node')}

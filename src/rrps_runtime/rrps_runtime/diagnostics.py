@@ -21,7 +21,7 @@ from rrps_interfaces.status import DIAGNOSTICS, StatusValues, encode_value
 from rrps_runtime.qos import STATE_QOS
 from rrps_runtime.scheduling import process_scheduling
 
-__all__ = ['OK', 'WARN', 'ERROR', 'STALE', 'LEVELS', 'OPERATOR_STATION', 'OBSERVER', 'Diagnostics']
+__all__ = ['OK', 'WARN', 'ERROR', 'STALE', 'LEVELS', 'OPERATOR_STATION', 'OBSERVER', 'Diagnostics', 'log_status']
 
 OK = DiagnosticStatus.OK
 WARN = DiagnosticStatus.WARN
@@ -91,6 +91,16 @@ class Diagnostics:
         msg.header.stamp = now.to_msg()
         msg.status = [status]
         self._pub.publish(msg)
+
+
+def log_status(logger, level: bytes, message: str) -> None:
+    """Say a node's new status ``message`` of ``level`` in its ``logger``: an ERROR every time (a
+    fault's reason must show), a WARN or STALE at most once a second (a status that flaps between
+    two values), an OK not at all (/diagnostics has it)."""
+    if level == ERROR:
+        logger.error(message)
+    elif level != OK:
+        logger.warning(message, throttle_duration_sec=1.0)
 
 
 def _format_value(value) -> str:

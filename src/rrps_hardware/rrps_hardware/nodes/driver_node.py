@@ -50,7 +50,7 @@ from rrps_hardware.support_follower import DEFAULT_TIMEOUT, SupportFollower
 from rrps_interfaces.climb import SUPPORT_POSE
 from rrps_interfaces.driver import GRIPPERS_STATE, RESET_FAULTS, DriverStatus, SupportSource, gripper_service
 from rrps_interfaces.kinematics import ACTUATORS_COMMAND, ACTUATORS_STATE
-from rrps_runtime.diagnostics import ERROR, OK, STALE, WARN, Diagnostics
+from rrps_runtime.diagnostics import ERROR, OK, STALE, WARN, Diagnostics, log_status
 from rrps_runtime.freshness import CommandAges, CommandFreshness, RejectedCommand
 from rrps_runtime.messages import joint_state_msg, lengths_from_joint_state, stamp_to_seconds, transform_from_msg
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
@@ -239,8 +239,7 @@ class DriverNode(LifecycleNode):
     def _set_status(self, level, message: str) -> None:
         if (level, message) != self._status:
             self._status = (level, message)
-            if level != OK:
-                self.get_logger().warning(message, throttle_duration_sec=1.0)
+            log_status(self.get_logger(), level, message)
             self._report()
 
     # --- the supporting ring's attitude ---

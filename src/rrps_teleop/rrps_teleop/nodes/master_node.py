@@ -40,7 +40,7 @@ from rrps_hardware.registry import hardware_parameters, master_hardware_class, r
 from rrps_interfaces.teleop import MASTER_FEEDBACK, MASTER_FRAME, MASTER_POSE, MASTER_STATE, MASTER_TARGET_POSE
 from rrps_kinematics import forward_kinematics, inverse_kinematics
 from rrps_kinematics.jacobian import leg_forces
-from rrps_runtime.diagnostics import ERROR, OK, OPERATOR_STATION, WARN, Diagnostics
+from rrps_runtime.diagnostics import ERROR, OK, OPERATOR_STATION, WARN, Diagnostics, log_status
 from rrps_runtime.messages import joint_state_msg, pose_from_msg, pose_to_msg
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
@@ -167,8 +167,7 @@ class MasterNode(Node):
         if (level, message) != self._status:
             self._status = (level, message)
             self._report()
-            if level != OK:
-                self.get_logger().warning(message, throttle_duration_sec=1.0)
+            log_status(self.get_logger(), level, message)
 
     def _report(self) -> None:
         level, message = self._status
