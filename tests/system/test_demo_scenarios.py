@@ -86,8 +86,11 @@ def _run(ros_domain_id: int, name: str, hardware: str = 'simulated') -> str:
 
 @pytest.fixture(autouse=True)
 def _in_tmp_path(tmp_path, monkeypatch):
-    """The demo writes its flight recordings to ./rrps_recordings: keep them out of the tree."""
+    """The demo writes its flight recordings to ./rrps_recordings and its run directory (the
+    hardware's state file) to the temporary directory: both in the test's own (a killed demo cannot
+    remove its run directory)."""
     monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv('TMPDIR', str(tmp_path))
 
 
 def _gravity(out: str) -> np.ndarray:
