@@ -15,6 +15,16 @@ from rrps_interfaces.climb import PauseReason
 from rrps_testing.climb_rig import DT, EXECUTING, IDLE, PAUSED, POLE, ClimbRig, in_phase, started
 
 
+def _goes_on_from(rig: ClimbRig, pose) -> None:
+    """After a resume the stream goes on from ``pose``: its first target one period on from there,
+    at most at the path speed of the legs' speed limit (ring_b moves along the pole, the legs
+    within 25 deg of it); the step then ends idle, never with both grippers open."""
+    first = rig.tick().target.a_T_b
+    assert 0.0 < pose_error(pose, first)[0] <= POLE.max_speed / np.cos(np.radians(25)) * DT
+    rig.run_until(lambda s: s.state is IDLE)
+    assert rig.machine.steps_done == 1 and not rig.both_open
+
+
 @pytest.mark.parametrize('cause, reason, timeout', [
     ('state', PauseReason.ROBOT_STATE_LOST, 0.2),
     ('operator', PauseReason.OPERATOR_LINK_LOST, 0.5),
@@ -45,12 +55,7 @@ def test_a_lost_input_pauses_the_step_until_it_is_resumed(cause, reason, timeout
     resumed = rig.call(rig.machine.resume)
     assert resumed.reply == (True, 'resumed at step 1, phase move_b')
     assert resumed.status.state is EXECUTING and resumed.status.pause_reason is None
-    first = rig.tick().target.a_T_b
-    # on from there, at most at the path speed of the legs' speed limit (ring_b moves along the
-    # pole, the legs within 25 deg of it)
-    assert 0.0 < np.linalg.norm(first.position - held_at.position) <= POLE.max_speed / np.cos(np.radians(25)) * DT
-    rig.run_until(lambda s: s.state is IDLE)
-    assert rig.machine.steps_done == 1 and not rig.both_open
+    _goes_on_from(rig, held_at)
 
 
 def test_a_robot_moved_while_paused_is_not_resumed():
@@ -89,10 +94,7 @@ def test_a_robot_stopped_behind_the_stream_resumes_from_where_it_stands():
     rig.tick()
     resumed = rig.call(rig.machine.resume)
     assert resumed.reply == (True, 'resumed at step 1, phase move_b')
-    first = rig.tick().target.a_T_b                 # one period on from where the robot stands
-    assert pose_error(stopped, first)[0] <= POLE.max_speed / np.cos(np.radians(25)) * DT
-    rig.run_until(lambda s: s.state is IDLE)
-    assert rig.machine.steps_done == 1 and not rig.both_open
+    _goes_on_from(rig, stopped)
 
 
 def test_a_release_waits_for_the_operator_link_heard_since_the_robot_settled():
