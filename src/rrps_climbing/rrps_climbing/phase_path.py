@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from rrps_description.pose import Pose
+from rrps_description.rotations import rotation_angle_between
 
 __all__ = ['PhasePath', 'PlayClock', 'MAX_TICK_PERIODS']
 
@@ -47,9 +48,7 @@ class PhasePath:
         position error over ``position_scale`` [m] plus orientation error over ``orientation_scale`` [rad]."""
         n = max(int(np.searchsorted(self.times, until, side='right')), 1)
         dp = np.linalg.norm(self.positions[:n] - np.asarray(pose.position), axis=1)
-        q = np.asarray(pose.quaternion_xyzw, dtype=float)
-        cos = np.abs(self.quaternions_xyzw[:n] @ (q / np.linalg.norm(q)))
-        da = 2.0 * np.arccos(np.clip(cos, 0.0, 1.0))
+        da = rotation_angle_between(self.quaternions_xyzw[:n], np.asarray(pose.quaternion_xyzw, dtype=float))
         return float(self.times[np.argmin(dp / position_scale + da / orientation_scale)])
 
     def at(self, t: float) -> tuple[Pose, np.ndarray]:

@@ -1,4 +1,5 @@
-"""InputWatch (what a climbing step watches) and PhasePath (a timed motion phase as a stream plays it)."""
+"""InputWatch (what a climbing step watches) and PhasePath (a timed motion phase as a stream
+plays it, and its sample nearest a pose)."""
 
 from __future__ import annotations
 
@@ -125,3 +126,18 @@ def test_a_phase_path_rejects_bad_shapes_and_times():
         PhasePath(times, positions, quaternions, angles[:, :1])
     with pytest.raises(ValueError, match='times'):
         PhasePath(times[::-1], positions, quaternions, angles)
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.floats(-0.05, 0.05), min_size=3, max_size=3), st.floats(-0.2, 0.2), st.floats(0.0, 2.5))
+def test_the_nearest_sample_played_is_the_one_a_pose_by_pose_search_finds(offset, turn, until):
+    """PhasePath.nearest against a search sample by sample with pose_error (1 mm ~ 0.01 rad)."""
+    times, positions, quaternions, angles = _samples(40)
+    timed = PhasePath(times, positions, quaternions, angles)
+    pose = Pose(positions[20] + offset, rotation_vector_to_quat_xyzw(np.array([0.0, 0.0, turn])))
+    scores = [e[0] / 1e-3 + e[1] / 1e-2 for e in (pose_error(pose, Pose(p, q)) for p, q in zip(positions, quaternions))]
+    played = int(np.searchsorted(times, until, side='right')) or 1
+    best = min(range(played), key=lambda k: scores[k])
+    t = timed.nearest(pose, until, 1e-3, 1e-2)
+    assert t <= max(until, 0.0) or t == 0.0
+    assert scores[int(np.flatnonzero(times == t)[0])] == pytest.approx(scores[best], rel=1e-9, abs=1e-9)
