@@ -161,6 +161,20 @@ def playwright_dir() -> str:
 
 
 
+@pytest.fixture
+def browser_tmpdir():
+    """A temporary directory for a browser's profile and files (TMPDIR), removed after the test.
+    Short, in /tmp: Chromium puts its singleton socket there, and a Unix socket's path holds at
+    most 107 characters (under pytest-xdist a tmp_path is too deep: the browser never starts)."""
+    import shutil
+    import tempfile
+    path = tempfile.mkdtemp(prefix='rrps-browser-')
+    try:
+        yield path
+    finally:
+        shutil.rmtree(path, ignore_errors=True)
+
+
 # Two pytest-xdist workers (./rrps test). The browser test and then the system tests (processes,
 # network namespaces, the CANopen bus, timing under load) run one after another on one worker;
 # the unit and node tests on the other, at a lower priority.

@@ -189,4 +189,8 @@ async function main() {
   }
 }
 
-main();
+main().catch((err) => {
+  // Chromium did not start (or closing it failed): still one result line, never silence.
+  console.log(JSON.stringify({ ok: false, error: 'the browser: ' + String(err), results: [] }));
+  process.exit(0);
+});

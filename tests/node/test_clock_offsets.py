@@ -65,7 +65,8 @@ def test_driver_follows_a_sender_with_an_offset_clock_and_refuses_its_late_comma
         assert wait_for(lambda: pub.get_subscription_count() == 1, DEADLINE)
         assert wait_for(lambda: (pub.publish(command(probe, goal, age=-offset)), node.accepted)[1],
                         DEADLINE, period=0.02)
-        np.testing.assert_allclose(node.reference, goal)
+        # the accepted command becomes the reference at the driver's next cycle
+        assert wait_for(lambda: np.allclose(node.reference, goal, rtol=0, atol=1e-12), DEADLINE)
         accepted = settled(lambda: node.accepted)  # the stream's queued commands taken
         pub.publish(command(probe, goal + 0.003, age=-offset + 0.3))
         assert wait_for(lambda: said(diagnostics, 'driver_node', 'stale'), DEADLINE)

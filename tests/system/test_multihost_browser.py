@@ -88,8 +88,11 @@ class _Lines:
                     found.update(index=i, line=self.lines[i])
                     return True
             return False
-        if not wait(look, timeout, period=0.02):
-            raise TimeoutError(f'no {key!r} line in {timeout} s')
+        # the reader ends with the child's output: no such line will come
+        wait(lambda: look() or not self._thread.is_alive(), timeout, period=0.02)
+        if not found and not look():
+            raise TimeoutError(f'no {key!r} line in {timeout} s' if self._thread.is_alive()
+                               else f'no {key!r} line: the process closed its output ({self.process.poll()})')
         return found['index'], found['line']
 
 
@@ -107,7 +110,8 @@ def _round_trip_ms(text: str) -> float:
 
 
 @pytest.mark.browser
-def test_a_browser_on_the_operator_station_drives_the_robot_through_latency_and_stalls(stack, playwright_dir):
+def test_a_browser_on_the_operator_station_drives_the_robot_through_latency_and_stalls(stack, playwright_dir,
+                                                                                      browser_tmpdir):
     """A browser on the operator station drives the robot through rrps_testing.latency_proxy.
 
     The proxy adds 25-75 ms to each direction (the round trip gains 100 +- 50 ms): the held
@@ -153,18 +157,18 @@ def test_a_browser_on_the_operator_station_drives_the_robot_through_latency_and_
         *held('slow'),
         {'text': True},
     ]
-    # the browser's profile and temporary files in the test's own directory (removed with it)
-    browser_tmp = rig.log_dir / 'browser-tmp'
-    browser_tmp.mkdir(exist_ok=True)
     browser = _Lines(rig.start('operator', 'browser', ['node', 'drive.js', f'http://127.0.0.1:{port}',
                                                        json.dumps(steps)],
-                               env=rig.env(CHROMIUM=CHROMIUM, TMPDIR=str(browser_tmp)), pipes=True,
+                               env=rig.env(CHROMIUM=CHROMIUM, TMPDIR=browser_tmpdir), pipes=True,
                                cwd=BROWSER_DIR))
 
     session = _BrowserSession(operator, robot, proxy)
     index = 0
     while True:
-        index, line = browser.next(('sync', 'ok'), index, 240.0)
+        try:
+            index, line = browser.next(('sync', 'ok'), index, 240.0)
+        except TimeoutError as exc:
+            _fail_with_logs(rig, f'browser: {exc}; its last lines {browser.lines[-3:]}')
         index += 1
         if 'ok' in line:
             result = line
