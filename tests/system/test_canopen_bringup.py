@@ -7,6 +7,7 @@ machine); every process is stopped in a ``finally``, also when a check fails."""
 
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 
@@ -15,7 +16,7 @@ import pytest
 import yaml
 
 from rrps_description.geometry import load_robot, robot_path
-from rrps_runtime.supervision import stop_children
+from rrps_runtime.supervision import CONTROL_RT_PRIORITY, stop_children
 from rrps_testing.canopen_rig import DriveSim, driver_process
 from rrps_testing.driver_probe import DriverProbe
 from rrps_testing.ros_harness import Spinner, wait_for
@@ -65,9 +66,23 @@ def test_six_drives_come_up_disabled_and_home_only_at_activation(tmp_path, ros_c
                 np.testing.assert_allclose([d['target'] for d in drives.values()], 0.3, atol=2e-6)
                 assert wait_for(lambda: np.allclose(probe.states[-1][1].position[:6], 0.3, atol=2e-6))
                 assert wait_for(lambda: probe.latest()[3].active)
+                if os.geteuid() == 0:  # permitted: the bus' SYNC cycle and receive thread above the command path
+                    assert sorted(realtime_priorities(processes[0].pid))[-2:] == \
+                        [CONTROL_RT_PRIORITY + 1, CONTROL_RT_PRIORITY + 2]
         finally:
             codes = stop_children(processes)
     assert codes == [0], processes[0].stderr.read()[-3000:]
+
+
+def realtime_priorities(pid: int) -> list[int]:
+    """The real-time priorities of process ``pid``'s threads, read from the kernel (/proc)."""
+    found = []
+    for tid in os.listdir(f'/proc/{pid}/task'):
+        with open(f'/proc/{pid}/task/{tid}/stat') as f:
+            fields = f.read().rsplit(')', 1)[1].split()
+        if int(fields[38]) in (os.SCHED_FIFO, os.SCHED_RR):  # policy, then rt_priority before it
+            found.append(int(fields[37]))
+    return found
 
 
 @pytest.mark.parametrize('defaults, drives, behaviour, message', [

@@ -56,7 +56,7 @@ from rrps_hardware.interface import (
     Transition,
 )
 from rrps_hardware.setpoints import JerkLimitedSetpoints
-from rrps_runtime.scheduling import Granted, claim, request_of
+from rrps_runtime.scheduling import Granted, claim
 
 __all__ = ['CanopenRobot']
 
@@ -78,10 +78,9 @@ def claim_bus_threads(config: HardwareConfig) -> tuple[Granted, Granted] | None:
     the SYNC cycle two priorities higher, python-can's receive thread one higher, so the cycle
     never waits for the driver's executor (rrps_runtime.scheduling); what they got, or None
     without a scheduling request."""
-    p = config.parameters
-    if 'rt_priority' not in p or 'cpu_affinity' not in p:
+    request = config.scheduling
+    if request is None:
         return None
-    request = request_of(p)
     threads = [(t.name, t.native_id) for t in threading.enumerate() if t.native_id is not None]
     return (claim(request.shifted(2), [tid for name, tid in threads if name == 'canopen-sync']),
             claim(request.shifted(1), [tid for name, tid in threads if name.startswith(RECEIVE_THREAD)]))

@@ -26,6 +26,7 @@ import numpy as np
 from rrps_description.geometry import RobotGeometry
 from rrps_description.world import Support
 from rrps_runtime.parameter_schema import Parameter
+from rrps_runtime.scheduling import Request
 
 __all__ = ['CallbackReturn', 'ReturnType', 'Transition', 'Result', 'SUCCESS', 'OK', 'FaultKind', 'ActuatorFault',
            'BusState', 'ActuatorStatus', 'Command', 'SystemState', 'HardwareConfig', 'SystemInterface']
@@ -182,11 +183,14 @@ class SystemState:
 
 @dataclass(frozen=True)
 class HardwareConfig:
-    """What ``on_configure`` gets: the robot and the values {name: value} of the implementation's
-    :attr:`SystemInterface.PARAMETERS`, as the host declared them."""
+    """What ``on_configure`` gets: the robot, the values {name: value} of the implementation's
+    :attr:`SystemInterface.PARAMETERS` as the host declared them, and the scheduling the host's
+    command path asked for (its ``rt_priority``, ``cpu_affinity``; None: none), which threads the
+    implementation starts for its own cycles claim above it (as ros2_control's hardware threads)."""
 
     geometry: RobotGeometry
     parameters: Mapping[str, Any] = field(default_factory=dict)
+    scheduling: Request | None = None
 
 
 class SystemInterface(abc.ABC):

@@ -58,7 +58,7 @@ from rrps_runtime.parameters import declare_parameters
 from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
-from rrps_runtime.scheduling import scheduling_parameters
+from rrps_runtime.scheduling import request_of, scheduling_parameters
 from rrps_runtime.supervision import CONTROL_RT_PRIORITY
 
 __all__ = ['DriverNode', 'PARAMETERS', 'hosted_parameters', 'main']
@@ -98,7 +98,7 @@ class DriverNode(LifecycleNode):
         self.hardware_name = values['hardware']
         hardware = hardware_class(self.hardware_name)
         owned = hardware_parameters(PARAMETERS, hardware)
-        self._config = HardwareConfig(g, declare_parameters(self, owned))
+        self._config = HardwareConfig(g, declare_parameters(self, owned), scheduling=request_of(values))
         #: The hardware's parameters the driver passes on to it while it runs.
         self._dynamic = frozenset(p.name for p in owned if p.dynamic)
         self.hardware = hardware()
