@@ -67,17 +67,27 @@ def package_wheels(tmp_path_factory) -> Path:
     return base / 'wheels'
 
 
+@pytest.fixture(scope='module')
+def install_dir(tmp_path_factory) -> Path:
+    """Where each test makes its fresh venv (``venv``, removed first) and where the venvs' byte code
+    is kept (``pycache``, PYTHONPYCACHEPREFIX): the same path each time, so the modules a venv
+    imports are compiled once for the module, not once per package (a third of a test's time)."""
+    return tmp_path_factory.mktemp('clean-install')
+
+
 def _clean_environment(venv: Path) -> dict[str, str]:
     """What a user's shell would have in that venv: none of this checkout's variables (its venv,
-    library path, ament prefix)."""
+    library path, ament prefix); byte code beside the venv (:func:`install_dir`)."""
     return {'PATH': f'{venv / "bin"}:/usr/bin:/bin', 'HOME': os.environ.get('HOME', '/tmp'), 'LANG': 'C.UTF-8',
+            'PYTHONPYCACHEPREFIX': str(venv.parent / 'pycache'),
             'VIRTUAL_ENV': str(venv), 'AMENT_PREFIX_PATH': str(venv), 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
             'RRPS_TEST_SESSION': os.environ.get('RRPS_TEST_SESSION', '')}
 
 
 @pytest.mark.parametrize('name', PACKAGES)
-def test_the_package_installs_alone_imports_and_starts(name, package_wheels, uv_cache, tmp_path):
-    venv = tmp_path / 'venv'
+def test_the_package_installs_alone_imports_and_starts(name, package_wheels, uv_cache, install_dir):
+    venv = install_dir / 'venv'
+    shutil.rmtree(venv, ignore_errors=True)
     assert _run([sys.executable, '-m', 'venv', '--without-pip', str(venv)]).returncode == 0
     python = str(venv / 'bin' / 'python')
     uv = shutil.which('uv') or str(Path(sys.executable).parent / 'uv')
