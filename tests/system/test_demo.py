@@ -133,6 +133,20 @@ def test_compose_names_its_nodes_and_refuses_unknown_ones():
 
 
 
+def _described(pid: int) -> str:
+    """A process' command line and what the kernel says it is doing (state, wait channel)."""
+    try:
+        with open(f'/proc/{pid}/cmdline', 'rb') as f:
+            cmd = f.read().replace(b'\0', b' ').decode(errors='replace')[:120]
+        with open(f'/proc/{pid}/status') as f:
+            state = next((line.split(':', 1)[1].strip() for line in f if line.startswith('State:')), '?')
+        with open(f'/proc/{pid}/wchan') as f:
+            wchan = f.read().strip()
+    except OSError as exc:
+        return f'gone while described ({exc.strerror})'
+    return f'{cmd} [{state}, waiting in {wchan or "-"}]'
+
+
 @pytest.mark.slow
 def test_a_killed_demo_takes_its_robot_processes_with_it_and_ctrl_c_stops_it_fast(ros_domain_id):
     for how in ('kill', 'ctrl-c'):
@@ -168,7 +182,8 @@ def test_a_killed_demo_takes_its_robot_processes_with_it_and_ctrl_c_stops_it_fas
             deadline = time.monotonic() + 15
             while time.monotonic() < deadline and any(process_alive(c) for c in children):
                 time.sleep(0.05)
-            assert not any(process_alive(c) for c in children), f'{how}: a child outlived the demo'
+            left = {c: _described(c) for c in children if process_alive(c)}
+            assert not left, f'{how}: children outlived the demo: {left}'
         finally:
             interrupt(proc)
 

@@ -135,15 +135,24 @@ def test_a_cancel_mid_step_holds_the_robot_with_one_gripper_closed(ros_context):
             cancelled = result.result()
             held = ClimbStatus.from_key_values(status[-1].values)
             n = len(poses)
-            assert wait_for(lambda: len(poses) > n + 200)   # 1 s of the driver at 200 Hz after it
+
+            def still(since: int) -> bool:  # the last 50 poses (0.25 s of the driver) within 0.1 mm
+                last = np.array([pose_from_msg(m)[0] for m in poses[max(since, len(poses) - 50):]])
+                return len(last) == 50 and np.ptp(last, axis=0).max() < 1e-4
+            # the stop takes its time (the jerk-limited setpoints' stopping distance; longer wall
+            # time on a loaded machine), then the robot stands still and holds for 1 s more
+            assert wait_for(lambda: still(n), timeout=60.0)
+            rest = len(poses)
+            assert wait_for(lambda: len(poses) > rest + 200)   # 1 s of the driver at 200 Hz
             after = np.array([pose_from_msg(m)[0] for m in poses[n:]])
+            holding = np.array([pose_from_msg(m)[0] for m in poses[rest - 50:]])
     finally:
         client.close()
     assert cancelled.status == GoalStatus.STATUS_CANCELED and 'cancelled' in cancelled.result.message
     assert held.state is ClimbState.PAUSED and held.pause_reason is PauseReason.CANCELLED
     # the jerk-limited setpoints stop the robot within a few mm (the stop's distance), then it holds
     assert np.linalg.norm(after[-1] - after[0]) < 0.006
-    assert np.ptp(after[-50:], axis=0).max() < 1e-4
+    assert np.ptp(holding, axis=0).max() < 1e-4
     closed = [dict(zip(m.name, m.position)) for m in grippers]
     assert all(g['ring_a'] > 0.5 or g['ring_b'] > 0.5 for g in closed)   # never both open
     assert closed[-1]['ring_a'] > 0.5 and closed[-1]['ring_b'] < 0.5    # ring_a grips, ring_b open where it stopped
