@@ -16,7 +16,12 @@ a stop, plus :data:`GAIN` times the position error, less what the present accele
 before it is shed, reached at zero acceleration: Ruckig's velocity interface, whose motions stay
 within the speed limit so, each leg reaching its own velocity time-optimally: the stream already
 times the legs together, and synchronising their velocity changes in time turns differences of
-um/s between legs that follow one stream into mm of leg length). The stream is followed one
+um/s between legs that follow one stream into mm of leg length), except when the wanted velocity
+is further than :data:`CATCH_UP_PERIODS` periods of full acceleration from the present one (a
+stream that resumes after a stall, at its speed, from legs at rest): then the legs change
+velocity in phase (Ruckig's phase synchronisation, time synchronisation where the state allows no
+phase), so the pose regains speed along the stream's path instead of leaving it by up to a
+millimetre while each leg accelerates on its own. The stream is followed one
 command period behind: the parabola through its last three commands, evaluated one period back,
 gives the position and velocity to follow; the newest command at rest once no new one came for
 :data:`STALE_PERIODS` periods. The commands are placed in time by their stamps (the times of the
@@ -36,7 +41,7 @@ import ruckig
 
 from rrps_description.motion_limits import ActuatorLimits
 
-__all__ = ['DRIVER_PERIOD', 'STALE_PERIODS', 'JerkLimitedSetpoints', 'stream_setpoints']
+__all__ = ['DRIVER_PERIOD', 'STALE_PERIODS', 'CATCH_UP_PERIODS', 'JerkLimitedSetpoints', 'stream_setpoints']
 
 #: The driver's period [s] (500 Hz).
 DRIVER_PERIOD = 0.002
@@ -44,6 +49,9 @@ DRIVER_PERIOD = 0.002
 STALE_PERIODS = 2.5
 #: The gain [1/s] of the position error in the velocity the setpoints are steered to.
 GAIN = 5.0
+#: A wanted velocity further than this many periods of full acceleration from the present one is
+#: reached with the legs in phase (module docstring).
+CATCH_UP_PERIODS = 5.0
 
 
 class JerkLimitedSetpoints:
@@ -117,7 +125,7 @@ class JerkLimitedSetpoints:
         # the stream's velocity once its acceleration is shed at the jerk limit (a |a| / 2j): reached at
         # zero acceleration, it keeps the setpoints' acceleration on the stream's (no lag into a stop)
         ahead = velocity + acceleration * np.abs(acceleration) / (2.0 * lim.jerk)
-        wanted = np.clip(ahead + GAIN * (target - self.position), -lim.speed - np.minimum(brake, 0.0),
+        wanted = _within(ahead + GAIN * (target - self.position), -lim.speed - np.minimum(brake, 0.0),
                          lim.speed - np.maximum(brake, 0.0))
         inp, out = self._input, self._output
         inp.current_position, inp.current_velocity = self.position.tolist(), self.velocity.tolist()
@@ -125,7 +133,8 @@ class JerkLimitedSetpoints:
         if streaming:   # a stream: steered along it
             inp.control_interface = ruckig.ControlInterface.Velocity
             inp.target_velocity, inp.target_acceleration = wanted.tolist(), [0.0] * self.n
-            inp.synchronization = ruckig.Synchronization.No
+            catching_up = np.max(np.abs(wanted - self.velocity)) > CATCH_UP_PERIODS * lim.acceleration * DRIVER_PERIOD
+            inp.synchronization = ruckig.Synchronization.Phase if catching_up else ruckig.Synchronization.No
         else:           # a command at rest: reached time-optimally
             inp.control_interface = ruckig.ControlInterface.Position
             inp.target_position = target.tolist()
@@ -143,6 +152,15 @@ class JerkLimitedSetpoints:
         if result == ruckig.Result.Finished and not streaming:
             self.position = target.copy()   # arrived: exactly at the command (not a rounding off it)
         return self.position.copy()
+
+
+def _within(wanted: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """``wanted`` scaled as a whole (its direction kept: the legs' velocities keep their ratios, the
+    pose its path) until every leg is within [``low``, ``high``], then clipped (a bound on the
+    wrong side of zero: that leg must brake first)."""
+    over = np.where(wanted > high, high / np.where(wanted > high, wanted, 1.0),
+                    np.where(wanted < low, low / np.where(wanted < low, wanted, -1.0), 1.0))
+    return np.clip(wanted * np.clip(over.min(), 0.0, 1.0), low, high)
 
 
 def stream_setpoints(commands, period: float, limits: ActuatorLimits, *, settle: float = 0.0) -> np.ndarray:
