@@ -165,14 +165,21 @@ def playwright_dir() -> str:
 def browser_tmpdir():
     """A temporary directory for a browser's profile and files (TMPDIR), removed after the test.
     Short, in /tmp: Chromium puts its singleton socket there, and a Unix socket's path holds at
-    most 107 characters (under pytest-xdist a tmp_path is too deep: the browser never starts)."""
+    most 107 characters (under pytest-xdist a tmp_path is too deep: the browser never starts).
+    Removed again while a browser that is still closing writes there (up to 30 s): a single
+    removal racing it left the directory behind."""
     import shutil
     import tempfile
+    import time
     path = tempfile.mkdtemp(prefix='rrps-browser-')
     try:
         yield path
     finally:
+        deadline = time.monotonic() + 30.0
         shutil.rmtree(path, ignore_errors=True)
+        while os.path.exists(path) and time.monotonic() < deadline:
+            time.sleep(0.2)
+            shutil.rmtree(path, ignore_errors=True)
 
 
 # Two pytest-xdist workers (./rrps test). The browser test and then the system tests (processes,
