@@ -158,11 +158,9 @@ def _within(wanted: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray
     """``wanted`` scaled as a whole (its direction kept: the legs' velocities keep their ratios, the
     pose its path) until every leg is within [``low``, ``high``], then clipped (a bound on the
     wrong side of zero: that leg must brake first)."""
-    share = np.ones_like(wanted)   # of each leg's wanted velocity its bound allows
-    above, below = wanted > high, wanted < low
-    share[above] = high[above] / wanted[above]
-    share[below] = low[below] / wanted[below]
-    return np.clip(wanted * np.clip(share.min(), 0.0, 1.0), low, high)
+    over = np.where(wanted > high, high / np.where(wanted > high, wanted, 1.0),
+                    np.where(wanted < low, low / np.where(wanted < low, wanted, -1.0), 1.0))
+    return np.clip(wanted * np.clip(over.min(), 0.0, 1.0), low, high)
 
 
 def stream_setpoints(commands, period: float, limits: ActuatorLimits, *, settle: float = 0.0) -> np.ndarray:
