@@ -15,31 +15,21 @@ from action_msgs.msg import GoalStatus
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
 from rclpy.action import ActionClient
-from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
-from rrps_climbing.nodes.climb_node import ClimbNode
-from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_interfaces.climb import ClimbState, ClimbStatus, PauseReason
 from rrps_interfaces.teleop import TeleopCode, TeleopStatus
-from rrps_kinematics.nodes.fk_node import FkNode
-from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_runtime.action_host import ActionHost
 from rrps_runtime.messages import pose_from_msg
 from rrps_testing.ci import require
+from rrps_testing.climb_stack import climb_stack
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 
 def _stack(ctx):
-    robot = Parameter('robot', value='pole_climber')
-    climb = {'robot': 'pole_climber', 'structure': 'pole', 'speed': 0.02, 'step_length': 0.06,
-             'start': 0.2, 'state_timeout': 0.5}
-    return [DriverNode(context=ctx, parameter_overrides=[robot, Parameter('rate', value=200.0),
-                                                          Parameter('auto_activate', value=True)]),
-            IkNode(context=ctx, parameter_overrides=[robot]), FkNode(context=ctx, parameter_overrides=[robot]),
-            ClimbNode(context=ctx, parameter_overrides=[Parameter(k, value=v) for k, v in climb.items()])]
+    return climb_stack(ctx, climb={'structure': 'pole', 'speed': 0.02, 'step_length': 0.06, 'start': 0.2})
 
 
 def _teleop_status(engaged: bool) -> DiagnosticStatus:

@@ -15,18 +15,14 @@ import math
 import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from rclpy.parameter import Parameter
 from std_srvs.srv import Trigger
 
 from rrps_climbing.gait import GaitPlanner
-from rrps_climbing.nodes.climb_node import ClimbNode
 from rrps_description.geometry import load_robot
 from rrps_description.structures import make_structure
-from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_interfaces.climb import CLIMB_RESUME, ClimbState, ClimbStatus
 from rrps_interfaces.driver import DriverStatus, SupportSource
-from rrps_kinematics.nodes.fk_node import FkNode
-from rrps_kinematics.nodes.ik_node import IkNode
+from rrps_testing.climb_stack import climb_stack
 from rrps_testing.node_helpers import statuses
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
 from rrps_testing.virtual_work import rotation_x
@@ -44,14 +40,10 @@ def _angle(u, v) -> float:
 
 def _climb(ros_context, structure: str, steps: int, **extra):
     """The stack climbing ``steps`` steps from s = 0.2 m; the driver's supports sampled on the way."""
-    robot = Parameter('robot', value='pole_climber')
-    driver = DriverNode(context=ros_context, parameter_overrides=[
-        robot, Parameter('rate', value=200.0), Parameter('auto_activate', value=True)])
-    climb = ClimbNode(context=ros_context, parameter_overrides=[
-        robot, Parameter('structure', value=structure), Parameter('start', value=0.2),
-        Parameter('speed', value=0.05), Parameter('auto_steps', value=steps), Parameter('preview', value=False),
-        Parameter('orientation_tolerance', value=0.002), Parameter('state_timeout', value=0.5),
-        *[Parameter(k, value=v) for k, v in extra.items()]])
+    nodes = climb_stack(ros_context, climb={
+        'structure': structure, 'start': 0.2, 'speed': 0.05, 'auto_steps': steps, 'preview': False,
+        'orientation_tolerance': 0.002, **extra})
+    driver = nodes[0]
     probe = Probe(context=ros_context)
     status = probe.collect(DiagnosticStatus, 'climb/status')
     diagnostics = probe.collect(DiagnosticArray, '/diagnostics')
@@ -67,11 +59,10 @@ def _climb(ros_context, structure: str, steps: int, **extra):
         return last is not None and (last.state is ClimbState.FAILED
                                      or (last.state is ClimbState.IDLE and last.steps_done == steps))
 
-    nodes = [driver, IkNode(context=ros_context, parameter_overrides=[robot]),
-             FkNode(context=ros_context, parameter_overrides=[robot]), climb]
     with Spinner(ros_context, nodes + [probe]):
         assert wait_for(done, DEADLINE, period=0.02), ClimbStatus.from_key_values(status[-1].values).detail
-        assert ClimbStatus.from_key_values(status[-1].values).state is ClimbState.IDLE
+        last = ClimbStatus.from_key_values(status[-1].values)
+        assert last.state is ClimbState.IDLE, last.detail
         wait_for(lambda: (samples.append(driver.hardware.support), False)[1], timeout=0.5, period=0.02)
         assert wait_for(lambda: (s := statuses(diagnostics, 'driver_node'))
                         and DriverStatus.from_key_values(s[-1].values).support_source is SupportSource.ODOMETRY)

@@ -30,18 +30,15 @@ import pytest
 import yaml
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
-from rclpy.parameter import Parameter
 
 from rrps_climbing.nodes.climb_node import ClimbNode
 from rrps_climbing.phase_path import MAX_TICK_PERIODS
 from rrps_climbing.route import FrameRoutePlanner, frame_route
 from rrps_description.geometry import load_robot, robot_path
-from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_interfaces.climb import ClimbState, ClimbStatus, PhaseAction
-from rrps_kinematics.nodes.fk_node import FkNode
-from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_runtime.messages import pose_from_msg
 from rrps_runtime.qos import COMMAND_QOS
+from rrps_testing.climb_stack import climb_stack
 from rrps_testing.ros_harness import Probe, Spinner, header_time, stamped_between, wait_for
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
@@ -55,22 +52,10 @@ LOADED = 2.0
 STREAM_TOLERANCE = 0.1
 
 
-def _stack(ctx, robot: str, **climb):
-    robot_param = Parameter('robot', value=robot)
-    return [DriverNode(context=ctx, parameter_overrides=[robot_param, Parameter('rate', value=100.0),
-                                                         Parameter('auto_activate', value=True),
-                                                         Parameter('ring_rotation_speed', value=3.0)]),
-            IkNode(context=ctx, parameter_overrides=[robot_param]),
-            FkNode(context=ctx, parameter_overrides=[robot_param]),
-            ClimbNode(context=ctx, parameter_overrides=[robot_param, Parameter('auto_steps', value=1),
-                                                        Parameter('preview', value=False),
-                                                        Parameter('state_timeout', value=0.5),
-                                                        *[Parameter(k, value=v) for k, v in climb.items()]])]
-
-
 def _run(ctx, robot: str, **climb) -> tuple[ClimbNode, list, dict]:
     """One scripted step; (climb node, (receipt, ClimbStatus) list, odometry logs)."""
-    nodes = _stack(ctx, robot, **climb)
+    nodes = climb_stack(ctx, robot, driver={'rate': 100.0, 'ring_rotation_speed': 3.0},
+                        climb={'auto_steps': 1, 'preview': False, **climb})
     probe = Probe(context=ctx)
     statuses = probe.collect(DiagnosticStatus, 'climb/status', stamped=True, clock='ros')
     targets = probe.collect(PoseStamped, 'target_pose', qos=COMMAND_QOS)

@@ -14,22 +14,18 @@ import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
-from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
 from rrps_climbing.gait import GaitPlanner
-from rrps_climbing.nodes.climb_node import ClimbNode
 from rrps_description.geometry import load_robot
 from rrps_description.pose import Pose
 from rrps_description.structures import make_structure
-from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_interfaces.climb import ClimbPreview, ClimbState, ClimbStatus, PreviewLimit, StepRefusal
 from rrps_interfaces.teleop import TeleopCode, TeleopStatus
 from rrps_kinematics import inverse_kinematics
-from rrps_kinematics.nodes.fk_node import FkNode
-from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_runtime.messages import pose_from_msg
+from rrps_testing.climb_stack import climb_stack
 from rrps_testing.ros_harness import DEADLINE, Probe, Spinner, header_time, wait_for
 
 pytestmark = pytest.mark.ros
@@ -38,19 +34,12 @@ TOL = 0.001  # position_tolerance of the node [m]
 
 
 def _stack(ctx, robot='pole_climber', driver=None, **climb):
-    """Driver, IK, FK and climb_node in this test's process. These tests check where a climb
-    goes; its pauses on stale inputs are tested in test_liveness.py and test_multihost.py. All
-    nodes share one executor here, which a loaded CI machine held up to 0.22 s once (the
-    driver's 20 Hz grippers/state against the default 0.2 s), so ``state_timeout`` is 0.5 s."""
-    params = {'robot': robot, 'structure': 'pole', 'speed': 0.05, 'step_length': 0.06,
-              'position_tolerance': TOL, 'start': 0.2, 'state_timeout': 0.5, **climb}
-    robot_param = Parameter('robot', value=robot)
-    driver = [Parameter(k, value=v) for k, v in {'rate': 200.0, 'auto_activate': True,
-                                                  **(driver or {})}.items()]
-    return [DriverNode(context=ctx, parameter_overrides=[robot_param] + driver),
-            IkNode(context=ctx, parameter_overrides=[robot_param]),
-            FkNode(context=ctx, parameter_overrides=[robot_param]),
-            ClimbNode(context=ctx, parameter_overrides=[Parameter(k, value=v) for k, v in params.items()])]
+    """Driver, IK, FK and climb_node in this test's process (rrps_testing.climb_stack). These
+    tests check where a climb goes; its pauses on stale inputs are tested in test_liveness.py and
+    test_multihost.py."""
+    return climb_stack(ctx, robot, driver=driver, climb={
+        'structure': 'pole', 'speed': 0.05, 'step_length': 0.06, 'position_tolerance': TOL, 'start': 0.2,
+        **climb})
 
 
 def _teleop_status(code, *, engaged: bool) -> DiagnosticStatus:

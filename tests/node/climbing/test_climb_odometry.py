@@ -10,17 +10,13 @@ import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticStatus
 from nav_msgs.msg import Odometry
-from rclpy.parameter import Parameter
 
 from rrps_climbing.gait import GaitPlanner
-from rrps_climbing.nodes.climb_node import ClimbNode
 from rrps_description.pose import Pose
 from rrps_description.rotations import quat_xyzw_to_matrix
 from rrps_description.structures import make_structure
-from rrps_hardware.nodes.driver_node import DriverNode
-from rrps_kinematics.nodes.fk_node import FkNode
-from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_runtime.messages import stamp_to_seconds
+from rrps_testing.climb_stack import climb_stack
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
@@ -34,15 +30,9 @@ def _values(status: DiagnosticStatus) -> dict:
 
 
 def test_the_odometry_follows_the_climb(ros_context):
-    robot = Parameter('robot', value='pole_climber')
-    climb = {'robot': 'pole_climber', 'structure': 'pole', 'speed': SPEED, 'step_length': 0.06,
-             'position_tolerance': TOL, 'start': 0.2, 'state_timeout': 0.5, 'auto_steps': 1,
-             'frame_prefix': 'robot_7/', 'odometry_length_stddev': 1e-4}
-    nodes = [DriverNode(context=ros_context, parameter_overrides=[
-                 robot, Parameter('rate', value=200.0), Parameter('auto_activate', value=True)]),
-             IkNode(context=ros_context, parameter_overrides=[robot]),
-             FkNode(context=ros_context, parameter_overrides=[robot]),
-             ClimbNode(context=ros_context, parameter_overrides=[Parameter(k, value=v) for k, v in climb.items()])]
+    nodes = climb_stack(ros_context, climb={
+        'structure': 'pole', 'speed': SPEED, 'step_length': 0.06, 'position_tolerance': TOL, 'start': 0.2,
+        'auto_steps': 1, 'frame_prefix': 'robot_7/', 'odometry_length_stddev': 1e-4})
     probe = Probe(context=ros_context)
     odometry = probe.collect(Odometry, 'odometry')
     status = probe.collect(DiagnosticStatus, 'climb/status')

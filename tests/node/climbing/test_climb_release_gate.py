@@ -13,17 +13,13 @@ import time
 
 import pytest
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
-from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
-from rrps_climbing.nodes.climb_node import ClimbNode
-from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_interfaces.climb import ClimbState, ClimbStatus, PauseReason
 from rrps_interfaces.driver import gripper_states
 from rrps_interfaces.teleop import TeleopCode, TeleopStatus
-from rrps_kinematics.nodes.fk_node import FkNode
-from rrps_kinematics.nodes.ik_node import IkNode
+from rrps_testing.climb_stack import climb_stack
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
@@ -36,14 +32,9 @@ def _status(msgs) -> ClimbStatus | None:
 
 
 def test_a_release_waits_for_the_operator_link_and_the_step_pauses_without_opening(ros_context):
-    robot = Parameter('robot', value='pole_climber')
-    driver = DriverNode(context=ros_context, parameter_overrides=[
-        robot, Parameter('rate', value=100.0), Parameter('auto_activate', value=True)])
-    climb = ClimbNode(context=ros_context, parameter_overrides=[
-        robot, Parameter('speed', value=0.03), Parameter('step_length', value=0.05),
-        Parameter('start', value=0.2)])
-    nodes = [driver, IkNode(context=ros_context, parameter_overrides=[robot]),
-             FkNode(context=ros_context, parameter_overrides=[robot]), climb]
+    nodes = climb_stack(ros_context, driver={'rate': 100.0},
+                        climb={'speed': 0.03, 'step_length': 0.05, 'start': 0.2})
+    climb = nodes[-1]
     probe = Probe(context=ros_context)
     grippers = probe.collect(JointState, 'grippers/state', stamped=True)
     teleop = probe.publisher(DiagnosticStatus, 'teleop/status')

@@ -13,21 +13,17 @@ import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
-from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
 from rrps_climbing.frame_crossing import FrameNodePlanner
 from rrps_climbing.gait import GaitPlanner
-from rrps_climbing.nodes.climb_node import ClimbNode
 from rrps_description.geometry import load_robot
 from rrps_description.structures import make_structure
-from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_interfaces.climb import CLIMB_RESUME, ClimbState, ClimbStatus
-from rrps_kinematics.nodes.fk_node import FkNode
-from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_runtime.messages import pose_from_msg
 from rrps_runtime.qos import COMMAND_QOS
+from rrps_testing.climb_stack import climb_stack
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
@@ -37,16 +33,9 @@ TOL = 1e-3
 
 
 def _climb(ros_context, robot: str, structure: str, start: float, **extra):
-    robot_param = Parameter('robot', value=robot)
-    driver = DriverNode(context=ros_context, parameter_overrides=[
-        robot_param, Parameter('rate', value=100.0), Parameter('auto_activate', value=True),
-        Parameter('ring_rotation_speed', value=3.0)])
-    climb = ClimbNode(context=ros_context, parameter_overrides=[
-        robot_param, Parameter('structure', value=structure), Parameter('start', value=start),
-        Parameter('speed', value=0.08), Parameter('auto_steps', value=1),
-        *[Parameter(k, value=v) for k, v in extra.items()]])
-    nodes = [driver, IkNode(context=ros_context, parameter_overrides=[robot_param]),
-             FkNode(context=ros_context, parameter_overrides=[robot_param]), climb]
+    nodes = climb_stack(ros_context, robot, driver={'rate': 100.0, 'ring_rotation_speed': 3.0},
+                        climb={'structure': structure, 'start': start, 'speed': 0.08, 'auto_steps': 1, **extra})
+    climb = nodes[-1]
     probe = Probe(context=ros_context)
     logs = {'status': probe.collect(DiagnosticStatus, 'climb/status'),
             'commands': probe.collect(JointState, 'actuators/command', qos=COMMAND_QOS),
