@@ -22,9 +22,10 @@ limits (:attr:`RobotGeometry.motion_limits`), and takes its state one period lat
   (:mod:`rrps_hardware.line_motion`) when the wanted velocity lies near it, else by Ruckig's
   phase synchronisation.
 - **A stream that stops** (no command for :data:`STALE_PERIODS` periods) with the legs moving:
-  they brake in phase along their line, then go to the newest command on the line to it. A
-  time-synchronised stop (each leg its own profile, the fast ones overshooting) left the
-  stream's path by up to 2.4 mm, a stall of the climb node's stream being enough.
+  they stop in phase, time-optimally, at the newest command's place on their line, then go to
+  the command itself (what lay across the line); out of phase, time-synchronised. A
+  time-synchronised stop from in phase (each leg its own profile, the fast ones overshooting)
+  left the stream's path by up to 2.4 mm, a stall of the climb node's stream being enough.
 - **A command at rest**: reached time-optimally on the line to it.
 
 The stream is followed one command period behind: the parabola through its last three commands,
@@ -87,7 +88,7 @@ class JerkLimitedSetpoints:
         self._commands: list = []   # the last three commands (arrival time, stamp or None, positions)
         self._history: list = []    # the same in the stream's time on the driver's clock (time, positions)
         self._arrived = -np.inf     # when the newest command arrived [s]
-        self._from_stream = False   # the legs move as a stream moved them (braked in phase once it stops)
+        self._from_stream = False   # the legs move as a stream moved them (stopped on their line once it stops)
 
     def command(self, positions, time: float, stamp: float | None = None) -> None:
         """A new command of ``positions`` arrived at ``time`` [s] (the driver's clock), stamped
@@ -131,7 +132,7 @@ class JerkLimitedSetpoints:
         target, velocity, acceleration = self._target(time)
         lim = self.limits
         streaming = bool(np.any(velocity) or np.any(acceleration))
-        braking = not streaming and self._from_stream
+        stopping = not streaming and self._from_stream
         velocity = np.clip(velocity, -lim.speed, lim.speed)
         # the wanted velocity leaves room to shed the present acceleration below the speed limit
         brake = self.acceleration * np.abs(self.acceleration) / (2.0 * lim.jerk)
@@ -150,12 +151,11 @@ class JerkLimitedSetpoints:
                                         target_velocity=along)
             elif streaming:     # a stream: steered along it
                 moved = self._ruckig(dt, ruckig.ControlInterface.Velocity, wanted, ruckig.Synchronization.No)
-            elif braking and line is not None:   # the stream stopped: braked in phase, along the legs' line
+            elif stopping and line is not None:   # the stream stopped: at its newest command, on the legs' line
                 moved = self._line.step(self.position, self.velocity, self.acceleration, line, dt,
-                                        target_velocity=0.0)
-            elif braking:
-                moved = self._ruckig(dt, ruckig.ControlInterface.Velocity, np.zeros(self.n),
-                                     ruckig.Synchronization.Phase)
+                                        distance=float((target - self.position) @ line))
+            elif stopping:      # ... out of phase: each leg time-optimally, together in time
+                moved = self._ruckig(dt, ruckig.ControlInterface.Position, target, ruckig.Synchronization.Time)
             elif (toward := _line_to(target - self.position, line, at_rest)) is not None:
                 # a command reached from rest, or on the way there: on the line to it
                 moved = self._line.step(self.position, self.velocity, self.acceleration, toward, dt,
@@ -166,10 +166,10 @@ class JerkLimitedSetpoints:
             self.reset(self.position)
             return self.position.copy()
         self.position, self.velocity, self.acceleration, finished = moved
-        self._from_stream = streaming or (braking and not finished)
-        if finished and not streaming:   # at rest: after a brake, then to the command; else exactly at it
+        self._from_stream = streaming or (stopping and not finished)
+        if finished and not streaming:   # at rest: after a stop on the line, then to the command; else exactly at it
             self.velocity, self.acceleration = np.zeros(self.n), np.zeros(self.n)
-            if not braking:
+            if not stopping:
                 self.position = target.copy()
         return self.position.copy()
 

@@ -118,11 +118,11 @@ def test_a_stream_that_stops_is_not_overshot():
 @pytest.mark.parametrize('stall_at', [1.0, 2.0, 3.0])
 def test_legs_with_different_shares_stop_and_regain_speed_along_the_streams_path(stall_at):
     """Six legs whose shares of one stream differ (as a pose's legs do: one lengthens near full
-    speed while another barely moves), the stream stalled mid-motion: the legs brake in phase
-    along their line, return to the last command on it, and once the stream resumes at its speed
-    regain their velocities in phase, within the limits, so the setpoints stay on the stream's
+    speed while another barely moves), the stream stalled mid-motion: the legs stop in phase on
+    their line, time-optimally at the last command's place on it, and once the stream resumes
+    they regain their velocities in phase, within the limits, so the setpoints stay on the stream's
     path, the line START + shares * s (by hand: the distance of each setpoint from that line).
-    Measured off the line: 0.06, 0.24 and 0.39 mm; time-synchronised stops left it by 1.4, 2.4
+    Measured off the line: 0.03, 0.22 and 0.33 mm; time-synchronised stops left it by 1.4, 2.4
     and 1.4 mm, each leg clipped and accelerating on its own by 6 mm."""
     shares = np.array([1.0, 0.6, 0.25, -0.35, -0.8, 0.05])
     rng = np.random.default_rng(3)
