@@ -8,8 +8,9 @@ machine this process goes without the CPU for seconds. Measured in a fresh-clone
 check what a climb does; the timing rules themselves (stale commands, stale state, a pose that
 never arrives) are tested on their own, with their real limits, in the driver's, IK's and climb
 node's own tests and in the system tests. So this stack acts on commands up to
-:data:`COMMAND_TIMEOUT` old, pauses for state older than :data:`STATE_TIMEOUT` and waits
-:data:`SETTLE_TIMEOUT` for a pose or a gripper; a test overrides any of them.
+:data:`~rrps_testing.ros_harness.IN_PROCESS_COMMAND_TIMEOUT` old, pauses for state older than
+:data:`STATE_TIMEOUT` and waits :data:`SETTLE_TIMEOUT` for a pose or a gripper; a test overrides
+any of them.
 """
 
 from __future__ import annotations
@@ -20,10 +21,10 @@ from rrps_climbing.nodes.climb_node import ClimbNode
 from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_kinematics.nodes.fk_node import FkNode
 from rrps_kinematics.nodes.ik_node import IkNode
+from rrps_testing.ros_harness import IN_PROCESS_COMMAND_TIMEOUT as COMMAND_TIMEOUT
 
-__all__ = ['COMMAND_TIMEOUT', 'STATE_TIMEOUT', 'SETTLE_TIMEOUT', 'climb_stack']
+__all__ = ['STATE_TIMEOUT', 'SETTLE_TIMEOUT', 'climb_stack']
 
-COMMAND_TIMEOUT = 1.0   # [s] the driver's and the IK node's ``timeout``
 STATE_TIMEOUT = 1.0     # [s] the climb node's ``state_timeout``
 SETTLE_TIMEOUT = 30.0   # [s] the climb node's ``settle_timeout``
 

@@ -24,7 +24,7 @@ from rrps_runtime.qos import COMMAND_QOS
 from rrps_teleop.master import scripted_pose
 from rrps_teleop.nodes.master_node import MasterNode
 from rrps_teleop.nodes.teleop_node import TeleopNode
-from rrps_testing.ros_harness import Probe, Spinner, header_time, wait_for
+from rrps_testing.ros_harness import IN_PROCESS_COMMAND_TIMEOUT, Probe, Spinner, header_time, wait_for
 
 __all__ = ['SLAVE', 'MASTER', 'NS', 'params', 'Rig']
 
@@ -63,9 +63,12 @@ class Rig:
         # loaded machine).
         teleop = {'master_timeout': 5.0, 'enable_timeout': 5.0, 'state_timeout': 5.0} | (teleop or {})
         self.teleop = TeleopNode(context=ctx, namespace=NS, parameter_overrides=params(**teleop))
-        nodes = [self.teleop, IkNode(context=ctx, namespace=NS), FkNode(context=ctx, namespace=NS),
+        # ... and the same for the driver's and IK's stale commands (ros_harness.IN_PROCESS_COMMAND_TIMEOUT)
+        timeout = IN_PROCESS_COMMAND_TIMEOUT
+        nodes = [self.teleop, IkNode(context=ctx, namespace=NS, parameter_overrides=params(timeout=timeout)),
+                 FkNode(context=ctx, namespace=NS),
                  DriverNode(context=ctx, namespace=NS,
-                            parameter_overrides=params(rate=driver_rate, auto_activate=True))]
+                            parameter_overrides=params(rate=driver_rate, auto_activate=True, timeout=timeout))]
         self.driver_rate = driver_rate
         if master is not None:
             self.master = MasterNode(context=ctx, namespace=NS,
