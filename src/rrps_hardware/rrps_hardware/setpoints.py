@@ -6,36 +6,32 @@ teleop, each through the IK node) and are held between arrivals; the hardware ta
 every driver period (500 Hz). :class:`JerkLimitedSetpoints` makes those setpoints with Ruckig
 (Berscheid and Kröger, *Jerk-limited Real-time Trajectory Generation with Arbitrary Target
 States*, RSS 2021; the ``ruckig`` library): each period it plans, from the setpoints' position,
-velocity and acceleration, a time-optimal motion within each leg's speed, acceleration and jerk
-limits (:attr:`RobotGeometry.motion_limits`), and takes its state one period later.
-
-- **Along a stream**, the velocity that follows it: the stream's interpolated velocity v, plus
-  a |a| / 2j for its acceleration a (the velocity it reaches once a is shed at the jerk limit j,
-  so that the setpoints keep the stream's acceleration instead of lagging it into a stop), plus
-  :data:`GAIN` times the position error, less what the present acceleration adds before it is
-  shed; reached at zero acceleration (Ruckig's velocity interface), each leg on its own: the
-  stream already times the legs together, and synchronising their velocity changes in time
-  turns differences of um/s between legs into mm of leg length.
-- **A catch-up** (the wanted velocity further than :data:`CATCH_UP_PERIODS` periods of full
-  acceleration from the present one: a stream resuming after a stall) changes velocity with the
-  legs in phase, so the pose regains speed along the stream's path: on the line the legs move on
-  (:mod:`rrps_hardware.line_motion`) when the wanted velocity lies near it, else by Ruckig's
-  phase synchronisation.
-- **A stream that stops** (no command for :data:`STALE_PERIODS` periods) with the legs moving:
-  they stop in phase, time-optimally, at the newest command's place on their line, then go to
-  the command itself (what lay across the line); out of phase, time-synchronised. A
-  time-synchronised stop from in phase (each leg its own profile, the fast ones overshooting)
-  left the stream's path by up to 2.4 mm, a stall of the climb node's stream being enough.
-- **A command at rest**: reached time-optimally on the line to it.
-
-The stream is followed one command period behind: the parabola through its last three commands,
-evaluated one period back, gives the position and velocity to follow. The commands are placed in
-time by their stamps (the times of the stream's samples: a command delivered late or two
-delivered together keep the stream's own spacing and speed), carried to the driver's clock by
-the shortest delay seen among the last three; unstamped commands by their arrival. Any stream,
-however it jumps, reaches the legs within the limits. :func:`stream_setpoints` is the same for a
-whole command stream at once (the preview of a climbing step). Pure Python and NumPy (and
-ruckig); no ROS import.
+velocity and acceleration, the time-optimal motion to the command within each leg's speed,
+acceleration and jerk limits (:attr:`RobotGeometry.motion_limits`), and takes its state one
+period later: to a command at rest, the time-optimal motion there (Ruckig's position interface,
+the legs synchronised in time); along a stream, the velocity that follows it (its interpolated
+velocity v, plus a |a| / 2j for its acceleration a, the velocity it reaches once a is shed at
+the jerk limit j, so that the setpoints keep the stream's acceleration instead of lagging it into
+a stop, plus :data:`GAIN` times the position error, less what the present acceleration adds
+before it is shed, reached at zero acceleration: Ruckig's velocity interface, whose motions stay
+within the speed limit so, each leg reaching its own velocity time-optimally: the stream already
+times the legs together, and synchronising their velocity changes in time turns differences of
+um/s between legs that follow one stream into mm of leg length), except when the wanted velocity
+is further than :data:`CATCH_UP_PERIODS` periods of full acceleration from the present one (a
+stream that resumes after a stall, at its speed, from legs at rest): then the legs change
+velocity in phase (Ruckig's phase synchronisation, time synchronisation where the state allows no
+phase), so the pose regains speed along the stream's path instead of leaving it by up to a
+millimetre while each leg accelerates on its own. The stream is followed one
+command period behind: the parabola through its last three commands, evaluated one period back,
+gives the position and velocity to follow; the newest command at rest once no new one came for
+:data:`STALE_PERIODS` periods. The commands are placed in time by their stamps (the times of the
+stream's samples: a command delivered late or two delivered together keep the stream's own
+spacing and speed), carried to the driver's clock by the shortest delay seen among the last
+three; unstamped commands by their arrival. So a stream is followed without stopping at every
+sample, and a stream that stops, stops without a velocity jump. Any stream, however it jumps,
+reaches the legs within the limits. :func:`stream_setpoints` is the same for a whole command
+stream at once (the preview of a climbing step). Pure Python and NumPy (and ruckig); no ROS
+import.
 """
 
 from __future__ import annotations
@@ -44,7 +40,6 @@ import numpy as np
 import ruckig
 
 from rrps_description.motion_limits import ActuatorLimits
-from rrps_hardware.line_motion import IN_PHASE, LineMotion, phase_line
 
 __all__ = ['DRIVER_PERIOD', 'STALE_PERIODS', 'CATCH_UP_PERIODS', 'JerkLimitedSetpoints', 'stream_setpoints']
 
@@ -57,12 +52,6 @@ GAIN = 5.0
 #: A wanted velocity further than this many periods of full acceleration from the present one is
 #: reached with the legs in phase (module docstring).
 CATCH_UP_PERIODS = 5.0
-#: The legs count as in phase when their acceleration leaves their velocity's line by at most this
-#: fraction of one period's jerk (shed by the next period, its jerk limit lowered as much).
-SHED = 0.5
-#: A catch-up whose wanted velocity is within this cosine of the line the legs move on in phase
-#: keeps that line (:func:`_catch_up_line`).
-ALONG_MOTION = 0.9
 
 
 class JerkLimitedSetpoints:
@@ -75,7 +64,6 @@ class JerkLimitedSetpoints:
         self._otg = ruckig.Ruckig(self.n, DRIVER_PERIOD)
         self._input = ruckig.InputParameter(self.n)
         self._output = ruckig.OutputParameter(self.n)
-        self._line = LineMotion(limits)
         self._input.max_velocity = [limits.speed] * self.n
         self._input.max_acceleration = [limits.acceleration] * self.n
         self._input.max_jerk = [limits.jerk] * self.n
@@ -88,7 +76,6 @@ class JerkLimitedSetpoints:
         self._commands: list = []   # the last three commands (arrival time, stamp or None, positions)
         self._history: list = []    # the same in the stream's time on the driver's clock (time, positions)
         self._arrived = -np.inf     # when the newest command arrived [s]
-        self._from_stream = False   # the legs move as a stream moved them (stopped on their line once it stops)
 
     def command(self, positions, time: float, stamp: float | None = None) -> None:
         """A new command of ``positions`` arrived at ``time`` [s] (the driver's clock), stamped
@@ -132,83 +119,39 @@ class JerkLimitedSetpoints:
         target, velocity, acceleration = self._target(time)
         lim = self.limits
         streaming = bool(np.any(velocity) or np.any(acceleration))
-        stopping = not streaming and self._from_stream
         velocity = np.clip(velocity, -lim.speed, lim.speed)
         # the wanted velocity leaves room to shed the present acceleration below the speed limit
         brake = self.acceleration * np.abs(self.acceleration) / (2.0 * lim.jerk)
         # the stream's velocity once its acceleration is shed at the jerk limit (a |a| / 2j): reached at
         # zero acceleration, it keeps the setpoints' acceleration on the stream's (no lag into a stop)
         ahead = velocity + acceleration * np.abs(acceleration) / (2.0 * lim.jerk)
-        low, high = -lim.speed - np.minimum(brake, 0.0), lim.speed - np.maximum(brake, 0.0)
-        wanted = _within(ahead + GAIN * (target - self.position), low, high)
-        catching_up = np.max(np.abs(wanted - self.velocity)) > CATCH_UP_PERIODS * lim.acceleration * DRIVER_PERIOD
-        line = phase_line(self.velocity, self.acceleration, SHED * lim.jerk * dt)
-        at_rest = not (np.any(self.velocity) or np.any(self.acceleration))
-        try:
-            if streaming and catching_up and (line := _catch_up_line(line, wanted, at_rest)) is not None:
-                along = _within((wanted @ line) * line, low, high) @ line
-                moved = self._line.step(self.position, self.velocity, self.acceleration, line, dt,
-                                        target_velocity=along)
-            elif streaming:     # a stream: steered along it
-                moved = self._ruckig(dt, ruckig.ControlInterface.Velocity, wanted, ruckig.Synchronization.No)
-            elif stopping and line is not None:   # the stream stopped: at its newest command, on the legs' line
-                moved = self._line.step(self.position, self.velocity, self.acceleration, line, dt,
-                                        distance=float((target - self.position) @ line))
-            elif stopping:      # ... out of phase: each leg time-optimally, together in time
-                moved = self._ruckig(dt, ruckig.ControlInterface.Position, target, ruckig.Synchronization.Time)
-            elif (toward := _line_to(target - self.position, line, at_rest)) is not None:
-                # a command reached from rest, or on the way there: on the line to it
-                moved = self._line.step(self.position, self.velocity, self.acceleration, toward, dt,
-                                        distance=float(np.linalg.norm(target - self.position)))
-            else:               # a command while the legs move: reached time-optimally
-                moved = self._ruckig(dt, ruckig.ControlInterface.Position, target, ruckig.Synchronization.Time)
-        except ruckig.RuckigError:   # a state Ruckig cannot start from: the command is held where it is
-            self.reset(self.position)
-            return self.position.copy()
-        self.position, self.velocity, self.acceleration, finished = moved
-        self._from_stream = streaming or (stopping and not finished)
-        if finished and not streaming:   # at rest: after a stop on the line, then to the command; else exactly at it
-            self.velocity, self.acceleration = np.zeros(self.n), np.zeros(self.n)
-            if not stopping:
-                self.position = target.copy()
-        return self.position.copy()
-
-    def _ruckig(self, dt: float, interface, target: np.ndarray, synchronization):
-        """Ruckig's n-dimensional step to ``target`` (a velocity or a position at rest)."""
+        wanted = _within(ahead + GAIN * (target - self.position), -lim.speed - np.minimum(brake, 0.0),
+                         lim.speed - np.maximum(brake, 0.0))
         inp, out = self._input, self._output
         inp.current_position, inp.current_velocity = self.position.tolist(), self.velocity.tolist()
         inp.current_acceleration = self.acceleration.tolist()
-        inp.control_interface, inp.synchronization = interface, synchronization
-        inp.target_velocity = inp.target_acceleration = [0.0] * self.n
-        if interface == ruckig.ControlInterface.Velocity:
-            inp.target_velocity = target.tolist()
-        else:
+        if streaming:   # a stream: steered along it
+            inp.control_interface = ruckig.ControlInterface.Velocity
+            inp.target_velocity, inp.target_acceleration = wanted.tolist(), [0.0] * self.n
+            catching_up = np.max(np.abs(wanted - self.velocity)) > CATCH_UP_PERIODS * lim.acceleration * DRIVER_PERIOD
+            inp.synchronization = ruckig.Synchronization.Phase if catching_up else ruckig.Synchronization.No
+        else:           # a command at rest: reached time-optimally
+            inp.control_interface = ruckig.ControlInterface.Position
             inp.target_position = target.tolist()
+            inp.target_velocity = inp.target_acceleration = [0.0] * self.n
+            inp.synchronization = ruckig.Synchronization.Time
         self._otg.delta_time = dt
-        finished = self._otg.update(inp, out) == ruckig.Result.Finished
-        return np.array(out.new_position), np.array(out.new_velocity), np.array(out.new_acceleration), finished
-
-
-def _line_to(d: np.ndarray, line: np.ndarray | None, at_rest: bool) -> np.ndarray | None:
-    """The unit vector toward a command ``d`` [m] away when the legs rest, or move in phase on the
-    line to it; else None."""
-    norm = float(np.linalg.norm(d))
-    if norm == 0.0 or not (at_rest or line is not None):
-        return None
-    u = d / norm
-    return u if at_rest or abs(u @ line) >= 1.0 - IN_PHASE else None
-
-
-def _catch_up_line(line: np.ndarray | None, wanted: np.ndarray, at_rest: bool) -> np.ndarray | None:
-    """The line a catch-up keeps the legs on: the one they move on in phase (from rest: the
-    wanted velocity's direction), if the wanted velocity lies within :data:`ALONG_MOTION` of it
-    (a stream resuming along its path); else None. The rest of the wanted velocity, across the
-    line, is steered out once the legs follow the stream again."""
-    norm = float(np.linalg.norm(wanted))
-    if norm == 0.0:
-        return None
-    line = wanted / norm if at_rest else line
-    return None if line is None else line if abs(wanted @ line) >= ALONG_MOTION * norm else None
+        try:
+            result = self._otg.update(inp, out)
+        except ruckig.RuckigError:   # a state Ruckig cannot start from: the command is held where it is
+            self.reset(self.position)
+            return self.position.copy()
+        self.position = np.array(out.new_position)
+        self.velocity = np.array(out.new_velocity)
+        self.acceleration = np.array(out.new_acceleration)
+        if result == ruckig.Result.Finished and not streaming:
+            self.position = target.copy()   # arrived: exactly at the command (not a rounding off it)
+        return self.position.copy()
 
 
 def _within(wanted: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
