@@ -15,13 +15,12 @@ any of them.
 
 from __future__ import annotations
 
-from rclpy.parameter import Parameter
-
 from rrps_climbing.nodes.climb_node import ClimbNode
 from rrps_hardware.nodes.driver_node import DriverNode
 from rrps_kinematics.nodes.fk_node import FkNode
 from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_testing.ros_harness import IN_PROCESS_COMMAND_TIMEOUT as COMMAND_TIMEOUT
+from rrps_testing.ros_harness import params
 
 __all__ = ['STATE_TIMEOUT', 'SETTLE_TIMEOUT', 'climb_stack']
 
@@ -29,18 +28,14 @@ STATE_TIMEOUT = 1.0     # [s] the climb node's ``state_timeout``
 SETTLE_TIMEOUT = 30.0   # [s] the climb node's ``settle_timeout``
 
 
-def _parameters(values: dict) -> list[Parameter]:
-    return [Parameter(k, value=v) for k, v in values.items()]
-
-
 def climb_stack(ctx, robot: str = 'pole_climber', *, driver: dict | None = None,
                 climb: dict | None = None) -> list:
     """[DriverNode, IkNode, FkNode, ClimbNode] of ``robot`` in context ``ctx``: the driver at
     200 Hz, activated at start; ``driver`` and ``climb`` override or add those nodes' parameters."""
     common = {'robot': robot}
-    return [DriverNode(context=ctx, parameter_overrides=_parameters(
-                common | {'rate': 200.0, 'auto_activate': True, 'timeout': COMMAND_TIMEOUT} | (driver or {}))),
-            IkNode(context=ctx, parameter_overrides=_parameters(common | {'timeout': COMMAND_TIMEOUT})),
-            FkNode(context=ctx, parameter_overrides=_parameters(common)),
-            ClimbNode(context=ctx, parameter_overrides=_parameters(
-                common | {'state_timeout': STATE_TIMEOUT, 'settle_timeout': SETTLE_TIMEOUT} | (climb or {})))]
+    return [DriverNode(context=ctx, parameter_overrides=params(**(
+                common | {'rate': 200.0, 'auto_activate': True, 'timeout': COMMAND_TIMEOUT} | (driver or {})))),
+            IkNode(context=ctx, parameter_overrides=params(**common, timeout=COMMAND_TIMEOUT)),
+            FkNode(context=ctx, parameter_overrides=params(**common)),
+            ClimbNode(context=ctx, parameter_overrides=params(**(
+                common | {'state_timeout': STATE_TIMEOUT, 'settle_timeout': SETTLE_TIMEOUT} | (climb or {}))))]

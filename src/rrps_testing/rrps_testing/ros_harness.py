@@ -23,6 +23,7 @@ import time
 from typing import Callable, Sequence
 
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from rrps_runtime.process import make_executor, spin_until_shutdown
@@ -47,6 +48,11 @@ DEADLINE = 60.0
 #: (tests/conftest.py), and a loaded machine leaves their process without the CPU for seconds:
 #: the stale-command rule itself is tested with its real limit in those nodes' own tests.
 IN_PROCESS_COMMAND_TIMEOUT = 1.0
+
+
+def params(**values) -> list:
+    """rclpy Parameters from keyword values (a node's ``parameter_overrides``)."""
+    return [Parameter(k, value=v) for k, v in values.items()]
 
 
 def wait_for(predicate: Callable[[], object], timeout: float = DEADLINE, period: float = 0.005) -> bool:

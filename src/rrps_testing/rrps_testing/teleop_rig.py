@@ -10,7 +10,6 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from rclpy.duration import Duration
-from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool
 
@@ -24,18 +23,13 @@ from rrps_runtime.qos import COMMAND_QOS
 from rrps_teleop.master import scripted_pose
 from rrps_teleop.nodes.master_node import MasterNode
 from rrps_teleop.nodes.teleop_node import TeleopNode
-from rrps_testing.ros_harness import IN_PROCESS_COMMAND_TIMEOUT, Probe, Spinner, header_time, wait_for
+from rrps_testing.ros_harness import IN_PROCESS_COMMAND_TIMEOUT, Probe, Spinner, header_time, params, wait_for
 
 __all__ = ['SLAVE', 'MASTER', 'NS', 'params', 'Rig']
 
 SLAVE = load_robot('pole_climber')
 MASTER = load_robot('master_robot')
 NS = '/rrps'
-
-
-def params(**values):
-    """rclpy Parameters from keyword values (a node's ``parameter_overrides``)."""
-    return [Parameter(k, value=v) for k, v in values.items()]
 
 
 class Rig:
