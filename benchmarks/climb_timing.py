@@ -24,7 +24,8 @@ the plan's loads); the planned peak force of step 1's motions within 5 % of the 
 the same timed step (``run_preview``); planning the 1 m climb with timing <= 1 s (best CPU time
 of ``--repeat``, beside the geometric planning of the former release: the timing's share); the
 streamed jerk (the climb node's 50 Hz stream through the driver's 500 Hz setpoints, finite
-differences) within the legs' limit at every sample.
+differences) within the legs' limit at every sample; those setpoints at most 0.1 mm of leg length
+past a motion's last command once its stream ends (the end-of-motion overshoot).
 """
 
 from __future__ import annotations
@@ -94,9 +95,11 @@ def climbing_speed(plan, motion_time) -> float:
     return 60.0 * abs(plan.climbed) / total
 
 
-def streamed_jerk(geometry, plan) -> tuple[float, float]:
-    """The largest |jerk| of step 1's motions: the plan's samples and the driver's setpoints."""
-    worst_plan = worst_driver = 0.0
+def streamed(geometry, plan) -> tuple[float, float, float]:
+    """Step 1's motions streamed to the driver: the largest |jerk| of the plan's samples and of the
+    driver's setpoints, and the farthest [m] a leg's setpoints go past its last command after the
+    stream ends (in the direction the leg was moving)."""
+    worst_plan = worst_driver = overshoot = 0.0
     for ph in plan.phases:
         if ph.step != 1 or ph.timing is None:
             continue
@@ -107,7 +110,10 @@ def streamed_jerk(geometry, plan) -> tuple[float, float]:
         commands = inverse_kinematics(geometry, stream.positions, stream.quaternions_xyzw).lengths
         setpoints = stream_setpoints(commands, STREAM, geometry.motion_limits.legs, settle=0.5)
         worst_driver = max(worst_driver, np.abs(np.diff(setpoints, 3, axis=0)).max() / DRIVER_PERIOD ** 3)
-    return worst_plan, worst_driver
+        last = int(round(STREAM * (len(commands) - 1) / DRIVER_PERIOD))
+        heading = np.sign(commands[-1] - commands[-6])
+        overshoot = max(overshoot, float(((setpoints[last:] - commands[-1]) * heading).max()))
+    return worst_plan, worst_driver, overshoot
 
 
 def best(fn, repeat):
@@ -125,7 +131,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     print(f'{"robot":15s} {"structure":14s} {"load":>5s} {"today":>6s} {"planned":>8s} {"bound":>6s} {"ratio":>6s} '
           f'{"s/step":>7s} {"peak F":>7s} {"preview":>8s} {"dF":>6s} {"plan 1 m":>9s} {"timing":>7s} '
-          f'{"jerk plan/driver/limit":>24s}  verdicts')
+          f'{"jerk plan/driver/limit":>24s} {"past":>9s}  verdicts')
     verdicts = []
     for robot, name, lean, payload in CASES:
         g = load_robot(robot)
@@ -146,7 +152,7 @@ def main(argv=None) -> int:
         deviation = abs(preview.peak_force - peak) / preview.peak_force
         within = all(ph.loads.peak_force <= g.max_force and not ph.loads.holding_margin < 0.0
                      for ph in plan.phases if ph.loads is not None)
-        jerk_plan, jerk_driver = streamed_jerk(g, plan)
+        jerk_plan, jerk_driver, overshoot = streamed(g, plan)
         limit = g.motion_limits.legs.jerk
         row = {
             'speed >= 90 % of bound': (planned >= 0.9 * bound) if not payload else None,
@@ -154,6 +160,7 @@ def main(argv=None) -> int:
             'peak force within 5 % of preview': deviation <= 0.05,
             'plan 1 m <= 1 s': t_plan <= 1.0,
             'streamed jerk within limit': max(jerk_plan, jerk_driver) <= limit * (1 + 1e-6),
+            'setpoints past the last command <= 0.1 mm': overshoot <= 1e-4,
         }
         marks = ', '.join(f'{k}: {"MET" if v else "MISSED"}' for k, v in row.items() if v is not None)
         verdicts += [v for v in row.values() if v is not None]
@@ -161,7 +168,7 @@ def main(argv=None) -> int:
         print(f'{robot:15s} {name + (f" {lean:.0f} deg" if lean else ""):14s} {payload:4.0f}k {today:6.2f} '
               f'{planned:8.2f} {bound:6.2f} {planned / bound:6.1%} {max(steps):7.2f} {peak:7.1f} '
               f'{preview.peak_force:8.1f} {deviation:6.1%} {t_plan:8.3f}s {t_timing:6.3f}s '
-              f'{jerk_plan:7.2f}/{jerk_driver:5.2f}/{limit:5.2f} m/s3  {marks}')
+              f'{jerk_plan:7.2f}/{jerk_driver:5.2f}/{limit:5.2f} m/s3 {overshoot * 1e3:6.3f} mm  {marks}')
     print('climbing speeds in m/min; today: the same path at 0.02 m/s; bound: the legs\' full speed and '
           'acceleration, phase-plane integration written here')
     print(f'targets: {"all MET" if all(verdicts) else "some MISSED"}')

@@ -6,8 +6,8 @@ tracking the same profile, on the same paths, in the same run.
 
 For each shipped climber on its structure, the motions of one planned step are cut into their
 pieces between corners (as ``rrps_climbing.timing`` times them); each piece's time-optimal
-profile s(t) under the legs' speed and acceleration (TOPP-RA, the planner's :data:`PLAN_SHARE` of
-the limits) is made jerk-limited three ways:
+profile s(t) under the legs' speed and acceleration (TOPP-RA, the planner's
+``rrps_description.motion_limits.stream_limits``) is made jerk-limited three ways:
 
 * ``moving average``: what the planner does (``timing_profile.SmoothedLaw``: the profile averaged
   over the window the legs' jerk limit needs, slowed uniformly until every sample keeps every leg
@@ -40,11 +40,11 @@ import ruckig
 
 from rrps_climbing.gait import GaitPlanner
 from rrps_climbing.path_curve import PathCurve, corner_pieces
-from rrps_climbing.timing import PLAN_SHARE, SAMPLE_PERIOD, _time_piece, _topp
+from rrps_climbing.timing import SAMPLE_PERIOD, _time_piece, _topp
 from rrps_climbing.timing_constraints import grid_limits
 from rrps_climbing.timing_profile import TimingLaw
 from rrps_description.geometry import load_robot
-from rrps_description.motion_limits import ActuatorLimits
+from rrps_description.motion_limits import ActuatorLimits, stream_limits
 from rrps_description.structures import make_structure
 from rrps_kinematics.forward import ForwardSolver
 
@@ -103,9 +103,7 @@ def track(n: int, reference, end, limits: tuple, steps: int) -> np.ndarray:
 
 
 def compare(geometry, curve: PathCurve) -> dict:
-    legs = ActuatorLimits(*(PLAN_SHARE * x for x in (geometry.motion_limits.legs.speed,
-                                                     geometry.motion_limits.legs.acceleration,
-                                                     geometry.motion_limits.legs.jerk)))
+    legs = stream_limits(geometry.motion_limits.legs)
     c = geometry.characteristic_length
     law, _, _ = _time_piece(geometry, curve, legs, None, None, (1, 'move'))
     s_grid = np.linspace(0.0, curve.length, max(16, math.ceil(curve.length / 0.005)) + 1)

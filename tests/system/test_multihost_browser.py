@@ -192,8 +192,13 @@ def test_a_browser_on_the_operator_station_drives_the_robot_through_latency_and_
     holds = [_judge_hold(operator, robot, marks[f'latency {k}'], marks[f'latency {k} released'])
              for k in range(HOLDS)]
     assert any(ok for ok, _ in holds), f'no hold stayed engaged: {holds}; proxy {proxy.command("stats")}'
+    # The panel shows the link's round trip: at least what the proxy adds. One reading is one Ping,
+    # which a busy machine can delay past 300 ms (a CI run read 367 ms); what the viewer measured
+    # over the holds (operator/round_trip_time, its median) stays below teleop's 300 ms hold.
     rtt = _round_trip_ms(texts[0])
-    assert 2 * lo <= rtt <= 300.0, f'round trip {rtt} ms on the panel through a {lo}-{hi} ms proxy'
+    assert rtt >= 2 * lo, f'round trip {rtt} ms on the panel through a {lo}-{hi} ms proxy'
+    measured = [r['data'] for r in operator.records('operator/round_trip_time', marks['latency 0'], marks['medium'])]
+    assert measured and 2 * lo / 1e3 <= np.median(measured) <= 0.3, (measured, rtt)
 
     # 2. A round trip above 200 ms (below 300 ms) slows teleop down, engaged: every engaged
     # status with such a round trip has a speed factor below 1, and there was one.

@@ -9,8 +9,9 @@ actuators' force limit and the holding ring's capacity (eq. 19 with the motion's
 linearised exactly per gridpoint). Its bang-bang profile is then made jerk-limited by a moving
 average (:mod:`.timing_profile`, the window from the legs' jerk limit). The smoothed law is
 checked at every sample (:data:`SAMPLE_PERIOD`, the driver's period): each leg's speed,
-acceleration and jerk (finite differences of the accelerations; a plan uses :data:`PLAN_SHARE` of
-each leg limit, the rest is the driver's to catch up with the stream), the actuator forces and
+acceleration and jerk (finite differences of the accelerations; a plan uses
+:func:`rrps_description.motion_limits.stream_limits`, a share of each leg limit, the rest is the
+driver's to follow the stream), the actuator forces and
 the exact holding margin (:func:`rrps_loads.loads.holding_margin`). Where a check exceeds its limit
 (the averaging and the polyhedral holding capacity are approximations) the whole law is slowed by
 a uniform time scale until none does; a motion the limits cannot realise even at rest is refused.
@@ -38,12 +39,12 @@ from rrps_climbing.plan import PlanError, PlanLimit
 from rrps_climbing.timing_constraints import GridLimits, Held, grid_limits
 from rrps_climbing.timing_profile import SmoothedLaw, TimingLaw, jerk_window
 from rrps_description.geometry import RobotGeometry
-from rrps_description.motion_limits import ActuatorLimits
+from rrps_description.motion_limits import ActuatorLimits, stream_limits
 from rrps_description.pose import Pose
 from rrps_loads.loads import holding_margin
 from rrps_loads.path_loads import loads_at, min_margin, peak_force, peak_leg
 
-__all__ = ['SAMPLE_PERIOD', 'GRID_SPACING', 'PLAN_SHARE', 'TimedLoads', 'TimedMotion', 'time_motion', 'rest_loads',
+__all__ = ['SAMPLE_PERIOD', 'GRID_SPACING', 'TimedLoads', 'TimedMotion', 'time_motion', 'rest_loads',
            'check_speed']
 
 #: The timed motion's samples [s]: the driver's period.
@@ -52,9 +53,6 @@ SAMPLE_PERIOD = 0.002
 GRID_SPACING = 0.005
 #: The fewest TOPP-RA stages of a motion.
 MIN_STAGES = 16
-#: The share of each leg limit a plan uses: the driver's setpoints (``rrps_hardware.setpoints``)
-#: follow the stream one command period behind, and catch up with the rest.
-PLAN_SHARE = 0.97
 #: How much each retry slows a law whose loads exceed a limit.
 SLOWER = 1.03
 MAX_RETRIES = 60
@@ -309,12 +307,11 @@ def time_motion(geometry: RobotGeometry, path: np.ndarray, ring_angles: np.ndarr
     """The time-optimal, jerk-limited timing of a sampled path (n, 4, 4) with its ring angles
     (n, 2) (module docstring): from rest to rest between its corners
     (:func:`~.path_curve.corner_pieces`), within the legs' limits
-    (:attr:`RobotGeometry.motion_limits`, :data:`PLAN_SHARE` of them), the path-speed cap
+    (:attr:`RobotGeometry.motion_limits`, their :func:`stream_limits`), the path-speed cap
     ``speed`` [m/s] (None: none) and, with ``held``, the force limit and the holding ring's
     capacity. ``where`` (step, phase) names the motion in a refusal (:class:`PlanError`)."""
     speed = check_speed(speed, *where)
-    full = geometry.motion_limits.legs
-    legs = ActuatorLimits(PLAN_SHARE * full.speed, PLAN_SHARE * full.acceleration, PLAN_SHARE * full.jerk)
+    legs = stream_limits(geometry.motion_limits.legs)
     c = geometry.characteristic_length
     pieces, loads, peak = [], [], 0.0
     for piece in corner_pieces(path, c):

@@ -27,8 +27,9 @@ from typing import Any, Mapping
 from rrps_description.names import RINGS
 from rrps_description.robot_parts import RobotDescriptionError, as_scalar
 
-__all__ = ['DEFAULT_RAMP_TIME', 'DEFAULT_JERK_TIME', 'DEFAULT_GRIPPER_TIME', 'GripperTime', 'ActuatorLimits',
-           'MotionLimits', 'motion_limits', 'motion_limits_from', 'check_rate_limits']
+__all__ = ['DEFAULT_RAMP_TIME', 'DEFAULT_JERK_TIME', 'DEFAULT_GRIPPER_TIME', 'STREAM_SPEED_SHARE',
+           'STREAM_RATE_SHARE', 'GripperTime', 'ActuatorLimits', 'MotionLimits', 'motion_limits',
+           'motion_limits_from', 'stream_limits', 'check_rate_limits']
 
 #: The legs reach full speed in this time when the description gives no acceleration [s].
 DEFAULT_RAMP_TIME = 0.5
@@ -36,6 +37,15 @@ DEFAULT_RAMP_TIME = 0.5
 DEFAULT_JERK_TIME = 0.2
 #: A gripper opens or closes in this time when the description gives none [s].
 DEFAULT_GRIPPER_TIME = 2.0
+#: The share of the legs' speed limit a stream of commands to the driver uses (a climbing plan,
+#: teleop's targets).
+STREAM_SPEED_SHARE = 0.97
+#: The share of the legs' acceleration and jerk limits such a stream uses. The driver's setpoints
+#: (``rrps_hardware.setpoints``) follow a stream one command period behind and need the rest to
+#: keep up with its acceleration and braking: the pole climber's planned motions, streamed at
+#: 50 Hz, ended 0.32 mm of leg length past their last command at 97 % of these limits, and
+#: 0.08 mm at 85 % (docs/measurements.md, "Headroom for the driver's setpoints").
+STREAM_RATE_SHARE = 0.85
 
 
 @dataclass(frozen=True)
@@ -66,6 +76,13 @@ class MotionLimits:
 
     legs: ActuatorLimits
     grippers: Mapping[str, GripperTime]
+
+
+def stream_limits(full: ActuatorLimits) -> ActuatorLimits:
+    """The limits a command stream is timed within: :data:`STREAM_SPEED_SHARE` of ``full``'s
+    speed, :data:`STREAM_RATE_SHARE` of its acceleration and jerk."""
+    return ActuatorLimits(STREAM_SPEED_SHARE * full.speed, STREAM_RATE_SHARE * full.acceleration,
+                          STREAM_RATE_SHARE * full.jerk)
 
 
 def check_rate_limits(values: Mapping[str, float]) -> None:

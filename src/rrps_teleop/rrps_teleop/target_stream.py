@@ -6,8 +6,9 @@ teleop sends the robot. Each control step, :meth:`TargetStream.follow` plans wit
 (Berscheid and Kröger, RSS 2021; the ``ruckig`` library, Ruckig's position interface) the
 time-optimal motion of the six leg lengths from the stream's state (length, speed, acceleration)
 to the newest guarded command at rest, within each leg's speed, acceleration and jerk limits
-(:attr:`RobotGeometry.motion_limits`, :data:`STREAM_SHARE` of them, the share the climbing plans
-use: the driver's setpoints follow with room to spare), and takes its state after the time since
+(:attr:`RobotGeometry.motion_limits`, their
+:func:`~rrps_description.motion_limits.stream_limits`, as the climbing plans: the driver's
+setpoints follow with room to spare), and takes its state after the time since
 the last step. The limits are the legs' own, so no mapping to Cartesian speeds is needed: the
 target pose is the forward kinematics of the stream's lengths (warm-started from the last one);
 a stream at the command is the command's own pose. A command held still (a guard's halt) is
@@ -20,8 +21,9 @@ slave's state stale, a climb), :meth:`TargetStream.stop` brakes at once with the
 jerk-limited stop: Ruckig's velocity interface to zero speed, each leg from its own speed v and
 acceleration a. From rest it ends at once; from speed v with a = 0 it takes
 :func:`stopping_time` = 2 sqrt(v / j) (v <= a_max² / j) or v / a_max + a_max / j, over
-:func:`stopping_distance`: at the pole climber's 0.05 m/s, 0.25 m/s² and 2.5 m/s³, 0.3 s and
-7.5 mm; below 6 mm/s of leg speed, under 0.1 s and 0.3 mm. "The slave holds within
+:func:`stopping_distance`: within the pole climber's stream limits (0.0485 m/s, 0.2125 m/s²
+and 2.125 m/s³), 0.33 s and 8.0 mm from full speed; below 5 mm/s of leg speed, under 0.1 s and
+0.25 mm. "The slave holds within
 0.1 s" means so: within 0.1 s of the release the stream is braking, and it is at rest within
 the stopping time of its speed then, no longer than the legs need to stop at all (the driver
 alone could not stop sooner). Pure NumPy (and ruckig); no ROS import.
@@ -35,13 +37,10 @@ import numpy as np
 import ruckig
 
 from rrps_description.geometry import RobotGeometry
-from rrps_description.motion_limits import ActuatorLimits
+from rrps_description.motion_limits import ActuatorLimits, stream_limits
 from rrps_kinematics.forward import ForwardSolver
 
-__all__ = ['STREAM_SHARE', 'TargetStream', 'stopping_time', 'stopping_distance']
-
-#: The share of the legs' speed, acceleration and jerk limits the stream uses (the plans' share).
-STREAM_SHARE = 0.97
+__all__ = ['TargetStream', 'stopping_time', 'stopping_distance']
 
 
 def stopping_time(speed: float, limits: ActuatorLimits) -> float:
@@ -59,9 +58,7 @@ class TargetStream:
     """The jerk-limited stream of targets of ``geometry``'s legs (module docstring)."""
 
     def __init__(self, geometry: RobotGeometry):
-        full = geometry.motion_limits.legs
-        self.limits = ActuatorLimits(STREAM_SHARE * full.speed, STREAM_SHARE * full.acceleration,
-                                     STREAM_SHARE * full.jerk)
+        self.limits = stream_limits(geometry.motion_limits.legs)
         self._fk = ForwardSolver(geometry)
         self._otg = ruckig.Ruckig(6, 0.01)
         self._input = ruckig.InputParameter(6)

@@ -31,11 +31,11 @@ from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool
 
+from rrps_description.motion_limits import STREAM_RATE_SHARE, STREAM_SPEED_SHARE
 from rrps_interfaces.climb import ClimbState, ClimbStatus
 from rrps_kinematics import check_pose, inverse_kinematics
 from rrps_runtime.messages import joint_state_msg, lengths_from_joint_state, pose_from_msg, pose_to_msg
 from rrps_teleop.nodes.teleop_node import TeleopNode
-from rrps_teleop.target_stream import STREAM_SHARE
 from rrps_testing.ros_harness import Probe, Spinner, header_time, stamped_between, wait_for
 from rrps_testing.teleop_rig import MASTER, NS, SLAVE, Rig, params
 
@@ -44,7 +44,8 @@ pytestmark = pytest.mark.ros
 
 #: The slave's legs' limits as the target stream uses them.
 LEGS = SLAVE.motion_limits.legs
-SPEED, ACCELERATION, JERK = (STREAM_SHARE * x for x in (LEGS.speed, LEGS.acceleration, LEGS.jerk))
+SPEED, ACCELERATION, JERK = (STREAM_SPEED_SHARE * LEGS.speed, STREAM_RATE_SHARE * LEGS.acceleration,
+                             STREAM_RATE_SHARE * LEGS.jerk)
 #: The node reacts to a release within this [s] (its next control step or watchdog tick).
 REACTION = 0.1
 

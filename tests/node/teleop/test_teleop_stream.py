@@ -19,8 +19,8 @@ import math
 import numpy as np
 import pytest
 
+from rrps_description.motion_limits import STREAM_RATE_SHARE, STREAM_SPEED_SHARE
 from rrps_runtime.messages import lengths_from_joint_state, pose_from_msg
-from rrps_teleop.target_stream import STREAM_SHARE
 from rrps_testing.ros_harness import wait_for
 from rrps_testing.teleop_rig import MASTER, SLAVE, Rig
 from rrps_testing.virtual_work import quaternion_matrix
@@ -32,7 +32,7 @@ SPACING = 0.004
 #: float64 ulps of a 0.5 m length, the stamps' seconds included).
 ROUNDING = 1e-14
 LEGS = SLAVE.motion_limits.legs
-LIMITS = tuple(STREAM_SHARE * x for x in (LEGS.speed, LEGS.acceleration, LEGS.jerk))
+LIMITS = (STREAM_SPEED_SHARE * LEGS.speed, STREAM_RATE_SHARE * LEGS.acceleration, STREAM_RATE_SHARE * LEGS.jerk)
 
 
 def leg_lengths(position, quaternion) -> np.ndarray:

@@ -11,8 +11,9 @@ import pytest
 
 from rrps_climbing.gait import GaitPlanner
 from rrps_climbing.handover import handover_loads
-from rrps_climbing.timing import PLAN_SHARE, SAMPLE_PERIOD, time_motion
+from rrps_climbing.timing import SAMPLE_PERIOD, time_motion
 from rrps_description.geometry import load_robot
+from rrps_description.motion_limits import STREAM_RATE_SHARE, STREAM_SPEED_SHARE
 from rrps_description.pose import Pose
 from rrps_description.structures import make_structure
 from rrps_kinematics import inverse_kinematics
@@ -28,11 +29,11 @@ def _straight(distance=0.15, n=16):
     return path, np.zeros((n, 2))
 
 
-def _bound(geometry, path, share):
+def _bound(geometry, path, speed_share, rate_share):
     """Phase-plane integration (forward at the largest acceleration, backward at the largest
     deceleration) with L'(s), L''(s) by central differences of IK lengths along the straight line."""
     legs = geometry.motion_limits.legs
-    v_max, a_max = share * legs.speed, share * legs.acceleration
+    v_max, a_max = speed_share * legs.speed, rate_share * legs.acceleration
     p0, p1 = path[0, :3, 3], path[-1, :3, 3]
     length = np.linalg.norm(p1 - p0)
     s = np.linspace(0.0, length, 3001)
@@ -62,15 +63,14 @@ def test_a_straight_motion_takes_the_time_optimal_bound_within_2_percent_plus_it
     path, angles = _straight()
     timed = time_motion(POLE, path, angles)
     (curve, law), = timed.pieces
-    bound = _bound(POLE, path, PLAN_SHARE)
+    bound = _bound(POLE, path, STREAM_SPEED_SHARE, STREAM_RATE_SHARE)
     # TOPP-RA's bang-bang law reaches the bound of the same limits; the jerk-limited law adds its window
     assert bound * 0.999 <= law.law.duration <= 1.02 * bound
     assert law.duration == pytest.approx((law.law.duration + law.window) * law.scale)
     assert timed.duration <= 1.02 * bound + 1.01 * law.window
-    assert law.window == pytest.approx(PLAN_SHARE * POLE.motion_limits.legs.acceleration
-                                       / (PLAN_SHARE * POLE.motion_limits.legs.jerk), rel=0.1)
+    assert law.window == pytest.approx(POLE.motion_limits.legs.acceleration / POLE.motion_limits.legs.jerk, rel=0.1)
     # ... and the full limits' bound, which any motion takes at least
-    assert timed.duration >= _bound(POLE, path, 1.0)
+    assert timed.duration >= _bound(POLE, path, 1.0, 1.0)
 
 
 @pytest.mark.parametrize('robot,structure', [('pole_climber', 'palm_trunk'), ('facade_climber', 'facade'),
