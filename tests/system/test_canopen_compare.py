@@ -20,10 +20,12 @@ from rrps_interfaces.teleop import MASTER_FRAME, MASTER_TARGET_POSE
 from rrps_runtime.messages import pose_from_msg, pose_to_msg
 from rrps_runtime.qos import COMMAND_QOS
 from rrps_testing.canopen_stack import call, canopen_stack, climb_state, finish_step, teleop_status
-from rrps_testing.ros_harness import wait_for
+from rrps_testing.ros_harness import header_time, wait_for
 
 pytestmark = [pytest.mark.slow, pytest.mark.ros]
 MASTER = load_robot('master_robot')
+#: The pole climber's legs' speed limit [m/s].
+SPEED = load_robot('pole_climber').motion_limits.legs.speed
 HANDLE_STEP = 0.004
 
 
@@ -40,14 +42,16 @@ def at_rest(stack, n: int = 100) -> np.ndarray:
     return flat(stack.poses[-1][1])
 
 
-def climb(stack) -> tuple[np.ndarray, np.ndarray]:
-    """One climbing step up from the home pose: (the poses along it, the pose after it)."""
+def climb(stack) -> tuple[np.ndarray, np.ndarray, float]:
+    """One climbing step up from the home pose: (the poses along it, the pose after it, the
+    longest gap [s] between the measured poses' stamps during it: the driver's longest stall)."""
     assert wait_for(lambda: climb_state(stack) and climb_state(stack).state is ClimbState.IDLE)
     first = len(stack.poses)
     assert wait_for(lambda: call(stack, CLIMB_STEP_UP)[0], period=0.5), call(stack, CLIMB_STEP_UP)  # a busy machine
     finish_step(stack)
     final = at_rest(stack)
-    return np.array([flat(m) for _, m in stack.poses[first:]]), final
+    stamps = np.array([header_time(item) for item in stack.poses[first:]])
+    return np.array([flat(m) for _, m in stack.poses[first:]]), final, float(np.diff(stamps).max())
 
 
 def teleoperate(stack) -> tuple[np.ndarray, np.ndarray]:
@@ -87,15 +91,23 @@ def test_a_climbing_step_and_teleop_reach_the_same_poses_on_both_backends(ros_co
     results = {}
     for hardware in ('simulated', 'canopen'):
         with canopen_stack(ros_context, ros_domain_id, hardware=hardware) as stack:
-            path, end = climb(stack)
+            path, end, stall = climb(stack)
             pose, commanded = teleoperate(stack)
-            results[hardware] = (path, end, pose, commanded)
-    (path_sim, end_sim, _, _), (path_can, end_can, _, _) = results['simulated'], results['canopen']
+            results[hardware] = (path, end, pose, commanded, stall)
+    path_sim, end_sim, _, _, stall_sim = results['simulated']
+    path_can, end_can, _, _, stall_can = results['canopen']
     assert np.abs(end_sim[:3] - end_can[:3]).max() < 5e-4, (end_sim, end_can)
     assert np.abs(np.abs(end_sim[3:] @ end_can[3:]) - 1.0) < 1e-6, (end_sim, end_can)
     assert np.ptp(path_can[:, 2]) > 0.01  # it climbed
-    assert distance_to_path(path_can[::10], path_sim).max() < 1e-3
-    assert distance_to_path(path_sim[::10], path_can).max() < 1e-3
-    for hardware, (_, end, pose, commanded) in results.items():  # teleop: each reached what it was sent
+    # The same path within 1 mm, and what a stall of the driver's loop adds: a starved process on a
+    # busy machine holds the legs' targets, then they jump by up to the legs' speed times the stall
+    # and each leg's actuator catches up on its own, within its speed limit, off the path (a CI run
+    # measured 1.1 mm, a loaded one 3.1 mm on the simulated backend).
+    allowed = 1e-3 + SPEED * max(stall_sim, stall_can)
+    apart = distance_to_path(path_can[::10], path_sim).max(), distance_to_path(path_sim[::10], path_can).max()
+    print(f'paths apart {apart[0] * 1e3:.3f} / {apart[1] * 1e3:.3f} mm; longest driver stall {stall_sim * 1e3:.0f} ms '
+          f'(simulated), {stall_can * 1e3:.0f} ms (canopen); allowed {allowed * 1e3:.2f} mm')
+    assert max(apart) < allowed, (apart, stall_sim, stall_can)
+    for hardware, (_, end, pose, commanded, _) in results.items():  # teleop: each reached what it was sent
         assert pose[2] - end[2] > 1e-3, hardware
         assert np.abs(pose[:3] - commanded[:3]).max() < 2e-4, (hardware, pose, commanded)

@@ -182,8 +182,10 @@ def test_frame_climber_ring_rotations(ros_context):
     with Spinner(ros_context, [node, probe]):
         assert wait_for(lambda: pub.get_subscription_count() == 1 and states)
         assert list(states[-1].name) == list(LEG_NAMES) + ['ring_a_rotation', 'ring_b_rotation']
-        msg = command(probe, list(frame.home_lengths) + [0.1], names=names)
-        assert wait_for(lambda: (pub.publish(msg), node.accepted)[1])
+        # Sent fresh until accepted: one message resent aged past the command timeout (a starved
+        # process delivered it 0.104 s after its stamp) and every resend was older still.
+        assert wait_for(lambda: (pub.publish(command(probe, list(frame.home_lengths) + [0.1], names=names)),
+                                 node.accepted)[1], period=0.05)
         assert wait_for(lambda: abs(states[-1].position[7] - 0.1) < 1e-6)
         assert states[-1].position[6] == 0.0
         rejected = node.rejected
