@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import faulthandler
 import gc
 import signal
 import sys
@@ -19,7 +20,13 @@ from rrps_description.geometry import RobotDescriptionError
 from rrps_runtime.command_path import claim_command_path
 from rrps_runtime.supervision import exit_with_parent
 
-__all__ = ['make_executor', 'spin_until_shutdown', 'freeze_startup_objects', 'run_nodes']
+__all__ = ['SHUTDOWN_DEADLINE', 'make_executor', 'spin_until_shutdown', 'freeze_startup_objects', 'run_nodes']
+
+#: Longest a node process takes to shut down [s] once its spin ended: past it every thread's
+#: stack is printed to stderr (where the shutdown hung) and the process exits with status 1. A
+#: process that outlives its supervisor keeps its topics and its hardware busy (a demo's observer
+#: process, killed with the demo, hung in a lock for more than 15 s in a CI run).
+SHUTDOWN_DEADLINE = 10.0
 
 
 def make_executor(context, kind: str = 'events'):
@@ -62,7 +69,8 @@ def run_nodes(factories: Sequence[Callable[..., Node]], args=None, *, executor_k
 
     ``factories`` are node classes (or callables) taking ``context=``. A node that cannot start
     (an invalid robot description or parameter) prints one line and exits with status 2.
-    SIGINT and SIGTERM end the spin between callbacks (never inside one), then nodes are destroyed.
+    SIGINT and SIGTERM end the spin between callbacks (never inside one), then nodes are destroyed,
+    within :data:`SHUTDOWN_DEADLINE`.
     A process started by :func:`rrps_runtime.supervision.start_child` also stops when its
     supervisor is gone. The thread that spins claims the scheduling the nodes ask for
     (:func:`rrps_runtime.command_path.claim_command_path`).
@@ -89,6 +97,7 @@ def run_nodes(factories: Sequence[Callable[..., Node]], args=None, *, executor_k
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        faulthandler.dump_traceback_later(SHUTDOWN_DEADLINE, exit=True)   # armed until the process ends
         for sig, handler in previous.items():
             signal.signal(sig, handler)
         for node in nodes:
