@@ -9,8 +9,9 @@ check what a climb does; the timing rules themselves (stale commands, stale stat
 never arrives) are tested on their own, with their real limits, in the driver's, IK's and climb
 node's own tests and in the system tests. So this stack acts on commands up to
 :data:`~rrps_testing.ros_harness.IN_PROCESS_COMMAND_TIMEOUT` old, pauses for state older than
-:data:`STATE_TIMEOUT` and waits :data:`SETTLE_TIMEOUT` for a pose or a gripper; a test overrides
-any of them.
+:data:`STATE_TIMEOUT` or an operator station silent for :data:`OPERATOR_TIMEOUT` (a CI run paused
+a step on inputs 0.51-0.57 s old), and waits :data:`SETTLE_TIMEOUT` for a pose or a gripper; a
+test overrides any of them.
 """
 
 from __future__ import annotations
@@ -22,9 +23,10 @@ from rrps_kinematics.nodes.ik_node import IkNode
 from rrps_testing.ros_harness import IN_PROCESS_COMMAND_TIMEOUT as COMMAND_TIMEOUT
 from rrps_testing.ros_harness import params
 
-__all__ = ['STATE_TIMEOUT', 'SETTLE_TIMEOUT', 'climb_stack']
+__all__ = ['STATE_TIMEOUT', 'OPERATOR_TIMEOUT', 'SETTLE_TIMEOUT', 'climb_stack']
 
 STATE_TIMEOUT = 1.0     # [s] the climb node's ``state_timeout``
+OPERATOR_TIMEOUT = 1.0  # [s] the climb node's ``operator_timeout``
 SETTLE_TIMEOUT = 30.0   # [s] the climb node's ``settle_timeout``
 
 
@@ -38,4 +40,5 @@ def climb_stack(ctx, robot: str = 'pole_climber', *, driver: dict | None = None,
             IkNode(context=ctx, parameter_overrides=params(**common, timeout=COMMAND_TIMEOUT)),
             FkNode(context=ctx, parameter_overrides=params(**common)),
             ClimbNode(context=ctx, parameter_overrides=params(**(
-                common | {'state_timeout': STATE_TIMEOUT, 'settle_timeout': SETTLE_TIMEOUT} | (climb or {}))))]
+                common | {'state_timeout': STATE_TIMEOUT, 'operator_timeout': OPERATOR_TIMEOUT,
+                          'settle_timeout': SETTLE_TIMEOUT} | (climb or {}))))]

@@ -32,8 +32,8 @@ def _status(msgs) -> ClimbStatus | None:
 
 
 def test_a_release_waits_for_the_operator_link_and_the_step_pauses_without_opening(ros_context):
-    nodes = climb_stack(ros_context, driver={'rate': 100.0},
-                        climb={'speed': 0.03, 'step_length': 0.05, 'start': 0.2})
+    nodes = climb_stack(ros_context, driver={'rate': 100.0},   # the node's own operator_timeout
+                        climb={'speed': 0.03, 'step_length': 0.05, 'start': 0.2, 'operator_timeout': 0.5})
     climb = nodes[-1]
     probe = Probe(context=ros_context)
     grippers = probe.collect(JointState, 'grippers/state', stamped=True)
