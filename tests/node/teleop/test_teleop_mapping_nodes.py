@@ -101,21 +101,19 @@ def in_real_time(poses, since, rate, window=0.3):
     return np.flatnonzero(ok)
 
 
-def commanded_in_real_time(commands, t, rate, window=0.3):
-    """The commands the driver received in the ``window`` s before ``t`` (ROS clock) each came
-    within two of their periods of their stamps: there the command path kept up with real time.
-    (On a machine whose cores other tests' real-time processes take, the in-process rig's
-    commands arrive late and bunched; the slave follows them by their stamps, so it is then
-    behind the newest one by what the stream moved meanwhile.)"""
-    recent = [item for item in commands if t - window <= item[0] <= t]
-    return bool(recent) and all(item[0] - header_time(item) <= 2.0 / rate for item in recent)
-
-
-def tracked(poses, commands, since, rate):
-    """Indices of the measured poses stamped after ``since`` at which both the simulation
-    (:func:`in_real_time`) and the command path (:func:`commanded_in_real_time`) kept real time."""
-    return [i for i in in_real_time(poses, since, rate)
-            if commanded_in_real_time(commands, header_time(poses[i]), rate)]
+def tracked(poses, commands, since, rate, window=0.3):
+    """Indices of the measured poses stamped after ``since`` at which the simulation kept real
+    time (:func:`in_real_time`) and so did the command path: every command the driver received
+    in the ``window`` s before the pose came within two of their periods of its stamp. (On a
+    machine whose cores other tests' real-time processes take, the in-process rig's commands
+    arrive late and bunched; the slave follows them by their stamps, so it is then behind the
+    newest one by what the stream moved meanwhile.)"""
+    received = np.array([item[0] for item in commands])
+    late = np.concatenate([[0], np.cumsum(received - np.array([header_time(item) for item in commands]) > 2.0 / rate)])
+    indices = in_real_time(poses, since, rate)
+    t = np.array([header_time(poses[i]) for i in indices])
+    lo, hi = np.searchsorted(received, t - window, 'left'), np.searchsorted(received, t, 'right')
+    return indices[(hi > lo) & (late[hi] == late[lo])]
 
 
 def test_the_slave_follows_a_scripted_master_within_the_scale(ros_context):
