@@ -63,7 +63,7 @@ OPERATOR_NODES = ('master_node', 'teleop_node', 'viewer_node')
 #: (figure, target): the issue's targets, plain launch under load
 TARGETS = {'target_pose gap p99 [ms]': 10.0, 'target_pose gap max [ms]': 50.0, 'slave_age_ms p99': 25.0,
            'disengaging statuses': 0, 'FK pose gap during a step, max [ms]': 20.0,
-           'IK -> drive target p99 [ms]': 2.0}
+           'next command -> drive target p99 [ms]': 2.0}
 
 
 def _command(nodes, *args: str) -> list[str]:
@@ -234,7 +234,8 @@ def report(launch: str, results: dict, hardware: str) -> list[str]:
             figures.update({'target_pose gap p99 [ms]': gp99, 'target_pose gap max [ms]': gmax,
                             'slave_age_ms p99': age99, 'disengaging statuses': dis})
             if hardware == 'canopen':
-                figures['IK -> drive target p99 [ms]'] = percentiles(r['hops'].get('IK -> drive target', []))[2]
+                figures['next command -> drive target p99 [ms]'] = percentiles(
+                    r['hops'].get('next command -> drive target', []))[2]
     step = results.get('step')
     if step:
         if 'error' in step:

@@ -182,7 +182,14 @@ def hops(trace: CommandTrace, t0: float, t1: float, drive_targets: np.ndarray | 
     * ``teleop -> robot``: a target_pose's receipt minus its stamp (teleop publishes -> robot host);
     * ``IK``: an actuators/command's receipt minus that of the target_pose of the same stamp;
     * ``IK -> drive target`` (``drive_targets``: (time, leg_1 target) of each SYNC, CANopen): the
-      first SYNC carrying a command's leg_1 length, minus the command's receipt;
+      first SYNC whose leg_1 target reaches a command's leg_1 length (equal, or past it since the
+      SYNC before), minus the command's receipt; of the commands where leg_1 moves at a quarter of
+      its usual speed or more (a lag in time is a position error over the speed: near a stand
+      or a turning point, where the jerk-limited targets round the stream's peak off by
+      micrometres, it is not defined);
+    * ``next command -> drive target``: the same SYNC minus the receipt of the next command: the
+      driver's setpoints follow the stream one command period behind (they interpolate between
+      commands, jerk-limited), so a command's length can be a target once the next one is known;
     * ``state -> operator``: a pose's receipt minus its stamp (the driver's actuators/state ->
       FK -> the operator station);
     * ``end to end``: a master sample's stamp to its command's receipt (simulated) or to the drive
@@ -208,21 +215,38 @@ def hops(trace: CommandTrace, t0: float, t1: float, drive_targets: np.ndarray | 
     end = []
     if drive_targets is not None and len(commands) and len(drive_targets):
         times, values = drive_targets[:, 0], drive_targets[:, 1]
-        taken = []
-        for received, stamp, length in commands:
-            i, j = np.searchsorted(times, received - 0.005), np.searchsorted(times, received + 1.0)
-            hit = np.flatnonzero(np.abs(values[i:j] - length) < 5e-7)
-            if hit.size:
-                taken.append(times[i + hit[0]] - received)
-                if stamp in origin:
-                    end.append(times[i + hit[0]] - origin[stamp])
+        commands = commands[np.argsort(commands[:, 0])]
+        taken, after_next = [], []
+        speed = np.abs(np.gradient(commands[:, 2], commands[:, 1])) if len(commands) > 2 else np.zeros(len(commands))
+        moving = speed >= 0.25 * np.percentile(speed, 95)
+        for k, (received, stamp, length) in enumerate(commands):
+            if not moving[k]:
+                continue
+            hit = _reached(times, values, length, received - 0.005, received + 1.0)
+            if hit is None:
+                continue
+            taken.append(hit - received)
+            if k + 1 < len(commands):
+                after_next.append(hit - commands[k + 1, 0])
+            if stamp in origin:
+                end.append(hit - origin[stamp])
         out['IK -> drive target'] = 1e3 * np.array(taken)
+        out['next command -> drive target'] = 1e3 * np.array(after_next)
     elif len(commands):
         end = [c[0] - origin[c[1]] for c in commands if c[1] in origin]
     if len(poses):
         out['state -> operator'] = 1e3 * (poses[:, 0] - poses[:, 1])
     out['end to end'] = 1e3 * np.array(end)
     return out
+
+
+def _reached(times: np.ndarray, values: np.ndarray, length: float, t0: float, t1: float) -> float | None:
+    """The first time in [t0, t1) at which ``values`` equal ``length`` (within 0.5 um) or pass it
+    since the sample before; None if they never do."""
+    i, j = np.searchsorted(times, t0), np.searchsorted(times, t1)
+    v = values[max(i - 1, 0):j] - length
+    hit = np.flatnonzero((np.abs(v[1:]) < 5e-7) | (v[:-1] * v[1:] < 0.0))
+    return float(times[max(i - 1, 0) + 1 + hit[0]]) if hit.size else None
 
 
 def disengagements(trace: CommandTrace, t0: float, t1: float) -> collections.Counter:

@@ -19,12 +19,9 @@ it is malformed, unstamped, outside the stroke, or older than ``timeout``; with
 ``hold_when_silent`` the robot also holds after ``timeout`` s without a command. Grippers:
 ``grippers/state`` and the SetBool services ``grippers/<ring>/set`` (true = close), never both open.
 
-Gravity (simulated hardware): the efforts and dynamics start on ring_a at the attitude of the
-``world_q_support`` parameter, hand it over to the other ring through the measured pose at each
-grip change, and follow the supporting ring's world attitude that the climb node's odometry
-publishes on ``odometry/support`` (:mod:`rrps_hardware.support_follower`: only a fresh message for the
-ring that grips). Without one for ``support_timeout`` s the last known attitude is kept, and the
-status says so (WARN, ``support_source`` STALE); a malformed one is rejected and counted.
+Gravity (simulated hardware) follows the supporting ring's world attitude that the climb node's
+odometry publishes on ``odometry/support`` (:mod:`rrps_hardware.support_follower`); silent for
+``support_timeout`` s, the last known attitude is kept and the status says so (WARN).
 
     driver_node --ros-args -r __ns:=/rrps -p robot:=pole_climber
 """
@@ -303,6 +300,8 @@ class DriverNode(LifecycleNode):
         self._set_status(OK, f'{self.label} tracking actuators/command')
         if self.publish_on_command:
             self._cycle()
+        elif self.hardware.OWN_CYCLE and not self.hardware.write(time.monotonic(), 0.0, self._command).ok:
+            self._command = None   # refused (a fault): the next cycle says why
 
     # --- the hardware's cycle ---
 
