@@ -14,9 +14,9 @@ import threading
 import time
 from dataclasses import dataclass, field
 
+import canopen
 from canopen.sdo import SdoAbortedError, SdoCommunicationError
 
-import canopen
 from rrps_canopen.cia402 import Mode, State, state_of
 from rrps_canopen.units import AxisScale
 from rrps_description.bus import HOMING_ABSOLUTE, DriveConfig

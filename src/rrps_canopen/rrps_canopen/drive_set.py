@@ -22,8 +22,8 @@ from collections import deque
 from typing import Callable
 
 import can
-
 import canopen
+
 from rrps_canopen.bringup import check, configure, fail, grouped, wait_for_drives
 from rrps_canopen.cia402 import Controlword, Mode, State, Statusword, controlword_toward
 from rrps_canopen.drive import ConfigureError, ProcessData, RemoteDrive, keep_word

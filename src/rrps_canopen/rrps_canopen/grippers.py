@@ -16,9 +16,9 @@ import threading
 import time
 from typing import Callable, Mapping
 
+import canopen
 from canopen.sdo import SdoAbortedError, SdoCommunicationError
 
-import canopen
 from rrps_canopen.drive import BOOT_UP, ConfigureError, RemoteDrive
 from rrps_description.bus import GripperIoConfig
 from rrps_description.names import RINGS

@@ -14,8 +14,8 @@ from importlib import resources
 from pathlib import Path
 
 import can
-
 import canopen
+
 from rrps_description.bus import BusConfig
 
 __all__ = ['open_network', 'resolve_eds', 'shipped_eds', 'bus_arguments']

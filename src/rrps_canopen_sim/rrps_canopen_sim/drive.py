@@ -22,9 +22,9 @@ import threading
 import time
 from typing import Any
 
+import canopen
 from canopen.sdo import SdoAbortedError
 
-import canopen
 from rrps_canopen.cia402 import Controlword, DeviceStateMachine, Mode, State, Statusword
 from rrps_canopen_sim.behaviour import DriveBehaviour
 from rrps_canopen_sim.homing import HomingRun, Phase

@@ -20,7 +20,6 @@ import threading
 import time
 
 import can
-
 import canopen
 
 __all__ = ['HeartbeatProducer', 'PeriodicFrame']

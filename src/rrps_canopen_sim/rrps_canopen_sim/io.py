@@ -13,6 +13,7 @@ from __future__ import annotations
 from typing import Any
 
 import canopen
+
 from rrps_canopen_sim.node import SimulatedNode
 from rrps_description.motion_limits import GripperTime
 

@@ -16,10 +16,9 @@ import logging
 import threading
 from typing import Any
 
+import canopen
 from canopen.pdo import PdoMap
 from canopen.sdo import SdoAbortedError
-
-import canopen
 
 __all__ = ['SimulatedNode']
 

@@ -9,10 +9,10 @@ PDO layout another power-on mapping and one RPDO and one TPDO more than the EDS 
 
 from __future__ import annotations
 
+import canopen
 from canopen.objectdictionary import ODRecord, ODVariable
 from canopen.objectdictionary.datatypes import INTEGER8, UNSIGNED8, UNSIGNED32
 
-import canopen
 from rrps_canopen_sim.behaviour import DriveBehaviour
 
 __all__ = ['device_dictionary', 'VENDOR_RPDOS', 'VENDOR_TPDOS', 'SUPPORTED_HOMING_METHODS']

@@ -7,8 +7,8 @@ from __future__ import annotations
 import time
 
 import can
-
 import canopen
+
 from rrps_canopen.network import resolve_eds
 from rrps_canopen_sim.heartbeat import HeartbeatProducer
 

@@ -19,7 +19,7 @@ Targets: p99 SYNC jitter <= 1 ms and command -> drive target <= one period at p9
 ``rrps_testing.load`` running (a busy core and a DDS flood; ``--no-load``: without). Prints a
 table and MET or MISSED for each target. All clocks are this machine's CLOCK_MONOTONIC.
 
-    python benchmarks/canopen.py [--seconds 20] [--rate 200] [--no-load]
+    python benchmarks/canopen_backend.py [--seconds 20] [--rate 200] [--no-load]
 """
 
 from __future__ import annotations
