@@ -95,8 +95,10 @@ def start_stack(launch: str, hardware: str, port: int, viewer_with_operator: boo
     return children
 
 
-def _step(trace, seconds: float) -> dict:
-    """Release the deadman, climb one step up; FK pose gaps from the request to the step's end."""
+def _step(trace, canary, seconds: float) -> dict:
+    """Release the deadman, climb one step up; FK pose gaps from the request to the step's end,
+    the worst three traced: how far apart the driver stamped the states around them (as far as
+    the gap: the driver held them; less: FK or the transport did) and the canary's stops then."""
     from std_srvs.srv import Trigger
     trace.holding = False
     deadline = time.monotonic() + 10.0
@@ -105,7 +107,7 @@ def _step(trace, seconds: float) -> dict:
     client = trace.create_client(Trigger, 'climb/step_up')
     if not client.wait_for_service(timeout_sec=10.0):
         return {'error': 'no climb/step_up'}
-    t0 = trace.now()
+    t0, m0 = trace.now(), time.monotonic()
     future = client.call_async(Trigger.Request())
     while not future.done() and trace.now() - t0 < 30.0:
         time.sleep(0.02)
@@ -120,8 +122,15 @@ def _step(trace, seconds: float) -> dict:
     g = gaps(poses[:, 0]) if len(poses) > 1 else np.array([])
     worst = np.sort(g)[-3:][::-1] if g.size else []
     log = [f'{t - t0:.1f} s {state}: {detail[:80]}' for t, state, detail in trace.climb_log if t >= t0]
+    traced = []
+    for i in (np.argsort(g)[-3:][::-1] if g.size else []):
+        at = poses[i + 1, 0] - t0
+        stops = canary.stops(m0 + at - 0.2, m0 + at + 0.05, longer_than=0.005)
+        stamped = 1e3 * (poses[i + 1, 1] - poses[i, 1])
+        traced.append(f'{g[i]:.1f} ms at {at:.2f} s: the driver stamped the states {stamped:.1f} ms apart; '
+                      f'canary stops there {", ".join(f"{1e3 * x:.0f}" for x in stops) or "none"} [ms]')
     return {'gap_max': float(g.max()) if g.size else np.nan, 'worst': worst, 'seconds': t1 - t0,
-            'state': trace.climb_state, 'poses': len(poses), 'log': log,
+            'state': trace.climb_state, 'poses': len(poses), 'log': log, 'traced': traced,
             'worst_at': [float(poses[i + 1, 0] - t0) for i in np.argsort(g)[-3:][::-1]] if g.size else []}
 
 
@@ -182,7 +191,7 @@ def run_launch(launch: str, args) -> dict:
                 time.sleep(3.0)
                 results['load'] = measure(trace, canary, args.seconds, sim, offset)
                 if not args.no_step:
-                    results['step'] = _step(trace, 180.0)
+                    results['step'] = _step(trace, canary, 180.0)
         results['alive'] = all(c.poll() is None for c in children)
     finally:
         stop.set()
@@ -246,6 +255,9 @@ def report(launch: str, results: dict, hardware: str) -> list[str]:
             print(f'\nclimbing step under load: {step["seconds"]:.1f} s ({step["state"]}), {step["poses"]} poses, '
                   f'largest FK pose gaps {worst} ms, ending {at} s after the request; climb/status:')
             for line in step['log']:
+                print(f'    {line}')
+            print('  the largest gaps:')
+            for line in step['traced']:
                 print(f'    {line}')
             figures['FK pose gap during a step, max [ms]'] = step['gap_max']
     lines = []

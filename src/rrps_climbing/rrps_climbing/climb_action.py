@@ -124,5 +124,6 @@ class ClimbAction:
         goal[2].set_result((outcome, result))
 
     def close(self) -> None:
+        self.host.stop()   # never destroy the server while the host's thread waits on it
         self._server.destroy()
         self.host.close()

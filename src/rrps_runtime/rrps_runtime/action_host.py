@@ -39,9 +39,13 @@ class ActionHost:
             except ExternalShutdownException:
                 return
 
-    def close(self) -> None:
-        """Stop the thread and destroy the node (the owner's destroy_node calls this)."""
+    def stop(self) -> None:
+        """Stop the thread: the node's actions can be destroyed (not while it waits on them)."""
         self._stop.set()
         self._thread.join(timeout=5.0)
+
+    def close(self) -> None:
+        """Stop the thread and destroy the node (the owner's destroy_node calls this)."""
+        self.stop()
         self._executor.remove_node(self.node)
         self.node.destroy_node()

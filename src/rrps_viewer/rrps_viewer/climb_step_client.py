@@ -79,5 +79,6 @@ class ClimbStepClient:
         """Destroy the action client and stop its thread (a second call does nothing)."""
         if self.host is not None and not self._closed:
             self._closed = True
+            self.host.stop()   # never destroy the client while the host's thread waits on it
             self._action.destroy()
             self.host.close()

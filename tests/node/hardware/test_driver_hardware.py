@@ -162,6 +162,11 @@ def test_the_driver_hosts_a_hardware_registered_under_another_name(ros_context, 
         faulted = [s for s in statuses(diagnostics, 'driver_node') if 'leg_2' in s.message][-1]
         assert faulted.level == DiagnosticStatus.ERROR
         assert wait_for(lambda: last_status().faults == ('leg_2:drive_fault',))
+        # commands that keep coming are counted as rejected; the fault's status stands (not flapping
+        # with a rejection's at the command rate: an ERROR is logged each time it is set)
+        seen, rejected = len(statuses(diagnostics, 'driver_node')), node.rejected
+        assert wait_for(lambda: (pub.publish(command(probe, goal)), node.rejected >= rejected + 10)[1], period=0.01)
+        assert not [s.message for s in statuses(diagnostics, 'driver_node')[seen:] if 'command rejected' in s.message]
         assert not activate() and not node.active
         node.hardware.reset_faults()
         assert activate() and node.active

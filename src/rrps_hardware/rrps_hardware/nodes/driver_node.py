@@ -281,8 +281,9 @@ class DriverNode(LifecycleNode):
     def _on_command(self, msg: JointState) -> None:
         if not self.active:
             self.rejected += 1
-            self._set_status(WARN, f'command rejected: the driver is inactive; activate through '
-                                   f'{self.get_name()}/change_state')
+            if self._status[0] != ERROR:   # a fault's status stands: said once, not at the command rate
+                self._set_status(WARN, f'command rejected: the driver is inactive; activate through '
+                                       f'{self.get_name()}/change_state')
             return
         stamp = stamp_to_seconds(msg.header.stamp)
         if stamp != 0.0:
