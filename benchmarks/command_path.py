@@ -97,8 +97,9 @@ def start_stack(launch: str, hardware: str, port: int, viewer_with_operator: boo
 
 def _step(trace, canary, seconds: float) -> dict:
     """Release the deadman, climb one step up; FK pose gaps from the request to the step's end,
-    the worst three traced: how far apart the driver stamped the states around them (as far as
-    the gap: the driver held them; less: FK or the transport did) and the canary's stops then."""
+    the worst three traced: the stamps of the driver's states in FK's poses around them (as far
+    apart as the gap: FK or the driver stalled; less: the transport held poses), the driver's
+    ``grippers/state`` messages received meanwhile (some: the driver ran) and the canary's stops."""
     from std_srvs.srv import Trigger
     trace.holding = False
     deadline = time.monotonic() + 10.0
@@ -127,8 +128,10 @@ def _step(trace, canary, seconds: float) -> dict:
         at = poses[i + 1, 0] - t0
         stops = canary.stops(m0 + at - 0.2, m0 + at + 0.05, longer_than=0.005)
         stamped = 1e3 * (poses[i + 1, 1] - poses[i, 1])
-        traced.append(f'{g[i]:.1f} ms at {at:.2f} s: the driver stamped the states {stamped:.1f} ms apart; '
-                      f'canary stops there {", ".join(f"{1e3 * x:.0f}" for x in stops) or "none"} [ms]')
+        heard = len(trace.between('grippers/state', poses[i, 0], poses[i + 1, 0]))
+        traced.append(f'{g[i]:.1f} ms at {at:.2f} s: poses of states stamped {stamped:.1f} ms apart; '
+                      f'{heard} grippers/state meanwhile; canary stops there '
+                      f'{", ".join(f"{1e3 * x:.0f}" for x in stops) or "none"} [ms]')
     return {'gap_max': float(g.max()) if g.size else np.nan, 'worst': worst, 'seconds': t1 - t0,
             'state': trace.climb_state, 'poses': len(poses), 'log': log, 'traced': traced,
             'worst_at': [float(poses[i + 1, 0] - t0) for i in np.argsort(g)[-3:][::-1]] if g.size else []}
