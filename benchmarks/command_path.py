@@ -3,11 +3,14 @@
 
     python benchmarks/command_path.py [--seconds 40] [--hardware simulated|canopen]
                                       [--launch main,plain,docs] [--viewer-with-operator] [--no-step]
+                                      [--climb-with-kinematics]
 
 The stack runs as docs/deployment.md lays it out, one process each: the driver
 (``driver_node``, ``idle_rate`` = ``rate`` so that ``pose`` keeps 500 Hz at rest), the robot
-computer (``rrps-compose ik_node fk_node climb_node``), the operator station's command path
-(``rrps-compose master_node teleop_node``, the master circling at 200 Hz) and the viewer
+computer (``rrps-compose ik_node fk_node`` and ``climb_node``; ``--climb-with-kinematics``: all
+three composed, the same-run evidence of what a step's plan does to IK and FK), the operator
+station's command path (``rrps-compose master_node teleop_node``, the master circling at 200 Hz)
+and the viewer
 (``viewer_node``; ``--viewer-with-operator``: composed with master and teleop, as the docs
 said before: the same-run evidence of what its drawing does to them). With ``--hardware
 canopen`` the driver drives the simulated CANopen drives (``rrps-drive-sim``, pinned to the
@@ -45,6 +48,7 @@ os.environ.setdefault('ROS_DOMAIN_ID', str(150 + os.getpid() % 50))
 
 import numpy as np  # noqa: E402
 
+from rrps_bringup.demo_processes import ROBOT_PROCESSES  # noqa: E402
 from rrps_canopen.loopback_bus import free_port  # noqa: E402
 from rrps_runtime.supervision import (  # noqa: E402
     CONTROL_NICE,
@@ -58,7 +62,6 @@ from rrps_testing.command_trace import Canary, disengagements, gaps, hops, perce
 from rrps_testing.load import Load  # noqa: E402
 
 NAMESPACE = '/rrps'
-ROBOT_NODES = ('ik_node', 'fk_node', 'climb_node')
 OPERATOR_NODES = ('master_node', 'teleop_node', 'viewer_node')
 #: (figure, target): the issue's targets, plain launch under load
 TARGETS = {'target_pose gap p99 [ms]': 10.0, 'target_pose gap max [ms]': 50.0, 'slave_age_ms p99': 25.0,
@@ -72,7 +75,8 @@ def _command(nodes, *args: str) -> list[str]:
     return [sys.executable, '-m', 'rrps_bringup.compose', *nodes, *args]
 
 
-def start_stack(launch: str, hardware: str, port: int, viewer_with_operator: bool, can_port: int) -> list:
+def start_stack(launch: str, hardware: str, port: int, viewer_with_operator: bool, can_port: int,
+                climb_with_kinematics: bool = False) -> list:
     """The driver, the robot's and the operator's processes, launched as ``launch`` says."""
     common = ['--ros-args', '-r', f'__ns:={NAMESPACE}', '-p', 'robot:=pole_climber']
     if launch == 'main':
@@ -84,7 +88,8 @@ def start_stack(launch: str, hardware: str, port: int, viewer_with_operator: boo
     processes = [
         (('driver_node',), ['-p', 'auto_activate:=true', '-p', f'hardware:={hardware}', '-p', 'idle_rate:=500.0'],
          (CONTROL_NICE, CONTROL_RT_PRIORITY)),
-        (ROBOT_NODES, [], (CONTROL_NICE, CONTROL_RT_PRIORITY)),
+        *[(nodes, [], (CONTROL_NICE, CONTROL_RT_PRIORITY)) for nodes in
+          ([sum(ROBOT_PROCESSES.values(), ())] if climb_with_kinematics else ROBOT_PROCESSES.values())],
         (operator, ['-p', 'trajectory:=circle'] + ([] if viewer_apart else viewer),
          (OPERATOR_NICE, OPERATOR_RT_PRIORITY)),
     ] + ([(('viewer_node',), viewer, (OPERATOR_NICE, None))] if viewer_apart else [])
@@ -172,7 +177,8 @@ def run_launch(launch: str, args) -> dict:
 
     can_port = free_port()
     sim = DriveSim('pole_climber', port=can_port, cpus=(os.cpu_count() - 1,)) if args.hardware == 'canopen' else None
-    children = start_stack(launch, args.hardware, free_port(), args.viewer_with_operator, can_port)
+    children = start_stack(launch, args.hardware, free_port(), args.viewer_with_operator, can_port,
+                           args.climb_with_kinematics)
     context = rclpy.Context()
     rclpy.init(context=context)
     trace = CommandTrace(context=context, namespace=NAMESPACE)
@@ -279,10 +285,13 @@ def main() -> int:
     p.add_argument('--viewer-with-operator', action='store_true',
                    help='the viewer composed with master and teleop (default: a process of its own)')
     p.add_argument('--no-step', action='store_true', help='no climbing step after the loaded phase')
+    p.add_argument('--climb-with-kinematics', action='store_true',
+                   help='climb_node composed with IK and FK (default: a process of its own, as the demo runs it)')
     args = p.parse_args()
     launches = [x for x in args.launch.split(',') if x]
     print(f'# command path, {args.hardware}, {os.cpu_count()} CPUs, {args.seconds:.0f} s per phase, '
           f'viewer {"with master and teleop" if args.viewer_with_operator else "in a process of its own"}, '
+          f'climb_node {"with IK and FK" if args.climb_with_kinematics else "in a process of its own"}, '
           f'load average {os.getloadavg()[0]:.1f} at start')
     verdicts = []
     for launch in launches:

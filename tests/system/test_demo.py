@@ -159,13 +159,14 @@ def test_a_killed_demo_takes_its_robot_processes_with_it_and_ctrl_c_stops_it_fas
                 if not line or 'is live' in line:  # the banner: the robot processes are up
                     break
             children = child_pids(proc.pid)
-            assert len(children) == 4, children  # the driver, the robot's nodes, master and teleop, the observers
+            # the driver, the robot's IK and FK, its climbing node, master and teleop, the observers
+            assert len(children) == 5, children
             if os.geteuid() == 0:  # the command path first in line for a core (CI is root)
-                assert sorted(priority_of(c) for c in children) == sorted([CONTROL_NICE, CONTROL_NICE, OPERATOR_NICE,
-                                                                           OBSERVER_NICE])
+                assert sorted(priority_of(c) for c in children) == sorted([CONTROL_NICE, CONTROL_NICE, CONTROL_NICE,
+                                                                           OPERATOR_NICE, OBSERVER_NICE])
                 # each node process claims its command path's priority itself once its nodes are up
                 rt, operator = f'SCHED_RR {CONTROL_RT_PRIORITY}', f'SCHED_RR {OPERATOR_RT_PRIORITY}'
-                wanted = sorted([rt, rt, operator, f'nice {OBSERVER_NICE}'])
+                wanted = sorted([rt, rt, rt, operator, f'nice {OBSERVER_NICE}'])
                 assert wait_until(lambda: sorted(scheduling_of(c) for c in children) == wanted, 60), \
                     [scheduling_of(c) for c in children]
                 assert scheduling_of(proc.pid) == operator  # the viewer's executor (the deadman)

@@ -1,12 +1,13 @@
 """rrps-demo: the whole stack with the web viewer (``./rrps demo``).
 
-The demo runs as the system would on a robot and an operator station, in five processes
+The demo runs as the system would on a robot and an operator station, in six processes
 (docs/deployment.md):
 
 * the simulated hardware (``driver_node``, 500 Hz), active at the first start; it keeps the
   robot's physical state in a file of the run, and a driver that dies is restarted inactive
   where the robot is (the viewer's "Activate driver" resumes);
-* the robot computer's nodes, IK, FK and climbing, composed in one process (``rrps-compose``);
+* the robot computer's nodes: IK and FK composed in one process (``rrps-compose``), the climbing
+  node in another (a step's plan never holds IK and FK);
 * the operator station: master and teleop composed in one process, the viewer (and the
   headless script) in this one, so that its drawing never holds their interpreter;
 * the observers (:func:`~rrps_bringup.demo_processes.start_recorder`): the flight recorder (the
@@ -58,6 +59,7 @@ from rrps_bringup.demo_processes import (
     OBSERVER_NODES,
     OPERATOR_NODES,
     ROBOT_NODES,
+    ROBOT_PROCESSES,
     start_driver,
     start_drives,
     start_operator_nodes,
@@ -224,7 +226,8 @@ def _start_robot(args, run_dir: str):
         **drives,
         'driver': lambda first: start_driver(robot=args.robot, state_file=state_file, activate=first,
                                              hardware=args.hardware, parameters=params),
-        'robot nodes': lambda first: start_robot_nodes(robot=args.robot, parameters=params),
+        **{name: lambda first, nodes=nodes: start_robot_nodes(robot=args.robot, nodes=nodes, parameters=params)
+           for name, nodes in ROBOT_PROCESSES.items()},
         'operator nodes': lambda first: start_operator_nodes(robot=args.robot, parameters=params),
         'observer': lambda first: start_recorder(robot=args.robot, output_dir=args.recordings,
                                                  record=args.record, parameters=params),

@@ -14,8 +14,8 @@ SCENARIO_NAMES = ('facade_wall', 'pole_leaning', 'frame_node')
 
 def demo_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog='rrps-demo', description='Run the whole rrps stack with the web viewer, in five supervised '
-                                      'processes: the driver; IK, FK and climb (the robot computer); '
+        prog='rrps-demo', description='Run the whole rrps stack with the web viewer, in six supervised '
+                                      'processes: the driver; IK and FK, and climb (the robot computer); '
                                       'master and teleop, and the viewer (the operator station); recorder '
                                       'and markers (observers).')
     p.add_argument('--host', default='127.0.0.1',

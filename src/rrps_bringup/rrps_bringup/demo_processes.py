@@ -15,12 +15,14 @@ from collections.abc import Mapping
 
 from rrps_bringup.scenarios import ros_arguments
 
-__all__ = ['NAMESPACE', 'ROBOT_NODES', 'OPERATOR_NODES', 'OBSERVER_NODES', 'driver_command', 'start_driver',
-           'start_drives', 'start_robot_nodes', 'start_operator_nodes', 'start_recorder']
+__all__ = ['NAMESPACE', 'ROBOT_PROCESSES', 'ROBOT_NODES', 'OPERATOR_NODES', 'OBSERVER_NODES', 'driver_command',
+           'start_driver', 'start_drives', 'start_robot_nodes', 'start_operator_nodes', 'start_recorder']
 
 NAMESPACE = '/rrps'
-#: The robot computer's nodes (one process) and the operator station's command path (another);
-#: the viewer runs in the demo's own process.
+#: The robot computer's nodes, in two processes: IK and FK, and the climbing node apart (a step's
+#: plan, 80-90 ms of Python in its executor, would hold IK and FK in a shared one); the operator
+#: station's command path in another; the viewer runs in the demo's own process.
+ROBOT_PROCESSES = {'robot kinematics': ('ik_node', 'fk_node'), 'robot climbing': ('climb_node',)}
 ROBOT_NODES = ('ik_node', 'fk_node', 'climb_node')
 OPERATOR_NODES = ('master_node', 'teleop_node')
 #: The observers: the flight recorder and the robot's markers for RViz2 / Foxglove.
@@ -75,16 +77,16 @@ def driver_command(*, robot: str, rate: float = 500.0, namespace: str = NAMESPAC
             *_process_arguments(parameters or {}, 'driver_node')]
 
 
-def start_robot_nodes(*, robot: str, namespace: str = NAMESPACE,
+def start_robot_nodes(*, robot: str, namespace: str = NAMESPACE, nodes: tuple[str, ...] = ROBOT_NODES,
                       parameters: Mapping[str, Mapping] | None = None) -> subprocess.Popen:
-    """The robot computer's nodes (:data:`ROBOT_NODES`) composed in one process of their own
+    """Robot computer's ``nodes`` (default: all of them) composed in one process of their own
     (their command path claims its real-time priority itself)."""
     from rrps_bringup.params import params_file_arguments
     from rrps_runtime.supervision import CONTROL_NICE, start_child
-    return start_child([sys.executable, '-m', 'rrps_bringup.compose', *ROBOT_NODES, '--ros-args',
-                        *params_file_arguments(*ROBOT_NODES),
+    return start_child([sys.executable, '-m', 'rrps_bringup.compose', *nodes, '--ros-args',
+                        *params_file_arguments(*nodes),
                         '-r', f'__ns:={namespace}', '-p', f'robot:={robot}',
-                        *_process_arguments(parameters or {}, *ROBOT_NODES)], nice=CONTROL_NICE)
+                        *_process_arguments(parameters or {}, *nodes)], nice=CONTROL_NICE)
 
 
 def start_operator_nodes(*, robot: str, namespace: str = NAMESPACE,
