@@ -20,19 +20,15 @@ digital I/O (:class:`~rrps_canopen.grippers.GripperIo`). The lifecycle is the dr
   holds every drive where it is (quick stop of the faulted one) and refuses commands and the
   grippers until ``reset_faults`` (refused while the bus is lost) and a new activation.
 
-Commands and state are in metres at this interface; :mod:`rrps_canopen.units` converts. ``write``
-hands the newest command to the setpoints (:class:`~rrps_hardware.setpoints.JerkLimitedSetpoints`:
-within the legs' speed, acceleration and jerk limits); the bus' SYNC cycle, a real-time thread
-of its own, steps them one period before each SYNC and sends them as the CSP targets. So the
-targets advance every SYNC, a command counts from the SYNC after its arrival, and a stalled
-driver executor holds no target and makes none jump. Pure Python (canopen, python-can), no ROS
-import.
+Commands and state are in metres at this interface; :mod:`rrps_canopen.units` converts. Each
+cycle's CSP target is the jerk-limited setpoint of the newest command
+(:class:`~rrps_hardware.setpoints.JerkLimitedSetpoints`: within the legs' speed, acceleration
+and jerk limits). Pure Python (canopen, python-can), no ROS import.
 """
 
 from __future__ import annotations
 
 import threading
-from time import monotonic as time_now
 
 import can
 import numpy as np
@@ -73,9 +69,6 @@ def _failure(message: str) -> Transition:
     return Transition(CallbackReturn.FAILURE, message)
 
 
-#: A SYNC cycle late by more than this many periods steps the setpoints this far only (the motion
-#: is delayed, never jumps).
-MAX_STEP_PERIODS = 5
 #: The name of python-can's receive thread (``can.Notifier``'s, one per bus) begins so.
 RECEIVE_THREAD = 'Notifier for bus'
 
@@ -96,8 +89,6 @@ def claim_bus_threads(config: HardwareConfig) -> tuple[Granted, Granted] | None:
 class CanopenRobot(SystemInterface):
     """A robot's legs and grippers on a CANopen bus (see the module docstring)."""
 
-    OWN_CYCLE = True   # the SYNC cycle steps the setpoints
-
     def __init__(self):
         self.drives: DriveSet | None = None
         self.grippers: GripperIo | None = None
@@ -109,7 +100,6 @@ class CanopenRobot(SystemInterface):
         self._limits = None
         self.setpoints: JerkLimitedSetpoints | None = None
         self._commanded: Command | None = None
-        self._stepped: float | None = None   # when the SYNC cycle last stepped the setpoints [s]
 
     # --- lifecycle ---
 
@@ -158,19 +148,8 @@ class CanopenRobot(SystemInterface):
         return Transition(CallbackReturn.SUCCESS, self.drives.notes)
 
     def _extra(self, now: float) -> None:
-        """Each SYNC, under the drive set's lock: the grippers' outputs, the legs' setpoints."""
         if self.grippers is not None:
             self.grippers.cycle(now, alive=self.drives.alive)
-        self._step_setpoints(now)
-
-    def _step_setpoints(self, now: float) -> None:
-        """The CSP targets one SYNC along the setpoints, while active, unfaulted and commanded
-        (a hold or a fault leaves the targets where the drive set put them)."""
-        d, last, self._stepped = self.drives, self._stepped, now
-        if not self.active or d.faults or self._commanded is None or last is None:
-            return
-        for drive, x in zip(d.drives, self.setpoints.step(now, min(now - last, MAX_STEP_PERIODS * d.period))):
-            drive.target = drive.scale.counts(float(x))
 
     def on_activate(self) -> Transition:
         d = self.drives
@@ -211,8 +190,8 @@ class CanopenRobot(SystemInterface):
         d = self.drives
         with d.lock:
             targets = [drive.scale.position(drive.target) for drive in d.drives]
-            self.setpoints = JerkLimitedSetpoints(self._limits, targets)
-            self._commanded = None
+        self.setpoints = JerkLimitedSetpoints(self._limits, targets)
+        self._commanded = None
 
     def on_deactivate(self) -> Transition:
         self.active = False
@@ -255,9 +234,11 @@ class CanopenRobot(SystemInterface):
                        if not drive.scale.within_limits(float(x))]
             if outside:
                 return _error(f'outside the soft limits: {", ".join(outside)}')
-            if command is not self._commanded:   # a new command: the SYNC cycle's setpoints take it
-                self.setpoints.command(lengths, time_now(), command.stamp)
+            if command is not self._commanded:   # a new command arrived
+                self.setpoints.command(lengths, time, command.stamp)
                 self._commanded = command
+            for drive, x in zip(d.drives, self.setpoints.step(time, period)):
+                drive.target = drive.scale.counts(float(x))
         return OK
 
     def read(self, time: float, period: float) -> SystemState:
@@ -291,9 +272,8 @@ class CanopenRobot(SystemInterface):
     def hold(self) -> Result:
         if self.drives is None:
             return _error('not configured')
-        with self.drives.lock:   # no SYNC steps the old setpoints between the hold and the new ones
-            self.drives.hold()
-            self._follow_targets()
+        self.drives.hold()
+        self._follow_targets()
         return OK
 
     def set_gripper(self, ring: str, close: bool) -> Result:

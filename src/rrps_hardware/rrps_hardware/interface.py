@@ -208,10 +208,6 @@ class SystemInterface(abc.ABC):
     #: the driver declares them once its ``hardware`` parameter names this implementation, and
     #: passes changes of the ``dynamic`` ones to :meth:`set_parameters` while it runs.
     PARAMETERS: tuple[Parameter, ...] = ()
-    #: The implementation steps its setpoints in a real-time cycle of its own (a bus' SYNC):
-    #: ``write`` hands it a command, and the host writes each command as it arrives, not at its
-    #: next cycle.
-    OWN_CYCLE: bool = False
 
     @abc.abstractmethod
     def on_configure(self, config: HardwareConfig) -> Transition:

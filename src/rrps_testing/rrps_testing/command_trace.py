@@ -41,8 +41,8 @@ from rrps_runtime.qos import COMMAND_QOS, STATE_QOS
 from rrps_runtime.scheduling import Request, claim_thread
 from rrps_testing.ros_harness import RECORD_COMMAND_QOS, RECORD_STATE_QOS
 
-__all__ = ['CommandTrace', 'Canary', 'claim_probe', 'hops', 'gaps', 'disengagements', 'percentiles',
-           'PROBE_PRIORITY']
+__all__ = ['CommandTrace', 'Canary', 'claim_probe', 'hops', 'drive_target_times', 'gaps', 'disengagements',
+           'percentiles', 'PROBE_PRIORITY']
 
 #: The probe's SCHED_RR priority: above every thread of the stack (the drives' 20, the bus' 12).
 PROBE_PRIORITY = 40
@@ -214,30 +214,33 @@ def hops(trace: CommandTrace, t0: float, t1: float, drive_targets: np.ndarray | 
         out['IK'] = 1e3 * np.array([c - t for c, t in pairs])
     end = []
     if drive_targets is not None and len(commands) and len(drive_targets):
-        times, values = drive_targets[:, 0], drive_targets[:, 1]
-        commands = commands[np.argsort(commands[:, 0])]
-        taken, after_next = [], []
-        speed = np.abs(np.gradient(commands[:, 2], commands[:, 1])) if len(commands) > 2 else np.zeros(len(commands))
-        moving = speed >= 0.25 * np.percentile(speed, 95)
-        for k, (received, stamp, length) in enumerate(commands):
-            if not moving[k]:
-                continue
-            hit = _reached(times, values, length, received - 0.005, received + 1.0)
-            if hit is None:
-                continue
-            taken.append(hit - received)
-            if k + 1 < len(commands):
-                after_next.append(hit - commands[k + 1, 0])
-            if stamp in origin:
-                end.append(hit - origin[stamp])
-        out['IK -> drive target'] = 1e3 * np.array(taken)
-        out['next command -> drive target'] = 1e3 * np.array(after_next)
+        reached = drive_target_times(commands, drive_targets)
+        out['IK -> drive target'] = 1e3 * (reached[:, 1] - reached[:, 0])
+        out['next command -> drive target'] = 1e3 * (reached[:, 1] - reached[:, 2])[np.isfinite(reached[:, 2])]
+        end = [hit - origin[stamp] for _, hit, _, stamp in reached if stamp in origin]
     elif len(commands):
         end = [c[0] - origin[c[1]] for c in commands if c[1] in origin]
     if len(poses):
         out['state -> operator'] = 1e3 * (poses[:, 0] - poses[:, 1])
     out['end to end'] = 1e3 * np.array(end)
     return out
+
+
+def drive_target_times(commands: np.ndarray, drive_targets: np.ndarray) -> np.ndarray:
+    """For each command (rows of receipt, stamp, leg_1 length) where leg_1 moves at a quarter of
+    its usual speed or more (:func:`hops`): its receipt, the first time the drives' leg_1 target
+    (rows of SYNC time, target) reaches its length, the receipt of the next command (nan for the
+    last) and its stamp, as rows."""
+    times, values = drive_targets[:, 0], drive_targets[:, 1]
+    commands = commands[np.argsort(commands[:, 0])]
+    speed = np.abs(np.gradient(commands[:, 2], commands[:, 1])) if len(commands) > 2 else np.zeros(len(commands))
+    moving = speed >= 0.25 * np.percentile(speed, 95)
+    rows = []
+    for k, (received, stamp, length) in enumerate(commands):
+        hit = _reached(times, values, length, received - 0.005, received + 1.0) if moving[k] else None
+        if hit is not None:
+            rows.append((received, hit, commands[k + 1, 0] if k + 1 < len(commands) else np.nan, stamp))
+    return np.array(rows, dtype=float).reshape(-1, 4)
 
 
 def _reached(times: np.ndarray, values: np.ndarray, length: float, t0: float, t1: float) -> float | None:

@@ -301,8 +301,6 @@ class DriverNode(LifecycleNode):
         self._set_status(OK, f'{self.label} tracking actuators/command')
         if self.publish_on_command:
             self._cycle()
-        elif self.hardware.OWN_CYCLE and not self.hardware.write(time.monotonic(), 0.0, self._command).ok:
-            self._command = None   # refused (a fault): the next cycle says why
 
     # --- the hardware's cycle ---
 
