@@ -48,7 +48,7 @@ from rrps_interfaces.teleop import (
     TELEOP_STATUS,
     TeleopStatus,
 )
-from rrps_runtime.messages import pose_from_msg, pose_to_msg
+from rrps_runtime.messages import pose_from_msg, pose_to_msg, stamp_to_seconds
 from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, STATE_QOS
 from rrps_viewer.climb_step_client import ClimbStepClient
 
@@ -235,10 +235,12 @@ class ScriptedOperator(Node):
         released = self._wait(lambda: self._engaged() is False, WAIT, stop)
         since = time.monotonic()
 
-        def still() -> bool:   # moved less than 0.1 mm/s over 0.2 s
-            before = self._position(POSE)
+        def still() -> bool:   # moved less than 0.1 mm/s over 0.2 s of the robot's states (not of a
+            before = self._get(POSE)   # stalled pose stream: their stamps 0.15 s apart at least)
             time.sleep(0.2)
-            return float(np.linalg.norm(self._position(POSE) - before)) < 2e-5
+            after = self._get(POSE)
+            return (stamp_to_seconds(after.header.stamp) - stamp_to_seconds(before.header.stamp) >= 0.15
+                    and float(np.linalg.norm(pose_from_msg(after)[0] - pose_from_msg(before)[0])) < 2e-5)
         stopped = self._wait(still, STOP_WAIT, stop)   # the legs' jerk-limited stop
         took = time.monotonic() - since
         held_at = self._position(POSE)
