@@ -109,7 +109,7 @@ def test_replay_into_a_fresh_fk_and_viewer_reproduces_the_recorded_poses(ros_con
         port = s.getsockname()[1]
     viewer = ViewerNode(context=ros_context, namespace=NS, parameter_overrides=robot + [
         Parameter('port', value=port), Parameter('token', value='replay-test-token')])
-    replay = _replay(ros_context, [tmp_path / 'session'], topics=[f'{NS}/actuators/state'], rate=2.0)
+    replay = _replay(ros_context, [tmp_path / 'session'], topics=[f'{NS}/actuators/state'], rate=1.0)
     probe = Probe(context=ros_context, name='replay_probe', namespace=NS)
     fresh = probe.collect(PoseStamped, 'pose')
     with Spinner(ros_context, [fk, viewer, replay, probe]):
