@@ -34,7 +34,7 @@ import numpy as np
 import pytest
 
 from rrps_description.geometry import load_robot
-from rrps_testing.processes import interrupt
+from rrps_testing.processes import demo_excerpt, interrupt
 from rrps_testing.virtual_work import quaternion_matrix, rotation_x, virtual_work_forces
 
 pytestmark = [pytest.mark.ros]
@@ -80,7 +80,7 @@ def _run(ros_domain_id: int, name: str, hardware: str = 'simulated') -> str:
         out, _ = proc.communicate(timeout=600)  # a loaded machine: generous; no timing is checked
     finally:
         interrupt(proc)
-    assert proc.returncode == 0, out[-4000:]
+    assert proc.returncode == 0, demo_excerpt(out)
     return out
 
 
@@ -108,7 +108,7 @@ CLIMB = re.compile(r'climbing step: ([\d.]+) m in ([\d.]+) s planned \(([\d.]+) 
 def test_a_headless_scenario_teleoperates_the_robot_in_its_world_and_climbs_a_step(ros_domain_id, name, hardware):
     robot, world_R_a, payload = SCENARIOS[name]
     out = _run(ros_domain_id, name, hardware)
-    assert '[FAIL]' not in out, out[-4000:]
+    assert '[FAIL]' not in out, demo_excerpt(out)
     loaded = hardware == 'simulated'   # the CANopen drives' axes carry no load
     for line in ("[PASS] ring_b's gripper opened", '[PASS] deadman held: teleop engaged',
                  '[PASS] slave followed the master', '[PASS] deadman released', '[PASS] viewer drew',
@@ -116,8 +116,8 @@ def test_a_headless_scenario_teleoperates_the_robot_in_its_world_and_climbs_a_st
                  '[PASS] climbing step peak actuator force', '[PASS] climbing step smallest holding margin',
                  *(["[PASS] the driver's efforts at rest match the statics", "[PASS] the driver's peak force"]
                    if loaded else [])):
-        assert line in out, out[-4000:]
-    assert 'support ring: ring_a' in out, out[-4000:]
+        assert line in out, demo_excerpt(out)
+    assert 'support ring: ring_a' in out, demo_excerpt(out)
     _check_climb(out, robot, world_R_a, payload)
 
     gravity = _gravity(out)
@@ -168,11 +168,11 @@ def test_the_headless_frame_node_scenario_crosses_the_node_in_one_step(ros_domai
     from rrps_climbing.frame_crossing import FrameNodePlanner
 
     out = _run(ros_domain_id, 'frame_node')
-    assert '[FAIL]' not in out, out[-4000:]
+    assert '[FAIL]' not in out, demo_excerpt(out)
     for line in ('[PASS] climb step up accepted', '[PASS] step accepted by its preview',
                  '[PASS] step ended IDLE with steps_done 1', '[PASS] both rings past the node',
                  '[PASS] smallest holding margin', '[PASS] viewer drew'):
-        assert line in out, out[-4000:]
+        assert line in out, demo_excerpt(out)
     expected = FACE.T @ np.array([0.0, 0.0, -1.0])   # gravity along -x: down the column
     np.testing.assert_allclose(expected, [-1.0, 0.0, 0.0], atol=1e-12)
     np.testing.assert_allclose(_gravity(out), expected, atol=2e-3)

@@ -304,13 +304,25 @@ class ScriptedOperator(Node):
 
     def _resume_climb(self, stop: threading.Event) -> bool:
         """Call ``climb/resume`` until the step accepts it (it refuses while the cause lasts);
-        True once it executes again."""
+        True once it executes again. Says the refusals' reasons when it gives up."""
+        refusals: dict[str, int] = {}   # reason (the reply without its ages): count
+        last: list[str] = []
+
         def accepted() -> bool:
             future = self._resume.call_async(Trigger.Request())
             if not self._wait(future.done, WAIT, stop):
+                refusals['no answer'] = refusals.get('no answer', 0) + 1
                 return False
-            return bool(future.result() is not None and future.result().success)
+            reply = future.result()
+            if reply is not None and not reply.success:
+                reason = reply.message.split(' (')[0]
+                refusals[reason] = refusals.get(reason, 0) + 1
+                last[:] = [reply.message]
+            return bool(reply is not None and reply.success)
         if not (self._resume.wait_for_service(timeout_sec=WAIT) and self._wait(accepted, WAIT, stop)):
+            self._say(f'climb/resume not accepted within {WAIT:.0f} s: '
+                      + ('; '.join(f'{n} x {text!r}' for text, n in refusals.items()) or 'no service')
+                      + (f'; the last: {last[0]!r}' if last else ''))
             return False
         status = self._climb_state  # the step says it executes again (its status after the resume)
         return self._wait(lambda: status() is not None and status().state is not ClimbState.PAUSED, WAIT, stop)

@@ -57,3 +57,14 @@ def stop_processes(processes, timeout: float = 5.0) -> None:
             p.wait(timeout)
         except subprocess.TimeoutExpired:
             p.kill()
+
+
+def demo_excerpt(out: str, tail: int = 3000) -> str:
+    """What a failed headless demo's output tells: every line of its scripted operator and every
+    ERROR, the first 20 WARN lines, then the last ``tail`` characters (which alone miss the
+    operator's account of a pause on a long run)."""
+    lines = out.splitlines()
+    said = [line for line in lines if 'rrps demo --headless:' in line or '[ERROR]' in line]
+    warnings = [line for line in lines if '[WARN]' in line][:20]
+    return '\n'.join(['--- the operator and errors:', *said, '--- the first warnings:', *warnings,
+                      '--- the end:', out[-tail:]])
