@@ -56,6 +56,13 @@ class SimulatedDrive(SimulatedNode):
         self.behaviour = behaviour or DriveBehaviour()
         self.gain = config.direction * config.counts_per_metre
         self.x, self.v, self.applied_force = position, 0.0, 0.0
+        #: The objects whose value the drive computes when read, by index (built once: every
+        #: object a TPDO or a test reads asks :meth:`process_value` first).
+        self._computed = {
+            0x6041: self.statusword, 0x6064: self.counts, 0x606C: lambda: int(round(self.gain * self.v)),
+            0x6077: self._torque_actual, 0x6061: lambda: int(self.mode_display),
+            0x603F: lambda: self.error_code, 0x1001: lambda: self.error_register,
+            0x60F4: lambda: self.target - self.counts(), 0x60FD: lambda: self.digital_inputs}
         super().__init__(network, config.node_id, eds, device_dictionary(eds, config.node_id, self.behaviour),
                          sdo_loss=self.behaviour.sdo_loss)
         self.on_reset()
@@ -97,12 +104,9 @@ class SimulatedDrive(SimulatedNode):
 
     def process_value(self, index: int, subindex: int) -> Any:
         self._update_mode(time.monotonic())
-        values = {0x6041: self.statusword, 0x6064: self.counts, 0x606C: lambda: int(round(self.gain * self.v)),
-                  0x6077: self._torque_actual, 0x6061: lambda: int(self.mode_display),
-                  0x603F: lambda: self.error_code, 0x1001: lambda: self.error_register,
-                  0x60F4: lambda: self.target - self.counts(), 0x60FD: lambda: self.digital_inputs}
-        if index in values:
-            return values[index]()
+        computed = self._computed.get(index)
+        if computed is not None:
+            return computed()
         if self.behaviour.fixed_pdos and any(index in r for r in _PDO_MAPPINGS):
             return self.node.object_dictionary[index][subindex].default  # its own, whatever was written
         return None
