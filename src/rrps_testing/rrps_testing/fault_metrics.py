@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from rrps_interfaces.climb import ClimbState, ClimbStatus
+from rrps_interfaces.climb import ClimbStatus
 from rrps_interfaces.teleop import TeleopStatus
 
 __all__ = ['teleop', 'climb', 'length_change', 'pose_change', 'gripper_openings', 'both_open',
@@ -93,8 +93,3 @@ def last_stamp(records: list[dict], start: float, end: float) -> float | None:
     """The newest header stamp among the records received in [start, end]."""
     stamps = [r['stamp'] for r in in_window(records, start, end) if 'stamp' in r]
     return max(stamps) if stamps else None
-
-
-def climb_states(records: list[dict]) -> list[ClimbState]:
-    """The climb states of climb/status records, in order."""
-    return [climb(r).state for r in records]

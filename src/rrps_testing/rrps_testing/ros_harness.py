@@ -160,11 +160,6 @@ class Probe(Node):
         return self.create_publisher(msg_type, topic, COMMAND_QOS if command else STATE_QOS)
 
 
-def received_between(stamped: list, t0: float, t1: float = float('inf')) -> list:
-    """The messages of a ``collect(..., stamped=True)`` list received in [t0, t1]."""
-    return [msg for t, msg in list(stamped) if t0 <= t <= t1]
-
-
 def stamped_between(messages: list, t0: float, t1: float = float('inf')) -> list:
     """The messages (or (t, msg) items) whose header stamp lies in [t0, t1] [s]."""
     return [m for m in list(messages) if t0 <= header_time(m) <= t1]

@@ -137,7 +137,6 @@ class ViewerNode(Node):
         self._report_window = (time.monotonic(), 0, 0)
         self._actions: queue.SimpleQueue = queue.SimpleQueue()
         self._master_target: Pose | None = None
-        self._enable_was = False
         self._false_left = 0
         self._master_origin = Pose(np.asarray(origin, dtype=float))
         #: the picture, drawn in the viewer's thread (:mod:`rrps_viewer.picture`)
