@@ -15,6 +15,7 @@ Exit status 2 and one line on a bad robot or bus.
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import signal
 import sys
@@ -69,6 +70,10 @@ def main(argv=None) -> int:
     except (ValueError, TypeError, OSError, can.CanError) as exc:
         print(f'rrps-drive-sim: error: {exc}', file=sys.stderr)
         return 2
+    # The devices' objects out of the garbage collector's reach before the first SYNC: a full
+    # collection walked them with the GIL held for up to 70 ms, every device silent meanwhile.
+    gc.collect()
+    gc.freeze()
     try:
         print(json.dumps({'ready': True, 'robot': geometry.name,
                           'nodes': geometry.bus.node_ids()}), flush=True)

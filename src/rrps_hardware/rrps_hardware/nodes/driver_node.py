@@ -28,6 +28,7 @@ odometry publishes on ``odometry/support`` (:mod:`rrps_hardware.support_follower
 
 from __future__ import annotations
 
+import gc
 import time
 import traceback
 
@@ -154,6 +155,10 @@ class DriverNode(LifecycleNode):
             self.get_logger().error(f'{self.label} {verb} raised:\n{traceback.format_exc()}')
             outcome = Transition(CallbackReturn.ERROR, f'{verb} failed: {type(exc).__name__}: {exc}')
         if outcome.ok:
+            # What the hardware built (a bus, its threads, its devices' object dictionaries) out of
+            # the garbage collector's reach, as the node's own at start-up (run_nodes): a full
+            # collection walked them with the GIL held for up to 70 ms, the bus' cycle stopped.
+            gc.freeze()
             if outcome.reason:
                 self.get_logger().warning(outcome.reason)
             return TransitionCallbackReturn.SUCCESS
