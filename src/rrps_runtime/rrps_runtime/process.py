@@ -20,7 +20,8 @@ from rrps_description.geometry import RobotDescriptionError
 from rrps_runtime.command_path import claim_command_path
 from rrps_runtime.supervision import exit_with_parent
 
-__all__ = ['SHUTDOWN_DEADLINE', 'make_executor', 'spin_until_shutdown', 'freeze_startup_objects', 'run_nodes']
+__all__ = ['SHUTDOWN_DEADLINE', 'make_executor', 'spin_until_shutdown', 'freeze_startup_objects', 'freeze_new_objects',
+           'run_nodes']
 
 #: Longest a node process takes to shut down [s] once its spin ended: past it every thread's
 #: stack is printed to stderr (where the shutdown hung) and the process exits with status 1. A
@@ -61,6 +62,14 @@ def freeze_startup_objects() -> None:
     a 0.1 s command timeout to reject a message queued behind it (docs/measurements.md).
     """
     gc.collect()
+    gc.freeze()
+
+
+def freeze_new_objects() -> None:
+    """Move the objects built since the last freeze out of the collector's reach too, without a
+    collection (no pause now): a driver calls it once its hardware built a bus, its threads and its
+    devices' object dictionaries. A full collection walked those with the GIL held for up to 70 ms,
+    the bus' cycle stopped meanwhile (docs/measurements.md, CANopen)."""
     gc.freeze()
 
 

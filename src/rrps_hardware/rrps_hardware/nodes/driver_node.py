@@ -28,7 +28,6 @@ odometry publishes on ``odometry/support`` (:mod:`rrps_hardware.support_follower
 
 from __future__ import annotations
 
-import gc
 import time
 import traceback
 
@@ -53,7 +52,7 @@ from rrps_runtime.freshness import CommandAges, CommandFreshness, RejectedComman
 from rrps_runtime.messages import joint_state_msg, lengths_from_joint_state, stamp_to_seconds, transform_from_msg
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
-from rrps_runtime.process import run_nodes
+from rrps_runtime.process import freeze_new_objects, run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
 from rrps_runtime.scheduling import request_of, scheduling_parameters
@@ -155,10 +154,7 @@ class DriverNode(LifecycleNode):
             self.get_logger().error(f'{self.label} {verb} raised:\n{traceback.format_exc()}')
             outcome = Transition(CallbackReturn.ERROR, f'{verb} failed: {type(exc).__name__}: {exc}')
         if outcome.ok:
-            # What the hardware built (a bus, its threads, its devices' object dictionaries) out of
-            # the garbage collector's reach, as the node's own at start-up (run_nodes): a full
-            # collection walked them with the GIL held for up to 70 ms, the bus' cycle stopped.
-            gc.freeze()
+            freeze_new_objects()  # what the hardware built (a bus, its devices), as the node at start-up
             if outcome.reason:
                 self.get_logger().warning(outcome.reason)
             return TransitionCallbackReturn.SUCCESS
