@@ -155,12 +155,11 @@ class ForwardSolver:
                              f'{L.shape}') from None
         p, q = pose_arrays(seed_p, seed_q)
         P = np.array(p.reshape(-1, 3), dtype=float, order='C')
-        Q = np.array(q.reshape(-1, 4), dtype=float, order='C')
+        Q = np.ascontiguousarray(q.reshape(-1, 4))  # pose_arrays' normalised copy: the kernel solves in it
         Lf = np.ascontiguousarray(L.reshape(-1, 6))
         solve = _batch_numba if self.numba else _batch_interpreted
         P, Q, converged, iterations, residual, singular = solve(
             self._A, self._B, Lf, P, Q, self._inv_scale, self.tolerance, self.max_iterations)
-        Q = np.where(Q[:, 3:4] < 0.0, -Q, Q)
         return ForwardKinematicsResult(P.reshape(batch + (3,)), Q.reshape(batch + (4,)),
                                        converged.reshape(batch), iterations.reshape(batch),
                                        residual.reshape(batch), singular.reshape(batch))
@@ -195,10 +194,10 @@ def _batch_numba(A, B, L, P, Q, inv_scale, tolerance, max_iterations):
     """The compiled batch, in place on P, Q: on every thread when long enough and no other
     thread runs a parallel kernel, else serially (the same numbers either way)."""
     n = L.shape[0]
-    converged = np.zeros(n, dtype=np.bool_)
-    iterations = np.zeros(n, dtype=np.int64)
-    residual = np.zeros(n)
-    singular = np.zeros(n, dtype=np.bool_)
+    converged = np.empty(n, dtype=np.bool_)  # the kernel writes every row of these
+    iterations = np.empty(n, dtype=np.int64)
+    residual = np.empty(n)
+    singular = np.empty(n, dtype=np.bool_)
     args = (A, B, L, P, Q, inv_scale, tolerance, max_iterations, converged, iterations, residual, singular)
     kernels = _kernels()
     if not (n >= PARALLEL_BATCH and run_parallel(kernels.fk_batch_parallel, *args)):
