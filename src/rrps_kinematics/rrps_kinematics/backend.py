@@ -106,7 +106,7 @@ def kernel_sources_stamp() -> str:
     return _stamp
 
 
-def jit(function=None, *, signature=None, fastmath: bool | set[str] = False, **options):
+def jit(function=None, *, signature=None, fastmath: bool = False, **options):
     """``numba.njit(signature, cache=True, fastmath=..., **options)`` when numba is enabled, else
     the function itself.
 

@@ -25,9 +25,7 @@ __all__ = ['ik_lengths_batch', 'ik_lengths_parallel', 'fk_single', 'fk_solve', '
 
 #: Rows per task of the parallel batch kernels (the threads take the next task when done).
 PARALLEL_ROWS = 256
-#: ``contract``: multiply-adds fused (FMA), the only fast-math liberty taken (no reordering,
-#: NaN and inf kept): 3 % of the batch FK kernel's throughput, results within 4e-16.
-_OPTIONS = dict(nogil=True, error_model='numpy', fastmath={'contract'})
+_OPTIONS = dict(nogil=True, error_model='numpy')
 #: The Newton iteration's parts are inlined into the solvers at numba's IR level: a call per
 #: residual, step and update cost the batch FK kernel a tenth of its throughput (same run,
 #: bit-identical results: 925 vs 1,025 k solves/s serial).
@@ -121,8 +119,7 @@ def _solve_step(rb, d, lengths, f, inv_scale, M, dx):  # noqa: C901 - a kernel: 
         if not li > 0.0:
             return False
         j, r = 3 * i, 7 * i
-        inv_li = 1.0 / li
-        ux, uy, uz = d[j] * inv_li, d[j + 1] * inv_li, d[j + 2] * inv_li
+        ux, uy, uz = d[j] / li, d[j + 1] / li, d[j + 2] / li
         M[r] = ux
         M[r + 1] = uy
         M[r + 2] = uz
@@ -144,10 +141,9 @@ def _solve_step(rb, d, lengths, f, inv_scale, M, dx):  # noqa: C901 - a kernel: 
             other = 7 * piv
             for k in range(c, 7):
                 M[top + k], M[other + k] = M[other + k], M[top + k]
-        inv_pivot = 1.0 / M[top + c]
         for r in range(c + 1, 6):
             row = 7 * r
-            m = M[row + c] * inv_pivot
+            m = M[row + c] / M[top + c]
             if m != 0.0:
                 for k in range(c + 1, 7):
                     M[row + k] -= m * M[top + k]
@@ -182,11 +178,11 @@ def _apply_step(p, q, dx, t, p_out, q_out):
     ny = aw * y - ax * z + ay * w + az * x
     nz = aw * z + ax * y - ay * x + az * w
     nw = aw * w - ax * x - ay * y - az * z
-    inv_n = 1.0 / math.sqrt(nx * nx + ny * ny + nz * nz + nw * nw)
-    q_out[0] = nx * inv_n
-    q_out[1] = ny * inv_n
-    q_out[2] = nz * inv_n
-    q_out[3] = nw * inv_n
+    n = math.sqrt(nx * nx + ny * ny + nz * nz + nw * nw)
+    q_out[0] = nx / n
+    q_out[1] = ny / n
+    q_out[2] = nz / n
+    q_out[3] = nw / n
 
 
 @jit(**_INLINED)
