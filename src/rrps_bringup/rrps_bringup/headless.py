@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import threading
 
-from rrps_bringup.operator import ScriptedOperator, print_summary
+from rrps_bringup.operator import WAIT, ScriptedOperator, print_summary
 from rrps_interfaces.climb import odometry_topic
 
 #: Master handle displacement of the scripted session [m] (the slave moves translation_scale x).
@@ -38,16 +38,25 @@ class DemoScript(ScriptedOperator):
         return print_summary(checks)
 
     def _climb(self, stop: threading.Event) -> list[tuple[str, bool]]:
-        before = {ring: self._position(odometry_topic(ring)) for ring in ('ring_a', 'ring_b')}
+        rings = ('ring_a', 'ring_b')
+
+        def missing() -> list[str]:
+            return [ring for ring in rings if self._position(odometry_topic(ring)) is None]
+
+        # the first samples may come after the teleop session (discovery on a busy machine)
+        self._wait(lambda: not missing(), WAIT, stop)
+        before = {ring: self._position(odometry_topic(ring)) for ring in rings}
         checks, final = self.climb_step(stop)
         if final is None:
             return checks
-        after = {ring: self._position(odometry_topic(ring)) for ring in ('ring_a', 'ring_b')}
-        if all(p is not None for p in (*before.values(), *after.values())):
-            rise = {ring: float(after[ring][2] - before[ring][2]) for ring in before}
+        after = {ring: self._position(odometry_topic(ring)) for ring in rings}
+        if not missing() and all(p is not None for p in before.values()):
+            rise = {ring: float(after[ring][2] - before[ring][2]) for ring in rings}
             checks.append((f'both rings climbed: ring_a {rise["ring_a"] * 1e3:+.0f} mm, ring_b '
                            f'{rise["ring_b"] * 1e3:+.0f} mm (world odometry)',
                            min(rise.values()) > 0.01))
         else:
-            checks.append(('world odometry of both rings received', False))
+            late = [ring for ring in rings if before[ring] is None]
+            checks.append((f'world odometry of both rings received (missing {WAIT:.0f} s before the step: '
+                           f'{late}, after it: {missing()})', False))
         return checks
