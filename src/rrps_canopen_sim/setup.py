@@ -16,6 +16,7 @@ setup(
         'python-can',
         'rrps_canopen',
         'rrps_description',
+        'rrps_runtime',
         'rrps_sim',
     ],
     extras_require={'test': ['pytest']},

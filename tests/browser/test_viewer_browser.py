@@ -21,7 +21,6 @@ import shutil
 import signal
 import socket
 import subprocess
-import tempfile
 import time
 from pathlib import Path
 
@@ -45,15 +44,14 @@ def _free_port() -> int:
 
 class Browser:
     """drive.js as a subprocess: yields its sync points, returns its final result. Its browser
-    keeps its profile and artifacts in a temporary directory of its own, removed by :meth:`close`
-    with every process it started."""
+    keeps its profile and artifacts in ``tmp`` (the ``browser_tmpdir`` fixture's, removed after the
+    test); :meth:`close` stops every process it started."""
 
-    def __init__(self, url: str, steps: list[dict]):
-        self.tmp = tempfile.mkdtemp(prefix='rrps-browser-')
+    def __init__(self, url: str, steps: list[dict], tmp: str):
         self.proc = subprocess.Popen(['node', 'drive.js', url, json.dumps(steps)], cwd=BROWSER_DIR,
                                      stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
                                      start_new_session=True,
-                                     env={**os.environ, 'CHROMIUM': CHROMIUM, 'TMPDIR': self.tmp})
+                                     env={**os.environ, 'CHROMIUM': CHROMIUM, 'TMPDIR': tmp})
 
     def events(self):
         for line in self.proc.stdout:
@@ -80,7 +78,6 @@ class Browser:
             os.killpg(self.proc.pid, signal.SIGKILL)  # the browser's processes too
         self.proc.wait(timeout=10)
         self.proc.stdout.close()
-        shutil.rmtree(self.tmp, ignore_errors=True)
 
 
 #: Width [px] of the 3-D view left of the panel (the viewport is 860 px wide).
@@ -118,7 +115,7 @@ def _changed_pixels(a: Path, b: Path, width: int | None = None) -> tuple[int, tu
 
 
 def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa: C901 - one scenario, its sync points
-        ros_context, playwright_dir, tmp_path):
+        ros_context, playwright_dir, tmp_path, browser_tmpdir):
     from diagnostic_msgs.msg import DiagnosticStatus
     from geometry_msgs.msg import PoseStamped
     from rclpy.parameter import Parameter
@@ -202,17 +199,11 @@ def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa
         client.camera.on_update(
             lambda camera: reported_cameras.__setitem__(client.client_id, np.array(camera.position)))
 
-    framed_at: list[float] = []  # when the test first saw the first view framed
-
     def browser_framed() -> bool:
-        """Whether the browser shows the first view's framing: it reported that camera, or (a
-        browser does not always report a camera the server set) the framing is 3 s old."""
+        """Whether the browser reported the first view's framing as its camera."""
         framing = viewer.viewer.first_view.camera
-        if framing is None:
-            return False
-        framed_at[:] = framed_at or [time.monotonic()]
-        return (any(np.allclose(p, framing[0], atol=1e-4) for p in reported_cameras.values())
-                or time.monotonic() - framed_at[0] > 3.0)
+        return framing is not None and any(np.allclose(p, framing[0], atol=1e-4)
+                                           for p in reported_cameras.values())
 
     def at_rest():
         """Wait until the last 20 measured poses are one (the slave stands still); return it."""
@@ -224,29 +215,29 @@ def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa
 
     with Spinner(ros_context, [*nodes.values(), probe]):
         assert wait_for(lambda: poses), 'no FK pose from the stack'
-        browser = Browser(f'http://127.0.0.1:{viewer.viewer.port}', steps)
+        browser = Browser(f'http://127.0.0.1:{viewer.viewer.port}', steps, browser_tmpdir)
         deadline = {}
-        framed_before = False
+        framed: list[bool] = []  # at each robot shot's sync (after that shot was taken)
         try:
             for sync in browser.events():
                 marks[sync] = time.monotonic()
                 reply = 'go'
                 if sync == 'robot shot':
                     # still, with the reachable workspace drawn around the robot and the master, and
-                    # the browser showing the first view framed on the robot before the previous shot
-                    # was taken: its camera moves the whole picture, and a loaded browser applies the
-                    # server's camera late (two shots alike before it did failed a CI run), so the
-                    # browser's own report of its camera is what counts
+                    # the browser showing the first view framed on the robot before the earlier of the
+                    # two shots compared was taken: its camera moves the whole picture, and a loaded
+                    # browser applies the server's camera late (two shots alike before it did failed
+                    # a CI run), so the browser's own report of its camera is what counts
                     drawn = WORKSPACE_NODES <= set(viewer.viewer.nodes)
                     changed = (_changed_pixels(shots['previous'], shots['robot'], VIEW_WIDTH)[0]
                                if shots['previous'].exists() else None)
-                    still = drawn and framed_before and changed is not None and changed < 50
-                    framed_before = browser_framed()
+                    still = drawn and framed[-2:-1] == [True] and changed is not None and changed < 50
+                    framed.append(browser_framed())
                     shutil.copy(shots['robot'], shots['previous'])
                     deadline.setdefault(sync, time.monotonic() + DEADLINE)
                     if not still and time.monotonic() > deadline[sync]:
                         pytest.fail(f'the 3-D view did not settle framed on the robot: workspace drawn {drawn}, '
-                                    f'framed in the browser {framed_before}, {changed} pixels changed')
+                                    f'framed in the browser {framed[-1]}, {changed} pixels changed')
                     reply = 'go' if still else 'again'
                 elif sync == 'hide robot':
                     for handle in robot_nodes:

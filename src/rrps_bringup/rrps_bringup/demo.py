@@ -296,8 +296,9 @@ def main(argv=None) -> int:
     from rclpy.signals import SignalHandlerOptions
 
     from rrps_description.geometry import RobotDescriptionError
+    from rrps_runtime.collector import freeze_startup_objects, thaw
     from rrps_runtime.command_path import claim_command_path
-    from rrps_runtime.process import freeze_startup_objects, make_executor
+    from rrps_runtime.process import make_executor
     from rrps_runtime.supervision import (
         OPERATOR_NICE,
         Respawner,
@@ -361,6 +362,7 @@ def main(argv=None) -> int:
         for node in nodes.values():
             node.destroy_node()
         rclpy.try_shutdown(context=context)
+        thaw()
         if robot is not None:
             robot.stop(timeout=5.0)
         shutil.rmtree(run_dir, ignore_errors=True)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections import Counter
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -305,18 +306,18 @@ class ScriptedOperator(Node):
     def _resume_climb(self, stop: threading.Event) -> bool:
         """Call ``climb/resume`` until the step accepts it (it refuses while the cause lasts);
         True once it executes again. Says the refusals' reasons when it gives up."""
-        refusals: dict[str, int] = {}   # reason (the reply without its ages): count
+        refusals: Counter[str] = Counter()   # reason (the reply without its ages): count
         last: list[str] = []
 
         def accepted() -> bool:
             future = self._resume.call_async(Trigger.Request())
             if not self._wait(future.done, WAIT, stop):
-                refusals['no answer'] = refusals.get('no answer', 0) + 1
+                refusals['no answer'] += 1
                 return False
             reply = future.result()
             if reply is not None and not reply.success:
                 reason = reply.message.split(' (')[0]
-                refusals[reason] = refusals.get(reason, 0) + 1
+                refusals[reason] += 1
                 last[:] = [reply.message]
             return bool(reply is not None and reply.success)
         if not (self._resume.wait_for_service(timeout_sec=WAIT) and self._wait(accepted, WAIT, stop)):

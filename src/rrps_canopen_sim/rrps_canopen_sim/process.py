@@ -15,7 +15,6 @@ Exit status 2 and one line on a bad robot or bus.
 from __future__ import annotations
 
 import argparse
-import gc
 import json
 import signal
 import sys
@@ -59,6 +58,7 @@ def main(argv=None) -> int:
     args = _parser().parse_args(argv)
     from rrps_canopen_sim.bus import SimulatedBus
     from rrps_description.geometry import load_robot
+    from rrps_runtime.collector import freeze_startup_objects
     sys.setswitchinterval(5e-4)  # the bus' receive thread gets the interpreter within a fraction of a period
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -70,10 +70,7 @@ def main(argv=None) -> int:
     except (ValueError, TypeError, OSError, can.CanError) as exc:
         print(f'rrps-drive-sim: error: {exc}', file=sys.stderr)
         return 2
-    # The devices' objects out of the garbage collector's reach before the first SYNC: a full
-    # collection walked them with the GIL held for up to 70 ms, every device silent meanwhile.
-    gc.collect()
-    gc.freeze()
+    freeze_startup_objects()  # the devices' objects, before the first SYNC
     try:
         print(json.dumps({'ready': True, 'robot': geometry.name,
                           'nodes': geometry.bus.node_ids()}), flush=True)

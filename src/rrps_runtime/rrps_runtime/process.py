@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import faulthandler
-import gc
 import signal
 import sys
 import threading
@@ -17,11 +16,11 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 
 from rrps_description.geometry import RobotDescriptionError
+from rrps_runtime.collector import freeze_startup_objects, thaw
 from rrps_runtime.command_path import claim_command_path
 from rrps_runtime.supervision import exit_with_parent
 
-__all__ = ['SHUTDOWN_DEADLINE', 'make_executor', 'spin_until_shutdown', 'freeze_startup_objects', 'freeze_new_objects',
-           'run_nodes']
+__all__ = ['SHUTDOWN_DEADLINE', 'make_executor', 'spin_until_shutdown', 'run_nodes']
 
 #: Longest a node process takes to shut down [s] once its spin ended: past it every thread's
 #: stack is printed to stderr (where the shutdown hung) and the process exits with status 1. A
@@ -52,25 +51,6 @@ def spin_until_shutdown(executor, context, stop: threading.Event | None = None, 
     never = Future()
     while context.ok() and not (stop is not None and stop.is_set()):
         executor.spin_until_future_complete(never, timeout_sec=period)
-
-
-def freeze_startup_objects() -> None:
-    """Move every object alive now (modules, compiled kernels, the nodes) out of the garbage
-    collector's reach (``gc.freeze``), once a process has started its nodes.
-
-    A full collection otherwise walks them all with the GIL held, which can take long enough for
-    a 0.1 s command timeout to reject a message queued behind it (docs/measurements.md).
-    """
-    gc.collect()
-    gc.freeze()
-
-
-def freeze_new_objects() -> None:
-    """Move the objects built since the last freeze out of the collector's reach too, without a
-    collection (no pause now): a driver calls it once its hardware built a bus, its threads and its
-    devices' object dictionaries. A full collection walked those with the GIL held for up to 70 ms,
-    the bus' cycle stopped meanwhile (docs/measurements.md, CANopen)."""
-    gc.freeze()
 
 
 def run_nodes(factories: Sequence[Callable[..., Node]], args=None, *, executor_kind: str = 'events') -> None:
@@ -112,6 +92,4 @@ def run_nodes(factories: Sequence[Callable[..., Node]], args=None, *, executor_k
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown(context=context)
-        # the frozen objects back in the collector's reach, so that the interpreter's end frees
-        # them (an extension's objects still alive then, as Ruckig's, are reported as leaks)
-        gc.unfreeze()
+        thaw()

@@ -3,13 +3,15 @@ robot, once odometry has placed the robot in the world.
 
 :func:`framing` is the geometry (pure): it looks at the centre of the points' bounding sphere from
 the viewer's usual direction, far enough for the sphere to fit the narrower field of view.
-:class:`FirstView` applies it once: to viser's initial camera (every browser that connects later,
-and its "Reset View") and to the browsers already open, which have not moved yet.
+:class:`FirstView` applies it once: to viser's initial camera (its "Reset View") and to the
+browsers already open, which have not moved yet; and to each browser that connects later.
 """
 
 from __future__ import annotations
 
 import math
+import threading
+from typing import Callable, Iterable
 
 import numpy as np
 
@@ -57,14 +59,33 @@ class FirstView:
         self.structure_vertices = structure_vertices
         self.reach = reach
         self.camera: tuple[np.ndarray, np.ndarray] | None = None
+        self._lock = threading.Lock()   # the framing against a browser connecting meanwhile
 
-    def update(self, frame, clients) -> None:
-        """Frame the view from ``frame`` if not yet done; ``clients``: the open viser clients."""
+    def update(self, frame, clients: Callable[[], Iterable]) -> None:
+        """Frame the view from ``frame`` if not yet done; ``clients()``: the open viser clients,
+        asked once the framing is known (a browser that connects later is framed by :meth:`show`)."""
         if self.camera is not None or frame.slave is None or not frame.trails:
             return
-        self.camera = framing(scene_points(frame.slave, frame.master, self.structure_vertices, self.reach))
-        position, look_at = (tuple(float(v) for v in x) for x in self.camera)
-        self.server.initial_camera.position, self.server.initial_camera.look_at = position, look_at
-        for client in clients:
-            with client.atomic():
-                client.camera.position, client.camera.look_at = position, look_at
+        camera = framing(scene_points(frame.slave, frame.master, self.structure_vertices, self.reach))
+        with self._lock:
+            self.camera = camera
+            position, look_at = self._position_look_at()
+            self.server.initial_camera.position, self.server.initial_camera.look_at = position, look_at
+            for client in clients():
+                self._frame(client)
+
+    def show(self, client) -> None:
+        """Frame a browser that has just connected, if the view is framed already: viser moves a
+        browser to the initial camera only as its session begins, which may have been before the
+        framing, and the browser may have been missing from :meth:`update`'s ``clients()``."""
+        with self._lock:
+            if self.camera is not None:
+                self._frame(client)
+
+    def _position_look_at(self) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        return tuple(tuple(float(v) for v in x) for x in self.camera)
+
+    def _frame(self, client) -> None:
+        position, look_at = self._position_look_at()
+        with client.atomic():
+            client.camera.position, client.camera.look_at = position, look_at

@@ -150,7 +150,7 @@ class ViewerServer:
             clients = list(self._clients.values())
         for controls in clients:
             controls.recording.show(frame.replay)
-        self.first_view.update(frame, [controls.client for controls in clients])
+        self.first_view.update(frame, self._viser_clients)
         key = self._scene_key(frame)
         if key == self._drawn_key:
             return  # nothing moved: no scene message at all (an idle viewer costs little)
@@ -260,7 +260,12 @@ class ViewerServer:
         controls = ClientControls(self, client)
         with self._lock:
             self._clients[client.client_id] = controls
+        self.first_view.show(client)
         self.refresh_all()
+
+    def _viser_clients(self) -> list[viser.ClientHandle]:
+        with self._lock:
+            return [controls.client for controls in self._clients.values()]
 
     def _on_disconnect(self, client: viser.ClientHandle) -> None:
         with self._lock:

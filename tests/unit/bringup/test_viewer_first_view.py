@@ -6,7 +6,9 @@ viewer had before cuts the frame climber off at the node (the check fails there)
 
 from __future__ import annotations
 
+import contextlib
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -18,7 +20,7 @@ from rrps_description.geometry import load_robot
 from rrps_description.pose import Pose
 from rrps_description.structures import make_structure
 from rrps_kinematics.scene import robot_figure
-from rrps_viewer._camera import framing, scene_points
+from rrps_viewer._camera import FirstView, framing, scene_points
 
 MASTER_ORIGIN = Pose([0.0, -0.9, 0.0])  # viewer_node's default console
 FOV = math.radians(75.0)
@@ -76,3 +78,38 @@ def test_the_old_fixed_camera_cut_the_frame_climber_off():
     figure, _, _ = _start('frame_node')
     old = _in_view(figure.leg_points.reshape(-1, 3), np.array([1.2, -2.0, 1.2]), np.array([0.3, -0.35, 0.4]))
     assert not np.all(old)
+
+
+class _Camera:
+    position = look_at = None
+
+
+class _Client:
+    """A viser client as FirstView uses it: its camera and ``atomic()``."""
+
+    def __init__(self):
+        self.camera = _Camera()
+
+    def atomic(self):
+        return contextlib.nullcontext()
+
+
+def test_every_browser_gets_the_framing_also_one_that_connects_while_it_is_made():
+    figure, vertices, reach = _start(None)
+    server = SimpleNamespace(initial_camera=_Camera())
+    view = FirstView(server, vertices, reach)
+    early, racing, late = _Client(), _Client(), _Client()
+    view.show(early)                       # connected before any framing: nothing to show yet
+    assert early.camera.position is None
+    frame = SimpleNamespace(slave=figure, master=None, trails={'ring_a': [figure.world_T_a.position]})
+    view.update(frame, lambda: [early])    # `racing` connected, but its handler has not run yet
+    expected = framing(scene_points(figure, None, vertices, reach))
+    view.show(racing)                      # its handler runs now
+    view.show(late)
+    for camera in (server.initial_camera, early.camera, racing.camera, late.camera):
+        np.testing.assert_allclose(camera.position, expected[0])
+        np.testing.assert_allclose(camera.look_at, expected[1])
+    moved = (1.0, 2.0, 3.0)
+    early.camera.position = moved
+    view.update(frame, lambda: [early])    # framed once: a browser the user moved stays put
+    assert early.camera.position == moved

@@ -47,12 +47,13 @@ from rrps_hardware.support_follower import DEFAULT_TIMEOUT, SupportFollower
 from rrps_interfaces.climb import SUPPORT_POSE
 from rrps_interfaces.driver import GRIPPERS_STATE, RESET_FAULTS, DriverStatus, SupportSource, gripper_service
 from rrps_interfaces.kinematics import ACTUATORS_COMMAND, ACTUATORS_STATE
+from rrps_runtime.collector import freeze_new_objects
 from rrps_runtime.diagnostics import ERROR, OK, STALE, WARN, Diagnostics, log_status
 from rrps_runtime.freshness import CommandAges, CommandFreshness, RejectedCommand
 from rrps_runtime.messages import joint_state_msg, lengths_from_joint_state, stamp_to_seconds, transform_from_msg
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
-from rrps_runtime.process import freeze_new_objects, run_nodes
+from rrps_runtime.process import run_nodes
 from rrps_runtime.qos import COMMAND_QOS, LATCHED_QOS, STATE_QOS
 from rrps_runtime.recording_tap import RecordingTap
 from rrps_runtime.scheduling import request_of, scheduling_parameters
