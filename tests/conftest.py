@@ -107,6 +107,17 @@ def _ticks_now() -> int:
         return int(f.read().rsplit(')', 1)[1].split()[19])
 
 
+def pytest_unconfigure(config):
+    """The objects the nodes built here froze out of the collector's reach (a driver freezes its
+    hardware's) back in it, so that the interpreter's end frees them: a Ruckig object still alive
+    then is reported by nanobind as a leak."""
+    import gc
+
+    from rrps_runtime.collector import thaw
+    thaw()
+    gc.collect()
+
+
 def pytest_sessionstart(session):
     session.config._rrps_t0 = _ticks_now() if os.path.exists('/proc/self/stat') else None
 
