@@ -40,6 +40,23 @@ def _moved(fleet: Fleet, ns: str, since: float) -> float:
     return float(np.max(np.linalg.norm(p - p[0], axis=1)))
 
 
+def _hold(states: list[dict], t_switch: float, end: float) -> tuple[float, str]:
+    """(largest leg length change from ``t_switch`` + SETTLE to ``end``, what a failure shows: when
+    the legs moved past STILL, and the driver's longest gap between state stamps since the switch,
+    where it stopped running)."""
+    change = length_change(states, t_switch + SETTLE, end)
+    window = [r for r in states if t_switch <= r['stamp'] <= end]
+    ref = np.asarray(window[0]['lengths']) if window else None
+    moved = [round(r['stamp'] - t_switch, 3) for r in window
+             if np.max(np.abs(np.asarray(r['lengths']) - ref)) >= STILL]
+    stamps = [r['stamp'] for r in window]
+    gap = max(zip(np.diff(stamps), stamps), default=(math.nan, math.nan))
+    return change, (f'legs {change * 1e6:.1f} um past {SETTLE} s after the switch; samples past '
+                    f'{STILL * 1e6:.0f} um from the first one after the switch, s after it: first '
+                    f'{moved[:1]}, last {moved[-1:]} of {len(moved)}; the longest gap between '
+                    f'state stamps {gap[0]:.3f} s from {gap[1] - t_switch:.3f} s after the switch')
+
+
 def _engaged_on(fleet: Fleet, ns: str, since: float) -> bool:
     rows = fleet.robots[ns].records('teleop/status', since)
     return bool(rows) and teleop(rows[-1]).engaged and teleop(rows[-1]).robot == ns
@@ -89,7 +106,8 @@ def test_one_operator_station_drives_three_robots_one_at_a_time(ros_domain_id, t
         last = max((c['stamp'] for c in fleet.robots[r1].records('actuators/command', t_switch - 1.0)),
                    default=-math.inf)
         assert last <= t_switch + 0.1, last - t_switch
-        assert length_change(fleet.robots[r1].records('actuators/state'), t_switch + SETTLE, t_held) < STILL
+        change, report = _hold(fleet.robots[r1].records('actuators/state'), t_switch, t_held)
+        assert change < STILL, report
         # A deadman held through the switch counts only once released: a false sample, or a
         # stream silent for enable_timeout, which a stall of this loaded machine can cause. So
         # robot_2 gets nothing before the deadman stream stalled (its receipt at the operator
@@ -119,7 +137,8 @@ def test_one_operator_station_drives_three_robots_one_at_a_time(ros_domain_id, t
         t_end = time.time()
         fleet.operator.send({'deadman': False})
         for ns in (r1, r3):
-            assert length_change(fleet.robots[ns].records('actuators/state'), t_switch + SETTLE, t_end) < STILL, ns
+            change, report = _hold(fleet.robots[ns].records('actuators/state'), t_switch, t_end)
+            assert change < STILL, (ns, report)
         assert not fleet.robots[r3].records('actuators/command')
         rates = {ns: tuple(round(8e-3 * (b1[ns][i] - b0[ns][i]) / (t_b1 - t_b0)) for i in (0, 1)) for ns in b0}
         print(f'fleet of 3: up {up:.1f} s after the operator station started; link kbit/s '
