@@ -16,7 +16,7 @@ from geometry_msgs.msg import PoseStamped
 from rrps_description.geometry import load_robot
 from rrps_interfaces.climb import CLIMB_STEP_UP, ClimbState
 from rrps_interfaces.kinematics import TARGET_POSE
-from rrps_interfaces.teleop import MASTER_FRAME, MASTER_TARGET_POSE
+from rrps_interfaces.teleop import MASTER_FRAME, MASTER_POSE, MASTER_TARGET_POSE, TeleopStatus
 from rrps_runtime.messages import pose_from_msg, pose_to_msg
 from rrps_runtime.qos import COMMAND_QOS
 from rrps_testing.canopen_stack import call, canopen_stack, climb_state, finish_step, teleop_status
@@ -27,6 +27,8 @@ MASTER = load_robot('master_robot')
 #: The pole climber's legs' speed limit [m/s].
 SPEED = load_robot('pole_climber').motion_limits.legs.speed
 HANDLE_STEP = 0.004
+#: Handle motions tried when the mapping clutches before the slave moved (see teleoperate).
+MOVE_ATTEMPTS = 4
 
 
 def flat(msg) -> np.ndarray:
@@ -56,25 +58,60 @@ def climb(stack) -> tuple[np.ndarray, np.ndarray, float]:
 
 def teleoperate(stack) -> tuple[np.ndarray, np.ndarray]:
     """The master's handle 4 mm up with the deadman held: (the slave's pose at rest, the last
-    target_pose teleop commanded)."""
+    target_pose teleop commanded). A clutch before the slave moved 1 mm (the mapping disengaged on a
+    late stream of a busy machine and engaged again, from where the handle then was: a CI run's
+    handle had arrived, and the slave stayed for 120 s) is what an operator meets too: release the
+    deadman, bring the handle back and move it again, :data:`MOVE_ATTEMPTS` times at most."""
     targets = stack.probe.collect(PoseStamped, TARGET_POSE, qos=COMMAND_QOS)
+    master = stack.probe.collect(PoseStamped, MASTER_POSE)
     handle = stack.probe.publisher(PoseStamped, MASTER_TARGET_POSE, command=True)
-    stack.deadman.set()
-    assert wait_for(lambda: teleop_status(stack) is not None and teleop_status(stack).engaged)
-    start = flat(stack.poses[-1][1])
-    goal = MASTER.home_position + [0.0, 0.0, HANDLE_STEP]
+    home, goal = MASTER.home_position, MASTER.home_position + [0.0, 0.0, HANDLE_STEP]
 
-    def hold_handle():
-        handle.publish(pose_to_msg(goal, MASTER.home_quaternion_xyzw, frame_id=MASTER_FRAME,
+    def put_handle(position) -> bool:
+        handle.publish(pose_to_msg(position, MASTER.home_quaternion_xyzw, frame_id=MASTER_FRAME,
                                    stamp=stack.probe.get_clock().now().to_msg()))
-        return flat(stack.poses[-1][1])[2] - start[2] > 1e-3
-    assert wait_for(hold_handle, period=0.02, timeout=120), (teleop_status(stack), stack.probe.latest())
+        return bool(master) and np.linalg.norm(flat(master[-1])[:3] - position) < 2e-4
+
+    clutches = []
+    for _ in range(MOVE_ATTEMPTS):
+        moved, clutch = move_handle(stack, lambda: put_handle(goal))
+        if moved:
+            break
+        clutches.append(clutch)
+        stack.deadman.clear()
+        assert wait_for(lambda: not teleop_status(stack).engaged)
+        assert wait_for(lambda: put_handle(home), period=0.02), flat(master[-1])
+    assert moved, f'the slave did not follow the handle: {len(clutches)} clutches ({", ".join(clutches)})'
     for _ in range(150):  # the handle stays at its goal while the slave settles
-        hold_handle()
+        put_handle(goal)
         time.sleep(0.02)
     pose = at_rest(stack)
     stack.deadman.clear()
     return pose, flat(targets[-1])
+
+
+def move_handle(stack, hold_handle) -> tuple[bool, str]:
+    """Press the deadman and call ``hold_handle()`` (it publishes the handle's goal) until the slave moved
+    1 mm up or the mapping clutched: (moved, the code that disengaged it, '' when none)."""
+    stack.deadman.set()
+    assert wait_for(lambda: teleop_status(stack) is not None and teleop_status(stack).engaged)
+    seen, start = len(stack.teleop_status), flat(stack.poses[-1][1])
+
+    def moved() -> bool:
+        return flat(stack.poses[-1][1])[2] - start[2] > 1e-3
+
+    def clutched() -> str:
+        return next((s.code.name for s in (TeleopStatus.from_key_values(m.values)
+                                            for _, m in stack.teleop_status[seen:]) if not s.engaged), '')
+
+    def following() -> bool:
+        hold_handle()
+        return moved()
+    assert wait_for(lambda: following() or clutched(), period=0.02, timeout=120), (
+        teleop_status(stack), stack.probe.latest())
+    if not moved():   # engaged again after the clutch: whatever follows, follows
+        wait_for(following, period=0.02, timeout=2.0)
+    return moved(), clutched()
 
 
 def distance_to_path(points: np.ndarray, path: np.ndarray) -> np.ndarray:

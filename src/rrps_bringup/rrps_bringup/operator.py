@@ -69,6 +69,11 @@ STOP_WAIT = 2.0
 #: How many times the teleop session moves the handle when a clutch interrupts the motion (a
 #: late master sample on a busy machine: one interrupted both of two attempts in a CI run).
 MOVE_ATTEMPTS = 4
+#: How many times the scripted operator asks for a climbing step that is refused, and the pause
+#: [s] between: a refusal for a state that came late on a busy machine (a CI run: the pose 0.33 s
+#: old, over climb_node's state_timeout of 0.2 s) passes, as a person asking again sees.
+STEP_REQUESTS = 3
+STEP_RETRY = 1.0
 #: Longest wait [s] for a requested climbing step to start: its preview runs first.
 PREVIEW_WAIT = 120.0
 
@@ -254,16 +259,23 @@ class ScriptedOperator(Node):
         return checks
 
     def climb_step(self, stop: threading.Event) -> tuple[list[Check], ClimbStatus | None]:
-        """Request one climbing step up, wait for its preview (up to :data:`PREVIEW_WAIT`) and
-        its execution, resuming a pause at most :data:`MAX_RESUMES` times. Returns the checks and
+        """Request one climbing step up (again after a refusal, :data:`STEP_REQUESTS` times in
+        all), wait for its preview (up to :data:`PREVIEW_WAIT`) and its execution, resuming a pause
+        at most :data:`MAX_RESUMES` times. Returns the checks and
         the climb status the step ended in (None: it did not start)."""
         if not self._wait(self._step.ready, WAIT, stop):
             return [(f'{self._step.name} available', False)], None
-        answer: dict = {}
-        self._step.request(+1, lambda ok, text: answer.update(ok=ok, text=text))
-        accepted = self._wait(lambda: 'ok' in answer, WAIT, stop) and answer['ok']
-        self._say(f'{self._step.name} -> {answer.get("text", "no answer")!r}')
-        checks = [('climb step up accepted', accepted)]
+        refusals = []
+        for _ in range(STEP_REQUESTS):   # a refusal may pass (a state late on a busy machine): ask again
+            answer: dict = {}
+            self._step.request(+1, lambda ok, text, answer=answer: answer.update(ok=ok, text=text))
+            accepted = self._wait(lambda: 'ok' in answer, WAIT, stop) and answer['ok']
+            self._say(f'{self._step.name} -> {answer.get("text", "no answer")!r}')
+            if accepted or 'ok' not in answer or stop.wait(STEP_RETRY):
+                break
+            refusals.append(answer['text'])
+        again = f' after {len(refusals)} refusal(s): {"; ".join(refusals)}' if refusals and accepted else ''
+        checks = [(f'climb step up accepted{again}', accepted)]
         if not accepted:
             return checks, None
 
