@@ -169,6 +169,14 @@ async function main() {
       } else if (step.css !== undefined) {
         await page.addStyleTag({ content: step.css });
         results.push({ css: true });
+      } else if (step.layout !== undefined) {
+        // where the 3-D view's canvas is and where the panel's text step.layout is: boxes in px
+        const panel = page.getByText(step.layout, { exact: false }).first();
+        const canvas = await page.evaluate(() => [...document.querySelectorAll('canvas')]
+          .map((c) => c.getBoundingClientRect())
+          .map((r) => ({ x: r.x, y: r.y, width: r.width, height: r.height }))
+          .sort((a, b) => b.width * b.height - a.width * a.height)[0]);   // the largest: the 3-D view
+        results.push({ layout: step.layout, canvas, panel: await panel.boundingBox({ timeout: TIMEOUT }) });
       } else if (step.text !== undefined) {
         results.push({ text: await page.innerText('body') });
       } else if (step.close !== undefined) {

@@ -151,6 +151,7 @@ def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa
     steps = [
         {'page': 1, 'wait_text': 'Read-only viewer'},
         {'page': 1, 'wait_text': 'Latency: state'},
+        {'page': 1, 'layout': 'Read-only viewer'},
         # Taken until two in a row show the same 3-D view: the scene is drawn and still.
         {'page': 1, 'screenshot': str(shots['robot']), 'sync': 'robot shot'},
         {'page': 1, 'sync': 'hide robot'},
@@ -302,9 +303,13 @@ def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa
     assert count > 2000, f'only {count} pixels of the 3-D view changed when the robot was hidden'
     # The first view is framed on it (odometry placed it): all of it inside the 3-D view, clear
     # of the view's edges (the top one cut the frame climber off before).
+    # The panel is docked beside the 3-D view, not over it: nothing of the robot hides behind it.
+    layout = next(r for r in result['results'] if 'layout' in r)
+    view_right = layout['canvas']['x'] + layout['canvas']['width']
+    assert VIEW_WIDTH - 10 < view_right <= layout['panel']['x'], layout
     from PIL import Image
     height = Image.open(shots['robot']).height
-    assert box[0] > 2 and box[1] > 2 and box[2] < VIEW_WIDTH - 3 and box[3] < height - 3, (box, height)
+    assert box[0] > 2 and box[1] > 2 and box[2] < view_right - 3 and box[3] < height - 3, (box, height, view_right)
     # The reachable workspace is drawn around the robot (hidden with it) and on the master: in
     # the browser, once the robot shows again, the robot's copy adds its pixels to the master's.
     ws_shown, ws_hidden = _workspace_pixels(shots['shown']), _workspace_pixels(shots['hidden'])

@@ -2,7 +2,8 @@
 robot, once odometry has placed the robot in the world.
 
 :func:`framing` is the geometry (pure): it looks at the centre of the points' bounding sphere from
-the viewer's usual direction, far enough for the sphere to fit the narrower field of view.
+the viewer's usual direction, far enough for the sphere to fit the narrower field of view of a view
+:data:`ASPECT` as wide as high or wider (the 3-D view is the window left of the docked panel).
 :class:`FirstView` applies it once: to viser's initial camera (its "Reset View") and to the
 browsers already open, which have not moved yet; and to each browser that connects later.
 """
@@ -21,8 +22,9 @@ __all__ = ['DIRECTION', 'FOV', 'framing', 'scene_points', 'FirstView']
 DIRECTION = -np.array([0.9, -1.65, 0.8]) / np.linalg.norm([0.9, -1.65, 0.8])
 #: viser's vertical field of view [rad] (its cameras' default).
 FOV = math.radians(75.0)
-#: The panel covers the right of the window: the view is framed for a square of its height.
-ASPECT = 1.0
+#: The narrowest 3-D view framed for, width / height: the control panel is docked at the window's
+#: right (320 px wide) and the view is the rest, 0.87 as wide as high in a window of 860 x 600 px.
+ASPECT = 0.8
 
 
 def framing(points: np.ndarray, *, fov: float = FOV, aspect: float = ASPECT, direction=DIRECTION,

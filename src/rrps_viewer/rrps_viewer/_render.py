@@ -107,6 +107,7 @@ class ViewerServer:
         install_shared_encoding()  # a window is encoded once for all browsers
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         self.server.gui.set_panel_label(title)
+        self.server.gui.main_panel.dock_right()   # the 3-D view is the window left of it (first_view)
         self.server.scene.set_up_direction('+z')
         self.server.initial_camera.position = (1.2, -2.0, 1.2)  # framed on the robot once odometry
         self.server.initial_camera.look_at = (0.3, -0.35, 0.4)  # places it (first_view)
