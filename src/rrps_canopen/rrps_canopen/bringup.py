@@ -29,7 +29,8 @@ from rrps_canopen.drive import NO_OBJECT, ConfigureError, RemoteDrive, mode_text
 from rrps_canopen.pdo_mapping import map_pdos
 from rrps_description.bus import HOMING_ABSOLUTE
 
-__all__ = ['wait_for_drives', 'check', 'configure', 'fail', 'grouped', 'REQUIRED_OBJECTS', 'OPTIONAL_OBJECTS']
+__all__ = ['wait_for_drives', 'check', 'configure', 'reconfigure', 'fail', 'grouped', 'REQUIRED_OBJECTS',
+           'OPTIONAL_OBJECTS']
 
 #: The objects a drive's EDS must have, per mode (index: name).
 REQUIRED_OBJECTS = {
@@ -201,3 +202,13 @@ def configure(d: RemoteDrive, *, heartbeat_period: float, sync_period: float) ->
     s.rated_force = d.read_object(0x6076) / 1000.0  # mN -> N
     d.notes += map_pdos(d)
     d.take_process_data()
+
+
+def reconfigure(d: RemoteDrive, *, heartbeat_period: float, sync_period: float) -> None:
+    """Set a rebooted drive up again (:func:`configure`) and start it (OPERATIONAL); it stays in
+    the power state it booted in (disabled), and its digital outputs as it restarted them."""
+    d.notes = []
+    configure(d, heartbeat_period=heartbeat_period, sync_period=sync_period)
+    if d.digital_io:  # its outputs restarted de-energised: never switch them back by itself
+        d.outputs = d.read_object(0x60FE, 1)
+    d.start()

@@ -8,7 +8,8 @@ a fault reset of its own), sends the RPDOs and then the SYNC. A new fault makes 
 where it is (its target becomes its actual position), the faulted one gets a quick stop when it
 is still enabled, and ``faulted`` is set; nothing then enables a drive or resets a fault but
 :meth:`DriveSet.enable` and :meth:`DriveSet.reset`, which the operator's activation and fault
-reset call. A rebooted drive is configured again in the background and stays disabled. Bring-up
+reset call. A rebooted drive is configured again in the background (no RPDO of it meanwhile) and
+stays disabled; an error in a cycle latches ``bus_lost`` on every drive and the SYNCs go on. Bring-up
 is :mod:`rrps_canopen.bringup`, homing :mod:`rrps_canopen.homing` (which raises the homing start
 bit through :attr:`DriveSet.homing_start`). Pure Python (canopen, python-can), no ROS import.
 """
@@ -24,7 +25,7 @@ from typing import Callable
 import can
 import canopen
 
-from rrps_canopen.bringup import check, configure, fail, grouped, wait_for_drives
+from rrps_canopen.bringup import check, configure, fail, grouped, reconfigure, wait_for_drives
 from rrps_canopen.cia402 import Controlword, Mode, State, Statusword, controlword_toward
 from rrps_canopen.drive import ConfigureError, ProcessData, RemoteDrive, keep_word
 from rrps_canopen.network import open_network, resolve_eds
@@ -165,7 +166,10 @@ class DriveSet:
                 time.sleep(delay)
             else:
                 deadline = time.monotonic()  # late: no burst to catch up
-            self.cycle(time.monotonic())
+            try:
+                self.cycle(time.monotonic())
+            except Exception as exc:  # noqa: BLE001 - a defect must not end the SYNCs silently
+                self._lose_bus(f'the CANopen cycle failed: {exc!r}', time.monotonic())
 
     def cycle(self, now: float) -> None:
         with self.lock:
@@ -185,7 +189,8 @@ class DriveSet:
                 self.extra(now)
             try:
                 for d in self.drives:
-                    d.send_rpdos()
+                    if d.name not in self._rebooting:   # PRE-OPERATIONAL, its PDOs being mapped again
+                        d.send_rpdos()
                 self.network.sync.transmit()
                 self.sync_times.append(time.monotonic())
             except (can.CanError, OSError) as exc:
@@ -300,11 +305,7 @@ class DriveSet:
         def job() -> None:
             try:
                 time.sleep(2 * self.period)
-                d.notes = []
-                configure(d, heartbeat_period=self.bus.heartbeat_period, sync_period=self.period)
-                if d.digital_io:  # its outputs restarted de-energised: never switch them back by itself
-                    d.outputs = d.read_object(0x60FE, 1)
-                d.start()
+                reconfigure(d, heartbeat_period=self.bus.heartbeat_period, sync_period=self.period)
             except ConfigureError as exc:
                 with self.lock:
                     self.faults[d.name] = ActuatorFault(d.name, FaultKind.REBOOTED, f'not configured again: {exc}')
