@@ -261,8 +261,8 @@ class ScriptedOperator(Node):
     def climb_step(self, stop: threading.Event) -> tuple[list[Check], ClimbStatus | None]:
         """Request one climbing step up (again after a refusal, :data:`STEP_REQUESTS` times in
         all), wait for its preview (up to :data:`PREVIEW_WAIT`) and its execution, resuming a pause
-        at most :data:`MAX_RESUMES` times. Returns the checks and
-        the climb status the step ended in (None: it did not start)."""
+        at most :data:`MAX_RESUMES` times. Returns the checks and the climb status the step ended in
+        (None: it did not start)."""
         if not self._wait(self._step.ready, WAIT, stop):
             return [(f'{self._step.name} available', False)], None
         refusals = []
