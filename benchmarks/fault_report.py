@@ -3,8 +3,9 @@
 
     python benchmarks/fault_report.py [--loopback] [--only NAME[,NAME...]] [--log-dir DIR]
 
-The scenarios and the table are :mod:`rrps_testing.fault_report` (its docstring says what each
-fault is and how it is judged); tests/system/test_fault_report.py runs a few of them.
+The scenarios and the table are :mod:`rrps_testing.fault_report`; what each fault is and how it
+is judged: docs/measurements.md, "Faults of a two-host deployment". tests/system/test_fault_report.py
+runs a few of them.
 """
 
 import sys

@@ -1,15 +1,9 @@
-"""rrps-compose: several rrps nodes in one process and one executor, like a component container.
+"""rrps-compose: several rrps nodes in one process and one executor, like a component container::
 
     rrps-compose ik_node fk_node --ros-args -r __ns:=/rrps -p robot:=pole_climber
-    ros2 run rrps_bringup rrps-compose master_node teleop_node --ros-args -r __ns:=/rrps
 
-Which nodes share a process is a deployment choice: the demo runs IK and FK in one such process,
-the climbing node (whose step plans take tens of milliseconds of Python) in another, the
-simulated driver in a third and the operator station's master and teleop in a fourth, so that
-the 500 Hz state fan-out, a plan and the viewer's web server never delay a command in the
-robot's executor. ``--ros-args`` apply to every node of the process (use ``--params-file`` with
-node-named sections for per-node values).
-"""
+``--ros-args`` apply to every node (per-node values: ``--params-file``); which nodes share a process:
+docs/deployment.md."""
 
 from __future__ import annotations
 

@@ -1,44 +1,10 @@
-"""rrps-demo: the whole stack with the web viewer (``./rrps demo``).
+"""rrps-demo: the whole stack with the web viewer (``./rrps demo``; docs/usage.md, "Installing and running the demo").
 
-The demo runs as the system would on a robot and an operator station, in six processes
-(docs/deployment.md):
-
-* the simulated hardware (``driver_node``, 500 Hz), active at the first start; it keeps the
-  robot's physical state in a file of the run, and a driver that dies is restarted inactive
-  where the robot is (the viewer's "Activate driver" resumes);
-* the robot computer's nodes: IK and FK composed in one process (``rrps-compose``), the climbing
-  node in another (a step's plan never holds IK and FK);
-* the operator station: master and teleop composed in one process, the viewer (and the
-  headless script) in this one, so that its drawing never holds their interpreter;
-* the observers (:func:`~rrps_bringup.demo_processes.start_recorder`): the flight recorder (the
-  last 60 s, written on a fault or on the viewer's "Save last 60 s", in ``--recordings``;
-  ``--record`` also records the whole session there), ``markers_node`` and
-  ``robot_description_node`` (the robot for RViz2 and Foxglove: markers, /tf, robot_description
-  and joint_states).
-
-A robot process that dies is restarted (at most 3 times a minute); the children die with this
-process (a parent-death signal), and Ctrl-C or SIGTERM stops them all. The viewer's URL and
-operator token are printed once the robot is up. Every node reads its parameter file
-(:mod:`rrps_bringup.params`) before the demo's own settings (robot, rate, host, port, token),
-which win.
-
-``--hardware canopen`` puts the robot's legs and grippers on CANopen (CiA 402 drives, a CiA 401
-I/O module: :mod:`rrps_canopen`), simulated by ``rrps-drive-sim`` in a supervised process of its
-own on a loopback CAN bus that stays on this machine; the master stays simulated.
-
-``--headless`` runs no browser: a scripted teleop session (the operator's handle moves the
-master, a deadman stream engages the mapping, the slave follows; releasing the deadman holds the
-robot) and a scripted climb (one step up through ``climb/step_up``), prints what happened and
-exits 0 on success, 1 on failure: a smoke test for CI and users.
-
-``--scenario NAME`` (:mod:`rrps_bringup.scenarios`) puts a robot on its structure in the world
-with a payload: every node gets the scenario's parameters it declares (the driver's
-``world_q_support`` and payload, the structure and its lean for the climb node, the viewer and
-the markers). With ``--headless`` the scripted operator of the scenario
-(:mod:`rrps_bringup.scenario_script`) teleoperates it and prints the loads it saw; on a frame node
-(:mod:`rrps_bringup.frame_script`) it climbs one step across the node.
-
-DDS stays on this machine: ``ROS_AUTOMATIC_DISCOVERY_RANGE`` defaults to LOCALHOST.
+Six processes, as on a robot and an operator station (docs/deployment.md): the driver, IK and FK, the climbing node,
+master and teleop, the viewer (and the headless script) in this one, and the observers
+(:func:`~rrps_bringup.demo_processes.start_recorder`). ``--headless`` runs a scripted session instead of a browser
+and exits 0 on success; ``--scenario`` is :mod:`rrps_bringup.scenarios`; ``--hardware canopen`` puts the robot
+on simulated CANopen drives (docs/connecting-a-robot.md).
 """
 
 from __future__ import annotations
@@ -75,18 +41,11 @@ def build_stack(context, *, robot: str, host: str, port: int, token: str,
                 viewer: bool = True, climb: bool = True, driver: bool = True,
                 kinematics: bool = True, teleop: bool = True, driver_rate: float = 500.0,
                 namespace: str = NAMESPACE, parameters: Mapping[str, Mapping] | None = None) -> dict:
-    """Create nodes of the demo on ``context`` under ``namespace``; returns name -> node.
+    """Create nodes of the demo (from :mod:`rrps_bringup.registry`) on ``context`` under ``namespace``; name -> node.
 
-    Each node's class comes from the node registry (:mod:`rrps_bringup.registry`) by its name.
-    Every node by default (one process, as the tests use it). ``viewer=False`` / ``climb=False``
-    / ``driver=False`` / ``kinematics=False`` / ``teleop=False`` leave out the viewer / climbing
-    node / simulated driver / IK and FK nodes / master and teleop (the demo runs them in processes
-    of their own: :mod:`rrps_bringup.demo_processes`); ``driver_rate`` is the
-    simulated driver's actuators/state rate [Hz]. ``parameters``: node name -> {name: value}
-    that node gets on top (a scenario's, :func:`scenario_parameters`).
-    Each node reads its parameter file first (:func:`rrps_bringup.params.parameter_overrides`).
-
-    Raises ValueError / RobotDescriptionError with a clear message for bad arguments.
+    Every node by default (one process, as the tests use it); the flags leave groups out (the demo runs them in
+    processes of their own: :mod:`rrps_bringup.demo_processes`). ``driver_rate`` [Hz]; ``parameters``: node name ->
+    {name: value} on top of its parameter file. Raises ValueError / RobotDescriptionError for bad arguments.
     """
     from rclpy.parameter import Parameter
 

@@ -1,10 +1,6 @@
-"""The demo's child processes, as the system runs on a robot and an operator station
-(docs/deployment.md): the simulated hardware (driver_node), the simulated CANopen drives, the
-robot computer's nodes, the operator station's command path and the observers, each started by
-``rrps-compose`` (or the node's own module) with the priority its job asks for.
-
-Every node reads its parameter file (:mod:`rrps_bringup.params`) before the demo's settings and a
-scenario's parameters (``parameters``: node name -> {name: value}), which win.
+"""The demo's child processes, as the system runs on a robot and an operator station (docs/deployment.md), each
+started by ``rrps-compose`` (or the node's own module) with the priority its job asks for. A node's parameter file
+comes first; the demo's settings and a scenario's ``parameters`` (node name -> {name: value}) win.
 """
 
 from __future__ import annotations
@@ -19,9 +15,8 @@ __all__ = ['NAMESPACE', 'ROBOT_PROCESSES', 'ROBOT_NODES', 'OPERATOR_NODES', 'OBS
            'start_driver', 'start_drives', 'start_robot_nodes', 'start_operator_nodes', 'start_recorder']
 
 NAMESPACE = '/rrps'
-#: The robot computer's nodes, in two processes: IK and FK, and the climbing node apart (a step's
-#: plan, 80-90 ms of Python in its executor, would hold IK and FK in a shared one); the operator
-#: station's command path in another; the viewer runs in the demo's own process.
+#: The robot computer's nodes, in two processes: IK and FK, and the climbing node apart (a step's plan would hold IK
+#: and FK in a shared executor); the operator station's command path in another; the viewer in the demo's own process.
 ROBOT_PROCESSES = {'robot kinematics': ('ik_node', 'fk_node'), 'robot climbing': ('climb_node',)}
 ROBOT_NODES = ('ik_node', 'fk_node', 'climb_node')
 OPERATOR_NODES = ('master_node', 'teleop_node')
@@ -41,13 +36,9 @@ def _process_arguments(parameters: Mapping[str, Mapping], *nodes: str) -> list[s
 def start_driver(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,
                  state_file: str = '', activate: bool = False, hardware: str = 'simulated',
                  parameters: Mapping[str, Mapping] | None = None) -> subprocess.Popen:
-    """The simulated hardware (driver_node) in a process of its own, as a real robot's driver.
-
-    Its 500 Hz loop has an interpreter to itself and claims its real-time priority itself
-    (``rt_priority``). It keeps the robot's physical
-    state in ``state_file`` (a restart resumes it) and starts inactive unless ``activate``.
-    It inherits the environment (domain id, discovery range) and dies with this process; stop
-    it with :func:`rrps_runtime.supervision.stop_children`.
+    """The simulated hardware (driver_node) in a process of its own, as a real robot's driver: it claims its
+    real-time priority itself, keeps the robot's state in ``state_file`` (a restart resumes it), starts inactive
+    unless ``activate`` and dies with this process (stop it with :func:`rrps_runtime.supervision.stop_children`).
     """
     from rrps_runtime.supervision import CONTROL_NICE, start_child
     return start_child(driver_command(robot=robot, rate=rate, namespace=namespace, state_file=state_file,

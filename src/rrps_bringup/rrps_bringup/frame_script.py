@@ -1,20 +1,8 @@
-"""The scripted operator of ``rrps-demo --headless --scenario frame_node``: across a frame's node.
+"""The scripted operator of ``rrps-demo --headless --scenario frame_node``: one climbing step across a frame's node.
 
-The frame climber stands before the node of a frame bent 90 deg (the climb node's ``junction_deg``),
-both grippers on the searched beam face. The operator (:class:`rrps_bringup.operator.ScriptedOperator`)
-requests ONE climbing step up, the crossing (:meth:`~rrps_bringup.operator.ScriptedOperator.climb_step`:
-its preview first, then its execution; a step paused by a late state is resumed), and prints a
-result block:
-
-* the supporting rings of the step (ring_a while ring_b swings over the node, then ring_b) and
-  gravity in ring_a's frame at the start, from its world attitude on ``odometry/ring_a``;
-* the preview's peak actuator force against the robot's limit and its smallest holding margin
-  (``climb/preview``);
-* the refusals (a refused preview) and the pauses resumed;
-* where both rings ended, on ``odometry/*``, against the end poses of the crossing planned here
-  (:meth:`~rrps_bringup.scenarios.Scenario.crossing`, the climb node's planner).
-
-Each check is printed [PASS]/[FAIL]; :meth:`FrameScript.run` is True when all passed.
+Through :meth:`~rrps_bringup.operator.ScriptedOperator.climb_step` it requests the crossing (previewed, then executed,
+pauses resumed) and checks gravity, the preview's force and holding margin, the refusals and where both rings ended
+against :meth:`~rrps_bringup.scenarios.Scenario.crossing` (docs/scenarios.md). :meth:`FrameScript.run`: all passed.
 """
 
 from __future__ import annotations

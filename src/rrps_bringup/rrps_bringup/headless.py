@@ -1,11 +1,6 @@
-"""The scripted operator of ``rrps-demo --headless``: a teleop session and a climb, no browser.
-
-It uses the same topics and services as a person at the viewer: the teleop session of
-:class:`rrps_bringup.operator.ScriptedOperator` (the handle, the deadman), then one climbing
-step (:meth:`~rrps_bringup.operator.ScriptedOperator.climb_step`: ``climb/step_up``, and
-``climb/resume`` when the step paused); it checks the robot's answer on ``pose``,
-``teleop/status``, ``climb/status`` and ``odometry/*``.
-"""
+"""The scripted operator of ``rrps-demo --headless``: a teleop session and a climb, no browser, on the same topics and
+services as a person at the viewer (:class:`rrps_bringup.operator.ScriptedOperator`'s teleop session, then one
+climbing step), checking the robot's answer."""
 
 from __future__ import annotations
 

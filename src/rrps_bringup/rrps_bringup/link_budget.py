@@ -1,16 +1,9 @@
-"""The link budget: which of the robot's samples cross to the operator station, and when.
+"""The link budget: which of the robot's samples cross to the operator station, and when (pure, no ROS).
 
-Pure Python (no ROS): the link relay (``rrps_bringup.nodes.link_relay_node``) offers every sample
-of a robot topic to a gate and republishes the ones it admits on the link topic
-(:mod:`rrps_interfaces.link`).
-
-* :class:`RateGate`: a state stream at most at ``rate`` Hz, the first sample that arrives once a
-  period has passed (so the sample sent is the newest one, not one a timer held back); the
-  periods are kept on a schedule, so a 500 Hz stream gated at 50 Hz gives 50 samples a second.
-* :class:`ChangeGate`: an event stream (the grippers' state): at once when the value changes,
-  else at ``rate`` Hz.
-* :class:`StatusTable`: the newest status of each of the robot's nodes, sent as one message at
-  once when a level or message changes (at most every ``min_interval``), else every ``period``.
+The gates of the link relay (``rrps_bringup.nodes.link_relay_node``): :class:`RateGate` (a state stream at most at
+``rate`` Hz, the newest sample once a period has passed, periods kept on a schedule), :class:`ChangeGate` (an event
+stream: at once on a change, else at ``rate``), :class:`StatusTable` (each node's newest status, at once on a change
+of level or message, at most every ``min_interval``, else every ``period``).
 """
 
 from __future__ import annotations

@@ -1,20 +1,8 @@
 """The scripted operator of the headless demos: a teleop session as a person at the viewer plays it.
 
-It uses the operator's topics: ``master/target_pose`` (the handle), ``teleop/enable`` (the
-deadman, published while held); it reads the robot's answer on ``pose``, ``master/pose``,
-``teleop/status``, ``climb/status`` and ``odometry/*``. :class:`ScriptedOperator` is the node
-the headless demo (:mod:`rrps_bringup.headless`) and the scenarios
-(:mod:`rrps_bringup.scenario_script`, :mod:`rrps_bringup.frame_script`) build on;
-:meth:`ScriptedOperator.teleop_session` engages, moves the handle, and releases the deadman,
-checking that the robot followed and then held; :meth:`ScriptedOperator.climb_step` requests one
-climbing step up (the action ``climb/step``, or ``climb/step_up`` where rrps_msgs is not built:
-:class:`~rrps_viewer.climb_step_client.ClimbStepClient`), waits for its preview and its
-execution, and resumes it when it paused.
-
-Like a person, it resumes a climbing step that paused (the robot's state or the operator link
-was late: the step holds, see ``PauseReason``) once the step accepts the resume, at most
-:data:`MAX_RESUMES` times, and says so: on a machine too busy to keep the state fresh the
-summary shows the pauses rather than hiding them.
+:class:`ScriptedOperator` (used by :mod:`rrps_bringup.headless`, :mod:`rrps_bringup.scenario_script` and
+:mod:`rrps_bringup.frame_script`) drives the operator's topics (the handle, the deadman) and reads the robot's answer.
+Like a person it resumes a paused climbing step, at most :data:`MAX_RESUMES` times, and the summary says so.
 """
 
 from __future__ import annotations
@@ -61,17 +49,13 @@ WAIT = 30.0
 
 #: Most resumes of a paused climbing step the scripted operator makes.
 MAX_RESUMES = 5
-#: Longest wait [s] for the robot to stand still after the deadman's release: the stream's
-#: jerk-limited stop from full speed takes at most 0.44 s on the shipped robots
-#: (``rrps_teleop.target_stream.stopping_time``), the driver follows a command period behind, and
-#: a busy machine delays both.
+#: Longest wait [s] for the robot to stand still after the deadman's release: the stream's jerk-limited stop
+#: (``rrps_teleop.target_stream.stopping_time``), the driver a command period behind, a busy machine delaying both.
 STOP_WAIT = 2.0
-#: How many times the teleop session moves the handle when a clutch interrupts the motion (a
-#: late master sample on a busy machine: one interrupted both of two attempts in a CI run).
+#: How many times the teleop session moves the handle when a clutch interrupts the motion (a late master sample).
 MOVE_ATTEMPTS = 4
-#: How many times the scripted operator asks for a climbing step that is refused, and the pause
-#: [s] between: a refusal for a state that came late on a busy machine (a CI run: the pose 0.33 s
-#: old, over climb_node's state_timeout of 0.2 s) passes, as a person asking again sees.
+#: How many times the scripted operator asks for a climbing step that is refused, and the pause [s] between: a
+#: refusal for a state that came late on a busy machine passes, as a person asking again sees.
 STEP_REQUESTS = 3
 STEP_RETRY = 1.0
 #: Longest wait [s] for a requested climbing step to start: its preview runs first.

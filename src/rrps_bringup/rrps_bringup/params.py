@@ -1,13 +1,7 @@
-"""Parameter files of the rrps nodes: ``config/<node>.yaml`` of rrps_bringup.
+"""Parameter files of the rrps nodes: ``config/<node>.yaml`` of rrps_bringup (docs/usage.md, "Parameters").
 
-Each file holds every parameter of one node with its default, in a section ``/**/<node>:`` (the
-node of that name in any namespace), so the files of several nodes can be given to one
-composed process. colcon installs them to ``share/<package>/config``; from a source checkout
-(``pip install -e``) they are read beside the package.
-
-    ros2 run rrps_kinematics ik_node --ros-args --params-file $(rrps-params ik_node)
-    config_file('ik_node')                  # the file's path
-    parameter_overrides('ik_node')          # rclpy Parameters, for a node created in-process
+Installed to ``share/<package>/config``, read beside the package from a source checkout. :func:`config_file` gives a
+file's path, :func:`parameter_overrides` its rclpy Parameters for a node created in-process.
 """
 
 from __future__ import annotations

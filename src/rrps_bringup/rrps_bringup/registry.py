@@ -1,10 +1,5 @@
-"""The one registry of rrps nodes: the ``rrps.nodes`` entry-point group.
-
-Each package declares its nodes once, in its setup.py (``NODES``): that makes both the console
-script that ``ros2 run`` starts and an entry point ``<node> = <module>:<NodeClass>`` of this
-group. rrps-compose and rrps-params read the group, so a new node is known to them as soon as
-its package is installed.
-"""
+"""The one registry of rrps nodes: the ``rrps.nodes`` entry-point group, declared by each package's setup.py
+(``NODES``) and read by rrps-compose and rrps-params (docs/architecture.md, "How to add a node")."""
 
 from __future__ import annotations
 

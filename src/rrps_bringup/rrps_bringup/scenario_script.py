@@ -1,25 +1,9 @@
 """The scripted operator of ``rrps-demo --headless --scenario NAME``: a load scenario over ROS.
 
-The operator (:class:`rrps_bringup.operator.ScriptedOperator`) opens ring_b's gripper (ring_a
-alone holds the robot, its payload and ring_b), teleoperates ring_b along the scenario's motion
-(engage, move, release the deadman) and closes the gripper again; then it climbs one step up
-(``climb/step_up``: planned and previewed by the climb node with the scenario's payload, ring_b
-first brought back to the gait, timed at the legs' limits, executed over ROS;
-:mod:`rrps_bringup.step_report`). It prints a result block:
-
-* the supporting ring (from ``grippers/state``) and gravity in its frame, from its world attitude
-  on ``odometry/ring_a`` (the climb node's, placed by the structure);
-* the peak actuator force of the driver's ``actuators/state`` efforts against the robot's limit,
-  and the driver's efforts at rest against the statics of the held pose in the scenario's world
-  (:func:`rrps_loads.loads.static_solution`: the driver really computes in that world); on
-  ``canopen`` hardware the simulated drives' axes carry no load, so their efforts are not checked;
-* the smallest holding margin of the supporting gripper along the received poses (statics);
-* the refusals (a halting teleop code, a refused gripper) and teleop warnings seen;
-* the climbing step: its planned duration and climbing speed [m/min], how long it executed
-  against its plan, the preview's peak actuator force and smallest holding margin, and the
-  driver's measured peak force against the preview's (a hardware that models the loads).
-
-Each check is printed [PASS]/[FAIL]; :meth:`ScenarioScript.run` is True when all passed.
+It opens ring_b's gripper, teleoperates ring_b along the scenario's motion, closes it, climbs one step up
+(:mod:`rrps_bringup.step_report`) and prints a result block of checks: support and gravity, peak and resting
+efforts against the statics (:func:`rrps_loads.loads.static_solution`; not on ``canopen``, whose axes carry no load),
+holding margin, refusals, and the step's timing and loads (docs/scenarios.md). :meth:`ScenarioScript.run`: all passed.
 """
 
 from __future__ import annotations

@@ -1,19 +1,8 @@
-"""Demo scenarios: a robot on its structure in the world, a payload, and what the operator does.
+"""Demo scenarios: a robot on its structure in the world, a payload, and what the operator does (docs/scenarios.md).
 
-A scenario is one table row (:data:`SCENARIOS`): the robot, the structure and its attitude in
-the world (the facade stands vertical; the pole leans ``lean_deg`` about the world x axis; the
-frame's column stands vertical, its member bent by ``junction_deg`` at the node), the payload, and
-the scripted operator's motion (a master handle displacement while the deadman is held, or with
-``junction_deg`` one climbing step across the frame's node). From it come the parameters of
-every node that declares them (:meth:`Scenario.parameters`: the driver's ``world_q_support`` and
-payload, the climb node's, viewer's and markers' structure), so the driver, the climb node's
-odometry and the viewer agree on where gravity points::
-
-    rrps-demo --scenario facade_wall                # in the browser viewer
-    rrps-demo --headless --scenario pole_leaning    # scripted operator over ROS, a result block
-    rrps-demo --headless --scenario frame_node      # one climbing step across a 90 deg node
-
-Pure data and small helpers; no ROS import.
+A scenario is one row of :data:`SCENARIOS`; :meth:`Scenario.parameters` gives every node the parameters it declares
+(the driver's ``world_q_support`` and payload, the structure), so the driver, the climb node's odometry and the
+viewer agree on where gravity points. Pure data and small helpers; no ROS import.
 """
 
 from __future__ import annotations

@@ -1,19 +1,8 @@
-"""A climbing step as the scripted operator sees it over ROS: its timing and its loads.
+"""A climbing step as the scripted operator sees it over ROS: its timing and its loads (pure Python; no ROS import).
 
-:class:`ExecutionClock` sums the time the climb spent executing and paused from the receipt
-times of ``climb/status`` (every change of state is published at once, and every 0.5 s);
-:class:`StepReport` holds what a scenario's step gave (the climb node's plan on
-``climb/status``, its preview on ``climb/preview``, the driver's efforts while it executed),
-prints it and checks it:
-
-* the step executed at its planned timing: no faster than the plan (the motions are streamed as
-  timed, each gripper takes its open/close time) and at most :data:`SLOWER` times it plus
-  :data:`SETTLE_ALLOWANCE` (the settle and the gripper's answer at each phase, a loaded machine);
-* the peak actuator force of the preview within the robot's limit, and the driver's measured
-  peak (a hardware that models the loads) within :data:`EFFORT_AGREEMENT` of it;
-* the smallest holding margin of the preview above zero.
-
-Pure Python; no ROS import.
+:class:`ExecutionClock` sums the time executing and paused from the receipts of ``climb/status``; :class:`StepReport`
+prints and checks the step: executed no faster than its plan and at most :data:`SLOWER` times it plus
+:data:`SETTLE_ALLOWANCE`, peak forces within the limit and within :data:`EFFORT_AGREEMENT`, holding margin > 0.
 """
 
 from __future__ import annotations

@@ -1,15 +1,8 @@
 """Compile the numba kernels once, at install (``./rrps install`` runs ``python -m rrps_bringup.warm_up``).
 
-The kernels are compiled on their first call and cached on disk (``cache=True``, stamped with the
-sources of every kernel: :func:`rrps_kinematics.backend.jit`). Without this, the first climbing
-step's preview (the dynamics), the first FK and the teleop guards would each wait for numba to
-compile them in a running node. This runs each of them once, with the argument types the stack
-uses: IK and FK (single, and batches serial and on every thread), the reachable workspace
-(serial and parallel), the limits of one pose and of a batch, the assembly modes' path tracker, the
-teleop guards, the statics and a short preview on either ring.
-Each group of kernels says when it is compiled, and how long it took (:func:`_say`): the first
-install compiles for minutes (docs/measurements.md), a later one loads them from the cache.
-Nothing is compiled when numba is off (``RRPS_NUMBA=0``) or missing.
+Runs each kernel group once with the stack's argument types (IK, FK, workspace, limits, assembly modes, teleop guards,
+statics, a short preview), so that no running node waits for numba; they are cached on disk
+(:func:`rrps_kinematics.backend.jit`). Nothing is compiled when numba is off (``RRPS_NUMBA=0``) or missing.
 """
 
 from __future__ import annotations

@@ -1,19 +1,7 @@
-"""Bringing a bus' drives up: waiting for them, checking what they are and can do, configuring
-them by SDO.
-
-* :func:`wait_for_drives`: each drive counts as there once it sent a boot-up message or a
-  heartbeat, or answered an SDO request (its device type), within ``bus.boot_timeout`` (a drive
-  boots some time after power-on; the master may start first).
-* :func:`check`: the drive against its EDS (device type 0x1000, vendor and product 0x1018, the
-  objects the mode needs) and against the robot YAML: the modes it supports (0x6502) and its
-  homing methods (0x60E3). Every problem of every drive is one sentence naming the drive and the
-  object in words ("homing method 37 not supported by leg_1 (node 1); it supports 35").
-* :func:`configure`: heartbeat, the homing method, the PDOs
-  (:mod:`rrps_canopen.pdo_mapping`), and the optional objects (:data:`OPTIONAL_OBJECTS`): one the
-  YAML gave a value for must be written; one it did not is written only when the EDS lists it,
-  and when the drive lacks or refuses it the drive keeps its own, which a note says. The mode of
-  operation is written at activation, and confirmed (:func:`rrps_canopen.homing.set_mode`).
-
+"""Bringing a bus' drives up: :func:`wait_for_drives` (boot-up, heartbeat or SDO answer within
+``bus.boot_timeout``), :func:`check` (each drive against its EDS and the YAML's modes and homing
+methods, every problem one sentence naming the drive and the object) and :func:`configure`
+(heartbeat, homing method, PDOs, :data:`OPTIONAL_OBJECTS`). See docs/connecting-a-robot.md.
 Pure Python (canopen), no ROS import.
 """
 
@@ -156,7 +144,7 @@ def _homing_methods(d: RemoteDrive) -> list[int] | None:
 
 
 def _optional(d: RemoteDrive, index: int, subindex: int | None, value: int) -> bool:
-    """Write an optional object (see the module docstring); whether it was written."""
+    """Write an optional object (docs/connecting-a-robot.md, 'Optional objects'); whether it was written."""
     asked = [k for k in _ASKING[index] if k in d.config.given]
     if not asked and index not in d.node.object_dictionary:
         d.notes.append(f'{{drive}}: {object_text(index)} not written (not in the EDS): {_WITHOUT[index]}')

@@ -1,15 +1,8 @@
-"""The CiA 402 drive profile's power state machine: statusword, controlword, modes of operation.
+"""The CiA 402 (IEC 61800-7-201) power state machine: statusword, controlword, modes of operation.
 
-Both sides use it: the backend reads a drive's state from its statusword and picks the
-controlword that moves it one transition towards a wanted state (:func:`controlword_toward`);
-the drive simulator runs the device side (:class:`DeviceStateMachine`). Pure Python.
-
-The states and transitions are CiA 402's (IEC 61800-7-201)::
-
-    NOT_READY_TO_SWITCH_ON -1-> SWITCH_ON_DISABLED -2 shutdown-> READY_TO_SWITCH_ON -3 switch on->
-    SWITCHED_ON -4 enable operation-> OPERATION_ENABLED; -11 quick stop-> QUICK_STOP_ACTIVE
-    -12 disable voltage-> SWITCH_ON_DISABLED; any -13 fault-> FAULT_REACTION_ACTIVE -14-> FAULT
-    -15 fault reset (bit 7 rising edge)-> SWITCH_ON_DISABLED
+Both sides use it: the backend picks the controlword one transition towards a wanted state
+(:func:`controlword_toward`), the drive simulator runs the device (:class:`DeviceStateMachine`).
+A fault reset is controlword bit 7's rising edge. Pure Python.
 """
 
 from __future__ import annotations

@@ -1,12 +1,7 @@
-"""One CiA 402 drive as the backend sees it: its objects by SDO, its process data.
-
-:class:`RemoteDrive` wraps canopen's ``RemoteNode``: SDO reads and writes that are sent again
-when unanswered (``bus.sdo_retries``, canopen's ``MAX_RETRIES``) and fail with a message that
-names the drive and the object in words; its TPDOs, heartbeat and EMCYs update
-:class:`ProcessData` from canopen's receive thread; the cycle sends its RPDOs. Checking and
-configuring it is :mod:`rrps_canopen.bringup` and :mod:`rrps_canopen.pdo_mapping`. Pure Python
-(canopen), no ROS import.
-"""
+"""One CiA 402 drive as the backend sees it: :class:`RemoteDrive` wraps canopen's ``RemoteNode``
+with SDOs sent again when unanswered (``bus.sdo_retries``) and errors naming the drive and the
+object; its TPDOs, heartbeat and EMCYs update :class:`ProcessData` from canopen's receive thread.
+Pure Python (canopen), no ROS import."""
 
 from __future__ import annotations
 

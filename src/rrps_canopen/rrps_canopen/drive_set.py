@@ -1,17 +1,9 @@
-"""The drives of one CAN bus and its cycle: one SYNC per period, the faults, holding, enabling,
-homing and the fault reset.
+"""The drives of one CAN bus and its cycle thread: one SYNC per ``sync_period``, fault detection
+and latching, holding, enabling, homing and the fault reset.
 
-:class:`DriveSet` runs a thread of its own at the bus' ``sync_period``: each cycle it looks at
-what every drive sent (EMCYs, statusword, heartbeat consumer, boot-up, the bus' silence), latches
-the faults, picks each drive's controlword (one CiA 402 transition towards what is wanted, never
-a fault reset of its own), sends the RPDOs and then the SYNC. A new fault makes every drive hold
-where it is (its target becomes its actual position), the faulted one gets a quick stop when it
-is still enabled, and ``faulted`` is set; nothing then enables a drive or resets a fault but
-:meth:`DriveSet.enable` and :meth:`DriveSet.reset`, which the operator's activation and fault
-reset call. A rebooted drive is configured again in the background (no RPDO of it meanwhile) and
-stays disabled; an error in a cycle latches ``bus_lost`` on every drive and the SYNCs go on. Bring-up
-is :mod:`rrps_canopen.bringup`, homing :mod:`rrps_canopen.homing` (which raises the homing start
-bit through :attr:`DriveSet.homing_start`). Pure Python (canopen, python-can), no ROS import.
+A new fault makes every drive hold where it is and sets ``faulted``; nothing then enables a drive
+or resets a fault but :meth:`DriveSet.enable` and :meth:`DriveSet.reset` (the operator's
+activation and fault reset). Fault reactions: docs/connecting-a-robot.md. Pure Python.
 """
 
 from __future__ import annotations

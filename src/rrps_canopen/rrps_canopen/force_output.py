@@ -1,16 +1,9 @@
 """Passive, bounded leg forces for a master robot's drives: the operator feels the slave's limits
 and the master never puts energy into the operator's hand.
 
-Per leg (each a port of force ``F`` and speed ``v``): the rendered force ``F_w = clip(F_wanted,
--limit, limit)`` goes through a passivity controller, then the damping: ``F = clip(F_w -
-damping * v, -limit, limit)``. The controller's observer sums the energy that went *into* the
-leg from the hand, ``E += -F_prev * (x - x_prev)``, and over the next period ``F_w`` may give
-back at most what is in it (``F_w * v * dt <= E``, else ``F_w`` is scaled down); while ``E`` is
-negative (the period in which a hand at rest started to move let a little through) ``F_w`` is
-off until the damping has taken that back. The damping only ever takes energy. So the work the
-drive does on the hand, ``-E``, never exceeds what one period can let through (Hannaford and Ryu,
-"Time-domain passivity control of haptic interfaces", IEEE T-RA 18(1), 2002: the passivity
-observer). Pure Python.
+Per leg, ``F = clip(F_w - damping * v, -limit, limit)`` with ``F_w`` the clipped wanted force
+limited by a time-domain passivity observer (Hannaford and Ryu, IEEE T-RA 18(1), 2002): it gives
+back at most the energy the hand put into the leg, ``E += -F_prev * (x - x_prev)``. Pure Python.
 """
 
 from __future__ import annotations

@@ -1,14 +1,7 @@
-"""The grippers on digital I/O: a valve output per ring, a clamp sensor per ring, the interlock.
-
-Wiring (fail-safe): a ring's output bit, set, opens its clamp; de-energised (a reboot, a cut
-cable) the clamp closes. The sensor input bit is set while the clamp is closed. The outputs are on
-a CiA 401 module (0x6200:1 in an event-driven RPDO, 0x6000:1 in a synchronous TPDO) or on the
-drives' own digital I/O (0x60FE:1 / 0x60FD, in the drives' PDOs), as the YAML's ``bus.grippers``
-says. The interlock reads the sensors: a ring opens only while the other ring's sensor reads
-closed (and it is commanded closed). A sensor that disagrees with its command for longer than
-``sensor_timeout`` is a fault; a fault never switches an output. Pure Python (canopen), no ROS
-import.
-"""
+"""The grippers on digital I/O (a CiA 401 module or the drives' own, as ``bus.grippers`` says): a
+fail-safe valve output and a clamp sensor per ring, and the interlock on the sensors. A sensor
+that disagrees with its command past ``sensor_timeout`` is a fault; a fault never switches an
+output. Wiring: docs/connecting-a-robot.md. Pure Python (canopen), no ROS import."""
 
 from __future__ import annotations
 

@@ -1,21 +1,9 @@
 """Homing the drives of a bus as CiA 402 specifies it, and checking where it left the legs.
 
-:func:`set_mode` writes a mode of operation (0x6060) and waits until the drive shows it
-(0x6061), up to ``bus.mode_timeout``: a drive takes its time to change mode, and the meaning of
-its statusword's bits 10, 12 and 13 changes with it. :func:`home` runs homing on the drives that
-need it, while the others stay disabled:
-
-1. homing mode, confirmed in 0x6061 (the drive is still disabled: nothing can move);
-2. enabled in homing mode (where it stands: homing mode has no target to follow);
-3. the start bit (controlword bit 4) raised: a rising edge, in homing mode;
-4. the homing status read only from statuswords the drive sent after it took the start bit
-   (two SYNCs later), until each drive completed (bits 13 12 10 = 0 1 1) or failed (bit 13);
-5. the start bit dropped, every target set to its drive's position in the homed count.
-
-:func:`check_positions` then says whether the legs can be where their drives say: each homed leg
-at its home position, every leg within its stroke, and the six lengths a pose of the robot (the
-forward kinematics converges; after homing, to a pose within the robot's limits). A homing that
-fails or ends anywhere implausible is a fault (:attr:`FaultKind.HOMING`) and leaves every drive
+:func:`set_mode` writes a mode (0x6060) and waits until the drive shows it (0x6061); :func:`home`
+homes the drives that need it (the sequence: docs/connecting-a-robot.md, 'Homing') while the others
+stay disabled; :func:`check_positions` checks home position, stroke and forward kinematics. A
+failed or implausible homing is a fault (:attr:`FaultKind.HOMING`) that leaves every drive
 disabled (:func:`refuse`). Pure Python, no ROS import.
 """
 

@@ -1,19 +1,8 @@
 """A virtual CAN bus between the processes of this machine only: python-can interface ``rrps_loopback``.
 
-python-can's ``udp_multicast`` joins its group on the default interface and sends with TTL 1,
-onto the machine's network. This bus is the same idea kept on the host: the group is joined on
-127.0.0.1, sent through 127.0.0.1 (``IP_MULTICAST_IF``) with TTL 0, so no frame leaves the
-machine; no kernel module and no root are needed. Frames are ``udp_multicast``'s msgpack
-encoding. A process does not receive its own frames (as on a real CAN controller): each bus
-sends from a socket of its own, and on Linux a socket filter (classic BPF on the UDP source
-port) drops its own datagrams in the kernel, so that the process never wakes for them (half of
-a driver's datagrams: docs/measurements.md, CANopen); elsewhere they are dropped on receipt.
-Registered in python-can's
-``can.interface`` entry points::
-
-    can.Bus(interface='rrps_loopback', channel='239.74.163.10', port=43120)
-
-``channel``: an IPv4 multicast group (one bus per group and port); ``port``: the UDP port.
+``udp_multicast``'s idea kept on the host: the group joined and sent through 127.0.0.1 with TTL 0,
+so no frame leaves the machine. A process does not receive its own frames (on Linux a BPF socket
+filter drops them in the kernel). ``can.Bus(interface='rrps_loopback', channel=GROUP, port=PORT)``.
 """
 
 from __future__ import annotations

@@ -1,13 +1,8 @@
 """A master robot's drives on CANopen: master_node's ``hardware: canopen``.
 
-:class:`CanopenMaster` reads the master's six leg encoders (drives in cyclic synchronous torque
-mode: their position is only read, and checked against the stroke) and renders the leg forces
-master_node asks for through :class:`~rrps_canopen.force_output.PassiveForceOutput`, each cycle
-of the bus (bounded by ``bus.force_output.limit``, damped by ``bus.force_output.damping``,
-passive). The faults are those of :class:`~rrps_canopen.drive_set.DriveSet`: a fault switches
-every force to zero and the faulted drive off, until :meth:`CanopenMaster.reset_faults` and a new
-activation. Pure Python (canopen, python-can), no ROS import.
-"""
+:class:`CanopenMaster` reads the six leg encoders (drives in cyclic synchronous torque mode) and
+renders the forces master_node asks for through :class:`~rrps_canopen.force_output.PassiveForceOutput`.
+A fault zeroes every force until :meth:`CanopenMaster.reset_faults` and a new activation."""
 
 from __future__ import annotations
 

@@ -1,11 +1,6 @@
-"""Opening a robot's CAN bus with canopen and python-can, and finding its EDS files.
-
-``bus.interface`` and ``bus.channel`` (and ``bus.options``) go to python-can as they are:
-``socketcan``/``can0`` on Linux, ``pcan``/``PCAN_USBBUS1``, ``kvaser``/``0``, or this package's
-``rrps_loopback`` (:mod:`rrps_canopen.loopback_bus`) for the simulated drives. The environment
-variables ``RRPS_CAN_CHANNEL`` and ``RRPS_CAN_PORT`` override the channel and the loopback port
-(tests and the demo run each bus on a group and port of their own). Pure Python, no ROS import.
-"""
+"""Opening a robot's CAN bus with canopen and python-can (``bus.interface``, ``bus.channel``,
+``bus.options`` as python-can names them; ``RRPS_CAN_CHANNEL`` and ``RRPS_CAN_PORT`` override
+the channel and the loopback port), and finding its EDS files. Pure Python, no ROS import."""
 
 from __future__ import annotations
 

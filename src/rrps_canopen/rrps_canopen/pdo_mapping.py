@@ -1,16 +1,7 @@
-"""A drive's PDOs as the backend uses them, written, read back and compared; every other PDO of
-the device disabled, whether its EDS lists it or not.
-
-Cyclic synchronous position: RPDO1 controlword + target position, TPDO1 statusword + position on
-every SYNC, TPDO2 velocity + torque every :data:`SLOW_TPDO_EVERY` SYNCs; torque mode the same with
-the target torque and TPDO2 on every SYNC; with the grippers on the drive's I/O, RPDO2 the digital
-outputs and TPDO3 the inputs. canopen's ``PdoMap`` writes the PDOs the EDS lists
-(:func:`map_pdos`); the device's PDOs beyond them are found by reading their communication
-objects (0x1400 + n, 0x1800 + n) until one does not exist, and disabled (COB-ID bit 31). Then every
-PDO is read back from the device and compared with what was written: a drive that keeps its own
-mapping (a fixed one, or an EDS that is not its own) is refused with both mappings in the message.
-Pure Python (canopen), no ROS import.
-"""
+"""A drive's PDOs as the backend uses them (:func:`map_pdos`), written, read back and compared; every
+other PDO of the device disabled, whether its EDS lists it or not. TPDO2 (velocity, torque) comes
+every :data:`SLOW_TPDO_EVERY` SYNCs in position mode. A drive that keeps its own mapping is refused
+with both mappings; the layout: docs/connecting-a-robot.md, 'PDOs'. Pure Python (canopen)."""
 
 from __future__ import annotations
 

@@ -1,29 +1,14 @@
 """The CANopen hardware of a robot behind the driver's interface: ``hardware: canopen``.
 
-:class:`CanopenRobot` is a :class:`~rrps_hardware.interface.SystemInterface` over the robot
-YAML's ``bus`` section: six CiA 402 leg drives in cyclic synchronous position mode
-(:class:`~rrps_canopen.drive_set.DriveSet`: one SYNC per period, the faults) and the grippers'
-digital I/O (:class:`~rrps_canopen.grippers.GripperIo`). The lifecycle is the driver's:
-
-* ``on_configure`` waits for every device, checks it against its EDS and the YAML (the modes and
-  homing methods it supports), then configures them all (PDOs, heartbeat, limits, homing), then
-  starts them; it fails naming the device and the reason, and then leaves no device running
-  half-configured. Nothing is enabled and no output switches. What it skipped (an optional object
-  the drive lacks) is the successful transition's reason.
-* ``on_activate`` homes the drives that need it (:mod:`rrps_canopen.homing`: in homing mode,
-  the others disabled; the only motion outside commands), checks that every leg can be where its
-  drive says (stroke, home position, forward kinematics), switches every drive to cyclic
-  synchronous position mode (confirmed in 0x6061), enables them where they are, and only then
-  takes commands. Whatever fails leaves every drive disabled; a failed or implausible homing is a
-  fault.
-* A fault (EMCY, following error, fault bit, lost heartbeat, reboot, bus lost, a gripper's sensor)
-  holds every drive where it is (quick stop of the faulted one) and refuses commands and the
-  grippers until ``reset_faults`` (refused while the bus is lost) and a new activation.
-
-Commands and state are in metres at this interface; :mod:`rrps_canopen.units` converts. Each
-cycle's CSP target is the jerk-limited setpoint of the newest command
-(:class:`~rrps_hardware.setpoints.JerkLimitedSetpoints`: within the legs' speed, acceleration
-and jerk limits). Pure Python (canopen, python-can), no ROS import.
+:class:`CanopenRobot` is a :class:`~rrps_hardware.interface.SystemInterface` over the robot YAML's
+``bus`` section: six CiA 402 leg drives in cyclic synchronous position mode
+(:class:`~rrps_canopen.drive_set.DriveSet`) and the grippers' I/O (:class:`~rrps_canopen.grippers.GripperIo`).
+``on_configure`` checks and configures every device or fails leaving none half-configured;
+``on_activate`` homes (:mod:`rrps_canopen.homing`), checks the legs and enables the drives where
+they are; a fault holds every drive and refuses commands and grippers until ``reset_faults`` and a
+new activation (docs/connecting-a-robot.md). Commands and state are in metres
+(:mod:`rrps_canopen.units`); each cycle's target is the jerk-limited setpoint of the newest command
+(:class:`~rrps_hardware.setpoints.JerkLimitedSetpoints`). Pure Python, no ROS import.
 """
 
 from __future__ import annotations

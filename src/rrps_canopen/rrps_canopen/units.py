@@ -1,10 +1,6 @@
-"""The one conversion between the stack's SI units and a drive's: positions, speeds, forces.
-
-A leg's drive counts its encoder: ``counts = direction * counts_per_metre * length + offset``
-(:class:`rrps_description.bus.DriveConfig`); velocities are counts/s; forces are per mille of the
-drive's rated force (CiA 402 target and actual torque, 0x6071 / 0x6077, against 0x6076 in mN for
-a linear drive). Pure Python.
-"""
+"""The one conversion between the stack's SI units and a drive's: ``counts = direction *
+counts_per_metre * length + offset`` (:class:`rrps_description.bus.DriveConfig`), counts/s, and
+forces in per mille of the rated force (0x6071 / 0x6077 against 0x6076). Pure Python."""
 
 from __future__ import annotations
 

@@ -1,15 +1,7 @@
-"""How a simulated drive behaves where CiA 301/402 leave a vendor the choice: its timing, its
-homing methods and limit switches, its object dictionary and its power-on PDO mapping.
-
-A drive of the simulator is by default the drive of the shipped EDS, answering at once.
-:class:`DriveBehaviour` changes that, one option at a time, so that tests can meet the drives
-the stack has never seen: a drive that shows a new mode in 0x6061 some time after the request, boots
-late, homes only by some methods, has no limit switches, enforces its software position limits
-before it is homed, lacks or refuses an optional object, powers on with another PDO mapping or
-keeps a fixed one, loses an SDO request now and then. :func:`behaviours` reads them from a
-mapping (``rrps-drive-sim --behaviour JSON``): options for every drive, or per drive under its
-name. Pure Python, no ROS import.
-"""
+"""How a simulated drive behaves where CiA 301/402 leave a vendor the choice (timing, homing, object
+dictionary, PDO mapping), so that tests meet drives the stack has never seen. :func:`behaviours`
+reads them from ``rrps-drive-sim --behaviour JSON``: options for every drive, or per drive under
+its name. Pure Python, no ROS import."""
 
 from __future__ import annotations
 
@@ -26,22 +18,13 @@ PDO_LAYOUTS = ('eds', 'vendor')
 
 @dataclass(frozen=True)
 class DriveBehaviour:
-    """One simulated drive's choices (see the module docstring).
+    """One simulated drive's choices; the default is the shipped EDS's drive, answering at once.
 
-    ``mode_delay`` [s]: 0x6061 shows a mode written to 0x6060 this long after the write (the
-    drive runs the old mode meanwhile). ``boot_delay`` [s]: the drive is off until the first SDO
-    request to it, and boots this long after it (None: it boots when the simulator starts).
-    ``homing_methods``: what 0x60E3 lists and 0x6098 accepts; ``modes``: the modes of operation
-    0x6502 lists and 0x6060 accepts. ``limit_switches``: the axis has its limit switches at the
-    stroke's ends (the negative one at the end where the count is lowest). ``index_pitch`` [m]:
-    the encoder's index pulses, half a pitch inside each end and a pitch apart.
-    ``limits_before_homing``: the software position limits (0x607D) act in cyclic synchronous
-    position mode before the drive is homed. ``refuse``: objects whose writes the drive refuses
-    (SDO abort "value range exceeded"); ``absent``: objects the drive does not have (abort "object
-    does not exist"). ``pdo_layout``: one of :data:`PDO_LAYOUTS`; ``fixed_pdos``: the drive takes
-    PDO mapping writes but keeps its power-on mapping. ``sdo_loss``: every n-th SDO request to the
-    drive is lost (0: none).
-    """
+    ``mode_delay`` [s] until 0x6061 shows a mode written to 0x6060; ``boot_delay`` [s] after the first
+    SDO request (None: at start); ``homing_methods`` (0x60E3, 0x6098), ``modes`` (0x6502, 0x6060);
+    ``limit_switches`` at the stroke's ends; ``index_pitch`` [m]; ``limits_before_homing`` (0x607D in
+    CSP); objects whose writes it refuses (``refuse``) or it lacks (``absent``); ``pdo_layout`` (one of
+    :data:`PDO_LAYOUTS`), ``fixed_pdos`` (mapping writes ignored); ``sdo_loss``: every n-th SDO lost."""
 
     mode_delay: float = 0.0
     boot_delay: float | None = None

@@ -1,17 +1,9 @@
 """The simulated devices of one CAN bus and the physics behind them, stepped on each SYNC.
 
-:class:`SimulatedBus` puts a :class:`~rrps_canopen_sim.drive.SimulatedDrive` per leg (and
-the grippers' CiA 401 module, when the robot has one) on the bus of the robot YAML's ``bus``
-section. On each SYNC every device sends its heartbeat if it is due
-(:mod:`rrps_canopen_sim.heartbeat`), takes its RPDOs, the axes move, the devices sense them and send
-their TPDOs. Legs in position mode move as ``rrps_sim``'s kinematic actuators (lag, speed and
-stroke limits: the simulated backend's model); a master's legs in torque mode are masses held by
-the operator's hand (a spring-damper to where the hand is), pushed by the drives' forces, whose
-work on them is summed (the energy the master puts into the operator). :meth:`SimulatedBus.control`
-takes a test's requests (faults, the bus's loss, a bus-off error frame, a stuck clamp sensor, the
-hand) and reports the devices. Each drive behaves as its
-:class:`~rrps_canopen_sim.behaviour.DriveBehaviour` says (``behaviour``: options for every
-drive, or per drive under its name). Pure Python (canopen, python-can), no ROS import.
+:class:`SimulatedBus` puts a :class:`~rrps_canopen_sim.drive.SimulatedDrive` per leg (and the
+grippers' CiA 401 module) on the robot YAML's bus. Legs in position mode move as ``rrps_sim``'s
+kinematic actuators; a master's legs in torque mode are masses held by the operator's hand
+(:class:`HandModel`). :meth:`SimulatedBus.control` takes a test's requests. Pure Python.
 """
 
 from __future__ import annotations

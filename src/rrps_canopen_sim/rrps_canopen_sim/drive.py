@@ -1,18 +1,10 @@
 """A simulated CiA 402 linear drive: the state machine, the modes of operation, homing, CSP and
 CST, the following-error monitor, EMCY, and the faults a test injects.
 
-The drive does not move anything itself: on each SYNC the bus simulator
-(:mod:`rrps_canopen_sim.bus`) asks it for its axis' reference (:meth:`SimulatedDrive.reference`
-in CSP and homing, :meth:`SimulatedDrive.force` in CST), steps the actuator model of ``rrps_sim``,
-and hands the drive the axis' new position and speed (:meth:`SimulatedDrive.sense`), from which it
-computes its statusword, actual values and faults before its TPDOs go out. The encoder of the
-axis is the drive's: absolute (``counts = gain * length + offset``) or incremental (0 at power-on
-until homed). A mode written to 0x6060 takes effect, and shows in 0x6061, after the behaviour's
-``mode_delay``; homing starts on the rising edge of controlword bit 4 in homing mode and runs the
-method of 0x6098 (:mod:`rrps_canopen_sim.homing`); the statusword's bits 13, 12 and 10 are
-the homing error, attained and target reached bits in homing mode only. What the drive supports,
-lacks or refuses is its :class:`~rrps_canopen_sim.behaviour.DriveBehaviour`. Pure Python
-(canopen), no ROS import.
+On each SYNC the bus (:mod:`rrps_canopen_sim.bus`) takes the axis' reference
+(:meth:`SimulatedDrive.reference`, :meth:`SimulatedDrive.force`), steps the actuator model and
+hands back its position and speed (:meth:`SimulatedDrive.sense`). The encoder is absolute or
+incremental (0 at power-on until homed). Pure Python (canopen), no ROS import.
 """
 
 from __future__ import annotations

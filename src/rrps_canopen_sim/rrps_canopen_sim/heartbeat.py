@@ -1,18 +1,6 @@
 """The simulated devices' heartbeats (and any other periodic frame canopen asks for), from one
-producer per bus, never behind the devices' PDOs.
-
-A real drive's heartbeat comes from its own microcontroller: it is on time whatever its PDO
-traffic. The simulator is a process on the test machine, which the kernel sometimes stops for
-tens of milliseconds (a real-time process past the RT bandwidth, ``sched_rt_runtime_us``;
-docs/measurements.md: CANopen). With canopen's own producer (one python-can thread per device),
-the process' receive thread was back first after such a stall and answered the SYNCs with TPDOs
-while every heartbeat thread still waited for the interpreter: 20-30 ms of PDOs with the
-heartbeats overdue, which the driver rightly read as six lost heartbeats. Here
-:meth:`HeartbeatProducer.send_due` runs on its own thread at each frame's period and also at
-each SYNC before the TPDOs go out, so a device never sends a PDO while its heartbeat is overdue.
-A device that falls silent stops its heartbeat (canopen's ``stop_heartbeat``) and is still seen
-as silent. Pure Python (canopen, python-can), no ROS import.
-"""
+producer per bus, never behind the devices' PDOs: :meth:`HeartbeatProducer.send_due` runs on its
+own thread and at each SYNC before the TPDOs (why: docs/tests.md). Pure Python (canopen, python-can)."""
 
 from __future__ import annotations
 

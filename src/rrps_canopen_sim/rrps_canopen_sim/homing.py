@@ -1,22 +1,8 @@
-"""A simulated drive's homing run: the CiA 402 homing methods rrps runs, as the standard defines
-them (IEC 61800-7-201, homing mode), in the drive's count direction.
-
-The negative limit switch is at the end of the stroke where the count is lowest: the retracted
-end of a leg that counts up as it extends, the extended end of one that counts down
-(``direction: -1``). Methods:
-
-* 17 / 18: to the negative / positive limit switch; the home is where the switch trips (the
-  stroke's end).
-* 1 / 2: to the negative / positive limit switch, then back (away from the switch) to the first
-  index pulse of the encoder; the home is that pulse. The pulses are half a pitch inside each end
-  and a pitch apart.
-* 35 / 37: the home is the current position (no motion).
-
-Without limit switches a method that needs one ends in a homing error at the stroke's end (the
-axis stops on its hard stop). :class:`HomingRun` says where the axis is driven
-(:attr:`HomingRun.target`) and, after each step of the axis, whether the home was found
-(:meth:`HomingRun.advance`); its :class:`Phase` gives the statusword's homing bits. Pure Python.
-"""
+"""A simulated drive's homing run: the CiA 402 homing methods rrps runs (17/18, 1/2, 35/37;
+IEC 61800-7-201) in the drive's count direction, as docs/connecting-a-robot.md, 'Homing', gives
+them. Without limit switches a method that needs one ends in a homing error at the stroke's end.
+:class:`HomingRun` drives the axis and says when the home is found; :class:`Phase` gives the
+statusword's homing bits. Pure Python."""
 
 from __future__ import annotations
 

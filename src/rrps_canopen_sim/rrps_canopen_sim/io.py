@@ -1,12 +1,6 @@
-"""The simulated grippers' I/O: a CiA 401 digital I/O module and the clamps it switches.
-
-A gripper is wired fail-safe: its valve's output bit, when set, opens the clamp; de-energised
-(at power-on, after a reboot) the clamp closes. A clamp takes the robot description's
-``gripper_time`` to close or to open (:class:`~rrps_description.motion_limits.GripperTime`); its
-sensor input bit is set while it is fully closed or still opening, cleared while it is fully
-open or still closing: a switch shows once it is complete (unless a test makes the sensor
-stick). Pure Python (canopen), no ROS import.
-"""
+"""The simulated grippers' I/O: a CiA 401 digital I/O module and its fail-safe clamps (set output:
+open), each taking the description's ``gripper_time``; a sensor shows a switch once complete
+(unless a test makes it stick). Pure Python (canopen), no ROS import."""
 
 from __future__ import annotations
 

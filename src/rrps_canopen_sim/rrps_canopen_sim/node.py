@@ -1,14 +1,8 @@
 """A simulated CANopen device on canopen's ``LocalNode``: NMT, boot-up, heartbeat, PDOs on SYNC.
 
-:class:`SimulatedNode` is what the drive and the I/O module of the simulator share: the object
-dictionary from the device's own EDS, the NMT state machine (reset node / communication with a
-boot-up message and the object dictionary back to the EDS's values), the heartbeat producer
-(0x1017, canopen's), the PDOs as configured in the object dictionary (RPDOs taken on the next
-SYNC, or at once for transmission type 254/255; TPDOs sent on SYNC), the EMCY producer, and the
-two faults of a node's link: ``silent`` (it stops answering) and ``reboot``; and, as a device's
-behaviour may have it, a late power-on (:meth:`SimulatedNode.power_on_when_asked`) and lost SDO
-requests. Pure Python (canopen, python-can), no ROS import.
-"""
+:class:`SimulatedNode` is what the drive and the I/O module share: the object dictionary from
+its EDS, NMT, heartbeat, PDOs, EMCY, the faults ``silent`` and ``reboot``, a late power-on
+(:meth:`SimulatedNode.power_on_when_asked`) and lost SDO requests. Pure Python."""
 
 from __future__ import annotations
 

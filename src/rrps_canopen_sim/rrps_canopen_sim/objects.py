@@ -1,11 +1,6 @@
-"""The object dictionary of a simulated drive: its EDS's, changed by its behaviour.
-
-:func:`device_dictionary` reads the EDS and then gives the drive what its
-:class:`~rrps_canopen_sim.behaviour.DriveBehaviour` says: the homing methods it lists
-(0x60E3) and the modes it supports (0x6502), the objects it lacks removed, and with the ``vendor``
-PDO layout another power-on mapping and one RPDO and one TPDO more than the EDS lists, enabled
-(a drive whose EDS the master was not given in full). Pure Python (canopen), no ROS import.
-"""
+"""The object dictionary of a simulated drive (:func:`device_dictionary`): its EDS's, changed by its
+:class:`~rrps_canopen_sim.behaviour.DriveBehaviour` (homing methods, modes, absent objects, the
+``vendor`` PDO layout with one more RPDO and TPDO than the EDS lists). Pure Python (canopen)."""
 
 from __future__ import annotations
 

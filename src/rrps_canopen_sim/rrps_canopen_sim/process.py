@@ -1,16 +1,7 @@
-"""rrps-drive-sim: the simulated drives of one robot's CAN bus, in a process of their own.
-
-    rrps-drive-sim --robot pole_climber              # the legs (CSP) and the grippers' I/O
-    rrps-drive-sim --robot master_robot --master     # a master's legs (CST), held by a hand
-    rrps-drive-sim --behaviour '{"mode_delay": 0.05, "leg_2": {"homing_methods": [35]}}'
-
-It opens the bus of the robot YAML's ``bus`` section (``RRPS_CAN_CHANNEL`` / ``RRPS_CAN_PORT``
-override it), boots every device (boot-up messages, PRE-OPERATIONAL) and serves until SIGTERM or
-SIGINT. The first line out is ``{"ready": true, ...}``. With ``--stdin`` it takes requests (faults,
-the bus' loss, a stuck sensor: :meth:`rrps_canopen_sim.bus.SimulatedBus.control`) as JSON
-lines on standard input, answers each with one JSON line, and stops at the end of the input.
-Exit status 2 and one line on a bad robot or bus.
-"""
+"""``rrps-drive-sim``: the simulated drives of one robot's CAN bus, in a process of their own, until
+SIGTERM or SIGINT; the first line out is ``{"ready": true, ...}``. ``--stdin`` takes JSON requests
+(:meth:`rrps_canopen_sim.bus.SimulatedBus.control`), one answer line each. Exit status 2 and one
+line on a bad robot or bus."""
 
 from __future__ import annotations
 

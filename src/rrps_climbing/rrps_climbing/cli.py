@@ -1,40 +1,9 @@
 """``rrps-climb``: plan an inchworm climb and write it as CSV (no ROS needed).
 
-    rrps-climb --robot pole_climber --structure {pole,palm_trunk,frame,facade} --distance 3.0
-               [--steps N] [--start S] [--no-extra-dof] [--csv plan.csv]
-               [--speed M/S] [--structure-quaternion QX,QY,QZ,QW] [--gravity GX,GY,GZ]
-               [--payload-mass KG [--payload-com X,Y,Z] [--payload-ring ring_a|ring_b]]
-               [--tool-force FX,FY,FZ] [--tool-torque TX,TY,TZ] [--tool-frame tool|world]
-    rrps-climb --robot frame_climber --structure frame --junction-deg 90 [--out-of-plane]
-               [--no-extra-dof] [--csv plan.csv]
-    rrps-climb --robot frame_climber --structure frame_route --distance 3.0 [--bends 30,30] [--start S]
-    rrps-climb --robot facade_climber --structure facade_corner --distance 1.0 [--corner-deg 20]
-
-Routes (``climbing.route``): ``frame_route`` climbs a frame over several nodes bent one way in
-one plane (``--bends``, degrees, one per node), up or down (a negative distance), from and to
-both rings side by side; ``facade_corner`` walks a facade round a vertical corner turned by
-``--corner-deg`` (positive: outside).
-
-With ``--junction-deg`` the frame's member leaves its node bent by that angle (in the column's
-web plane, or normal to it with ``--out-of-plane``) and the plan is the searched crossing of the
-node (``climbing.frame_node``): its phases are printed with their smallest margins, peak
-actuator force and holding margin.
-
-One CSV row per phase: ``step, phase, gripper_a, gripper_b`` (1 closed, 0 open), the route
-positions ``s_a, s_b``, the world poses of both rings (``a_x..a_qw``, ``b_x..b_qw``, from the
-odometry chain), the kinematic pose a_T_b (``px..qw``), the extra-DOF angles, the leg lengths
-``L1..L6`` [m], the smallest margin of each kind over the phase, and for a phase during which
-one gripper holds its peak actuator force [N] and smallest holding margin
-(:mod:`rrps_climbing.load_check`: the motions streamed at ``--speed``, the structure
-turned by ``--structure-quaternion`` in a world of ``--gravity``, the payload and tool wrench of
-the robot or of the command line), and its ``duration`` [s]. Every motion is timed
-time-optimally within the legs' speed, acceleration and jerk limits, the force limit and the
-holding capacity (:mod:`rrps_climbing.timing`, TOPP-RA), capped at ``--speed`` [m/s] along
-the moving ring's path when given (a speed beyond the legs is capped to what they allow, and
-said so); the summary gives each step's duration and the climbing speed in m/min. A negative
-distance climbs down. Exit status: 0 planned,
-1 refused (a limit would break: the message says which, on which legs or ring, at which step
-and phase), 2 bad arguments (one line on stderr), 3 a bug (its traceback).
+Options, CSV columns and the load check: docs/usage.md ('Command-line tools'); the frame node and
+routes: docs/frame_node.md. Each motion is timed by :mod:`rrps_climbing.timing`, its loads
+checked by :mod:`rrps_climbing.load_check`. Exit status: 0 planned, 1 refused (the message names
+the limit, the legs or ring, the step and phase), 2 bad arguments (one line on stderr), 3 a bug.
 """
 
 from __future__ import annotations

@@ -1,22 +1,8 @@
-"""The climbing step as a ROS 2 action, ``climb/step`` (rrps_msgs/action/ClimbStep): a thin layer
-over climb_node's :class:`~rrps_climbing.step_machine.ClimbStepMachine`, beside its
-``climb/step_up|step_down`` services.
-
-A goal asks the machine for one step up or down, as the services do; the machine's own checks
-decide. A step it refuses (teleoperation engaged, a plan or a preview refused, a climb already
-running) is aborted at once with the reason in the result's ``message``: a ROS 2 goal rejection
-carries no reason. One goal at a time: a second one while a step runs is rejected. While the
-step runs, feedback at :data:`FEEDBACK_RATE`: the climb's state (``previewing`` first), the phase,
-the progress (phases done over the step's phases), the preview's margins (actuator force,
-holding) and the detail. A cancel holds the step where it is (:meth:`ClimbStepMachine.cancel`: a
-pause; the grippers stay as they are, one of them closed as the interlock keeps it;
-``climb/resume`` goes on) and the goal ends cancelled. The goal succeeds once the climb is idle
-again one step further, and aborts when the step fails or is refused after its preview. A step
-paused by a lost input keeps its goal, with feedback, until it is resumed or cancelled.
-
-The server lives on the node's :class:`~rrps_runtime.action_host.ActionHost` (its own thread);
-the machine is only called from climb_node's tick (:meth:`ClimbAction.tick`): the two hand over
-under a lock.
+"""The climbing step as the ROS 2 action ``climb/step`` (rrps_msgs/action/ClimbStep) over climb_node's
+:class:`~rrps_climbing.step_machine.ClimbStepMachine`; goals, feedback and cancel: docs/usage.md
+('The ROS interface'). One goal at a time. The server runs on the node's
+:class:`~rrps_runtime.action_host.ActionHost` thread, the machine only in climb_node's tick
+(:meth:`ClimbAction.tick`): the two hand over under a lock.
 """
 
 from __future__ import annotations

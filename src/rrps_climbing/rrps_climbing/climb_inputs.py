@@ -1,10 +1,8 @@
 """What a climbing step knows of the robot and the operator station, pure Python.
 
-:class:`ClimbInputs` keeps the newest inputs of the step machine (measured pose, gripper states,
-extra-DOF ring angles, the driver's lifecycle state, whether teleoperation is engaged) with their
-receipt watch (:class:`.climb_watch.InputWatch`), counts teleop engagements and driver changes,
-and tells whether they changed while a step was previewed (:class:`.step_preview.StepSnapshot`).
-No ROS import.
+:class:`ClimbInputs`: the step machine's newest inputs with their watch
+(:class:`.climb_watch.InputWatch`), and whether they changed while a step was previewed
+(:class:`.step_preview.StepSnapshot`).
 """
 
 from __future__ import annotations

@@ -1,11 +1,7 @@
 """The planner and configuration of a climb from climb_node's parameters, pure Python.
 
-:func:`climb_planner` chooses the planner: the inchworm gait on a structure
-(:class:`.gait.GaitPlanner`), with ``junction_deg`` the crossing of a frame node
-(:class:`.frame_crossing.FrameNodePlanner`), or a route over several frame nodes or round a
-facade's corner (:func:`.route_steps.route_planner`). :func:`start_position` is where ring_a's
-gripper starts on it, :func:`step_config` the step machine's tolerances and timeouts and
-:func:`preview_config` how its steps are previewed.
+:func:`climb_planner` picks the gait, a frame node's crossing or a route; :func:`start_position`,
+:func:`step_config` and :func:`preview_config` give the step machine's start and settings.
 """
 
 from __future__ import annotations

@@ -1,14 +1,8 @@
-"""What a climbing step watches before it moves: the age of its inputs, judged fairly.
+"""What a climbing step watches before it moves: the age of its inputs on this host's monotonic
+receipt clock (``state_timeout``, ``operator_timeout``, the driver active).
 
-A step holds (pauses) when the robot's state (``pose``, ``grippers/state``) is older than
-``state_timeout``, when the operator station (its ``teleop/status``, once seen) is silent for
-``operator_timeout``, or when the driver is not active. Ages are receipt times on this host's
-monotonic clock, so no clock synchronisation is involved.
-
-A receipt age is only evidence once the node's own executor has kept up: after a stall (a late
-tick, or a tick that planned for 0.2 s) the messages that arrived meanwhile may still be queued
-behind the overdue timer. :class:`InputWatch` therefore judges ages only after a ``state_timeout``
-without a stall of the node's own.
+After a stall of the node's own executor, queued messages may look old: :class:`InputWatch` judges
+ages only after a ``state_timeout`` without such a stall.
 """
 
 from __future__ import annotations

@@ -1,24 +1,10 @@
-"""The frame-node manoeuvre (paper section 3.1, Figures 8 and 9): a robot crosses a junction of a
-structural frame, from a column to a member bent by 30-90 deg in the column's web plane or out of it.
+"""The frame-node manoeuvre (§3.1, Figs. 8-9): crossing a junction from a column to a member bent
+by 1-90 deg, in the column's web plane or out of it.
 
-Design: each gripper clamps a beam face whose outward normal ``n`` is normal to both beams (the
-robot stands on the frame's side, ring axes along ``n``, ring_b a stand-off above ring_a), so the
-turn from beam to beam is a turn about the ring axis. The extra ring DOF (Figure 9) cancels it:
-the rings never twist against each other, so the legs are not carried into each other (the
-Figure 8c interference). Without the DOF the leading ring turns by the junction angle against
-its partner.
-
-The crossing, from ring_a and ring_b side by side before the node: release_b, move_b over the
-node, grip_b, release_a, move_a, grip_a. It is searched over the gripped face (+n or -n), the
-stance before the node, both grip points past it and the lift of the open gripper's swing. Every
-sampled pose of every candidate is checked against stroke, joint cones, leg-leg interference and
-conditioning (eq. 1, ``rrps_kinematics.margins``), the clearance of the legs (and of ring_b's
-gripper post) to the beams at the node, the actuator forces and the gripping ring's holding in
-the world's gravity (``rrps_loads.loads.static_solution``). The feasible candidate whose smallest
-scaled margin is the largest (then whose sum of scaled margins is) is planned; when none is
-feasible, PlanError names the limit that blocks which phase.
-
-Pure NumPy; no ROS import.
+The grippers clamp beam faces normal to both beams; the extra ring DOF cancels the turn between
+them (the Fig. 8c interference). The crossing is searched over every candidate, each pose checked
+against eq. 1's limits, beam clearance, actuator forces and holding; the best smallest margin wins,
+else PlanError names what blocks which phase. Design and search: docs/frame_node.md. No ROS import.
 """
 
 from __future__ import annotations
@@ -139,13 +125,10 @@ class Crossing:
 
 
 class FrameNodePlanner(GaitPlanner):
-    """Plans ``geometry`` across the node of a frame bent by ``junction_deg`` (in the column's web
-    plane, or ``out_of_plane``); see the module docstring. The search runs at construction;
-    ``crossing`` holds its result, or ``refusal`` the PlanError (then :meth:`plan` raises it).
-    ``batched``: check all candidates of a phase in one batch (False: one candidate at a time,
-    the plain grid search; the same plan). ``gravity``: the world's (default (0, 0, -9.81)).
-    ``frame``: another frame with one node (a route's, in the world) instead of the shipped one;
-    ``sides``: the faces searched; ``start_theta``: both extra-DOF angles at the stance [rad]."""
+    """Plans ``geometry`` across a frame node bent by ``junction_deg`` (in the web plane, or
+    ``out_of_plane``). The search runs at construction: ``crossing`` holds its result, or
+    ``refusal`` the PlanError that :meth:`plan` raises. ``frame``: a frame with one node (a route's)
+    instead of the shipped one; ``start_theta``: both extra-DOF angles at the stance [rad]."""
 
     def __init__(self, geometry: RobotGeometry, junction_deg: float, out_of_plane: bool = False, *,
                  use_extra_dof: bool = True, spacing: float = 0.01, ring_height: float = 0.1,

@@ -1,28 +1,13 @@
-"""The inchworm climbing gait (paper section 3; the 800 mm / 11-step path of section 2.2).
+"""The inchworm climbing gait (§3; the 800 mm / 11-step path of §2.2).
 
-One step, climbing up (ring_b leads; down, ring_a leads)::
+One step up (ring_b leads; down, ring_a leads)::
 
-    release_b -> move_b (ring_b slides one step along the structure) -> grip_b
-    -> release_a -> move_a (ring_a follows) -> grip_a
+    release_b -> move_b -> grip_b -> release_a -> move_a -> grip_a
 
-The planner checks every sampled pose of every motion with ``rrps_kinematics.limits`` (stroke,
-universal and spherical joint angles, leg-leg interference of all 15 pairs, conditioning), the
-legs' clearance to a tubular member's surface (its varying radius), and the gripper interlock
-(never both grippers open, a ring moves only while its own gripper is open and the other's
-closed). A plan that breaks a limit is refused with ``PlanError`` naming the limit, the legs and
-where (step, phase, sample). With a :class:`~rrps_climbing.load_check.LoadCheck` (the
-default) the planner also refuses a phase whose actuator forces or holding gripper's reaction
-exceed their limits anywhere along it.
-
-Robots with the extra ring DOF (frame climber, section 3.1 / Figure 9) turn the open ring's
-ring-to-gripper joint while it moves, so the gripper takes the orientation the next member's
-section demands while the ring keeps its partner's: the legs are not twisted into each other
-at a junction (the Figure 8c problem). Without it the same move twists the hexapod.
-
-World odometry of both rings is chained from ``a_T_b`` and the gripper states
-(``odometry.RingOdometry``), as a robot without external sensing would.
-
-Pure NumPy; no ROS import.
+Every sampled pose is checked against ``rrps_kinematics.limits``, the legs' clearance to the
+member and the gripper interlock, and, with a :class:`~rrps_climbing.load_check.LoadCheck`, the
+loads; a plan that breaks one raises ``PlanError`` (the limit, the legs, where). The extra ring
+DOF (§3.1, Fig. 9) turns the open ring's gripper so the legs are not twisted (Fig. 8c). No ROS.
 """
 
 from __future__ import annotations
@@ -57,13 +42,9 @@ class GaitState:
 class GaitPlanner:
     """Plans inchworm climbs of one robot on one structure.
 
-    ``spacing`` [m] (and about 1 degree): the largest distance between checked poses of a
-    motion. ``use_extra_dof``: robots that have the extra ring DOF turn the open ring's joint
-    so the legs are never twisted by a member's section orientation (off: the rings stay bolted
-    to their grippers). ``step_fraction``: the default step is this fraction of the
-    straight-member reach ``reach`` (the separations ring_b - ring_a within every limit).
-    ``loads``: how the loads are checked and the motions timed (None: timed within the legs' limits
-    alone, no load checked).
+    ``spacing`` [m]: the largest distance between checked poses; ``step_fraction``: the default
+    step as a fraction of the straight-member ``reach``; ``loads``: None times the motions within
+    the legs' limits alone and checks no load.
     """
 
     def __init__(self, geometry: RobotGeometry, structure: Structure, *, use_extra_dof: bool = True,

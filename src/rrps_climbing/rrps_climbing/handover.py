@@ -1,19 +1,9 @@
-"""Loads of a hand-over: both grippers hold the resting robot, and its load is split between them.
+"""Loads of a hand-over: both grippers hold the resting robot, which is statically indeterminate.
 
-With both rings gripping, the robot is statically indeterminate: any pair of structure wrenches
-(w_a on ring_a about its origin in its frame, w_b on ring_b likewise) with
-
-    w_a + X w_b = w_a⁰,      X (f, m) = (R f, R m + p × R f)
-
-balances it (w_a⁰: the wrench ring_a alone would hold, :func:`rrps_loads.loads.static_solution`;
-R, p: ring_b's attitude and origin in ring_a's frame). The split here is the **minimum-norm**
-one: it minimises |S w_a|² + |S w_b|², S weighting moments by 1 / the robot's characteristic
-length (so that forces and moments count alike), i.e. (Xᵀ S² X + S²) w_b = Xᵀ S² w_a⁰. It is the
-split of two equally stiff grips: neither gripper is assumed to carry more than the other. The
-actuator forces then carry ring_a's share between the rings: f = f_a + Δf with Jᵀ Δf = -(R f_b,
-R m_b) (:func:`rrps_kinematics.jacobian.leg_forces`), f_a those with ring_a alone holding. Both
-rings' holding margins are checked (:func:`rrps_loads.loads.holding_margin`), and the forces
-against ``max_force``. Pure NumPy; no ROS import.
+Any structure wrenches with w_a + X w_b = w_a⁰ balance it, X (f, m) = (R f, R m + p × R f)
+(w_a⁰: ring_a alone holding, :func:`rrps_loads.loads.static_solution`). The split taken is the
+minimum-norm one (moments weighted by 1 / characteristic length), that of two equally stiff grips;
+both rings' holding and the forces against ``max_force`` are checked. No ROS import.
 """
 
 from __future__ import annotations

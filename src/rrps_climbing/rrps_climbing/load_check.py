@@ -1,19 +1,10 @@
-"""A plan's timing and its loads as limits: every phase of a climbing plan gets its duration, and
-every motion its time-optimal, jerk-limited timing law (:mod:`.timing`, TOPP-RA) within the legs'
-speed, acceleration and jerk limits, an optional cap on the path speed and, while one gripper
-holds, the actuators' force limit and the holding gripper's capacity along the path, in the
-world gravity of the holding ring's attitude (the plan's odometry, the structure turned by
-``world_q_structure`` in the world). The loads the plan keeps (``Phase.loads``) are those of the
-timed motion, its accelerations included. A gripper phase lasts its gripper's open or close time
-(:mod:`rrps_description.motion_limits`); while both grippers hold (a hand-over) the robot rests and
-its load is split between them (:mod:`.handover`), both rings' holding checked.
+"""A plan's timing and loads as limits: each phase gets its duration, each motion its
+time-optimal, jerk-limited timing (:mod:`.timing`) within the legs' limits, a speed cap, the force
+limit and the holding capacity in the holding ring's world gravity; hand-overs via :mod:`.handover`.
 
-A motion whose loads exceed a limit at any speed, or a hand-over that overloads a gripper, is
-refused with a :class:`PlanError` naming the limit, the leg or ring, and where (step, phase,
-fraction of the phase). A requested speed beyond the legs is capped to what they allow
-(:meth:`LoadCheck.capped` says where); a speed that is not finite and > 0 is refused.
-
-Pure NumPy; no ROS import.
+A motion or hand-over that breaks a limit raises :class:`~.plan.PlanError` (the limit, the leg or ring,
+where); a speed beyond the legs is capped (:meth:`LoadCheck.capped`), a non-finite or <= 0 one
+refused. No ROS import.
 """
 
 from __future__ import annotations

@@ -1,17 +1,9 @@
-"""The supporting ring's world attitude from the climb's odometry: what the climb node publishes
-for the driver and teleop (:data:`rrps_interfaces.climb.SUPPORT_POSE`), and a plan anchored on it.
+"""The supporting ring's world attitude from the climb's odometry (:data:`rrps_interfaces.climb.SUPPORT_POSE`),
+and a plan anchored on it.
 
-The odometry (:class:`rrps_kinematics.odometry.RingOdometry`) chains both rings' world poses from
-the measured pose and the grippers; the supporting ring is the grippers'
-(:func:`rrps_interfaces.driver.supporting_ring`). :class:`SupportPublisher` says when to send its
-pose: at once when the ring or its attitude changes, else every ``period`` s (a heartbeat, so a
-reader can tell a silent odometry from a still robot).
-
-A plan is built on the structure's grip frames where the step machine believes the rings grip;
-the odometry may have drifted from them by the arrival tolerances of every step before.
-:func:`anchor_phases` moves the plan's world poses rigidly so that its start coincides with the
-odometry's ring_a: the climb node's preview then simulates the step in the world gravity of the
-attitudes the robot measured (the executed a_T_b paths are the same). Pure NumPy; no ROS import.
+:class:`SupportPublisher` says when to send it: on a change, else every ``period`` s (a heartbeat).
+:func:`anchor_phases` moves a plan rigidly onto the odometry's ring_a, so a preview computes in the
+measured attitudes' gravity (docs/architecture.md, 'The supporting ring's attitude'). No ROS import.
 """
 
 from __future__ import annotations

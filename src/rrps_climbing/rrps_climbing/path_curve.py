@@ -1,20 +1,9 @@
-"""A planned motion's path as a smooth curve of its path parameter: what its timing differentiates.
+"""A planned motion's path as a C² curve of its path parameter ``s`` [m]: what its timing differentiates.
 
-A motion phase of a gait plan is a polyline of ring_b poses a_T_b (n, 4, 4) with the extra-DOF
-angles of both rings at each sample. Its path parameter ``s`` [m] is the samples' metric, the
-arc length of positions plus ``characteristic_length`` times the rotation angle (as
-:class:`~rrps_climbing.phase_path.PhasePath` streams it). Positions and the
-sign-continuous quaternion components are interpolated by cubic splines of ``s`` (C², through
-every sample: a straight sampled line stays straight), the quaternion normalised where it is
-used. At any ``s`` the curve gives ring_b's twist per unit path speed and its derivative, so that
-a timing law s(t) moves ring_b with::
-
-    twist = T1(s) ṡ,        twist rate = T1(s) s̈ + T2(s) ṡ²
-
-(ring_a's frame, as in :mod:`rrps_loads.reduced`; for the quaternion q(s) the angular part of T1
-is ω' = 2 vec(q' ⊗ q*) / |q|² and of T2 ω'' = (2 vec(q'' ⊗ q*) - 2 (q · q') ω') / |q|²), and
-each leg's length L (eq. 1) with its derivatives L' and L'' along the path (leg speed L' ṡ,
-acceleration L' s̈ + L'' ṡ²). Pure NumPy and SciPy; no ROS import.
+``s`` is arc length plus ``characteristic_length`` times rotation angle; positions and quaternions
+are cubic splines of ``s`` through every sample. The curve gives ring_b's twist per unit path speed
+(ring_a's frame, as :mod:`rrps_loads.reduced`), so that twist = T1 ṡ, twist rate = T1 s̈ + T2 ṡ²,
+and each leg's length (eq. 1) with L' and L''. No ROS import.
 """
 
 from __future__ import annotations

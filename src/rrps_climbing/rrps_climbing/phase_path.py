@@ -1,11 +1,7 @@
 """A timed motion phase as a stream plays it: its samples (time, pose a_T_b, ring angles), any time.
 
-A motion phase of a gait plan (``rrps_climbing.gait``) is timed by
-:mod:`rrps_climbing.timing` and sampled (``TimedMotion.phase_path``): a pose of ring_b in
-ring_a and the extra-DOF angles of both rings at each sample time. Between samples positions and
-angles are interpolated linearly and rotations by normalised linear interpolation of their
-quaternions (the samples are a few milliseconds apart). :class:`PlayClock` says where a stream
-is in it: the path is played in time, a tick late on a busy machine takes the sample of its time.
+Between samples: linear interpolation, nlerp for rotations. :class:`PlayClock` plays the path in
+time: a late tick takes the sample of its time.
 """
 
 from __future__ import annotations

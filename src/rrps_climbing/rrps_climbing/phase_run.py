@@ -1,20 +1,9 @@
-"""One phase of a climbing step as it executes (paper section 3: the inchworm gait), pure Python.
+"""One phase of a climbing step as it executes (§3, the inchworm gait), pure Python.
 
-A :class:`PhaseRun` passes through stages, once per tick of :class:`.step_machine.ClimbStepMachine`:
-
-* ``stream``: a motion phase's timed path (its :class:`~.timing.TimedMotion`, planned within the
-  legs' speed, acceleration and jerk limits) is sent as target poses a_T_b, the sample of each
-  tick's time (:class:`~.phase_path.PlayClock`), one per tick;
-* ``arrive``: the phase's end pose is held until the measured pose has stayed within
-  ``position_tolerance`` / ``orientation_tolerance`` of it for ``settle_time``;
-* ``gripper``: the phase's gripper is asked to switch, and the step waits until the gripper
-  state shows it switched. A gripper opens only while the other one is closed (the interlock),
-  and only once the operator station was heard since the robot settled (the release gate: a
-  link lost before the release holds it);
-* ``done``: the machine goes on to the next phase.
-
-No arrival or no gripper switch within ``settle_timeout``, a refused gripper and the interlock
-are failures, returned as text for the machine to fail the climb with.
+A :class:`PhaseRun` goes through ``stream`` (the timed path, one target per tick), ``arrive`` (held
+within tolerance for ``settle_time``), ``gripper`` (opens only with the other closed and the
+operator heard since settling: the interlock and release gate) and ``done``. A timeout, a refused
+gripper or the interlock is a failure, returned as text.
 """
 
 from __future__ import annotations

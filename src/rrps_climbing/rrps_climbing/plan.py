@@ -85,14 +85,9 @@ class PhaseLoads:
 
 @dataclass
 class Phase:
-    """One phase of a plan; its poses (:class:`rrps_description.pose.Pose`) are taken at the
-    end of the phase.
-
-    ``action`` and ``ring`` say what it does (``ring`` is 'ring_a' or 'ring_b', '' for the
-    start); ``phase`` is its name as plans and messages write it ('release_b', 'move_b', ...).
-    ``path``: the sampled a_T_b of the motion (n, 4, 4), ends included (one pose for gripper
-    phases); ``min_margins``: the smallest margin of each kind over the path (SI units, the
-    clearance is NaN where it does not apply).
+    """One phase of a plan; its poses are taken at the end of the phase. ``path``: the sampled a_T_b
+    (n, 4, 4), ends included; ``min_margins``: smallest margin of each kind (SI, clearance NaN where
+    it does not apply).
     """
 
     step: int

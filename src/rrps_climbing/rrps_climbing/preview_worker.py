@@ -1,10 +1,7 @@
-"""A climbing step's preview in a worker process, so that climb_node and the nodes composed with
-it keep their rate (docs/deployment.md).
+"""A climbing step's preview in a worker process, so climb_node keeps its rate (docs/deployment.md).
 
-:class:`PreviewWorker` runs :func:`.step_preview.run_preview` in a
-:class:`~rrps_runtime.worker.WorkerProcess`, the plan anchored where the odometry's ring_a stands
-(:func:`.odometry_attitude.anchor_phases`: the preview computes in the gravity of the measured
-attitudes), and hands back the typed :class:`~rrps_interfaces.climb.ClimbPreview`. No ROS import.
+:class:`PreviewWorker` runs :func:`.step_preview.run_preview` anchored on the odometry
+(:func:`.odometry_attitude.anchor_phases`) and returns a :class:`~rrps_interfaces.climb.ClimbPreview`.
 """
 
 from __future__ import annotations

@@ -1,26 +1,10 @@
-"""Routes (paper sections 3.1-3.2): a frame route over several nodes, up and down, and a facade
-around a corner.
+"""Routes (§§3.1-3.2): a frame over several nodes bent one way in one plane, up and down, and a
+facade round a corner (the gait on :class:`rrps_description.corners.FacadeCorner`, :func:`plan_route`).
 
-**A frame route** (:func:`frame_route`): a chain of beams whose nodes all bend one way in one
-plane (a column running into an arch). The robot stands on the beams' face of one normal ``N``
-(normal to that plane), as over a single node (:mod:`.frame_node`):
-
-* each node is crossed as :class:`~.frame_node.FrameNodePlanner` searches it, on a frame of the
-  two beams at that node (in the world, so the gravity and the beams are where they are), on the
-  face of the first node's crossing, from the extra-DOF angle the nodes below left;
-* between nodes the rings walk the beam's face with the gait's moves (ring_b leads, ring_a
-  closes up beside it) to the next node's searched stance; every walking motion is checked, on
-  top of the gait's limits, against the crossing search's limits at that node (the legs'
-  clearance to its beams, the actuator forces, the beam-face clamp's holding);
-* a route down is the route up from its lower end played backwards (:func:`reversed_phases`):
-  the same poses, the grippers switched the other way, so every limit it keeps up it keeps down.
-
-At rest the rings stand side by side (a face: ring_b above ring_a, both grippers at one route
-position). A route the limits cannot realise is refused with a :class:`~.plan.PlanError`
-naming the limit, the step and the phase.
-
-**A facade around a corner** is the inchworm gait on :class:`rrps_description.corners.FacadeCorner`
-(:func:`plan_route`). Pure NumPy; no ROS import.
+On a frame route each node is crossed as :class:`~.frame_crossing.FrameNodePlanner` searches it,
+the beams between walked with the gait's moves under the crossing's limits; a route down is the
+route up played backwards (:func:`reversed_phases`). A route the limits cannot realise raises
+:class:`~.plan.PlanError`. See docs/frame_node.md. No ROS import.
 """
 
 from __future__ import annotations
@@ -60,7 +44,7 @@ def frame_route(bends_deg=(30.0, 30.0), column: float = 1.6, beam: float = 1.2,
 
 class RouteFace(BeamFace):
     """The face of normal ``normal`` of every beam of a route with several nodes: grip frames,
-    swings and mesh as :class:`~.frame_node.BeamFace` (z = the normal, x along the route)."""
+    swings and mesh as :class:`~.frame_crossing.BeamFace` (z = the normal, x along the route)."""
 
     def __init__(self, frame: BeamFrame, normal, *, ring_height: float = 0.1, lift: float = 0.05):
         self.frame, self.lift = frame, float(lift)

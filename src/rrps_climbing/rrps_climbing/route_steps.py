@@ -1,16 +1,8 @@
 """The shipped routes (:mod:`.route`) as the climb node's step machine plans them.
 
-:func:`route_planner` gives the planner of a route for :class:`.step_machine.ClimbStepMachine`:
-
-* ``facade_corner``: the inchworm gait on the facade round its corner
-  (:class:`rrps_description.corners.FacadeCorner`, half the reach per step), as
-  :func:`.route.plan_route` plans it;
-* ``frame_route``: :class:`RouteSteps`, a frame route over several nodes (:class:`.route.FrameRoutePlanner`):
-  each requested climb of a distance starts and ends with both rings side by side on the beams'
-  face, crossing the nodes on the way (one plan, as many steps as the route takes); the rings'
-  grip frames and mounts are those of the route's face.
-
-Pure NumPy; no ROS import.
+:func:`route_planner`: ``facade_corner`` is the gait round the corner (half the reach per step);
+``frame_route`` is :class:`RouteSteps`, each climb from and to both rings side by side on the
+beams' face, the nodes crossed on the way. No ROS import.
 """
 
 from __future__ import annotations

@@ -1,24 +1,10 @@
-"""The climbing step's state machine (paper section 3: the inchworm gait), pure Python.
+"""The climbing step's state machine (§3, the inchworm gait), pure Python.
 
-A planned climb (:class:`rrps_climbing.gait.GaitPlanner`) is executed phase by phase, each
-through its stages (stream, arrive, gripper: :class:`.phase_run.PhaseRun`), once per tick.
-
-With ``preview``, a planned step is first simulated on the dynamics (the caller runs
-:func:`.step_preview.run_preview` on ``ClimbOutput.preview`` and hands the result to
-:meth:`ClimbStepMachine.on_preview`); meanwhile the climb stays IDLE, ``previewing``. A step whose
-preview breaks a limit is refused; one it accepts starts only if nothing changed meanwhile
-(:class:`.step_preview.StepSnapshot`), else it is refused with a typed
-:class:`~rrps_interfaces.climb.StepRefusal`.
-
-A step **pauses** (:class:`~rrps_interfaces.climb.PauseReason`) when an input is lost
-(:class:`.climb_watch.InputWatch`: robot state, operator link, driver inactive): it sends no
-target and switches no gripper until :meth:`ClimbStepMachine.resume` is called once the cause
-is gone. A failure (a phase's, or both grippers open) is final. The world odometry of both
-rings is chained from the measured pose and the gripper states (:class:`rrps_kinematics.odometry.RingOdometry`).
-
-Inputs are plain values (the time [s], the measured pose, gripper states, the driver's and the
-operator station's status, requests, gripper answers); each call returns a :class:`ClimbOutput`
-saying what to command and report. No ROS import.
+A planned climb runs phase by phase (:class:`.phase_run.PhaseRun`), once per tick. With
+``preview`` a step is first simulated (the caller runs ``ClimbOutput.preview``) and starts only if
+accepted and nothing changed meanwhile, else a :class:`~rrps_interfaces.climb.StepRefusal`. A lost
+input pauses it until :meth:`ClimbStepMachine.resume`; a failure is final. Each call takes plain
+values and returns a :class:`ClimbOutput`. No ROS import.
 """
 
 from __future__ import annotations
@@ -56,13 +42,8 @@ RESUME_TOLERANCE_FACTOR = 10.0
 
 class ClimbStepMachine(ClimbInputs):
     """Executes climbs of ``planner``'s robot on its structure (see the module docstring).
-
-    ``start``: route position [m] of ring_a's gripper (None: the lowest that fits);
-    ``step_length`` [m] of step_up/step_down (None: the planner's default); ``auto_steps`` > 0
-    climbs that many steps up once the pose and the gripper states are known. ``clock``: the
-    receipt clock of the input watch [s]. ``preview``: each step is previewed before it starts.
-    The inputs (pose, grippers, driver, operator station) and their watch: :class:`.ClimbInputs`.
-    """
+    ``start`` [m]: ring_a's gripper on the route (None: the lowest that fits); ``clock``: the input
+    watch's receipt clock [s]."""
 
     def __init__(self, planner: GaitPlanner, config: StepConfig | None = None, *,
                  start: float | None = None, step_length: float | None = None, auto_steps: int = 0,

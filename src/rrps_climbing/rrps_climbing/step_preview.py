@@ -1,11 +1,8 @@
 """A planned step's preview before it executes: its motions on the dynamics, and whether it may start.
 
-:func:`preview_motions` turns a plan's motion phases into the motions of
-:func:`rrps_sim.preview.preview_step` (each timed motion sampled at the command period as the climb
-node streams it, the closed gripper's ring as the support with its world attitude from the plan); :func:`run_preview`
-simulates them and returns the typed :class:`~rrps_interfaces.climb.ClimbPreview`.
-A step accepted by its preview starts only if nothing changed while it was previewed
-(:class:`StepSnapshot`). Pure Python; no ROS import.
+:func:`preview_motions` gives :func:`rrps_sim.preview.preview_step` the motions as streamed;
+:func:`run_preview` returns a :class:`~rrps_interfaces.climb.ClimbPreview`; :class:`StepSnapshot`
+tells whether anything changed meanwhile. No ROS import.
 """
 
 from __future__ import annotations

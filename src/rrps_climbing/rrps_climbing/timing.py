@@ -1,26 +1,12 @@
-"""Time-optimal, jerk-limited timing of a planned motion along its path (TOPP-RA).
+"""Time-optimal, jerk-limited timing of a planned motion along its path (TOPP-RA, Pham and Pham,
+IEEE T-RO 2018).
 
-A motion's geometric path, checked by the planner, is a curve of its path parameter s
-(:class:`~.path_curve.PathCurve`), taken from rest to rest between its corners. Its timing law
-s(t) is found by TOPP-RA (Pham and Pham, *A New Approach to Time-Optimal Path Parameterization
-Based on Reachability Analysis*, IEEE T-RO 2018; the ``toppra`` library) under every limit of
-:mod:`.timing_constraints`: the legs' speed and acceleration, a cap on the path speed, the
-actuators' force limit and the holding ring's capacity (eq. 19 with the motion's accelerations,
-linearised exactly per gridpoint). Its bang-bang profile is then made jerk-limited by a moving
-average (:mod:`.timing_profile`, the window from the legs' jerk limit). The smoothed law is
-checked at every sample (:data:`SAMPLE_PERIOD`, the driver's period): each leg's speed,
-acceleration and jerk (finite differences of the accelerations; a plan uses
-:func:`rrps_description.motion_limits.stream_limits`, a share of each leg limit, the rest is the
-driver's to follow the stream), the actuator forces and
-the exact holding margin (:func:`rrps_loads.loads.holding_margin`). Where a check exceeds its limit
-(the averaging and the polyhedral holding capacity are approximations) the whole law is slowed by
-a uniform time scale until none does; a motion the limits cannot realise even at rest is refused.
+The law s(t) satisfies :mod:`.timing_constraints` (the legs' limits, a speed cap, forces and
+holding by eq. 19), is made jerk-limited by :mod:`.timing_profile`, checked every
+:data:`SAMPLE_PERIOD`, and slowed uniformly where a check fails; a motion no speed realises is refused::
 
     timed = time_motion(geometry, path, ring_angles, held=Held('ring_a', q, g), where=(1, 'move_b'))
-    timed.duration, timed.peak_speed, timed.loads.actuator_forces
-    timed.at(t)                        # the a_T_b pose and ring angles at time t of the motion
-
-Pure NumPy (and toppra); no ROS import.
+    timed.duration, timed.loads.actuator_forces, timed.at(t)
 """
 
 from __future__ import annotations

@@ -1,24 +1,8 @@
-"""The limits of a motion's timing along its path, as TOPP-RA's second-order constraints.
-
-At each gridpoint s_i of a path (:class:`~.path_curve.PathCurve`), with u = s̈ and x = ṡ²:
-
-* each leg's speed: |L'| ṡ <= v_max, and a cap on the path speed ṡ <= speed: bounds on x;
-* each leg's acceleration: |L' u + L'' x| <= a_max;
-* each actuator's force and the holding ring's wrench: both are exactly affine in (u, x) at a
-  pose, since eq. 19 is linear in the twist rate and quadratic in the twist
-  (:mod:`rrps_loads.path_loads`)::
-
-      f = C + A u + B x,   w = C_w + A_w u + B_w x
-
-  with C the loads at rest, A those of ṫ = T1 (``rrps_loads.path_loads.loads_at`` with twist 0),
-  B those of twist T1 and rate T2 (the curve's), each less C. Then |f| <= max_force, and the
-  holding capacity as the half-spaces ``G w <= h`` of :func:`rrps_loads.holding_polytope.holding_rows`.
-  Where the load at rest already lies beyond a half-space inside the exact capacity, that row is
-  moved out to it (the exact margin is checked on the timed motion, :mod:`.timing`).
-
-:class:`GridLimits` holds them as ``v = a u + b x + c <= g`` (m rows per gridpoint) with the bound
-on x, the name of each row for refusals, and the load coefficients to evaluate the loads of any
-timed state. Pure NumPy; no ROS import.
+"""The limits of a motion's timing along its path, as TOPP-RA's second-order constraints in
+u = s̈, x = ṡ² at each gridpoint: leg speed and a path-speed cap (bounds on x), leg acceleration
+|L' u + L'' x| <= a_max, and forces and the holding wrench, exactly affine in (u, x) by eq. 19
+(f = C + A u + B x, :mod:`rrps_loads.path_loads`) against ``max_force`` and
+:func:`rrps_loads.holding_polytope.holding_rows`. :class:`GridLimits`: rows ``a u + b x + c <= g``.
 """
 
 from __future__ import annotations

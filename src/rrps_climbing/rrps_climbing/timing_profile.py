@@ -1,26 +1,9 @@
-"""A timing law s(t) of a path: the time-optimal profile of TOPP-RA made jerk-limited.
+"""A timing law s(t) of a path: TOPP-RA's bang-bang profile (:class:`TimingLaw`) made jerk-limited.
 
-TOPP-RA (:mod:`.timing`) gives the path speed ṡ_i at gridpoints s_i and a constant path
-acceleration u_i = (ṡ_{i+1}² - ṡ_i²) / (2 Δs_i) over each interval, which takes
-Δt_i = 2 Δs_i / (ṡ_i + ṡ_{i+1}): a piecewise-quadratic s(t) whose acceleration jumps (a
-bang-bang law, infinite jerk). :class:`TimingLaw` evaluates it at any time, with its integral
-S(t) (piecewise cubic), at rest before 0 and after its end.
-
-Its jerk is bounded by a moving average over a window W (the FIR trajectory filter of
-Biagiotti and Melchiorri, *Trajectory Planning for Automatic Machines and Robots*, 2008, ch. 4)::
-
-    s_W(t) = (S(t) - S(t - W)) / W,  ṡ_W = (s(t) - s(t - W)) / W,
-    s̈_W = (ṡ(t) - ṡ(t - W)) / W,    s⃛_W = (u(t) - u(t - W)) / W
-
-so the smoothed law starts and stops at rest without a jump of velocity or acceleration, its
-speed and acceleration are averages of the profile's (within the same bounds where they do not
-change over the window), its jerk is bounded by the largest change of u over W divided by W, and
-it lasts W longer. :func:`jerk_window` picks the shortest W that bounds the jerk. (Ruckig, the
-online trajectory generator the driver's setpoints use, tracking the same profile on the path
-parameter or on the leg lengths leaves the checked path by millimetres, breaks a leg limit or
-takes longer: ``benchmarks/jerk_limiting.py``, same run.) A uniform
-time scale ``scale`` >= 1 (t -> t / scale) then divides speeds by it, accelerations by its
-square and jerks by its cube. Pure NumPy; no ROS import.
+A moving average over a window W (Biagiotti and Melchiorri, 2008, ch. 4) keeps speed and
+acceleration within the profile's bounds, bounds the jerk by the largest change of s̈ over W / W,
+and lasts W longer; :func:`jerk_window` picks the shortest W. A time scale ``scale`` >= 1 divides
+speed, acceleration and jerk by scale, scale² and scale³. Why not Ruckig: benchmarks/jerk_limiting.py.
 """
 
 from __future__ import annotations

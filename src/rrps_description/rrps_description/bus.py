@@ -1,30 +1,9 @@
 """The robot YAML's optional ``bus`` section: the fieldbus that carries the robot's drives.
 
-A CANopen bus (python-can ``interface``, ``channel``, ``bitrate``) with one CiA 402 drive per leg
-(node id, EDS file, the unit conversion: counts per metre, direction, offset, soft limits, and
-its homing), the grippers' digital I/O (a CiA 401 module or the drives' own I/O) with their clamp
-sensors, and for a master robot the limits of its force output. Keys not given take the values
-of ``drive_defaults``, then the defaults below. Every error names its key, e.g.
-``bus.drives.leg_3.node_id: must be an integer in 1..127, got 200``. Pure Python, no ROS import.
-
-.. code-block:: yaml
-
-    bus:
-      interface: rrps_loopback          # python-can: socketcan, pcan, kvaser, ...
-      channel: 239.74.163.10            # can0, PCAN_USBBUS1, ...
-      bitrate: 1000000
-      sync_period: 0.002                # [s] one SYNC per driver period
-      heartbeat_period: 0.05            # [s] the drives' heartbeat producer time
-      heartbeat_timeout: 0.25           # [s] a drive silent this long is lost
-      boot_timeout: 5.0                 # [s] how long configure waits for each drive to answer
-      mode_timeout: 1.0                 # [s] how long a drive may take to show a new mode (0x6061)
-      sdo_retries: 2                    # an SDO request unanswered is sent again this many times
-      drive_defaults: {eds: cia402_linear_drive.eds, counts_per_metre: 1.0e6, homing: absolute}
-      drives:
-        leg_1: {node_id: 1}
-        leg_2: {node_id: 2, direction: -1, offset: 120}
-      grippers: {io: cia401, node_id: 20, eds: cia401_io_module.eds,
-                 ring_a: {output: 0, sensor: 0}, ring_b: {output: 1, sensor: 1}}
+A CANopen bus with one CiA 402 drive per leg, the grippers' digital I/O (a CiA 401 module or the
+drives' own) and, for a master robot, its force output's limits; a drive's keys not given take
+``drive_defaults``, then the defaults below. Every error names its key. Every key and an example:
+docs/connecting-a-robot.md. Pure Python, no ROS import.
 """
 
 from __future__ import annotations
@@ -69,15 +48,10 @@ _DRIVE_KEYS = {'node_id', 'eds', 'counts_per_metre', 'direction', 'offset', 'min
 
 @dataclass(frozen=True, kw_only=True)
 class DriveConfig:
-    """One CiA 402 drive of a leg. ``counts = direction * counts_per_metre * length + offset``;
-    ``min_position``/``max_position`` [m] its soft limits; ``homing`` ``'absolute'`` or a CiA 402
-    homing method of :data:`HOMING_METHODS` (37: here is ``home_position``, which must be given;
-    17: move at ``homing_speed`` [m/s] to the negative limit switch in count direction, which is
-    ``home_position``, by default the soft limit at the end :func:`homing_end` names);
-    ``following_error`` [m] the window the drive trips on after ``following_error_time`` [s];
-    ``rated_force`` [N] the force of 1000 per mille of its torque values, written to the drive
-    (None: the drive's own 0x6076); ``given``: the keys the YAML gave (the drive's optional
-    objects they set must be written; the others are written only when the drive has them)."""
+    """One CiA 402 drive of a leg: ``counts = direction * counts_per_metre * length + offset``, soft
+    limits [m], ``homing`` 'absolute' or a method of :data:`HOMING_METHODS`, the following-error window
+    [m, s], ``rated_force`` [N] and ``given`` (the YAML's keys, whose objects must be written); see
+    docs/connecting-a-robot.md (Units, Optional objects, Homing)."""
 
     actuator: str
     node_id: int

@@ -1,14 +1,6 @@
-"""A facade that turns a corner (paper section 3.2: facade climbers on building fronts): two
-vertical walls meeting at a vertical edge, the route running horizontally along the first wall
-to the edge and on along the second. A :class:`~rrps_description.structures.Structure` of kind
-``'surface'``, as :class:`~rrps_description.structures.Facade` (its module docstring says what
-a structure gives)::
-
-    corner = facade_corner(corner_deg=20.0)   # the second wall turned 20 deg away: outside corner
-    p, R = corner.grip_frame(2.5)             # on the second wall: z out of it, x along the route
-
-Pure NumPy; no ROS import.
-"""
+"""A facade that turns a corner (§3.2): two vertical walls meeting at a vertical edge, the route
+running horizontally along the first wall and on along the second; a ``'surface'``
+:class:`~rrps_description.structures.Structure` as :class:`~rrps_description.structures.Facade`."""
 
 from __future__ import annotations
 
@@ -27,13 +19,9 @@ def _frame(normal: np.ndarray, direction: np.ndarray) -> np.ndarray:
 
 
 class FacadeCorner(Structure):
-    """Two vertical walls joined at a vertical edge ``edge`` [m] along the route from ``origin``
-    (see the module docstring). The first runs along ``direction`` (horizontal) with the outward
-    normal ``normal`` (horizontal, normal to it); the second is the first turned by ``corner_deg``
-    about the vertical (positive: away from the robot, an outside corner; negative: an inside
-    one). Grip frames: z out of the wall, x along the route. No gripper closes within
-    ``edge_clearance`` of the edge; an open gripper lifts by ``lift`` off its wall, moves at
-    that distance from both walls and sets down, turning evenly over the whole swing."""
+    """Two vertical walls joined at a vertical edge at route position ``edge`` [m]: the first along
+    ``direction`` (outward ``normal``), the second turned ``corner_deg`` about the vertical (> 0: outside
+    corner). No grip within ``edge_clearance`` of the edge; a swing lifts ``lift`` off both walls."""
 
     kind = 'surface'
 

@@ -57,17 +57,11 @@ GRIPPER_KINDS = ('clamp', 'hook', 'suction', 'none')
 
 @dataclass(frozen=True, kw_only=True)
 class RobotGeometry:
-    """Geometry, limits and inertias of one RRPS robot (SI units).
+    """Geometry, limits and inertias of one RRPS robot (SI units); only the anchors are required.
 
-    Only the anchors are required: ``RobotGeometry(ring_a_anchors=A, ring_b_anchors=B)``.
-    ``ring_a_inertia`` and ``ring_b_inertia`` are the rings alone; the dynamics and the statics
-    use ``ring_a_body`` and ``ring_b_body``: each ring with what it carries (ring_b its ``tool``,
-    either the ``payload``) as one rigid body. ``tool_wrench`` acts at the tool-centre point;
-    ``holding`` gives the grippers' capacities. Gravity is the world's (:mod:`.world`).
-    Unspecified joint neutral axes are the leg directions at the home pose; an unspecified home
-    pose is ring_b parallel to ring_a, raised along ring_a's z so the legs sit mid-stroke (or at
-    45 degrees when the stroke is unbounded).
-    """
+    ``ring_a_body``/``ring_b_body``: each ring with what it carries (tool, payload) as one rigid body,
+    as the dynamics and statics use it. Gravity is the world's (:mod:`.world`). Defaults: the joints'
+    neutral axes along the legs at home; home is ring_b parallel to ring_a, legs mid-stroke."""
 
     ring_a_anchors: np.ndarray
     ring_b_anchors: np.ndarray

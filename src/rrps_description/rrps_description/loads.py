@@ -1,16 +1,7 @@
-"""What a robot carries and what its grippers hold: a payload on a ring, a wrench at the
-tool-centre point, and each gripper's holding capacity (the optional YAML sections ``payload``,
-``tool_wrench`` and ``ring_a.holding`` / ``ring_b.holding``)::
-
-    payload:      {ring: ring_b, mass: 2.0, com: [0.1, 0.0, 0.05], inertia: [[...]]}
-    tool_wrench:  {force: [0, 0, 40.0], torque: [0, 0, 0], frame: tool}   # a drilling thrust
-    ring_a:
-      holding:    {clamp_force: 1800.0, friction: 0.5, radius: 0.1}       # a friction clamp
-    ring_b:
-      holding:    {axial_force: 600.0, shear_force: 500.0, torque: 120.0, contact: [0, 0, -0.48]}
-
-Every reader names the offending key in its :class:`RobotDescriptionError`.
-"""
+"""What a robot carries and what its grippers hold: a payload on a ring, a wrench at the tool-centre
+point, and each gripper's holding capacity (the optional YAML sections ``payload``, ``tool_wrench``
+and ``ring_a.holding`` / ``ring_b.holding``: docs/robot-model.md, 'The robot YAML'). Every reader
+names the offending key in its :class:`RobotDescriptionError`."""
 
 from __future__ import annotations
 
@@ -60,17 +51,10 @@ LIMIT_KEYS = ('axial_force', 'shear_force', 'torque')
 
 @dataclass(frozen=True, kw_only=True)
 class GripperCapacity:
-    """What a gripper holds, as one of two models (in its ring's frame, z the ring axis):
-
-    * friction clamp around a member (z along it): ``clamp_force`` N [N] pressed by the jaws,
-      ``friction`` coefficient μ, contact ``radius`` r [m]: friction carries the axial force and
-      the torque about the axis while √(F_z² + (M_z / r)²) <= μ N;
-    * rated limits (suction cups, hooks): the largest ``axial_force`` [N] pulling the gripper
-      off its surface (along -z of the ring, the surface side), ``shear_force`` [N] along the
-      surface and ``torque`` [N m] (moment magnitude about the contact).
-
-    ``contact`` (3,) [m]: where the gripper holds, in the ring's frame (moments are taken there).
-    """
+    """What a gripper holds, in its ring's frame (z the ring axis), moments about ``contact`` [m]: a
+    friction clamp (``clamp_force`` N [N], ``friction`` μ, ``radius`` r [m]; it holds while
+    √(F_z² + (M_z / r)²) <= μ N) or rated limits (``axial_force`` [N] pulling it off along -z,
+    ``shear_force`` [N] along the surface, ``torque`` [N m] about the contact)."""
 
     clamp_force: float | None = None
     friction: float | None = None

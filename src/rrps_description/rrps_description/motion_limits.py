@@ -1,21 +1,9 @@
-"""How fast a robot may move: each actuator's speed, acceleration and jerk, and how long its
-grippers take to open and close (the YAML keys ``legs.max_speed``, ``legs.max_acceleration``,
-``legs.max_jerk`` and ``ring_a.gripper_time`` / ``ring_b.gripper_time``)::
+"""How fast a robot may move: each leg's speed, acceleration and jerk, and how long each gripper
+takes to open and close (the YAML keys: docs/robot-model.md, 'The robot YAML').
 
-    legs:
-      max_speed: 0.05            # [m/s]
-      max_acceleration: 0.25     # [m/s^2]
-      max_jerk: 2.5              # [m/s^3]
-    ring_a:
-      gripper_time: {open: 0.5, close: 0.8}   # [s]
-
-The shipped robots give all of them. A description that leaves some out gets documented
-conservative defaults, derived from the speed: the legs reach full speed in
-:data:`DEFAULT_RAMP_TIME` (``max_acceleration = max_speed / 0.5 s``) and full acceleration in
-:data:`DEFAULT_JERK_TIME` (``max_jerk = max_acceleration / 0.2 s``); a gripper takes
-:data:`DEFAULT_GRIPPER_TIME` to open or close. Without ``legs.max_speed`` nothing can be timed:
-:func:`motion_limits` refuses naming the key. Every reader names the offending key in its
-:class:`RobotDescriptionError` (a non-finite, zero or negative limit is refused).
+Keys left out get conservative defaults (``max_acceleration = max_speed /`` :data:`DEFAULT_RAMP_TIME`,
+``max_jerk = max_acceleration /`` :data:`DEFAULT_JERK_TIME`, :data:`DEFAULT_GRIPPER_TIME`); without
+``legs.max_speed`` :func:`motion_limits` refuses. Every reader names the offending key.
 """
 
 from __future__ import annotations

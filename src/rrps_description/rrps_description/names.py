@@ -1,15 +1,7 @@
-"""Names of the robot's frames, joints and rings (REP-103 frames, SI units)::
+"""Names of the robot's frames, joints and rings (REP-103 frames, SI units; docs/robot-model.md).
 
-    WORLD_FRAME   the structure's fixed frame (z up)
-    ODOM_FRAME    the world frame on the ROS interface (REP-105 ``odom``): the climb's odometry
-                  is continuous in it, and drifts as every odometry does (no ``map`` here)
-    BASE_FRAME    REP-105 ``base_link``: the URDF's root, ring_a fixed on it (identity)
-    RING_A_FRAME  ring_a, the base of the kinematics (a_T_b is ring_b in it)
-    RING_B_FRAME  ring_b
-    LEG_NAMES     the six prismatic actuators, leg_1 .. leg_6, in leg order
-    RINGS         ('ring_a', 'ring_b'): the two grippers, in that order
-    ring_joint    the extra DOF of a ring (paper section 3.1, Figure 9)
-"""
+``WORLD_FRAME`` is the structure's fixed frame (z up); ``ODOM_FRAME``, REP-105's ``odom``, the one
+in which the climb's odometry is continuous (no ``map``); ``BASE_FRAME``, ``base_link``, has ring_a."""
 
 from __future__ import annotations
 

@@ -1,24 +1,7 @@
 """One pose type and one validation policy for every boundary (Python API, nodes, mapping, CLI).
 
-A :class:`Pose` is a rigid transform ``parent_T_child``: position [m] and unit quaternion
-(x, y, z, w), the ROS order on the wire (viser wants (w, x, y, z): :attr:`Pose.wxyz`). The
-kinematics works on ``a_T_b`` (ring_b in ring_a's frame); the world placement of the rings is
-``world_T_a`` / ``world_T_b`` (docs/robot-model.md)::
-
-    a_T_b = Pose([0, 0, 0.42], [0, 0, 0, 1])
-    world_T_b = world_T_a @ a_T_b                  # composition, parent_T_child @ child_T_x
-    b_T_a = a_T_b.inverse()
-    a_T_b.matrix                                   # 4x4 homogeneous
-    distance, angle = pose_error(a_T_b, other)     # [m], [rad]
-
-The policy (:func:`validate_pose`): position shape (3,) and quaternion shape (4,), every value
-finite, the quaternion's norm within ``QUATERNION_TOLERANCE`` of 1 (a nearly unit quaternion is
-normalised; a clearly non-unit one is refused, it is a bug of the sender, not a rotation), and
-the canonical sign (w > 0; for a half turn the first non-zero of x, y, z positive) so q and -q
-give one representation. Violations raise :class:`InvalidPose` (a ValueError) saying what.
-
-Pure NumPy, no ROS import.
-"""
+:class:`Pose` is ``parent_T_child`` (position [m], quaternion (x, y, z, w); viser's order is
+:attr:`Pose.wxyz`); :func:`validate_pose` is the policy. Pure NumPy, no ROS import."""
 
 from __future__ import annotations
 
@@ -46,10 +29,9 @@ class InvalidPose(ValueError):
 
 def validate_pose(position, quaternion_xyzw, *, tolerance: float | None = QUATERNION_TOLERANCE,
                   what: str = 'pose') -> tuple[np.ndarray, np.ndarray]:
-    """(position (3,), unit quaternion (4,) in canonical sign) or :class:`InvalidPose`.
-
-    ``tolerance``: largest accepted | |q| - 1 |; ``None`` accepts any non-zero norm (the
-    library's IK takes a raw orientation and normalises it). ``what`` names the pose in messages.
+    """(position (3,), unit quaternion (4,) in canonical sign: w > 0, for a half turn the first non-zero
+    of x, y, z positive) or :class:`InvalidPose`: a wrong shape, NaN/inf, or | |q| - 1 | over ``tolerance``
+    (a sender's bug; ``None`` accepts any non-zero norm). ``what`` names the pose in messages.
     """
     try:
         p = np.array(position, dtype=float)

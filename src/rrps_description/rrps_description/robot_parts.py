@@ -86,13 +86,9 @@ TOOL_SHAPES = ('cylinder', 'box', 'sphere')
 
 @dataclass(frozen=True, kw_only=True)
 class Tool:
-    """A tool carried by ring_b (the paper's handler arm for the tool, section 3.2, Figure 10).
-
-    ``position`` [m] and ``quaternion_xyzw``: the tool-centre-point frame in ring_b's frame
-    (``b_T_tool``). ``mass`` [kg], ``com`` [m] and ``inertia`` [kg m^2, about the com] in the tool
-    frame. ``shape`` (cylinder | box | sphere) and ``size`` [m] (cylinder: radius, length along
-    the tool's z ending at the tool centre point; box: x, y, z; sphere: radius) only draw it.
-    """
+    """A tool carried by ring_b (the handler arm's tool, §3.2, Fig. 10): ``b_T_tool`` (``position`` [m],
+    ``quaternion_xyzw``); ``mass`` [kg], ``com`` [m] and ``inertia`` [kg m^2, about the com] in the tool
+    frame; ``shape`` and ``size`` [m] only draw it (docs/robot-model.md, 'The robot YAML')."""
 
     name: str = 'tool'
     position: np.ndarray = field(default_factory=lambda: np.zeros(3))

@@ -1,17 +1,9 @@
-"""Rotations: 3-1-3 Euler angles, Euler parameters and quaternions (paper section 2.1).
+"""Rotations: 3-1-3 Euler angles, Euler parameters and quaternions (§2.1).
 
-Conventions used everywhere in rrps:
-
-* A rotation matrix ``a_R_b`` maps coordinates in frame b to frame a (column vectors).
-* ``quaternion_xyzw`` is the ROS wire order (x, y, z, w).
-* ``euler_parameters`` is the paper's / Nikravesh's order (e0, e1, e2, e3) = (w, x, y, z),
-  with ``A = (2 e0^2 - 1) I + 2 (e e^T + e0 ẽ)`` (section 2.1).
-* 3-1-3 Euler angles (psi, alpha, phi) give ``A_c = Rz(psi) Rx(alpha) Rz(phi)`` (eq. 1's A_c).
-* URDF's roll, pitch, yaw (fixed axes) give ``R = Rz(yaw) Ry(pitch) Rx(roll)`` (single values).
-
-Every function accepts a single value or any leading batch shape, e.g. (N, 4) quaternions.
-q and -q are the same rotation; functions returning a quaternion pick w >= 0 (w > 0, or for a
-half turn the first non-zero of x, y, z positive).
+Conventions: ``a_R_b`` maps coordinates in b to a; ``quaternion_xyzw`` is ROS's order and
+``euler_parameters`` the paper's (e0, e1, e2, e3) = (w, x, y, z), A = (2 e0^2 - 1) I + 2 (e e^T + e0 ẽ);
+3-1-3 angles give A_c = Rz(psi) Rx(alpha) Rz(phi) (eq. 1), URDF's roll, pitch, yaw R = Rz(yaw) Ry(pitch)
+Rx(roll). Any leading batch shape; returned quaternions have w >= 0 (a half turn: first non-zero of x, y, z > 0).
 """
 
 from __future__ import annotations
@@ -260,13 +252,9 @@ def rotation_vector_to_matrix(v: np.ndarray) -> np.ndarray:
 
 
 def rotation_angle_between(R1: np.ndarray, R2: np.ndarray) -> np.ndarray:
-    """Angle [rad] in [0, pi] of the rotation taking orientation 1 to orientation 2.
-
-    The one rotation-angle function of rrps. Orientations are rotation matrices (..., 3, 3)
-    (the relative rotation R1^T R2) or unit quaternions (x, y, z, w) (..., 4) (conj(q1) q2);
-    2 atan2(|e|, |e0|) of the relative Euler parameters, robust near 0 and pi. A float for
-    one pair.
-    """
+    """Angle [rad] in [0, pi] of the rotation from orientation 1 to 2, the one such function of rrps:
+    rotation matrices (..., 3, 3) or unit quaternions (x, y, z, w) (..., 4); 2 atan2(|e|, |e0|) of the
+    relative Euler parameters (robust near 0 and pi); a float for one pair."""
     a = np.asarray(R1, dtype=float)
     b = np.asarray(R2, dtype=float)
     if a.shape[-1:] == (4,) and b.shape[-1:] == (4,):

@@ -1,24 +1,11 @@
-"""Structures the robots climb (paper section 3): members with a centreline, beam frames, facades.
+"""Structures the robots climb (§3): members with a centreline, beam frames, facades.
 
-Every structure is followed along a *route*, parameterised by its arc length ``s`` [m]. It gives
-
-* ``grip_frame(s)`` -> (position (3,), rotation (3, 3)): ``world_T_grip``, where a gripper holds
-  the structure at ``s`` and with which orientation (z along the member for a pole or beam, z
-  out of the surface for a facade; x along the route for a facade, along a fixed reference of
-  the section for members);
-* ``swing(s0, s1, spacing)`` -> (positions (n, 3), rotations (n, 3, 3)): the path of an open
-  gripper moved from ``s0`` to ``s1`` (sliding along a member, lift-move-lower on a surface),
-  ends included, points at most ``spacing`` apart;
-* ``kind``: ``'member'`` (the rings go around or along it, one above the other) or
-  ``'surface'`` (both grippers stand on it);
-* ``grip_allowed(s)`` and ``forbidden``: route intervals where no gripper may close (a beam
-  junction's gusset plates);
-* ``mesh()`` -> (vertices (V, 3), faces (F, 3) int): triangles for a viewer;
-* ``clearance_points(s0, s1)`` -> (points (M, 3), radii (M,)) or None: the member's volume as
-  spheres, for the leg-to-structure clearance check.
-
-The shipped structures, by name: :mod:`rrps_description.structures`. Pure NumPy (and SciPy's
-cubic spline); no ROS import.
+A structure is followed along a route of arc length ``s`` [m] and gives ``grip_frame(s)``
+(``world_T_grip``: z along a member or out of a surface; x along the route on a surface, along a
+fixed section reference on a member), ``swing(s0, s1, spacing)`` (an open gripper's path, ends
+included, points at most ``spacing`` apart), ``kind`` ('member' or 'surface'), ``grip_allowed(s)``
+and ``forbidden`` (no grip there), ``mesh()`` (vertices, faces) and ``clearance_points(s0, s1)``
+(spheres, or None). The shipped ones: :mod:`rrps_description.structures`. No ROS import.
 """
 
 from __future__ import annotations
@@ -216,16 +203,11 @@ class _Leg:
 
 
 class BeamFrame(Structure):
-    """A structural frame: beams between named nodes (paper section 3.1, Figures 8 and 9).
+    """A structural frame: beams between named nodes (§3.1, Figs. 8-9), followed along ``route``.
 
-    ``route`` is the chain of nodes the robot follows; each route beam's grip frame has z along
-    the beam and x on the section's web (the clamp closes on the flanges, so its jaws take this
-    roll), carried across a junction by the minimal rotation between the two beams and turned
-    about the new beam by ``junction_twist_deg`` (one value per interior route node: the next
-    member's section is oriented differently).
-    Grippers may not close within ``node_clearance`` of an interior route node (gusset plates).
-    ``half_width`` is the half side of the square sections drawn by ``mesh``.
-    """
+    Grip frames: z along the beam, x on the section's web (the clamp closes on the flanges), carried
+    across a junction by the minimal rotation and turned by ``junction_twist_deg`` per interior node;
+    no grip within ``node_clearance`` of one (gusset plates)."""
 
     kind = 'member'
 

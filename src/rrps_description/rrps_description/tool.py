@@ -1,13 +1,6 @@
-"""The tool-centre-point frame of a robot that carries a tool on ring_b (paper Figure 10).
-
-``a_T_tool = a_T_b · b_T_tool``: IK, teleoperation and the viewer can take targets for the tool
-tip instead of ring_b's origin, and these two functions convert::
-
-    a_T_tool = tool_pose(geometry, a_T_b)
-    a_T_b = ring_b_pose(geometry, a_T_tool)      # then inverse_kinematics(geometry, a_T_b...)
-
-Pure NumPy, no ROS import.
-"""
+"""The tool-centre-point frame of a robot that carries a tool on ring_b (Fig. 10):
+``a_T_tool = a_T_b · b_T_tool``, so IK, teleoperation and the viewer can take targets for the tool
+tip (:func:`tool_pose`, :func:`ring_b_pose`). Pure NumPy, no ROS import."""
 
 from __future__ import annotations
 

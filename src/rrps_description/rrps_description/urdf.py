@@ -1,24 +1,9 @@
 """The robot as URDF, generated from its description: the tree robot_state_publisher, RViz2 and
-Foxglove read. Pure Python (XML through xml.etree), no ROS import.
+Foxglove read (docs/recording.md, 'robot_description and RViz2'). Pure Python, no ROS import.
 
-URDF describes a tree; an RRPS robot closes five loops through ring_b. The tree::
-
-    base_link (root)                  REP-105's base_link; ring_a fixed on it (identity)
-    ring_a
-      ring_a_body                     fixed: ring_a's inertia
-      ring_a_gripper                  fixed, or revolute ring_a_rotation (extra DOF, section 3.1)
-      leg_i_universal_x  revolute     -> leg_i_universal_cross   at a_i, in the yoke frame F_i
-      leg_i_universal_y  revolute     -> leg_i_lower             z along the leg (section 2.1)
-      leg_i              prismatic    -> leg_i_upper             at the spherical-joint centre
-      leg_i_spherical_z  continuous   -> leg_i_spherical_z_link  twist about the leg
-      leg_i_spherical_x  revolute     -> leg_i_spherical_x_link
-      leg_i_spherical_y  revolute     -> leg_i_tip               the socket frame, fixed in ring_b
-      ring_b             fixed on leg_1_tip; ring_b_gripper; tool (robots with one)
-
-Each leg's joint values come from IK of a_T_b (:mod:`rrps_kinematics.urdf_joints`); they put
-every tip link on its ring_b anchor. :func:`socket_frames` fixes the spherical joint's angles:
-z along its neutral axis, so the middle angle (x) never exceeds the cone angle.
-"""
+The five loops close at ring_b, which hangs on ``leg_1_tip``; the joint values of
+:mod:`rrps_kinematics.urdf_joints` put every tip link on its ring_b anchor. :func:`socket_frames`
+puts each spherical joint's z on its neutral axis, so its middle angle never exceeds the cone."""
 
 from __future__ import annotations
 

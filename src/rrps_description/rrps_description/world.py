@@ -1,15 +1,7 @@
-"""The world a robot climbs in: its gravity, which ring grips the structure, and how that ring
-is turned in the world.
-
-Gravity belongs to the world, never to a robot: :data:`STANDARD_GRAVITY` is (0, 0, -9.81) m/s²
-in the ``world`` frame (z up). The physics grounds the *supporting* ring (the one whose gripper
-holds the structure) and computes in its frame, where gravity is ``support_R_world @ gravity``::
-
-    on_wall = Support.of('ring_a', world_q_support=[0.70710678, 0.0, 0.0, 0.70710678])
-    on_wall.gravity_in_support          # (0, -9.81, 0): the ring's normal is horizontal
-
-Pure NumPy, no ROS import.
-"""
+"""The world a robot climbs in: its gravity, which ring grips the structure, and how that ring is
+turned in the world. Gravity is the world's, never a robot's: :data:`STANDARD_GRAVITY` is
+(0, 0, -9.81) m/s² in ``world`` (z up); the physics computes in the supporting ring's frame, where it
+is ``support_R_world @ gravity`` (:class:`Support`; docs/robot-model.md). Pure NumPy, no ROS import."""
 
 from __future__ import annotations
 

@@ -1,17 +1,9 @@
 """The hardware interface of the driver, modelled on ros2_control's ``hardware_interface::SystemInterface``.
 
-A :class:`SystemInterface` is the robot's hardware as the driver node sees it: lifecycle verbs
-(``on_configure`` .. ``on_error``, each returning a :class:`Transition`), a cyclic
-``write(time, period, command)`` then ``read(time, period)``, and the requests of the grippers,
-of a hold and of a fault reset (each returning a :class:`Result`). Every error is a return
-value: a refused request, a per-actuator :class:`ActuatorFault` and the :class:`BusState` in
-the :class:`SystemState` that ``read`` returns; no exception crosses the interface. Units are
-SI: leg lengths [m], speeds [m/s], forces [N], ring angles [rad].
-
-The model fits a CANopen CiA 402 backend: one drive per actuator (its node id, its counts per
-metre kept inside the backend), each homed or not, enabled or not, at its target or not; a
-drive that faults is disabled and stays so (:meth:`SystemInterface.on_activate` is refused)
-until :meth:`SystemInterface.reset_faults`, which the bus must be up for. Pure Python, no ROS import.
+Lifecycle verbs return a :class:`Transition`, requests a :class:`Result`, ``read`` a
+:class:`SystemState` with per-actuator :class:`ActuatorFault` and the :class:`BusState`: no
+exception crosses the interface. SI units (m, m/s, N, rad). Fits a CANopen CiA 402 backend: a
+faulted drive stays disabled (``on_activate`` refused) until ``reset_faults``, which needs the bus.
 """
 
 from __future__ import annotations
@@ -134,18 +126,10 @@ class Command:
 
 @dataclass(frozen=True)
 class SystemState:
-    """One sample of the hardware.
-
-    Legs: ``positions`` [m], ``velocities`` [m/s], ``efforts`` [N] and ``targets`` [m] (the
-    lengths the drives are following), each (6,); the rings' extra DOF: ``ring_positions``,
-    ``ring_velocities``, ``ring_targets`` [rad], (k,); ``grippers`` {ring: closed} as measured;
-    ``actuators`` the legs' then the ring DOFs' status; ``gripper_faults`` the latched faults of
-    the grippers (actuator ``<ring>_gripper``); ``lost``: this cycle's sample did not
-    arrive (the values are the previous sample's); ``persist_error``: why the hardware could not
-    keep its state across driver restarts ('' when it could or does not need to);
-    ``rest_speed`` [m/s, rad/s]: the speed below which the hardware's velocities cannot tell an
-    actuator from a still one (its velocity resolution and noise; a model's are exact).
-    """
+    """One sample of the hardware, SI units: legs (6,), the rings' extra DOF (k,) [rad], the grippers
+    as measured, actuator and gripper faults. ``lost``: this cycle's sample did not arrive (the
+    previous one's values); ``persist_error``: why the state could not be kept across driver
+    restarts ('' if it could); ``rest_speed``: below it a velocity cannot tell motion from rest."""
 
     positions: np.ndarray
     velocities: np.ndarray
@@ -196,12 +180,9 @@ class HardwareConfig:
 class SystemInterface(abc.ABC):
     """The hardware of one robot: six leg actuators, the rings' extra DOF and two grippers.
 
-    Lifecycle (as ros2_control's): unconfigured -> ``on_configure`` -> inactive (the sensors
-    report, nothing moves) -> ``on_activate`` -> active (commands move the robot, the grippers
-    switch) -> ``on_deactivate`` -> inactive, holding; ``on_cleanup`` -> unconfigured;
-    ``on_shutdown`` from any state; ``on_error`` after a verb or a write failed. Each cycle the
-    host calls ``write`` then ``read``. A fault disables the system: it holds, and
-    ``on_activate`` is refused until ``reset_faults``.
+    Lifecycle as ros2_control's (inactive: sensors report, nothing moves; active: commands move,
+    grippers switch); each cycle ``write`` then ``read``. A fault disables the system: it holds,
+    and ``on_activate`` is refused until ``reset_faults``.
     """
 
     #: The parameters this implementation owns and reads from :attr:`HardwareConfig.parameters`:

@@ -1,10 +1,7 @@
 """The hardware interface of a master robot's drives, for master_node's ``hardware`` parameter.
 
-A :class:`MasterInterface` is a master robot as the operator's station sees it: its six leg
-encoders (read only) and, while active, a force on each leg that renders the slave's limits to
-the operator's hand (master/feedback). An implementation keeps that force bounded and passive.
-Implementations are registered by name in the ``rrps.master_hardware`` entry-point group
-(:func:`rrps_hardware.registry.master_hardware_class`). Units SI. Pure Python, no ROS import.
+A :class:`MasterInterface`: six leg encoders and, while active, a bounded, passive force per leg
+rendering the slave's limits (master/feedback); registered in ``rrps.master_hardware``. SI units.
 """
 
 from __future__ import annotations

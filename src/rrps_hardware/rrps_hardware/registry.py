@@ -1,17 +1,10 @@
-"""The driver's hardware: the interface (:mod:`.interface`) and the registry of its implementations.
-
-An implementation is registered by name in the ``rrps.hardware`` entry-point group of its
-package's setup.py (``simulated = rrps_sim.simulated_robot:SimulatedRobot``); the driver
-node hosts the one its ``hardware`` parameter names::
+"""The driver's hardware: the interface (:mod:`.interface`) and the registry of its implementations,
+by name in the ``rrps.hardware`` entry-point group (``rrps.master_hardware`` for
+:func:`master_hardware_class`)::
 
     robot = hardware_class('simulated')()
 
-Each implementation owns its parameters (its class's ``PARAMETERS``): the host declares them
-once its ``hardware`` parameter names that implementation (:func:`hardware_parameters`).
-
-A master robot's drives (:class:`rrps_hardware.master.MasterInterface`) are registered the
-same way in the ``rrps.master_hardware`` group, for master_node's ``hardware`` parameter
-(:func:`master_hardware_class`).
+Each implementation owns its ``PARAMETERS``, declared by its host (:func:`hardware_parameters`).
 """
 
 from __future__ import annotations

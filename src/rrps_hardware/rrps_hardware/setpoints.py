@@ -1,37 +1,11 @@
 """The driver's setpoints: jerk-limited, from the commands it receives, by an online trajectory
-generator.
+generator (Ruckig: Berscheid and Kröger, RSS 2021).
 
-Commands reach the driver at the stream's rate (50 Hz from the climb node, the teleop rate from
-teleop, each through the IK node) and are held between arrivals; the hardware takes a setpoint
-every driver period (500 Hz). :class:`JerkLimitedSetpoints` makes those setpoints with Ruckig
-(Berscheid and Kröger, *Jerk-limited Real-time Trajectory Generation with Arbitrary Target
-States*, RSS 2021; the ``ruckig`` library): each period it plans, from the setpoints' position,
-velocity and acceleration, the time-optimal motion to the command within each leg's speed,
-acceleration and jerk limits (:attr:`RobotGeometry.motion_limits`), and takes its state one
-period later: to a command at rest, the time-optimal motion there (Ruckig's position interface,
-the legs synchronised in time); along a stream, the velocity that follows it (its interpolated
-velocity v, plus a |a| / 2j for its acceleration a, the velocity it reaches once a is shed at
-the jerk limit j, so that the setpoints keep the stream's acceleration instead of lagging it into
-a stop, plus :data:`GAIN` times the position error, less what the present acceleration adds
-before it is shed, reached at zero acceleration: Ruckig's velocity interface, whose motions stay
-within the speed limit so, each leg reaching its own velocity time-optimally: the stream already
-times the legs together, and synchronising their velocity changes in time turns differences of
-um/s between legs that follow one stream into mm of leg length), except when the stream's velocity
-is further than :data:`CATCH_UP_PERIODS` periods of full acceleration from the setpoints' (a
-stream that resumes after a stall, at its speed, from legs at rest): then the legs change
-velocity in phase (Ruckig's phase synchronisation, time synchronisation where the state allows no
-phase), so the pose regains speed along the stream's path instead of leaving it by up to a
-millimetre while each leg accelerates on its own. The stream is followed one
-command period behind: the parabola through its last three commands, evaluated one period back,
-gives the position and velocity to follow; the newest command at rest once no new one came for
-:data:`STALE_PERIODS` periods. The commands are placed in time by their stamps (the times of the
-stream's samples: a command delivered late or two delivered together keep the stream's own
-spacing and speed), carried to the driver's clock by the shortest delay seen among the last
-three; unstamped commands by their arrival. So a stream is followed without stopping at every
-sample, and a stream that stops, stops without a velocity jump. Any stream, however it jumps,
-reaches the legs within the limits. :func:`stream_setpoints` is the same for a whole command
-stream at once (the preview of a climbing step). Pure Python and NumPy (and ruckig); no ROS
-import.
+:class:`JerkLimitedSetpoints` gives a setpoint every driver period within each leg's speed,
+acceleration and jerk limits: a command at rest is reached time-optimally, a stream (placed in
+time by its stamps) followed one command period behind without stopping at each sample; any
+stream reaches the legs within the limits. :func:`stream_setpoints`: a whole stream at once (the
+step preview). How: docs/architecture.md ('rrps_hardware'). No ROS import.
 """
 
 from __future__ import annotations
@@ -54,10 +28,8 @@ GAIN = 5.0
 #: motion, since a jump of 3 nm in one period reads as 0.45 m/s³ more jerk.
 ARRIVED = 1e-12
 #: A stream whose velocity is further than this many periods of full acceleration from the
-#: setpoints' is caught up with the legs in phase (module docstring). Measured against the wanted
-#: velocity instead (the stream's own acceleration and the position error in it), the legs went
-#: into phase while a stream accelerated, and a facade climber's motion ended 0.34 mm past its
-#: last command instead of 0.09 mm (docs/measurements.md, "Headroom for the driver's setpoints").
+#: setpoints' is caught up with the legs in phase (docs/measurements.md, "Headroom for the driver's
+#: setpoints").
 CATCH_UP_PERIODS = 5.0
 
 

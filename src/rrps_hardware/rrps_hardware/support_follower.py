@@ -1,25 +1,13 @@
-"""The supporting ring's world attitude as the odometry reports it, for the nodes that compute in
-the world's gravity: the driver's efforts and dynamics, teleop's load guards.
-
-The climb node chains the rings' world poses from the measured pose and the grippers
-(:class:`rrps_kinematics.odometry.RingOdometry`) and publishes the supporting ring's on
-:data:`rrps_interfaces.climb.SUPPORT_POSE` (frame ``world``, child frame the ring). Which ring
-supports is the grippers' (:func:`rrps_interfaces.driver.supporting_ring`). A reader keeps its
-:class:`~rrps_description.world.Support` (the ring it is grounded on, that ring's attitude, the
-world's gravity) and hands it over to the other ring itself at a grip change, through the
-measured pose (:func:`rrps_description.world.handed_over`); a :class:`SupportFollower` says when the
-odometry's attitude replaces it::
+"""The supporting ring's world attitude as the odometry reports it
+(:data:`rrps_interfaces.climb.SUPPORT_POSE`), for the driver's gravity and teleop's load guards::
 
     follower = SupportFollower(Support.of('ring_a', q_start), timeout=1.0)
     follower.on_message('world', 'ring_a', q, now)      # a SUPPORT_POSE arrived
     new = follower.update(current, now)                 # a Support to ground, or None
 
-Only a fresh message (``timeout``) for the ring that supports now is used, and only when it
-turns the attitude by more than ``tolerance``; otherwise the reader keeps what it has: the start
-attitude of its parameters until the first message, the last known one after (never a guess).
-:meth:`SupportFollower.report` says which (:class:`~rrps_interfaces.driver.SupportSource`). A
-malformed message (a frame other than world, an unknown ring, a non-finite or non-unit
-quaternion) is rejected with its reason and changes nothing. Pure NumPy; no ROS import.
+Only a fresh message for the supporting ring that turns the attitude by more than ``tolerance`` is
+used; else the last known attitude, never a guess
+(:meth:`SupportFollower.report`). Contract: docs/architecture.md, 'The supporting ring's attitude'.
 """
 
 from __future__ import annotations

@@ -1,25 +1,9 @@
-"""The contract of the climbing node with the system.
+"""The contract of the climbing node with the system: topic, action and service names, enums and
+typed values (docs/usage.md, 'The ROS interface'). Pure Python, no ROS import.
 
-Topics and services (relative names)::
-
-    CLIMB_STATUS         diagnostic_msgs/DiagnosticStatus  values: ClimbStatus
-    CLIMB_PREVIEW        diagnostic_msgs/DiagnosticStatus  values: ClimbPreview (latched: the last)
-    CLIMB_STEP           rrps_msgs/action/ClimbStep  one step up or down: feedback (state, phase,
-                         progress, the preview's margins), cancel (the step holds, paused)
-    CLIMB_STEP_UP, CLIMB_STEP_DOWN, CLIMB_RESUME  std_srvs/Trigger (the same step; resume)
-    ODOMETRY             nav_msgs/Odometry  the robot's odometry (REP-105): base_link (ring_a) in
-                         odom, its twist in base_link, both with covariance
-    odometry_topic(ring) geometry_msgs/PoseStamped  the ring's pose in frame odom (the world)
-    SUPPORT_POSE         geometry_msgs/TransformStamped  the supporting ring's pose in frame world
-                         (child_frame_id: the ring; latched): the world attitude that the
-                         driver's gravity and teleop's load guards follow
-
-Which ring supports is the grippers' (:func:`rrps_interfaces.driver.supporting_ring`);
-a reader uses a SUPPORT_POSE whose ring is the one that supports, and keeps its last
-attitude while none comes (its status says so).
-
-Pure Python, no ROS import.
-"""
+``SUPPORT_POSE`` (latched) is the supporting ring's world pose that the driver's gravity and teleop's
+load guards follow (which ring supports: :func:`rrps_interfaces.driver.supporting_ring`; the
+contract: docs/architecture.md, 'The supporting ring's attitude')."""
 
 from __future__ import annotations
 
@@ -98,14 +82,10 @@ class StepRefusal(enum.Enum):
 
 @dataclasses.dataclass(frozen=True)
 class ClimbStatus(StatusValues):
-    """climb/status values: the state, where the step is (``step``, the phase's ``action`` and
-    ``ring``), the rings' route positions [m] and the reason in words (``detail``).
-    ``previewing``: a requested step is being previewed (the state stays IDLE until it starts);
-    ``refusal``: why the last requested step did not start (None: it started, or none asked);
-    ``step_duration`` [s] and ``climbing_speed`` [m/min]: the last planned climb's longest step
-    and its speed (NaN before one is planned); ``plan_duration`` [s]: the executing (or last
-    executed) climb's planned duration, every phase's (a return to the gait's stance included);
-    ``phase_index`` of the step's ``phases`` (0 when idle)."""
+    """climb/status values: the state, where the step is (``step``, ``phase_index``, the phase's
+    ``action`` and ``ring``), the rings' route positions [m], ``detail``; ``previewing`` (state still IDLE),
+    ``refusal`` (why the last requested step did not start, else None); ``step_duration`` [s] (longest
+    step) and ``climbing_speed`` [m/min] of the last plan, ``plan_duration`` [s] of the climb (NaN before)."""
 
     state: ClimbState
     pause_reason: PauseReason | None = None

@@ -1,13 +1,7 @@
-"""The contract of the hardware driver (simulated or real) with the rest of the system.
-
-Topics and services (relative names), beside :mod:`rrps_interfaces.kinematics`' actuator streams::
-
-    GRIPPERS_STATE            sensor_msgs/JointState  name RINGS, position 1.0 closed / 0.0 open
-    gripper_service(ring)     std_srvs/SetBool        data true = close; refused: success false
-    RESET_FAULTS              std_srvs/Trigger        reset the hardware's latched faults (inactive driver only)
-
-and the driver's /diagnostics values, :class:`DriverStatus`. Pure Python, no ROS import.
-"""
+"""The contract of the hardware driver (simulated or real) with the rest of the system: the gripper
+topic and services (``GRIPPERS_STATE``: 1.0 closed, 0.0 open; ``gripper_service(ring)``: SetBool, true
+= close, refused with success false; ``RESET_FAULTS``: inactive driver only) and its /diagnostics
+values, :class:`DriverStatus` (docs/usage.md, 'The ROS interface'). Pure Python, no ROS import."""
 
 from __future__ import annotations
 

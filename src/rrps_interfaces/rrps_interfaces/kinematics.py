@@ -1,18 +1,8 @@
-"""The contract of the IK and FK nodes: topics and typed status values.
+"""The contract of the IK and FK nodes: topic names and typed status values. Pure Python, no ROS.
 
-Topic names are relative (deployments put them under a namespace such as ``/rrps``)::
-
-    TARGET_POSE        geometry_msgs/PoseStamped  a_T_b, frame ring_a           command stream
-    TARGET_RINGS       sensor_msgs/JointState     extra-DOF ring angles [rad]   command stream
-                       (joints ring_a_rotation, ring_b_rotation: robots with the extra DOF)
-    ACTUATORS_COMMAND  sensor_msgs/JointState     leg lengths [m], LEG_NAMES    command stream
-    ACTUATORS_STATE    sensor_msgs/JointState     lengths, rates, forces        state stream
-    POSE               geometry_msgs/PoseStamped  a_T_b from FK                 state stream
-    ROBOT_DESCRIPTION  std_msgs/String            the URDF                      latched (transient local)
-    JOINT_STATES       sensor_msgs/JointState     every URDF joint [rad, m]     state stream
-
-Pure Python, no ROS import.
-"""
+Names are relative (deployed under a namespace such as ``/rrps``); types, frames and QoS are in
+docs/usage.md, 'The ROS interface'. Command streams: ``TARGET_POSE`` (a_T_b, frame ring_a),
+``TARGET_RINGS``, ``ACTUATORS_COMMAND``; ``ROBOT_DESCRIPTION`` is latched."""
 
 from __future__ import annotations
 

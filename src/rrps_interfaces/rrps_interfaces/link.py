@@ -1,25 +1,9 @@
 """The contract of the robot ↔ operator link: the link topics and how an operator station names a
-robot's topics.
+robot's topics (docs/deployment.md, 'Field links'). Pure Python, no ROS import.
 
-On a robot host the link relay (``link_relay_node``) republishes the robot's state for the
-operator station at the rates of its link profile; the 500 Hz streams stay on the robot host.
-Topic names (relative, in the robot's namespace)::
-
-    LINK_POSE          geometry_msgs/PoseStamped   pose, newest sample at pose_rate        best effort
-    LINK_STATE         sensor_msgs/JointState      actuators/state at state_rate           best effort
-    LINK_TARGET        geometry_msgs/PoseStamped   target_pose at target_rate              best effort
-    LINK_ODOMETRY      geometry_msgs/PoseStamped   odometry/ring_a|ring_b at odometry_rate best effort
-                       geometry_msgs/TransformStamped  odometry/support likewise
-    LINK_GRIPPERS      sensor_msgs/JointState      grippers/state: at once on a change,
-                                                   else at grippers_rate                   reliable
-    LINK_DIAGNOSTICS   diagnostic_msgs/DiagnosticArray  the newest status of each node of the
-                                                   robot (its namespace): at once on a change
-                                                   of level or message, else every
-                                                   diagnostics_period                      reliable, latched
-
-An operator-station node reads a robot's state ``'direct'`` (the robot's own topics, one host
-or a wide link) or over the ``'link'`` topics, in the robot's namespace (:func:`robot_topic`).
-Pure Python, no ROS import.
+``link_relay_node`` republishes the robot's state on the ``LINK_*`` topics (relative, in the robot's
+namespace) at its link profile's rates; the 500 Hz streams stay on the robot host. An operator-station
+node reads a robot's state ``'direct'`` or over ``'link'`` (:func:`robot_topic`).
 """
 
 from __future__ import annotations

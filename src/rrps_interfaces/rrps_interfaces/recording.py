@@ -1,22 +1,8 @@
-"""The contract of recording, replay and the robot for RViz2 / Foxglove.
+"""The contract of recording, replay and the robot for RViz2 / Foxglove: topic and service names
+(docs/recording.md). Pure Python, no ROS import.
 
-Topics and services (relative names)::
-
-    ~/RECORDING_TAP       std_msgs/UInt8MultiArray  a node's published messages, batched for a
-                          recorder (:mod:`rrps_runtime.recording_bundle`); only while one listens
-    FLIGHT_RECORDER_SAVE  std_srvs/Trigger   write the last ``buffer_seconds`` now; the answer's
-                                             ``message`` is the file's path (success true)
-    /diagnostics          values: RecorderStatus (recorder_node)
-    REPLAY_STATUS         diagnostic_msgs/DiagnosticStatus  values: ReplayStatus (replay_node)
-    ROBOT_MARKERS         visualization_msgs/MarkerArray    the robot in frame ring_a and world
-    TF                    tf2_msgs/TFMessage  odom -> base_link (REP-105) and the URDF's moving joints
-    TF_STATIC             tf2_msgs/TFMessage  the URDF's fixed joints (latched)
-    CLOCK                 rosgraph_msgs/Clock  a replay's time (replay_node): what nodes with
-                                               use_sim_time read as now
-
-COMMAND_TOPICS are the streams that move the robot: a replay never publishes them on their live
-names unless asked to (they go under REPLAY_PREFIX). Pure Python, no ROS import.
-"""
+``COMMAND_TOPICS`` are the streams that move the robot: a replay never publishes them on their live
+names unless asked to (they go under ``REPLAY_PREFIX``)."""
 
 from __future__ import annotations
 

@@ -1,11 +1,7 @@
-"""The typed status-value contract of every rrps node, and the /diagnostics topic.
-
-A node's status values travel as ``diagnostic_msgs/KeyValue`` strings; :class:`StatusValues`
-gives them types: a dataclass whose fields are the keys, encoded by :func:`encode_value` and
-read back, typed, by :meth:`StatusValues.from_values` (a missing or malformed key raises
-:class:`ContractError`). Nodes read another node's status through its class, never through its
-human-readable ``message``. Pure Python, no ROS import.
-"""
+"""The typed status-value contract of every rrps node, and the /diagnostics topic (no ROS import):
+``diagnostic_msgs/KeyValue`` strings typed by a :class:`StatusValues` dataclass (its fields are the
+keys), encoded by :func:`encode_value`, read back by :meth:`StatusValues.from_values` (a missing or
+malformed key raises :class:`ContractError`)."""
 
 from __future__ import annotations
 

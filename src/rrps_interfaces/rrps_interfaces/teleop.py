@@ -1,19 +1,8 @@
-"""The contract of the master robot and the teleoperation node with the system.
+"""The contract of the master robot and the teleoperation node with the system: topic names and
+typed values (docs/usage.md, 'The ROS interface'). Pure Python, no ROS import.
 
-Topics (relative names)::
-
-    MASTER_TARGET_POSE  geometry_msgs/PoseStamped  the operator's handle, frame MASTER_FRAME
-    MASTER_STATE        sensor_msgs/JointState     the master's leg lengths (encoders)
-    MASTER_POSE         geometry_msgs/PoseStamped  the master's FK, frame MASTER_FRAME
-    MASTER_FEEDBACK     geometry_msgs/WrenchStamped  the slave's limits felt on the master's
-                        ring_b (the virtual fixture), frame MASTER_FRAME, torque about ring_b
-    TELEOP_ENABLE       std_msgs/Bool              the deadman, true at >= 10 Hz while held
-    TELEOP_STATUS       diagnostic_msgs/DiagnosticStatus  values: TeleopStatus
-    OPERATOR_ROUND_TRIP std_msgs/Float64           the controlling browser's round trip [s]
-
-A status message's ``message`` is for people; nodes read the typed values
-(``TeleopStatus.from_key_values(msg.values)``). Pure Python, no ROS import.
-"""
+``MASTER_FEEDBACK`` is the slave's limits felt on the master's ring_b (the virtual fixture; frame
+``MASTER_FRAME``, torque about ring_b); ``TELEOP_ENABLE`` is the deadman, true at >= 10 Hz while held."""
 
 from __future__ import annotations
 

@@ -1,21 +1,9 @@
 """rrps_kinematics: kinematics and multibody core of RRPS parallel climbing robots.
 
 Pure Python/NumPy (no ROS import outside ``rrps_kinematics.nodes``); robots come from
-:mod:`rrps_description`. The public API::
-
-    from rrps_description import load_robot
-    from rrps_kinematics import inverse_kinematics, forward_kinematics
-    geom = load_robot('pole_climber')                          # or a robot YAML path
-    ik = inverse_kinematics(geom, position, quaternion_xyzw)   # single pose or (N,3), (N,4)
-    fk = forward_kinematics(geom, lengths, seed_position, seed_quaternion_xyzw)
-    solve = ForwardSolver(geom); fk = solve(lengths, fk.position, fk.quaternion_xyzw)  # a stream
-    m = margins(geom, ik); m.ok, m.violations()                 # limits as signed margins
-    ok, reason, m = check_pose(geom, position, quaternion_xyzw)
-    modes = assembly_modes(geom, lengths)                        # every real FK solution
-    model = MultibodyModel(geom)                                 # 13 bodies, 91 coordinates
-    dk = model.direct_kinematics(lengths, model.coordinates_from_pose(position, quaternion_xyzw))
-
-The multibody model is imported on first use (it compiles with numba).
+:mod:`rrps_description`. IK (eq. 1), FK and all assembly modes (§2.2), limits as signed margins,
+and the multibody model (eqs. 2-12; imported on first use, it compiles with numba). Examples:
+docs/usage.md, 'Python API'.
 """
 
 from rrps_kinematics.assembly import AssemblyModes, assembly_modes

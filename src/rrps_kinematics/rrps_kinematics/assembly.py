@@ -1,27 +1,9 @@
-"""All assembly modes: every real pose of ring_b for six given leg lengths (paper section 2.2).
+"""All assembly modes: every real pose of ring_b for six given leg lengths (§2.2).
 
-A general Gough-Stewart/RRPS platform has 40 complex forward-kinematics solutions, and all 40
-can be real (Dietmaier 1998). :func:`assembly_modes` finds the real ones by one of two methods:
-
-``'continuation'`` (default): parameter homotopy in Study coordinates (:mod:`.homotopy`) from
-the 40 solutions of a generic complex system shipped in :mod:`.study_start`; every isolated
-solution of the robot's system is the end of one of the 40 paths, so when all 40 are tracked
-to the end the result is complete (``certified``; docs/assembly_modes.md). The real endpoints
-are polished by Newton (:func:`.forward_kinematics`) and verified by inverse kinematics. A path
-that fails makes the 40 be tracked again with another gamma (up to three); when one still fails,
-the multi-start search below runs too and its modes are added (not certified).
-The tracker is compiled by numba: without it (``RRPS_NUMBA=0``, or ``backend='numpy'``) the
-multi-start runs instead (``method`` of the result says which ran).
-
-``'multistart'``: damped Newton (:func:`.forward_kinematics`) from a fixed low-discrepancy
-seed set, de-duplicated, each survivor verified by inverse kinematics.
-
-Seeds: an unscrambled 6-D Halton sequence (first point skipped). Three coordinates give a
-uniformly spread orientation (Shoemake's map of the unit cube onto unit quaternions); the other
-three a position ``c(R) + (2u - 1) max(L)`` in the cube around ``c(R) = mean_i(a_i - R b_i)``,
-which contains every position that is compatible with the lengths at that orientation.
-This is a numerical search, not a proof of completeness; it is the continuation's fallback
-and cross-check.
+``'continuation'`` (default): parameter homotopy in Study coordinates from the 40 shipped generic
+solutions (:mod:`.homotopy_run`), certified complete when every path ends; a failed path brings in
+the multi-start. ``'multistart'``: damped Newton from a fixed Halton seed set (:func:`seed_poses`),
+no proof of completeness; it also runs without numba. See docs/assembly_modes.md.
 """
 
 from __future__ import annotations
@@ -61,7 +43,7 @@ def halton(n: int, dim: int = 6) -> np.ndarray:
 
 
 def seed_poses(geometry: RobotGeometry, lengths: np.ndarray, n_seeds: int) -> tuple[np.ndarray, np.ndarray]:
-    """The fixed seed set (positions (n, 3), quaternions (n, 4)) described in the module docstring."""
+    """The multi-start's seeds: positions (n, 3), quaternions (n, 4) (docs/assembly_modes.md, 'Completeness')."""
     h = halton(n_seeds, 6)
     u1, u2, u3 = h[:, 0], h[:, 1], h[:, 2]
     Q = np.stack([np.sqrt(1 - u1) * np.sin(2 * np.pi * u2), np.sqrt(1 - u1) * np.cos(2 * np.pi * u2),
@@ -74,15 +56,10 @@ def seed_poses(geometry: RobotGeometry, lengths: np.ndarray, n_seeds: int) -> tu
 
 @dataclass(frozen=True)
 class AssemblyModes:
-    """The real FK solutions, nearest to the home pose first.
+    """The real FK solutions, nearest to the home pose first (docs/assembly_modes.md).
 
-    ``positions`` (M, 3) [m], ``quaternions_xyzw`` (M, 4) (w >= 0), ``residuals`` (M,) the IK
-    check max |l - L| [m], ``hits`` (M,) how many seeds or paths converged to each, ``seeds``
-    the number of multi-start seeds tried (0 when none ran). ``method``: 'continuation',
-    'multistart' or 'continuation+multistart' (a failed path brought in the fallback).
-    ``certified``: with one gamma, every one of the 40 homotopy paths was tracked to its end (or
-    to e.e = 0, no pose), so no real mode is missing. ``paths_failed``: paths that did neither,
-    with the last gamma tried (0 when certified).
+    ``residuals``: the IK check max |l - L| [m]; ``hits``: the seeds or paths that reached each
+    mode. ``certified``: all 40 paths ended with one gamma, so no real mode is missing.
     """
 
     positions: np.ndarray

@@ -1,22 +1,9 @@
 """The kernels, compiled by numba or interpreted: one source for both.
 
-Every kernel (FK, IK lengths, limits, workspace, statics, the teleop guards, the multibody model,
-the dynamics) is written once and decorated with :func:`jit`: compiled by numba when it imports
-and the environment variable ``RRPS_NUMBA`` is not ``0``, otherwise left as the plain Python
-function it is, which runs the same arithmetic interpreted. ``RRPS_NUMBA`` is read once, on
-first use; numba is imported on first use only, so ``import rrps_kinematics`` stays light.
-
-A ``backend`` argument chooses per call: ``'auto'`` (the default everywhere: compiled when numba
-is enabled), ``'numba'`` (insists on it) or ``'numpy'`` (the kernels interpreted, numba unused:
-what ``RRPS_NUMBA=0`` runs; :func:`interpreted`). Kernels index 2-D arrays as ``a[i][k]`` and
-take their scratch space from :func:`floats` and :func:`matrix`, so that interpreted they run
-on Python lists and floats (a fraction of the cost of indexing NumPy arrays one element at a
-time), compiled on arrays.
-
-Compiled kernels are cached on disk. numba checks only a kernel's own source file, while a
-compiled kernel contains the kernels it calls (and the layouts they assume); so the cache of
-every :func:`jit` kernel is also stamped with the sources of all of them
-(:func:`kernel_sources_stamp`), and any change to one recompiles them all.
+A :func:`jit` kernel is compiled by numba when numba imports and ``RRPS_NUMBA`` is not ``0``
+(read once), else run as plain Python on lists (:func:`floats`, :func:`matrix`). ``backend`` per
+call: 'auto', 'numba' (insists) or 'numpy' (interpreted). Each kernel's disk cache is stamped with
+all kernel sources (:func:`kernel_sources_stamp`): numba checks only a kernel's own file.
 """
 
 from __future__ import annotations
@@ -107,13 +94,9 @@ def kernel_sources_stamp() -> str:
 
 
 def jit(function=None, *, signature=None, fastmath: bool = False, **options):
-    """``numba.njit(signature, cache=True, fastmath=..., **options)`` when numba is enabled, else
-    the function itself.
-
-    Use as ``@jit`` or ``@jit(fastmath=True, error_model='numpy', ...)``. The decorated code must
-    be valid both as numba nopython code and as plain Python (scalars, tuples, lists, NumPy arrays
-    and NamedTuples of them; see the module docstring).
-    """
+    """``numba.njit(signature, cache=True, fastmath=..., **options)`` when numba is enabled, else the
+    function itself. The code must be valid numba nopython code and plain Python: 2-D arrays indexed
+    ``a[i][k]``, scratch space from :func:`floats` and :func:`matrix`."""
     def decorate(f):
         if not numba_enabled():
             return f

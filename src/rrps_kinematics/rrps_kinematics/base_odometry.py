@@ -1,23 +1,9 @@
 """The robot's odometry as REP-105 states it: ``base_link`` (ring_a) in ``odom``, its twist, and
 the covariance of both (nav_msgs/Odometry's content, without ROS).
 
-The world poses come from :class:`rrps_kinematics.odometry.RingOdometry`, chained through the
-measured a_T_b at every gripper hand-over. The covariance model is first order and has one noise
-source: the six measured leg lengths, independent, with standard deviation ``length_stddev`` [m].
-
-* One FK pose a_T_b then has the covariance ``Σ_FK = σ² (Jᵀ J)⁻¹`` of ring_b's twist
-  coordinates (v, ω) in ring_a's frame, J the inverse Jacobian of eq. 1
-  (:func:`rrps_kinematics.jacobian.inverse_jacobian`: leg rates = J twist).
-* While ring_a grips (alone or with ring_b) base_link stays where it was when ring_a closed; once
-  ring_a opens, ring_b's world pose is frozen from the FK of that moment and base_link is
-  ``world_T_b · inv(a_T_b)``: one FK more, the current one. The pose covariance is what earlier
-  hand-overs froze plus, while ring_b grips alone, the FK of ring_a's release and the current
-  FK, each mapped onto base_link's pose in odom (position; rotation about odom's axes, as
-  nav_msgs orders them) by the first-order derivative of that composition, hand-overs
-  independent. It grows with every step, as dead reckoning does.
-* The twist is the finite difference of two consecutive poses (v, ω in base_link's frame, as
-  nav_msgs/Odometry's child frame); its covariance ``2 Σ_FK / dt²`` (two FK samples), an upper
-  bound while ring_a grips and the base stands still.
+World poses come from :class:`rrps_kinematics.odometry.RingOdometry`. First-order covariance from
+independent leg-length noise σ: one FK pose has ``σ² (Jᵀ J)⁻¹`` (J the inverse Jacobian of eq. 1),
+mapped onto base_link and summed over hand-overs (docs/recording.md, 'Markers and /tf').
 """
 
 from __future__ import annotations

@@ -1,35 +1,9 @@
 """``rrps-kinematics``: the kinematics core from the command line (no ROS needed).
 
-    rrps-kinematics info  [--robot R]
-    rrps-kinematics ik    [--robot R] --position x,y,z [--quaternion qx,qy,qz,qw]
-    rrps-kinematics fk    [--robot R] --lengths l1,...,l6 [--seed x,y,z,qx,qy,qz,qw]
-    rrps-kinematics modes [--robot R] --lengths l1,...,l6 [--method continuation|multistart]
-    rrps-kinematics workspace [--robot R] [--quaternion qx,qy,qz,qw] [--resolution h]
-        [--bounds xmin,xmax,ymin,ymax,zmin,zmax] [--roll a,b] [--pitch a,b] [--yaw a,b]
-        [--angle-step d] [--singular-threshold t] [--csv out.csv] [--near-singular-csv f.csv]
-        [--png out.png]
-    rrps-kinematics urdf  [--robot R] [--output FILE]
-
-``--robot`` takes a shipped robot name (default ``pole_climber``) or a YAML path; ``--json``
-prints machine-readable output. Poses are a_T_b (ring_b in ring_a's frame), metres and ROS
-(x, y, z, w) quaternions. Exit status: 0 done, 1 ``fk`` did not converge (the result is still
-printed), 2 bad arguments or robot file (one error line on stderr).
-
-``workspace`` (paper section 3.1, :mod:`rrps_kinematics.workspace`): the ring_b positions within
-every limit at the orientation ``--quaternion`` (default: home), or at every orientation of the
-range R = Rz(yaw) Ry(pitch) Rx(roll) R(quaternion) given by ``--roll/--pitch/--yaw`` intervals
-[rad] sampled every ``--angle-step`` [rad]. ``--csv`` gets every reachable point (header
-``x,y,z``, metres in ring_a, near-singular points included); the near-singular ones (inverse
-condition number below ``--singular-threshold``) also go to a second CSV, by default next to the
-first with ``_near_singular`` added to its name. ``--png`` draws three orthogonal slices through
-the home position.
-
-``modes`` (:mod:`rrps_kinematics.assembly`): every real pose for the lengths, by continuation
-(default; the output says whether all 40 paths were tracked, i.e. the list is certified
-complete) or by the multi-start search.
-
-``urdf`` (:mod:`rrps_description.urdf`): the robot's URDF, as robot_description_node publishes
-it, on stdout or to ``--output``.
+Commands ``info``, ``ik``, ``fk``, ``modes`` (:mod:`.assembly`), ``workspace`` (§3.1,
+:mod:`.cli_workspace`) and ``urdf`` (:mod:`rrps_description.urdf`); ``--help`` gives their
+arguments, docs/usage.md ('Command-line tools') shows them. Poses are a_T_b (ring_b in ring_a's
+frame), metres and (x, y, z, w) quaternions; exit statuses as :func:`.cli_support.run_command`.
 """
 
 from __future__ import annotations

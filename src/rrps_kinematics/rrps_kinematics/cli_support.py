@@ -111,15 +111,9 @@ def format_vector(v: Any, digits: int = 6) -> str:
 
 
 def run_command(prog: str, body: Callable[[], Sequence[str]]) -> int:
-    """Run a command's ``body`` and turn its outcome into an exit status.
-
-    * ``EXIT_OK`` (0): the lines ``body`` returns are printed on stdout.
-    * ``EXIT_USAGE`` (2): a :class:`UsageError` (bad arguments, an unreadable or malformed input
-      file): one line on stderr.
-    * ``EXIT_FAILED`` (1): a :class:`~rrps_kinematics.errors.ComputationError` (a singular pose,
-      no convergence): one line on stderr naming it.
-    * ``EXIT_BUG`` (3): any other exception is a bug: its traceback on stderr, then one line.
-    """
+    """Run a command's ``body``, print its lines and return the exit status: ``EXIT_OK`` (0),
+    ``EXIT_USAGE`` (2: a :class:`UsageError`, one line on stderr), ``EXIT_FAILED`` (1: a
+    :class:`~rrps_kinematics.errors.ComputationError`, one line) or ``EXIT_BUG`` (3: the traceback)."""
     try:
         lines = body()
     except UsageError as exc:

@@ -1,13 +1,7 @@
-"""Validation of target poses and joint-space velocity limits of command streams.
+"""Validation of target poses and joint-space velocity limits of command streams (no ROS).
 
-Pure NumPy, no ROS import. Every check raises :class:`InvalidTarget` (a ValueError) with a
-message that says why, so a node can keep its last safe command and report the reason::
-
-    target = validate_target(geom, position, quaternion_xyzw, frame_id='ring_a')
-    target.lengths, target.minimum          # IK lengths (6,) [m], smallest margin of each limit
-    ok, lengths, minimum = pose_limits(geom, position, quaternion_xyzw)   # the fast check alone
-    limit_velocity(current, desired, max_speed, dt)   # joint-space step within max_speed
-"""
+Every check raises :class:`InvalidTarget` (a ValueError) saying why, so a node can keep its last
+safe command (:func:`validate_target`, :func:`pose_limits`, :func:`limit_velocity`)."""
 
 from __future__ import annotations
 

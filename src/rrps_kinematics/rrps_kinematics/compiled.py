@@ -1,16 +1,8 @@
-"""The kernels of IK lengths and Newton FK (paper eq. 1, section 2.2), written once.
+"""The kernels of IK lengths and Newton FK (eq. 1, §2.2), written once (:mod:`.backend`).
 
-Compiled by numba when it is enabled, interpreted otherwise (:mod:`.backend`); imported on
-first use by :mod:`.inverse` and :mod:`.forward`. Compiled code is cached on disk.
-
-FK: unknowns the pose (r, A_c) of ring_b in ring_a; residual f_i = L_i - l_i with
-l_i = |r + A_c s'_i - s0_i| (eq. 1); Newton step J dx = f with J the inverse Jacobian (rows
-[u_i, (A_c s'_i) x u_i]); the angular columns are divided by the characteristic length before
-the LU factorisation (unit-consistent pivots); the rotation is updated multiplicatively,
-q <- exp(dtheta) (x) q. Steps whose rotation exceeds pi/2 are scaled down, and a step is halved
-(up to ``MAX_HALVINGS`` times) until the residual's 2-norm decreases; if it never does, the
-solve stops unconverged (constants in :mod:`.newton_settings`). Anchors are indexed ``A[i][k]``:
-(6, 3) arrays compiled, lists of rows interpreted.
+FK: residual L_i - l_i, Newton step J dx = f with J the inverse Jacobian, its angular columns
+divided by the characteristic length (unit-consistent pivots); the rotation updated as
+q <- exp(dtheta) (x) q; damped as :mod:`.forward` says (constants in :mod:`.newton_settings`).
 """
 
 from __future__ import annotations

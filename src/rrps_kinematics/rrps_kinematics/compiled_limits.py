@@ -1,10 +1,6 @@
 """The kernels of a pose's limits (:mod:`.limits`), written once: every signed margin, det J.
 
-Compiled by numba when it is enabled, interpreted otherwise (:mod:`.backend`): the IK node
-checks each target in a few microseconds, :func:`rrps_kinematics.limits.margins` runs the batch
-kernel, the workspace (:mod:`.compiled_workspace`) and the teleop guards build on the single-pose
-helpers. ``g`` is the robot as :class:`rrps_kinematics.limits.LimitArrays`. Imported lazily.
-"""
+Batch and single pose (the IK node, :mod:`.compiled_workspace`, the teleop guards); ``g`` is a ``LimitArrays``."""
 
 from __future__ import annotations
 

@@ -1,11 +1,7 @@
 """The kernel of the reachable workspace: every limit of every grid point, in parallel.
 
-``limits.margins(...).ok`` per pose, the first limit broken in the order of
-``workspace.LIMIT_KINDS``, built from the single-pose helpers of :mod:`.compiled_limits`. A pose
-stops being evaluated at its first broken limit, and a point at its first unreachable orientation,
-so the singular values (:func:`inverse_condition`) are paid only by poses within every other limit.
-Compiled by numba, or interpreted (:mod:`.backend`). Imported lazily.
-"""
+``limits.margins(...).ok`` per pose and the first limit broken in ``workspace.LIMIT_KINDS`` order; a
+pose stops at its first broken limit, a point at its first unreachable orientation."""
 
 from __future__ import annotations
 

@@ -1,18 +1,9 @@
-"""Direct (forward) kinematics on the platform pose by Newton-Raphson (paper section 2.2).
+"""Direct (forward) kinematics on the platform pose by Newton-Raphson (§2.2).
 
-Unknowns: the pose a_T_b. Residual: measured lengths minus IK lengths (eq. 1). The Newton step
-solves J dx = L - l with J the inverse Jacobian (:mod:`.jacobian`); the rotation is updated
-multiplicatively, A_c <- exp(dtheta~) A_c, so the quaternion never leaves the unit sphere.
-Seeded from a previous pose it converges quadratically in 2-4 iterations. Far from a solution
-the step is damped (rotation <= pi/2, halved until the residual decreases), which makes the
-same solver usable for multi-start searches (:mod:`.assembly`).
-
-The solver is one kernel (:mod:`.compiled`): compiled by numba when it is enabled, interpreted
-on Python floats otherwise (``RRPS_NUMBA=0`` or ``backend='numpy'``: for six legs the interpreter
-costs less than NumPy's per-call overhead). Long compiled batches run on every thread (the same
-numbers as the serial kernel). A stream of solves for one robot (the FK node's tracker) goes
-through one :class:`ForwardSolver`: its settings checked once, each solve one call of a kernel
-that checks the input itself.
+Residual: measured minus IK lengths (eq. 1); step J dx = L - l, J the inverse Jacobian
+(:mod:`.jacobian`); the rotation is updated multiplicatively, so the quaternion stays unit. Damped
+far from a solution (rotation <= pi/2, halved until the residual decreases), so :mod:`.assembly`'s
+multi-start uses it too. One kernel (:mod:`.compiled`); a stream goes through :class:`ForwardSolver`.
 """
 
 from __future__ import annotations
@@ -33,13 +24,9 @@ __all__ = ['ForwardKinematicsResult', 'ForwardSolver', 'check_lengths', 'forward
 
 
 class ForwardKinematicsResult(NamedTuple):
-    """Pose of ring_b in ring_a (single, or leading N for batches) and how it was found.
-
-    ``converged``: max |l - L| fell below the tolerance. ``singular``: the Jacobian was singular
-    at an iterate (the solve stopped there). ``residual``: max |l - L| [m] at the returned pose.
-    ``iterations``: Newton steps taken. The returned quaternion has w >= 0. (A NamedTuple: it
-    costs a fraction of a microsecond to build, a real part of a warm solve.)
-    """
+    """Pose of ring_b in ring_a (leading N for batches; quaternion w >= 0) and how it was found:
+    ``converged`` (``residual``, max |l - L| [m], below the tolerance), ``singular`` (the Jacobian was
+    singular at an iterate, where the solve stopped), Newton ``iterations``."""
 
     position: np.ndarray
     quaternion_xyzw: np.ndarray
@@ -76,13 +63,9 @@ def _check_limits(tolerance: float, max_iterations: int) -> None:
 def forward_kinematics(geometry: RobotGeometry, lengths, seed_position=None,
                        seed_quaternion_xyzw=None, *, tolerance: float = 1e-12,
                        max_iterations: int = 30, backend: str = 'auto') -> ForwardKinematicsResult:
-    """Newton-Raphson on a_T_b for measured lengths (6,) or (N, 6), seeded by a previous pose.
-
-    Without a seed the home pose is used; seeds broadcast against the batch of lengths.
-    Never raises on non-convergence or singularity: the result says so. Raises ValueError for
-    NaN/inf or wrongly shaped input. ``backend``: 'auto' (numba when available), 'numba', 'numpy'.
-    A loop of solves for one robot is cheaper through one :class:`ForwardSolver`.
-    """
+    """Newton-Raphson on a_T_b for lengths (6,) or (N, 6) from a seed (default home; broadcast).
+    Never raises on non-convergence or singularity (the result says so); ValueError for NaN/inf or
+    wrongly shaped input. A stream of solves is cheaper through :class:`ForwardSolver`."""
     key = (id(geometry), tolerance, max_iterations, backend)
     entry = _solvers.get(key)
     if entry is None or entry.geometry is not geometry:
@@ -99,14 +82,9 @@ _solvers: dict[tuple, 'ForwardSolver'] = {}
 
 
 class ForwardSolver:
-    """Forward kinematics of one robot with fixed settings, checked once: for a stream of solves
-    (the FK node's tracker, simulations). ``solver(lengths, seed_position, seed_quaternion_xyzw)``
-    is :func:`forward_kinematics` with these settings.
-
-    A single solve whose arguments are already float arrays goes straight into the compiled
-    kernel, which checks them (shapes, finite lengths and seed, non-zero quaternion) itself;
-    anything it refuses is converted and checked in Python, which raises the ValueError.
-    """
+    """Forward kinematics of one robot with fixed settings, checked once, for a stream of solves:
+    ``solver(lengths, seed_position, seed_quaternion_xyzw)`` is :func:`forward_kinematics`. Float
+    arrays go straight to the kernel, which checks them; what it refuses, Python checks and raises."""
 
     def __init__(self, geometry: RobotGeometry, *, tolerance: float = 1e-12, max_iterations: int = 30,
                  backend: str = 'auto'):

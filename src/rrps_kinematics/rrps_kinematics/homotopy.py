@@ -1,18 +1,9 @@
 """Parameter homotopy for the forward kinematics in Study (soma) coordinates (docs/assembly_modes.md).
 
-Unknowns x = (e, g) in C^8: e the Euler parameters (w, x, y, z) of A_c, not normalised, and
-g = r e (quaternion product, r = (0, r)) its translation part. For leg i with s0_i = a,
-s'_i = b and length L (eq. 1), ``|r + A_c b - a|^2 = L^2`` multiplied by e.e reads
-
-    F_i = u.u - L^2 e.e = 0,   u = e b - a e + g = K(a, b) e + g,
-
-(quaternion products, "." the bilinear 4-vector dot), with the Study quadric e.g = 0 and a
-random complex chart c.x = 1 as the 7th and 8th equations. The parameters of a system are one
-row (a, b, L^2) per leg, array (6, 7) complex. :func:`track` follows the solutions of the
-system at parameters ``P0`` to those at ``P1`` along P(t) = P0 + phi(t) (P1 - P0),
-phi(t) = gamma t / (1 + (gamma - 1) t): RK4 predictor on the Davidenko equation
-dx/dt = -F_x^-1 F_t, Newton corrector, step doubled after three accepted steps and halved on a
-rejected one. The kernels run compiled by numba (:func:`.backend.jit`) or interpreted.
+Unknowns x = (e, g) in C^8; leg i gives F_i = u.u - L^2 e.e, u = e b - a e + g (eq. 1), with the
+Study quadric e.g = 0 and a random chart c.x = 1; parameters one row (a, b, L^2) per leg, (6, 7)
+complex. :func:`track` follows a solution from ``P0`` to ``P1`` (gamma trick, RK4 predictor,
+Newton corrector), compiled by numba or interpreted (:func:`.backend.jit`).
 """
 
 from __future__ import annotations

@@ -1,11 +1,6 @@
-"""The 40 homotopy paths of :mod:`.homotopy` from the shipped generic system (:mod:`.study_start`)
-to a robot's FK system, and the real poses at their ends (docs/assembly_modes.md).
-
-Lengths and anchors are divided by the characteristic length (a unit-free system of the size of
-the generic one). An endpoint x = (e, g) is scaled to e.e = 1; it is a real pose when its
-imaginary part is below ``IMAG_TOLERANCE`` relative to |x|, then A_c is the rotation of the
-Euler parameters e and r = g e* (vector part) (inverting g = r e).
-"""
+"""The 40 homotopy paths (:mod:`.homotopy`) from the shipped generic system (:mod:`.study_start`) to
+a robot's FK system, in characteristic lengths, and the real poses at their ends: scaled to e.e = 1,
+imaginary part below ``IMAG_TOLERANCE``, A_c from e and r = g e* (docs/assembly_modes.md)."""
 
 from __future__ import annotations
 
@@ -70,13 +65,9 @@ def study_parameters(geometry: RobotGeometry, lengths: np.ndarray) -> np.ndarray
 
 
 def end_points(P1: np.ndarray, gamma: complex) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Track the 40 shipped solutions to the system of parameters P1 with ``gamma``: (ends (40, 8),
-    status, steps); two paths ending at one point are both SHARED_END (a jump between paths, or
-    a singular solution).
-
-    A path is stopped as diverged below |e.e| / |x|^2 = DIVERGED_MARGIN / (1 + R^2), R = max_i
-    |a_i| + |b_i| + L_i: every real pose has |r| <= R, so |e.e| / |x|^2 = 1 / (1 + |r|^2) >= 1 / (1 + R^2).
-    """
+    """Track the 40 shipped solutions to the system P1 with ``gamma``: (ends (40, 8), status, steps).
+    Two paths ending at one point are both SHARED_END; a path is DIVERGED below |e.e| / |x|^2 =
+    DIVERGED_MARGIN / (1 + R^2), which no real pose reaches (docs/assembly_modes.md, 'Homotopy')."""
     radius = np.max(np.linalg.norm(P1[:, :3], axis=1)
                     + np.linalg.norm(P1[:, 3:6], axis=1) + np.sqrt(np.abs(P1[:, 6])))
     X = study_start.SOLUTIONS.copy()

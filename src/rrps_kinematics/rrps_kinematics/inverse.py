@@ -1,12 +1,7 @@
-"""Inverse kinematics of an RRPS platform (paper section 2.1, eq. 1).
+"""Inverse kinematics of an RRPS platform (§2.1, eq. 1).
 
-For the pose ``a_T_b`` = (r, A_c) of ring_b in ring_a's frame, leg i's vector is
-``r_ABi = r + A_c s'_i - s0_i`` (eq. 1) with s'_i = ``ring_b_anchors[i]`` (ring_b frame) and
-s0_i = ``ring_a_anchors[i]`` (ring_a frame). Its norm is the actuator length.
-
-Lengths and unit vectors are computed at once (the fast path); leg frames, Euler angles and
-joint angles are computed on first access, for single poses and batches alike.
-"""
+Leg i's vector ``r_ABi = r + A_c s'_i - s0_i`` for a_T_b = (r, A_c), s'_i = ``ring_b_anchors[i]``
+(ring_b frame), s0_i = ``ring_a_anchors[i]`` (ring_a frame); its norm is the actuator length."""
 
 from __future__ import annotations
 
@@ -80,20 +75,12 @@ def _angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 class InverseKinematicsResult:
-    """Everything section 2.1 derives from one pose (or a batch of N poses).
+    """Everything §2.1 derives from one pose, or a batch (leading N); ring_a's frame, m, rad.
 
-    Shapes are given for a batch; a single pose drops the leading N.
-
-    * ``leg_vectors`` (N, 6, 3): r_ABi in ring_a's frame [m] (eq. 1).
-    * ``lengths`` (N, 6): actuator lengths |r_ABi| [m].
-    * ``unit_vectors`` (N, 6, 3): u_z of each leg in ring_a's frame.
-    * ``ring_b_anchors_in_a`` (N, 6, 3): spherical-joint centres in ring_a's frame [m].
-    * ``leg_frames`` (N, 6, 3, 3): A_i = [u_x, u_y, u_z] (section 2.1).
-    * ``leg_euler313`` (N, 6, 3), ``leg_euler_parameters`` (N, 6, 4): A_i as 3-1-3 angles
-      (psi_i, alpha_i, phi_i) and Euler parameters (e0, e1, e2, e3).
-    * ``universal_angles`` (N, 6, 2): the cross's two joint angles [rad], see
-      :func:`lower_link_rotations`; ``universal_cone_angles`` (N, 6): the leg's angle from the
-      U-joint's neutral axis; ``spherical_cone_angles`` (N, 6): the same at the S-joint.
+    ``leg_vectors`` r_ABi (eq. 1), ``lengths``, ``unit_vectors`` u_z, ``ring_b_anchors_in_a``; on
+    first access ``leg_frames`` A_i = [u_x, u_y, u_z], as ``leg_euler313`` (psi, alpha, phi) and
+    ``leg_euler_parameters``, ``universal_angles`` (:func:`lower_link_rotations`), and each leg's
+    ``universal_cone_angles`` and ``spherical_cone_angles`` from its joints' neutral axes.
     """
 
     def __init__(self, geometry: RobotGeometry, position: np.ndarray, rotation: np.ndarray):

@@ -1,10 +1,6 @@
-"""Inverse Jacobian and statics of an RRPS platform (velocity and force mapping of eq. 1).
-
-Twists and wrenches of ring_b are written in ring_a's frame at ring_b's origin:
-twist = (v, omega), wrench = (force, moment). Leg i's rate is dl_i/dt = u_i · v + ((A_c s'_i) × u_i) · omega,
-so row i of the inverse Jacobian J is [u_i^T, ((A_c s'_i) × u_i)^T]. By virtual work the wrench that
-actuator forces f (positive = pushing the rings apart) exert on ring_b is J^T f.
-"""
+"""Inverse Jacobian and statics (velocity and force mapping of eq. 1): ring_b's twist (v, omega)
+and wrench in ring_a's frame at ring_b's origin; row i of J is [u_i^T, ((A_c s'_i) × u_i)^T], and
+actuator forces f (positive: pushing the rings apart) exert the wrench J^T f on ring_b."""
 
 from __future__ import annotations
 

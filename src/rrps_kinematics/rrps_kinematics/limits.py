@@ -1,34 +1,8 @@
 """Limits of an RRPS pose as signed margins (positive = inside the limit, SI units).
 
-One call gives every margin of a pose or a batch of poses, a ``within_limits`` flag and a
-human-readable reason::
-
-    from rrps_kinematics import inverse_kinematics, margins, check_pose
-    ik = inverse_kinematics(geom, position, quaternion_xyzw)      # single pose or (N,3), (N,4)
-    m = margins(geom, ik)
-    m.ok                  # bool, or (N,) bool: every margin >= 0 (and the Jacobian not singular)
-    m.violations()        # ['stroke: leg_3 length 0.5612 m > max_length 0.5500 m', ...]
-    m.broken()            # the same as data: [LimitViolation(kind=LimitKind.STROKE, legs=(3,), ...)]
-    ok, reason, m = check_pose(geom, position, quaternion_xyzw)   # single pose convenience
-
-Fields (a single pose drops the leading N):
-
-* ``stroke`` (N, 6) [m]: ``min(l_i - min_length, max_length - l_i)`` for the actuator lengths.
-* ``universal`` (N, 6) [rad]: ``universal_max_angle`` minus the angle between leg i and the
-  universal joint's neutral axis (``geometry.ring_a_joint_axes``).
-* ``spherical`` (N, 6) [rad]: ``spherical_max_angle`` minus the angle between leg i (seen from
-  ring_b, pointing to ring_a) and the spherical joint's neutral axis (``ring_b_joint_axes``).
-* ``interference`` (N, 15) [m]: for every pair of legs (``PAIRS[k] = (i, j)``, zero-based),
-  the minimum distance between the segments a_i -> B_i and a_j -> B_j (joint centre to joint
-  centre, B in ring_a's frame) minus ``2 * leg_radius`` (the paper's Figure 8c interference).
-* ``inverse_condition`` (N,): 1/cond of the unit-consistent inverse Jacobian: J's angular
-  columns (units m) are divided by ``geometry.characteristic_length``, so all entries are
-  dimensionless; 1 = isotropic, 0 = singular.
-* ``conditioning`` (N,): ``inverse_condition - geometry.min_conditioning``.
-* ``ok`` (N,) bool: all margins >= 0 and ``inverse_condition > 0``; NaN counts as a violation.
-
-Every margin is computed by one kernel (:mod:`.compiled_limits`; compiled by numba, or
-interpreted with ``RRPS_NUMBA=0`` or ``backend='numpy'``); no ROS import.
+``stroke`` [m], the ``universal`` and ``spherical`` joint cones [rad], leg ``interference``
+(:data:`PAIRS`, Fig. 8c) [m] and ``conditioning``, of one pose or a batch, by one kernel
+(:mod:`.compiled_limits`); every margin is defined in docs/robot-model.md, 'Pose limits'.
 """
 
 from __future__ import annotations
@@ -172,7 +146,7 @@ def inverse_condition_number(geometry: RobotGeometry, ik: InverseKinematicsResul
 
 @dataclass(frozen=True)
 class Margins:
-    """Signed margins of one pose or a batch (see the module docstring for every field).
+    """Signed margins of one pose or a batch (every field: docs/robot-model.md, 'Pose limits').
 
     Also kept: the raw quantities behind them, ``lengths`` [m], ``universal_cone_angles`` and
     ``spherical_cone_angles`` [rad], ``segment_distances`` (N, 15) [m].
@@ -260,7 +234,7 @@ class Margins:
 
 
 def margins(geometry: RobotGeometry, ik: InverseKinematicsResult, *, backend: str = 'auto') -> Margins:
-    """Every signed margin of the pose(s) solved in ``ik`` (see the module docstring), from the
+    """Every signed margin of the pose(s) solved in ``ik`` (docs/robot-model.md), from the
     kernel :func:`rrps_kinematics.compiled_limits.margins_batch`."""
     g = geometry
     batch = np.shape(ik.position)[:-1]

@@ -1,36 +1,10 @@
-"""Multibody model of an RRPS platform on 91 coordinates (paper section 2.2, eqs. 2-12).
+"""Multibody model of an RRPS platform on 91 coordinates (§2.2, eqs. 2-12).
 
-Bodies (ring_a is ground): body 0 = ring_b, body 1 + 2k = lower link of leg k (universal joint
-on ring_a), body 2 + 2k = upper link of leg k (spherical joint on ring_b). Each body has 7
-coordinates q_b = [r_b, p_b]: r_b its centre of mass in ring_a's frame and p_b = (e0, e1, e2, e3)
-its Euler parameters, so q has 13 x 7 = 91 entries (body b at q[7b:7b+7]). Body frames sit at
-the centre of mass; a leg link's body z axis is along the leg and both links of a leg share one
-rotation (``rrps_kinematics.inverse.lower_link_rotations``).
-
-Constraints (eq. 2), Φ(q) = [Φ^K (72); Φ^D (6); Φ^P (13)]; rows 12k .. 12k+11 belong to leg k:
-
-* 0-2   spherical joint, upper link - ring_b (eq. 3): r_u + A_u s'_u - r_b - A_b s'_b = 0
-* 3-5   universal joint, ring_a - lower link, its spherical part (eq. 4): r_l + A_l s'_l - a_k = 0
-* 6     universal joint, dot-1 of its two axes (eq. 5): h_k^T A_l y' = 0, h_k the axis fixed in
-        ring_a (x of ``universal_joint_frames``), y' the cross's second axis in the link
-* 7-8   translational joint, axes parallel (eq. 6): f_l^T h_u = 0, g_l^T h_u = 0
-* 9-10  translational joint, common axis (eq. 7): f_l^T d = 0, g_l^T d = 0
-* 11    translational joint, no relative spin (eq. 8): f_l^T g_u = 0
-* 72+k  driving constraint (eq. 10): h_l^T d - L_k = 0
-* 78+b  Euler-parameter normalisation (eq. 9): p_b^T p_b - 1 = 0
-
-with f, g, h the body x, y, z axes, s'_l = (0, 0, -c_l) the universal-joint centre in the lower
-link, s'_u = (0, 0, c_u) the spherical-joint centre in the upper link, s'_b the spherical-joint
-centre in ring_b's com frame and d = r_u + A_u s'_u - r_l - A_l s'_l the leg vector between the
-joint centres, so the driving constraint sets the actuator length exactly. Eq. 8's second
-vector is the upper link's y axis: orthogonal to f_l when assembled, as eq. 8 requires.
-
-Φ_q is analytic (exact derivatives of the polynomial A(p)), compiled with numba (plain Python
-with ``RRPS_NUMBA=0``, see :mod:`.backend`), and has 718
-structural nonzeros of 8281 (``jacobian(q, sparse=True)`` gives it as scipy CSC). Newton's
-linear solve (eq. 11) exploits that structure by default: each leg's 15 rows touch only its 14
-link coordinates and ring_b's 7, so eliminating the link unknowns per leg leaves a 7 x 7 system
-(:func:`structured_solve`); SuperLU on the CSC matrix and dense LAPACK are the alternatives.
+13 bodies (ring_a is ground: 0 ring_b, 1 + 2k and 2 + 2k leg k's lower and upper link), each with
+q_b = [r_b, p_b] (centre of mass in ring_a's frame, Euler parameters) at q[7b:7b+7]; constraints
+Φ = [Φ^K (72); Φ^D (6); Φ^P (13)] (eq. 2) from :mod:`.multibody_constraints`, every row in
+docs/robot-model.md, 'The multibody model'. Newton's solve (eq. 11) is :func:`structured_solve` by
+default, SuperLU on the sparse analytic Φ_q or dense LAPACK otherwise.
 """
 
 from __future__ import annotations
@@ -135,14 +109,10 @@ def gauss_eliminate(A, nrow, ncol_pivot, ncol):
 
 @jit
 def structured_solve(J, rhs):  # noqa: C901 - a compiled kernel: flat loops for numba
-    """Solve Φ_q Δq = rhs (91) by the robot's structure; returns (ok, Δq, flops).
+    """Solve Φ_q Δq = rhs (91) by the robot's structure; returns (ok, Δq, flops counted).
 
-    Leg k's 15 rows (12 joint, driving, 2 normalisations) touch only its 14 link coordinates and
-    ring_b's 7. Eliminating the 14 link unknowns from those rows (Gaussian elimination with
-    partial pivoting on the 15 x 22 block [A_k | C_k | rhs_k]) leaves one equation in ring_b's
-    coordinates per leg; with ring_b's normalisation that is a 7 x 7 system. Back-substitution
-    then gives each leg's 14 unknowns. ``flops`` counts every multiply, add and division done.
-    """
+    Each leg's 15 rows touch only its 14 link coordinates and ring_b's 7: eliminating the link unknowns
+    (partial pivoting) leaves, with ring_b's normalisation, a 7 x 7 system; back-substitution the rest."""
     dq = np.zeros(91)
     U = np.empty((6, 15, 22))
     S = np.empty((7, 8))
@@ -306,18 +276,9 @@ class MultibodyModel:
 
     def direct_kinematics(self, lengths, q_seed=None, *, tolerance: float = 1e-12,
                           max_iterations: int = 30, solver: str = 'structured') -> MultibodyDKResult:
-        """Newton-Raphson Φ_q Δq = -Φ, q <- q + Δq (eqs. 11-12) from a seed (default: home).
-
-        Flop model per iteration: residual (6 legs x FLOPS_LEG_RESIDUAL + 13 normalisations),
-        Jacobian (6 x FLOPS_LEG_JACOBIAN + 13 x 4), the linear solve and the 91-term update.
-        The solve counts, for ``solver='structured'`` (the default, :func:`structured_solve`:
-        per-leg elimination and a 7 x 7 ring_b system), every operation it does; for
-        ``solver='sparse'`` (SuperLU on the CSC Φ_q), the right-looking
-        LU work Σ_k (l_k + 2 l_k u_k) with l_k, u_k the off-diagonal nonzeros of column k of L
-        and row k of U, plus 2 (nnz(L) + nnz(U)) for the triangular solves; for
-        ``solver='dense'`` (LAPACK), 2/3 n^3 + 2 n^2 with n = 91. A final residual evaluation is
-        counted too. Never raises on non-convergence; the result says so.
-        """
+        """Newton-Raphson Φ_q Δq = -Φ, q <- q + Δq (eqs. 11-12) from a seed (default: home), with
+        ``solver`` 'structured', 'sparse' or 'dense'; the result's flop model is in docs/measurements.md
+        ('Dynamics'). Never raises on non-convergence; the result says so."""
         if solver not in ('structured', 'sparse', 'dense'):
             raise ValueError(f"solver must be 'structured', 'sparse' or 'dense', got {solver!r}")
         L = check_lengths(lengths, batch=False)

@@ -1,10 +1,6 @@
-"""The constraints of the multibody model of an RRPS platform (paper section 2.2, eqs. 2-10).
-
-Body indexing, the constraint rows of each leg and their analytic Jacobian, compiled with numba
-(plain Python with ``RRPS_NUMBA=0``). :mod:`.multibody` documents the model (bodies,
-coordinates, the meaning of every row) and solves it; the dynamics (``rrps_sim.dynamics``)
-reuses these kernels.
-"""
+"""The constraints of the multibody model (§2.2, eqs. 2-10): body indexing, each leg's rows and their
+analytic Jacobian, compiled with numba or interpreted. :mod:`.multibody` solves the model
+(docs/robot-model.md, 'The multibody model'); ``rrps_sim.dynamics`` reuses these kernels."""
 
 from __future__ import annotations
 
@@ -54,13 +50,9 @@ def body_slice(b: int) -> slice:
 
 
 class JointGeometry(NamedTuple):
-    """The joint data of eqs. 3-10, one typed bundle for the compiled kernels.
-
-    ``a`` (6, 3): universal-joint centres a_k in ring_a's frame; ``ha`` (6, 3): each universal
-    joint's axis h_k fixed in ring_a; ``sb`` (6, 3): the spherical-joint centres s'_b in ring_b's
-    com frame; ``cl``, ``cu``: distances of the lower link's com from the universal joint and of
-    the upper link's com from the spherical joint [m] (s'_l = (0, 0, -c_l), s'_u = (0, 0, c_u)).
-    """
+    """The joint data of eqs. 3-10 for the compiled kernels: ``a``, ``ha`` (6, 3) the universal joints'
+    centres and axes in ring_a, ``sb`` (6, 3) the spherical-joint centres in ring_b's com frame, ``cl``,
+    ``cu`` [m] the links' com offsets from their joints (s'_l = (0, 0, -c_l), s'_u = (0, 0, c_u))."""
 
     a: np.ndarray
     ha: np.ndarray

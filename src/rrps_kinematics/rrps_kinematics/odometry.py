@@ -1,16 +1,8 @@
-"""World odometry of both rings across climbing steps (docs/robot-model.md).
+"""World odometry of both rings across climbing steps (docs/robot-model.md); pure NumPy.
 
-The kinematics only knows ``a_T_b``. Which ring grips decides how it is placed in the world:
-``world_T_b = world_T_a · a_T_b`` while ring_a grips, ``world_T_a = world_T_b · inv(a_T_b)``
-while ring_b grips. A gripping ring's *gripper* stays put on the structure; the ring itself is
-``world_T_ring = world_T_grip · inv(ring_T_grip)``, where ``ring_T_grip`` is the identity for a
-ring bolted to its gripper, a rotation about the ring axis for the frame climber's extra DOF
-(paper section 3.1) and a stand-off for a facade ring whose feet reach down to the wall.
-
-Poses are :class:`rrps_description.pose.Pose`. Batches of transforms (the sampled paths of the
-gait planner) are (n, 4, 4) homogeneous matrices: ``transform``, ``invert`` and ``rot_z`` build
-and invert them. Pure NumPy, no ROS import.
-"""
+The gripping ring places a_T_b in the world. A gripping ring's *gripper* stays put, the ring is
+``world_T_grip · inv(ring_T_grip)`` (identity, the extra DOF's rotation of §3.1, or a facade ring's
+stand-off). Transform batches are (n, 4, 4) matrices (:func:`transform`, :func:`invert`, :func:`rot_z`)."""
 
 from __future__ import annotations
 

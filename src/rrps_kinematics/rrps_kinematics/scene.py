@@ -1,10 +1,6 @@
 """Pure scene logic of the viewer: where the rings and legs are in the world and how to colour them.
 
-No rclpy and no viser here. Frames (docs/robot-model.md): the kinematics gives ``a_T_b``
-(ring_b in ring_a); the gripping ring is fixed in ``world`` and places the robot there:
-``world_T_b = world_T_a · a_T_b`` while ring_a grips, ``world_T_a = world_T_b · inv(a_T_b)``
-while ring_b grips.
-"""
+No rclpy, no viser; the gripping ring is fixed in ``world`` and places a_T_b (docs/robot-model.md)."""
 
 from __future__ import annotations
 
@@ -52,13 +48,9 @@ def world_ring_poses(*, a_T_b: Pose, gripping: str, world_T_gripping: Pose) -> t
 
 def leg_margin_fractions(geometry: RobotGeometry, m: Margins | PoseMargins,
                          efforts: np.ndarray | None = None) -> dict[str, np.ndarray]:
-    """Per-leg margins normalised to their range (1 = far from the limit, 0 = at it, < 0 = beyond).
-
-    * ``stroke``: stroke margin / half the stroke (``min_length``..``max_length``).
-    * ``joint``: the smaller of the universal and spherical angle margins / their max angle.
-    * ``force``: 1 - |effort| / ``max_force`` (1 when efforts are unknown or unbounded).
-    * ``leg``: the smallest of the three, which sets the leg's colour.
-    """
+    """Per-leg margins over their range (1 far from the limit, 0 at it, < 0 beyond): ``stroke`` (over
+    half the stroke), ``joint`` (the smaller cone margin over its max angle), ``force`` (1 - |effort| /
+    max_force; 1 when unknown) and ``leg``, the smallest of the three, which colours the leg."""
     g = geometry
     half_stroke = 0.5 * (g.max_length - g.min_length)
     stroke = (np.asarray(m.stroke, dtype=float) / half_stroke if math.isfinite(half_stroke)

@@ -1,20 +1,9 @@
 """Real-time direct kinematics of a stream of measured lengths: Newton seeded from the last
-estimate (paper section 2.2), guarded against assembly-mode jumps.
+estimate (§2.2), guarded against assembly-mode jumps (docs/usage.md, 'The ROS interface', fk_node).
 
-Pure NumPy, no ROS import::
-
-    tracker = PoseTracker(geometry)                  # starts at the home pose
-    update = tracker.update(lengths)                 # (6,) measured lengths [m]
-    update.accepted, update.reason, tracker.position, tracker.quaternion_xyzw
-
-An estimate is accepted when the solve converged, the Jacobian is not singular and det(J) kept
-its sign (assembly modes are separated by singular surfaces, where det J = 0). A step larger
-than ``max_jump`` (translation plus rotation times the characteristic length) is re-solved by
-continuation: the lengths are walked from the last accepted ones in ``continuation_steps``
-equal steps, each solve seeded by the previous one, which follows the current assembly branch;
-if the walk fails, the estimate is refused. A refused update keeps the last good estimate.
-The solver settings (``tolerance``, ``max_iterations``) are checked when set, not per update
-(a :class:`rrps_kinematics.forward.ForwardSolver`).
+An estimate is accepted when it converged, J is not singular and det J kept its sign (assembly
+modes are separated by det J = 0); a step over ``max_jump`` is re-solved by continuation from the
+last accepted lengths. A refused update keeps the last good estimate. Pure NumPy, no ROS.
 """
 
 from __future__ import annotations

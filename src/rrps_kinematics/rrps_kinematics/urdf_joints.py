@@ -1,15 +1,8 @@
-"""Every URDF joint's value from a pose a_T_b (the IK of eq. 1), and the robot's URDF.
+"""Every URDF joint's value from a pose a_T_b (the IK of eq. 1), and the robot's URDF; no ROS.
 
-For leg i (:func:`rrps_description.urdf.leg_chain`): the universal-joint angles (theta1 about
-the yoke axis fixed in ring_a, theta2 about the cross's second axis), the leg length |r_ABi|, and
-the spherical joint's z-x-y angles of ``J_i = a_R_lower^T a_R_b b_R_tip``, the socket frame
-(:func:`rrps_description.urdf.socket_frames`) seen from the leg's upper link:
-``J = Rz(twist) Rx(x) Ry(y)``. With these values the URDF's chains put every tip link on its
-ring_b anchor and ring_b (hung on leg 1) at a_T_b. The extra ring DOF angles (section 3.1) are
-measured, not derived: they come with ``ring_angles`` when known.
-
-Pure NumPy, no ROS import.
-"""
+Per leg (:func:`rrps_description.urdf.leg_chain`): the universal-joint angles, the length and the
+spherical joint's angles ``J = Rz(twist) Rx(x) Ry(y)`` of its socket frame seen from the upper link,
+which put every tip on its ring_b anchor. Extra ring DOF angles (§3.1) are measured (``ring_angles``)."""
 
 from __future__ import annotations
 

@@ -1,40 +1,9 @@
-"""Reachable workspace of an RRPS robot: the ring_b positions within every limit (paper section 3.1).
+"""Reachable workspace of an RRPS robot: the ring_b positions within every limit (§3.1).
 
-The paper's parallel master robot is how the operator copes with "the singularities and the
-reachable spaces inside the universe of work of the robot"; this module computes those spaces on a
-grid of ring_b positions (the translation of a_T_b, ring_b in ring_a, in ring_a's frame)::
-
-    ws = reachable_workspace(geom, geom.home_quaternion_xyzw, resolution=0.01)
-    ws.reachable, ws.near_singular      # (N, 3), (M, 3) positions [m]
-    ws.volume, ws.excluded_by           # m^3; grid points per limit that excluded them
-    q = orientation_range(geom.home_quaternion_xyzw, roll=(-0.1, 0.1), yaw=(-0.2, 0.2), step=0.1)
-    total = reachable_workspace(geom, q, resolution=0.01)
-    distance_to_boundary(ws, position)  # [m], positive inside
-
-Definitions:
-
-* A grid position is **reachable** at an orientation when the pose is within every limit of
-  :func:`rrps_kinematics.limits.margins` (stroke, universal and spherical joint cones, leg-leg
-  interference, conditioning): exactly ``margins(...).ok``, as :func:`.commands.pose_limits`.
-* For one orientation this is the **constant-orientation workspace**. For several (an orientation
-  range sampled by :func:`orientation_range`), a position is reachable when it is reachable at
-  every sampled orientation: the **total-orientation workspace** over the range, the
-  intersection of the constant-orientation workspaces of the samples.
-* **Near-singular** points are reachable points whose inverse condition number (the smallest over
-  the orientations) is below ``singular_threshold``, by default the teleop guard's slow-down
-  threshold (``TeleopConfig.singularity_slowdown``, 0.08). They belong to the reachable set and
-  are also reported on their own; points below the robot's ``min_conditioning`` are unreachable.
-* **excluded_by**: each unreachable point counts once, under the first limit it breaks in the
-  order of ``LIMIT_KINDS``, at the first orientation (in sample order) where it breaks one; the
-  counts add up to the number of unreachable points.
-* **Grid**: the points ``origin + spacing * (i, j, k)``, each standing for a cube of side
-  ``spacing``, so the volume is the number of reachable points times ``spacing ** 3``.
-  Automatic bounds (:func:`automatic_bounds`) hold every position whose legs are within the
-  stroke and inside their universal joints' cones, plus one cell on each side; their points lie
-  on multiples of ``spacing``, so grids of the same spacing share their points.
-
-One kernel classifies the grid (:mod:`.compiled_workspace`: compiled by numba on every thread, or
-interpreted with ``RRPS_NUMBA=0`` or ``backend='numpy'``). No ROS import.
+On a grid of ring_b positions (a_T_b's translation, ring_a's frame): at one orientation, reachable is
+``limits.margins(...).ok``; over several (:func:`orientation_range`), reachable at every one (the
+total-orientation workspace). Near-singular points, ``excluded_by`` and the grid are defined in
+docs/usage.md, 'Command-line tools'. One kernel (:mod:`.compiled_workspace`); no ROS import.
 """
 
 from __future__ import annotations
@@ -82,7 +51,7 @@ _WITHIN_LIMITS = len(LIMIT_KINDS)  # status of a point within every limit, as in
 
 @dataclass(frozen=True, eq=False)
 class Workspace:
-    """A reachable workspace on a grid (see the module docstring for the definitions).
+    """A reachable workspace on a grid (definitions: docs/usage.md, 'Command-line tools').
 
     ``labels[i, j, k]`` (int8) classifies the point ``origin + spacing * (i, j, k)`` [m, ring_a]
     as UNREACHABLE, REACHABLE or NEAR_SINGULAR; ``orientations`` (K, 4) are the unit quaternions
@@ -177,13 +146,9 @@ def _unit_quaternions(quaternion_xyzw, what: str) -> np.ndarray:
 
 def orientation_range(quaternion_xyzw, *, roll=(0.0, 0.0), pitch=(0.0, 0.0), yaw=(0.0, 0.0),
                       step: float = 0.05) -> np.ndarray:
-    """Sampled orientations of ring_b in ring_a: (K, 4) unit quaternions (x, y, z, w).
-
-    R = Rz(yaw) Ry(pitch) Rx(roll) R0, with R0 the orientation ``quaternion_xyzw`` and roll,
-    pitch, yaw [rad] about ring_a's fixed x, y, z axes (the ROS fixed-axis convention). Each
-    interval (lo, hi) is sampled at both ends and evenly in between, no more than ``step`` [rad]
-    apart; every combination of the samples is returned, roll varying fastest.
-    """
+    """Sampled orientations of ring_b in ring_a: (K, 4) unit quaternions (x, y, z, w),
+    R = Rz(yaw) Ry(pitch) Rx(roll) R0 (R0 = ``quaternion_xyzw``; ring_a's fixed axes, [rad]). Each
+    interval is sampled at both ends and at most ``step`` apart; every combination, roll fastest."""
     q0 = _unit_quaternions(quaternion_xyzw, 'quaternion_xyzw')
     if q0.shape[0] != 1:
         raise ValueError('orientation_range takes one orientation')
@@ -279,15 +244,10 @@ def _classify(geometry: RobotGeometry, axes, Q: np.ndarray, numba: bool) -> tupl
 def reachable_workspace(geometry: RobotGeometry, orientations=None, *, resolution: float,
                         bounds=None, singular_threshold: float = SINGULAR_THRESHOLD,
                         backend: str = 'auto') -> Workspace:
-    """The reachable ring_b positions of a_T_b on a grid (section 3.1; see the module docstring).
-
-    ``orientations``: one quaternion (4,) (constant-orientation workspace, default the robot's
-    home orientation) or (K, 4), e.g. from :func:`orientation_range` (total-orientation
-    workspace). ``resolution``: grid spacing [m]. ``bounds``: [xmin, xmax, ymin, ymax, zmin, zmax]
-    [m] in ring_a, sampled from the minimum at ``resolution`` steps (default
-    :func:`automatic_bounds`). ``backend``: 'auto', 'numba' or 'numpy' (:mod:`.backend`).
-    Bad arguments, or a grid of more than ``MAX_GRID_POINTS`` points, raise ValueError.
-    """
+    """The reachable ring_b positions of a_T_b on a grid (§3.1): ``orientations`` one quaternion
+    (default home) or (K, 4) from :func:`orientation_range`, ``resolution`` [m], ``bounds`` [m] in
+    ring_a (default :func:`automatic_bounds`). ValueError for bad arguments or a grid of more than
+    ``MAX_GRID_POINTS``."""
     Q = _unit_quaternions(geometry.home_quaternion_xyzw if orientations is None else orientations,
                           'orientations')
     if len(Q) > MAX_ORIENTATIONS:
@@ -316,13 +276,10 @@ def reachable_workspace(geometry: RobotGeometry, orientations=None, *, resolutio
 
 
 def distance_to_boundary(workspace: Workspace, position) -> float | np.ndarray:
-    """Signed distance [m] from ring_b's position(s) (3,) or (N, 3) [m, ring_a] to the boundary of
-    the reachable set: positive inside, negative outside, -inf when nothing is reachable.
-
-    The Euclidean distance transform of the grid (the boundary half-way between reachable and
-    unreachable points, accurate to about a cell), interpolated trilinearly; beyond the grid, the
-    value at the nearest grid point minus the distance to it.
-    """
+    """Signed distance [m] from ring_b's position(s) (3,) or (N, 3) [m, ring_a] to the reachable set's
+    boundary: positive inside, -inf when nothing is reachable. The grid's Euclidean distance transform
+    interpolated trilinearly (about a cell accurate); beyond the grid, the nearest point's value minus
+    the distance to it."""
     p = np.asarray(position, dtype=float)
     if p.shape[-1:] != (3,) or p.ndim > 2:
         raise ValueError(f'position must have shape (3,) or (N, 3), got {p.shape}')

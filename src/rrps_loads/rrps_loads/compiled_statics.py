@@ -1,17 +1,8 @@
-"""The statics kernels (paper eq. 19 at rest), written once: the actuator forces, the joint
-reactions, the support's wrench and the holding margin of a pose, for :mod:`rrps_loads.statics`,
-:mod:`rrps_loads.loads`, the teleop load guards and the load-feasible workspace::
-
-    s = statics_arrays(geometry, Support.of('ring_a', world_q_support))
-    margin = pose_statics(s, p, q, forces, wrench)   # forces (6,), wrench (6,) filled in place
-
-With J the inverse Jacobian (eq. 1) and Q the wrench of everything the free ring carries,
-J^T f = Q (ring_a supports: Q = -W_b; ring_b supports: Q = W_a), each leg's weight split between
-its joints (:mod:`rrps_loads.statics`). The support's wrench follows from the supporting ring's
-balance, the holding margin from :class:`rrps_description.loads.GripperCapacity`. Forces are
-positive when they push the rings apart; the wrench is in the supporting ring's frame, its
-moment about that ring's origin. Compiled by numba when it is enabled, interpreted otherwise
-(:mod:`rrps_kinematics.backend`).
+"""The statics kernels (eq. 19 at rest: J^T f = Q, J of eq. 1; derived in :mod:`rrps_loads.statics`),
+written once: a pose's actuator forces, joint reactions, support wrench and holding margin.
+``pose_statics(s, p, q, forces, wrench)`` fills forces (6,) [N, + pushes the rings apart] and the
+wrench (6,) (supporting ring's frame, about its origin) in place and returns the margin. Compiled
+by numba when enabled (:mod:`rrps_kinematics.backend`).
 """
 
 from __future__ import annotations
@@ -39,15 +30,9 @@ PIVOT_TOLERANCE = 1e-12
 
 
 class StaticsArrays(NamedTuple):
-    """A robot on one support, as contiguous arrays (the one robot argument of the kernels).
-
-    ``anchors`` (2, 6, 3): a_i in ring_a, b_i in ring_b [m]; ``bodies`` (2, 4): mass [kg] and
-    com [m] of ring_a and ring_b with what they carry; ``links`` (4,): lower and upper link mass
-    [kg] and com from its joint [m]; ``world`` (4,): the supporting ring's index and gravity in
-    its frame [m/s²]; ``tool`` (10,): the tool-centre point in ring_b [m], the tool force [N] and
-    torque [N m] and 1 when they are fixed in the supporting ring's frame (a world-frame wrench),
-    0 when in ring_b's; ``capacity`` (7,): the supporting gripper's model (``NO_CAPACITY``,
-    ``FRICTION``: μN, r; ``RATED_LIMITS``: axial, shear, torque) and its contact point [m]."""
+    """A robot on one support as contiguous arrays (the kernels' one robot argument), SI units,
+    filled by :func:`statics_arrays`: anchors, ring and link masses and coms, the support and its
+    gravity, the tool wrench and the supporting gripper's capacity."""
 
     anchors: np.ndarray
     bodies: np.ndarray

@@ -1,18 +1,9 @@
-"""A gripper's holding capacity as linear inequalities on the wrench it holds: ``G w <= h``.
+"""A gripper's holding capacity as half-spaces ``G w <= h`` on the wrench it holds, for the timing's
+linear program (:mod:`rrps_climbing.timing`).
 
-:func:`rrps_loads.loads.holding_margin` bounds norms of the wrench (force and moment about the
-ring's origin, in its frame, the moment taken to the contact first): the friction clamp
-√(F_z² + (M_z / r)²) <= μ N, the rated gripper -F_z <= axial, √(F_x² + F_y²) <= shear and
-|M| <= torque. A linear program (the time-optimal timing of :mod:`rrps_climbing.timing`)
-needs them as half-spaces: each norm bound |x| <= r becomes u_k · x <= r cos θ for a set of unit
-directions u_k whose largest angular gap to any direction is θ, a polygon or polyhedron inside
-the disc or ball (conservative by 1 - cos θ):
-
-* in the plane, :data:`PLANE_DIRECTIONS` directions 2π/16 apart (θ = π/16, 1.9 %);
-* in space, the 26 directions of a cube's faces, edges and corners (θ = the angle between a
-  face, an edge and a corner direction's circumcentre and each of them, about 27.6°).
-
-Pure NumPy; no ROS import.
+Each norm bound of :func:`rrps_loads.loads.holding_margin` |x| <= r becomes u_k · x <= r cos θ over
+unit directions u_k at most θ apart: conservative by 1 - cos θ (16 plane directions, θ = π/16;
+the cube's 26 in space, θ ≈ 27.6°). No ROS import.
 """
 
 from __future__ import annotations

@@ -1,15 +1,8 @@
 """Inverse dynamics of an RRPS platform: actuator forces along a prescribed ring_b trajectory.
 
-The trajectory is given as samples (t_k, r_k, q_k), optionally with ring_b's twist (v, ω) and
-its rate at each sample (both in ring_a's frame, as in :mod:`rrps_loads.reduced`). What is not
-given is differentiated from the samples by finite differences of high order
-(:func:`sample_derivatives`: 7 consecutive samples, centred where possible and one-sided at the
-ends, on any spacing), the quaternion's four components first made sign-continuous. For the
-quaternion curve q(t) the angular velocity in ring_a's frame is ω = 2 vec(q̇ ⊗ q*) / |q|² and its
-rate ω̇ = (2 vec(q̈ ⊗ q*) - 2 (q · q̇) ω) / |q|²; accelerations given without velocities are
-used as they are, velocities given without accelerations are differentiated once.
-The forces then solve eq. 19 written in ring_b's twist (:mod:`rrps_loads.reduced`):
-J^T f = M ṫ + Q0(x, t), at every sample, on whichever ring supports the robot.
+Samples (t_k, r_k, q_k), with ring_b's twist and its rate when known (ring_a's frame), else
+differentiated by 7-point finite differences (:func:`sample_derivatives`); the forces solve eq. 19
+in ring_b's twist, J^T f = M ṫ + Q0 (:mod:`rrps_loads.reduced`), on either supporting ring.
 """
 
 from __future__ import annotations
@@ -119,14 +112,9 @@ def inverse_dynamics(geometry: RobotGeometry, t, positions, quaternions_xyzw, *,
                      twist_dot=None, support='ring_a', world_q_support=None, gravity=None) -> np.ndarray:
     """Actuator forces (K, 6) [N] (+ = pushing the rings apart) along a sampled ring_b trajectory.
 
-    ``t`` (K,) strictly increasing [s], ``positions`` (K, 3) [m], ``quaternions_xyzw`` (K, 4)
-    give a_T_b at each sample (K >= 4). ``twist`` (K, 6): ring_b's origin velocity [m/s] and
-    angular velocity [rad/s], ``twist_dot`` (K, 6) their rates, both in ring_a's frame; each is
-    differentiated from the samples when not given. ``support``: the gripping ring, turned by
-    ``world_q_support`` in a world of ``gravity`` (:func:`rrps_loads.support.support_of`; default
-    ring_a upright). Includes the inertia and weight of the free ring and of the twelve leg
-    links and the tool wrench. Raises ValueError for invalid input, SingularPoseError (a
-    ValueError) for a singular pose on the way.
+    ``t`` (K,) increasing [s], a_T_b as ``positions`` (K, 3) [m] and ``quaternions_xyzw`` (K >= 4);
+    ``twist``/``twist_dot`` (K, 6) in ring_a's frame, differentiated when absent; ``support`` as
+    :func:`rrps_loads.support.support_of`. Raises ValueError, SingularPoseError at a singular pose.
     """
     world = support_of(support, world_q_support, gravity)
     t, p, q = check_trajectory(t, positions, quaternions_xyzw)

@@ -1,19 +1,11 @@
-"""The load-feasible workspace: the reachable ring_b positions (:mod:`rrps_kinematics.workspace`)
-where the robot at rest also holds its loads (paper eq. 19 at rest, :mod:`rrps_loads.loads`)::
+"""The load-feasible workspace (eq. 19 at rest, :mod:`rrps_loads.loads`): the reachable ring_b
+positions (:mod:`rrps_kinematics.workspace`) where, at every orientation, every |f_i| <= max_force
+and the supporting gripper's holding margin >= 0::
 
     ws = load_workspace(geom, q, resolution=0.02, payload=Payload(mass=15.0))
     ws.volume, ws.excluded_by['actuator_force'], ws.excluded_by['holding']
 
-A reachable grid point is **load-feasible** when, at every orientation of the workspace, with the
-robot on its ``support`` ring in the world's gravity, under the payload and the tool wrench,
-every actuator force is within ``max_force`` (|f_i| <= max_force) and the supporting gripper's
-holding margin is >= 0 (no limit when the robot gives no capacity). The others become
-unreachable, counted in ``excluded_by`` under 'actuator_force' (a singular pose too) or
-'holding' (the first broken, in that order). It is a subset of the reachable workspace; the
-forces and the support's wrench are affine in the payload's mass, so the masses at which a
-point is feasible form an interval: with a growing payload the set only shrinks, as long as the
-unloaded robot is feasible there. The kernel :func:`rrps_loads.compiled_statics.grid_statics`
-(compiled, or interpreted) evaluates the reachable points only.
+The loads are affine in the payload's mass: a growing payload only shrinks the set.
 """
 
 from __future__ import annotations
@@ -55,14 +47,10 @@ def load_margins(geometry: RobotGeometry, points: np.ndarray, quaternion_xyzw, s
 def load_workspace(geometry: RobotGeometry, orientations=None, *, resolution: float | None = None,
                    plain: Workspace | None = None, support='ring_a', world_q_support=None, gravity=None,
                    payload=None, tool_wrench=None, backend: str = 'auto', **workspace_options) -> Workspace:
-    """The load-feasible workspace (module docstring) as a :class:`Workspace` whose
-    ``excluded_by`` also counts the load limits.
+    """The load-feasible workspace as a :class:`Workspace` whose ``excluded_by`` counts the load limits.
 
-    ``plain``: the reachable workspace to restrict (else computed here from ``orientations``,
-    ``resolution`` and ``workspace_options`` as :func:`reachable_workspace` takes them);
-    ``support``, ``world_q_support``, ``gravity``, ``payload`` and ``tool_wrench`` as
-    :func:`rrps_loads.loads.static_solution` takes them (``None``: the robot's own loads).
-    ValueError for invalid arguments.
+    ``plain``: the reachable workspace to restrict (else computed here); the loads' arguments as
+    :func:`rrps_loads.loads.static_solution` takes them. ValueError for invalid arguments.
     """
     world = support_of(support, world_q_support, gravity)
     if payload is not None or tool_wrench is not None:

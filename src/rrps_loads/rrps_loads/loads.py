@@ -1,19 +1,10 @@
-"""Loads of an RRPS robot at rest on either ring: actuator forces, joint reactions, the support's
-reaction wrench and the gripper's holding margin (paper eq. 19 at rest and its multipliers).
+"""Loads of an RRPS robot at rest on either ring (eq. 19 at rest and its multipliers, eqs. 3-4):
+actuator forces, joint reactions, the support's wrench and the gripper's holding margin, batched::
 
-Batch NumPy over N poses, for planners, guards and previews::
-
-    sol = static_solution(geometry, (positions, quaternions), support='ring_b',
-                          world_q_support=q_wall)
+    sol = static_solution(geometry, (positions, quaternions), support='ring_b', world_q_support=q_wall)
     sol.actuator_forces       # (N, 6) [N], + pushes the rings apart
     sol.holding_margin        # (N,) 1 - the supporting gripper's utilisation (< 0: it slips)
 
-Each leg is one body between its joints (:mod:`rrps_loads.statics`): the spherical joint carries
-no moment and the universal joint's torque vanishes at rest, so ring_b pushes on leg i with
-R_S = -(f_i u_i + w_i) at the spherical joint and ring_a with R_U = f_i u_i - w'_i at the
-universal joint (w, w': the leg's weight shares). They are the multipliers of those joints'
-rows of eq. 19 (eqs. 3-4), with the sign of a force on the leg. The support's wrench follows
-from the supporting ring's own balance: its weight, what it carries and the legs' reactions.
 Vectors are in the supporting ring's frame, moments about its origin.
 """
 
@@ -37,14 +28,11 @@ __all__ = ['StaticSolution', 'static_solution', 'support_wrench', 'holding_margi
 
 @dataclass(frozen=True)
 class StaticSolution:
-    """The robot at rest at N poses (a single pose drops the leading N).
+    """The robot at rest at N poses (a single pose drops the leading N), SI units, supporting ring's frame.
 
-    ``actuator_forces`` (N, 6) [N] (+ = pushing the rings apart); ``universal_reactions`` and
-    ``spherical_reactions`` (N, 6, 3) [N]: the force ring_a exerts on each leg at its universal
-    joint and ring_b at its spherical joint; ``support_wrench`` (N, 6) [N, N m]: the force and
-    moment (about the supporting ring's origin) the structure exerts on the supporting ring;
-    ``holding_margin`` (N,): 1 - the supporting gripper's utilisation (:func:`holding_margin`;
-    NaN when the robot gives no capacity). Vectors in the supporting ring's frame.
+    ``universal_reactions``/``spherical_reactions`` (N, 6, 3): the force ring_a/ring_b exerts on each
+    leg; ``support_wrench`` (N, 6): the structure's on the supporting ring, about its origin;
+    ``holding_margin`` NaN when the robot gives no capacity.
     """
 
     support: Support
@@ -91,13 +79,9 @@ def support_wrench(geometry: RobotGeometry, support: Support, joint_reactions: n
 
 def static_solution(geometry: RobotGeometry, a_T_b, *, support='ring_a', world_q_support=None,
                     gravity=None, payload=None, tool_wrench=None) -> StaticSolution:
-    """The robot at rest at the poses ``a_T_b`` (a :class:`Pose`, or positions (N, 3) and
-    quaternions (N, 4) x, y, z, w) on the ``support`` ring, turned by ``world_q_support`` (default
-    upright) in a world of ``gravity`` (default (0, 0, -9.81) m/s²). ``payload`` and
-    ``tool_wrench`` replace the robot's own (``None``: the robot's, from its description).
-
-    Raises ValueError for invalid input, SingularPoseError (a ValueError too) at a singular pose.
-    """
+    """The robot at rest at ``a_T_b`` (a :class:`Pose`, or positions (N, 3) and quaternions (N, 4))
+    on ``support`` turned by ``world_q_support``; ``payload``/``tool_wrench`` replace the robot's.
+    Raises ValueError, SingularPoseError (a ValueError) at a singular pose."""
     world = support_of(support, world_q_support, gravity)
     if payload is not None or tool_wrench is not None:
         geometry = geometry.with_(payload=payload or geometry.payload,

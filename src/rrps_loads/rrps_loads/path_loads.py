@@ -1,21 +1,9 @@
-"""Loads along a timed path while one gripper holds: actuator forces, the holding ring's reaction
-wrench and its margin, checked against the limits (paper eq. 19 with its accelerations).
-
-While one ring grips, the other moves along the samples (t_k, a_T_b k) of a climbing phase. At
-each sample the actuator forces solve J^T f = M ṫ + Q0 (:mod:`rrps_loads.reduced`, the twist and
-its rate differentiated from the samples by :mod:`rrps_loads.inverse_dynamics`). The structure's
-wrench on the gripping ring follows from the momentum balance of the whole robot about that
-ring's origin O (at rest in the supporting frame)::
-
-    F_s = Σ m_k (a_k - g) - F_tool
-    M_s = Σ [c_k × m_k (a_k - g) + I_k α_k + ω_k × I_k ω_k] - c_tool × F_tool - τ_tool
-
-over the free ring, the twelve links and the gripping ring itself (a = 0), c measured from O:
-at rest it is :func:`rrps_loads.loads.support_wrench`. Batch NumPy over the samples::
+"""Loads along a timed path while one gripper holds (eq. 19 with the accelerations): actuator
+forces J^T f = M ṫ + Q0 (:mod:`rrps_loads.reduced`) and the holding ring's wrench from the whole
+robot's momentum balance about its origin (at rest: :func:`rrps_loads.loads.support_wrench`)::
 
     loads = path_loads(geometry, t, positions, quaternions, support='ring_a', world_q_support=q)
-    loads.actuator_forces      # (K, 6) [N], + pushes the rings apart
-    loads.holding_margin       # (K,) 1 - the holding gripper's utilisation
+    loads.actuator_forces, loads.holding_margin       # (K, 6) [N], (K,)
     first_violation(geometry, loads)   # the first sample past a limit, or None
 """
 

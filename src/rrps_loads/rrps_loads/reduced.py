@@ -1,21 +1,9 @@
-"""Reduced 6-DOF dynamics of an RRPS robot in ring_b's pose (the independent cross-check).
+"""Reduced 6-DOF dynamics of an RRPS robot in ring_b's twist t = (v, ω) relative to ring_a (ring_a's
+frame): the independent cross-check of the paper's 13-body DAE (eqs. 19-20), by Kane's method::
 
-The paper integrates 13 bodies x 7 coordinates with 91 constraints (eqs. 19-20). Here the same
-mechanism is written in its 6 independent velocities, the twist t = (v, omega) of ring_b
-relative to ring_a (origin velocity and angular velocity, both in ring_a's frame: the twist of
-:mod:`rrps_kinematics.jacobian`), by Kane's method / virtual power::
+    M(x) ṫ + Q0(x, t) = J(x)^T f        (J: the inverse Jacobian of eq. 1)
 
-    M(x) t_dot + Q0(x, t) = J(x)^T f
-
-    M   = sum_bodies  m V_k^T V_k + W_k^T I W_k          (V_k, W_k: com and angular velocity
-    Q0  = sum_bodies  V_k^T m (a_bias - g) + W_k^T (I alpha_bias + w x I w)     per unit twist)
-
-with J the inverse Jacobian of eq. 1 (so J^T f is the power of the actuator forces f_i l_dot_i).
-
-The moving bodies (ring_b or ring_a, whichever is free; the twelve links turning with the
-universal joints) and their velocities and accelerations relative to the supporting ring:
-:mod:`rrps_loads.reduced_bodies`. All functions take a batch of N poses; the twist arguments
-broadcast against it.
+The moving bodies' kinematics: :mod:`rrps_loads.reduced_bodies`. Functions take N poses.
 """
 
 from __future__ import annotations
@@ -74,14 +62,8 @@ def mass_matrix(pose: PlatformPose) -> np.ndarray:
 
 
 def generalized_forces(pose: PlatformPose, twist, twist_dot) -> np.ndarray:
-    """J^T f needed for the motion (twist, twist_dot) (N, 6): inertia, gyroscopic, gravity and
-    tool-wrench terms.
-
-    Component k is the power of (m a - m g) and (I alpha + omega x I omega) of every moving body
-    for the unit twist e_k, minus that of the tool wrench when ring_b moves (Kane's generalized
-    inertia + active forces, with the sign of eq. 19's right side moved over). With twist =
-    twist_dot = 0 it is the static load of eq. 19 (:func:`rrps_loads.statics.static_load`).
-    """
+    """J^T f needed for the motion (twist, twist_dot) (N, 6): inertia, gyroscopic, gravity and tool
+    terms (Kane's generalized forces, eq. 19's right side); at rest :func:`rrps_loads.statics.static_load`."""
     g = pose.geometry
     twist = np.asarray(twist, dtype=float)
     V = _unit_velocities(pose)
@@ -150,13 +132,8 @@ class ReducedState:
 
 @dataclass(frozen=True)
 class ReducedResult:
-    """One reduced-model run sampled every output step (K samples).
-
-    ``t`` (K,), ``position`` (K, 3), ``quaternion_xyzw`` (K, 4), ``velocity`` /
-    ``angular_velocity`` (K, 3), ``lengths`` (K, 6), energies [J] (K,): ``kinetic_energy``,
-    ``potential_energy`` and ``actuator_work`` (integral of f . l_dot), whose balance
-    T + V - W stays constant without a tool wrench; ``evaluations``: right-hand-side calls of the integrator.
-    """
+    """One reduced-model run sampled every output step (K samples), SI units; the energy balance
+    ``kinetic_energy + potential_energy - actuator_work`` stays constant without a tool wrench."""
 
     t: np.ndarray
     position: np.ndarray
@@ -190,16 +167,11 @@ def simulate_reduced(geometry: RobotGeometry, position, quaternion_xyzw,
                      velocity=(0.0, 0.0, 0.0), angular_velocity=(0.0, 0.0, 0.0),
                      rtol: float = 1e-11, atol: float = 1e-13, support='ring_a',
                      world_q_support=None, gravity=None) -> ReducedResult:
-    """Integrate the reduced model from a pose (at rest unless velocities are given), on the
-    ``support`` ring turned by ``world_q_support`` in a world of ``gravity``
-    (:func:`rrps_loads.support.support_of`; default ring_a upright, 9.81 m/s² down).
+    """Integrate the reduced model from a pose (at rest unless velocities are given) on ``support``
+    (:func:`rrps_loads.support.support_of`), sampled every ``dt`` to ``duration`` (DOP853).
 
-    ``forces``: constant actuator forces (6,) [N] (+ = pushing the rings apart) — the paper's
-    constant-force run — or ``forces(t, ReducedState) -> (6,)``, best smooth in t (the step
-    size adapts: kinks, e.g. of linearly interpolated samples, cost many steps). Samples every
-    ``dt`` from 0 to ``duration`` (a multiple of ``dt``). Integration: scipy's DOP853 (8th
-    order, adaptive) at ``rtol``/``atol`` on the state (r, q, v, omega, W); the quaternion is
-    normalised inside the right-hand side, q_dot = 1/2 (omega, 0) ⊗ q.
+    ``forces``: constant (6,) [N] (+ pushes the rings apart; the paper's constant-force run) or
+    ``forces(t, ReducedState)``, best smooth in t (kinks cost many steps).
     """
     for key, value in (('duration', duration), ('dt', dt)):
         if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):

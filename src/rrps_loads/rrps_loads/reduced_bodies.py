@@ -1,26 +1,11 @@
-"""The moving bodies of the reduced 6-DOF model (:mod:`rrps_loads.reduced`): ring_b's pose and
-what follows from it, and every body's velocity and acceleration for ring_b's twist.
+"""The moving bodies of the reduced 6-DOF model (:mod:`rrps_loads.reduced`): ring_b's pose, and
+every body's velocity and acceleration for ring_b's twist, exact (no finite differences).
 
-Bodies and their exact kinematics *relative to ring_a*, for leg i with universal-joint centre
-a_i (ring_a frame), spherical-joint centre B_i = r + A_c s'_i and leg vector
-d_i = B_i - a_i = L_i u_i (eq. 1):
-
-* ring_b: com r + A_c c_b, angular velocity omega, inertia A_c J'_b A_c^T.
-* lower link: com a_i + c_lower u_i; upper link: com B_i - c_upper u_i (prismatic pair).
-* both links turn together with the universal joint's cross: omega_link = alpha x1_i + beta n_i,
-  x1_i the revolute axis fixed in ring_a, n_i = u_i x x1_i the cross's second axis; u_dot =
-  omega_link x u fixes alpha = -(n.u_dot)/|n|^2 and beta = ((n x u).u_dot)/|n|^2 (no free spin
-  about the leg). Link inertias diag(I_t, I_t, I_axial) with z along the leg are I_t 1 + (I_axial
-  - I_t) u u^T in ring_a's frame, independent of the spin angle.
-
-The supporting ring is the inertial frame. With ring_a supporting these are the motions. With
-ring_b supporting, ring_a moves so that ring_b stays: ring_a's frame turns with -omega, and a
-body at x (ring_a's frame, d = x - r) moves with V = x_dot - v - omega x d, W = w_rel - omega and
-accelerates with a = x_ddot - v_dot - omega_dot x d - 2 omega x (x_dot - v) + omega x (omega x d),
-alpha = w_rel_dot - omega_dot - omega x w_rel (all in ring_a's frame; ring_b's motion vanishes,
-ring_a's is that of a point fixed in it). The leg spin stays tied to ring_a, whose universal
-joints it has. Accelerations follow by differentiating once more (no finite differences). All
-functions take a batch of N poses; the twist arguments broadcast against it.
+Per leg (eq. 1, d_i = B_i - a_i = L_i u_i): ring_b, the lower and upper links, both turning with
+the universal joint's cross, ω_link = α x1_i + β n_i, n_i = u_i × x1_i (no spin about the leg).
+Motions are relative to the supporting ring, in ring_a's frame. With ring_b supporting, ring_a
+moves so that ring_b stays: a body at x (d = x - r) moves with V = ẋ - v - ω × d, W = w_rel - ω,
+a = ẍ - v̇ - ω̇ × d - 2 ω × (ẋ - v) + ω × (ω × d), α = ẇ_rel - ω̇ - ω × w_rel. N poses at once.
 """
 
 from __future__ import annotations
@@ -50,13 +35,9 @@ def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def assembled_pose(geometry: RobotGeometry, position, quaternion_xyzw):
-    """IK of N poses (position (N, 3) or (3,)) checked to be a valid assembly of the model.
-
-    Returns (ik, x1, n): the IK result, each universal joint's fixed axis x1 (6, 3) and
-    n = u × x1 (N, 6, 3). Raises ValueError for a non-RobotGeometry or invalid poses (shapes, NaN,
-    zero quaternion); SingularPoseError (a ValueError too) for a zero-length leg or a locked
-    universal joint (leg along its fixed axis).
-    """
+    """IK of N poses checked to be a valid assembly: (ik, x1 (6, 3), n = u × x1 (N, 6, 3)).
+    Raises ValueError for invalid input, SingularPoseError for a zero-length leg or a locked
+    universal joint."""
     if not isinstance(geometry, RobotGeometry):
         raise ValueError(f'geometry must be a RobotGeometry, got {type(geometry).__name__}')
     p = np.asarray(position, dtype=float)
@@ -127,14 +108,8 @@ class PlatformPose:
 
 @dataclass(frozen=True)
 class BodyMotion:
-    """Com velocities (or accelerations) and angular velocities (or accelerations) of the moving
-    bodies relative to the supporting ring, in ring_a's frame.
-
-    ``ring`` (..., N, 3), ``ring_angular`` (..., N, 3) of the free ring (ring_b when ring_a
-    supports, ring_a when ring_b does), ``lower`` / ``upper`` (..., N, 6, 3) link coms,
-    ``link_angular`` (..., N, 6, 3) shared by each leg's two links, and ``leg_rates`` (..., N, 6)
-    = l_dot (or l_ddot).
-    """
+    """Velocities (or accelerations) of the moving bodies relative to the supporting ring, in ring_a's
+    frame: the free ring's, each leg's link coms and shared angular motion, and ``leg_rates``."""
 
     ring: np.ndarray
     ring_angular: np.ndarray

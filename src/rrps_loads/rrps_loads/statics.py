@@ -1,22 +1,12 @@
-"""Statics of an RRPS robot at rest on either ring (paper eq. 19 at rest), by virtual work.
-
-The supporting ring grips the structure; the other, *free* ring hangs on the six legs. With the
-twist of ring_b relative to ring_a as the six generalized velocities (the twist of the inverse
-Jacobian J, eq. 1), the actuators' wrench J^T f on ring_b at its origin (ring_a's frame) is
-reacted on ring_a as -J^T f, so at rest
+"""Statics of an RRPS robot at rest on either ring (eq. 19 at rest), by virtual work (J of eq. 1)::
 
     ring_a supports:  J^T f = -W_b        ring_b supports:  J^T f = W_a
 
-with W the wrench (about ring_b's origin, ring_a's frame) of everything the free ring carries:
-its weight and payload, the tool wrench when ring_b is free, and each leg's weight. A leg's
-weight reaches the rings at its two joints: with k = (m_l c_l - m_u c_u) / L and g⊥ gravity
-normal to the leg, w_i = m_u g + k g⊥ at the spherical joint (on ring_b) and w'_i = m_l g - k g⊥
-at the universal joint (on ring_a), w_i + w'_i = (m_l + m_u) g: the links' moment balance about
-their joints (the prismatic pair turns the leg as one body, the spherical joint carries no
-moment, and the universal joint's torque has no part along the leg: it vanishes at rest).
-Gravity is the world's, in ring_a's frame at each pose (:mod:`rrps_loads.support`). Forces are
-positive when they push the rings apart; :mod:`rrps_loads.loads` adds the joint reactions. The
-equations are the kernels of :mod:`rrps_loads.compiled_statics` (compiled, or interpreted).
+W: the wrench (about ring_b's origin, ring_a's frame) of what the free ring carries; a leg's weight
+goes w_i = m_u g + k g⊥ to its spherical joint and m_l g - k g⊥ to its universal joint,
+k = (m_l c_l - m_u c_u) / L (g⊥: normal to the leg). Gravity is the world's
+(:mod:`rrps_loads.support`); forces push the rings apart when positive. Kernels:
+:mod:`rrps_loads.compiled_statics`.
 """
 
 from __future__ import annotations
@@ -105,14 +95,8 @@ def static_load(geometry: RobotGeometry, ik: InverseKinematicsResult, support: S
 
 def holding_forces(geometry: RobotGeometry, position, quaternion_xyzw, *, support='ring_a',
                    world_q_support=None, gravity=None) -> np.ndarray:
-    """Actuator forces [N] (6,) holding the robot at rest at a pose, legs included.
-
-    ``position`` (3,) [m] and ``quaternion_xyzw`` (4,) give a_T_b; batches (N, 3), (N, 4) give
-    (N, 6). ``support``: the gripping ring, turned by ``world_q_support`` (x, y, z, w; default
-    upright) in a world of ``gravity`` (default (0, 0, -9.81) m/s²). Raises ValueError for
-    invalid input, SingularPoseError (a ValueError too) for a locked universal joint or a
-    singular pose.
-    """
+    """Actuator forces [N] (6,) holding the robot at rest at a_T_b, legs included; batches give (N, 6).
+    ``support`` turned by ``world_q_support`` (x, y, z, w). Raises ValueError, SingularPoseError."""
     world = support_of(support, world_q_support, gravity)
     single = np.ndim(position) == 1
     ik, _, _ = assembled_pose(geometry, position, quaternion_xyzw)

@@ -1,10 +1,6 @@
-"""The world's loads where the kinematics computes: gravity and the tool wrench in ring_a's frame.
-
-The supporting ring (:class:`rrps_description.world.Support`) is turned by ``world_q_support`` in
-the world, so gravity in its frame is g_s = support_R_world g. With ring_a supporting, ring_a's
-frame is the inertial one and g_a = g_s for every pose; with ring_b supporting, ring_b's frame
-is, and g_a = a_R_b g_s turns with the pose a_T_b. A tool wrench (:class:`ToolWrench`) given in
-the tool frame turns with ring_b; given in the world frame it is fixed in the supporting ring's.
+"""The world's loads where the kinematics computes: gravity and the tool wrench in ring_a's frame,
+for a supporting ring turned by ``world_q_support``; with ring_b supporting, g_a turns with a_T_b.
+A tool wrench in the tool frame turns with ring_b, one in the world frame does not.
 """
 
 from __future__ import annotations

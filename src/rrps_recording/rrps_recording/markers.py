@@ -1,23 +1,11 @@
 """The robot for RViz2 and Foxglove: marker geometry and the transform tree. Pure, no rclpy.
 
-Frames (REP-105): ``odom`` -> ``base_link`` (where odometry places the robot: the world frame
-on the ROS interface, and ring_a's pose in it), then the robot's URDF tree
-(:mod:`rrps_description.urdf`: ``base_link`` -> ``ring_a``, each leg's universal, prismatic and
-spherical joints, ring_b on leg 1's chain, grippers, tool) at the joint values of the pose a_T_b
-(:mod:`rrps_kinematics.urdf_joints`): the link names and transforms robot_state_publisher
-publishes from robot_description and joint_states. A ``frame_prefix`` (``robot_1/``) names every
-frame of one robot, as robot_state_publisher's parameter does, so that several robots share
-/tf. :func:`robot_transforms` gives them as (parent, child, Pose); :func:`world_pose_of_ring_a`
-places ring_a in the world from the odometry of the gripping ring. The recorder's ``/tf`` and
-markers_node's live ``/tf`` and ``/tf_static`` all come from these two.
-
-:func:`robot_markers` describes what ``visualization_msgs/MarkerArray`` draws, as
-:class:`MarkerSpec` values the node converts to messages: in frame ``ring_a`` both rings
-(``rings``), the six legs coloured by their worst margin as the viewer colours them
-(``legs``, :func:`rrps_kinematics.scene.robot_figure`), the grippers (``grippers``: dark closed,
-yellow open, grey unknown) and the commanded target as a ghost ring_b (``ghost``); in frame
-``odom``, when odometry places the robot, the same robot again (namespaces ``odom/...``) and
-the climbed structure (``structure``, :func:`structure_marker`).
+:func:`robot_transforms` gives the REP-105 tree as (parent, child, Pose): ``odom`` -> ``base_link``, then the
+URDF's (:mod:`rrps_description.urdf`) at the joint values of a_T_b (:mod:`rrps_kinematics.urdf_joints`), named as
+robot_state_publisher names them, with ``frame_prefix`` for several robots on one /tf;
+:func:`world_pose_of_ring_a` places ring_a from the gripping ring's odometry. The recorder's and markers_node's
+/tf come from these two. :func:`robot_markers` describes the MarkerArray as :class:`MarkerSpec` values (what it
+draws, in which frames and colours: docs/recording.md, 'Markers and /tf').
 """
 
 from __future__ import annotations

@@ -1,19 +1,10 @@
 """rrps-record: record the rrps topics to a bag folder (``ros2 bag record -s mcap`` for this stack).
 
-    rrps-record                                     # every topic under /rrps, /diagnostics, /tf, /tf_static
-    rrps-record -o session                          # ... to the bag folder session/ (as ros2 bag record -o)
-    rrps-record -o session --max-size 500 --max-duration 600        # split files
+    rrps-record -o session                          # every topic under /rrps, /diagnostics, /tf, /tf_static
     rrps-record --flight-recorder-only -o faults    # only fault dumps, in faults/
-    rrps-record ... --ros-args -p buffer_seconds:=120.0             # any recorder_node parameter
 
-Runs :class:`rrps_recording.nodes.recorder_node.RecorderNode` (its docstring says what is
-recorded and how). ``-o NAME`` names the bag folder itself, as ``ros2 bag record -o NAME`` does
-(default ``rrps_<date>_<time>`` in the current folder), and a folder that exists is refused; it
-holds ``metadata.yaml`` and the MCAP files. The flight recorder's dumps (bag folders
-``flight_<time>_<trigger>``) go beside it, or with ``--flight-recorder-only`` into the folder
-``-o`` names. Ctrl-C closes the current file and completes ``metadata.yaml``. The folder opens in ``ros2
-bag info`` / ``ros2 bag play`` on a ROS 2 Jazzy install and in ``rrps-replay``; each MCAP file
-opens in Foxglove.
+Runs :class:`rrps_recording.nodes.recorder_node.RecorderNode`; ``-o NAME`` names the bag folder, which must not
+exist (the flight recorder's dumps go beside it). Options and layout: docs/recording.md, 'Recording'.
 """
 
 from __future__ import annotations

@@ -1,17 +1,10 @@
 """rrps-replay: publish a recording again (``ros2 bag play`` for this stack).
 
     rrps-replay recordings/rrps_20250101_120000                   # a bag folder, 1x, then waits
-    rrps-replay session/session_0.mcap session/session_1.mcap --rate 4 --exit-at-end
     rrps-replay flight_..._operator --paused --start 30           # the viewer's timeline drives it
-    rviz2 --ros-args -p use_sim_time:=true                        # follows /clock, the replay's time
 
-The command streams (target_pose, actuators/command, teleop/enable, master/target_pose) are
-NOT published on their live names: they go under ``<namespace>/replay/`` so that a running
-driver never acts on a replay. ``--allow-commands`` publishes them live (the robot will move).
-Pause, rate and seek at run time through the replay_node's parameters (``paused``, ``rate``,
-``seek``), which the viewer's timeline sets. Runs
-:class:`rrps_recording.nodes.replay_node.ReplayNode`.
-"""
+Runs :class:`rrps_recording.nodes.replay_node.ReplayNode`. The command streams go under ``<namespace>/replay/``
+(a running driver never acts on a replay) unless ``--allow-commands`` (the robot will move)."""
 
 from __future__ import annotations
 

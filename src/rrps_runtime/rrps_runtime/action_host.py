@@ -1,13 +1,8 @@
 """A node's ROS 2 actions, served whatever executor the node runs on.
 
-rclpy's EventsExecutor (Jazzy, the default of :func:`rrps_runtime.process.run_nodes`) serves no
-action server or client: measured here, a goal request to a server on it never gets its answer.
-So a node's action servers and clients live on a node of their own (``<node>_actions``, in the
-node's namespace and context), spun by a SingleThreadedExecutor in a thread of the process until
-:meth:`ActionHost.close`. Its callbacks run in that thread: what they share with the node's own
-callbacks needs a lock or a hand-over. The node has no parameters of its own (the owner holds
-them), so it starts no parameter services: twelve DDS endpoints fewer for every remote participant
-to discover, over an operator link too.
+rclpy's EventsExecutor serves no action, so a node's action servers and clients live on a node of their own
+(``<node>_actions``, without parameter services) spun by a SingleThreadedExecutor in a thread until
+:meth:`ActionHost.close`. Their callbacks run in that thread: what they share with the node's needs a lock.
 """
 
 from __future__ import annotations

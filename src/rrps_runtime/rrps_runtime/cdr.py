@@ -1,16 +1,8 @@
-"""CDR bytes of the stack's high-rate message types and of ``/tf``, by ``rosbags``' serializer
-(pure, no ROS import).
+"""CDR bytes of the stack's high-rate message types and of ``/tf``, by ``rosbags``' serializer (pure, no ROS import).
 
-A recording tap sends a recorder the CDR bytes of every message its node publishes
-(:mod:`rrps_runtime.recording_tap`), up to 500 a second per stream. Each rclpy message of
-``sensor_msgs/msg/JointState``, ``geometry_msgs/msg/PoseStamped`` or
-``geometry_msgs/msg/WrenchStamped`` is copied into rosbags' class of its type (from rclpy's
-message slots: rosidl_generator_py stores field ``f`` in ``_f``, quicker to read than its
-property) and serialised by rosbags' typestore of ROS 2 Jazzy: little-endian XCDR1 as rclpy and
-MCAP's ``ros2`` profile use it, with zero padding. (rclpy's ``serialize_message`` leaves the
-padding bytes unset and, for some JointStates, 8 bytes past the end, which rosbags' reader
-refuses.) What it costs the stack: benchmarks/recorder.py and tap_cost.py (docs/measurements.md,
-Recording).
+For the recording taps (:mod:`rrps_runtime.recording_tap`): an rclpy message is copied into rosbags' class of its type
+(from rclpy's ``_field`` slots) and serialised as little-endian XCDR1 with zero padding, which rosbags' reader accepts
+(rclpy's ``serialize_message`` leaves the padding unset). Cost: docs/measurements.md, "Recording".
 """
 
 from __future__ import annotations

@@ -9,22 +9,15 @@ __all__ = ['freeze_startup_objects', 'freeze_new_objects', 'thaw']
 
 
 def freeze_startup_objects() -> None:
-    """Move every object alive now (modules, compiled kernels, the nodes, a bus' devices) out of
-    the garbage collector's reach, once a process has started its nodes or its devices.
-
-    A full collection otherwise walks them all with the GIL held, which can take long enough for
-    a 0.1 s command timeout to reject a message queued behind it, or a simulated drive to miss its
-    SYNC (up to 70 ms: docs/measurements.md).
-    """
+    """Move every object alive now out of the garbage collector's reach, once a process has started its nodes or
+    its devices: a full collection would walk them all with the GIL held (docs/measurements.md)."""
     gc.collect()
     gc.freeze()
 
 
 def freeze_new_objects() -> None:
-    """Move the objects built since the last freeze out of the collector's reach too, without a
-    collection (no pause now): a driver calls it once its hardware built a bus, its threads and its
-    devices' object dictionaries. A full collection walked those with the GIL held for up to 70 ms,
-    the bus' cycle stopped meanwhile (docs/measurements.md, CANopen)."""
+    """Move the objects built since the last freeze out of the collector's reach too, without a collection: a
+    driver calls it once its hardware built a bus, its threads and its devices (docs/measurements.md, CANopen)."""
     gc.freeze()
 
 

@@ -1,15 +1,8 @@
-"""The scheduling of a node process' command path, claimed from its nodes' parameters.
+"""The scheduling of a node process' command path, claimed from its nodes' ``rt_priority`` and ``cpu_affinity``.
 
-Each node of the command path declares ``rt_priority`` and ``cpu_affinity``
-(:func:`rrps_runtime.scheduling.scheduling_parameters`). Once a process has built its nodes,
-:func:`claim_command_path` merges their requests (the highest priority, the CPUs of all) and
-claims them for the thread that spins the executor, the threads the executor starts for its
-timers (rclpy's EventsExecutor waits for the next timer in a thread of its own per clock: a
-timer of the command path fires only when that thread runs) and the middleware's delivery
-threads: the threads through which every command of the process passes. Threads the nodes
-started for other work keep the normal policy, and so do the threads the claimed ones start
-later (``SCHED_RESET_ON_FORK``). Every node logs one line with what was granted, and its
-status on /diagnostics carries it (:class:`rrps_interfaces.status.SchedulingStatus`).
+:func:`claim_command_path` merges the nodes' requests and claims them for the threads every command passes through:
+the executor's, its timer threads and the middleware's delivery threads (docs/deployment.md, "Process layout and
+priorities"). Threads started later keep the normal policy; each node logs and reports what was granted.
 """
 
 from __future__ import annotations

@@ -1,12 +1,7 @@
 """A node's status on /diagnostics, with its typed values (:class:`rrps_interfaces.status.StatusValues`).
 
-A status is named ``<node name>: <what>`` (diagnostic_updater's convention, which the analyzers
-of ``rrps_bringup/config/diagnostics/diagnostic_aggregator.yaml`` match), has one of the four
-standard levels (OK, WARN, ERROR, STALE) and a ``hardware_id``: the robot's name for a status
-about the robot (the robot computer's nodes and teleop), else the role of the host it runs on
-(:data:`OPERATOR_STATION`, :data:`OBSERVER`). In a process whose command path claimed its
-scheduling (:mod:`rrps_runtime.command_path`) every status also carries what it got
-(:class:`rrps_interfaces.status.SchedulingStatus`).
+A status is named ``<node name>: <what>``, has a standard level and a ``hardware_id``: the robot's name, else the
+host's role (:data:`OPERATOR_STATION`, :data:`OBSERVER`); see docs/recording.md, "/diagnostics_agg".
 """
 
 from __future__ import annotations

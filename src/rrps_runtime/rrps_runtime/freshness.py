@@ -1,11 +1,5 @@
-"""Staleness of command streams without synchronised clocks, and the ages of received commands.
-
-Pure Python and NumPy, no ROS import::
-
-    freshness = CommandFreshness(timeout)   # one per command stream
-    age = freshness.check(stamp_s, now_s)   # the age [s], or StaleCommand saying why
-    ages = CommandAges()                    # ages over the last 10 s, for /diagnostics
-"""
+"""Staleness of command streams without synchronised clocks (:class:`CommandFreshness`, one per stream), and the ages
+of received commands (:class:`CommandAges`, for /diagnostics). Pure Python and NumPy, no ROS import."""
 
 from __future__ import annotations
 
@@ -59,30 +53,12 @@ class _SenderClock:
 class CommandFreshness:
     """Staleness of one command stream, also when the sender's clock is not the receiver's.
 
-    A command stamped ``stamp`` (sender's clock) received at ``receipt`` (this node's clock)
-    shows d = receipt - stamp = its delay + the offset between the clocks. Each sender clock
-    seen on the stream has an offset: 0 for synchronised clocks (NTP-synchronised hosts, the
-    same machine), else the smallest d of its last ``window`` s (its offset plus the fastest
-    delivery). A command is fresh for a sender when d lies within [offset -
-    ``future_tolerance``, offset + ``timeout``]; its age is d - offset. The policy:
-
-    1. While the stream is live (a command was accepted less than ``switch_silence`` s ago),
-       a command must be fresh for the sender of that stream: anything else is late (a
-       delayed copy, a queue flushing) and refused, also when the delay happens to look like
-       another clock.
-    2. After silence, a command fresh for synchronised clocks or for a sender clock learned
-       before is accepted at once and its sender makes the stream live again.
-    3. Else it comes from a new sender clock (or is late): refused until ``confirm_count``
-       commands spanning ``confirm_time`` s agree on the new clock, which is then learned.
-
-    A receipt-time watchdog completes it: the receiving node holds when no command arrived for
-    ``timeout`` s, whatever the stamps say. Limits (without synchronised clocks the one-way
-    delay cannot be measured, only d): a new sender's first stream is taken as on time, so a
-    delay it carries from its first message on is indistinguishable from a clock offset; and
-    a stream whose every command arrives late for longer than ``switch_silence`` +
-    ``confirm_time`` looks like a sender switch and is learned as a new clock. Single late
-    commands and delays shorter than that are never acted on; the operator station's
-    round-trip measurement (teleop holds above 0.3 s) bounds the rest.
+    A command shows d = receipt - stamp = its delay + the clocks' offset. Each sender clock has an offset (0 for
+    synchronised clocks, else the smallest d of its last ``window`` s); a command is fresh for it when d lies in
+    [offset - ``future_tolerance``, offset + ``timeout``], and its age is d - offset. While the stream is live
+    (a command accepted less than ``switch_silence`` s ago) only its sender's fresh commands pass; after silence a
+    known clock's do; a new clock is learned after ``confirm_count`` commands spanning ``confirm_time`` s. The
+    limits of this (a lasting delay looks like an offset): docs/deployment.md, "Time and command freshness".
     """
 
     def __init__(self, timeout: float, *, future_tolerance: float = 0.05,
@@ -147,13 +123,8 @@ class CommandFreshness:
 
 
 class CommandAges:
-    """Ages [s] of the commands a node received (receipt time minus stamp) over the last
-    ``window`` s: how late the commands reach it (transport plus the receiving executor).
-
-    ``summary()`` gives the count in the window, the stale ones since the start (older than the
-    node's timeout) and the 50th and 99th percentiles and the maximum in milliseconds, for
-    /diagnostics.
-    """
+    """Ages [s] of the commands a node received (receipt time minus stamp) over the last ``window`` s;
+    ``summary()`` gives their count, the stale ones since the start and p50, p99 and max in ms, for /diagnostics."""
 
     def __init__(self, window: float = 10.0, max_samples: int = 10_000):
         if not (window > 0.0 and max_samples > 0):

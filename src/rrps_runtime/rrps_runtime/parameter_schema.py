@@ -1,17 +1,9 @@
 """One declaration per node parameter: name, type, default, unit, range, choices, description.
 
-A node's :class:`NodeParameters` is the single source from which its ROS parameter descriptors
-(:func:`rrps_runtime.parameters.declare_parameters`), its shipped parameter file
-(``rrps_bringup/config/<node>.yaml``, :meth:`NodeParameters.config_yaml`) and the parameter
-table of the docs (:meth:`NodeParameters.markdown`) are generated, as moveit_servo generates
-them with generate_parameter_library. Pure Python, no ROS import::
-
-    PARAMETERS = NodeParameters('ik_node', 'rrps_kinematics', [
-        ROBOT,
-        Parameter('timeout', 0.1, 'a target_pose stamped longer ago is rejected', unit='s',
-                  range=(1e-3, 60.0), dynamic=True),
-        Parameter('target_frame', 'ring_b', "what a target_pose places", choices=('ring_b', 'tool')),
-    ])
+A node's :class:`NodeParameters` is the single source of its ROS parameter descriptors
+(:func:`rrps_runtime.parameters.declare_parameters`), its shipped ``rrps_bringup/config/<node>.yaml``
+(:meth:`NodeParameters.config_yaml`) and its table in docs/parameters.md (:meth:`NodeParameters.markdown`),
+as generate_parameter_library does for moveit_servo. Pure Python, no ROS import.
 """
 
 from __future__ import annotations
@@ -30,13 +22,8 @@ _TYPES = (bool, int, float, str, tuple)
 
 @dataclass(frozen=True)
 class Parameter:
-    """One parameter of a node.
-
-    ``default`` fixes the type (bool, int, float, str, or a tuple of ``item_type``: floats, ints
-    or strings); ``None`` with ``type`` declares a parameter left unset in the shipped file, whose
-    default the node derives (e.g. from the robot). ``range`` bounds a number (inclusive), ``choices`` a string;
-    ``dynamic`` parameters may be set while the node runs (the others are read-only).
-    """
+    """One parameter of a node: ``default`` fixes the type (``None`` with ``type``: unset, the node derives it);
+    ``range`` bounds a number (inclusive), ``choices`` a string; only ``dynamic`` ones may be set while it runs."""
 
     name: str
     default: bool | int | float | str | tuple | None

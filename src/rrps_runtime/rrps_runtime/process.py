@@ -22,10 +22,8 @@ from rrps_runtime.supervision import exit_with_parent
 
 __all__ = ['SHUTDOWN_DEADLINE', 'make_executor', 'spin_until_shutdown', 'run_nodes']
 
-#: Longest a node process takes to shut down [s] once its spin ended: past it every thread's
-#: stack is printed to stderr (where the shutdown hung) and the process exits with status 1. A
-#: process that outlives its supervisor keeps its topics and its hardware busy (a demo's observer
-#: process, killed with the demo, hung in a lock for more than 15 s in a CI run).
+#: Longest a node process takes to shut down [s] once its spin ended: past it every thread's stack is printed to
+#: stderr and the process exits with status 1 (a process outliving its supervisor keeps its topics and hardware busy).
 SHUTDOWN_DEADLINE = 10.0
 
 
@@ -41,28 +39,19 @@ def make_executor(context, kind: str = 'events'):
 
 def spin_until_shutdown(executor, context, stop: threading.Event | None = None, *,
                         period: float = 0.1) -> None:
-    """Spin until the context shuts down, ``stop`` is set, or Ctrl-C.
-
-    rclpy 7.1's EventsExecutor.spin() blocks in C++ and never sees SIGINT (and shutting it down
-    from another thread hangs), so spin in slices of ``period`` s (on a future that never
-    completes: every event of a slice is handled in C++, cheaper than one spin_once per event)
-    and check between them.
-    """
+    """Spin until the context shuts down, ``stop`` is set, or Ctrl-C, in slices of ``period`` s: rclpy 7.1's
+    EventsExecutor.spin() blocks in C++, never sees SIGINT and hangs when shut down from another thread."""
     never = Future()
     while context.ok() and not (stop is not None and stop.is_set()):
         executor.spin_until_future_complete(never, timeout_sec=period)
 
 
 def run_nodes(factories: Sequence[Callable[..., Node]], args=None, *, executor_kind: str = 'events') -> None:
-    """Jazzy ``main()`` pattern: init, spin the nodes in one executor, clean Ctrl-C shutdown.
+    """Jazzy ``main()`` pattern: init, spin the nodes (classes taking ``context=``) in one executor, clean shutdown.
 
-    ``factories`` are node classes (or callables) taking ``context=``. A node that cannot start
-    (an invalid robot description or parameter) prints one line and exits with status 2.
-    SIGINT and SIGTERM end the spin between callbacks (never inside one), then nodes are destroyed,
-    within :data:`SHUTDOWN_DEADLINE`.
-    A process started by :func:`rrps_runtime.supervision.start_child` also stops when its
-    supervisor is gone. The thread that spins claims the scheduling the nodes ask for
-    (:func:`rrps_runtime.command_path.claim_command_path`).
+    A node that cannot start (an invalid robot description or parameter) prints one line and exits with status 2.
+    SIGINT, SIGTERM and the supervisor's death end the spin between callbacks; the spinning thread claims the nodes'
+    scheduling (:func:`rrps_runtime.command_path.claim_command_path`).
     """
     stop = threading.Event()
     exit_with_parent(stop.set)

@@ -1,10 +1,6 @@
-"""The QoS profiles of the rrps topics.
-
-Command streams are best effort, depth 1, with a staleness check in the receiver
-(:mod:`rrps_runtime.freshness`); state and status streams are reliable; a latched topic keeps
-its one message for subscribers that join later. The link topics (:mod:`rrps_interfaces.link`)
-are best effort keep-last-1 for state (the newest sample is all that matters: a lost one is
-replaced by the next, never resent behind it) and latched for events.
+"""The QoS profiles of the rrps topics: commands best effort, depth 1, checked for staleness by the receiver
+(:mod:`rrps_runtime.freshness`); state and status reliable; latched topics transient local; link state best effort
+keep-last-1 (a lost sample is replaced by the next, never resent) and link events latched (:mod:`rrps_interfaces.link`).
 """
 
 from __future__ import annotations

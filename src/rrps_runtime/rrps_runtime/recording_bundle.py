@@ -1,22 +1,11 @@
 """Recording bundles: a node's published messages, batched for a recorder (pure, no ROS import).
 
-A recorder that subscribes to every topic gets a second DDS delivery of every message, and at
-the stack's rates that delivery alone costs more than the recording budget (docs/recording.md,
-docs/measurements.md). A node with a recording
-tap (:mod:`rrps_runtime.recording_tap`) therefore keeps, while a recorder listens, the
-CDR bytes it publishes on its high-rate topics, and sends them every 0.1 s as one bundle on its
-private topic ``~/recording_tap``: one DDS delivery per tenth of a second instead of one per
-message.
-
-A bundle travels as a ``std_msgs/msg/UInt8MultiArray`` (empty layout) whose data is::
+A recording tap (:mod:`rrps_runtime.recording_tap`; docs/recording.md, "Recording taps") sends them every 0.1 s as one
+``std_msgs/msg/UInt8MultiArray`` (empty layout) whose data is, little-endian, times the publisher's wall clock::
 
     MAGIC (8 bytes) | sent time [ns, int64] | node name (uint16 length + UTF-8)
-    | topic count (uint16) | per topic: name, type (each uint16 length + UTF-8)
+    | topic count (uint16) | per topic, every tapped one: name, type (each uint16 length + UTF-8)
     | frames to the end: topic index (uint16), publish time [ns, int64], CDR length (uint32), CDR
-
-little-endian. The topic table lists every topic the node taps, whether or not it published in
-this bundle: the recorder learns from it which topics the node covers. Times are the
-publishing host's wall clock (``time.time_ns``).
 """
 
 from __future__ import annotations

@@ -1,23 +1,9 @@
-"""A node's recording tap: its high-rate publications, batched for a recorder.
+"""A node's recording tap: its high-rate publications, batched for a recorder (docs/recording.md, "Recording taps").
 
-Receiving every message of the stack again, in a separate process, costs a recorder more than
-the recording budget before it writes a byte (docs/recording.md: recording taps).
-A node therefore creates its high-rate publishers through its :class:`RecordingTap`::
-
-    self._tap = RecordingTap(self)
-    self._state_pub = self._tap.create_publisher(JointState, ACTUATORS_STATE, STATE_QOS)
-    self._state_pub.publish(msg)          # as a plain publisher
-
-``publish`` is always the plain publisher's. While a recorder subscribes to the node's
-``~/recording_tap``, it also keeps the message with its publish time, and every
-``FLUSH_PERIOD`` the kept messages go out, as CDR bytes, in one bundle
-(``std_msgs/UInt8MultiArray``) on ``~/recording_tap``, reliable. The subscribers of the topic
-itself see no difference.
-
-The stack's high-rate types (JointState, PoseStamped, WrenchStamped) are kept as messages and
-encoded by :mod:`rrps_runtime.cdr` when the bundle is made, so a node must not change a
-message after publishing it while :attr:`TappedPublisher.tapped`. Other types are serialised
-by rclpy at publish time.
+A node creates those publishers with :meth:`RecordingTap.create_publisher`. While a recorder subscribes to
+``~/recording_tap``, each published message is also kept and every ``FLUSH_PERIOD`` the kept ones go out as one
+bundle (:mod:`rrps_runtime.recording_bundle`). JointState, PoseStamped and WrenchStamped are encoded only then, so a
+node must not change such a message after publishing it while :attr:`TappedPublisher.tapped`.
 """
 
 from __future__ import annotations
@@ -73,12 +59,8 @@ class TappedPublisher:
         return self._tap.active
 
     def publish(self, msg) -> None:
-        """Publish ``msg``; while tapped, keep it for the next bundle.
-
-        A message of a type with a CDR encoder is kept as it is and encoded when the bundle is
-        made, so it must not be changed after it is published (publish a new one instead).
-        Others are serialised now, once: those bytes are published and kept.
-        """
+        """Publish ``msg``; while tapped, keep it for the next bundle (serialised now unless its type has a CDR
+        encoder: then it is encoded with the bundle and must not be changed after it is published)."""
         if not self._tap.active:
             self.publisher.publish(msg)
         elif self._encode is None:
@@ -130,12 +112,8 @@ class RecordingTap:
             self.flush()
 
     def flush(self) -> None:
-        """Send the kept messages as one bundle (an empty one at most every IDLE_PERIOD).
-
-        Encoding here, many messages at a time, is cheaper than encoding each one as it is
-        published (the interpreter's caches are warm). A message that cannot be encoded is left
-        out and logged, never raised into the node's executor.
-        """
+        """Send the kept messages as one bundle (an empty one at most every IDLE_PERIOD). A message that cannot be
+        encoded is left out and logged, never raised into the node's executor."""
         active = self._bundle_pub.get_subscription_count() > 0
         now = time.monotonic()
         with self._flush_lock:

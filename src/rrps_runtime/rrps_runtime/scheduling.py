@@ -1,22 +1,9 @@
-"""The scheduling a node claims for the threads of its command path, as ros2_control's controller
-manager claims ``SCHED_FIFO`` and a CPU set for its update loop (``thread_priority``,
-``cpu_affinity``).
+"""The scheduling a node claims for the threads of its command path (``rt_priority``, ``cpu_affinity``), as
+ros2_control's controller manager claims ``SCHED_FIFO`` and a CPU set for its update loop.
 
-A node of the command path declares :func:`scheduling_parameters` (``rt_priority``: the
-``SCHED_RR`` priority of its cycles, 0 for the normal policy; ``cpu_affinity``: the CPUs they may
-run on, empty for every CPU). :func:`claim` gives a set of threads (by their kernel thread ids)
-that policy, priority and CPU set where the process is permitted (root, ``CAP_SYS_NICE`` or an
-``RLIMIT_RTPRIO`` allowance), else the nice value of :func:`fallback_nice` where that is
-permitted, else nothing; it returns what each thread got (:class:`Granted`). A thread that is not
-on the command path (a worker, a writer) calls :func:`background` to run at the normal policy
-whatever the thread that started it had. Real-time threads are marked ``SCHED_RESET_ON_FORK``:
-a process they start (a worker process, a tool) starts at the normal policy.
-
-Only threads that sleep between their periods may run at a real-time priority: a real-time
-thread that keeps a CPU busy starves every normal process of that CPU until the kernel's
-real-time bandwidth limit (``/proc/sys/kernel/sched_rt_runtime_us``, 950 ms of each second) stops
-all real-time threads of the CPU for the rest of the second (docs/measurements.md). Linux only
-(elsewhere nothing is claimed and :class:`Granted` says so). Pure Python, no ROS import.
+:func:`claim` gives threads ``SCHED_RR`` (reset on fork) and a CPU set where permitted, else :func:`fallback_nice`,
+and says what they got (:class:`Granted`); :func:`background` returns a thread off the command path to the normal
+policy. Only threads that sleep between periods may run real time (docs/deployment.md). Linux only; no ROS import.
 """
 
 from __future__ import annotations
@@ -182,10 +169,9 @@ def _usable_cpus(cpus: tuple[int, ...]) -> tuple[set[int], str]:
 def claim(request: Request, tids: list[int] | None = None) -> Granted:
     """Give threads ``tids`` (default: the calling thread) the ``request`` as permitted; what they got.
 
-    Real time where permitted, else the nice value of :func:`fallback_nice` where permitted
-    (a lower nice value than the thread's is kept), else the normal policy as it was; the CPU set
-    in each case. A thread that ended meanwhile
-    is skipped, and so is any id that is not a thread of this process."""
+    Real time where permitted, else the nice value of :func:`fallback_nice` where permitted (a lower nice value than
+    the thread's is kept), else the normal policy as it was; the CPU set in each case. Ids that are not (or no longer)
+    threads of this process are skipped."""
     own = set(thread_ids())
     tids = [threading.get_native_id()] if tids is None else [t for t in tids if t in own]
     if not hasattr(os, 'sched_setscheduler'):

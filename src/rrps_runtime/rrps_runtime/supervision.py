@@ -1,23 +1,8 @@
 """Child processes that never outlive their supervisor, their scheduling, and a clean way to stop them.
 
-:func:`start_child` starts a process that the kernel stops (``SIGTERM``) when the process that
-started it dies, however it dies (Linux ``PR_SET_PDEATHSIG``; elsewhere the child's own
-:func:`exit_with_parent` watchdog catches it within a second), so a robot's driver never keeps
-running with nobody watching. :func:`stop_child` asks politely (SIGTERM: the nodes' clean
-shutdown) and kills what is still running after a timeout; :class:`Respawner` restarts children
-that die, as a launch file's ``respawn``.
-
-Scheduling: the robot's command path (driver, IK, FK, climbing) runs with the real-time
-round-robin policy (``SCHED_RR`` at :data:`CONTROL_RT_PRIORITY`, as ros2_control runs its
-control loop), the operator station at :data:`OPERATOR_RT_PRIORITY`, observers at the nice value
-:data:`OBSERVER_NICE`. A child started with a nice value leads its own session and gives that
-session's autogroup (``/proc/self/autogroup``) the same nice value, since with Linux autogroup a
-nice value only ranks a process within its session; terminal Ctrl-C then reaches the supervisor
-only, which stops it. Raising priority needs root or ``CAP_SYS_NICE`` (or an ``RLIMIT_RTPRIO``
-allowance); without them a child runs at the best priority it may have and
-:func:`scheduling_of` tells. Why, and the systemd equivalent: docs/deployment.md.
-
-Pure Python, no ROS import.
+:func:`start_child` (SIGTERM to the child when this process dies), :func:`stop_child` (SIGTERM, then SIGKILL) and
+:class:`Respawner`; the priorities below, and why a prioritised child leads its own session (Linux autogroup):
+docs/deployment.md, "Process layout and priorities" and "Supervision". Pure Python, no ROS import.
 """
 
 from __future__ import annotations
@@ -59,14 +44,9 @@ OBSERVER_NICE = 5
 
 
 def raise_priority(nice: int, *, realtime: int | None = None) -> bool:
-    """Set this process's nice value (lower = more CPU under contention) and, with
-    ``realtime``, the SCHED_RR policy at that priority (threads started later inherit it);
-    without, the normal policy (a child of a real-time process inherits its policy).
-    False when not permitted (a lower nice value or a real-time policy needs root or
-    CAP_SYS_NICE): the process then keeps what it was allowed.
-
-    A process that leads its own session also sets its session's autogroup nice value, so the
-    nice value counts against other sessions too (module docstring)."""
+    """Set this process's nice value and, with ``realtime``, SCHED_RR at that priority (else the normal policy); a
+    session leader also sets its autogroup's nice value. False when not permitted (root or CAP_SYS_NICE needed): the
+    process then keeps what it was allowed."""
     niced = realtime_set = True
     try:
         os.setpriority(os.PRIO_PROCESS, 0, nice)
@@ -144,13 +124,10 @@ def die_with_parent(parent: int) -> None:
 
 def start_child(args: Sequence[str], *, env: dict | None = None, nice: int | None = None,
                 realtime: int | None = None, **popen_kwargs) -> subprocess.Popen:
-    """``subprocess.Popen(args)`` of a child that receives SIGTERM when this process dies,
-    with the nice value ``nice`` if given and the SCHED_RR priority ``realtime`` if given (as
-    permitted, see :func:`raise_priority`), in a session of its own then (its own scheduling
-    group, see the module docstring).
+    """``subprocess.Popen(args)`` of a child that receives SIGTERM when this process dies, with ``nice`` and the
+    SCHED_RR priority ``realtime`` if given (as permitted: :func:`raise_priority`), then in a session of its own.
 
-    Must be called from the main thread (the kernel ties the signal to the forking thread).
-    The child's environment carries :data:`PARENT_PID_ENV` for :func:`exit_with_parent`.
+    Must be called from the main thread (RuntimeError otherwise: the kernel ties the signal to the forking thread).
     """
     if threading.current_thread() is not threading.main_thread():
         raise RuntimeError('start_child must be called from the main thread')
@@ -214,13 +191,9 @@ def exit_with_parent(on_exit, *, period: float = 0.5) -> threading.Thread | None
 
 
 class Respawner:
-    """Children restarted when they die, as a launch file's ``respawn``: ``starters`` maps a
-    name to a function ``start(first: bool) -> Popen`` (``first`` is False for a restart, e.g.
-    to start a driver inactive). At most ``max_restarts`` restarts of a child per ``window``
-    s; beyond that :meth:`poll` reports it as given up and leaves it dead.
-
-    Call :meth:`poll` periodically from the main thread (children are started there).
-    """
+    """Children restarted when they die, as a launch file's ``respawn``: ``starters`` maps a name to
+    ``start(first: bool) -> Popen``; beyond ``max_restarts`` per ``window`` s a child is given up and left dead.
+    Call :meth:`poll` periodically from the main thread."""
 
     def __init__(self, starters, *, max_restarts: int = 3, window: float = 60.0):
         self.starters = dict(starters)

@@ -1,18 +1,9 @@
-"""Heavy work in a process of its own, so that it never holds the interpreter of a control node.
+"""Heavy work in a process of its own, so that it never holds the interpreter (GIL) of a control node.
 
-A node's threads share one interpreter lock (the GIL). A computation of seconds in a worker
-thread (a climbing step's preview on the dynamics, a workspace) holds it between its compiled
-kernels; a control thread of the same process then waits for it, and waits the longer when the
-worker, at the normal policy, is itself preempted by other jobs while it holds the lock: the
-real-time thread inherits the worker's place in the queue for a CPU (docs/measurements.md). A
-:class:`WorkerProcess` runs such work in a child process instead, a ``concurrent.futures``
-executor of one process: ``submit(fn, *args)`` returns a Future resolved in the node's process.
-The child runs at the normal policy (``SCHED_OTHER``, nice :data:`WORKER_NICE`), on every CPU,
-dies with its parent, and is started when the pool is made (``warm_up`` runs there first, e.g.
-to load compiled kernels), so the first job does not wait for an interpreter to start.
-
-``fn`` and its arguments travel pickled: module-level functions and plain data only. Pure
-Python, no ROS import.
+:class:`WorkerProcess` is a one-process ``concurrent.futures`` executor: ``submit(fn, *args)`` returns a Future. The
+child runs at the normal policy (nice :data:`WORKER_NICE`), dies with its parent and is started, ``warm_up`` run,
+when the pool is made. ``fn`` and its arguments travel pickled: module-level functions and plain data only.
+Why: docs/deployment.md, "Process layout and priorities". Pure Python, no ROS import.
 """
 
 from __future__ import annotations

@@ -1,21 +1,8 @@
 """Actuator models of the simulated hardware: kinematic (lag + limits) and dynamic (PD on eq. 19).
 
-Pure NumPy, no ROS import. Both models take a reference (commanded lengths [m]) and advance by
-``dt`` [s]; both expose ``positions`` [m], ``velocities`` [m/s] and ``efforts`` [N]::
-
-    act = KinematicActuators(min_position, max_position, max_speed, time_constant, initial)
-    act.step(reference, dt)                 # first-order lag, speed and stroke limits
-    dyn = DynamicActuators(geometry, initial_lengths)
-    dyn.step(reference, dt)                 # multibody dynamics with a PD force loop per leg
-
-Position-controlled actuators report the quasi-static forces of :class:`QuasiStaticEfforts`.
-Both compute in the world gravity of the supporting ring's attitude (``support``, a
-:class:`~rrps_description.world.Support`; default ring_a upright) and follow a gripper change
-with ``set_support(ring)`` (:func:`rrps_description.world.handed_over`).
-
-Fault injection: ``stuck`` (per axis: the actuator ignores commands and keeps its length) on
-both models, and :class:`SensorFaults` (Gaussian noise on the measured lengths, dropped
-messages) applied by the driver to what it publishes.
+Pure NumPy, no ROS import. Lengths [m], speeds [m/s], efforts [N], ``dt`` [s]. Both compute in the
+world gravity of the supporting ring's attitude and follow a gripper change with ``set_support``;
+``stuck`` axes ignore commands; the driver applies :class:`SensorFaults` to what it publishes.
 """
 
 from __future__ import annotations
@@ -41,13 +28,8 @@ def _vector(value, n: int, name: str) -> np.ndarray:
 
 
 class KinematicActuators:
-    """Position-controlled actuators: a first-order lag toward the reference, then speed and
-    stroke limits, per axis.
-
-    ``x' = (r - x) / tau`` integrated exactly over dt (``tau = 0``: no lag), the step clipped
-    to ``max_speed * dt``, the reference clipped to ``[min_position, max_position]``.
-    Arrays (n,) or scalars broadcast over ``initial`` (n,); ``max_speed`` may be inf.
-    """
+    """Position-controlled actuators: per axis, a first-order lag toward the reference (``tau = 0``:
+    none), then speed and stroke limits; arrays (n,) or scalars, ``max_speed`` may be inf."""
 
     def __init__(self, min_position, max_position, max_speed, time_constant: float, initial):
         x0 = np.asarray(initial, dtype=float)
@@ -97,12 +79,8 @@ class KinematicActuators:
 class DynamicActuators:
     """The six legs as force actuators on the multibody dynamics (eqs. 19-20).
 
-    A :class:`KinematicActuators` shapes the reference (stroke and speed limits, lag); each leg's
-    force is ``f = f_g + kp (r - L) + kd (r' - L')`` saturated at ``geometry.max_force``, with
-    ``f_g`` the static holding forces (gravity feed-forward, :func:`rrps_loads.statics.holding_forces`)
-    at the current pose, refreshed every ``feedforward_period`` s. The dynamics is stepped in
-    sub-steps of at most ``max_step`` s with the force held over each. ``efforts`` = forces [N].
-    """
+    Each leg's force ``f = f_g + kp (r - L) + kd (r' - L')`` [N], saturated at ``max_force``, with
+    ``f_g`` the gravity feed-forward (:func:`rrps_loads.statics.holding_forces`); ``efforts`` = forces."""
 
     def __init__(self, geometry: RobotGeometry, initial_lengths, *, kp: float = 1.0e5,
                  kd: float = 1.0e3, time_constant: float = 0.0, max_speed: float | None = None,
@@ -197,13 +175,8 @@ class DynamicActuators:
 
 
 class QuasiStaticEfforts:
-    """Efforts [N] of position-controlled (kinematic) actuators: the statics of eq. 19 at rest.
-
-    The forces that hold the current pose against gravity (legs included,
-    :func:`rrps_loads.statics.holding_forces`) at the pose found by FK from the current lengths,
-    refreshed at most every ``period`` s (an FK and a statics solve per refresh). A pose where FK
-    fails or the Jacobian is singular keeps the previous efforts.
-    """
+    """Efforts [N] of position-controlled actuators: the statics of eq. 19 at the pose found by FK,
+    refreshed at most every ``period`` s; a pose where FK or the statics fail keeps the previous ones."""
 
     def __init__(self, geometry: RobotGeometry, initial_lengths, *, period: float = 0.2,
                  support: Support | None = None):

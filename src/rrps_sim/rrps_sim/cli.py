@@ -1,32 +1,9 @@
-"""``rrps-dynamics``: multibody dynamics, statics and the paper's cost figures from the shell.
+"""``rrps-dynamics``: multibody dynamics, statics and the paper's cost figures (Figures 6 and 7).
 
-    rrps-dynamics simulate --robot R [--position x,y,z] [--quaternion qx,qy,qz,qw]
-        --forces f1,...,f6|hold --duration 0.5 --dt 0.001 --method {baumgarte,partitioning,hybrid}
-        [--npz out.npz] [--csv out.csv] [--plot out.png] [--output-every N] [--reactions] [WORLD]
-    rrps-dynamics statics --robot R [--position x,y,z] [--quaternion qx,qy,qz,qw] [--json] [WORLD]
-    rrps-dynamics inverse --robot R --trajectory traj.csv --csv forces.csv [WORLD]
-    rrps-dynamics report  --robot R [--out-dir DIR] [--method M]     (Figures 6 and 7)
-
-WORLD: ``--support ring_a|ring_b --support-quaternion QX,QY,QZ,QW --gravity GX,GY,GZ``, the
-payload and the tool wrench (:mod:`rrps_sim.cli_world`); the default is ring_a gripping, upright.
-
-``--robot`` takes a shipped robot name (default ``pole_climber``) or a YAML path; the pose
-defaults to the robot's home pose. Poses are a_T_b (ring_b in ring_a's frame), SI units, ROS
-(x, y, z, w) quaternions; forces are positive when they push the rings apart. Long runs show
-their progress on stderr. ``simulate --npz`` writes NumPy's ``.npz`` archive, one float64 array
-per column named as the CSV's header (``numpy.load(path)['t']``): the bulk output, a binary
-dump of the run. The CSVs written (``numpy.savetxt``) have a header row and each value as
-Python's ``repr`` writes it (the shortest decimal that reads back to the same double). The ``inverse`` trajectory
-is a CSV with a header row: columns t,x,y,z,qx,qy,qz,qw (a_T_b at time t), optionally ring_b's
-velocity vx,vy,vz,wx,wy,wz (origin velocity [m/s] and angular velocity [rad/s], ring_a's frame)
-and acceleration ax,ay,az,dwx,dwy,dwz (their rates); what is missing is differentiated from the
-samples.
-Exit status (one error line on stderr unless 0):
-
-* 0 done;
-* 1 the computation failed: a singular pose or configuration, a solve that did not converge;
-* 2 bad arguments, an unreadable input file or a malformed trajectory;
-* 3 an unexpected error (a bug), printed with its traceback.
+Subcommands ``simulate``, ``statics``, ``inverse`` and ``report``; the world and load options are
+:mod:`rrps_sim.cli_world`'s. Poses are a_T_b, SI units, ROS (x, y, z, w) quaternions; forces push
+the rings apart when positive. Usage, file formats and exit status: docs/usage.md,
+'Command-line tools'.
 """
 
 from __future__ import annotations
@@ -325,7 +302,7 @@ def _report(g: RobotGeometry, args) -> list[str]:
 
 
 def run(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; returns the exit status (see the module docstring)."""
+    """Run the command line; returns the exit status (docs/usage.md, 'Command-line tools')."""
     argv = list(sys.argv[1:] if argv is None else argv)
 
     def body() -> list[str]:

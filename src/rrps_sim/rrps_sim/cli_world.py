@@ -1,16 +1,5 @@
-"""The world and load options of ``rrps-dynamics`` statics, simulate and inverse, and the statics'
-report (text or JSON).
-
-    --support ring_a|ring_b            the gripping ring (default ring_a)
-    --support-quaternion QX,QY,QZ,QW   its attitude in the world (default upright: identity)
-    --gravity GX,GY,GZ                 the world's gravity [m/s^2] (default 0,0,-9.81)
-    --payload-mass KG --payload-com X,Y,Z --payload-ring ring_a|ring_b
-                                       a point-mass payload, com in that ring's frame [m]
-                                       (replaces the robot's payload)
-    --tool-force FX,FY,FZ --tool-torque TX,TY,TZ --tool-frame tool|world
-                                       a wrench on the tool-centre point [N, N m] (replaces the
-                                       robot's tool wrench), in the tool frame (default) or the
-                                       world frame
+"""The world and load options of ``rrps-dynamics`` statics, simulate and inverse (support, gravity,
+payload, tool wrench; see ``--help`` and docs/usage.md), and the statics' report (text or JSON).
 """
 
 from __future__ import annotations

@@ -1,10 +1,5 @@
-"""The paper's Figures 6 and 7 reproduced (``rrps-dynamics report``), and the plot of a run.
-
-Figure 6: multibody direct kinematics (eqs. 11-12, 91 coordinates) along an 800 mm climb of a
-curved trunk in 11 phases: Newton iterations, flops, time and the solutions found per phase.
-Figure 7: the direct dynamics (eqs. 19-20) under constant actuator forces from rest: the motion
-and the cost of each integration step (flop model and wall time).
-"""
+"""The paper's Figures 6 (direct kinematics, eqs. 11-12, along an 800 mm climb in 11 phases) and 7
+(direct dynamics, eqs. 19-20, and its cost per step) reproduced (``rrps-dynamics report``); a run's plot."""
 
 from __future__ import annotations
 
@@ -77,14 +72,9 @@ def plot_simulation(res: SimulationResult, path: Path, title: str) -> None:
 
 
 def climb_poses() -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
-    """Figure 6's climb: a_T_b for the start and after each of the 11 phases.
-
-    The robot climbs a trunk whose axis is a planar curve of curvature κ(s) = κ0 + κ1 s. Each
-    phase moves one ring 800/11 mm along the trunk (ring_b on odd phases, ring_a on even ones)
-    while the other grips, so the moving ring travels 800 mm in total; a ring's frame has its z
-    axis along the trunk. Returns positions (12, 3), quaternions (12, 4), the world positions of
-    ring_a and ring_b (12, 2, 3) and which ring moved in each phase.
-    """
+    """Figure 6's climb: a_T_b at the start and after each of the 11 phases, each moving one ring
+    800/11 mm along a trunk of curvature κ(s) = κ0 + κ1 s (ring_b on odd phases). Returns positions
+    (12, 3), quaternions (12, 4), both rings' world positions (12, 2, 3) and the ring moved per phase."""
     step = CLIMB_DISTANCE / CLIMB_PHASES
     s_fine = np.linspace(0.0, 3.0, 30001)
     k0, k1 = CLIMB_CURVATURE

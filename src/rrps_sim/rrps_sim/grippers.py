@@ -1,22 +1,9 @@
 """The two grippers of a climbing robot, with the interlock that keeps it on the structure.
 
-Pure Python, no ROS import. A ring's gripper is closed (gripping the structure) or open; the
-robot must always grip with at least one ring, so opening one ring is refused while the other
-is open (the paper's climbing gait alternates: close the free ring, then open the other)::
-
-    grippers = Grippers({'ring_a': 'clamp', 'ring_b': 'clamp'})   # both closed at start
-    ok, message = grippers.set('ring_b', close=False)             # open ring_b: accepted
-    ok, message = grippers.set('ring_a', close=False)             # refused: ring_b is open
-
-With ``times`` (each ring's :class:`~rrps_description.motion_limits.GripperTime`, the robot
-description's ``gripper_time``) a gripper takes that long to open or close: its travel moves
-towards its command at 1/open or 1/close per second as :meth:`Grippers.update` steps the time,
-and its sensor (:attr:`Grippers.closed`, what the grippers/state reports) reads closed while
-the gripper is fully closed or still opening, open while it is fully open or still closing: a
-switch shows once it is complete. The interlock reads the sensors and the commands: a ring
-opens only while the other ring's sensor reads closed and it is commanded closed (so a ring
-still opening, whose sensor reads closed yet, does not count; one commanded closed reads closed
-only once fully closed). Without ``times`` a gripper switches at once.
+Pure Python, no ROS import. Opening a ring is refused unless the other ring's sensor reads closed
+and it is commanded closed (:meth:`Grippers.set` returns (ok, message)). With ``times`` (the
+description's ``gripper_time``) a gripper takes that long to switch, stepped by
+:meth:`Grippers.update`, and its sensor (:attr:`Grippers.closed`) shows a switch once complete.
 """
 
 from __future__ import annotations

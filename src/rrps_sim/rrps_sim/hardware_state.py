@@ -1,15 +1,6 @@
-"""The simulated robot's physical state on disk, so that it survives its driver.
-
-A real robot stays where it is when its driver process dies: its legs keep their lengths, an
-open gripper stays open. The simulated driver therefore keeps its hardware state in a small JSON
-file (written atomically: a crash never leaves half a file) and a restarted driver resumes it,
-never teleporting to the home pose or reporting a gripper closed that was open::
-
-    state = HardwareState(robot='pole_climber', lengths=..., rings=(), grippers={...})
-    save_state(path, state)
-    state = load_state(path, geometry)        # None when there is no file yet
-
-Pure Python, no ROS import.
+"""The simulated robot's physical state on disk (JSON, written atomically), so that a restarted
+driver resumes it, as a real robot stays where it is (docs/deployment.md, 'Activation after a
+restart'). :func:`load_state` returns None when there is no file yet. Pure Python, no ROS import.
 """
 
 from __future__ import annotations

@@ -1,25 +1,10 @@
 """Preview of a planned climbing step on the 13-body DAE (eqs. 19-20): the peak loads before it runs.
 
-A step is a sequence of motions, each made while one gripper holds (:class:`PreviewMotion`): the
-supporting ring is grounded with its world attitude, under the world's gravity, the payload and
-the tool wrench of the robot (:class:`~rrps_sim.dynamics.MultibodyDynamics` with ``support``).
-At each grip hand-over the support switches: every motion starts at rest at its first pose, on
-its own ring (ring_a holds while ring_b moves, then the reverse).
-
-The legs are driven as the driver's dynamic mode drives them
-(:class:`rrps_sim.actuators.DynamicActuators`, compiled in :mod:`rrps_sim.dynamics.driven`): the
-commanded lengths (the motion's poses by IK, one every command period) made the driver's
-jerk-limited setpoints (:func:`rrps_hardware.setpoints.stream_setpoints`, every driver period)
-and shaped by the actuators' lag and speed limit, and each leg's force ``f = f_g + kp (r - L) + kd (r' - L')``,
-``f_g`` the static holding forces on the support, refreshed every ``feedforward_period`` (at the
-commanded pose, where the driver takes the measured one: they differ by the tracking error); a
-force beyond ``max_force`` breaks the limit. After its last command, a motion is held ``settle``
-s, as the step waits for the arrival.
-
-At each refresh of the feed-forward, the multipliers of eq. 19 give the structure's wrench on the
-supporting ring (:func:`rrps_loads.loads.support_wrench`) and its holding margin
-(:func:`rrps_loads.loads.holding_margin`). :func:`preview_step` returns the peaks
-(:class:`PreviewResult`). Pure NumPy (and the compiled dynamics); no ROS import.
+Each motion (:class:`PreviewMotion`) starts at rest on its own supporting ring, in the world's
+gravity with the robot's payload and tool wrench; the legs are driven as the driver's dynamic
+mode drives them (:mod:`rrps_sim.dynamics.driven`). The multipliers of eq. 19 give the support's
+wrench and holding margin (:mod:`rrps_loads.loads`); see docs/architecture.md, 'rrps_sim'.
+Pure NumPy (and the compiled dynamics); no ROS import.
 """
 
 from __future__ import annotations
@@ -85,15 +70,9 @@ class PreviewMotion:
 
 @dataclass(frozen=True)
 class PreviewResult:
-    """The peaks over a previewed step.
-
-    ``peak_force`` [N]: the largest |force| a drive was asked for, on ``peak_leg`` (1..6) in
-    ``peak_force_at``; ``peak_reaction_force`` [N] and ``peak_reaction_moment`` [N m] (about the
-    ring's origin): the largest structure's wrench on a supporting ring; ``min_margin``: the
-    smallest holding margin (1 - utilisation; NaN when no gripper gives a capacity), of
-    ``min_margin_ring`` in ``min_margin_at``. ``limit``: the first limit broken (None: none),
-    ``detail`` in words. ``simulated`` [s] of robot time, ``wall`` [s] it took.
-    """
+    """The peaks over a previewed step: the largest asked drive force [N] (leg 1..6, time), the largest
+    structure's wrench on a supporting ring [N, N m], the smallest holding margin (NaN without a
+    gripper capacity), the first limit broken (None: none) with its ``detail``, and the times [s]."""
 
     peak_force: float
     peak_leg: int
@@ -144,13 +123,9 @@ def preview_step(geometry: RobotGeometry, motions: Sequence[PreviewMotion], *, g
                  drives: Drives = Drives(), dt: float = 0.001, settle: float = 0.2,
                  min_margin: float = 0.0, correction_tolerance: float = 1e-8,
                  cancelled: Callable[[], bool] | None = None) -> PreviewResult:
-    """Simulate the ``motions`` of a step (module docstring) with steps of ``dt`` [s] in a world
-    of ``gravity`` (default (0, 0, -9.81) m/s²) and return their peaks. A limit is broken when a
-    drive is asked for more than the robot's ``max_force`` or a holding margin falls below
-    ``min_margin``. ``correction_tolerance``: the hybrid integrator's drift bound.
-    ``cancelled()`` is polled between batches: True stops the preview (PreviewError).
-
-    Raises ValueError for invalid input, PreviewError when the dynamics fails on the way."""
+    """Simulate a step's ``motions`` (steps of ``dt`` [s]) and return their peaks; a limit is broken past
+    ``max_force`` or below ``min_margin``. ``cancelled()`` is polled between batches. Raises ValueError
+    for invalid input, PreviewError when the dynamics fails or the preview is cancelled."""
     if not (math.isfinite(dt) and dt > 0.0):
         raise ValueError(f'dt must be a positive number of seconds, got {dt!r}')
     if not (math.isfinite(settle) and settle >= 0.0):

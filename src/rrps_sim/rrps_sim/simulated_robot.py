@@ -1,24 +1,10 @@
 """The simulated robot behind the hardware interface: actuators, ring DOFs, grippers, faults.
 
-Modes (parameter ``mode``): ``kinematic`` (:class:`rrps_sim.actuators.KinematicActuators`: lag,
-speed and stroke limits; efforts = the quasi-static holding forces of the pose, refreshed at 5 Hz)
-and ``dynamic`` (:class:`rrps_sim.actuators.DynamicActuators`: the multibody dynamics of eqs. 19-20
-with a PD force loop per leg, efforts = forces [N]). ``write`` advances the simulation by its
-``period``, the legs along the commands' jerk-limited setpoints (Ruckig's); ``read`` measures it
-(with :class:`rrps_sim.actuators.SensorFaults`). Efforts and dynamics are in the world's gravity:
-ring_a's attitude in the world while it grips (``world_q_support`` at the start, from the
-structure's grip frame), handed over to ring_b while ring_b alone grips (and back) through the
-measured pose, and replaced by the odometry's attitude of the supporting ring when the driver hands
-one over (:meth:`SimulatedRobot.set_support`); ``payload_mass`` > 0 puts a point-mass payload on a
-ring in place of the robot's own. The grippers take the robot description's open and close
-times (:class:`rrps_sim.grippers.Grippers`): their state switches once the gripper got there.
-
-The simulated robot outlives its driver as a real one would: cleanup and configure keep it where it
-is, and with ``state_file`` its physical state (lengths, ring angles, grippers) is kept on disk
-(:mod:`rrps_sim.hardware_state`, written by a thread of its own every 0.1 s of ``time`` when it
-changed, and at once when a gripper switched), so that a restarted driver resumes it. Faults for
-tests: ``stuck_legs``, ``sensor_noise``, ``drop_probability`` (run-time parameters) and
-:meth:`SimulatedRobot.inject_fault` (a latched actuator fault, a lost bus).
+``mode`` ``kinematic`` (:class:`rrps_sim.actuators.KinematicActuators`, quasi-static efforts) or
+``dynamic`` (:class:`rrps_sim.actuators.DynamicActuators`, eqs. 19-20); ``write`` advances it by its
+period along jerk-limited setpoints, ``read`` measures it. Gravity follows the supporting ring
+(docs/architecture.md, 'The supporting ring's attitude'); the state survives the driver
+(:mod:`rrps_sim.hardware_state`); :meth:`SimulatedRobot.inject_fault` latches faults for tests.
 """
 
 from __future__ import annotations

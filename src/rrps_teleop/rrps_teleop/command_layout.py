@@ -1,12 +1,6 @@
-"""The flat layout of a guarded teleop command and the outcome codes of a guarded step.
-
-Shared by the reference guards in :mod:`rrps_teleop.mapping` and the compiled ones in
-:mod:`rrps_teleop.compiled_guards` (plain integers, so that numba compiles them as constants).
-A command is one float64 array of ``COMMAND_SIZE``: ring_b's position in ring_a [m] at 0, its unit
-quaternion (x, y, z, w) at ``QUATERNION``, the six leg lengths [m] at ``LENGTHS``, the margins of
-:class:`rrps_kinematics.limits.PoseMargins` (stroke, universal and spherical joint angles per leg,
-interference per leg pair) and the inverse condition number of the Jacobian.
-"""
+"""The flat layout of a guarded teleop command (one float64 array of ``COMMAND_SIZE``: ring_b's
+position in ring_a [m], its (x, y, z, w) quaternion, the leg lengths [m], the PoseMargins and the
+inverse condition number) and the outcome codes of a guarded step, as constants numba compiles."""
 
 QUATERNION = 3
 LENGTHS = 7

@@ -1,13 +1,7 @@
-"""The kernels of the teleop guards: one whole guarded step, with no Python between its solves.
-
-The steps of :mod:`rrps_teleop.mapping`: the speed limits, the warm-started FK of the candidate
-lengths (joint mode), the leg-speed re-scaling (Cartesian mode), the deceleration near a
-singularity or leg-leg interference, and the refusal of a step that makes a margin negative or a
-negative one smaller. Compiled by numba, or interpreted (:mod:`rrps_kinematics.backend`).
-
-A command lives in one flat float64 buffer (layout ``COMMAND_SIZE`` and the slices below):
-ring_b's position in ring_a [m], its unit quaternion (x, y, z, w), the leg lengths [m], then
-every margin of :class:`rrps_kinematics.limits.PoseMargins` and the inverse condition number.
+"""The kernels of the teleop guards: one whole guarded step (:mod:`rrps_teleop.mapping`'s speed
+limits, deceleration bands and refusal, with the FK or leg-speed scaling of its mode), with no
+Python between its solves; the command in the flat buffer of :mod:`rrps_teleop.command_layout`.
+Compiled by numba, or interpreted (:mod:`rrps_kinematics.backend`).
 """
 
 from __future__ import annotations

@@ -1,35 +1,12 @@
-"""Virtual fixture: the slave's limits felt on the master as a feedback wrench (paper section 3.1).
+"""Virtual fixture: the slave's limits felt on the master as a feedback wrench (§3.1).
 
-The paper's master robot is how the operator copes with the singularities and the reachable
-spaces of the slave. Where the teleop guards (:mod:`.mapping`) slow down and halt the slave,
-this fixture lets the operator feel the limits coming: a wrench on the master's ring_b that
-pushes back towards the inside of the slave's workspace. Pure NumPy, no ROS import::
-
-    w = fixture_wrench(slave, position, quaternion_xyzw, FixtureConfig())   # slave a_T_b
-    w.force, w.torque, w.dominant          # [N], [N m] in ring_a's frame; the strongest limit
-    force, torque = master_wrench(w, translation_scale=4.0, force_scale=0.5)
-
-For each limit kind (``stroke`` [m], ``universal`` and ``spherical`` [rad], ``interference``
-[m], ``conditioning`` [-], the margins of :func:`rrps_kinematics.limits.margins`) whose
-smallest margin m is below its activation distance d:
-
-* magnitude ``F = min(stiffness * (d - m) / d, max_force)``: 0 at m = d, ``stiffness`` at the
-  limit (m = 0), growing beyond it;
-* direction: the gradient, with respect to the twist of ring_b (translation dp [m] and small
-  rotation dtheta [rad], both in ring_a's frame, the rotation about ring_b's origin: the
-  convention of :mod:`rrps_kinematics.jacobian`), of the kind's soft minimum
-  ``-tau log sum_i exp(-m_i / tau)`` over its legs (or leg pairs) i, tau = 0.1 d. That is the
-  smallest margin's gradient where one leg is clearly the closest to its limit, and a weighted
-  average of the closest legs' gradients where several are nearly so: a symmetric pose gets a
-  symmetric push, and the direction turns smoothly when another leg becomes the closest. Each
-  m_i is differentiated by central finite differences of the margins on the pose. The gradient
-  is taken in the metric (dp, L dtheta), L the robot's characteristic length, and normalised to
-  n = (n_f, n_t); the kind contributes the force ``F n_f`` [N] and the torque ``F L n_t``
-  [N m]. A small step of the pose along the wrench (dp proportional to the force, dtheta to
-  the torque / L^2) increases the soft minimum.
-
-The kinds add up; the total is scaled down, direction kept, so that |force| <= max_force and
-|torque| <= max_torque. ``dominant`` names the kind with the largest push.
+:func:`fixture_wrench` gives the wrench [N, N m] in ring_a's frame that pushes the slave's ring_b
+back inside its workspace: per limit kind of :func:`rrps_kinematics.limits.margins` whose smallest
+margin m is below its activation distance d, ``F = min(stiffness (d - m) / d, max_force)`` along
+the gradient of the kind's soft minimum ``-tau log sum_i exp(-m_i / tau)`` (tau = 0.1 d) with
+respect to ring_b's twist (:mod:`rrps_kinematics.jacobian`'s convention), torque over the robot's
+length L. The kinds add up, scaled to ``max_force`` and ``max_torque``; :func:`master_wrench`
+maps it to the master. Pure NumPy, no ROS import; see docs/architecture.md, 'rrps_teleop'.
 """
 
 from __future__ import annotations
@@ -64,15 +41,8 @@ SOFTMIN_FRACTION = 0.1
 
 @dataclass(frozen=True)
 class FixtureConfig:
-    """Fixture parameters (SI units); validated on construction (ValueError).
-
-    ``activation``: distance per limit kind below which it pushes, in the margins' units; kinds
-    left out keep their DEFAULT_ACTIVATION, 0 turns a kind off. Keep it well below the margins'
-    largest values (half the stroke, the joint cone angles, the spacing of neighbouring anchors
-    minus the leg diameter), where they peak and have no direction to push in. ``stiffness`` [N]: the push of
-    one kind at its limit. ``max_force`` [N], ``max_torque`` [N m]: saturation of each kind's
-    push and of the total wrench.
-    """
+    """Fixture parameters (SI units); validated on construction (ValueError). ``activation`` per limit
+    kind (0: off; keep it well below the margins' peaks), ``stiffness`` [N] the push at a limit."""
 
     activation: Mapping[str, float] = field(default_factory=lambda: dict(DEFAULT_ACTIVATION))
     stiffness: float = PARAMETERS['fixture_stiffness'].default
@@ -166,17 +136,9 @@ def fixture_wrench(geometry: RobotGeometry, position, quaternion_xyzw,
 
 def master_wrench(wrench: FixtureWrench, *, translation_scale: float,
                   force_scale: float) -> tuple[np.ndarray, np.ndarray]:
-    """The fixture wrench to apply to the master's ring_b: (force [N], torque [N m]) in
-    master_ring_a's frame, the torque about the master ring_b's origin.
-
-    The master is a copy of the slave scaled down by ``translation_scale`` s (slave translation
-    = s x master translation), with master_ring_a's axes aligned with ring_a's and rotations
-    mapped one to one (:mod:`.mapping`), so a direction on the slave is the same direction on
-    the master. The force is scaled by ``force_scale`` c (what the operator should feel per
-    newton of the fixture) and the torque by c / s: the wrench keeps its line of action in the
-    scaled-down geometry (lever arms are s times shorter on the master), so the operator is
-    pushed at the place that corresponds to the slave's. ValueError unless s, c are finite > 0.
-    """
+    """The fixture wrench on the master's ring_b: (force [N], torque [N m]) in master_ring_a's frame,
+    about the master ring_b's origin. The force is scaled by ``force_scale`` c, the torque by c / s
+    (s = ``translation_scale``), keeping the line of action. ValueError unless s, c are finite > 0."""
     s = validate_scale(translation_scale, 'translation_scale')
     c = validate_scale(force_scale, 'force_scale')
     return c * wrench.force, (c / s) * wrench.torque

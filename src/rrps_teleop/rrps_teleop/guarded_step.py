@@ -1,10 +1,6 @@
-"""One guarded teleop step of a slave robot, through the guard kernels (paper section 3.1).
-
-:class:`GuardedStep` binds the kernels of :mod:`rrps_teleop.compiled_guards` (compiled by numba,
-or interpreted with ``backend='numpy'`` or ``RRPS_NUMBA=0``) to one robot's limits: it steps from
-the last command towards a mapped target (Cartesian pose or leg lengths), applies the speed
-limits, the deceleration bands and the halt, then the load guards (:mod:`rrps_teleop.load_guard`),
-and says with a :class:`TeleopCode` what limited the step.
+"""One guarded teleop step of a slave robot (§3.1): :class:`GuardedStep` binds the kernels of
+:mod:`rrps_teleop.compiled_guards` and the load guards (:mod:`rrps_teleop.load_guard`) to one
+robot's limits and says with a :class:`TeleopCode` what limited the step.
 """
 
 from __future__ import annotations

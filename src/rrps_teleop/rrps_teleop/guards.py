@@ -1,10 +1,5 @@
-"""A guarded teleop command, and the pose a fraction of the way between two poses.
-
-The guarded steps themselves are the kernels of :mod:`rrps_teleop.compiled_guards`: a step goes
-from the last command towards a mapped target with the codes of :mod:`rrps_teleop.command_layout`;
-the speed limits scale it, the deceleration bands near a singularity or leg interference scale
-it further when it approaches them, and it is refused at the first margin it makes negative (or,
-where already negative, smaller).
+"""A guarded teleop command, and the pose a fraction of the way between two poses; the guarded steps
+themselves are the kernels of :mod:`rrps_teleop.compiled_guards`.
 """
 
 from __future__ import annotations

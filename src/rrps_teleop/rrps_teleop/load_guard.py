@@ -1,19 +1,9 @@
 """The teleop load guards: slow down near, and halt at, the actuator force limit and a holding
 margin of zero, as the stroke and conditioning guards do (:mod:`rrps_teleop.guards`).
 
-Each step the kinematic guards accepted goes on to the loads at rest (paper eq. 19 at rest, the
-statics of :mod:`rrps_loads.loads`) of the slave on its supporting ring, with its payload and tool
-wrench. Two margins, as fractions:
-
-* force: 1 - max_i |f_i| / max_force (1 when the actuators have no force limit);
-* holding: 1 - the supporting gripper's utilisation (:func:`rrps_loads.loads.holding_margin`;
-  +inf when the robot gives no capacity).
-
-When the step lowers a margin that is already inside its band (``force_slowdown``,
-``holding_slowdown``), the step is scaled by the remaining fraction of the band (moving back
-out is at full speed), down to a halt at zero; a step that makes a margin negative, or a
-negative one smaller, is refused. One pose's statics is the kernel
-:func:`rrps_loads.compiled_statics.pose_statics` (compiled, or interpreted: :mod:`rrps_kinematics.backend`).
+The margins come from the statics at rest (eq. 19, :func:`rrps_loads.compiled_statics.pose_statics`)
+on the supporting ring: force 1 - max_i |f_i| / max_force, holding 1 - the gripper's utilisation
+(:func:`rrps_loads.loads.holding_margin`; +inf without a capacity).
 """
 
 from __future__ import annotations

@@ -1,17 +1,6 @@
 """The support of teleop's load guards as the robot climbs: the ring the grippers say carries the
-robot, at the world attitude the climb's odometry reports.
-
-The parameters give the start (``support``, ``world_q_support``). Then:
-
-* when the grippers (``grippers/state``) show the other ring carrying the robot
-  (:func:`rrps_interfaces.driver.supporting_ring`), the guards' support is handed over to it
-  through the measured pose a_T_b (:func:`rrps_description.world.handed_over`: the old ring's
-  attitude turned by a_T_b's rotation), as the driver's simulation does;
-* a fresh ``odometry/support`` for that ring sets its attitude
-  (:class:`rrps_hardware.support_follower.SupportFollower`); without one the last known attitude
-  stays, and :meth:`LoadSupport.report` says so.
-
-Pure NumPy; no ROS import.
+robot (handed over through a_T_b, :func:`rrps_description.world.handed_over`), at the attitude of
+a fresh ``odometry/support`` (docs/architecture.md, 'The supporting ring's attitude'). Pure NumPy.
 """
 
 from __future__ import annotations

@@ -1,45 +1,10 @@
-"""Teleoperation of an RRPS slave from a parallel master robot (paper section 3.1), pure NumPy.
+"""Teleoperation of an RRPS slave from a parallel master robot (§3.1), pure NumPy.
 
-The operator moves a small master platform; the climbing robot (the slave) follows. The mapping
-runs in the spirit of MoveIt Servo: every control step turns the latest master sample into a
-guarded, speed-limited slave command and a :class:`TeleopCode` saying what limited it.
-
-Two modes:
-
-* ``cartesian``: slave target = slave pose at engage + ``translation_scale`` · (master − master at
-  engage) for the position (both in their ring_a frames); the orientation is ``relative``
-  (R = R_master R_master,engage^T R_slave,engage: the master's rotation since engage, applied in
-  ring_a's frame) or ``absolute`` (R = R_master; engaging requires the two to be aligned).
-* ``joint``: leg lengths by an affine map per leg, L_slave,i = a_i · L_master,i + b_i, with b_i
-  calibrated at engage so that engaging never moves the slave; for a kinematically similar
-  master scaled by k (the shipped ``master_robot`` is the pole climber / 4) a_i = k reproduces
-  the Cartesian mapping with ``translation_scale`` = k. No FK is needed for the mapping itself;
-  the guards solve one warm-started FK of the candidate lengths for the joint angles.
-
-Engaging is a clutch (indexing): the references are re-captured at every engage, so the first
-command is the slave's own pose. The mapping is engaged only while the deadman holds — the last
-``teleop/enable`` sample was ``true`` and is at most ``enable_timeout`` old — while the master
-data is fresher than ``master_timeout``, a slave pose is known and no climb step executes. When
-any of these lapses the mapping disengages and produces no command: the slave holds.
-
-Guards, applied to the step from the last command towards the mapped target:
-
-1. speed: |Δp| ≤ max_linear_speed·dt, |Δθ| ≤ max_angular_speed·dt, |ΔL_i| ≤ geometry.max_speed·dt;
-   all three scaled down by the operator's round trip above ``slow_latency`` (to 1/4 at
-   ``hold_latency``; above it the robot holds);
-2. deceleration near a singularity (inverse condition number below ``singularity_slowdown``) or
-   near leg-leg interference (margin below ``collision_slowdown``): the step is scaled by the
-   remaining fraction of the band, only when the step reduces that margin (moving back out is at
-   full speed);
-3. halt: a step is refused if it makes any stroke, joint-angle, interference or conditioning
-   margin negative or, where already negative, smaller (so a motion that increases the margin
-   is always allowed);
-4. loads (``load_guards``, on by default): the same slow-down and halt at the actuator force
-   limit and at a holding margin of zero of the supporting gripper (:mod:`rrps_teleop.load_guard`).
-
-A whole guarded step (FK, margins, bands, refusal) is one kernel of
-:mod:`rrps_teleop.compiled_guards`, run by :mod:`rrps_teleop.guarded_step`: compiled by numba, or
-interpreted (``backend='numpy'`` or ``RRPS_NUMBA=0``).
+Every control step turns the latest master sample into a guarded, speed-limited slave command and
+a :class:`TeleopCode` saying what limited it, in the spirit of MoveIt Servo. The modes (cartesian,
+joint), the clutch, the conditions of engagement and the guards (speed, deceleration, halt,
+loads) are described in docs/architecture.md, 'rrps_teleop'; a guarded step is one kernel of
+:mod:`rrps_teleop.compiled_guards`, run by :mod:`rrps_teleop.guarded_step`.
 """
 
 from __future__ import annotations

@@ -1,21 +1,6 @@
-"""The simulated parallel master robot (paper section 3.1): scripted trajectories and the operator's handle.
-
-A real master is a small Stewart platform the operator moves by hand; its encoders give the
-leg lengths. Here :class:`MasterModel` holds the master's pose a_T_b (frame master_ring_a) and
-moves it towards a target — the operator's pose from the viewer's gizmo or a scripted
-trajectory — no faster than its speed limits and never outside its own limits (stroke,
-joint angles, interference, conditioning of :mod:`rrps_kinematics.limits`): a target beyond
-them stops the handle on the boundary, as the mechanical stops would. Its ``lengths`` are what
-the encoders report. Pure NumPy.
-
-Scripted trajectories (:func:`scripted_pose`), around the master's home pose, period T,
-ω = 2π/T, amplitude A [m], angular amplitude α [rad]:
-
-* ``none``: the home pose;
-* ``circle``: p = home + A (cos ωt, sin ωt, 0), orientation at home;
-* ``lissajous``: p = home + A (sin ωt, sin 2ωt, ½ sin 3ωt), orientation rotated by the
-  rotation vector α (sin 2ωt, sin ωt, ½ sin 3ωt) (applied in master_ring_a's frame).
-"""
+"""The simulated parallel master robot (§3.1): :class:`MasterModel` moves the master's pose a_T_b
+(frame master_ring_a) towards a target within its speed limits, stopping on its own limits as
+mechanical stops would (its ``lengths`` are what the encoders report); :func:`scripted_pose`."""
 
 from __future__ import annotations
 
@@ -42,7 +27,9 @@ BOUNDARY_BISECTIONS = 12
 
 def scripted_pose(kind: str, t: float, home_position, home_quaternion_xyzw, *, amplitude: float,
                   period: float, angular_amplitude: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """Pose of the scripted trajectory ``kind`` at time ``t`` [s] (see the module docstring)."""
+    """Pose of the scripted trajectory ``kind`` at time ``t`` [s] around the home pose, ω = 2π/period:
+    ``circle`` p = home + A (cos ωt, sin ωt, 0); ``lissajous`` p = home + A (sin ωt, sin 2ωt, ½ sin 3ωt),
+    turned by the rotation vector α (sin 2ωt, sin ωt, ½ sin 3ωt) in master_ring_a's frame."""
     if kind not in TRAJECTORIES:
         raise ValueError(f'trajectory must be one of {TRAJECTORIES}, got {kind!r}')
     period = validate_scale(period, 'period')

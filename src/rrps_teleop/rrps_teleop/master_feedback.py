@@ -1,11 +1,6 @@
-"""teleop_node's ``master/feedback``: the slave's limits felt on the master (paper section 3.1).
-
-:class:`MasterFeedback` publishes, at ``feedback_rate`` and off the control path, the virtual
-fixture of :mod:`rrps_teleop.fixture` at the mapping's guarded command, pushing back along the
-gradient of the limits the slave approaches, scaled to the master (``feedback_scale``):
-geometry_msgs/WrenchStamped in the master's frame, torque about the master's ring_b; zero while
-disengaged. Every method runs on the node's executor thread.
-"""
+"""teleop_node's ``master/feedback`` (§3.1): :class:`MasterFeedback` publishes at ``feedback_rate``
+the virtual fixture (:mod:`rrps_teleop.fixture`) at the guarded command, scaled to the master;
+zero while disengaged. Every method runs on the node's executor thread."""
 
 from __future__ import annotations
 

@@ -1,10 +1,6 @@
-"""teleop_node's inputs for the support of its load guards: the driven robot's ``grippers/state``
-and ``odometry/support`` (read directly or over its link relay), handed to
-:class:`rrps_teleop.load_support.LoadSupport`.
-
-The parameters ``support`` and ``world_q_support`` give the start; switching robots starts from
-them again. Every method runs on the node's executor thread.
-"""
+"""teleop_node's inputs for its load guards' support: the driven robot's ``grippers/state`` and
+``odometry/support`` handed to :class:`rrps_teleop.load_support.LoadSupport`, starting from
+``support`` and ``world_q_support`` (again at a robot switch). Runs on the executor thread."""
 
 from __future__ import annotations
 

@@ -1,32 +1,12 @@
-"""Teleop's stream of targets, jerk-limited: the guarded commands reached by an online trajectory
-generator in the legs' lengths, so the stream starts and stops without a velocity jump.
+"""Teleop's stream of targets, jerk-limited: the guarded commands reached by Ruckig (Berscheid and
+Kröger, RSS 2021) in the legs' lengths, so the stream starts and stops without a velocity jump.
 
-The mapping (:class:`rrps_teleop.mapping.TeleopMapping`) guards each command; this stream is what
-teleop sends the robot. Each control step, :meth:`TargetStream.follow` plans with Ruckig
-(Berscheid and Kröger, RSS 2021; the ``ruckig`` library, Ruckig's position interface) the
-time-optimal motion of the six leg lengths from the stream's state (length, speed, acceleration)
-to the newest guarded command at rest, within each leg's speed, acceleration and jerk limits
-(:attr:`RobotGeometry.motion_limits`, their
-:func:`~rrps_description.motion_limits.stream_limits`, as the climbing plans: the driver's
-setpoints follow with room to spare), and takes its state after the time since
-the last step. The limits are the legs' own, so no mapping to Cartesian speeds is needed: the
-target pose is the forward kinematics of the stream's lengths (warm-started from the last one);
-a stream at the command is the command's own pose. A command held still (a guard's halt) is
-reached at rest, without overshoot while it moved within the limits: the stream comes to rest
-on a pose the guards accepted.
-
-**Hold under jerk limits.** A robot moving at leg speed v cannot stand still at once without an
-unbounded jerk. When the mapping disengages (the deadman released or lapsed, the master or the
-slave's state stale, a climb), :meth:`TargetStream.stop` brakes at once with the fastest
-jerk-limited stop: Ruckig's velocity interface to zero speed, each leg from its own speed v and
-acceleration a. From rest it ends at once; from speed v with a = 0 it takes
-:func:`stopping_time` = 2 sqrt(v / j) (v <= a_max² / j) or v / a_max + a_max / j, over
-:func:`stopping_distance`: within the pole climber's stream limits (0.0485 m/s, 0.2125 m/s²
-and 2.125 m/s³), 0.33 s and 8.0 mm from full speed; below 5 mm/s of leg speed, under 0.1 s and
-0.25 mm. "The slave holds within
-0.1 s" means so: within 0.1 s of the release the stream is braking, and it is at rest within
-the stopping time of its speed then, no longer than the legs need to stop at all (the driver
-alone could not stop sooner). Pure NumPy (and ruckig); no ROS import.
+:meth:`TargetStream.follow` plans each step the time-optimal motion of the six lengths to the
+newest guarded command at rest within the legs' stream limits
+(:func:`~rrps_description.motion_limits.stream_limits`); the target pose is the FK of the
+stream's lengths. :meth:`TargetStream.stop` is the fastest jerk-limited stop
+(:func:`stopping_time`, :func:`stopping_distance`, from speed v at zero acceleration:
+2 sqrt(v / j) for v <= a_max² / j, else v / a_max + a_max / j). Pure NumPy (and ruckig).
 """
 
 from __future__ import annotations

@@ -1,11 +1,6 @@
-"""Teleoperation parameters: the teleop node's parameter schema and the mapping's validated
-configuration (SI units).
-
-:data:`PARAMETERS` declares every parameter of the teleop node once (name, default, unit, range,
-description); :class:`TeleopConfig` is what :class:`rrps_teleop.mapping.TeleopMapping` runs with:
-its fields are the parameters of :data:`CONFIG_PARAMETERS` (part of that schema), with their
-defaults, choices and positive ranges; an invalid value raises ValueError naming the parameter.
-"""
+"""Teleoperation parameters: teleop_node's schema (:data:`PARAMETERS`) and :class:`TeleopConfig`,
+the mapping's configuration from :data:`CONFIG_PARAMETERS` (SI units), whose invalid values raise
+ValueError naming the parameter."""
 
 from __future__ import annotations
 

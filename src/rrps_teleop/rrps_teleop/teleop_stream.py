@@ -1,14 +1,7 @@
-"""teleop_node's output: the guarded commands sent to the robot as a jerk-limited stream.
-
-:class:`StreamOutput` turns each control step's guarded command into the next target of
-:class:`rrps_teleop.target_stream.TargetStream` (with ``jerk_limited``; without, the command as
-it is) and publishes it: ``target_pose`` in Cartesian mode, ``actuators/command`` in joint mode.
-While the mapping is disengaged it publishes the stream's fastest jerk-limited stop until the
-stream is at rest; while it is engaged without a control step (no master sample came) the stream
-goes on towards the last command (:meth:`StreamOutput.keep_up`, at the watchdog's rate). The
-stream's time is the node's ROS clock, which stamps each target: the stamps are the times of the
-stream's samples. Every method runs on the node's executor thread.
-"""
+"""teleop_node's output: :class:`StreamOutput` publishes the guarded commands through
+:class:`rrps_teleop.target_stream.TargetStream` (``jerk_limited``), the fastest stop while
+disengaged until at rest, and :meth:`StreamOutput.keep_up` between master samples; each target
+is stamped with its sample's ROS time. Every method runs on the node's executor thread."""
 
 from __future__ import annotations
 

@@ -1,14 +1,8 @@
 """Simulated CANopen drives and the CANopen driver as real processes, for tests and benchmarks.
 
-:class:`DriveSim` runs ``rrps-drive-sim`` (the drive simulator of a robot's bus) and talks to it
-through its JSON lines; :func:`driver_process` starts driver_node with ``hardware:=canopen``.
-Each rig runs its bus on a loopback port of its own (``RRPS_CAN_PORT``), so rigs of parallel
-tests never hear each other. The processes run at the robot's real-time priority where that is
-permitted (root or CAP_SYS_NICE), as the demo runs them, and die with the process that started
-them; :meth:`DriveSim.stop` and :func:`rrps_runtime.supervision.stop_children` stop them.
-:func:`canopen_hardware` puts the CANopen hardware (``rrps_canopen.robot.CanopenRobot``) of a
-robot on a simulator's bus in this process, and :func:`robot_yaml` writes a variant of a shipped
-robot's bus section.
+:class:`DriveSim` runs ``rrps-drive-sim`` and talks to it through its JSON lines; :func:`driver_process` starts
+driver_node with ``hardware:=canopen``; :func:`canopen_hardware` puts a robot's CANopen hardware on a simulator's
+bus in this process. Each rig has a loopback bus of its own (``RRPS_CAN_PORT``); its processes die with their parent.
 """
 
 from __future__ import annotations
@@ -55,11 +49,9 @@ def can_env(port: int, **extra: str) -> dict:
 
 class DriveSim:
     """``rrps-drive-sim`` in a process of its own (its drives behaving as ``behaviour`` says:
-    rrps_canopen_sim.behaviour); ``ask`` sends one request, returns the answer.
-
-    ``cpus``: the CPUs its threads may run on (all of them, once it is ready). The simulated
-    drives stand for devices with processors of their own: a benchmark pins them to a CPU the
-    robot computer's measured processes leave to them, so that their work is not the robot's."""
+    rrps_canopen_sim.behaviour); ``ask`` sends one request, returns the answer. ``cpus``: the CPUs its
+    threads may run on once it is ready (a benchmark pins the simulated drives, devices with processors
+    of their own, apart from the robot computer's measured processes)."""
 
     def __init__(self, robot: str = 'pole_climber', *, port: int | None = None, master: bool = False,
                  lengths=None, time_constant: float | None = None, behaviour: dict | None = None,

@@ -1,12 +1,7 @@
-"""The whole stack on simulated CANopen drives, for system tests: the drive simulator and the
-CANopen driver as processes of their own (real CANopen traffic on a loopback bus of the test's
-own), IK, FK, climbing, master and teleop in the test's process, and the operator's probe.
-
-:func:`canopen_stack` yields a :class:`Stack`, :func:`activated_driver` only the simulator, the
-driver and the probe (a :class:`DriverRig`); :func:`fault_episode` injects one fault in either and
-measures what the robot did about it, from the drives' side (the simulator's trace of every SYNC:
-targets and positions) and from the operator's (driver_node's /diagnostics).
-"""
+"""The whole stack on simulated CANopen drives, for system tests: simulator and CANopen driver as processes
+(on a loopback bus of the test's own), the other nodes and the operator's probe in the test's process.
+:func:`fault_episode` injects one fault and measures the robot's answer, from the drives' SYNC trace and from
+driver_node's /diagnostics."""
 
 from __future__ import annotations
 

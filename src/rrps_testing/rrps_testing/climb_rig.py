@@ -1,12 +1,7 @@
 """A :class:`~rrps_climbing.step_machine.ClimbStepMachine` in a simulated system, without ROS (the
-step machine's unit tests).
-
-The rig around the machine stands for the rest of the system: a robot that reaches every target
-at once (its measured pose is the last target; ``track`` False stops it), a driver that answers a
-gripper request at the next tick and switches the gripper then, and an operator station heard
-every tick; a fake clock drives both the machine's time and its input watch. The pole climber on
-a 3 m pole, ticks of :data:`DT`, steps of :data:`STEP` from :data:`START`.
-"""
+step machine's unit tests): a robot that reaches every target at once (``track`` False stops it), a driver that
+switches a gripper at the next tick, an operator station heard every tick, and a fake clock. The pole climber
+on a 3 m pole, ticks of :data:`DT`, steps of :data:`STEP` from :data:`START`."""
 
 from __future__ import annotations
 

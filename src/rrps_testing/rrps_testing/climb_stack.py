@@ -1,17 +1,8 @@
 """The climbing stack of the node tests: driver, IK, FK and climb node in the test's process,
-sharing one executor, with the limits those tests need to hold on a loaded machine.
+sharing one executor, with the relaxed timing limits those tests need on a loaded machine.
 
-The node tests run beside the system tests at nice 10 (tests/conftest.py): on a loaded CI
-machine this process goes without the CPU for seconds. Measured in a fresh-clone CI run: for
-14 s the driver received the IK's commands 0.16-1.13 s old, refused them as stale (timeout
-0.1 s), and the climb node failed the step ("the pose did not arrive within 5.0 s"). These tests
-check what a climb does; the timing rules themselves (stale commands, stale state, a pose that
-never arrives) are tested on their own, with their real limits, in the driver's, IK's and climb
-node's own tests and in the system tests. So this stack acts on commands up to
-:data:`~rrps_testing.ros_harness.IN_PROCESS_COMMAND_TIMEOUT` old, pauses for state older than
-:data:`STATE_TIMEOUT` or an operator station silent for :data:`OPERATOR_TIMEOUT` (a CI run paused
-a step on inputs 0.51-0.57 s old), and waits :data:`SETTLE_TIMEOUT` for a pose or a gripper; a
-test overrides any of them.
+The timing rules themselves are tested with their real limits elsewhere (docs/tests.md, 'Tests on a loaded
+machine'); a test overrides any limit here.
 """
 
 from __future__ import annotations

@@ -1,21 +1,10 @@
 """A per-hop trace of the command path, taken by an operator probe, for benchmarks/command_path.py.
 
-:class:`CommandTrace` is a node on the operator's side of a running stack: it holds the deadman
-(``teleop/enable`` at 20 Hz) and records, for every message of each hop, its receipt time on
-this host's clock and its header stamp (the sender's clock: one machine, one clock):
-
-* ``master/pose`` (the master sample, stamped when sampled), ``target_pose`` (teleop's command,
-  stamped when sent), ``actuators/command`` (IK's, with its target's stamp), ``pose`` (FK's, with
-  the stamp of the driver's ``actuators/state``), ``grippers/state`` (the driver's 20 Hz
-  output), ``teleop/status`` (code, slave age);
-* the newest status of every node on /diagnostics, and ``climb/status``.
-
-The probe should run at a real-time priority above the stack's (:func:`claim_probe`): its
-receipt times then show when a message reached this host's DDS, not when a loaded machine let
-the probe run. :class:`Canary` is a real-time thread that wakes every millisecond and records how
-late: a stop of every real-time thread (the kernel's RT throttling) shows as a late wake-up.
-:func:`hops` matches the records into per-hop latencies. Pure measurement: nothing here acts on
-the robot but the deadman.
+:class:`CommandTrace` holds the deadman (``teleop/enable``, 20 Hz) and records every message of each hop
+(master/pose, target_pose, actuators/command, pose, grippers/state, teleop/status, climb/status, the newest
+/diagnostics of each node) with its receipt time and header stamp; :func:`hops` matches them into per-hop
+latencies. :func:`claim_probe` puts the probe above the stack's priority; :class:`Canary` shows stops of every
+real-time thread as late wake-ups. Nothing here acts on the robot but the deadman.
 """
 
 from __future__ import annotations
@@ -175,25 +164,13 @@ def gaps(receipts: np.ndarray) -> np.ndarray:
 
 
 def hops(trace: CommandTrace, t0: float, t1: float, drive_targets: np.ndarray | None = None) -> dict[str, np.ndarray]:
-    """Per-hop latencies [ms] of the messages received in [t0, t1] (this host's ROS clock):
-
-    * ``master -> teleop out``: a target_pose's stamp minus the master sample received last before
-      it (teleop reads the newest sample: its reaction to it, transport included);
-    * ``teleop -> robot``: a target_pose's receipt minus its stamp (teleop publishes -> robot host);
-    * ``IK``: an actuators/command's receipt minus that of the target_pose of the same stamp;
-    * ``IK -> drive target`` (``drive_targets``: (time, leg_1 target) of each SYNC, CANopen): the
-      first SYNC whose leg_1 target reaches a command's leg_1 length (equal, or past it since the
-      SYNC before), minus the command's receipt; of the commands where leg_1 moves at a quarter of
-      its usual speed or more (a lag in time is a position error over the speed: near a stand
-      or a turning point, where the jerk-limited targets round the stream's peak off by
-      micrometres, it is not defined);
-    * ``next command -> drive target``: the same SYNC minus the receipt of the next command: the
-      driver's setpoints follow the stream one command period behind (they interpolate between
-      commands, jerk-limited), so a command's length can be a target once the next one is known;
-    * ``state -> operator``: a pose's receipt minus its stamp (the driver's actuators/state ->
-      FK -> the operator station);
-    * ``end to end``: a master sample's stamp to its command's receipt (simulated) or to the drive
-      target (CANopen)."""
+    """Per-hop latencies [ms] of the messages received in [t0, t1] (this host's ROS clock), by hop:
+    ``master -> teleop out`` (a target_pose's stamp minus the master sample received last before it),
+    ``teleop -> robot`` (a target_pose's receipt minus its stamp), ``IK`` (an actuators/command's receipt minus
+    that of the target_pose of its stamp), on CANopen ``IK -> drive target`` and ``next command -> drive target``
+    (:func:`drive_target_times`; docs/measurements.md, 'The command path, hop by hop'), ``state -> operator`` (a
+    pose's receipt minus its stamp) and ``end to end`` (a master sample's stamp to its command's receipt, or to
+    its drive target on CANopen)."""
     master, targets = trace.between(MASTER_POSE, t0, t1), trace.between(TARGET_POSE, t0, t1)
     commands, poses = trace.between(ACTUATORS_COMMAND, t0, t1), trace.between(POSE, t0, t1)
     out: dict[str, np.ndarray] = {}

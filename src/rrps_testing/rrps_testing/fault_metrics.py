@@ -1,10 +1,6 @@
-"""What the robot did during a fault, from the records of rrps_testing.netns_agent.
-
-Every record has its receipt time ``t`` (the host's wall clock, shared by every namespace) and,
-for stamped messages, the sender's ``stamp``: a fault that starts at ``t0`` (``time.time()``)
-is compared with both. Status values are read through the typed contracts
-(``rrps_interfaces.teleop``), never through their human text. Pure Python and NumPy.
-"""
+"""What the robot did during a fault, from the records of rrps_testing.netns_agent (pure Python and NumPy): a
+fault at ``t0`` (``time.time()``) is compared with the records' receipt times and stamps, on the host's one wall
+clock; status values are read through their typed contracts, never their human text."""
 
 from __future__ import annotations
 

@@ -3,43 +3,12 @@
 
     python -m rrps_testing.fault_report [--loopback] [--only NAME[,NAME...]] [--log-dir DIR]
 
-The stack runs as it is deployed (docs/deployment.md): on the robot host the simulated
-driver (a process: the hardware) and the robot computer's nodes (IK, FK, climbing composed in a
-second process); on the operator station the master and teleop (a third process). As root
-(``ip netns``) the hosts are two network namespaces joined by a veth pair (rrps_testing.netns_rig:
-DDS multicast discovery on that link only); without root, or with ``--loopback``, both run in
-this machine's namespace on loopback and the link faults are left out. An agent on each host
-(rrps_testing.netns_agent) plays the operator (deadman, climb and driver services, the viewer's
-round-trip report, a sender with an offset clock) and records what the robot does. Faults:
-
-* ``climb_link_<phase>``: the link goes down for 2 s as a climbing step enters each phase
-  (release, move, grip of ring_b then ring_a); the climb pauses and waits for the operator;
-* ``climb_kill_operator``, ``climb_kill_driver``, ``climb_kill_robot_nodes``: that process is
-  killed (SIGKILL) during a climbing motion and restarted 1 s later;
-* ``teleop_link``: the link goes down for 2 s while the operator holds the deadman and moves
-  the master;
-* ``teleop_deadman_silent``: the deadman stream stops without a release (a frozen operator
-  station or browser);
-* ``teleop_rtt_250``, ``teleop_rtt_400``: the operator's round trip (the viewer's measurement
-  of its browser's websocket) reads 250 ms / 400 ms for 2 s;
-* ``teleop_kill_driver``, ``teleop_kill_robot_nodes``, ``teleop_kill_operator``: each process
-  killed in turn during teleoperation and restarted 1 s later (the driver inactive, resuming
-  its state file, as the demo restarts it);
-* ``clock_ahead``, ``clock_behind``: a sender whose clock is 2 s ahead / behind streams
-  targets, then its stream is cut for 2 s (the link goes down; on loopback the sender stops);
-* ``clock_late``: the sender 2 s ahead, its targets then arrive 0.3 s late for 2 s;
-* ``demo_kill``: the demo (``rrps-demo``, the supervisor of the driver, the robot's nodes and
-  the observers, on loopback with a domain id of its own) is killed (SIGKILL): its children
-  must not outlive it (parent-death signal).
-
-Measured from the recorded messages (receipt times and header stamps on the host's one wall
-clock): the time from the fault to a safe hold (the last actuators/command published on the
-robot host), the largest leg-length change from the fault until the recovery action (a
-restarted driver's resumed lengths count) and in brackets from 0.5 s after the hold on (the
-actuators' lag has settled), the gripper openings in that time (grippers/state), how the
-fault was detected (typed status values) and the recovery action with its outcome.
-
-``run_report`` is also what tests/system/test_fault_report.py runs, with a few faults.
+The stack runs as deployed (docs/deployment.md): driver and robot nodes on the robot host, master and teleop on
+the operator station, and on each host an agent (rrps_testing.netns_agent) that plays the operator and records.
+As root the hosts are two network namespaces (rrps_testing.netns_rig); without root, or with ``--loopback``,
+both run on loopback and the link faults are left out. The faults (:data:`rrps_testing.fault_session.FAULTS`)
+and what each row measures: docs/measurements.md, 'Faults of a two-host deployment'.
+tests/system/test_fault_report.py runs :func:`run_report` with a few faults.
 """
 
 from __future__ import annotations

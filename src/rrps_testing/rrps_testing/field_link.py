@@ -1,20 +1,10 @@
 """The operator link as it is in the field: the two-host split of docs/deployment.md on a rig whose link is
 shaped (rrps_testing.link_shaping), teleop engaged and a climbing step, judged from the records.
 
-Two subscription patterns of the operator station:
-
-* ``'direct'``: its teleop and viewer read the robot's own topics across the link (the 500 Hz
-  ``actuators/state`` and ``pose`` among them): the pattern before the link relay;
-* ``'link'``: the robot host runs ``link_relay_node`` with the robot nodes, and the operator
-  station reads its link topics (``robot_topics:=link``).
-
-A :class:`FieldSession` starts the stack and an agent per host; :meth:`FieldSession.run` drives
-one :class:`Profile` (bandwidth each way, random loss, periodic outages) and returns a
-:class:`Result`: bytes per second each way from the veth counters, how far the slave followed the
-master, the slave-state age teleop saw, the teleop codes, the viewer's pose rate, the clutch at
-each re-engage, gripper switches during outages and the climbing step's outcome. The operator
-agent records only operator-station topics and the robot agent only robot-host ones (plus the
-operators' statuses, which cross to the robot anyway), so that they add little to the link.
+The operator station's subscription pattern is ``'direct'`` (teleop and viewer read the robot's own topics
+across the link) or ``'link'`` (they read ``link_relay_node``'s link topics, ``robot_topics:=link``).
+:meth:`FieldSession.run` drives one :class:`Profile` (bandwidth, loss, outages) and returns a :class:`Result`.
+Each agent records only its own host's topics, so that the agents add little to the link.
 """
 
 from __future__ import annotations

@@ -1,20 +1,11 @@
 """Several robots and one operator station in network namespaces: a fleet on one field network.
 
-:class:`FleetRig` makes an operator namespace ``rrps_op_<pid>_<n>`` holding a bridge ``br0`` (the
-field network's access point: 10.213.<k>.2/24) and one namespace per robot,
-``rrps_robot_<pid>_<n>_<j>``, each joined to the bridge by a veth pair (``veth0`` on the robot,
-10.213.<k>.<10+j>; its peer ``vr<j>`` a port of the bridge). Multicast discovery floods the
-bridge as it would a Wi-Fi network; the discovery server (``discovery='server'``) runs on the
-operator station. Shaping a robot's link: its ``veth0`` (robot -> operator) and the bridge port
-``vr<j>`` (operator -> robot). Hosts are ``'operator'`` and ``'robot_<j>'`` (``'robot'`` is
-robot 1). Everything else, the processes and the clean-up also on failure, is
-:class:`rrps_testing.netns_rig.Rig`'s.
-
-:class:`Fleet` runs the stack on it: per robot, in ROS namespace ``/robot_<j>``, the driver and
-``rrps-compose ik_node fk_node climb_node link_relay_node recorder_node`` (their statuses in the
-robot's namespace: ``-r /diagnostics:=diagnostics``, so that robots do not receive each other's);
-on the operator station, in ``/rrps``, ``rrps-compose master_node teleop_node viewer_node`` with
-the link profile, the viewer listing every robot and teleop driving robot 1.
+:class:`FleetRig`: an operator namespace holding a bridge ``br0`` (the field network's access point, and the
+discovery server's host) and a namespace per robot joined to it by a veth pair (``veth0`` on the robot; its peer
+``vr<j>``, a bridge port, is shaped for operator -> robot). Hosts are ``'operator'`` and ``'robot_<j>'``
+(``'robot'`` is robot 1); the rest is :class:`rrps_testing.netns_rig.Rig`'s. :class:`Fleet` runs the stack on
+it: per robot, in ``/robot_<j>``, the driver and the robot nodes (their statuses in the robot's namespace); on
+the operator station, in ``/rrps``, master, teleop (driving robot 1) and viewer (listing every robot).
 """
 
 from __future__ import annotations

@@ -2,21 +2,10 @@
 
     python -m rrps_testing.latency_proxy --listen 127.0.0.1:0 --target 127.0.0.1:8080 [--delay 50,150]
 
-Every connection accepted on ``--listen`` is forwarded to ``--target``. Each chunk read from
-either side is written to the other at ``max(now + delay, the previous chunk's send time,
-the end of a stall)``: ``delay`` is drawn uniformly from [lo, hi] ms per chunk, and the order
-of the bytes in each direction is kept (TCP cannot reorder), so a chunk never overtakes the
-one before it. Used by tests/system/test_multihost_browser.py between a browser and the viewer (a websocket
-is TCP): the viewer's Ping/Pong round trip then measures the added delay of both directions.
-
-Control, one command per line on stdin (each answered by one JSON line on stdout)::
-
-    delay LO HI      per-chunk delay uniform in [LO, HI] ms from now on (0 0: none)
-    stall SECONDS    hold every chunk, also those already queued, until SECONDS from now
-    stats            counts and the largest delay applied so far
-    quit             close everything and exit
-
-At start it prints ``{"listening": PORT}``. Pure standard library (asyncio).
+Each chunk read from either side is written to the other after a delay drawn uniformly from [lo, hi] ms, never
+before the chunk before it (TCP keeps order). It prints ``{"listening": PORT}``, then reads one command a line
+on stdin, each answered by a JSON line: ``delay LO HI`` (from now on; ``0 0``: none), ``stall SECONDS`` (hold
+every chunk, queued ones too, that long), ``stats``, ``quit``. Used by tests/system/test_multihost_browser.py.
 """
 
 from __future__ import annotations

@@ -1,19 +1,10 @@
 """A field link on a rig: bandwidth caps, random loss and outages on a veth pair, inside the rig's
 network namespaces (root; this kernel has no netem).
 
-* bandwidth: ``tc qdisc ... root tbf`` on a host's end of the pair caps what that host sends
-  (robot -> operator on the robot's end, operator -> robot on the operator's), with a queue of
-  ``latency`` s at that rate (a Wi-Fi or LTE link queues: bufferbloat);
-* loss: an nftables table ``rrps_link`` in a host's namespace drops that share of the packets it
-  receives on its veth end (``numgen random``); an outage drops all of them.
-
-:class:`LinkShaping` undoes everything it set when it closes (a ``with`` block, also when the
-test fails); the namespaces' deletion would remove it too.
-
-    with LinkShaping(rig.namespace('robot'), 'veth0', rig.namespace('operator'), 'veth1') as link:
-        link.limit(robot_to_operator=2e6, operator_to_robot=500e3)
-        link.loss(0.05)
-        link.outage(True); ...; link.outage(False)
+Bandwidth: ``tc ... tbf`` on a host's end caps what that host sends, with a queue of ``latency`` s (a Wi-Fi
+or LTE link queues); loss and outages: an nftables table ``rrps_link`` drops that share (or all) of what a
+host receives on its end. :class:`LinkShaping` (a ``with`` block) undoes everything when it closes, also when
+the test fails.
 """
 
 from __future__ import annotations

@@ -3,19 +3,9 @@
     python -m rrps_testing.load [--busy N] [--flood-rate HZ] [--browser URL] -- COMMAND ...
     ./rrps test --load [PYTEST ARGS]          # the same load around a pytest run
 
-While COMMAND runs, the harness keeps
-
-* one core busy (``--busy N`` processes spinning in pure Python, default 1);
-* a second ROS process flooding this machine with DDS traffic (``--flood-rate`` Hz, default
-  2000, of JointState and PoseStamped messages published and taken back by a subscriber in
-  another process, on its own domain id so it never meets the tests' topics; DDS stays on
-  loopback);
-* optionally a software-rendered headless Chromium (``--browser URL``) showing a page, e.g.
-  the demo's viewer: WebGL through SwiftShader is a heavy CPU load of its own.
-
-It prints what it started, returns COMMAND's exit status and stops every load process, also
-when interrupted. Nothing here measures time: a test that passes only on an idle machine fails
-under this harness, which is what it is for.
+While COMMAND runs it keeps ``--busy`` cores spinning, floods DDS on loopback (``--flood-rate`` Hz, a domain of its own)
+and optionally shows ``--browser`` URL in a software-rendered headless Chromium; it returns COMMAND's exit status
+and stops every load process, also when interrupted. A test that passes only on an idle machine fails under it.
 """
 
 from __future__ import annotations

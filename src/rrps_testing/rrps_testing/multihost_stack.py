@@ -32,11 +32,8 @@ VIEWER_PORT = 8080             # inside the operator namespace: its own port spa
 #: link reliably drops before a release is due (the test's reaction takes up to ~0.2 s)
 CLIMB_PARAMS = {'climb_node:step_length': 0.05, 'climb_node:speed': 0.025,
                 'climb_node:settle_time': 0.4}
-#: Both "hosts", both agents and a software-rendered browser share this machine's two cores:
-#: the master at 50 Hz (its default is 200 Hz; teleop commands once per master sample), the
-#: driver at 50 Hz, the scene at 5 Hz, and the viewer in a process of its own on the operator
-#: station (its scene updates and websocket then never hold up the master's and teleop's
-#: timers: one Python process runs one thread at a time)
+#: Both "hosts", both agents and a browser share two cores: master and driver at 50 Hz, the scene
+#: at 5 Hz, the viewer in a process of its own (it never holds up master's and teleop's timers)
 MASTER = {'master_node:trajectory': 'circle', 'master_node:rate': 50.0}
 DRIVER_RATE = 50.0
 VIEWER_PARAMS = {'viewer_node:host': '127.0.0.1', 'viewer_node:port': VIEWER_PORT,

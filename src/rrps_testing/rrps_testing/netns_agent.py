@@ -4,47 +4,20 @@ the operator would, inside one network namespace (rrps_testing.netns_rig starts 
     python -m rrps_testing.netns_agent --name robot --record pose,actuators/command,grippers/state \
         --ros-args -r __ns:=/rrps
 
-Records, one JSON line per message on stdout: ``{"topic", "t", "stamp", ...}`` where ``t`` is
-the receipt time (``time.time()``: every namespace shares the host's wall clock, so receipt
-times and header stamps of all processes are on one time axis) and ``stamp`` the header stamp
-[s] when the message has one. The decoded fields per topic:
+Records: one JSON line per message on stdout, ``{"topic", "t", "stamp", ...}``: ``t`` the receipt time
+(``time.time()``: every namespace shares the host's wall clock), ``stamp`` the header stamp [s], then the
+decoded fields of :data:`TOPICS`: ``p``, ``q`` (x-y-z-w), ``frame`` of poses; ``lengths`` (actuators/state at
+most every 5 ms); ``closed`` of grippers/state (on a change, else once a second); ``values`` of statuses;
+``data``; one record per /diagnostics status. Every agent publishes ``rig/heartbeat`` at 10 Hz: agents that
+hear each other show that DDS connects their namespaces.
 
-    pose, target_pose, master/pose      p (3), q (4, x-y-z-w), frame
-    actuators/command, actuators/state  lengths (6)  (actuators/state: at most every 5 ms)
-    grippers/state                      closed: {ring: bool}  (only changes, and 1 s apart)
-    teleop/status, climb/status         values: {key: text}  (typed by the test, never the text)
-    teleop/enable                       data
-    operator/round_trip_time            data
-    /diagnostics                        node, message, values  (one record per status)
-    rig/heartbeat                       source  (other agents' heartbeats)
-
-Every agent publishes ``rig/heartbeat`` (its ``--name``) at 10 Hz, so two agents show whether
-DDS connects their namespaces, before any rrps node runs.
-
-Commands, one JSON object per line on stdin, each answered by ``{"reply": id, ...}``:
-
-    {"id": 1, "deadman": true}            teleop/enable true at 20 Hz until {"deadman": false}
-                                          (then 5 false samples, as the viewer does; with
-                                          "silent": true none: the stream just stops)
-    {"id": 2, "call": "climb/step_up"}    a std_srvs/Trigger service: success, message
-    {"id": 3, "activate": true}           driver_node/change_state activate (false: deactivate)
-    {"id": 4, "sender": {"offset": 2.0, "amplitude": 0.004, "period": 2.0}}
-                                          target_pose at 50 Hz around the robot's home pose,
-                                          stamped ``offset`` s ahead of this host's clock (a
-                                          sender whose clock is off); {"sender": null} stops
-    {"id": 6, "sender_late": 0.3}         from now on the sender's targets arrive 0.3 s late
-                                          (stamped 0.3 s earlier, the same stream); 0: on time
-    {"id": 7, "round_trip": 0.4}          operator/round_trip_time 0.4 s at 4 Hz (what the
-                                          viewer reports for its browser); null stops
-    {"id": 5, "ping": true}               answered at once (the agent is alive and spinning)
-    {"id": 9, "graph": true}              the ROS graph this agent has discovered: nodes, topics,
-                                          services and topic endpoints (publishers + subscribers)
-    {"id": 8, "parameter": {"node": "teleop_node", "name": "robot_namespace", "value": "/robot_2"}}
-                                          a string parameter of a node of this namespace, set
-                                          through its set_parameters_atomically (as the viewer
-                                          does): successful, reason
-
-Prints ``{"ready": true}`` once its subscriptions and publishers exist.
+Commands: one JSON object a line on stdin, ``{"id": N, ...}``, each answered by ``{"reply": N, ...}``:
+``deadman`` (teleop/enable at 20 Hz; on release 5 false samples, none with ``"silent": true``), ``call`` (a
+std_srvs/Trigger service), ``activate`` (driver_node's activate, or false: deactivate), ``sender``
+(``{"offset", "amplitude", "period"}``: target_pose at 50 Hz around home, stamped ``offset`` s ahead; null
+stops), ``sender_late`` (its targets that many s late), ``round_trip`` (operator/round_trip_time at 4 Hz; null
+stops), ``parameter`` (``{"node", "name", "value"}``: a string parameter, set as the viewer sets it),
+``ping``, ``graph`` (the discovered graph's counts). It prints ``{"ready": true}`` once its endpoints exist.
 """
 
 from __future__ import annotations

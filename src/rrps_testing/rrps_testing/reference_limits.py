@@ -1,13 +1,8 @@
 """An independent computation of a pose's limits for tests, from the anchors alone (eq. 1).
 
-Nothing of rrps_kinematics is used: the leg vectors in NumPy, the joint-cone angles by arccos,
-the distance of two legs as the minimum of a convex quadratic over the unit square, found among
-its KKT candidates (the interior stationary point and the four edges), and the inverse condition
-number of the unit-consistent Jacobian by LAPACK's SVD::
-
-    m = reference_margins(geometry, position, quaternion_xyzw)
-    m['stroke'], m['universal'], m['spherical'], m['interference'], m['inverse_condition']
-"""
+Nothing of rrps_kinematics is used (:func:`reference_margins`): joint-cone angles by arccos, leg distances by the
+KKT candidates of a convex quadratic over the unit square, the inverse condition number of the unit-consistent
+Jacobian by LAPACK's SVD."""
 
 from __future__ import annotations
 

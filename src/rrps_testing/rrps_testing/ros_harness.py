@@ -1,19 +1,9 @@
 """Launch-free ROS test harness: nodes spun in-process by one executor on a private Context.
 
-Usage (with the ``ros_context`` fixture of conftest.py, which gives a private domain id)::
-
-    probe = Probe(context=ros_context)
-    poses = probe.collect(PoseStamped, 'pose')
-    with Spinner(ros_context, [IkNode(context=ros_context), probe]):
-        probe.publisher(PoseStamped, 'target_pose').publish(msg)
-        assert wait_for(lambda: poses), 'no pose'
-
-Waiting: :func:`wait_for` polls a condition that the test expects to become true, up to a
-generous ``DEADLINE`` (it returns as soon as the condition holds, so an idle machine is not
-slowed down; a loaded one gets the time it needs). A test never sleeps for a fixed time to let
-something happen; it waits for the thing itself. Where a test asserts that nothing happens, the
-observation window is measured with the messages' own stamps or with the receipt times that
-:meth:`Probe.collect` records (``clock='ros'``: the ROS clock, the clock of the header stamps).
+:class:`Spinner` spins nodes (with conftest.py's ``ros_context``: a private domain id); a :class:`Probe`
+publishes and collects. A test never sleeps to let something happen: it waits for the thing itself
+(:func:`wait_for`, up to :data:`DEADLINE`); one that asserts that nothing happens measures its window with the
+messages' stamps or the receipt times :meth:`Probe.collect` records.
 """
 
 from __future__ import annotations
@@ -44,9 +34,7 @@ RECORD_COMMAND_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
 #: 2-core machine, never reached when the behaviour is right.
 DEADLINE = 60.0
 #: The age [s] of a command the driver and IK nodes of a test's in-process stack act on (their
-#: ``timeout``; the nodes' default is 0.1 s). The node tests run at nice 10 beside the system tests
-#: (tests/conftest.py), and a loaded machine leaves their process without the CPU for seconds:
-#: the stale-command rule itself is tested with its real limit in those nodes' own tests.
+#: ``timeout``, 0.1 s by default): relaxed for a loaded machine (docs/tests.md).
 IN_PROCESS_COMMAND_TIMEOUT = 1.0
 
 
@@ -129,12 +117,8 @@ class Probe(Node):
     def collect(self, msg_type, topic: str, *, qos=STATE_QOS, stamped: bool = False,
                 clock: str = 'monotonic') -> list:
         """Subscribe and return the (growing) list of received messages, or with ``stamped``
-        (t_received, msg): ``clock`` 'monotonic' (time.monotonic) or 'ros' (this node's ROS
-        clock in s, the clock of the header stamps, so that receipt times and stamps compare).
-
-        ``qos`` says which kind of stream it is (STATE_QOS or COMMAND_QOS, the publishers'
-        profiles); the probe records it with the matching deep-history profile (RECORD_*_QOS).
-        """
+        (t_received, msg) on ``clock`` 'monotonic' or 'ros' (the clock of the header stamps); ``qos``
+        (STATE_QOS or COMMAND_QOS) picks the matching deep-history RECORD_*_QOS."""
         if clock not in ('monotonic', 'ros'):
             raise ValueError(f"clock must be 'monotonic' or 'ros', got {clock!r}")
         if qos.reliability == ReliabilityPolicy.BEST_EFFORT:

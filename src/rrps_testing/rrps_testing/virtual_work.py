@@ -1,17 +1,9 @@
-"""An independent statics and dynamics for tests: leg forces by virtual work, from the anchors
-alone (eq. 1).
+"""An independent statics and dynamics for tests: leg forces by virtual work, from the anchors alone (eq. 1).
 
-At rest with one ring gripping, the actuators' virtual work balances the change of potential
-energy: J^T f = dU/dx, with x = (p, a small rotation vector) of the moving ring in the supporting
-ring's frame, J = dL/dx the leg lengths' Jacobian and U the potential energy of the moving ring
-(its body, with a point payload) and of each leg's two links (their coms on the leg axis, the
-lower link's ``com_from_joint`` from the universal joint, the upper's from the spherical joint).
-Both by central differences; nothing of rrps_kinematics or rrps_sim is used::
-
-    forces = virtual_work_forces(geometry, position, R, gravity_in_a, payload_mass=15.0)
-
-In motion (massless legs), :func:`moving_ring_dynamics` balances the moving ring's Newton-Euler
-equations by the legs' virtual work and gives the holding ring's reaction by momentum balance.
+Nothing of rrps_kinematics or rrps_sim is used. At rest, J^T f = dU/dx (:func:`virtual_work_forces`): x = (p,
+a small rotation vector) of the moving ring in the supporting ring's frame, J = dL/dx, U the potential energy
+of the moving ring (with a point payload) and of the legs' links, both by central differences.
+:func:`moving_ring_dynamics` (massless legs) also gives the holding ring's reaction by momentum balance.
 """
 
 from __future__ import annotations

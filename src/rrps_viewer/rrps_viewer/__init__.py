@@ -1,17 +1,8 @@
-"""The rrps web viewer for remote operators (viser), as a small public facade.
+"""The rrps web viewer for remote operators (viser), as a small public facade (docs/viewer.md).
 
-Pure scene and control logic (no rclpy, no viser) is importable and testable on its own; poses
-are :class:`rrps_description.pose.Pose` (re-exported here)::
-
-    from rrps_viewer import Pose, robot_figure, world_ring_poses, OperatorControl
-    world_T_a, world_T_b = world_ring_poses(a_T_b=pose, gripping='ring_a', world_T_gripping=odom)
-    fig = robot_figure(geom, a_T_b=pose, world_T_a=world_T_a, efforts=efforts)
-    fig.leg_points      # (6, 2, 3) world: universal-joint centre -> spherical-joint centre
-    fig.leg_colours     # (6, 3) uint8 from the stroke, joint-angle and force margins
-    control = OperatorControl(token='...')   # token, single controller, hand-over, deadman
-
-The viser layer (``ViewerServer``, ``Frame``) is imported on first use so that the pure parts
-do not need viser.
+The pure scene and control logic (no rclpy, no viser: :func:`robot_figure`, :func:`world_ring_poses`,
+:class:`OperatorControl`) imports on its own; poses are :class:`rrps_description.pose.Pose`. The viser layer
+(``ViewerServer``, ``Frame``) is imported on first use.
 """
 
 from rrps_description.pose import Pose

@@ -1,24 +1,9 @@
 """Encode each viser window once for all the browsers that receive it.
 
-viser (1.1.1, pinned) runs one producer per websocket client, and each producer serialises and
-zstd-compresses every window of messages it sends: with N browsers, a pose update is encoded N
-times. Clients that keep up receive the same windows (the same message objects, in the same
-order), so :func:`install` replaces viser's producer with one that looks the window up in a
-small cache keyed by the identity of its messages and encodes it only on a miss. What is left per
-client is the websocket send itself. viser has no public hook for this: the producer is set
-through :mod:`._viser_shim`.
-
-The wire format is viser's, byte for byte (viser's own producer, checked by the shim's test):
-[8 bytes] msgpack size, [8 bytes] compressed size, the zstd-compressed msgpack of
-``{messages, timestampSec, binaryBufferLengths}``, then the 8-byte aligned binary buffers.
-``timestampSec`` is the time the window was encoded, the same for every client, which is what
-the browser paces its drawing with.
-
-A slow client only slows itself: its producer awaits its own send, and viser's buffer keeps one
-(the latest) state message per scene node, so a client that falls behind skips the intermediate
-poses instead of queueing them. That skipping starts only once the send blocks, so the producer
-also bounds the kernel's send buffer of each connection (``SEND_BUFFER_BYTES``; Linux would
-otherwise grow it to megabytes, seconds of stale frames queued for a starved browser).
+viser runs one producer per websocket client, each serialising and compressing every window it sends. :func:`install`
+replaces it (through :mod:`._viser_shim`) with one that encodes a window once, cached by the identity of its messages,
+in viser's wire format byte for byte. A slow client only slows itself, and each connection's kernel send buffer is
+bounded (``SEND_BUFFER_BYTES``) so a starved browser skips poses instead of queueing them (docs/viewer.md).
 """
 
 from __future__ import annotations

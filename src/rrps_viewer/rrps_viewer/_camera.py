@@ -1,12 +1,7 @@
-"""The viewer's first view: the camera framed on the robot, the structure around it and the master
-robot, once odometry has placed the robot in the world.
+"""The viewer's first view: the camera framed on the robot, its structure and the master once odometry placed it.
 
-:func:`framing` is the geometry (pure): it looks at the centre of the points' bounding sphere from
-the viewer's usual direction, far enough for the sphere to fit the narrower field of view of a view
-:data:`ASPECT` as wide as high or wider (the 3-D view is the window left of the docked panel).
-:class:`FirstView` applies it once: to viser's initial camera (its "Reset View") and to the
-browsers already open, which have not moved yet; and to each browser that connects later.
-"""
+:func:`framing` (pure) fits the points' bounding sphere in a view :data:`ASPECT` as wide as high or wider;
+:class:`FirstView` applies it to viser's initial camera, the open browsers and each browser that connects."""
 
 from __future__ import annotations
 

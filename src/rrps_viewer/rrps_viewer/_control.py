@@ -1,13 +1,7 @@
 """Who may drive the robot from a browser: the operator-control state machine (pure, no viser).
 
-Rules: every viewer is read-only until it enters the operator token; at most one
-authenticated client holds control; the holder can release it or hand it over to another
-authenticated client; a client that disconnects loses control at once, and with it the deadman,
-so the robot holds. The deadman (``teleop/enable``) is alive only while the controller has the
-clutch engaged AND either holds the hold-to-move button (refreshed by the button's hold events,
-expiring ``deadman_timeout`` s after the last one) or is dragging the master's gizmo.
-
-Thread-safe: viser calls in from its thread pool, the ROS timer reads ``enable``.
+Token, one controller, hand-over, loss of control on disconnect, and the deadman (``teleop/enable``): docs/viewer.md,
+"Driving the robot from the browser". Thread-safe: viser calls in from its thread pool, the ROS timer reads ``enable``.
 """
 
 from __future__ import annotations

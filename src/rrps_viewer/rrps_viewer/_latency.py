@@ -1,15 +1,8 @@
 """Round trip to each browser, measured on its own websocket (the operator's network link).
 
-Every ``period`` s a websocket Ping goes to each connected browser on viser's event loop; the
-browser's network stack answers with a Pong, whatever its page is busy with, so the time is
-the link's round trip (proxies, Wi-Fi, a VPN) and not the page's frame rate. While a Ping is
-unanswered its age is a lower bound of the round trip, so a stalled link reads as slow at
-once instead of keeping its last good value.
-
-viser 1.1.1 has no public round-trip API: the clients and viser's event loop come from its
-public API, each client's websocket (``websockets`` ServerConnection, whose ``ping()``
-resolves to the latency) from :func:`._viser_shim.client_connection`.
-tests/node/teleop/test_viewer_node.py checks the measurement works.
+Every ``period`` s a websocket Ping goes to each browser; its network stack answers whatever the page is busy with.
+While a Ping is unanswered its age is a lower bound of the round trip, so a stalled link reads as slow at once. The
+client's websocket comes from :func:`._viser_shim.client_connection`.
 """
 
 from __future__ import annotations

@@ -1,12 +1,7 @@
-"""The operator controls of one browser (viser GUI): what a person clicks to drive the robot.
+"""The operator controls of one browser (viser GUI): what a person clicks to drive the robot (docs/viewer.md).
 
-Each connected browser gets a :class:`ClientControls`: the token entry and control hand-over
-(:class:`~rrps_viewer.OperatorControl` decides), the teleop clutch, deadman and mapping,
-the driver's activation, climb steps and resume, the grippers, the flight-recorder and replay
-controls, and, while it holds control, its own ``/operator/master_handle`` gizmo (world frame).
-Requests go to an :class:`OperatorActions` (the viewer node), which answers later through
-``ViewerServer.tell``.
-"""
+Each browser gets a :class:`ClientControls`; requests go to an :class:`OperatorActions` (the viewer node), which
+answers later through ``ViewerServer.tell``."""
 
 from __future__ import annotations
 

@@ -1,13 +1,6 @@
-"""The viewer's recording controls (viser): "Save last 60 s" and the replay timeline.
+"""The viewer's recording controls (viser): "Save last 60 s" and the replay timeline (seek, pause, rate).
 
-Each browser gets a "Recording" folder. **Save last 60 s** (for the operator holding control)
-asks the flight recorder to write its buffer (``flight_recorder/save``) and, once the file is
-written, offers it for download in that browser. While a replay runs (``replay/status`` is
-heard), the folder shows its timeline: a slider of the recording time (drag to seek), a pause
-box and the rate; they set the replay node's parameters (``seek``, ``paused``, ``rate``).
-
-The node side (services, parameters, the status) is the viewer node's
-(:class:`rrps_viewer.recording_clients.ViewerRecording`); here only the widgets.
+Only the widgets; the node side is :class:`rrps_viewer.recording_clients.ViewerRecording`.
 """
 
 from __future__ import annotations

@@ -1,16 +1,9 @@
-"""The viser rendering layer: scene nodes, the status panel and the plot (the per-browser operator
-controls are in ``_operator_panel``).
+"""The viser rendering layer: scene nodes, the status panel and the plot (the per-browser operator controls are in
+``_operator_panel``).
 
-Scene names (all in the ``world`` frame, REP-103, z up):
-``/structure`` (the climbed member), ``/robot/ring_a`` and ``/robot/ring_b`` (ring frames),
-``/robot/legs`` (six leg segments coloured by margin), ``/robot/grippers/ring_a|ring_b``
-(closed = solid, open = faint), ``/ghost/ring_b`` (the commanded ring_b pose, translucent),
-``/master/...`` (the master robot on its console), ``/trail/ring_a|ring_b`` (world paths).
-Each connected browser also gets its own ``/operator/master_handle`` gizmo while it holds control.
-
-Drawing runs in this module's own thread at ``rate`` Hz, whatever the control rate; the
-node only hands over a :class:`Frame` through ``frame_source``. Quaternions are converted to
-viser's (w, x, y, z) by :attr:`Pose.wxyz` only.
+Scene names, all in the ``world`` frame (REP-103, z up): ``/structure``, ``/robot/ring_a|ring_b``, ``/robot/legs``,
+``/robot/grippers/ring_a|ring_b``, ``/ghost/ring_b``, ``/master/...``, ``/trail/ring_a|ring_b`` and, per browser
+holding control, ``/operator/master_handle``. Drawing runs in this module's own thread at ``rate`` Hz.
 """
 
 from __future__ import annotations
@@ -44,15 +37,10 @@ _LEG_SERIES_COLOURS = ('#1f77b4', '#ff7f0e', '#2ca02c', '#d62728', '#9467bd', '#
 
 @dataclass
 class Frame:
-    """One picture of the system, built by the node from its latest messages.
-
-    ``grippers`` maps ring name to closedness (1 closed, 0 open, None unknown). ``plot`` is
-    (t [s], lengths (N, 6) [m]). ``trails`` maps ring name to (N, 3) world points.
-    ``master_handle`` is where the master's ring_b is in the world (the gizmo's start pose).
-    ``workspace``: the slave's reachable workspace at its orientation (drawn in ring_a's frame
-    around the robot); ``master_workspace``: (offset [m] in master_ring_a, scale) placing the
-    same set on the master: a slave position p maps to offset + p / scale.
-    """
+    """One picture of the system, built by the node from its latest messages: ``grippers`` ring -> closedness (1
+    closed, 0 open, None unknown), ``plot`` (t [s], lengths (N, 6) [m]), ``trails`` ring -> (N, 3) world points,
+    ``workspace`` drawn in ring_a's frame and ``master_workspace`` (offset [m] in master_ring_a, scale) placing it on
+    the master: a slave position p maps to offset + p / scale."""
 
     slave: RobotFigure | None = None
     ghost_world_T_b: Pose | None = None
@@ -70,15 +58,10 @@ class Frame:
 
 
 class ViewerServer:
-    """The viser server of the viewer: draws :class:`Frame` s and runs the operator controls.
+    """The viser server of the viewer: draws :class:`Frame` s and runs the operator controls (ValueError: rate <= 0).
 
-    Keyword-only: ``host``/``port`` to bind, ``control`` (an :class:`OperatorControl`),
-    ``actions`` (an :class:`OperatorActions`), ``frame_source`` (returns the latest Frame),
-    ``geometry`` and ``master_geometry`` (ring sizes), ``master_origin`` (world pose of the
-    master's ring_a on its console), ``structure`` ((vertices, faces) of the climbed member in
-    the world frame, or None), ``rate`` [Hz] of the drawing thread, ``robots``: the names of a
-    fleet's robots the controller chooses from (empty: one robot), ``payload_max`` [kg]: the top
-    of the controller's payload slider of the load-feasible workspace (0: no slider).
+    ``structure``: (vertices, faces) in the world frame, or None; ``rate`` [Hz] of the drawing thread; ``robots``: a
+    fleet's robots (empty: one); ``payload_max`` [kg]: the payload slider's top (0: no slider).
     """
 
     def __init__(self, *, host: str, port: int, control: OperatorControl, actions: OperatorActions,

@@ -1,10 +1,5 @@
-"""The viewer's 3-D scene nodes, all in the ``world`` frame (REP-103, z up): built once, then
-moved by the drawing thread of :mod:`rrps_viewer._render` (scene names in its docstring).
-
-:func:`build_scene` adds the climbed structure, the grid, the robot (ring frames and bodies,
-grippers, tool, legs), the commanded ring_b as a ghost, the rings' trails and the master robot on
-its console with its force-feedback arrow; :func:`draw_robot` moves a robot to a
-:class:`~rrps_kinematics.scene.RobotFigure`.
+"""The viewer's 3-D scene nodes, all in the ``world`` frame (REP-103, z up): built once by :func:`build_scene`, then
+moved by the drawing thread of :mod:`rrps_viewer._render` (scene names in its docstring) through :func:`draw_robot`.
 """
 
 from __future__ import annotations

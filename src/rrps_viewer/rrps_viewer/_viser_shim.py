@@ -1,14 +1,8 @@
-"""What the viewer needs of viser beyond its public API, in one place, shaped as upstream would
-offer it.
+"""What the viewer needs of viser beyond its public API, in one place, shaped as upstream would offer it.
 
-viser (1.1.1, pinned) gives no hook for how a server sends its windows of messages, and no
-access to a client's websocket (its Ping measures the link's round trip). The two functions below
-are those hooks as a public API could have them, a producer per server and a client's connection,
-written on the internals of the pinned version (``viser.infra._infra``). Everything else the
-viewer does goes through viser's public API. tests/unit/viewer/test_viser_shim.py fails when viser
-changes under this module (its version, or the source of the internals used here), so that
-upgrading viser is a deliberate change: re-check the wire format and these two hooks, then
-update ``INTERNALS_SHA256``.
+Two hooks, a server's message producer and a client's connection, written on the internals of the pinned viser
+(``viser.infra._infra``). tests/unit/viewer/test_viser_shim.py fails when viser changes under them; upgrading viser:
+docs/viewer.md, "How the viewer works".
 """
 
 from __future__ import annotations

@@ -1,14 +1,8 @@
-"""The slave's reachable workspace for the viewer, kept up to date off the drawing thread.
+"""The slave's reachable workspace for the viewer (§3.1), kept up to date off the drawing thread (no rclpy, no viser).
 
-The operator sees where ring_b can go at its current orientation (paper section 3.1: the
-master robot lets the operator cope with "the reachable spaces inside the universe of work of
-the robot") before moving there. :class:`WorkspaceView` recomputes
-:func:`rrps_kinematics.workspace.reachable_workspace` in a worker thread whenever the orientation
-or ring_a's attitude in the world changed by more than ``angle_step``, or the payload changed
-(at most one computation at a time, the newest request wins), restricts it to the
-load-feasible positions (:func:`rrps_loads.load_workspace.load_workspace`: ring_a gripping, a
-point-mass payload at ring_b's origin) and keeps the boundary of that set, which is what is
-drawn (light and readable, the robot stays visible inside it). No rclpy, no viser.
+:class:`WorkspaceView` recomputes :func:`rrps_kinematics.workspace.reachable_workspace` in a worker thread when the
+orientation, ring_a's attitude (by ``angle_step``) or the payload changed, restricts it to the load-feasible positions
+(:func:`rrps_loads.load_workspace.load_workspace`) and keeps the boundary, which is drawn.
 """
 
 from __future__ import annotations

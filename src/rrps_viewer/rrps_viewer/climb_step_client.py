@@ -1,12 +1,7 @@
-"""A client of the climbing step, for the viewer's buttons and the scripted operator: the action
-``climb/step`` (rrps_msgs/action/ClimbStep: feedback, cancel; :mod:`.climb_action`) where
-rrps_msgs is built, the services ``climb/step_up|step_down`` otherwise.
-
-:meth:`ClimbStepClient.request` asks for one step without blocking and answers once the climb took
-it or refused it: with the action, at the goal's first feedback (the step is previewed or runs) or
-at its result (refused, with the reason); with a service, at its reply. The action's client lives
-on an :class:`~rrps_runtime.action_host.ActionHost` (its own thread): the callbacks run there.
-"""
+"""A client of the climbing step (the viewer's buttons, the scripted operator): the action ``climb/step`` where
+rrps_msgs is built, else the services ``climb/step_up|step_down``. :meth:`ClimbStepClient.request` does not block and
+answers once the step was taken (first feedback) or refused; callbacks run in the thread of an
+:class:`~rrps_runtime.action_host.ActionHost`."""
 
 from __future__ import annotations
 

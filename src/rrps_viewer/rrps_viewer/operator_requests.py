@@ -1,21 +1,8 @@
 """The viewer node's requests to the robot: what an operator's buttons ask of other nodes' services.
 
-:class:`ViewerRequests` holds one service client per :class:`OperatorRequest` and sends a request
-without blocking; the answer is told to the browser that asked (``tell(client_id, text, ok)``):
-
-* ``STEP_UP`` / ``STEP_DOWN``: the action ``climb/step`` (its first feedback or its result answers;
-  :class:`~rrps_viewer.climb_step_client.ClimbStepClient`, the step services without rrps_msgs);
-* ``RESUME``: ``climb/resume`` (std_srvs/Trigger);
-* ``GRIPPER``: ``grippers/ring_a|ring_b/set`` (std_srvs/SetBool, true = close);
-* ``DRIVER``: ``driver_node/change_state`` (lifecycle activate / deactivate);
-* ``MAPPING``: ``teleop_node/set_parameters_atomically``: mode, rotation and scale change
-  together or not at all, never half;
-* ``ROBOT``: the same service: ``robot_namespace``, the robot the master drives (a fleet).
-
-The climb, gripper and driver services are those of the selected robot (:meth:`select`: its
-namespace); the teleop node's is in the viewer's own namespace.
-
-Every method runs on the node's executor thread (the viewer queues browser requests).
+:class:`ViewerRequests` holds one client per :class:`OperatorRequest` and sends without blocking; the answer is told
+to the browser that asked. The climb, gripper and driver services are the selected robot's (:meth:`select`), the
+teleop node's (``MAPPING`` and ``ROBOT``, set atomically) the viewer's namespace's. Runs on the executor's thread.
 """
 
 from __future__ import annotations

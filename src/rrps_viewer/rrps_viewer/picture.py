@@ -1,11 +1,6 @@
-"""The web viewer's picture of the drawn robot, built in the drawing thread from its newest messages.
-
-:class:`Picture` places the slave in the world by the odometry of its gripping ring (ring_a at
-the world origin before any odometry), draws the commanded pose as a ghost, the master robot at
-its console with the force fed back to it, the reachable workspace at the slave's orientation and
-its copy on the master through the Cartesian mapping; it keeps the rings' trails (their odometry)
-and the leg-length plot. ROS callbacks only store; everything here runs at the drawing rate.
-"""
+"""The web viewer's picture of the drawn robot, built in the drawing thread from its newest messages: the slave placed
+by its gripping ring's odometry (ring_a at the world origin before any), the ghost, the master with its feedback, the
+workspace on both, the trails and the leg-length plot."""
 
 from __future__ import annotations
 

@@ -1,16 +1,8 @@
-"""The viewer node's recording side: the flight recorder's "Save last 60 s" and the replay's
-timeline (the widgets are in :mod:`rrps_viewer`'s recording controls).
+"""The viewer node's recording side: the flight recorder's "Save last 60 s" and the replay's timeline.
 
-* :meth:`ViewerRecording.save` calls ``flight_recorder/save`` (std_srvs/Trigger); its answer's
-  ``message`` is the path of the file being written; once the file exists (it appears whole,
-  renamed from ``.part``) it is sent to the browser that asked, as a download. The recorder
-  and the viewer share a file system (the demo runs both on the operator's machine).
-* ``replay/status`` (values :class:`rrps_interfaces.recording.ReplayStatus`) is kept while fresh
-  (heard in the last 3 s): :meth:`ViewerRecording.replay_status` feeds the timeline.
-* :meth:`ViewerRecording.control` sets the replay node's ``seek``, ``paused``, ``rate`` through
-  its standard parameter service (``replay_node/set_parameters``).
-
-Every method runs on the node's executor thread (the viewer queues browser requests).
+:meth:`ViewerRecording.save` calls ``flight_recorder/save`` and sends the file to the browser once it exists (the
+recorder shares the viewer's file system); ``replay/status`` is kept while heard in the last 3 s;
+:meth:`ViewerRecording.control` sets the replay's parameters. Runs on the executor's thread.
 """
 
 from __future__ import annotations

@@ -1,12 +1,6 @@
-"""The robots a viewer shows: one, or each robot of a fleet, and the one it draws.
-
-Of every robot (a namespace: '' is the viewer's own) the viewer reads its summary: ``climb/status``,
-``climb/preview``, ``teleop/status`` (the teleop node publishes it in the namespace of the robot it drives),
-``grippers/state`` and the driver's and FK's statuses. Of the selected robot it also reads what
-it draws: ``pose``, ``actuators/state``, ``target_pose`` and ``odometry/ring_a|ring_b``. With
-``source`` = 'link' the state comes from each robot's link relay (:mod:`rrps_interfaces.link`),
-else from the robot's own topics. Callbacks only store (the drawing thread reads).
-"""
+"""The robots a viewer shows (one, or each of a fleet) and the one it draws: of every robot its statuses, of the
+drawn one also its pose, actuators, target and odometry, from its own topics or its link relay (``source`` = 'link').
+Callbacks only store (the drawing thread reads)."""
 
 from __future__ import annotations
 

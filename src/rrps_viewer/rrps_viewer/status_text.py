@@ -1,10 +1,5 @@
-"""The viewer's status panel: the operator's text, rendered from typed statuses only.
-
-Every line is read from a contract of :mod:`rrps_interfaces.teleop` (``TeleopStatus``,
-``ClimbStatus``, ``ClimbPreview``), :mod:`rrps_interfaces.driver` (``DriverStatus``) or
-:mod:`rrps_interfaces.kinematics` (``FkStatus``), never from another node's message text (the
-FK status message is shown as it is, for people). A status is anything with ``level`` and
-``values`` (a ``diagnostic_msgs/DiagnosticStatus``); pure Python, no rclpy, no viser.
+"""The viewer's status panel: the operator's text, rendered from typed statuses only (:mod:`rrps_interfaces.teleop`,
+``.driver``, ``.kinematics``), never from another node's message text. Pure Python, no rclpy, no viser.
 """
 
 from __future__ import annotations

@@ -1,25 +1,9 @@
 """link_relay_node: the robot's state for the operator station, within the link's budget.
 
-Runs on the robot host, in the robot's namespace. It republishes the robot's topics on the link
-topics of :mod:`rrps_interfaces.link`, each at the rate of the link profile (its parameters), so
-that only those cross the link and the 500 Hz streams stay on the robot host:
-
-* ``pose`` -> ``link/pose`` (``pose_rate``), ``actuators/state`` -> ``link/actuators/state``
-  (``state_rate``), ``target_pose`` -> ``link/target_pose`` (``target_rate``),
-  ``odometry/ring_a|ring_b|support`` -> ``link/odometry/...`` (``odometry_rate``): the newest sample once
-  a period has passed, best effort keep-last-1 (:data:`rrps_runtime.qos.LINK_STATE_QOS`); these
-  are passed on as serialised bytes, never decoded;
-* ``grippers/state`` -> ``link/grippers/state``: at once when a gripper changes, else at
-  ``grippers_rate``; reliable, latched (:data:`rrps_runtime.qos.LINK_EVENT_QOS`);
-* ``/diagnostics`` -> ``link/diagnostics``: the newest status of each node of
-  ``diagnostics_nodes`` (the robot's, not an operator station's in the same namespace), as one
-  DiagnosticArray, at once when a level or message changes (at most every 0.1 s), else every
-  ``diagnostics_period``; reliable, latched. (A fleet's robots keep their statuses in their
-  namespaces, ``-r /diagnostics:=diagnostics``, so that a relay hears only its own robot's.)
-
-A rate of 0 relays nothing of that stream. The gates are :mod:`rrps_bringup.link_budget`. Its own
-status (:class:`rrps_interfaces.link.LinkRelayStatus`) goes on /diagnostics every second.
-Commands (operator -> robot) are not relayed: they cross as they are.
+Runs on the robot host, in the robot's namespace, and republishes the robot's topics on the link topics of
+:mod:`rrps_interfaces.link` at the rates of its parameters (the link profile; a rate of 0 relays nothing), through
+the gates of :mod:`rrps_bringup.link_budget`. State streams are passed on as serialised bytes, never decoded.
+Commands are not relayed. Topics, rates and QoS: docs/deployment.md, "Field links".
 """
 
 from __future__ import annotations

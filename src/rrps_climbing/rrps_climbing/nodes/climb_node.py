@@ -1,36 +1,10 @@
-"""climb_node: executes inchworm gait steps (``rrps_climbing.gait``) on the robot over ROS;
-with ``junction_deg`` on a frame, the crossing of its node (``rrps_climbing.frame_crossing``);
-on a route (``structure`` frame_route or facade_corner, ``rrps_climbing.route_steps``), its
-climbs over several frame nodes or round the facade's corner.
+"""climb_node: executes climbing steps (the gait, a frame node's crossing or a route) on the robot
+over ROS, with :class:`rrps_climbing.step_machine.ClimbStepMachine`.
 
-The step machine is :class:`rrps_climbing.step_machine.ClimbStepMachine` (phases, arrival,
-the gripper interlock and release gate, pauses on lost inputs, failures, odometry). This node
-feeds it ``pose`` (a_T_b, frame ring_a; the newest sample at the node's ``rate``),
-``grippers/state``, the driver's status on /diagnostics, ``teleop/status`` and, on robots with the
-extra ring DOF, ``actuators/state``; it publishes what the machine asks for: ``target_pose``
-(and ``target_rings``) through the IK node's guards, requests to the driver's
-``grippers/<ring>/set``, ``climb/status`` (values :class:`~rrps_interfaces.climb.ClimbStatus`)
-``odometry`` (nav_msgs/Odometry, REP-105: ``base_link`` in ``odom``, its twist, the covariance of
-:mod:`rrps_kinematics.base_odometry`) and ``odometry/ring_a|ring_b`` (each ring in ``odom``), all
-stamped with the pose they were chained from, their frames named with ``frame_prefix``.
-The supporting ring's world pose goes on ``odometry/support`` (TransformStamped in frame ``world``,
-child frame the ring, latched; at once when it changes, else at 10 Hz:
-:mod:`rrps_climbing.odometry_attitude`), the attitude the driver's gravity and teleop's load guards
-follow. A step's preview stands where the odometry's ring_a is (``anchor_phases``): it computes in the
-gravity of the measured attitudes.
-
-A payload (``payload_mass`` on ``payload_ring``, as the simulated driver's) replaces the robot
-description's in the plans' load check and the previews.
-
-The action ``climb/step`` (rrps_msgs/action/ClimbStep: feedback, cancel;
-:mod:`rrps_climbing.climb_action`, where rrps_msgs is built) and the services
-``climb/step_up``, ``climb/step_down`` and ``climb/resume`` (std_srvs/Trigger);
-``auto_steps`` > 0 climbs that many steps up once the robot's state is known.
-
-With ``preview`` (default), each planned step is first simulated on the dynamics in a worker
-process (:class:`rrps_climbing.preview_worker.PreviewWorker`: the node keeps its rate), its peaks
-published on ``climb/preview`` (values :class:`~rrps_interfaces.climb.ClimbPreview`, latched);
-the machine then starts or refuses it.
+Topics, services and the ``climb/step`` action: docs/usage.md ('The ROS interface') and
+:mod:`rrps_interfaces.climb`; parameters: docs/parameters.md. With ``preview``, each step is first
+simulated in a worker process (:class:`rrps_climbing.preview_worker.PreviewWorker`) so the node
+keeps its rate, anchored where the odometry's ring_a stands.
 """
 
 from __future__ import annotations

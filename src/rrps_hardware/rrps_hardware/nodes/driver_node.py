@@ -1,27 +1,10 @@
 """driver_node: the robot's hardware in ROS. actuators/command -> actuators/state, plus the grippers.
 
-It hosts the implementation its ``hardware`` parameter names (:mod:`rrps_hardware.registry`; by
-default :class:`~rrps_sim.simulated_robot.SimulatedRobot`) and calls its verbs: the lifecycle
-transitions, and each cycle ``write`` (the last accepted command) then ``read`` (published). It
-declares its own parameters, reads ``hardware``, then declares that implementation's parameters
-(its ``PARAMETERS``) and hands their values to it.
-
-A lifecycle node, **inactive** after start-up: the state streams but nothing moves and the
-grippers do not switch until ``activate`` through ``driver_node/change_state`` (or
-``auto_activate``). Deactivating holds the robot; a hardware fault deactivates the node (ERROR on
-/diagnostics, the faults in its status), and the hardware refuses activation until an operator
-resets its faults through the Trigger service ``driver_node/reset_faults`` (refused while active
-or while the bus is lost), then activates again. The state is published at ``rate`` Hz,
-at ``idle_rate`` once the robot rests (every actuator at its target, no command for 0.5 s).
-
-A command is not acted on (the last accepted one stands; /diagnostics and the log say why) when
-it is malformed, unstamped, outside the stroke, or older than ``timeout``; with
-``hold_when_silent`` the robot also holds after ``timeout`` s without a command. Grippers:
-``grippers/state`` and the SetBool services ``grippers/<ring>/set`` (true = close), never both open.
-
-Gravity (simulated hardware) follows the supporting ring's world attitude that the climb node's
-odometry publishes on ``odometry/support`` (:mod:`rrps_hardware.support_follower`); silent for
-``support_timeout`` s, the last known attitude is kept and the status says so (WARN).
+A lifecycle node hosting the implementation its ``hardware`` parameter names
+(:mod:`rrps_hardware.registry`), each cycle ``write`` then ``read``. **Inactive** after start-up:
+nothing moves until ``activate``; a fault deactivates it until ``driver_node/reset_faults``. A
+malformed, unstamped, out-of-stroke or stale command is not acted on; the grippers are never both
+open. Topics and parameters: docs/usage.md, docs/parameters.md; faults: docs/connecting-a-robot.md.
 
     driver_node --ros-args -r __ns:=/rrps -p robot:=pole_climber
 """

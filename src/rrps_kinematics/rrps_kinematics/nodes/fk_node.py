@@ -1,16 +1,8 @@
 """fk_node: actuators/state (measured leg lengths) -> pose (PoseStamped a_T_b, frame ring_a).
 
-Newton-Raphson direct kinematics (paper section 2.2) seeded from the last estimate, guarded
-against assembly-mode jumps by :class:`rrps_kinematics.tracking.PoseTracker` (convergence,
-singularity, sign of det J; steps larger than ``max_jump`` re-solved by continuation). A refused
-update keeps the last good estimate, publishes nothing and /diagnostics says why. Diagnostics
-carry converged, iterations, residual and the inverse condition number.
-
-The pose is published for every actuators/state sample, stamped with the sample's stamp. Lengths
-identical to the last solved ones (a robot at rest) are not solved again: the same pose goes out
-with the new stamp, so a resting robot costs little more than the message itself.
-
-    fk_node --ros-args -r __ns:=/rrps -p robot:=pole_climber
+Newton direct kinematics (§2.2) seeded from the last estimate and guarded against assembly-mode
+jumps (:class:`rrps_kinematics.tracking.PoseTracker`); a pose per sample, with its stamp. A refused
+update publishes nothing and /diagnostics says why (docs/usage.md, 'The ROS interface').
 """
 
 from __future__ import annotations

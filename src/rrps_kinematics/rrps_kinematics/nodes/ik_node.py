@@ -1,14 +1,8 @@
 """ik_node: target_pose (PoseStamped a_T_b, frame ring_a) -> actuators/command (leg lengths).
 
-Every target is checked (:func:`rrps_kinematics.commands.validate_target`: frame, NaN/inf,
-quaternion norm, stroke, joint angles, interference, conditioning) and its age against
-``timeout`` (:class:`rrps_runtime.freshness.CommandFreshness`: also when the sender's clock
-is not this host's); a rejected target is not acted on: the last valid command stands, the reason is
-logged (throttled) and reported on /diagnostics, with the ages of the received targets (p50,
-p99, max over 10 s: how late they arrive). With ``limit_velocity`` the published command
-never asks a leg to move faster than ``max_speed`` since the previous command.
-
-    ik_node --ros-args -r __ns:=/rrps -p robot:=pole_climber
+Every target is checked (:func:`rrps_kinematics.commands.validate_target`) and its age against
+``timeout`` (:class:`rrps_runtime.freshness.CommandFreshness`); a rejected one is never acted on: the
+last valid command stands and /diagnostics says why. ``limit_velocity`` caps each leg at ``max_speed``.
 """
 
 from __future__ import annotations

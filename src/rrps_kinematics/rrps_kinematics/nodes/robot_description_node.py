@@ -1,16 +1,9 @@
 """robot_description_node: the robot's URDF on ``robot_description`` and its joints on ``joint_states``.
 
-``robot_description`` (std_msgs/String; reliable, transient local, depth 1: latched, as
-robot_state_publisher publishes it): the URDF generated from the robot description
-(:func:`rrps_kinematics.urdf_joints.robot_urdf`), published once. ``joint_states``
-(sensor_msgs/JointState): every moving joint of that URDF
-(:func:`rrps_kinematics.urdf_joints.joint_values`) from the IK of the measured pose (``pose``,
-a_T_b from fk_node), stamped with the pose's stamp, at most ``rate`` Hz and only for a pose not
-yet published; the extra ring DOF (robots with one) from ``actuators/state`` once it is known.
-robot_state_publisher fed with the same URDF and these joint states publishes the transforms of
-markers_node's ``/tf`` and ``/tf_static``; RViz2's RobotModel display reads ``robot_description``.
-
-    robot_description_node --ros-args -r __ns:=/rrps -p robot:=pole_climber
+The URDF (:func:`rrps_kinematics.urdf_joints.robot_urdf`) once, latched as robot_state_publisher
+publishes it; every moving joint (:func:`rrps_kinematics.urdf_joints.joint_values`) from the IK of
+``pose``, with its stamp, at most ``rate`` Hz and only for a new pose; the extra ring DOF from
+``actuators/state``. See docs/recording.md, 'robot_description and RViz2'.
 """
 
 from __future__ import annotations

@@ -1,25 +1,13 @@
 """foxglove_node: the robot live in Foxglove, through the Foxglove SDK's WebSocket server.
 
-Every topic of the node's namespace, ``/diagnostics``, ``/tf``, ``/tf_static`` and
-``/robot_description`` (or the names/prefixes of ``topics``) is found in the ROS graph every
-``discovery_period`` s, so late publishers are bridged too: one channel per topic, the
-``ros2msg`` schema the recorder writes (:func:`rrps_recording.storage.schemas.message_schema`)
-and the CDR bytes as received (raw subscriptions, nothing deserialised), with the QoS that
-hears every publisher (rosbag2's rule: a latched ``robot_description`` arrives to a late bridge
-too; its newest message is sent again when a client subscribes to it, to every client then
-subscribed, so a client that subscribes as it arrives may get it twice). Each topic is
-sent at most ``max_rate`` times a second, the newest message
-(:class:`rrps_recording.transport.throttle.Throttle`), except the ``unthrottled`` ones
-(``/diagnostics``: several nodes share it; ``robot_description``). The recording taps' bundles
-are not bridged.
+Topics are found in the ROS graph every ``discovery_period`` s and bridged as received (raw CDR, the recorder's
+``ros2msg`` schemas: :func:`rrps_recording.storage.schemas.message_schema`) with the QoS that hears every
+publisher (rosbag2's rule), each at most ``max_rate`` times a second except the ``unthrottled`` ones. A
+transient-local topic's newest message is sent again when a client subscribes, to every client then subscribed
+(a client may get it twice). The recording taps' bundles are not bridged.
 
-Read-only, always: the server advertises no capability (no client publishing, no services, no
-parameters), so a Foxglove client can look but not publish; a client's ``clientAdvertise`` is
-refused by the SDK and its messages never reach ROS. Commanding the robot stays with the
-viewer, under its one-controller rule. The server listens on ``host`` (127.0.0.1: this machine
-only; set ``0.0.0.0`` deliberately to let the network in) and ``port``.
-
-    foxglove_node --ros-args -r __ns:=/rrps      # Foxglove: Open connection, ws://127.0.0.1:8765
+Read-only, always: the server advertises no capability, so nothing a Foxglove client sends reaches ROS. It
+listens on ``host`` (127.0.0.1; set ``0.0.0.0`` deliberately to let the network in). See docs/recording.md.
 """
 
 from __future__ import annotations

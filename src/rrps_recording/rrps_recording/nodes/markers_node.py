@@ -1,29 +1,12 @@
-"""markers_node: the robot as visualization_msgs/MarkerArray, for RViz2 and Foxglove.
+"""markers_node: the robot as visualization_msgs/MarkerArray, and live /tf, for RViz2 and Foxglove.
 
-Publishes ``robot/markers`` at ``rate`` Hz (:func:`rrps_recording.markers.robot_markers`):
-in frame ``ring_a`` both rings, the six legs coloured by their worst margin (the viewer's
-colours), the grippers (dark closed, yellow open, grey unknown) and the commanded target as a
-ghost ring_b; in frame ``odom`` (the world), once odometry places the robot, the same robot again
-(namespaces ``odom/...``) and the climbed structure (``structure``, every
-``structure_period`` s). In RViz2: add a MarkerArray display on ``/rrps/robot/markers`` with
-fixed frame ``odom`` (or ``base_link``). The recordings also carry ``/tf`` (recorder_node).
-
-Live ``/tf`` (``tf2_msgs/msg/TFMessage``, the absolute topic, with the QoS of tf2_ros'
-TransformBroadcaster) at ``tf_rate`` Hz once a pose is known, the REP-105 tree: ``odom ->
-base_link`` (once odometry places the robot) and the URDF's moving joints at the pose's joint values (the extra ring DOF
-from ``actuators/state``), computed as the recorder computes its ``/tf``
-(:func:`rrps_recording.markers.robot_transforms`); the URDF's fixed joints once on
-``/tf_static`` (latched, as tf2_ros' StaticTransformBroadcaster): what robot_state_publisher
-publishes from robot_description and joint_states (robot_description_node). tf2_msgs is not on PyPI:
-``./rrps`` builds it (tools/build_interfaces.sh) when cmake and a C compiler are there; without
-it the node logs that live /tf is off and publishes the markers only. Every frame, of /tf and of
-the markers, is named with ``frame_prefix`` (``robot_1/odom``, ``robot_1/base_link``, ...), as
-robot_state_publisher's parameter names them: several robots in one domain share /tf.
-
-Subscribes (relative names): ``pose``, ``target_pose``, ``actuators/state`` (efforts),
-``grippers/state``, ``odometry/ring_a|ring_b``; every subscription keeps only the newest
-message, the markers are built at ``rate`` Hz while anything they show changes; a robot at rest
-is re-sent every ``structure_period`` s only (for displays that join later).
+``robot/markers`` (:func:`rrps_recording.markers.robot_markers`) at ``rate`` Hz while anything it shows changes,
+at rest every ``structure_period`` s (for displays that join later). Live ``/tf`` at ``tf_rate`` Hz once a pose is
+known, and the URDF's fixed joints once on latched ``/tf_static``, computed as the recorder computes its /tf
+(:func:`rrps_recording.markers.robot_transforms`); without tf2_msgs it logs that live /tf is off. Every frame is
+named with ``frame_prefix``. Subscribes, keeping the newest message only: ``pose``, ``target_pose``,
+``actuators/state``, ``grippers/state``, ``odometry/ring_a|ring_b``. Frames, colours and RViz2:
+docs/recording.md, 'Markers and /tf'.
 
     markers_node --ros-args -r __ns:=/rrps -p robot:=pole_climber -p tf_rate:=30.0
 """

@@ -1,41 +1,16 @@
 """recorder_node: every rrps topic and /diagnostics to a rosbag2 bag folder, and the flight recorder.
 
-Recording (``record``, default on): every topic of the node's namespace, ``/diagnostics``,
-``/tf`` and ``/tf_static`` (or the names/prefixes of ``topics``) is found in the ROS graph every
-``discovery_period`` s, so late publishers are recorded too, and subscribed to raw: the CDR
-bytes are written as received, never deserialised. The recording is the bag folder
-``<output_dir>/<prefix>/`` (:mod:`rrps_recording.storage.bag`): ``metadata.yaml`` and MCAP files
-in the ``ros2`` profile (:mod:`rrps_recording.storage.mcap_files`): ``ros2msg`` schemas, ``cdr``
-messages, the QoS each publisher offered as ``offered_qos_profiles``; zstd chunks flushed every
-``flush_period`` s; a new file ``<prefix>_<n>.mcap`` past ``max_file_size_mb`` or
-``max_file_duration``. A folder that exists is refused (a bad ``prefix``).
-A topic is subscribed reliable only if every publisher offers reliable (rosbag2's rule).
-
-Recording taps (``use_taps``, default on): the stack's nodes send their high-rate publications
-in bundles on ``<node>/recording_tap`` while a recorder listens
-(:mod:`rrps_runtime.recording_tap`). A topic whose every publisher taps it is
-recorded from the bundles and not subscribed to: one DDS delivery per node every 0.1 s instead
-of one per message, which is what keeps the recorder's cost within its budget (docs/recording.md,
-*Recording taps*). A topic with any other publisher is subscribed to as above; the switch between
-the two loses and doubles nothing (:class:`rrps_recording.transport.taps.TapRouter`). A tapped
-message is logged at its publish time plus the node's smallest bundle delay.
-
-The robot's transforms, ``odom -> base_link`` (REP-105) and the URDF's, are written to ``/tf``
-at ``tf_rate`` Hz from the newest ``pose``, ``odometry/*`` and ``grippers/state``
-(:class:`rrps_recording.robot_tf.RobotTf`); the live ``/tf`` and ``/tf_static`` are then not
-subscribed to, so the recording has no duplicate transforms, and any part of it shows the whole
-robot. With ``tf_rate`` 0 the live ``/tf`` and ``/tf_static`` are recorded like any topic (where
-tf2_msgs is installed).
-
-Flight recorder (``flight_recorder``, default on): the last ``buffer_seconds`` of the same
-messages, written to a bag folder ``<output_dir>/flight_<time>_<trigger>/`` after a fault (a
-node's ERROR, a gripper refusal, a lost teleop or climb link) and when the service
-``flight_recorder/save`` (std_srvs/Trigger) is called (0.2 s later, so that the recording taps'
-last bundles are in), whose answer's ``message`` is the path of its MCAP file
-(:class:`rrps_recording.transport.flight_recorder.FlightRecorder`).
+Recording (``record``): the selected topics, found in the ROS graph every ``discovery_period`` s, are written
+as received (raw CDR, never deserialised) to the bag folder ``<output_dir>/<prefix>/``, which must not exist
+(:mod:`rrps_recording.storage.bag`). A topic whose every publisher taps it is taken from the recording taps'
+bundles instead of a subscription (``use_taps``, :class:`rrps_recording.transport.taps.TapRouter`). The robot's
+``/tf`` is written at ``tf_rate`` Hz from the newest pose, odometry and grippers
+(:class:`rrps_recording.robot_tf.RobotTf`); the live /tf and /tf_static are then not recorded. Flight recorder
+(``flight_recorder``): the last ``buffer_seconds``, dumped after a fault and on ``flight_recorder/save``
+(std_srvs/Trigger; the answer's message is the MCAP file's path), by
+:class:`rrps_recording.transport.flight_recorder.FlightRecorder`. See docs/recording.md.
 
     recorder_node --ros-args -r __ns:=/rrps -p output_dir:=recordings
-    rrps-record -o recordings --namespace /rrps          (the same, as a command)
 """
 
 from __future__ import annotations

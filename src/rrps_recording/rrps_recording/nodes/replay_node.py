@@ -1,32 +1,15 @@
 """replay_node: publishes a recording again, with its QoS, at any rate, with pause and seek.
 
-A recording is a bag folder (``rrps-record``'s or ``ros2 bag record -s mcap``'s) or MCAP files.
-
-Every recorded topic is published on its recorded name (the CDR bytes as recorded, never
-re-encoded) with the reliability and durability its publishers offered
-(:func:`rrps_recording.storage.qos.offer_for_replay`), at the recorded pace times ``rate``, so
-the viewer and any node see the session again. A topic whose message type is not installed
-here (``tf2_msgs/msg/TFMessage`` where ./rrps could not build tf2_msgs) is skipped and named in
-the status.
-
-Safety: a replay never feeds a live robot. The command streams (``target_pose``,
-``actuators/command``, ``teleop/enable``, ``master/target_pose``) are published under
-``<namespace>/replay/...`` instead (``remap_prefix``) unless ``allow_commands`` is set.
-
-``/clock`` (rosgraph_msgs/Clock, ``clock_rate`` Hz, as ``ros2 bag play --clock``) carries the
-recording's time where the replay is: a node started with ``use_sim_time:=true`` (RViz2, or any
-rrps node: they take "now" from their node clock) reads it as now, so it stamps and times out as
-it did while the session was recorded; it stands still while the replay is paused and jumps with
-a seek. The replay itself is paced by the wall clock (its timers and thread run on the steady
-clock), whatever its own ``use_sim_time``.
-
-Run-time parameters: ``rate`` (1.0 = as recorded), ``paused``, ``seek`` (set to a time [s]
-from the recording's start to jump there; the value stays as a record of the last jump).
-``replay/status`` (diagnostic_msgs/DiagnosticStatus, values :class:`ReplayStatus`) says where
-the replay is, at ``status_rate`` Hz: the viewer draws its timeline from it.
+A recording (a bag folder, ``rrps-record``'s or ``ros2 bag record -s mcap``'s, or MCAP files) is published on
+its recorded names, the CDR bytes as recorded, with the reliability and durability its publishers offered
+(:func:`rrps_recording.storage.qos.offer_for_replay`), at the recorded pace times ``rate``; a topic whose type
+is not installed is skipped and named in the status. Safety: a replay never feeds a live robot: the command
+streams go under ``<namespace>/<remap_prefix>/`` unless ``allow_commands``. ``/clock`` is the recording's time
+where the replay is, for nodes with ``use_sim_time:=true``; the replay itself is paced by the steady clock.
+``rate``, ``paused`` and ``seek`` are set at run time (the viewer's timeline); ``replay/status`` (values
+:class:`ReplayStatus`) says where the replay is. See docs/recording.md, 'Replay'.
 
     replay_node --ros-args -p files:=[recordings/session] -p rate:=2.0
-    rrps-replay recordings/session --rate 2.0           (the same, as a command)
 """
 
 from __future__ import annotations

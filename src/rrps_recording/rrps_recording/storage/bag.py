@@ -1,17 +1,9 @@
-"""rosbag2 bag folders (Jazzy, MCAP storage): what ``ros2 bag record -s mcap -o NAME`` leaves.
+"""rosbag2 bag folders (Jazzy, MCAP storage): what ``ros2 bag record -s mcap -o NAME`` leaves. No rclpy.
 
-A bag is a folder ``NAME/`` with the MCAP files ``NAME_0.mcap``, ``NAME_1.mcap``, ... (a new
-one past ``max_bytes`` or ``max_seconds``, as rosbag2 splits) and ``metadata.yaml``
-(:mod:`rrps_recording.storage.bag_metadata`). As rosbag2, a folder that exists is refused.
-
-:class:`BagRecording` writes ``metadata.yaml`` when the bag opens, at every split and at close,
-each time whole (written aside and renamed), listing the files closed so far. A process that
-dies therefore leaves a bag that ``ros2 bag`` and rosbags read up to the last split, plus the
-file it was writing, unlisted: complete up to its last flush (at most ``flush_period`` lost), no
-summary; :func:`bag_files` returns it too, so ``rrps-replay NAME/`` replays everything.
-
-:func:`write_bag` writes a closed bag of one file at once (the flight recorder's dumps), in
-``NAME.part/`` renamed to ``NAME/`` when complete. No rclpy.
+:class:`BagRecording` writes ``NAME/NAME_<n>.mcap`` (a new file past ``max_bytes`` or ``max_seconds``) and
+rewrites ``metadata.yaml`` whole at open, at every split and at close; a folder that exists is refused. After a
+crash :func:`bag_files` also returns the unlisted file that was being written. :func:`write_bag` writes a closed
+bag of one file at once, in ``NAME.part/`` renamed when complete. See docs/recording.md, 'The bag folder'.
 """
 
 from __future__ import annotations

@@ -1,20 +1,9 @@
 """A bag's metadata as rosbag2 (Jazzy) writes it: ``metadata.yaml`` and the MCAP ``rosbag2`` record.
 
-rosbag2's ``BagMetadata`` (version 9) as its ``YAML::convert<BagMetadata>::encode`` orders it
-(``rosbag2_storage/yaml.hpp``)::
-
-    version, storage_identifier, duration {nanoseconds}, starting_time {nanoseconds_since_epoch},
-    message_count, topics_with_message_count [{topic_metadata {name, type, serialization_format,
-    offered_qos_profiles [...], type_description_hash}, message_count}], compression_format,
-    compression_mode, relative_file_paths [...], files [{path, starting_time, duration,
-    message_count}], custom_data, ros_distro
-
-In version 9 ``offered_qos_profiles`` is a nested YAML sequence with the policies' names
-(:func:`rrps_recording.storage.qos.offered_qos_profiles`); an empty bag starts at
-``nanoseconds_since_epoch`` 2**63 - 1 (rosbag2's ``nanoseconds::max()``); an empty
-``custom_data`` is ``~``. ``metadata.yaml`` wraps it in ``rosbag2_bagfile_information``; the
-MCAP record ``rosbag2`` holds it unwrapped under ``serialized_metadata``. :func:`yaml_text`
-writes both in yaml-cpp's block style (PyYAML's emitter). Pure Python, no rclpy.
+rosbag2's ``BagMetadata`` version 9, ordered as its ``YAML::convert<BagMetadata>::encode``
+(``rosbag2_storage/yaml.hpp``; the fields: docs/recording.md, 'The bag folder'). ``metadata.yaml`` wraps it in
+``rosbag2_bagfile_information``; the MCAP record holds it unwrapped under ``serialized_metadata``.
+:func:`yaml_text` writes both in yaml-cpp's block style (PyYAML's emitter). Pure Python, no rclpy.
 """
 
 from __future__ import annotations

@@ -1,24 +1,10 @@
-"""MCAP files in the ``ros2`` profile, as ``ros2 bag record -s mcap`` (Jazzy) writes them.
+"""MCAP files in the ``ros2`` profile, as ``ros2 bag record -s mcap`` (Jazzy) writes them. No rclpy.
 
-* Profile ``ros2``; one Schema per message type: encoding ``ros2msg``, name ``pkg/msg/Type``,
-  data the definition with its dependencies (:func:`rrps_recording.storage.schemas.message_schema`).
-* One Channel per topic: message encoding ``cdr``, metadata ``offered_qos_profiles`` (the QoS
-  each publisher offered, :func:`rrps_recording.storage.qos.offered_qos_yaml`) and
-  ``topic_type_hash`` (``RIHS01_...``, empty when unknown).
-* Messages: the CDR bytes as received (log time = receipt time [ns since the epoch], publish
-  time the same), a sequence number per channel (from 1).
-* Chunks compressed (zstd by default), with message indexes and a summary; a Metadata record
-  ``rosbag2`` whose ``serialized_metadata`` is the file's metadata as a bag of its own
-  (:mod:`rrps_recording.storage.bag_metadata`, version 9: what rosbag2's MCAP storage reads when
-  it opens the file alone).
-
-:class:`McapRecording` writes one file; it is flushed (the chunk in progress written) at
-least every ``flush_period`` s of log time, so a process that dies loses at most that much.
-The files of a bag folder and their split are :mod:`rrps_recording.storage.bag`'s. No rclpy.
-
-The writer is Foxglove's SDK (``foxglove-sdk``, its MCAP writer compiled from Rust), quicker
-than the pure-Python ``mcap`` writer (docs/measurements.md). Files are read back with the
-``mcap`` reader (replay, tests).
+One ``ros2msg`` schema per type (:func:`rrps_recording.storage.schemas.message_schema`), one ``cdr`` channel per
+topic, the CDR bytes as received (log and publish time: the receipt time [ns since the epoch]), compressed chunks
+and a ``rosbag2`` metadata record (:mod:`rrps_recording.storage.bag_metadata`): docs/recording.md, 'The MCAP
+files'. :class:`McapRecording` writes one file, flushed at least every ``flush_period`` s of log time (what a
+crash can lose); the splits are :mod:`rrps_recording.storage.bag`'s. Written with Foxglove's SDK, read with mcap.
 """
 
 from __future__ import annotations

@@ -1,24 +1,10 @@
-"""QoS profiles as rosbag2 (Jazzy) records them: ``offered_qos_profiles`` of MCAP channels and bags.
+"""QoS profiles as rosbag2 (Jazzy) records them: ``offered_qos_profiles`` of MCAP channels and bags. No rclpy.
 
-rosbag2 stores, per topic, the QoS every publisher offered, as a YAML sequence written by
-yaml-cpp with the policies' names (bag metadata version 9)::
-
-    - history: keep_last
-      depth: 10
-      reliability: reliable
-      durability: volatile
-      deadline:
-        sec: 9223372036
-        nsec: 854775807
-      ...
-      avoid_ros_namespace_conventions: false
-
-:class:`QosSpec` holds one profile as plain values (the rmw enum numbers rclpy also uses);
-:func:`offered_qos_yaml` writes the list as a channel's text, :func:`offered_qos_profiles` as
-the nested sequence of a bag's ``metadata.yaml``, :func:`parse_offered_qos` reads it back (names or the
-numbers of older bags). :func:`request_for_offers` is the QoS a recorder requests so that it
-connects to every publisher (rosbag2's rule) and :func:`offer_for_replay` the QoS a replay
-offers. Pure Python, no rclpy import.
+:class:`QosSpec` holds one profile (rmw enum numbers, as rclpy); :func:`offered_qos_yaml` writes a channel's
+text and :func:`offered_qos_profiles` a ``metadata.yaml``'s nested sequence, both with the policies' names as
+yaml-cpp writes them; :func:`parse_offered_qos` reads either (or older bags' numbers). :func:`request_for_offers`
+is the QoS a recorder requests to hear every publisher (rosbag2's rule), :func:`offer_for_replay` what a replay
+offers.
 """
 
 from __future__ import annotations

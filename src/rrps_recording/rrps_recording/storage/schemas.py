@@ -1,18 +1,9 @@
-"""ROS 2 message definitions as MCAP ``ros2msg`` schemas and their type hashes, from ``rosbags``.
+"""ROS 2 message definitions as MCAP ``ros2msg`` schemas and their type hashes, from ``rosbags``. No rclpy.
 
-A schema is the definition of the recorded type followed by that of every type it uses, each
-once, separated as rosbag2 (Jazzy) writes them::
-
-    std_msgs/Header header
-    geometry_msgs/Pose pose
-    ================================================================================
-    MSG: std_msgs/Header
-    ...
-
-Both come from rosbags' typestore of ROS 2 Jazzy (``generate_msgdef``, ``hash_rihs01``: the
-``RIHS01_...`` hashes of the installed type descriptions). A type it does not know is read from
-the ``share/<package>/msg/<Type>.msg`` file its package installs (with those of its own
-dependencies) and added to it. Pure Python, no rclpy import.
+A schema is the recorded type's definition followed by each type it uses, once, separated as rosbag2 (Jazzy)
+separates them (a line of ``=`` then ``MSG: pkg/Type``). Definitions and ``RIHS01_...`` hashes come from
+rosbags' Jazzy typestore; a type it does not know is read from the ``share/<package>/msg/<Type>.msg`` its
+package installs (with its dependencies) and added to it.
 """
 
 from __future__ import annotations

@@ -1,16 +1,10 @@
 """Replay of MCAP recordings: reading, timing (rate, pause, seek) and the safety remap. Pure.
 
-* :class:`RecordingSet` reads one recording: a bag folder (its files,
-  :func:`rrps_recording.storage.bag.bag_files`) or MCAP files (the splits of one recording, in
-  time order), with the ``mcap`` library: the topics (type, schema, the offered QoS of each
-  channel's ``offered_qos_profiles``), the time span, and the messages from any time on (the
-  chunk index makes a seek cheap). A file cut by a crash has no summary: it is scanned once and
-  replayed up to its last complete chunk.
-* :class:`ReplayClock` maps recording time to wall time for a rate (1.0 = as recorded), and
-  holds the pause and seek state. Every method takes ``now`` (monotonic seconds) explicitly.
-* :func:`replay_topic` keeps a replay away from a live robot: the command streams
-  (:data:`rrps_interfaces.recording.COMMAND_TOPICS`) are moved under ``replay/`` unless
-  ``allow_commands``.
+:class:`RecordingSet` reads one recording (a bag folder, :func:`rrps_recording.storage.bag.bag_files`, or MCAP
+files) with ``mcap``: topics, time span, messages from any time on; a file cut by a crash is scanned once and
+replayed up to its last complete chunk. :class:`ReplayClock` maps recording time to wall time (every method
+takes ``now``, monotonic s). :func:`replay_topic` moves the command streams
+(:data:`rrps_interfaces.recording.COMMAND_TOPICS`) under ``replay/`` unless ``allow_commands``.
 """
 
 from __future__ import annotations

@@ -1,10 +1,6 @@
-"""The flight recorder's memory: the last N seconds of every recorded message, at full rate.
-
-:class:`MessageRing` keeps (topic, log time [ns], CDR bytes) in arrival order and drops what
-is older than ``seconds`` before the newest message (and the oldest ones past ``max_bytes``,
-a bound on memory whatever the rates). :meth:`MessageRing.snapshot` copies the window out for
-writing while recording goes on. Thread-safe; pure Python, no rclpy.
-"""
+"""The flight recorder's memory: the last ``seconds`` of every recorded message at full rate, within ``max_bytes``.
+:class:`MessageRing` keeps (topic, log time [ns], CDR bytes); :meth:`MessageRing.snapshot` copies the window out
+while recording goes on. Thread-safe; no rclpy."""
 
 from __future__ import annotations
 

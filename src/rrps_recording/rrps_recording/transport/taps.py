@@ -1,25 +1,11 @@
-"""Which topics the recorder takes from recording taps, and when their messages happened.
+"""Which topics the recorder takes from recording taps, and when their messages happened. No rclpy.
 
-Nodes with a recording tap (:mod:`rrps_runtime.recording_tap`) send their high-rate
-publications in bundles (:mod:`rrps_runtime.recording_bundle`). :class:`TapRouter` decides,
-topic by topic, where the recorder gets a topic's messages:
-
-* from the bundles when **every** publisher of the topic is a node whose bundles list it (the
-  recorder then does not subscribe to the topic: no second DDS delivery);
-* from its own subscription otherwise (a publisher without a tap, say an operator's tool), and
-  the bundles' copies of that topic are ignored, so no message is recorded twice.
-
-A switch between the two loses and doubles nothing: for ``TRANSITION`` seconds after it the
-recorder takes a topic's messages from both sources, and drops a message whose CDR bytes it
-has just recorded (every rrps message it taps carries a stamp, so equal bytes are the same
-publication). The bytes of every topic's last ``RECENT_NS`` of messages are kept for that
-comparison.
-
-Log times: a bundle's messages carry their publish times on the publisher's wall clock. The
-router logs each at its publish time plus the node's delay estimate: the smallest (receipt -
-send) time of its last ``OFFSET_WINDOW`` bundles, which is the clock offset between the hosts
-plus the quickest delivery (on one host, the delivery alone: about what a subscriber's receipt
-time would be). Pure Python, no rclpy.
+:class:`TapRouter` takes a topic from the bundles (:mod:`rrps_runtime.recording_bundle`) when **every** publisher
+of it taps it, else from the recorder's own subscription, ignoring the bundles' copies. A switch loses and
+doubles nothing: for ``TRANSITION_NS`` after it both sources are taken, and a message whose CDR bytes were just
+recorded (within ``RECENT_NS``) is dropped (every tapped message carries a stamp: equal bytes are the same
+publication). A bundled message is logged at its publish time plus the node's smallest (receipt - send) delay
+of its last ``OFFSET_WINDOW`` bundles: the clock offset between the hosts plus the quickest delivery.
 """
 
 from __future__ import annotations

@@ -1,18 +1,10 @@
-"""When the flight recorder writes its buffer: the fault triggers, as one small pure function.
+"""When the flight recorder writes its buffer: the fault triggers, as one small pure function. No rclpy.
 
-A fault is read from typed values only (never from a status' human text):
-
-* a node's DiagnosticStatus on ``/diagnostics`` at level ERROR (:attr:`RecorderTrigger.NODE_ERROR`);
-* the driver's ``DriverStatus.gripper_refusals`` larger than the last value seen
-  (:attr:`RecorderTrigger.GRIPPER_REFUSAL`);
-* ``teleop/status`` or ``climb/status`` at ERROR, or at STALE after it was healthy (OK or
-  WARN): a lost link or lost state (:attr:`RecorderTrigger.LINK_LOST`). A status that starts
-  STALE (waiting for its inputs at start-up) has lost nothing yet.
-
-:class:`FaultWatch` holds what the rules need to remember (the refusal count, which sources
-are already faulted) so a fault triggers once when it appears, not at every repetition of the
-status; a source that recovers (level back to OK or WARN) can trigger again. To add a rule,
-add a branch to :meth:`FaultWatch.check`. Pure Python, no rclpy.
+From typed values only (:class:`RecorderTrigger`): a node's /diagnostics at ERROR (``NODE_ERROR``), a rise of
+``DriverStatus.gripper_refusals`` (``GRIPPER_REFUSAL``), ``teleop/status`` or ``climb/status`` at ERROR or at
+STALE after OK or WARN (``LINK_LOST``; a status that starts STALE has lost nothing). :class:`FaultWatch` fires
+once per fault, not at every repetition, and again after the source recovers; a new rule is a branch of
+:meth:`FaultWatch.check`.
 """
 
 from __future__ import annotations

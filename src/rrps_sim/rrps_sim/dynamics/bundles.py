@@ -21,17 +21,11 @@ __all__ = ['WORKSPACE_SIZE', 'DynamicsParameters', 'Observation', 'Observations'
 
 
 class DynamicsParameters(NamedTuple):
-    """The robot as the kernels see it: its joints (eqs. 3-10) and its 13 bodies' inertia.
+    """The robot as the kernels see it: its joints (eqs. 3-10) and its 13 bodies' inertia, SI units.
 
-    ``support`` 0 grounds ring_a (body 0, the hub, is ring_b), 1 grounds ring_b (the hub is
-    ring_a; :mod:`.constraints` reads ``joints`` accordingly). ``mass`` (13,) [kg], ``inertia``
-    (13, 3, 3) J' about each com in the body frame [kg m^2] and its inverse ``inertia_inv``,
-    ``gravity`` (3,) in the ground's frame [m/s^2], ``hub_com`` (3,) the hub's com in its frame
-    [m], ``tool_point`` (3,) the tool-centre point from the hub's com in its frame [m] and
-    ``tool_wrench`` (4, 3) the external force [N] and torque [N m] there, fixed in the ground's
-    frame (rows 0, 1) and turning with the hub (rows 2, 3); zeros when ring_b is grounded.
-    Body 0 is the hub, 1 + 2k and 2 + 2k leg k's lower and upper link.
-    """
+    ``support`` 0 grounds ring_a, 1 ring_b; body 0 is the hub, 1 + 2k and 2 + 2k leg k's lower and upper
+    link. Inertias are about each com in the body frame, ``gravity`` in the ground's frame; ``tool_wrench``
+    (4, 3) is fixed in the ground (rows 0, 1) or turns with the hub (rows 2, 3), zeros with ring_b grounded."""
 
     joints: JointGeometry
     support: int
@@ -135,16 +129,8 @@ class Observations(NamedTuple):
 
 
 class Workspace(NamedTuple):
-    """Scratch arrays of the kernels and integrators: views of one flat buffer (:func:`workspace`).
-
-    Evaluation of eq. 19: ``rotations`` A of the 13 bodies, ``forces`` F (78,), each leg's
-    ``blocks`` [Φ_r Φ_π'] and ``gamma`` (kept for :func:`multipliers`), ``residual`` Φ of a leg,
-    the leg solve's ``reduced`` system [K | up to 5 right-hand sides], each leg's ``response``
-    [H | c], ``effective`` M_l [H | c], ``coupling`` Λ P_r (P_r: the hub rows' rotational
-    columns) and the hub's system ``ring`` [S | t].
-    RK4: stage derivatives ``kq``, ``kv``, ``kw``, stage states ``qs``, ``vs``, the state at the
-    start of the step ``q0``, ``v0`` and the partitioned integrator's independent states ``y0``,
-    ``ky``."""
+    """Scratch arrays of the kernels and integrators (eq. 19's blocks, the RK4 stages): views of one
+    flat buffer (:func:`workspace`), so that an evaluation allocates nothing."""
 
     rotations: np.ndarray
     forces: np.ndarray

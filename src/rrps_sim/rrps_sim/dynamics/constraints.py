@@ -1,20 +1,10 @@
-"""The constraint rows of eq. 19 for one leg: [Φ_r Φ_π'] and γ (paper eqs. 3-10, 19), and its
-joint residual, for either ring grounded.
+"""The constraint rows of eq. 19 for one leg: [Φ_r Φ_π'] and γ (eqs. 3-10, 19), and its joint
+residual, for either ring grounded.
 
-Velocities are v = [ṙ, ω'] per body, ω' in the body frame; π' are the matching virtual
-rotations, so a constraint's rotational columns are Φ_π' = Φ_π A (A the body's rotation). γ is
-the acceleration right-hand side: Φ_x ẍ = γ along any motion with Φ = 0.
-
-Body 0, the *hub*, is the free ring; the supporting ring is the ground. With ring_a grounded
-(``support`` 0, the paper's case) the hub is ring_b and carries the spherical joints: rows 0-2
-(eq. 3) couple the upper link to the hub, rows 3-6 (eqs. 4-5) tie the lower link to fixed
-points and axes. With ring_b grounded (``support`` 1) the hub is ring_a and carries the
-universal joints: rows 0-2 fix the upper link's joint centre at ring_b's anchor a_k, rows 3-5
-read r_l + A_l s'_l - r_h - A_h s'_h = 0 and row 6 (A_h h'_k)^T A_l y' = 0, with the joint data
-of :class:`~rrps_kinematics.multibody.JointGeometry` read as ``a`` the ground's joint centres,
-``sb`` the hub's (its com frame) and ``ha`` the universal axes in the universal joints' ring.
+Φ_π' = Φ_π A (A the body's rotation); γ is the acceleration right-hand side, Φ_x ẍ = γ. With
+ring_a grounded (``support`` 0, the paper's case) the hub ring_b carries the spherical joints
+(rows 0-2, eq. 3); with ring_b grounded the hub ring_a carries the universal joints (rows 3-6).
 Rows 7-12 (the prismatic pair and the driving constraint) involve the two links only.
-Small 3-vector helpers on tuples (no allocation) are shared with the other kernels.
 """
 
 from __future__ import annotations

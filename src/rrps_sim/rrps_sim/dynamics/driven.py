@@ -1,11 +1,5 @@
 """The legs driven as the driver's dynamic mode drives them, compiled: many steps of the DAE with
-each leg's force computed from the state between steps (:class:`rrps_sim.actuators.DynamicActuators`).
-
-Per step of dt, each leg k: the command c_k (the sample of ``commands`` whose period holds now)
-clipped to the stroke shapes the reference, x <- c + (x - c) e^{-dt/τ} limited to ``max_speed``
-dt per step (:class:`rrps_sim.actuators.KinematicActuators`), ẋ its change over dt; the demanded
-force is f_k = f_g,k + kp (x_k - L_k) + kd (ẋ_k - L̇_k), applied saturated at ``max_force`` and
-held over the step (one step of :func:`.integrators.step`). The largest |demand| per leg is kept.
+each leg's force from the state between steps (:class:`rrps_sim.actuators.DynamicActuators`).
 """
 
 from __future__ import annotations
@@ -43,14 +37,10 @@ class DriveLoop(NamedTuple):
 def driven_run(q, v, work, commands, period, t0, steps, dt, drive, reference, feedforward, forces,
                peak, method, alpha, beta, correction_tolerance, newton_tolerance, max_iterations,
                params, buffer):
-    """``steps`` steps of ``dt`` [s] from time ``t0`` [s] of a motion whose commanded lengths
-    ``commands`` (n, 6) [m] change every ``period`` [s] (the last one held), in place (module
-    docstring). ``reference`` (12,): the reference's lengths and rates, carried across calls;
-    ``feedforward`` (6,) [N] the gravity feed-forward; ``forces`` (6,) receives the last applied
-    forces, ``peak`` (6,) the largest |demand| per leg (both updated in place).
-
-    Returns (status, work, steps done): status 0, or the failure code of the step that failed
-    (the state is then that before it)."""
+    """``steps`` steps of ``dt`` [s] from ``t0`` [s] towards ``commands`` (n, 6) [m], one per
+    ``period`` [s] (the last held), in place; ``reference``, ``forces`` and ``peak`` (the largest
+    |demand| per leg [N]) are updated in place. Returns (status, work, steps done): status 0, or
+    the failing step's code (the state is then that before it)."""
     Ab = np.empty((3, 3))
     last = commands.shape[0] - 1
     decay = math.exp(-dt / drive.time_constant) if drive.time_constant > 0.0 else 0.0

@@ -1,10 +1,5 @@
-"""Flop model of the dynamics (paper Figure 7's cost per step): multiply, add, divide and square
-root count one each.
-
-The counts follow the loops of the kernels, by formula: one evaluation of eq. 19
-(:func:`rrps_sim.dynamics.kernels.accelerations`) and of the state derivative, the RK4 updates,
-the hybrid's drift check, one Newton iteration of a leg's dependent coordinates and one leg's
-velocity solve (:func:`rrps_sim.dynamics.integrators.solve_dependent`).
+"""Flop model of the dynamics (Figure 7's cost per step): multiply, add, divide and square root
+count one each, by formula from the kernels' loops.
 """
 
 from __future__ import annotations
@@ -60,13 +55,8 @@ VELOCITY_LEG_FLOPS = _LEG_BLOCKS + (2 * 12**3) // 3 + 2 * 12**2 + 12 * 6 * 2
 
 
 def step_flops(method: str, baumgarte: bool, newton_iterations, corrected, support: int = 0):
-    """Flops of RK4 steps of ``method``: an int for one step, an array for arrays of steps, with
-    ring_a (``support`` 0) or ring_b (1) grounded.
-
-    ``baumgarte``: the stabilisation terms are on (α or β non-zero); ``newton_iterations``: the
-    Newton iterations of a step's dependent-coordinate solves, summed over legs; ``corrected``:
-    the hybrid made a partitioned correction in that step.
-    """
+    """Flops of RK4 steps of ``method`` with ring_a (``support`` 0) or ring_b (1) grounded: an int for
+    one step, an array for arrays of steps (``newton_iterations``, ``corrected`` per step)."""
     if isinstance(newton_iterations, np.ndarray) or isinstance(corrected, np.ndarray):
         newton_iterations = np.asarray(newton_iterations, dtype=np.int64)
         corrected = np.asarray(corrected, dtype=np.int64)

@@ -1,12 +1,5 @@
-"""The DAE's coordinates in the supporting ring's frame, and the pose a_T_b back from them.
-
-:class:`~rrps_kinematics.multibody.MultibodyModel` assembles the 91 coordinates in ring_a's
-frame with ring_b as body 0. With ring_b supporting, the ground is ring_b and body 0 is ring_a
-(:mod:`.constraints`): every body's com r and Euler parameters p are carried into ring_b's
-frame by b_T_a (r' = A^T (r - t), p' = p_ab* ⊗ p for a_T_b = (t, A, p_ab)), and body 0 becomes
-ring_a's com and attitude there. The pose observed of body 0 is then b_T_a, which
-:func:`supported_pose` turns back into a_T_b.
-"""
+"""The DAE's coordinates in the supporting ring's frame, and the pose a_T_b back from them
+(with ring_b supporting, body 0 is ring_a: :func:`supported_pose` turns b_T_a into a_T_b)."""
 
 from __future__ import annotations
 

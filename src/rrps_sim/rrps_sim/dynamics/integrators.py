@@ -1,19 +1,9 @@
-"""The three integrators of the DAE (eqs. 19-20), compiled: classical RK4 on the index-1
-accelerations, one step of the user's dt.
+"""The three integrators of the DAE (eqs. 19-20), compiled: RK4 on the index-1 accelerations.
 
-* ``baumgarte``: constraint stabilisation, γ <- γ - 2 α Φ̇ - β² Φ, all 91 + 78 states integrated
-  (:func:`rk4_full`).
-* ``partitioning``: coordinate partitioning (:func:`rk4_partitioned`). Independent coordinates:
-  the hub's (the free ring's) com position and Euler vector part (e1, e2, e3) with their
-  velocities (ṙ_b, ω'_b); dependent: the hub's e0 (eq. 9) and the 84 leg-link coordinates, solved by Newton-Raphson on
-  the constraints (eqs. 3-9, per leg: 14 equations in 14 unknowns), the dependent velocities
-  from Φ_q v = 0 (eq. 20) (:func:`solve_dependent`).
-* ``hybrid``: the paper's choice: Baumgarte-stabilised integration of all states and, whenever
-  the drift ‖Φ‖ or an Euler-parameter norm error exceeds a tolerance, the partitioned
-  correction (:func:`solve_dependent`).
-
-Euler parameters follow ṗ = ½ G^T ω' (G = [-e, -ẽ + e0 I]). The actuator work ∫ Σ f_k L̇_k dt is
-integrated with the states, for the energy balance.
+``baumgarte`` stabilises γ with all 91 + 78 states integrated (:func:`rk4_full`);
+``partitioning`` integrates the hub's coordinates and solves the dependent ones by Newton-Raphson
+(eqs. 3-9) and eq. 20 (:func:`rk4_partitioned`, :func:`solve_dependent`); ``hybrid``, the paper's
+choice, is Baumgarte with a partitioned correction when the drift exceeds a tolerance.
 """
 
 from __future__ import annotations
@@ -278,14 +268,10 @@ def _step(q, v, work, forces, dt, method, alpha, beta, correction_tolerance, new
 def run(q, v, work, forces, dt, first, last, output_every, method, alpha, beta,
         correction_tolerance, newton_tolerance, max_iterations, params, buffer, observed, work_out,
         newton_out, corrected_out, with_reactions, reactions_out):
-    """Steps ``first`` .. ``last`` - 1 (0-based) of a constant-force run, in place, recording
-    after step i when i + 1 is a multiple of ``output_every`` or i + 1 = len(newton_out) (the
-    last step): row (i + output_every) // output_every of ``observed`` (:class:`Observations`),
-    ``work_out`` and, if ``with_reactions``, ``reactions_out`` (:class:`Reactions`).
-    ``newton_out``, ``corrected_out``: per step, for the flop model.
-
-    Returns (status, work, step): status 0 and ``last``, or the failure code and the step that
-    failed (the state is then that before it)."""
+    """Steps ``first`` .. ``last`` - 1 of a constant-force run, in place, recording every
+    ``output_every`` steps and after the last into ``observed``, ``work_out`` and ``reactions_out``.
+    Returns (status, work, step): status 0 and ``last``, or the failure code and the failing step
+    (the state is then that before it)."""
     n_steps = len(newton_out)
     ws = workspace(buffer)
     for i in range(first, last):

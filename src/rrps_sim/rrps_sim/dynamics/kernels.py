@@ -1,31 +1,11 @@
-"""Compiled kernels of the 13-body dynamics: eq. 19 at one state, its multipliers as joint reactions
-(what is observed of a state: :mod:`.observation`).
+"""Compiled kernels of the 13-body dynamics: eq. 19 at one state, its multipliers as joint reactions.
 
-Velocities are v = [ṙ_b, ω'_b] per body (78,), ω' in the body frame; positions are the 91
-coordinates of :mod:`rrps_kinematics.multibody`, in the grounded (supporting) ring's frame. Eq. 19 is
-
-    [M    0    Φ_r^T ] [ r̈  ]   [ F^A            ]
-    [0    J'   Φ_π'^T] [ ω̇' ] = [ n' - ω̃' J' ω'  ]
-    [Φ_r  Φ_π' 0     ] [ λ  ]   [ γ              ]
-
-with F^A gravity, the tool wrench on the hub and each actuator force f_k applied along leg k's
-axis, -f_k h on the lower link and +f_k h on the upper link (f > 0 pushes the rings apart). It
-is solved exactly, by the structure of the robot. Leg k's 12 joint rows are B_h a_h + B_l a_l =
-γ_k with B_l (12 x 12, its two links) square and B_h, the hub's columns, non-zero in the m rows
-of the hub's joint only (:mod:`.constraints`: the spherical joint's 0-2 with ring_a grounded,
-the universal joint's 3-6 with ring_b grounded): B_h = E P, P those rows (m x 6). So a
-leg's link accelerations are a_l = c - H P a_h with H = B_l^-1 E, c = B_l^-1 γ, and its
-multipliers λ = B_l^-T (F_l - M_l a_l) load the hub with P^T H^T (F_l - M_l a_l): the hub obeys
-
-    (M_h + Σ_k P^T Λ_k P) a_h = F_h - Σ_k P^T w_k,   Λ_k = H^T M_l H,  w_k = H^T (F_l - M_l c)
-
-(Λ_k, w_k: the leg's effective mass and force at the hub's joint), one 6 x 6 Cholesky solve.
-B_l y = b itself is solved by its structure (:func:`_leg_solve`): the point-coincidence rows of
-the spherical joint and of the universal joint (eqs. 3-4) give the link translations from their
-rotations, which leaves 6 x 6 for the rotations (partial pivoting).
-
-Every kernel takes the robot as one :class:`~.bundles.DynamicsParameters` bundle and its scratch
-arrays as one :class:`~.bundles.Workspace`, so an evaluation allocates nothing.
+F^A holds gravity, the tool wrench on the hub and each actuator force f_k along leg k's axis
+(f > 0 pushes the rings apart). Eq. 19 is solved exactly by the robot's structure: each leg's
+link accelerations a_l = c - H P a_h follow the hub's (:func:`_leg_solve`), and the hub obeys
+(M_h + Σ_k P^T Λ_k P) a_h = F_h - Σ_k P^T w_k, Λ_k = H^T M_l H, w_k = H^T (F_l - M_l c): one 6 x 6
+Cholesky solve. Kernels take :class:`~.bundles.DynamicsParameters` and :class:`~.bundles.Workspace`
+and allocate nothing.
 """
 
 from __future__ import annotations
@@ -83,14 +63,9 @@ def _cholesky_solve(Lc, X, n, nrhs):
 
 @jit(fastmath=True)
 def _leg_solve(B, gamma, r0, m, K, Y):
-    """Solve B_l Y = [E | γ] (B_l: leg rows 0-11 of ``B`` on the link columns 6-17; E the unit
-    columns of the m hub rows r0 .. r0 + m - 1): Y (12 x m + 1) = [H | c]; False if B_l is
-    singular.
-
-    Rows 0-2 (eq. 3) give r_u = b_0:3 - X_u π_u and rows 3-5 (eq. 4) r_l = b_3:6 - X_l π_l, with
-    X the π' columns of those rows; substituted into rows 9-10 (eq. 7, which alone hold link
-    translations besides them) they leave K [π_l; π_u] = b' on rows 6-11, solved with partial
-    pivoting. y = [r_l, π_l, r_u, π_u]."""
+    """Solve B_l Y = [E | γ] (B_l: leg rows 0-11 on the link columns 6-17): Y = [H | c]; False if B_l
+    is singular. Rows 0-5 (eqs. 3-4) give the link translations from their rotations, which leaves a
+    6 x 6 system (partial pivoting); y = [r_l, π_l, r_u, π_u]."""
     for i in range(6):
         r = 6 + i
         for j in range(3):

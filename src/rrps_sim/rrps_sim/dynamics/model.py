@@ -1,10 +1,5 @@
-"""The 13-body forward dynamics of one robot (eqs. 19-20) on either ring, stepped by the caller.
-
-The supporting ring is the ground and the other ring the hub, body 0 (:mod:`.constraints`):
-coordinates and velocities are in the supporting ring's frame. Poses in and out are a_T_b.
-Energy balance: kinetic + potential - actuator work (∫ Σ f_k L̇_k dt, integrated with the
-states), minus its initial value, so an exact solution without a tool wrench keeps it at zero.
-"""
+"""The 13-body forward dynamics of one robot (eqs. 19-20) on either ring, stepped by the caller;
+coordinates in the supporting ring's frame, poses in and out a_T_b."""
 
 from __future__ import annotations
 
@@ -54,12 +49,8 @@ class RunRecord(NamedTuple):
 class MultibodyDynamics:
     """Forward dynamics of one robot (eqs. 19-20), stepped by the caller.
 
-    ``method``: 'baumgarte', 'partitioning' or 'hybrid'. ``alpha``, ``beta`` [1/s]: Baumgarte
-    gains. ``correction_tolerance``: the hybrid's drift threshold for a partitioned correction.
-    ``newton_tolerance``: residual of the dependent-coordinate Newton solves. ``support``: the
-    gripping ring, turned by ``world_q_support`` in a world of ``gravity``
-    (:func:`rrps_loads.support.support_of`; default ring_a upright, 9.81 m/s² down).
-    """
+    ``method``: 'baumgarte', 'partitioning' or 'hybrid'; ``alpha``, ``beta`` [1/s] the Baumgarte gains.
+    ``support`` is the gripping ring, in the world of :func:`rrps_loads.support.support_of`."""
 
     def __init__(self, geometry: RobotGeometry, method: str = 'hybrid', *, alpha: float = 10.0,
                  beta: float = 10.0, correction_tolerance: float = 1e-10,
@@ -180,15 +171,9 @@ class MultibodyDynamics:
 
     def run(self, forces, dt: float, steps: int, *, output_every: int = 1,
             progress: Callable[[float], None] | None = None, reactions: bool = False) -> RunRecord:
-        """``steps`` steps of ``dt`` [s] with constant actuator ``forces`` (6,) [N], compiled as
-        one loop: no Python and no allocation between steps.
-
-        Records the start (row 0) and the state after every ``output_every``-th step and after
-        the last, with the joint reactions (:meth:`reactions`) if ``reactions``. The steps run in
-        about RUN_BATCHES batches, each timed (its mean is the wall time of each of its steps),
-        and ``progress(fraction)`` is called after each batch; without ``progress``, in about
-        RUN_BATCHES_UNWATCHED batches. Raises as :meth:`step` (the state is then that before the
-        failing step)."""
+        """``steps`` steps of ``dt`` [s] with constant ``forces`` (6,) [N], compiled as one loop, recording
+        every ``output_every``-th step and the last (with joint reactions if ``reactions``). Raises as
+        :meth:`step` (the state is then that before the failing step)."""
         f, dt = _checked(forces, dt)
         steps, output_every = int(steps), int(output_every)
         if steps < 1 or output_every < 1:

@@ -23,14 +23,9 @@ __all__ = ['SimulationResult', 'simulate']
 
 @dataclass(frozen=True)
 class SimulationResult:
-    """One row per output step (K rows). Energies [J], times [s]. ``step_flops`` (flop model)
-    and ``step_seconds`` (wall time) per step: the mean over the steps since the previous row
-    (with constant forces, each step's wall time is that of its compiled batch over its steps).
-    ``position`` and ``quaternion_xyzw``: a_T_b. With reactions asked for,
-    ``universal_reactions`` and ``spherical_reactions`` (K, 6, 3) [N] (the forces ring_a and
-    ring_b exert on each leg at its joints) and ``support_wrench`` (K, 6) [N, N m] (the
-    structure's on the supporting ring, about its origin), in the supporting ring's frame;
-    else None."""
+    """One row per output step. Energies [J], times [s], a_T_b; ``step_flops`` and ``step_seconds``:
+    the mean per step since the previous row. With reactions, the joint reactions (K, 6, 3) [N] and
+    ``support_wrench`` (K, 6) [N, N m] in the supporting ring's frame; else None."""
 
     t: np.ndarray
     position: np.ndarray
@@ -62,13 +57,8 @@ def simulate(geometry: RobotGeometry, position, quaternion_xyzw,
              reactions: bool = False, **options) -> SimulationResult:
     """Start at rest at a pose a_T_b and integrate for ``duration`` s with steps of ``dt`` s.
 
-    ``forces``: constant (6,) [N] (the whole run is then one compiled loop,
-    :meth:`MultibodyDynamics.run`) or ``f(t, dyn) -> (6,)`` evaluated at the start of each step
-    (held over it). Rows are written at t = 0 and every ``output_every`` steps (and at the end),
-    with the joint reactions if ``reactions``. ``progress(fraction)`` is called about 100 times.
-    ``options`` go to MultibodyDynamics (the method's settings, ``support``, ``world_q_support``,
-    ``gravity``).
-    """
+    ``forces``: constant (6,) [N] (one compiled loop) or ``f(t, dyn) -> (6,)`` held over each step;
+    ``options`` go to :class:`MultibodyDynamics`."""
     pose_arrays(position, quaternion_xyzw)
     for name, value in (('duration', duration), ('dt', dt)):
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):

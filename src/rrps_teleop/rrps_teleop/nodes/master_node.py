@@ -1,24 +1,11 @@
 """master_node: the simulated parallel master robot (pure core: :mod:`rrps_teleop.master`).
 
-Subscribes ``master/target_pose`` (PoseStamped, frame master_ring_a: where the operator moves the
-handle); with the parameter ``trajectory`` = circle | lissajous it moves by itself instead. At
-``rate`` Hz the handle moves towards its target within its speed and its own limits (at
-``idle_rate`` while it rests at its target), and the node publishes ``master/actuators/state``
-(JointState: the leg lengths, what encoders would give) and ``master/pose`` (PoseStamped: its
-own FK of those lengths, seeded by the previous estimate).
-``trajectory``, ``amplitude``, ``period`` and ``angular_amplitude`` may be set at run time.
-
-``master/feedback`` (WrenchStamped, the slave's limits as a virtual fixture, from the teleop
-node) pushes the simulated handle back: its target yields ``feedback_compliance`` [m/N] and
-``feedback_angular_compliance`` [rad/(N m)], as an operator's hand would against a master
-that renders the wrench.
-
-With ``hardware`` other than ``simulated`` (a name of the ``rrps.master_hardware`` entry points,
-e.g. ``canopen``) the lengths come from the real master's encoders and master/feedback becomes
-the leg forces that balance it on the master's ring_b (eq. 1's force mapping, J^T f = wrench),
-which the hardware renders bounded and passive; master/target_pose and the trajectories do not
-apply. A hardware fault stops the publications and the force output (ERROR) until
-``master_node/reset_faults`` (std_srvs/Trigger).
+The handle moves towards ``master/target_pose`` or a scripted ``trajectory``; the node publishes
+its leg lengths and FK (topics and parameters: docs/usage.md, docs/parameters.md), and
+``master/feedback`` pushes the simulated handle back by its compliances. With ``hardware`` other
+than ``simulated`` the encoders give the lengths and master/feedback becomes leg forces (eq. 1,
+J^T f = wrench); a hardware fault stops the publications and the force output (ERROR) until
+``master_node/reset_faults``.
 """
 
 from __future__ import annotations

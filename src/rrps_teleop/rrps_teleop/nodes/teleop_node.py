@@ -1,53 +1,13 @@
 """teleop_node: the slave follows the master (pure core: :mod:`rrps_teleop.mapping`).
 
-Subscribes ``master/pose`` (frame master_ring_a) in Cartesian mode or ``master/actuators/state``
-in joint mode (only the input the mode maps; a mode change swaps them), ``teleop/enable``
-(std_msgs/Bool, the deadman: true at >= 10 Hz; engaging is a clutch), ``pose`` (the slave's FK,
-frame ring_a: the engage reference) and ``climb/status`` (no engage while a step executes).
-Publishes ``target_pose`` (Cartesian mode, through ik_node's guards) or ``actuators/command``
-(joint mode), and ``teleop/status`` (diagnostic_msgs/DiagnosticStatus: message = the status code
-name; values: :class:`rrps_interfaces.teleop.TeleopStatus`).
-
-The robot's topics (``pose``, ``climb/status``, the driver's status, ``target_pose``,
-``actuators/command``, ``teleop/status``) are those of the robot in ``robot_namespace`` (empty:
-this node's own namespace), its state read directly or, with ``robot_topics`` = link, from its
-link relay (``link/pose``, ``link/diagnostics``: :mod:`rrps_interfaces.link`). Setting
-``robot_namespace`` at run time switches robots (one operator station, several robots): the
-clutch releases, the old robot gets no more commands and holds, and the deadman counts again
-only once released (:meth:`rrps_teleop.mapping.TeleopMapping.switch_slave`).
-
-Liveness: the slave's ``pose`` older than ``state_timeout`` (0.2 s: the driver or the FK is
-gone), the driver not active (its typed status on /diagnostics) or the operator's round trip
-(``operator/round_trip_time``, measured by the viewer) above ``hold_latency`` disengage the
-mapping: no command goes out and the robot holds. Above ``slow_latency`` every speed limit is
-scaled down.
-
-Limits felt on the master (paper section 3.1, :mod:`rrps_teleop.master_feedback`): at
-``feedback_rate`` the node publishes ``master/feedback`` (geometry_msgs/WrenchStamped, frame
-master_ring_a, torque about the master's ring_b): the virtual fixture of
-:mod:`rrps_teleop.fixture` at the guarded command, pushing back along the gradient of the limits
-the slave approaches, scaled to the master (``feedback_scale``); zero while disengaged. A master
-with actuators renders it; the simulated master yields to it.
-
-The targets are streamed jerk-limited (``jerk_limited``, :mod:`rrps_teleop.target_stream`): the
-guarded commands reached within the legs' speed, acceleration and jerk limits; a hold (the
-deadman released or lapsed, stale data, a guard's halt) is the fastest jerk-limited stop, streamed
-until the robot's targets rest (its time and distance bounds there).
-
-Control runs on every master sample (``control`` = message, the default: one callback from master
-state to command, see benchmarks/teleop_latency.py) or on a timer at ``control_rate`` Hz. A 50 Hz
-watchdog releases the clutch when the deadman or the master data lapse, so the slave holds within
-one watchdog period of the timeout even when no master message arrives at all. A stamped master
-sample counts from its stamp (:class:`rrps_runtime.freshness.CommandFreshness`, also when the
-master's clock is not this node's): one delivered later than ``master_timeout`` is dropped, so a
-stalled delivery cannot extend the timeout (not an error: the hold that follows if no fresh
-sample comes is MASTER_STALE, saying the samples arrive too late). ``mode``,
-``translation_scale``, ``rotation_mode``, ``joint_scale`` and the guard parameters are settable
-at run time (validated; any change is a clutch). The load guards (``load_guards``, on by
-default) take the robot at rest on its supporting ring: ``support`` turned by ``world_q_support``
-at the start, then the ring the robot's ``grippers/state`` shows carrying it, at the attitude of
-its ``odometry/support`` (:mod:`rrps_teleop.load_support`), with a point-mass payload
-(``payload_mass`` on ``payload_ring`` at ``payload_com``; unset: the robot's).
+Topics and parameters: docs/usage.md, 'The ROS interface', and docs/parameters.md; the mapping,
+guards and holds: docs/architecture.md, 'rrps_teleop'. The robot driven is the one in
+``robot_namespace`` (a change switches robots: :meth:`rrps_teleop.mapping.TeleopMapping.switch_slave`),
+read directly or over its link relay. The slave's stale ``pose``, an inactive driver or the
+operator's round trip above ``hold_latency`` disengage the mapping; the targets are streamed
+jerk-limited (:mod:`rrps_teleop.teleop_stream`), the feedback by :mod:`rrps_teleop.master_feedback`,
+the load guards' support by :mod:`rrps_teleop.load_support`. Settable parameters are validated;
+any change is a clutch.
 """
 
 from __future__ import annotations

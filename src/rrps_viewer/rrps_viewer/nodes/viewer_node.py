@@ -1,33 +1,10 @@
-"""viewer_node: the viser web viewer for remote operators.
+"""viewer_node: the viser web viewer for remote operators (docs/viewer.md; topics: docs/usage.md, "The ROS
+interface"; parameters: docs/parameters.md).
 
-Subscribes (relative names): ``actuators/state``, ``pose`` (FK a_T_b, frame ring_a), ``target_pose``
-(the commanded a_T_b, drawn as a ghost), ``master/pose`` (frame master_ring_a),
-``grippers/state``, ``odometry/ring_a|ring_b`` (frame world), ``teleop/status``, ``climb/status``
-and ``/diagnostics`` (FK iterations of fk_node). The robot's topics are read directly or, with
-``robot_topics`` = link, from its link relay; with ``robots`` (a fleet: their namespaces) the
-viewer lists every robot and draws the one the controlling operator chose to drive
-(``nodes/viewer_robots``): **Drive this robot** switches the teleop node's ``robot_namespace``,
-releases the clutch and the deadman, and the robot left holds. Its own status (frames drawn,
-the drawn robot's pose rate and age: :class:`rrps_interfaces.teleop.ViewerStatus`) goes on
-/diagnostics every second. Publishes ``teleop/enable`` (the deadman, true at
-``enable_rate`` Hz while the operator holds it), ``master/target_pose`` (the gizmo) and
-``operator/round_trip_time``. The operator's buttons call the climb, gripper, driver-lifecycle
-and teleop-parameter services (``viewer_requests``) and the recorder's (``viewer_recording``).
-
-Drawing runs in the viewer's own thread at ``render_rate`` Hz, whatever the control rate: ROS
-callbacks only store the latest messages (state streams are read with keep-last-1, so a 500 Hz
-stream costs the executor one cheap store per sample and never queues up). Requests from the
-browser are queued and executed on the executor's thread by the ``enable_rate`` timer, so every
-rclpy call stays on one thread. The picture comes from ``rrps_viewer.picture``, the status
-panel's text from ``viewer/status_text``.
-
-Safety: the server binds ``host`` (default 127.0.0.1); every browser is read-only until it enters
-``token`` (generated with ``secrets`` and printed when empty); one operator at a time; a
-disconnected operator loses control, the deadman stops and the teleop mapping holds the robot.
-
-Deadman (docs/viewer.md, "Driving the robot from the browser"): ``teleop/enable`` is true while the controlling operator
-has "Engage (clutch)" ticked and holds "Hold to move" (20 Hz hold events, expiring after
-``deadman_timeout``) or drags the master's gizmo; releasing stops the stream.
+ROS callbacks only store the latest messages; drawing runs in the viewer's own thread at ``render_rate`` Hz, and
+browser requests run on the executor's thread (the ``enable_rate`` timer), so every rclpy call stays on one thread.
+Safety: binds ``host`` (127.0.0.1), read-only until a browser enters ``token``, one operator at a time; a
+disconnected operator loses control and the deadman stops, so the robot holds.
 """
 
 from __future__ import annotations
