@@ -53,8 +53,8 @@ class Rig:
         self.enable = False
         self.handle = None  # where the operator holds the master's handle (position, quaternion)
         # Unless a test is about them, timeouts far above any stall of a loaded machine, so that a
-        # stall never re-clutches in the middle of a test (docs/measurements.md: tests on a
-        # loaded machine).
+        # stall never re-clutches in the middle of a test (docs/tests.md, "Tests on a
+        # loaded machine").
         teleop = {'master_timeout': 5.0, 'enable_timeout': 5.0, 'state_timeout': 5.0} | (teleop or {})
         self.teleop = TeleopNode(context=ctx, namespace=NS, parameter_overrides=params(**teleop))
         # ... and the same for the driver's and IK's stale commands (ros_harness.IN_PROCESS_COMMAND_TIMEOUT)
