@@ -38,6 +38,10 @@ from rrps_kinematics.limits import Margins, margins
 from rrps_kinematics.urdf_joints import robot_urdf
 
 PROG = 'rrps-kinematics'
+#: The kernels' backend of the one-pose commands (info, ik, fk): interpreted, they answer in
+#: milliseconds; compiled, their first run where numba has no cache yet (a fresh colcon install
+#: tree) compiles the limits' kernels first, a minute or more.
+ONE_POSE = 'numpy'
 _VECTOR_OPTIONS = ('--position', '--quaternion', '--lengths', '--seed', '--bounds', '--roll',
                    '--pitch', '--yaw')
 
@@ -108,7 +112,7 @@ def _margin_lines(m: Margins) -> list[str]:
 
 def _info(g: RobotGeometry) -> tuple[dict, list[str]]:
     ik = inverse_kinematics(g, g.home_position, g.home_quaternion_xyzw)
-    m = margins(g, ik)
+    m = margins(g, ik, backend=ONE_POSE)
     data = {'name': g.name, 'description': g.description,
             'ring_a_anchors': g.ring_a_anchors.tolist(), 'ring_b_anchors': g.ring_b_anchors.tolist(),
             'home_position': g.home_position.tolist(),
@@ -142,7 +146,7 @@ def _info(g: RobotGeometry) -> tuple[dict, list[str]]:
 
 def _ik(g: RobotGeometry, position: np.ndarray, quaternion: np.ndarray) -> tuple[dict, list[str]]:
     ik = inverse_kinematics(g, position, quaternion)
-    m = margins(g, ik)
+    m = margins(g, ik, backend=ONE_POSE)
     data = {'position': position.tolist(), 'quaternion_xyzw': (quaternion / np.linalg.norm(quaternion)).tolist(),
             'lengths': ik.lengths.tolist(), 'universal_angles': ik.universal_angles.tolist(),
             'universal_cone_angles': ik.universal_cone_angles.tolist(),
@@ -160,8 +164,8 @@ def _ik(g: RobotGeometry, position: np.ndarray, quaternion: np.ndarray) -> tuple
 def _fk(g: RobotGeometry, lengths: np.ndarray, seed: np.ndarray | None) -> tuple[dict, list[str]]:
     seed_p = g.home_position if seed is None else seed[:3]
     seed_q = g.home_quaternion_xyzw if seed is None else seed[3:]
-    fk = forward_kinematics(g, lengths, seed_p, seed_q)
-    m = margins(g, inverse_kinematics(g, fk.position, fk.quaternion_xyzw))
+    fk = forward_kinematics(g, lengths, seed_p, seed_q, backend=ONE_POSE)
+    m = margins(g, inverse_kinematics(g, fk.position, fk.quaternion_xyzw), backend=ONE_POSE)
     data = {'position': fk.position.tolist(), 'quaternion_xyzw': fk.quaternion_xyzw.tolist(),
             'converged': fk.converged, 'iterations': fk.iterations, 'residual': fk.residual,
             'singular': fk.singular, 'margins': _margins_dict(m)}
