@@ -27,7 +27,8 @@ ROS_MODULES = {{'rrps_runtime.' + m for m in ('action_host', 'command_path', 'di
     'rrps_teleop.support_input', 'rrps_teleop.teleop_stream', 'rrps_teleop.master_feedback',
     'rrps_viewer.operator_requests',
     'rrps_viewer.robot_subscriptions', 'rrps_viewer.recording_clients', 'rrps_recording.topic_graph',
-    'rrps_recording.robot_tf', 'rrps_climbing.climb_action', 'rrps_viewer.climb_step_client',
+    'rrps_recording.robot_tf', 'rrps_climbing.climb_action', 'rrps_climbing.climb_requests',
+    'rrps_viewer.climb_step_client',
     'rrps_viewer.picture'}}
 imported = []
 for package in ('rrps_description', 'rrps_interfaces', 'rrps_runtime', 'rrps_kinematics', 'rrps_hardware',

@@ -15,8 +15,8 @@ __all__ = ['NAMESPACE', 'ROBOT_PROCESSES', 'ROBOT_NODES', 'OPERATOR_NODES', 'OBS
            'start_driver', 'start_drives', 'start_robot_nodes', 'start_operator_nodes', 'start_recorder']
 
 NAMESPACE = '/rrps'
-#: The robot computer's nodes, in two processes: IK and FK, and the climbing node apart (a step's plan would hold IK
-#: and FK in a shared executor); the operator station's command path in another; the viewer in the demo's own process.
+#: The robot computer's nodes, in two processes: IK and FK, and the climbing node apart (its plans and previews run
+#: in its worker process); the operator station's command path in another; the viewer in the demo's own process.
 ROBOT_PROCESSES = {'robot kinematics': ('ik_node', 'fk_node'), 'robot climbing': ('climb_node',)}
 ROBOT_NODES = ('ik_node', 'fk_node', 'climb_node')
 OPERATOR_NODES = ('master_node', 'teleop_node')

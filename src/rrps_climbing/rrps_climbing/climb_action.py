@@ -22,10 +22,10 @@ FEEDBACK_RATE = 5.0  # [Hz]
 
 
 class ClimbAction:
-    """``climb/step`` on ``node`` (a ClimbNode) with the action type ``action_type``;
-    ``carry_out`` does what a machine's output asks for (climb_node's)."""
+    """``climb/step`` on ``node`` (a ClimbNode) with the action type ``action_type``, served on
+    the node's ``host``; ``carry_out`` does what a machine's output asks for (climb_node's)."""
 
-    def __init__(self, node, action_type, carry_out):
+    def __init__(self, node, action_type, carry_out, host: ActionHost):
         self.node, self.type, self.carry_out = node, action_type, carry_out
         self.preview: ClimbPreview | None = None   # the newest preview (climb_node sets it)
         self._lock = threading.Lock()
@@ -33,7 +33,7 @@ class ClimbAction:
         self._started_at: int | None = None  # steps_done when its step was asked for
         self._cancel = False
         self._feedback = None
-        self.host = ActionHost(node)
+        self.host = host
         self._server = ActionServer(self.host.node, action_type, CLIMB_STEP, execute_callback=self._execute,
                                     goal_callback=self._on_goal, cancel_callback=lambda _: CancelResponse.ACCEPT)
         self.host.node.create_timer(1.0 / FEEDBACK_RATE, self._publish_feedback)
@@ -110,6 +110,5 @@ class ClimbAction:
         goal[2].set_result((outcome, result))
 
     def close(self) -> None:
-        self.host.stop()   # never destroy the server while the host's thread waits on it
+        """Destroy the server (the host's thread stopped first: never while it waits on it)."""
         self._server.destroy()
-        self.host.close()

@@ -1,5 +1,6 @@
 """What the climbing step machine (:mod:`.step_machine`) takes and gives: its settings, the
-targets and gripper requests it commands and the output of each call. Pure Python; no ROS import.
+targets and gripper requests it commands, the plans it asks for and gets back, and the output of
+each call. Pure Python; no ROS import.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from rrps_climbing.plan import Phase
 from rrps_description.pose import Pose
 from rrps_interfaces.climb import ClimbStatus
 
-__all__ = ['StepConfig', 'ClimbTarget', 'GripperRequest', 'ClimbOutput']
+__all__ = ['StepConfig', 'ClimbTarget', 'GripperRequest', 'PlanRequest', 'StepPlan', 'ClimbOutput']
 
 
 @dataclass(frozen=True)
@@ -55,12 +56,39 @@ class GripperRequest:
     close: bool
 
 
+@dataclass(frozen=True)
+class PlanRequest:
+    """A climb of ``distance`` [m] in ``steps`` from the rings at rest (ring_a's gripper at ``s_a``
+    [m], ring_b's ``separation`` [m] further, extra-DOF angle ``theta`` [rad]), the robot measured
+    at ``pose`` (None: not yet) and judged arrived within ``config``'s tolerances."""
+
+    distance: float
+    steps: int
+    s_a: float
+    separation: float
+    theta: float
+    pose: Pose | None
+    config: StepConfig
+
+
+@dataclass(frozen=True)
+class StepPlan:
+    """The phases of a planned climb, its description and (duration per step [s], climbing speed
+    [m/min]); or, with ``refusal``, why it has none."""
+
+    phases: tuple[Phase, ...] = ()
+    detail: str = ''
+    timing: tuple[float, float] = (float('nan'), float('nan'))
+    refusal: str | None = None
+
+
 @dataclass
 class ClimbOutput:
     """What one call of the machine asks for: a target to command, a gripper request, a status
     to report now, the rings' world poses (world_T_a, world_T_b) chained from a new pose, the
-    reply to a request (accepted, message), lines to log ((logging level, text)) and the phases
-    of a step to preview."""
+    reply to a request (accepted, message), lines to log ((logging level, text)), the plan to
+    make (:func:`.step_plan.plan_step`, then :meth:`ClimbStepMachine.on_plan`) and the phases of
+    a step to preview."""
 
     target: ClimbTarget | None = None
     gripper: GripperRequest | None = None
@@ -68,4 +96,5 @@ class ClimbOutput:
     odometry: tuple[Pose, Pose] | None = None
     reply: tuple[bool, str] | None = None
     log: list[tuple[int, str]] = field(default_factory=list)
+    plan: PlanRequest | None = None
     preview: list[Phase] | None = None

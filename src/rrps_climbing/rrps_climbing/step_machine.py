@@ -1,8 +1,10 @@
 """The climbing step's state machine (§3, the inchworm gait), pure Python.
 
-A planned climb runs phase by phase (:class:`.phase_run.PhaseRun`), once per tick. With
-``preview`` a step is first simulated (the caller runs ``ClimbOutput.preview``) and starts only if
-accepted and nothing changed meanwhile, else a :class:`~rrps_interfaces.climb.StepRefusal`. A lost
+A request's plan is computed by the caller (``ClimbOutput.plan``, :func:`.step_plan.plan_step`)
+and handed back (:meth:`ClimbStepMachine.on_plan`); the climb then runs phase by phase
+(:class:`.phase_run.PhaseRun`), once per tick. With ``preview`` a step is first simulated (the
+caller runs ``ClimbOutput.preview``). A plan or a preview starts only if accepted and nothing
+changed meanwhile, else a :class:`~rrps_interfaces.climb.StepRefusal`. A lost
 input pauses it until :meth:`ClimbStepMachine.resume`; a failure is final. Each call takes plain
 values and returns a :class:`ClimbOutput`. No ROS import.
 """
@@ -16,9 +18,9 @@ from collections.abc import Callable
 
 from rrps_climbing.climb_inputs import ClimbInputs
 from rrps_climbing.gait import GaitPlanner
-from rrps_climbing.phase_run import PhaseRun, arrived
-from rrps_climbing.plan import Phase, PlanError
-from rrps_climbing.step_io import ClimbOutput, GripperRequest, StepConfig
+from rrps_climbing.phase_run import PhaseRun
+from rrps_climbing.plan import Phase
+from rrps_climbing.step_io import ClimbOutput, GripperRequest, PlanRequest, StepConfig, StepPlan
 from rrps_climbing.step_preview import StepSnapshot
 from rrps_description.pose import Pose
 from rrps_interfaces.climb import (
@@ -71,6 +73,7 @@ class ClimbStepMachine(ClimbInputs):
         self.plan_refused = False
         self.refusal: StepRefusal | None = None
         self.preview = bool(preview)
+        self._planning: StepSnapshot | None = None  # the inputs when the plan being made was asked for
         self._pending: tuple[list[Phase], str, StepSnapshot] | None = None  # being previewed
         self.steps_done = 0
         self.timing = (math.nan, math.nan)  # the last planned step's duration [s] and climbing speed [m/min]
@@ -80,6 +83,7 @@ class ClimbStepMachine(ClimbInputs):
         self._index = 0
         self._run: PhaseRun | None = None  # the executing phase's stages
         self._auto_started = False
+        self._scripted = False  # the plan being made is the scripted climb's
         self._last_status = None
         self._out = ClimbOutput()
 
@@ -124,42 +128,59 @@ class ClimbStepMachine(ClimbInputs):
     # --- requests -------------------------------------------------------------------------------
 
     def step(self, direction: int, now: float) -> ClimbOutput:
-        """Plan and start one step up (``direction`` +1) or down (-1) at time ``now`` [s]."""
+        """Ask for one step up (``direction`` +1) or down (-1) at time ``now`` [s]."""
         return self.start_climb(direction * self.step_length, 1, now)
 
+    def plan_request(self, distance: float, steps: int) -> PlanRequest:
+        """The plan of a climb of ``distance`` [m] in ``steps`` from where the rings rest now."""
+        return PlanRequest(distance, steps, self.s_a, self.s_b - self.s_a, self.theta, self.pose, self.config)
+
     def start_climb(self, distance: float, steps: int, now: float) -> ClimbOutput:
-        """Plan and start a climb of ``distance`` [m] in ``steps``; the reply says whether it
-        started, or why not."""
+        """Ask for a climb of ``distance`` [m] in ``steps``: refused at once (the reply says why),
+        or its plan asked for (``out.plan``; the reply then comes from :meth:`on_plan`)."""
         out = self._begin()
         refusal = self._start_refusal()
         if refusal:
             out.reply = (False, f'refused: {refusal}')
             return out
-        try:
-            plan = self.planner.plan(distance, steps, start=self.s_a,
-                                     initial_separation=self.s_b - self.s_a, initial_theta=self.theta)
-        except (PlanError, ValueError) as exc:
-            self._refuse(StepRefusal.PLAN, f'plan refused: {exc}')
-            out.reply = (False, f'refused: {exc}')
+        out.plan = self.plan_request(distance, steps)
+        self._planning = self.snapshot()
+        self.detail = f'planning a climb of {distance:+.3f} m in {steps} step(s)'
+        self._report(force=True)
+        out.reply = (True, self.detail)
+        return out
+
+    def on_plan(self, plan: StepPlan, now: float) -> ClimbOutput:
+        """The plan asked for, at time ``now`` [s]: previewed or started if nothing changed
+        meanwhile, else refused (logged, in the status); the reply is the request's."""
+        out = self._answer_plan(plan, now)
+        if self._scripted:
+            self._scripted = False
+            out.log.append((logging.INFO, f'scripted climb of {self.auto_steps} steps: {out.reply[1]}'))
+        return out
+
+    def _answer_plan(self, plan: StepPlan, now: float) -> ClimbOutput:
+        out = self._begin()
+        snapshot, self._planning = self._planning, None
+        if snapshot is None:
+            out.reply = (False, 'refused: the climb was cancelled while it was planned')
             return out
-        phases = plan.phases
-        if not arrived(self.pose, phases[0].a_T_b, self.config):
-            try:  # moved off the gait (teleoperation): ring_b first re-grips where the plan starts
-                phases = self.planner.approach(self.pose, self.s_a, self.s_b, self.theta, self.theta) + phases
-            except PlanError as exc:
-                self._refuse(StepRefusal.PLAN, f'plan refused: cannot bring ring_b back to the gait: {exc}')
-                out.reply = (False, f'refused: {self.detail}')
-                return out
-        self.timing, detail = plan.step_timing, plan.describe()
-        self.plan_refused, self.refusal = False, None
+        changed = None if plan.refusal else self.changed_since(snapshot, self.config)
+        if plan.refusal or changed:
+            kind, why = (StepRefusal.PLAN, plan.refusal) if plan.refusal else changed
+            self._refuse(kind, f'{"plan" if plan.refusal else "step"} refused: {why}')
+            out.reply = (False, f'refused: {why}')
+            return out
+        phases = list(plan.phases)
+        self.timing, self.plan_refused, self.refusal = plan.timing, False, None
         if self.preview:
-            self._pending = (phases, detail, self.snapshot())
-            self.detail = f'previewing {detail}'
+            self._pending = (phases, plan.detail, snapshot)
+            self.detail = f'previewing {plan.detail}'
             out.preview = phases
             self._report(force=True)
             out.reply = (True, self.detail)
             return out
-        self._execute(phases, detail, now)
+        self._execute(phases, plan.detail, now)
         out.reply = (True, f'started: {self.detail}')
         return out
 
@@ -220,9 +241,10 @@ class ClimbStepMachine(ClimbInputs):
         return out
 
     def cancel(self) -> ClimbOutput:
-        """Hold the executing step as a pause (the action's cancel); a step being previewed never starts."""
+        """Hold the executing step as a pause (the action's cancel); a step being planned or previewed
+        never starts."""
         out = self._begin()
-        self._pending = None
+        self._planning = self._pending = None
         if self.mode is EXECUTING:
             self._pause(PauseReason.CANCELLED)
         out.reply = (True, self.detail)
@@ -247,7 +269,8 @@ class ClimbStepMachine(ClimbInputs):
                            action=ph.action if ph else None, ring=ph.ring if ph else '', phase_index=self._index,
                            structure=self.structure.name, s_a=self.s_a, s_b=self.s_b, phases=len(self._phases),
                            steps_done=self.steps_done, detail=self.detail,
-                           previewing=self._pending is not None, refusal=self.refusal,
+                           previewing=self._pending is not None or self._planning is not None,
+                           refusal=self.refusal,
                            step_duration=self.timing[0], climbing_speed=self.timing[1],
                            plan_duration=self.plan_duration)
 
@@ -280,6 +303,8 @@ class ClimbStepMachine(ClimbInputs):
         """Why a climb cannot start now ('' when it can)."""
         if self.mode is EXECUTING:
             return 'a climb is executing'
+        if self._planning is not None:
+            return 'a step is being planned'
         if self._pending is not None:
             return 'a step is being previewed'
         if self.mode is PAUSED:
@@ -321,8 +346,10 @@ class ClimbStepMachine(ClimbInputs):
                 and self.pose is not None and self.grippers is not None:
             self._auto_started = True
             started = self.start_climb(self.auto_steps * self.step_length, self.auto_steps, now)
-            started.log.append((logging.INFO, f'scripted climb of {self.auto_steps} steps: {started.reply[1]}'))
-            return started  # planning took this tick: the inputs are judged at the next one
+            self._scripted = started.plan is not None
+            if not self._scripted:
+                started.log.append((logging.INFO, f'scripted climb of {self.auto_steps} steps: {started.reply[1]}'))
+            return started
         if self.mode is not EXECUTING:
             return out
         reason = self.hold_reason() if self.watch.judged() else None

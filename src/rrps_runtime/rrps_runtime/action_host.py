@@ -1,6 +1,7 @@
-"""A node's ROS 2 actions, served whatever executor the node runs on.
+"""A node's ROS 2 actions, and its services whose reply waits, served whatever executor the node runs on.
 
-rclpy's EventsExecutor serves no action, so a node's action servers and clients live on a node of their own
+rclpy's EventsExecutor serves no action and no coroutine callback, so a node's action servers and clients,
+and services whose reply awaits work done elsewhere, live on a node of their own
 (``<node>_actions``, without parameter services) spun by a SingleThreadedExecutor in a thread until
 :meth:`ActionHost.close`. Their callbacks run in that thread: what they share with the node's needs a lock.
 """

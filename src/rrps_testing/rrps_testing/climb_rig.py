@@ -1,6 +1,7 @@
 """A :class:`~rrps_climbing.step_machine.ClimbStepMachine` in a simulated system, without ROS (the
 step machine's unit tests): a robot that reaches every target at once (``track`` False stops it), a driver that
-switches a gripper at the next tick, an operator station heard every tick, and a fake clock. The pole climber
+switches a gripper at the next tick, an operator station heard every tick, a plan made as soon as the machine
+asks for it (as climb_node's worker, without the wait), and a fake clock. The pole climber
 on a 3 m pole, ticks of :data:`DT`, steps of :data:`STEP` from :data:`START`."""
 
 from __future__ import annotations
@@ -8,6 +9,7 @@ from __future__ import annotations
 from rrps_climbing.gait import GaitPlanner
 from rrps_climbing.step_io import GripperRequest, StepConfig
 from rrps_climbing.step_machine import ClimbStepMachine
+from rrps_climbing.step_plan import plan_step
 from rrps_description.geometry import load_robot
 from rrps_description.pose import Pose
 from rrps_description.structures import pole
@@ -59,8 +61,7 @@ class ClimbRig:
         if self.operator:
             m.on_teleop(self.engaged)
         m.on_driver_active(self.driver_active)
-        out = m.tick(self.t)
-        self.outputs.append((self.t, out))
+        out = self._planned(m.tick(self.t))
         if out.target is not None and self.track:
             self.pose = out.target.a_T_b
         if out.gripper is not None:
@@ -68,9 +69,16 @@ class ClimbRig:
         return out
 
     def call(self, request, *args):
-        out = request(*args, self.t)
+        return self._planned(request(*args, self.t))
+
+    def _planned(self, out):
+        """``out``, or, when it asks for a plan, the machine's output once the plan is made (both kept)."""
         self.outputs.append((self.t, out))
-        return out
+        if out.plan is None:
+            return out
+        planned = self.machine.on_plan(plan_step(PLANNER, out.plan), self.t)
+        self.outputs.append((self.t, planned))
+        return planned
 
     def run_until(self, done, max_ticks: int = 3000) -> list:
         outs = []

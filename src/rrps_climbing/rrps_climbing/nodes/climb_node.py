@@ -2,9 +2,11 @@
 over ROS, with :class:`rrps_climbing.step_machine.ClimbStepMachine`.
 
 Topics, services and the ``climb/step`` action: docs/usage.md ('The ROS interface') and
-:mod:`rrps_interfaces.climb`; parameters: docs/parameters.md. With ``preview``, each step is first
-simulated in a worker process (:class:`rrps_climbing.preview_worker.PreviewWorker`) so the node
-keeps its rate, anchored where the odometry's ring_a stands.
+:mod:`rrps_interfaces.climb`; parameters: docs/parameters.md. Each step is planned and, with
+``preview``, simulated in a worker process (:class:`rrps_climbing.step_worker.StepWorker`) so that
+the node and the nodes composed with it keep their rate; the preview is anchored where the
+odometry's ring_a stands. The step services reply from the node's action host
+(:class:`rrps_climbing.climb_requests.StepRequests`), after the plan.
 """
 
 from __future__ import annotations
@@ -17,17 +19,18 @@ from geometry_msgs.msg import PoseStamped, TransformStamped
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
-from std_srvs.srv import SetBool, Trigger
+from std_srvs.srv import SetBool
 
 from rrps_climbing.climb_action import ClimbAction
 from rrps_climbing.climb_planner import climb_planner, preview_config, start_position, step_config
+from rrps_climbing.climb_requests import StepRequests
 from rrps_climbing.frame_crossing import FrameNodePlanner
 from rrps_climbing.gait import GaitPlanner
 from rrps_climbing.odometry_attitude import SupportPublisher, support_of_odometry
-from rrps_climbing.preview_worker import PreviewWorker
 from rrps_climbing.route import ROUTES
-from rrps_climbing.step_io import ClimbOutput, ClimbTarget
+from rrps_climbing.step_io import ClimbOutput, ClimbTarget, StepPlan
 from rrps_climbing.step_machine import ClimbStepMachine
+from rrps_climbing.step_worker import StepWorker
 from rrps_description.geometry import load_robot
 from rrps_description.loads import payload_from_parameters
 from rrps_description.names import BASE_FRAME, ODOM_FRAME, RING_A_FRAME, RINGS, WORLD_FRAME, prefixed, ring_joint
@@ -51,6 +54,7 @@ from rrps_interfaces.kinematics import ACTUATORS_STATE, POSE, TARGET_POSE, TARGE
 from rrps_interfaces.status import DIAGNOSTICS, source_node
 from rrps_interfaces.teleop import TELEOP_STATUS, TeleopStatus
 from rrps_kinematics.base_odometry import BaseOdometry
+from rrps_runtime.action_host import ActionHost
 from rrps_runtime.diagnostics import ERROR, OK, WARN, Diagnostics
 from rrps_runtime.messages import (
     joint_state_msg,
@@ -141,7 +145,9 @@ class ClimbNode(Node):
         self.machine = ClimbStepMachine(planner, config, start=start_position(planner, values),
                                         step_length=values['step_length'] or None,
                                         auto_steps=values['auto_steps'], preview=values['preview'])
-        self._previews = PreviewWorker(self.geometry, preview_config(values))
+        self._worker = StepWorker(planner, self.machine.plan_request(self.machine.step_length, 1), self.geometry,
+                                  preview_config(values))
+        self._answer = None  # the Future of the step request whose reply waits for its plan
         self._pose_msg: PoseStamped | None = None
         self._odometry = None  # (world_T_a, world_T_b, stamp) not yet published
         self._gripper_call = None  # (GripperRequest, Future) awaiting the driver's answer
@@ -169,11 +175,12 @@ class ClimbNode(Node):
         # hold the later ones back until a lost one is resent (seconds on a lossy link)
         self.create_subscription(DiagnosticStatus, TELEOP_STATUS, self._on_teleop, LINK_STATE_QOS)
         self._gripper_clients = {ring: self.create_client(SetBool, gripper_service(ring)) for ring in RINGS}
-        self.create_service(Trigger, CLIMB_STEP_UP, lambda req, res: self._request(res, self.machine.step, +1))
-        self.create_service(Trigger, CLIMB_STEP_DOWN, lambda req, res: self._request(res, self.machine.step, -1))
-        self.create_service(Trigger, CLIMB_RESUME, lambda req, res: self._request(res, self.machine.resume))
         self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, STATE_QOS)
         self._diag = Diagnostics(self, 'climb', hardware_id=self.geometry.name)
+        self._host = ActionHost(self)
+        self._requests = StepRequests(self._host, {CLIMB_STEP_UP: (self.machine.step, (+1,)),
+                                                   CLIMB_STEP_DOWN: (self.machine.step, (-1,)),
+                                                   CLIMB_RESUME: (self.machine.resume, ())})
         self._action = None
         try:
             from rrps_msgs.action import ClimbStep  # optional: built by ./rrps (tools/rrps_msgs), not on PyPI
@@ -181,7 +188,7 @@ class ClimbNode(Node):
             self.get_logger().info(f'the {CLIMB_STEP} action is off: rrps_msgs is not installed ({exc}); '
                                    'the step services serve')
         else:
-            self._action = ClimbAction(self, ClimbStep, self._carry_out)
+            self._action = ClimbAction(self, ClimbStep, self._carry_out, self._host)
         self.create_timer(config.period, self._on_tick)
         self.create_timer(0.5, lambda: self._publish_status(self.machine.report()))
 
@@ -253,13 +260,16 @@ class ClimbNode(Node):
         state = dict(zip(msg.name, msg.position))
         self.machine.on_ring_angles(*(state.get(name, math.nan) for name in self._ring_joints))
 
-    def _request(self, response, call, *args):
-        """A Trigger service: the machine's reply to ``call(*args, now)``."""
-        self._take_pose()
-        out = call(*args, self._now())
-        self._carry_out(out)
-        response.success, response.message = out.reply
-        return response
+    def _take_requests(self) -> None:
+        """Answer the step services' requests: at once, or, for one that plans, with its plan."""
+        for call, args, answer in self._requests.take():
+            self._take_pose()
+            out = call(*args, self._now())
+            self._carry_out(out)
+            if out.plan is None:
+                answer.set_result(out.reply)
+            else:
+                self._answer = answer
 
     def _answer_gripper(self) -> None:
         """Hand the driver's answer to the pending gripper request to the machine, once it came."""
@@ -274,9 +284,18 @@ class ClimbNode(Node):
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
 
-    def _take_preview(self) -> None:
-        """Publish a finished preview and hand it to the machine."""
-        preview = self._previews.result()
+    def _take_result(self) -> None:
+        """Hand a finished plan to the machine (and its reply to the request), or publish a
+        finished preview and hand it to the machine."""
+        result = self._worker.result()
+        if isinstance(result, StepPlan):
+            out = self.machine.on_plan(result, self._now())
+            self._carry_out(out)
+            if self._answer is not None:
+                self._answer.set_result(out.reply)
+                self._answer = None
+            return
+        preview = result
         if preview is None:
             return
         msg = DiagnosticStatus(level=OK if preview.accepted else WARN, name=f'{self.get_name()}: preview',
@@ -288,7 +307,8 @@ class ClimbNode(Node):
         self._carry_out(self.machine.on_preview(preview, self._now()))
 
     def _on_tick(self) -> None:
-        self._take_preview()
+        self._take_result()
+        self._take_requests()
         self._answer_gripper()
         self._take_pose()
         self._publish_odometry()
@@ -313,10 +333,12 @@ class ClimbNode(Node):
         if out.gripper is not None:
             request = SetBool.Request(data=out.gripper.close)
             self._gripper_call = (out.gripper, self._gripper_clients[out.gripper.ring].call_async(request))
+        if out.plan is not None:
+            self._worker.plan(out.plan)
         if out.preview is not None:
             odometry = self.machine.odometry  # the step previewed where the odometry stands
-            self._previews.submit(out.preview, None if odometry is None else odometry.world_T_a,
-                                  self.machine.config.period)
+            self._worker.preview(out.preview, None if odometry is None else odometry.world_T_a,
+                                 self.machine.config.period)
         if out.status is not None:
             self._publish_status(out.status)
 
@@ -358,9 +380,11 @@ class ClimbNode(Node):
         self._diag.report(level, f'{status.state.value}: {status.detail}', status)
 
     def destroy_node(self) -> None:
+        self._host.stop()   # never destroy a server while the host's thread waits on it
         if self._action is not None:
             self._action.close()
-        self._previews.shutdown()
+        self._host.close()
+        self._worker.shutdown()
         super().destroy_node()
 
 
