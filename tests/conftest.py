@@ -193,10 +193,11 @@ def browser_tmpdir():
             shutil.rmtree(path, ignore_errors=True)
 
 
-# Two pytest-xdist workers (./rrps test). The browser test and then the system tests (processes,
-# network namespaces, the CANopen bus, timing under load) run one after another on one worker;
-# the unit and node tests on the other, at a lower priority.
-SERIAL_LEVELS = ('tests/system/', 'tests/browser/')
+# Two pytest-xdist workers (./rrps test). The system tests (processes, network namespaces, the
+# CANopen bus, timing under load) run one after another on one worker, the longest chain of the
+# suite; the browser test first on the other (done long before the CANopen tests start), then the
+# unit and node tests, all at a lower priority.
+SERIAL_LEVELS = ('tests/system/',)
 #: Run last on their worker: the CANopen tests starve under a concurrent browser.
 LAST = ('tests/system/test_canopen',)
 #: System tests that time nothing and share nothing (builds and installs into their own
@@ -224,9 +225,9 @@ def pytest_collection_modifyitems(config, items):
 
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_make_scheduler(config, log):
-    """xdist's load-scope scheduling with our scopes: the serial levels are one scope (one worker,
-    in order: browser, system), each SPREAD module one, every other test its own scope (spread
-    over the workers)."""
+    """xdist's load-scope scheduling with our scopes: the serial level is one scope (one worker, in
+    order), each SPREAD module one, every other test its own scope (spread over the workers; the
+    browser's, first in the order, goes to the other worker first)."""
     from xdist.scheduler import LoadScopeScheduling
 
     class LevelScheduling(LoadScopeScheduling):

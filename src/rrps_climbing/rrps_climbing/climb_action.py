@@ -85,6 +85,8 @@ class ClimbAction:
         if cancel:
             self.carry_out(machine.cancel())
             return self._finish('canceled', False, f'cancelled: {machine.detail}')
+        if machine.planning:
+            return   # no feedback before the plan is made: the first says what became of it
         status = machine.status()
         with self._lock:
             self._feedback = self._feedback_of(status)

@@ -274,6 +274,11 @@ class ClimbStepMachine(ClimbInputs):
                            step_duration=self.timing[0], climbing_speed=self.timing[1],
                            plan_duration=self.plan_duration)
 
+    @property
+    def planning(self) -> bool:
+        """Whether the plan of a request is being made (asked for, not yet handed back)."""
+        return self._planning is not None
+
     def report(self) -> ClimbStatus:
         """The status to report periodically (what changes after it is reported again at once)."""
         status = self.status()

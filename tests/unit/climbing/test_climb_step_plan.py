@@ -41,14 +41,14 @@ def test_a_step_request_asks_for_its_plan_and_waits_for_it():
     assert out.plan.separation == pytest.approx(PLANNER.sep_home, abs=1e-12)
     assert replace(out.plan, separation=PLANNER.sep_home) == PlanRequest(STEP, 1, START, PLANNER.sep_home, 0.0,
                                                                          rig.pose, rig.machine.config)
-    assert out.status.state is IDLE and out.status.previewing
+    assert out.status.state is IDLE and out.status.previewing and rig.machine.planning
     assert rig.machine.step(-1, rig.t).reply == (False, 'refused: a step is being planned')
     assert rig.tick().target is None      # nothing commanded while the plan is made
 
     planned = rig.machine.on_plan(plan_step(PLANNER, pickle.loads(pickle.dumps(out.plan))), rig.t)
     expected = PLANNER.plan(STEP, 1, start=START)
     assert planned.reply[0] and planned.reply[1] == f'started: {expected.describe()}'
-    assert planned.status.state is EXECUTING and not planned.status.previewing
+    assert planned.status.state is EXECUTING and not planned.status.previewing and not rig.machine.planning
     assert rig.machine.plan_duration == pytest.approx(sum(ph.duration for ph in expected.phases))
 
 
