@@ -58,7 +58,8 @@ MOVE_ATTEMPTS = 4
 #: refusal for a state that came late on a busy machine passes, as a person asking again sees.
 STEP_REQUESTS = 3
 STEP_RETRY = 1.0
-#: Longest wait [s] for a requested climbing step to start: its preview runs first.
+#: Longest wait [s] for a requested climbing step's answer and for the step to start: it is planned and
+#: previewed first, in the climb node's worker process, which after a start may still be loading its kernels.
 PREVIEW_WAIT = 120.0
 
 #: One check of a scripted session: (what, passed).
@@ -253,7 +254,7 @@ class ScriptedOperator(Node):
         for _ in range(STEP_REQUESTS):   # a refusal may pass (a state late on a busy machine): ask again
             answer: dict = {}
             self._step.request(+1, lambda ok, text, answer=answer: answer.update(ok=ok, text=text))
-            accepted = self._wait(lambda: 'ok' in answer, WAIT, stop) and answer['ok']
+            accepted = self._wait(lambda: 'ok' in answer, PREVIEW_WAIT, stop) and answer['ok']
             self._say(f'{self._step.name} -> {answer.get("text", "no answer")!r}')
             if accepted or 'ok' not in answer or stop.wait(STEP_RETRY):
                 break
