@@ -88,16 +88,17 @@ def package_wheels(tmp_path_factory) -> Path:
 @pytest.fixture(scope='module')
 def install_dir(tmp_path_factory) -> Path:
     """Where each test makes its fresh venv (``venv``, removed first) and where the venvs' byte code
-    is kept (``pycache``, PYTHONPYCACHEPREFIX): the same path each time, so the modules a venv
-    imports are compiled once for the module, not once per package (a third of a test's time)."""
+    and numba kernels are kept (``pycache``, PYTHONPYCACHEPREFIX; ``numba-cache``, NUMBA_CACHE_DIR):
+    the same path each time, so the modules a venv imports and the kernels compiled at import are
+    compiled once for the module, not once per package (a third of a test's time)."""
     return tmp_path_factory.mktemp('clean-install')
 
 
 def _clean_environment(venv: Path) -> dict[str, str]:
     """What a user's shell would have in that venv: none of this checkout's variables (its venv,
-    library path, ament prefix); byte code beside the venv (:func:`install_dir`)."""
+    library path, ament prefix); byte code and numba's cache beside the venv (:func:`install_dir`)."""
     return {'PATH': f'{venv / "bin"}:/usr/bin:/bin', 'HOME': os.environ.get('HOME', '/tmp'), 'LANG': 'C.UTF-8',
-            'PYTHONPYCACHEPREFIX': str(venv.parent / 'pycache'),
+            'PYTHONPYCACHEPREFIX': str(venv.parent / 'pycache'), 'NUMBA_CACHE_DIR': str(venv.parent / 'numba-cache'),
             'VIRTUAL_ENV': str(venv), 'AMENT_PREFIX_PATH': str(venv), 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
             'RRPS_TEST_SESSION': os.environ.get('RRPS_TEST_SESSION', '')}
 
