@@ -19,7 +19,7 @@ two others:
 ``--climb`` starts a climb step at the start of every phase as well (up, down, ...).
 
 * CPU: user + system time of every process of the stack (and the recorder's), from
-  /proc/<pid>/stat, over the phase, in % of one core. The stack's own CPU drifts by a few % of
+  /proc/<pid>/stat, over the phase, in % of one core, in all and per process. The stack's own CPU drifts by a few % of
   a core between phases on a shared machine, so each phase is compared with the mean of the
   "off" phases on either side of it; the recorder's cost is the mean over its cycles, with its
   standard error.
@@ -30,7 +30,7 @@ Targets: the recorder adds < 10 % to the stack's CPU; the driver's period p99 do
 not change (within the spread of the recorder-off phases, at least 0.25 ms). The recording of
 the first "recorder on" phase is read back with the mcap reader: channels, counts, size.
 
-    python benchmarks/recorder.py [--seconds 12] [--cycles 4] [--climb]
+    python benchmarks/recorder.py [--seconds 12] [--cycles 6] [--climb]
     python benchmarks/recorder.py --session 60     # one recorded session: teleop, then a climb
 
 ``--session S`` records one session instead: teleop motion for the first third, then the
@@ -102,7 +102,7 @@ def _session(seconds: float, out_dir: Path, deadman, climb, Trigger) -> int:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--seconds', type=float, default=12.0, help='length of each phase [s]')
-    parser.add_argument('--cycles', type=int, default=4, help='recorder off/on cycles')
+    parser.add_argument('--cycles', type=int, default=6, help='recorder off/on cycles')
     parser.add_argument('--climb', action='store_true', help='a climb step in every phase')
     parser.add_argument('--session', type=float, default=0.0,
                         help='record one teleop + climb session of this many seconds instead')
@@ -197,15 +197,13 @@ def main() -> int:
             if args.climb:
                 climb['up' if i % 2 == 0 else 'down'].call_async(Trigger.Request())
             measured = pids + ([recorder.pid] if kind else [])
-            c0, t0 = cpu_seconds(measured), time.monotonic()
-            recorder_c0 = cpu_seconds([recorder.pid]) if kind else 0.0
+            c0, t0 = [cpu_seconds([pid]) for pid in measured], time.monotonic()
             time.sleep(args.seconds)
-            c1, t1 = cpu_seconds(measured), time.monotonic()
-            recorder_cpu = (cpu_seconds([recorder.pid]) - recorder_c0) if kind else 0.0
+            c1, t1 = [cpu_seconds([pid]) for pid in measured], time.monotonic()
+            each = [100.0 * (b - a) / (t1 - t0) for a, b in zip(c0, c1)]
             with lock:
                 s = np.array([stamp for recv, stamp in stamps if t0 <= recv < t1])
-            phases.append((name, 100.0 * (c1 - c0) / (t1 - t0),
-                           100.0 * recorder_cpu / (t1 - t0), np.diff(s)))
+            phases.append((name, sum(each), each[len(pids)] if kind else 0.0, np.diff(s), each[:len(pids)]))
             if kind:
                 stop_child(recorder, timeout=30.0)
     finally:
@@ -222,14 +220,14 @@ def main() -> int:
           f'phase, {os.cpu_count()} CPUs (shared)')
     print(f'{"phase":<20}{"stack CPU [% core]":>20}{"of it rec./lis.":>16}'
           f'{"period p50 [ms]":>17}{"p99 [ms]":>10}{"max [ms]":>10}{"states":>8}')
-    for name, cpu, rec_cpu, p in phases:
+    for name, cpu, rec_cpu, p, _ in phases:
         print(f'{name:<20}{cpu:>20.1f}{rec_cpu:>16.1f}{1e3 * np.median(p):>17.3f}'
               f'{1e3 * np.percentile(p, 99):>10.3f}{1e3 * np.max(p):>10.3f}{len(p) + 1:>8d}')
-    def added_by(index):
-        """A phase's stack CPU minus the mean of the "off" phases on either side of it."""
-        around = [phases[j][1] for j in (index - 1, index + 1)
+    def added_by(index, cpu=lambda phase: phase[1]):
+        """A phase's stack CPU (or ``cpu`` of it) minus that of the "off" phases on either side."""
+        around = [cpu(phases[j]) for j in (index - 1, index + 1)
                   if 0 <= j < len(phases) and phases[j][0] == 'recorder off']
-        return phases[index][1] - float(np.mean(around))
+        return cpu(phases[index]) - float(np.mean(around))
 
     def of(name):
         return [i for i, phase in enumerate(phases) if phase[0] == name]
@@ -252,6 +250,11 @@ def main() -> int:
           f'{", ".join(f"{x:+.1f}" for x in on)}) = {100 * added / base_cpu:+.1f} % of the '
           f'stack\'s {base_cpu:.1f} % (target < 10 %): {"MET" if cpu_ok else "MISSED"}; the '
           f'recorder process itself {recorder_itself:.1f} %, the rest is the stack\'s taps')
+    processes = ('driver', 'IK, FK, climb', 'master, teleop')
+    print('of which each process of the stack, recorder on / the control [% of a core]: ' + ', '.join(
+        f'{who} {np.mean([added_by(i, lambda ph: ph[4][k]) for i in of("recorder on")]):+.1f} / '
+        f'{np.mean([added_by(i, lambda ph: ph[4][k]) for i in of("same CPU, no ROS")]):+.1f}'
+        for k, who in enumerate(processes)))
     print(f'CPU added by a process that only burns the recorder\'s CPU (the control, same run): '
           f'{control.mean():+.1f} +/- '
           f'{control.std(ddof=1) / np.sqrt(len(control)) if len(control) > 1 else float("nan"):.1f}'

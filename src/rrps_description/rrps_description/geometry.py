@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from functools import cached_property
+from functools import cached_property, wraps
 from importlib import resources
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping, TypeVar
 
 import numpy as np
 
@@ -51,7 +51,10 @@ __all__ = [
     'shipped_robots',
     'robot_path',
     'load_robot',
+    'per_geometry',
 ]
+
+_T = TypeVar('_T')
 
 GRIPPER_KINDS = ('clamp', 'hook', 'suction', 'none')
 
@@ -314,3 +317,21 @@ def robot_path(name_or_path: str | Path) -> Path:
 def load_robot(name_or_path: str | Path) -> RobotGeometry:
     """Load a shipped robot by name or a robot description file by path."""
     return RobotGeometry.from_yaml(robot_path(name_or_path))
+
+
+def per_geometry(compute: Callable[[RobotGeometry], _T]) -> Callable[[RobotGeometry], _T]:
+    """``compute(geometry)`` computed once per geometry object (a geometry is immutable): for the
+    constants derived from it, which callers must not change."""
+    cache: dict[int, tuple[RobotGeometry, _T]] = {}
+
+    @wraps(compute)
+    def cached(geometry: RobotGeometry) -> _T:
+        entry = cache.get(id(geometry))
+        if entry is not None and entry[0] is geometry:
+            return entry[1]
+        value = compute(geometry)
+        if len(cache) >= 16:
+            cache.clear()
+        cache[id(geometry)] = (geometry, value)
+        return value
+    return cached

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rrps_description.geometry import RobotGeometry
+from rrps_description.geometry import RobotGeometry, per_geometry
 from rrps_description.names import BASE_FRAME, LEG_NAMES, RING_A_FRAME, RING_B_FRAME, ring_joint
 from rrps_description.pose import Pose
 from rrps_description.rotations import cross, matrix_to_rpy
@@ -70,11 +70,14 @@ def _frames(z: np.ndarray, reference: np.ndarray) -> np.ndarray:
     return np.stack([x, cross(z, x), z], axis=-1)
 
 
+@per_geometry
 def socket_frames(geometry: RobotGeometry) -> np.ndarray:
-    """Each spherical joint's socket frame in ring_b (b_R_tip), shape (6, 3, 3): z along the
-    joint's neutral axis pointing away from ring_a (the leg's direction there), x normal to it
+    """Each spherical joint's socket frame in ring_b (b_R_tip), shape (6, 3, 3), read-only: z along
+    the joint's neutral axis pointing away from ring_a (the leg's direction there), x normal to it
     and to the anchor b_i. The frame of the leg's tip links."""
-    return _frames(-np.asarray(geometry.ring_b_joint_axes), np.asarray(geometry.ring_b_anchors))
+    frames = _frames(-np.asarray(geometry.ring_b_joint_axes), np.asarray(geometry.ring_b_anchors))
+    frames.setflags(write=False)
+    return frames
 
 
 def _bounded(value: float) -> float:

@@ -5,7 +5,6 @@ robot's URDF contains is :mod:`rrps_description.urdf`'s."""
 
 from __future__ import annotations
 
-import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from functools import cached_property
@@ -14,9 +13,9 @@ from typing import Mapping
 import numpy as np
 
 from rrps_description.pose import Pose
-from rrps_description.rotations import rpy_to_matrix
+from rrps_description.rotations import normalize_quat, quat_multiply_xyzw, rpy_to_matrix
 
-__all__ = ['Shape', 'Inertial', 'Link', 'Joint', 'RobotModel']
+__all__ = ['Shape', 'Inertial', 'Link', 'Joint', 'JointFrames', 'RobotModel']
 
 #: The materials the visuals name (RGBA).
 _MATERIALS = {'ring': (0.47, 0.51, 0.59, 1.0), 'leg': (0.16, 0.67, 0.27, 1.0),
@@ -77,20 +76,42 @@ class Joint:
         """The joint's origin as a Pose (from the written rpy, as a URDF parser reads it)."""
         return Pose.from_rotation(self.xyz, rpy_to_matrix(self.rpy))
 
-    def transform(self, value: float = 0.0) -> Pose:
-        """parent_T_child at joint value ``value`` [rad or m]: the origin, then the motion (a
-        translation along the axis, or a rotation about it by the quaternion (axis sin, cos))."""
-        origin = self.origin
-        if self.kind == 'fixed':
-            return origin
-        if self.kind == 'prismatic':
-            return Pose(origin.position + origin.rotation @ (np.asarray(self.axis) * value),
-                        origin.quaternion_xyzw)
-        x1, y1, z1, w1 = (float(v) for v in origin.quaternion_xyzw)
-        s, w2 = math.sin(0.5 * value), math.cos(0.5 * value)
-        x2, y2, z2 = (s * v for v in self.axis)
-        return Pose(origin.position, (w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2, w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-                                      w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2, w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2))
+
+@dataclass(frozen=True)
+class JointFrames:
+    """parent_T_child of joints: ``pairs`` (parent, child), ``positions`` (N, 3) [m] and unit
+    ``quaternions`` (N, 4) (x, y, z, w; canonical sign, as :class:`Pose` keeps them)."""
+
+    pairs: tuple[tuple[str, str], ...]
+    positions: np.ndarray
+    quaternions: np.ndarray
+
+
+class _JointMotion:
+    """A tree's joints as arrays: each joint's transform at its value is its origin, then its motion
+    (a translation along the axis, or a rotation about it by the quaternion (axis sin, cos))."""
+
+    def __init__(self, joints: tuple[Joint, ...]):
+        self.names = [j.name for j in joints]
+        self.pairs = [(j.parent, j.child) for j in joints]
+        self.is_fixed = np.array([j.kind == 'fixed' for j in joints])
+        self.prismatic = np.array([j.kind == 'prismatic' for j in joints])
+        self.axes = np.array([j.axis for j in joints], dtype=float).reshape(-1, 3)
+        self.origin_positions = np.array([j.origin.position for j in joints]).reshape(-1, 3)
+        self.origin_quaternions = np.array([j.origin.quaternion_xyzw for j in joints]).reshape(-1, 4)
+        self.origin_rotations = np.array([j.origin.rotation for j in joints]).reshape(-1, 3, 3)
+
+    def frames(self, values: Mapping[str, float], fixed: bool) -> JointFrames:
+        given = [name in values for name in self.names]
+        take = np.flatnonzero(np.where(self.is_fixed, fixed, given))
+        v = np.array([float(values[self.names[i]]) if given[i] else 0.0 for i in take])
+        prismatic, axes = self.prismatic[take], self.axes[take]
+        shift = np.where(prismatic, v, 0.0)[:, None] * axes
+        half = 0.5 * np.where(prismatic, 0.0, v)  # a fixed joint's value is 0
+        motion = np.concatenate([np.sin(half)[:, None] * axes, np.cos(half)[:, None]], axis=1)
+        positions = self.origin_positions[take] + np.einsum('nij,nj->ni', self.origin_rotations[take], shift)
+        quaternions = normalize_quat(quat_multiply_xyzw(self.origin_quaternions[take], motion))
+        return JointFrames(tuple(self.pairs[i] for i in take), positions, quaternions)
 
 
 @dataclass(frozen=True)
@@ -108,18 +129,20 @@ class RobotModel:
         """Names of the joints that move (every joint but the fixed ones), in tree order."""
         return tuple(j.name for j in self.joints if j.kind != 'fixed')
 
+    @cached_property
+    def _motion(self) -> _JointMotion:
+        return _JointMotion(self.joints)
+
+    def frames(self, values: Mapping[str, float], *, fixed: bool = True) -> JointFrames:
+        """parent_T_child of every joint whose value is in ``values`` (and of the fixed joints unless
+        ``fixed`` is False), in tree order, as robot_state_publisher computes them."""
+        return self._motion.frames(values, fixed)
+
     def transforms(self, values: Mapping[str, float], *,
                    fixed: bool = True) -> list[tuple[str, str, Pose]]:
-        """(parent, child, parent_T_child) of every joint whose value is in ``values`` (and of
-        the fixed joints unless ``fixed`` is False), as robot_state_publisher computes them."""
-        out = []
-        for j in self.joints:
-            if j.kind == 'fixed':
-                if fixed:
-                    out.append((j.parent, j.child, j.origin))
-            elif j.name in values:
-                out.append((j.parent, j.child, j.transform(float(values[j.name]))))
-        return out
+        """:meth:`frames` as (parent, child, parent_T_child)."""
+        f = self.frames(values, fixed=fixed)
+        return [(parent, child, Pose(p, q)) for (parent, child), p, q in zip(f.pairs, f.positions, f.quaternions)]
 
     def xml(self) -> str:
         """The URDF text."""

@@ -9,7 +9,7 @@ from functools import cached_property
 
 import numpy as np
 
-from rrps_description.geometry import RobotGeometry
+from rrps_description.geometry import RobotGeometry, per_geometry
 from rrps_description.rotations import cross, matrix_to_euler313, matrix_to_euler_parameters, quat_xyzw_to_matrix
 from rrps_kinematics.backend import PARALLEL_BATCH, interpreted, run_parallel, use_numba
 
@@ -30,8 +30,9 @@ def leg_vectors(geometry: RobotGeometry, position: np.ndarray, rotation: np.ndar
     return position[..., None, :] + b_in_a - geometry.ring_a_anchors
 
 
+@per_geometry
 def universal_joint_frames(geometry: RobotGeometry) -> np.ndarray:
-    """Frame of each universal joint's fixed yoke in ring_a's frame, shape (6, 3, 3).
+    """Frame of each universal joint's fixed yoke in ring_a's frame, shape (6, 3, 3), read-only.
 
     Columns: x = the first revolute axis, fixed in ring_a, normal to the neutral axis and to the
     anchor vector s0_i (the paper's u_z × s0 construction at the neutral pose); z = the joint's
@@ -47,7 +48,9 @@ def universal_joint_frames(geometry: RobotGeometry) -> np.ndarray:
                       fallback[bad], fallback2[bad])
     x /= np.linalg.norm(x, axis=1, keepdims=True)
     y = cross(z, x)
-    return np.stack([x, y, z], axis=-1)
+    frames = np.stack([x, y, z], axis=-1)
+    frames.setflags(write=False)
+    return frames
 
 
 def lower_link_rotations(geometry: RobotGeometry, universal_angles: np.ndarray) -> np.ndarray:

@@ -10,26 +10,20 @@ from typing import Mapping
 
 import numpy as np
 
-from rrps_description.geometry import RobotGeometry
+from rrps_description.geometry import RobotGeometry, per_geometry
 from rrps_description.pose import Pose
 from rrps_description.urdf import RobotModel, leg_chain, socket_frames, urdf_model
 from rrps_kinematics.inverse import inverse_kinematics, universal_joint_frames
 
 __all__ = ['robot_model', 'robot_urdf', 'joint_values', 'spherical_angles']
 
-_MODELS: dict[int, tuple[RobotGeometry, RobotModel]] = {}
+#: Each leg's moving joints in chain order (universal x, y, prismatic, spherical z, x, y), legs 1..6.
+_LEG_JOINTS = tuple(name for leg in range(1, 7) for name in leg_chain(leg).joints)
 
-
+@per_geometry
 def robot_model(geometry: RobotGeometry) -> RobotModel:
     """The URDF model of ``geometry`` (built once per geometry object)."""
-    cached = _MODELS.get(id(geometry))
-    if cached is not None and cached[0] is geometry:
-        return cached[1]
-    model = urdf_model(geometry, universal_joint_frames(geometry))
-    if len(_MODELS) >= 16:
-        _MODELS.clear()
-    _MODELS[id(geometry)] = (geometry, model)
-    return model
+    return urdf_model(geometry, universal_joint_frames(geometry))
 
 
 def robot_urdf(geometry: RobotGeometry) -> str:
@@ -54,11 +48,8 @@ def joint_values(geometry: RobotGeometry, a_T_b: Pose,
     lower = ik.lower_link_rotations  # (6, 3, 3): a_R_lower (= a_R_upper)
     J = np.swapaxes(lower, -1, -2) @ a_T_b.rotation @ socket_frames(geometry)
     spherical = spherical_angles(J)
-    values: dict[str, float] = {}
-    for i in range(6):
-        chain = leg_chain(i + 1)
-        for name, value in zip(chain.joints, (*ik.universal_angles[i], ik.lengths[i], *spherical[i])):
-            values[name] = float(value)
+    legs = np.concatenate([ik.universal_angles, ik.lengths[:, None], spherical], axis=1)  # (6, 6)
+    values = dict(zip(_LEG_JOINTS, legs.ravel().tolist()))
     rings = dict(ring_angles or {})
     for name in robot_model(geometry).moving_joints:
         if name not in values and name in rings:

@@ -1,6 +1,7 @@
 """The robot for RViz2 and Foxglove: marker geometry and the transform tree. Pure, no rclpy.
 
-:func:`robot_transforms` gives the REP-105 tree as (parent, child, Pose): ``odom`` -> ``base_link``, then the
+:func:`robot_frames` gives the REP-105 tree as (parent, child, position, quaternion) and :func:`robot_transforms` as
+(parent, child, Pose): ``odom`` -> ``base_link``, then the
 URDF's (:mod:`rrps_description.urdf`) at the joint values of a_T_b (:mod:`rrps_kinematics.urdf_joints`), named as
 robot_state_publisher names them, with ``frame_prefix`` for several robots on one /tf;
 :func:`world_pose_of_ring_a` places ring_a from the gripping ring's odometry. The recorder's and markers_node's
@@ -19,9 +20,8 @@ from rrps_description.names import BASE_FRAME, ODOM_FRAME, RING_A_FRAME, prefixe
 from rrps_description.pose import Pose
 from rrps_kinematics.scene import robot_figure, world_ring_poses
 from rrps_kinematics.urdf_joints import joint_values, robot_model
-from rrps_runtime.cdr import tf_message_cdr as frames_cdr
 
-__all__ = ['MarkerSpec', 'robot_markers', 'robot_transforms', 'fixed_transforms', 'tf_message_cdr',
+__all__ = ['MarkerSpec', 'robot_markers', 'robot_frames', 'robot_transforms', 'fixed_transforms',
            'structure_marker', 'ring_radius', 'world_pose_of_ring_a']
 
 _CIRCLE_POINTS = 48
@@ -64,29 +64,30 @@ def _named(transforms, frame_prefix: str) -> list[tuple[str, str, Pose]]:
             for parent, child, pose in transforms]
 
 
+def robot_frames(geometry: RobotGeometry, a_T_b: Pose, world_T_a: Pose | None = None,
+                 ring_angles: dict[str, float] | None = None, *,
+                 fixed: bool = True) -> list[tuple[str, str, np.ndarray, np.ndarray]]:
+    """The transform tree as (parent, child, position (3,), quaternion x, y, z, w (4,)): odom ->
+    base_link (``world_T_a``, when given), then every joint of the URDF at a_T_b's joint values, as
+    robot_state_publisher computes them; the fixed joints too unless ``fixed`` is False (they are
+    :func:`fixed_transforms`), a ring's extra-DOF joint when ``ring_angles`` has its angle."""
+    out = [] if world_T_a is None else [(ODOM_FRAME, BASE_FRAME, world_T_a.position, world_T_a.quaternion_xyzw)]
+    f = robot_model(geometry).frames(joint_values(geometry, a_T_b, ring_angles), fixed=fixed)
+    out += [(parent, child, p, q) for (parent, child), p, q in zip(f.pairs, f.positions, f.quaternions)]
+    return out
+
+
 def robot_transforms(geometry: RobotGeometry, a_T_b: Pose, world_T_a: Pose | None = None,
                      ring_angles: dict[str, float] | None = None, *,
                      fixed: bool = True, frame_prefix: str = '') -> list[tuple[str, str, Pose]]:
-    """The transform tree (parent, child, parent_T_child): odom -> base_link (``world_T_a``, when
-    given), then every joint of the URDF at a_T_b's joint values, as robot_state_publisher
-    computes them; the fixed joints too unless ``fixed`` is False (they are
-    :func:`fixed_transforms`), a ring's extra-DOF joint when ``ring_angles`` has its angle."""
-    out = [] if world_T_a is None else [(ODOM_FRAME, BASE_FRAME, world_T_a)]
-    out += robot_model(geometry).transforms(joint_values(geometry, a_T_b, ring_angles), fixed=fixed)
-    return _named(out, frame_prefix)
+    """:func:`robot_frames` as (parent, child, parent_T_child), the frames named with ``frame_prefix``."""
+    return _named([(parent, child, Pose(p, q)) for parent, child, p, q
+                   in robot_frames(geometry, a_T_b, world_T_a, ring_angles, fixed=fixed)], frame_prefix)
 
 
 def fixed_transforms(geometry: RobotGeometry, frame_prefix: str = '') -> list[tuple[str, str, Pose]]:
     """The URDF's fixed joints (parent, child, parent_T_child): robot_state_publisher's /tf_static."""
     return _named(robot_model(geometry).transforms({}), frame_prefix)
-
-
-def tf_message_cdr(stamp_ns: int, transforms: list[tuple[str, str, Pose]]) -> bytes:
-    """CDR bytes of a ``tf2_msgs/msg/TFMessage`` of ``transforms`` (parent, child,
-    parent_T_child), all stamped ``stamp_ns``, without the tf2_msgs package
-    (:func:`rrps_runtime.cdr.tf_message_cdr`)."""
-    return frames_cdr(stamp_ns, [(parent, child, pose.position, pose.quaternion_xyzw)
-                                 for parent, child, pose in transforms])
 
 
 def world_pose_of_ring_a(a_T_b: Pose, grippers: dict | None,

@@ -1,8 +1,8 @@
 """The robot's ``/tf`` as the recorder writes it: the transforms ``odom -> base_link`` (REP-105)
-and the URDF's, fixed joints included (:func:`rrps_recording.markers.robot_transforms`), from the
+and the URDF's, fixed joints included (:func:`rrps_recording.markers.robot_frames`), from the
 newest ``pose``, ``odometry/*`` and ``grippers/state`` messages (CDR as received), encoded as one
-``tf2_msgs/msg/TFMessage`` (:func:`rrps_recording.markers.tf_message_cdr`: tf2_msgs is not
-needed). A robot at rest keeps its transforms: they are computed again only when an input changes."""
+``tf2_msgs/msg/TFMessage`` (:func:`rrps_runtime.cdr.tf_message_cdr`: tf2_msgs is not needed). A
+robot at rest keeps its transforms: they are computed again only when an input changes."""
 
 from __future__ import annotations
 
@@ -18,9 +18,10 @@ from rrps_interfaces.climb import odometry_topic
 from rrps_interfaces.driver import GRIPPERS_STATE, gripper_states
 from rrps_interfaces.kinematics import POSE
 from rrps_interfaces.recording import TF
-from rrps_recording.markers import robot_transforms, tf_message_cdr, world_pose_of_ring_a
+from rrps_recording.markers import robot_frames, world_pose_of_ring_a
 from rrps_recording.storage.bag_metadata import TopicInfo
 from rrps_recording.storage.qos import TF_QOS
+from rrps_runtime.cdr import tf_message_cdr
 from rrps_runtime.messages import pose_from_msg
 
 __all__ = ['RobotTf', 'TF_TYPE', 'TF_TOPIC']
@@ -66,7 +67,7 @@ class RobotTf:
             g = deserialize_message(gripper_data, JointState)
             closed = gripper_states(list(g.name), list(g.position))
         world_T_a = world_pose_of_ring_a(a_T_b, closed, odometry)
-        transforms = robot_transforms(self.geometry, a_T_b, world_T_a)
+        transforms = robot_frames(self.geometry, a_T_b, world_T_a)
         self._cache = (inputs, transforms)
         t = time.time_ns()
         return t, tf_message_cdr(t, transforms)

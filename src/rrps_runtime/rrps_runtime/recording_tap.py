@@ -1,9 +1,9 @@
 """A node's recording tap: its high-rate publications, batched for a recorder (docs/recording.md, "Recording taps").
 
 A node creates those publishers with :meth:`RecordingTap.create_publisher`. While a recorder subscribes to
-``~/recording_tap``, each published message is also kept and every ``FLUSH_PERIOD`` the kept ones go out as one
-bundle (:mod:`rrps_runtime.recording_bundle`). JointState, PoseStamped and WrenchStamped are encoded only then, so a
-node must not change such a message after publishing it while :attr:`TappedPublisher.tapped`.
+``~/recording_tap``, each message is published as CDR bytes (:mod:`rrps_runtime.cdr` for JointState, PoseStamped and
+WrenchStamped, rclpy's ``serialize_message`` for the others), those bytes are kept, and every ``FLUSH_PERIOD`` the
+kept ones go out as one bundle (:mod:`rrps_runtime.recording_bundle`).
 """
 
 from __future__ import annotations
@@ -59,17 +59,19 @@ class TappedPublisher:
         return self._tap.active
 
     def publish(self, msg) -> None:
-        """Publish ``msg``; while tapped, keep it for the next bundle (serialised now unless its type has a CDR
-        encoder: then it is encoded with the bundle and must not be changed after it is published)."""
+        """Publish ``msg``; while tapped, publish its CDR bytes and keep them for the next bundle (one
+        encoding: the recording holds the bytes that went out)."""
         if not self._tap.active:
             self.publisher.publish(msg)
-        elif self._encode is None:
-            data = serialize_message(msg)
-            self.publisher.publish(data)
-            self._tap.keep(self._index, data, None)
-        else:
-            self.publisher.publish(msg)
-            self._tap.keep(self._index, msg, self._encode)
+            return
+        try:
+            data = serialize_message(msg) if self._encode is None else self._encode(msg)
+        except (AttributeError, TypeError, ValueError, struct.error) as exc:
+            self.publisher.publish(msg)  # published all the same, left out of the recording
+            self._tap.left_out(exc)
+            return
+        self.publisher.publish(data)
+        self._tap.keep(self._index, data)
 
 
 class RecordingTap:
@@ -77,7 +79,7 @@ class RecordingTap:
 
     def __init__(self, node: Node, *, flush_period: float = FLUSH_PERIOD):
         self._writer = BundleWriter(node.get_fully_qualified_name())
-        self._kept: list[tuple[int, int, object, object]] = []  # (topic, publish ns, message, encode)
+        self._kept: list[tuple[int, int, bytes]] = []  # (topic, publish ns, CDR bytes)
         self._kept_bytes = 0
         self._lock = threading.Lock()        # the kept messages (publishers may run in threads)
         self._flush_lock = threading.Lock()  # the bundle writer
@@ -99,21 +101,24 @@ class RecordingTap:
             index = self._writer.declare(publisher.topic_name, type_name)
         return TappedPublisher(self, publisher, index, cdr_encoder(type_name))
 
-    def keep(self, index: int, item, encode) -> None:
-        """Keep a published message for the next bundle: ``encode(item)`` gives its CDR bytes,
-        or ``item`` is those bytes when ``encode`` is None."""
+    def keep(self, index: int, data: bytes) -> None:
+        """Keep a published message's CDR bytes for the next bundle."""
         with self._lock:
-            self._kept.append((index, time.time_ns(), item, encode))
-            if encode is None:
-                self._kept_bytes += len(item)
+            self._kept.append((index, time.time_ns(), data))
+            self._kept_bytes += len(data)
             full = (len(self._kept) >= MAX_PENDING_MESSAGES
                     or self._kept_bytes >= MAX_PENDING_BYTES)
         if full:
             self.flush()
 
+    def left_out(self, exc: Exception) -> None:
+        """Count and log a message that could not be encoded (never raised into the node's executor)."""
+        self.unencodable += 1
+        self._node.get_logger().warning(f'recording tap: a message left out of the recording ({exc!r})',
+                                        throttle_duration_sec=5.0)
+
     def flush(self) -> None:
-        """Send the kept messages as one bundle (an empty one at most every IDLE_PERIOD). A message that cannot be
-        encoded is left out and logged, never raised into the node's executor."""
+        """Send the kept messages as one bundle (an empty one at most every IDLE_PERIOD)."""
         active = self._bundle_pub.get_subscription_count() > 0
         now = time.monotonic()
         with self._flush_lock:
@@ -123,14 +128,8 @@ class RecordingTap:
             if not active or (not kept and now - self._last_sent < IDLE_PERIOD):
                 return
             add = self._writer.add
-            for index, publish_ns, item, encode in kept:
-                try:
-                    add(index, publish_ns, item if encode is None else encode(item))
-                except (AttributeError, TypeError, ValueError, struct.error) as exc:
-                    self.unencodable += 1
-                    self._node.get_logger().warning(
-                        f'recording tap: a message left out of the recording ({exc!r})',
-                        throttle_duration_sec=5.0)
+            for index, publish_ns, data in kept:
+                add(index, publish_ns, data)
             self._bundle_pub.publish(self._writer.take(time.time_ns()))
             self._last_sent = now
             self.bundles_sent += 1

@@ -96,9 +96,9 @@ def test_parameter_ranges_are_enforced(ros_context):
 
 
 def test_a_robot_at_rest_is_recorded_with_every_stamp_while_tapped(ros_context):
-    """At rest fk_node re-publishes its last pose with the new stamp. While a recorder listens,
-    its tap keeps each published pose until the next bundle, so each must be a new message:
-    the bundles hold every stamp, in order (a re-stamped message would show the last one)."""
+    """At rest fk_node re-stamps and re-publishes its last pose. While a recorder listens, its tap
+    keeps the bytes of each pose as it went out: the bundles hold every stamp, in order (a tap
+    that kept the message itself would show the last stamp in each bundle)."""
     from rclpy.serialization import deserialize_message
     from std_msgs.msg import UInt8MultiArray
 

@@ -258,13 +258,14 @@ def test_the_recorders_tf_is_replayed_as_tf2_msgs(ros_context, tmp_path):
 
     from rrps_description.geometry import load_robot
     from rrps_description.pose import Pose
-    from rrps_recording.markers import robot_transforms, tf_message_cdr
+    from rrps_recording.markers import robot_frames
     from rrps_recording.robot_tf import TF_TYPE
     from rrps_recording.storage.mcap_files import TopicInfo, write_recording
     from rrps_recording.storage.qos import TF_QOS
+    from rrps_runtime.cdr import tf_message_cdr
     from rrps_testing.transform_tree import pose_in
     a_T_b = Pose([0.0, 0.002, 0.43], [0.0, 0.0, math.sin(0.02), math.cos(0.02)])
-    transforms = robot_transforms(load_robot('pole_climber'), a_T_b, Pose([0.0, 0.0, 1.2]))
+    transforms = robot_frames(load_robot('pole_climber'), a_T_b, Pose([0.0, 0.0, 1.2]))
     t0 = time.time_ns()
     write_recording(tmp_path / 'tf.mcap', [TopicInfo('/tf', TF_TYPE, (TF_QOS,))],
                     [('/tf', t0 + i * 50_000_000, tf_message_cdr(t0 + i * 50_000_000, transforms))
@@ -282,7 +283,7 @@ def test_the_recorders_tf_is_replayed_as_tf2_msgs(ros_context, tmp_path):
         assert wait_for(lambda: statuses and _status_of(statuses).finished)
     assert _status_of(statuses).skipped == ()
     last = {(t.header.frame_id, t.child_frame_id): t for t in tf[-1].transforms}
-    assert set(last) == {(parent, child) for parent, child, _ in transforms}
+    assert set(last) == {(parent, child) for parent, child, _, _ in transforms}
     replayed = [(parent, child, Pose([t.translation.x, t.translation.y, t.translation.z],
                                      [t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w]))
                 for (parent, child), msg in last.items() for t in (msg.transform,)]

@@ -221,3 +221,23 @@ def test_motion_limits_are_the_descriptions_or_documented_defaults():
     _set(data, 'legs.max_speed', _DELETE)
     with pytest.raises(RobotDescriptionError, match='legs.max_speed: not given'):
         RobotGeometry.from_dict(data).motion_limits
+
+
+def test_per_geometry_computes_once_per_geometry_object():
+    """A derived constant is computed once for each geometry object, never shared between two
+    geometries that merely look alike (a robot reloaded, a variant built with dataclasses.replace)."""
+    from rrps_description.geometry import per_geometry
+
+    calls = []
+
+    @per_geometry
+    def anchor_sum(geometry):
+        calls.append(geometry)
+        return float(np.sum(geometry.ring_a_anchors))
+
+    g, h = load_robot('pole_climber'), load_robot('pole_climber')
+    assert anchor_sum(g) == anchor_sum(g) == anchor_sum(h)
+    assert [c is g for c in calls] == [True, False]
+    moved = RobotGeometry(ring_a_anchors=2.0 * g.ring_a_anchors, ring_b_anchors=g.ring_b_anchors)
+    assert anchor_sum(moved) == pytest.approx(2.0 * anchor_sum(g))
+    assert len(calls) == 3

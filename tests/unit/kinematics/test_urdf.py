@@ -146,6 +146,18 @@ def test_our_tf_tree_is_the_one_a_urdf_parser_computes(name):
         assert rotation_angle_between(ours.rotation, theirs[:3, :3]) < 1e-9, link
 
 
+def test_the_cached_joint_frames_cannot_be_changed_by_a_caller():
+    """The yoke and socket frames are computed once per geometry: a caller writing into them
+    would change every later pose's joint values, so they are read-only."""
+    from rrps_description.urdf import socket_frames
+    from rrps_kinematics.inverse import universal_joint_frames
+    g = load_robot('pole_climber')
+    for frames in (universal_joint_frames(g), socket_frames(g)):
+        assert not frames.flags.writeable
+        with pytest.raises(ValueError):
+            frames[0, 0, 0] = 1.0
+
+
 @pytest.mark.parametrize('name', ROBOTS)
 def test_the_spherical_joints_stay_far_from_gimbal_lock(name):
     """Home: the tilt angles are 0; anywhere, cos(cone angle) = cos(x) cos(y), so |x| <= the cone

@@ -167,7 +167,7 @@ def test_the_recorder_tf_encoding_is_mcap_ros2s_byte_for_byte(stamp, transforms)
     from mcap_ros2._dynamic import serialize_dynamic
 
     from rrps_description.pose import Pose
-    from rrps_recording.markers import tf_message_cdr
+    from rrps_runtime.cdr import tf_message_cdr
     name = 'tf2_msgs/msg/TFMessage'
     encode = serialize_dynamic(name, message_schema(name))[name]
     poses = [(parent, child, Pose(p, q)) for parent, child, p, q in transforms]
@@ -178,7 +178,8 @@ def test_the_recorder_tf_encoding_is_mcap_ros2s_byte_for_byte(stamp, transforms)
          'transform': {'translation': dict(zip('xyz', map(float, pose.position))),
                        'rotation': dict(zip('xyzw', map(float, pose.quaternion_xyzw)))}}
         for parent, child, pose in poses]})
-    assert tf_message_cdr(stamp, poses) == reference
+    assert tf_message_cdr(stamp, [(parent, child, pose.position, pose.quaternion_xyzw)
+                                  for parent, child, pose in poses]) == reference
 
 
 def test_offered_qos_yaml_is_rosbag2_jazzy_text_and_reads_back():

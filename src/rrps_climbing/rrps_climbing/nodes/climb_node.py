@@ -168,7 +168,7 @@ class ClimbNode(Node):
         self._support_due = SupportPublisher()
         self._frames = (prefixed(values['frame_prefix'], ODOM_FRAME), prefixed(values['frame_prefix'], BASE_FRAME))
         self._base_odometry = BaseOdometry(self.geometry, values['odometry_length_stddev'], config.period)
-        self._base_pub = self.create_publisher(Odometry, ODOMETRY, STATE_QOS)
+        self._base_pub = self._tap.create_publisher(Odometry, ODOMETRY, STATE_QOS)
         self.create_subscription(PoseStamped, POSE, self._on_pose, LATEST_QOS)
         self.create_subscription(JointState, GRIPPERS_STATE, self._on_grippers, STATE_QOS)
         # the operator station's sign of life: the newest sample counts; a reliable reader would

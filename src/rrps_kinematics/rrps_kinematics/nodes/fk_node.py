@@ -11,7 +11,6 @@ import numpy as np
 from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Header
 
 from rrps_description.geometry import load_robot
 from rrps_description.names import RING_A_FRAME
@@ -107,12 +106,7 @@ class FkNode(Node):
             return
         if self._pose_msg is not None and np.array_equal(lengths, self._solved_lengths):
             self.solved += 1
-            if self._pub.tapped:  # the recording tap keeps the last one: never change it
-                self._pose_msg = PoseStamped(header=Header(stamp=msg.header.stamp,
-                                                           frame_id=self.frame_id),
-                                             pose=self._pose_msg.pose)
-            else:
-                self._pose_msg.header.stamp = msg.header.stamp
+            self._pose_msg.header.stamp = msg.header.stamp
             self._pub.publish(self._pose_msg)
             return
         update = self.tracker.update(lengths)
