@@ -109,11 +109,15 @@ def test_method_37_with_limits_enforced_from_power_on_moves_nothing_before_homin
         start(sim, hardware, path)
         sim.ask(cmd='trace', on=True)
         outcome = hardware.on_activate()
-        trace = sim.ask(cmd='trace', on=False)['trace']
+        activated = time.monotonic()
         assert outcome.ok, outcome.reason
-        moved = np.max(np.abs(np.array([row[2] for row in trace]) - physical_start))
-        assert len(trace) > 10 and moved <= 1e-9, moved
         assert wait_for(lambda: where_believed(sim, hardware), timeout=10.0)
+        # traced: every SYNC from before the activation to one after it (one machine's monotonic clock)
+        assert wait_for(lambda: max(sim.ask(cmd='syncs')['syncs'], default=0.0) > activated, timeout=10.0)
+        trace = sim.ask(cmd='trace', on=False)['trace']
+        assert trace[-1][0] > activated
+        moved = np.max(np.abs(np.array([row[2] for row in trace]) - physical_start))
+        assert moved <= 1e-9, moved
         moves_on_command(hardware, sim)
 
 
