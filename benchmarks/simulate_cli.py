@@ -21,11 +21,13 @@ invocation whatever the run's length (its "own cost") are printed beside it.
 from __future__ import annotations
 
 import argparse
+import atexit
 import contextlib
 import csv
 import io
 import os
 import platform
+import shutil
 import sys
 import tempfile
 import time
@@ -70,6 +72,7 @@ def main(argv=None) -> int:
     quat = quat / np.linalg.norm(quat)
     forces = MultibodyDynamics(g).holding_forces(position, quat) + REPORT_EXTRA_FORCES
     folder = Path(tempfile.mkdtemp(prefix='rrps-simulate-cli-'))
+    atexit.register(shutil.rmtree, folder, True)  # the runs' CSV and NPZ files go with the process
     out, npz = folder / 'run.csv', folder / 'run.npz'
 
     def library(duration, every, reactions=False):
