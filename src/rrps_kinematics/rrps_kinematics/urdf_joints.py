@@ -20,6 +20,7 @@ __all__ = ['robot_model', 'robot_urdf', 'joint_values', 'spherical_angles']
 #: Each leg's moving joints in chain order (universal x, y, prismatic, spherical z, x, y), legs 1..6.
 _LEG_JOINTS = tuple(name for leg in range(1, 7) for name in leg_chain(leg).joints)
 
+
 @per_geometry
 def robot_model(geometry: RobotGeometry) -> RobotModel:
     """The URDF model of ``geometry`` (built once per geometry object)."""

@@ -13,6 +13,8 @@ from __future__ import annotations
 import dataclasses
 import struct
 
+from rrps_runtime.cdr import ENCAPSULATION
+
 __all__ = ['MAGIC', 'Bundle', 'BundleWriter', 'decode_bundle', 'BUNDLE_TYPE']
 
 MAGIC = b'RRPSTAP1'
@@ -21,7 +23,6 @@ BUNDLE_TYPE = 'std_msgs/msg/UInt8MultiArray'
 
 # CDR of a UInt8MultiArray: encapsulation (CDR little-endian), layout.dim (empty sequence),
 # layout.data_offset, then data as a uint32 length and the bytes.
-_CDR_HEADER = b'\x00\x01\x00\x00'
 _CDR_PREFIX = struct.Struct('<4sIII')
 _FRAME = struct.Struct('<HqI')
 _HEAD = struct.Struct('<8sqH')
@@ -72,7 +73,7 @@ class BundleWriter:
         node = self.node.encode('utf-8')
         head = _HEAD.pack(MAGIC, sent_ns, len(node)) + node + self._table
         length = len(head) + sum(len(p) for p in self._parts)
-        payload = b''.join([_CDR_PREFIX.pack(_CDR_HEADER, 0, 0, length), head, *self._parts])
+        payload = b''.join([_CDR_PREFIX.pack(ENCAPSULATION, 0, 0, length), head, *self._parts])
         self._parts = []
         return payload
 
@@ -83,7 +84,7 @@ def decode_bundle(cdr: bytes) -> Bundle:
     if len(view) < _CDR_PREFIX.size:
         raise ValueError(f'bundle of {len(view)} bytes: shorter than its CDR header')
     encapsulation, dims, _, length = _CDR_PREFIX.unpack_from(view, 0)
-    if encapsulation != _CDR_HEADER:
+    if encapsulation != ENCAPSULATION:
         raise ValueError(f'not a little-endian CDR message (encapsulation {bytes(encapsulation)!r})')
     if dims != 0:
         raise ValueError(f'a bundle has an empty layout, this array has {dims} dimensions')

@@ -51,7 +51,7 @@ class TappedPublisher:
         self.publisher = publisher
         self._tap = tap
         self._index = index
-        self._encode = encode
+        self._encode = encode or serialize_message
 
     @property
     def tapped(self) -> bool:
@@ -65,7 +65,7 @@ class TappedPublisher:
             self.publisher.publish(msg)
             return
         try:
-            data = serialize_message(msg) if self._encode is None else self._encode(msg)
+            data = self._encode(msg)
         except (AttributeError, TypeError, ValueError, struct.error) as exc:
             self.publisher.publish(msg)  # published all the same, left out of the recording
             self._tap.left_out(exc)
