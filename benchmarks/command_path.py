@@ -163,9 +163,21 @@ def measure(trace, canary, seconds: float, sim, clock_offset: float) -> dict:
     targets, grippers = trace.between('target_pose', t0, t1), trace.between('grippers/state', t0, t1)
     return {'hops': hops(trace, t0, t1, drive_targets), 'target_gaps': gaps(targets[:, 0]) if len(targets) else [],
             'gripper_gaps': gaps(grippers[:, 0]) if len(grippers) else [],
+            'gripper_late': late_grippers(grippers),
             'slave_age': ages, 'disengaged': disengagements(trace, t0, t1), 'rt_stops': canary.stops(m0, m1),
             'load': os.getloadavg()[0], 'ik': trace.values('ik_node'), 'driver': trace.values('driver_node'),
             'engaged': engaged}
+
+
+def late_grippers(records: np.ndarray, late: float = 0.075) -> list[tuple[float, float]]:
+    """For each grippers/state received more than ``late`` s after the one before: (the gap between
+    their stamps, the late one's receipt minus its stamp) [ms]. A stamp gap near the gap: published
+    late; a delivery near it: published on time, delivered late (e.g. a reliable repair)."""
+    out = []
+    for (r0, s0), (r1, s1) in zip(records[:-1, :2], records[1:, :2]):
+        if r1 - r0 > late:
+            out.append((1e3 * (s1 - s0), 1e3 * (r1 - s1)))
+    return out
 
 
 def run_launch(launch: str, args) -> dict:
@@ -230,8 +242,9 @@ def report(launch: str, results: dict, hardware: str) -> list[str]:
             print(f'| {phase} | {name} | {n} | {p50:.2f} | {p99:.2f} | {p999:.2f} | {mx:.2f} |')
     figures = {}
     print('\n| phase | load avg | target_pose gap p99 / max [ms] | slave_age_ms p99 | disengaging | '
-          'RT stops > 20 ms | IK / driver command age p99 [ms] | grippers/state gap p99 / max [ms] |')
-    print('|---|---|---|---|---|---|---|---|')
+          'RT stops > 20 ms | IK / driver command age p99 [ms] | grippers/state gap p99 / max [ms] | '
+          'late grippers/state: stamp gap / delivery [ms] |')
+    print('|---|---|---|---|---|---|---|---|---|')
     for phase in ('idle', 'load'):
         r = results[phase]
         _, _, gp99, _, gmax = percentiles(r['target_gaps'])
@@ -247,7 +260,8 @@ def report(launch: str, results: dict, hardware: str) -> list[str]:
         print(f'| {phase} | {r["load"]:.1f} | {gp99:.1f} / {gmax:.1f} | {age99:.1f} | {dis} '
               f'{dict(r["disengaged"]) or ""} | {len(stops)}{f" (max {1e3 * max(stops):.0f} ms)" if stops else ""} | '
               f'{_ms(r["ik"].get("command_age_p99_ms"))} / {_ms(r["driver"].get("command_age_p99_ms"))} | '
-              f'{percentiles(r["gripper_gaps"])[2]:.1f} / {percentiles(r["gripper_gaps"])[4]:.1f} |')
+              f'{percentiles(r["gripper_gaps"])[2]:.1f} / {percentiles(r["gripper_gaps"])[4]:.1f} | '
+              f'{", ".join(f"{g:.0f} / {d:.0f}" for g, d in r["gripper_late"][:8]) or "none"} |')
         if phase == 'load':
             figures.update({'target_pose gap p99 [ms]': gp99, 'target_pose gap max [ms]': gmax,
                             'slave_age_ms p99': age99, 'disengaging statuses': dis})
