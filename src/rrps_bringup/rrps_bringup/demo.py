@@ -312,10 +312,8 @@ def main(argv=None) -> int:
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
-        if robot is not None:  # both stop while this process tears its own nodes down
-            for child in robot.children.values():
-                if child.poll() is None:
-                    child.send_signal(signal.SIGTERM)
+        if robot is not None:  # they stop while this process tears its own nodes down
+            robot.terminate()
         for sig, handler in previous.items():
             signal.signal(sig, handler)
         for node in nodes.values():

@@ -50,8 +50,9 @@ def run_nodes(factories: Sequence[Callable[..., Node]], args=None, *, executor_k
     """Jazzy ``main()`` pattern: init, spin the nodes (classes taking ``context=``) in one executor, clean shutdown.
 
     A node that cannot start (an invalid robot description or parameter) prints one line and exits with status 2.
-    SIGINT, SIGTERM and the supervisor's death end the spin between callbacks; the spinning thread claims the nodes'
-    scheduling (:func:`rrps_runtime.command_path.claim_command_path`).
+    SIGINT, SIGTERM and the supervisor's death end the spin between callbacks; a second signal does not cut the
+    shutdown short (:func:`_finishing`). The spinning thread claims the nodes' scheduling
+    (:func:`rrps_runtime.command_path.claim_command_path`).
     """
     stop = threading.Event()
     exit_with_parent(stop.set)
@@ -76,9 +77,17 @@ def run_nodes(factories: Sequence[Callable[..., Node]], args=None, *, executor_k
         pass
     finally:
         faulthandler.dump_traceback_later(SHUTDOWN_DEADLINE, exit=True)   # armed until the process ends
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
+        for sig in previous:  # until the process ends: the interpreter's own exit takes a while too
+            signal.signal(sig, _finishing)
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown(context=context)
         thaw()
+
+
+def _finishing(signum, _frame) -> None:
+    """A SIGINT or SIGTERM during the shutdown (Ctrl-C pressed again, ``ros2 launch``'s SIGTERM after its
+    SIGINT): the shutdown goes on, so that the nodes close what they hold (a recording, the hardware's state);
+    :data:`SHUTDOWN_DEADLINE` still bounds it, SIGKILL still ends it at once."""
+    print(f'{signal.Signals(signum).name} while shutting down: finishing the shutdown (at most '
+          f'{SHUTDOWN_DEADLINE:.0f} s; SIGKILL ends it now)', file=sys.stderr, flush=True)

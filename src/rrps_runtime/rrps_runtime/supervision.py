@@ -1,6 +1,6 @@
 """Child processes that never outlive their supervisor, their scheduling, and a clean way to stop them.
 
-:func:`start_child` (SIGTERM to the child when this process dies), :func:`stop_child` (SIGTERM, then SIGKILL) and
+:func:`start_child` (SIGTERM to the child when this process dies), :func:`stop_child` (SIGTERM once, then SIGKILL) and
 :class:`Respawner`; the priorities below, and why a prioritised child leads its own session (Linux autogroup):
 docs/deployment.md, "Process layout and priorities" and "Supervision". Pure Python, no ROS import.
 """
@@ -19,7 +19,8 @@ from typing import Sequence
 
 __all__ = ['PARENT_PID_ENV', 'CONTROL_NICE', 'CONTROL_RT_PRIORITY', 'OPERATOR_NICE', 'OPERATOR_RT_PRIORITY',
            'OBSERVER_NICE', 'start_child', 'priority_of', 'group_priority_of', 'scheduling_of', 'raise_priority',
-           'stop_child', 'stop_children', 'exit_with_parent', 'die_with_parent', 'Respawner', 'process_alive',
+           'stop_child', 'stop_children', 'terminate_children', 'wait_children', 'exit_with_parent',
+           'die_with_parent', 'Respawner', 'process_alive',
            'child_pids']
 
 #: Environment variable through which a child learns its supervisor's pid.
@@ -151,12 +152,23 @@ def stop_child(process: subprocess.Popen, timeout: float = 5.0) -> int:
 
 def stop_children(processes: Sequence[subprocess.Popen], timeout: float = 5.0) -> list[int]:
     """:func:`stop_child` for several processes at once (they stop in parallel)."""
+    terminate_children(processes)
+    return wait_children(processes, timeout)
+
+
+def terminate_children(processes: Sequence[subprocess.Popen]) -> None:
+    """SIGTERM to each process still running. Send it once: a process shutting down after a SIGTERM (closing
+    a recording, keeping its hardware's state) may treat a second one as "give up"."""
     for process in processes:
         if process.poll() is None:
             try:
                 process.send_signal(signal.SIGTERM)
             except ProcessLookupError:
                 pass
+
+
+def wait_children(processes: Sequence[subprocess.Popen], timeout: float) -> list[int]:
+    """Wait up to ``timeout`` s for the processes to end, then SIGKILL the rest; their exit statuses."""
     deadline = time.monotonic() + timeout
     for process in processes:
         try:
@@ -202,9 +214,14 @@ class Respawner:
         self.children = {name: start(True) for name, start in self.starters.items()}
         self._restarts: dict[str, list[float]] = {name: [] for name in self.starters}
         self.given_up: set[str] = set()
+        self._terminated: set[int] = set()
+        self._stopping = False
 
     def poll(self) -> list[tuple[str, int | None, bool]]:
-        """(name, exit status, restarted) for every child found dead since the last call."""
+        """(name, exit status, restarted) for every child found dead since the last call (none once
+        :meth:`terminate` was called: the children are being stopped)."""
+        if self._stopping:
+            return []
         events = []
         now = time.monotonic()
         for name, child in list(self.children.items()):
@@ -220,6 +237,14 @@ class Respawner:
             events.append((name, child.returncode, True))
         return events
 
+    def terminate(self) -> None:
+        """SIGTERM to every child not sent one yet; no restart from here on (:meth:`stop` waits for them)."""
+        self._stopping = True
+        waiting = [child for child in self.children.values() if child.pid not in self._terminated]
+        self._terminated.update(child.pid for child in waiting)
+        terminate_children(waiting)
+
     def stop(self, timeout: float = 5.0) -> list[int]:
-        """Stop every child (SIGTERM, then SIGKILL after ``timeout`` s)."""
-        return stop_children(list(self.children.values()), timeout)
+        """Stop every child: SIGTERM (once, :meth:`terminate`), then SIGKILL after ``timeout`` s."""
+        self.terminate()
+        return wait_children(list(self.children.values()), timeout)

@@ -13,6 +13,7 @@ from rrps_runtime.supervision import (
     CONTROL_NICE,
     CONTROL_RT_PRIORITY,
     OBSERVER_NICE,
+    Respawner,
     group_priority_of,
     priority_of,
     scheduling_of,
@@ -108,3 +109,27 @@ def test_a_control_child_runs_real_time_in_a_scheduling_group_of_its_own():
                 assert group_priority_of(plain.pid) == group_priority_of(os.getpid())
     finally:
         stop_children([control, plain])
+
+
+#: A child that takes 0.5 s to stop after a SIGTERM and exits 3 if a second one comes meanwhile.
+TERMINATED_ONCE = ('import signal, sys, time\n'
+                   'got = []\n'
+                   'signal.signal(signal.SIGTERM, lambda *_: got.append(1))\n'
+                   'print("ready", flush=True)\n'
+                   'while not got: time.sleep(0.01)\n'
+                   'time.sleep(0.5)\n'
+                   'sys.exit(3 if len(got) > 1 else 0)\n')
+
+
+def test_a_respawner_terminated_early_and_stopped_later_sends_one_sigterm_and_restarts_nothing():
+    robot = Respawner({'child': lambda first: start_child([sys.executable, '-c', TERMINATED_ONCE],
+                                                          stdout=subprocess.PIPE, text=True)})
+    child = robot.children['child']
+    try:
+        assert child.stdout.readline().strip() == 'ready'
+        robot.terminate()   # as the demo does before tearing down its own nodes
+        time.sleep(0.1)
+        assert robot.stop(timeout=30.0) == [0]   # no second SIGTERM while it stops
+        assert robot.poll() == [] and robot.children['child'] is child
+    finally:
+        stop_child(child)
