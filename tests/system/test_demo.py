@@ -72,6 +72,7 @@ def test_headless_demo_runs_a_teleop_session_and_a_climb(ros_domain_id):
                  '[PASS] both rings climbed', '[PASS] viewer drew'):
         assert line in out, demo_excerpt(out)
     assert '[FAIL]' not in out
+    assert 'when stopped' not in out and 'leaked' not in out, demo_excerpt(out)   # every child stopped cleanly
 
 
 def test_demo_prints_url_and_token_serves_the_viewer_and_stops_on_ctrl_c(ros_domain_id):
