@@ -109,7 +109,9 @@ def test_replay_into_a_fresh_fk_and_viewer_reproduces_the_recorded_poses(ros_con
         port = s.getsockname()[1]
     viewer = ViewerNode(context=ros_context, namespace=NS, parameter_overrides=robot + [
         Parameter('port', value=port), Parameter('token', value='replay-test-token')])
-    replay = _replay(ros_context, [tmp_path / 'session'], topics=[f'{NS}/actuators/state'], rate=1.0)
+    # at half speed: at full speed a fresh FK sharing this executor with the viewer posed 191 of 429 states
+    # in a fresh-clone suite, while the other worker ran the system tests (it keeps the newest 10 when behind)
+    replay = _replay(ros_context, [tmp_path / 'session'], topics=[f'{NS}/actuators/state'], rate=0.5)
     probe = Probe(context=ros_context, name='replay_probe', namespace=NS)
     fresh = probe.collect(PoseStamped, 'pose')
     with Spinner(ros_context, [fk, viewer, replay, probe]):
