@@ -9,6 +9,7 @@ import contextlib
 import os
 import threading
 import time
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -254,15 +255,17 @@ def engage(stack: Stack) -> None:
         [m.pose.position.z for _, m in stack.poses[-20:]]) > 1e-6), 'the slave does not move'
 
 
-_CLIENTS: dict = {}
+#: The Trigger clients of each stack's probe, by service name. Keyed by the probe itself, not by its id():
+#: a later test's probe may be allocated where a destroyed one was, and got that one's destroyed clients.
+_CLIENTS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def call(stack: Stack, name: str) -> tuple[bool, str]:
     """Call the Trigger service ``name``; (success, message)."""
-    key = (id(stack.probe), name)
-    if key not in _CLIENTS:
-        _CLIENTS[key] = stack.probe.create_client(Trigger, name)
-    client = _CLIENTS[key]
+    clients = _CLIENTS.setdefault(stack.probe, {})
+    if name not in clients:
+        clients[name] = stack.probe.create_client(Trigger, name)
+    client = clients[name]
     assert client.wait_for_service(timeout_sec=60)
     future = client.call_async(Trigger.Request())
     assert wait_for(future.done)
