@@ -214,7 +214,6 @@ class Respawner:
         self.children = {name: start(True) for name, start in self.starters.items()}
         self._restarts: dict[str, list[float]] = {name: [] for name in self.starters}
         self.given_up: set[str] = set()
-        self._terminated: set[int] = set()
         self._stopping = False
 
     def poll(self) -> list[tuple[str, int | None, bool]]:
@@ -239,10 +238,9 @@ class Respawner:
 
     def terminate(self) -> None:
         """SIGTERM to every child not sent one yet; no restart from here on (:meth:`stop` waits for them)."""
-        self._stopping = True
-        waiting = [child for child in self.children.values() if child.pid not in self._terminated]
-        self._terminated.update(child.pid for child in waiting)
-        terminate_children(waiting)
+        if not self._stopping:   # the children are fixed from here on: poll() restarts none
+            self._stopping = True
+            terminate_children(list(self.children.values()))
 
     def stop(self, timeout: float = 5.0) -> list[int]:
         """Stop every child: SIGTERM (once, :meth:`terminate`), then SIGKILL after ``timeout`` s."""
