@@ -145,6 +145,13 @@ class ScriptedOperator(Node):
         msg = self._get(CLIMB_STATUS)
         return None if msg is None else ClimbStatus.from_key_values(msg.values)
 
+    def _climb_account(self) -> str:
+        """What climb_node's newest status says, for a request it did not answer."""
+        status = self._climb_state()
+        if status is None:
+            return 'no climb status received'
+        return f'climb status: {status.state.value}{" (previewing)" if status.previewing else ""}, {status.detail!r}'
+
     def _climb_preview(self) -> ClimbPreview | None:
         msg = self._get(CLIMB_PREVIEW)
         return None if msg is None else ClimbPreview.from_key_values(msg.values)
@@ -255,7 +262,8 @@ class ScriptedOperator(Node):
             answer: dict = {}
             self._step.request(+1, lambda ok, text, answer=answer: answer.update(ok=ok, text=text))
             accepted = self._wait(lambda: 'ok' in answer, PREVIEW_WAIT, stop) and answer['ok']
-            self._say(f'{self._step.name} -> {answer.get("text", "no answer")!r}')
+            self._say(f'{self._step.name} -> {answer.get("text", "no answer")!r}'
+                      + ('' if 'ok' in answer else f' within {PREVIEW_WAIT:.0f} s; {self._climb_account()}'))
             if accepted or 'ok' not in answer or stop.wait(STEP_RETRY):
                 break
             refusals.append(answer['text'])

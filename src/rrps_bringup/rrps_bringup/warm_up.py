@@ -1,7 +1,8 @@
 """Compile the numba kernels once, at install (``./rrps install`` runs ``python -m rrps_bringup.warm_up``).
 
 Runs each kernel group once with the stack's argument types (IK, FK, workspace, limits, assembly modes, teleop guards,
-statics, a short preview), so that no running node waits for numba; they are cached on disk
+statics, a short preview, climb_node's worker), so that no running node waits for numba (numba compiles a kernel anew
+for read-only arrays, a Pose's, and for writable ones: both are loaded); they are cached on disk
 (:func:`rrps_kinematics.backend.jit`). Nothing is compiled when numba is off (``RRPS_NUMBA=0``) or missing.
 """
 
@@ -9,12 +10,14 @@ from __future__ import annotations
 
 import contextlib
 import multiprocessing
+import pickle
 import sys
 import time
 
 import numpy as np
 
 from rrps_description.geometry import load_robot
+from rrps_description.pose import Pose
 from rrps_kinematics.backend import numba_enabled
 
 __all__ = ['warm_up', 'main']
@@ -71,6 +74,8 @@ def _kinematics_kernels(robot: str) -> None:
         assembly_modes(g, g.home_lengths)     # the homotopy kernels and the batch FK that polishes
     with _say("the limits of a pose and of a batch"):
         pose_margins(g, p, q)
+        home = Pose(p, q)     # read-only arrays, as the nodes pass them
+        pose_margins(g, home.position, home.quaternion_xyzw)
         margins(g, inverse_kinematics(g, p, q))
 
 
@@ -78,19 +83,43 @@ def _dynamics_kernels(robot: str) -> None:
     """The teleop guards, the statics, a short preview on either ring."""
     from rrps_loads.loads import static_solution
     from rrps_sim.preview import PreviewMotion, preview_step
+    from rrps_teleop.guards import pose_step
     from rrps_teleop.mapping import TeleopMapping
 
     g = load_robot(robot)
     p, q = np.array(g.home_position, dtype=float), np.array(g.home_quaternion_xyzw, dtype=float)
+    home = Pose(p, q)
     with _say('the teleop guards'):
         TeleopMapping(g)                  # compiles the guards' kernels on construction
+        pose_step(home.position, home.quaternion_xyzw, p, q, 0.5)   # from read-only (a Pose's) arrays too
+        pose_step(home.position, home.quaternion_xyzw, home.position, home.quaternion_xyzw, 0.5)
     with _say("a climbing step's preview (the dynamics, on either ring)"):
         path = p + np.outer(np.linspace(0.0, 0.002, 3), [0.0, 0.0, 1.0])
         motions = [PreviewMotion(f'warm-up on {ring}', ring, np.array([0.0, 0.0, 0.0, 1.0]), path,
                                  np.tile(q, (3, 1)), 0.01) for ring in ('ring_a', 'ring_b')]
         preview_step(g, motions, settle=0.0)
+    with _say("a climbing step's plan and preview as climb_node's worker makes them"):
+        _climb_worker_kernels(robot)
     with _say('the statics'):
         static_solution(g, (p[None], q[None]))
+        static_solution(g, home, support='ring_a', world_q_support=q, gravity=(0.0, 0.0, -9.81))
+
+
+def _climb_worker_kernels(robot: str) -> None:
+    """What climb_node's step worker loads when it starts, with the node's default parameters and its
+    argument types (without this its start compiled for a minute after an install)."""
+    from rrps_climbing.climb_planner import climb_planner, preview_config, step_machine
+    from rrps_climbing.nodes.climb_node import PARAMETERS
+    from rrps_climbing.step_worker import load_kernels
+
+    values = {**PARAMETERS.defaults(), 'robot': robot}
+    g = load_robot(robot)
+    planner = climb_planner(g, values)
+    machine = step_machine(planner, values)
+    # as the worker gets them: pickled (NumPy arrays come out writable; numba compiles read-only and
+    # writable arrays apart)
+    load_kernels(*pickle.loads(pickle.dumps((planner, machine.plan_request(machine.step_length, 1), g,
+                                             preview_config(values)))))
 
 
 def main() -> None:

@@ -1,7 +1,8 @@
 """The planner and configuration of a climb from climb_node's parameters, pure Python.
 
 :func:`climb_planner` picks the gait, a frame node's crossing or a route; :func:`start_position`,
-:func:`step_config` and :func:`preview_config` give the step machine's start and settings.
+:func:`step_config` and :func:`preview_config` give the step machine's start and settings,
+:func:`step_machine` the machine itself.
 """
 
 from __future__ import annotations
@@ -12,11 +13,12 @@ from rrps_climbing.load_check import LoadCheck
 from rrps_climbing.route import ROUTES
 from rrps_climbing.route_steps import ROUTE_START, RouteSteps, route_planner
 from rrps_climbing.step_io import StepConfig
+from rrps_climbing.step_machine import ClimbStepMachine
 from rrps_climbing.step_preview import PreviewConfig
 from rrps_description.geometry import RobotGeometry
 from rrps_description.structures import structure_from_parameters
 
-__all__ = ['climb_planner', 'start_position', 'step_config', 'preview_config']
+__all__ = ['climb_planner', 'start_position', 'step_config', 'preview_config', 'step_machine']
 
 
 def climb_planner(geometry: RobotGeometry, values: dict) -> GaitPlanner:
@@ -63,3 +65,10 @@ def preview_config(values: dict) -> PreviewConfig:
     if len(values['gravity']) != 3:
         raise ValueError(f"gravity: expected 3 numbers [m/s^2], got {values['gravity']}")
     return PreviewConfig(gravity=tuple(values['gravity']), min_margin=values['preview_min_margin'])
+
+
+def step_machine(planner: GaitPlanner, values: dict) -> ClimbStepMachine:
+    """climb_node's step machine: ``planner``'s steps with the parameter ``values``."""
+    return ClimbStepMachine(planner, step_config(values), start=start_position(planner, values),
+                            step_length=values['step_length'] or None, auto_steps=values['auto_steps'],
+                            preview=values['preview'])

@@ -23,19 +23,25 @@ from rrps_description.pose import Pose
 from rrps_interfaces.climb import ClimbPreview
 from rrps_runtime.worker import WorkerProcess
 
-__all__ = ['StepWorker']
+__all__ = ['StepWorker', 'load_kernels']
 
 #: The child's planner (set when it starts).
 _planner: GaitPlanner | None = None
 
 
-def _start(planner: GaitPlanner, request: PlanRequest, geometry: RobotGeometry, config: PreviewConfig) -> None:
-    """In the child: keep the planner, plan ``request`` once (its kernels load now, not at the
-    first step) and load the preview's kernels."""
-    global _planner
-    _planner = planner
+def load_kernels(planner: GaitPlanner, request: PlanRequest, geometry: RobotGeometry, config: PreviewConfig) -> None:
+    """Plan ``request`` once and load the preview's kernels: what the child does when it starts, so
+    that its first step does not wait for them (the install's warm-up does it too, to compile them
+    with the same argument types)."""
     plan_step(planner, request)
     warm_up(geometry, config)
+
+
+def _start(planner: GaitPlanner, request: PlanRequest, geometry: RobotGeometry, config: PreviewConfig) -> None:
+    """In the child: keep the planner and load the kernels."""
+    global _planner
+    _planner = planner
+    load_kernels(planner, request, geometry, config)
 
 
 def _plan(request: PlanRequest) -> StepPlan:
@@ -52,6 +58,10 @@ class StepWorker:
         # never in this process' interpreter; its kernels loaded there at start, not at the first step
         self._worker = WorkerProcess('climb_step', warm_up=partial(_start, planner, request, geometry, config))
         self._job: tuple[str, Future] | None = None
+
+    def when_ready(self, callback) -> None:
+        """``callback(seconds)`` once the child loaded its kernels (the first plan waits for it)."""
+        self._worker.when_started(callback)
 
     def plan(self, request: PlanRequest) -> None:
         """Plan ``request``."""

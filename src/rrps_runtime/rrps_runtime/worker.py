@@ -12,6 +12,7 @@ import multiprocessing
 import os
 import sys
 import threading
+import time
 from concurrent.futures import Future, ProcessPoolExecutor
 from typing import Any, Callable
 
@@ -46,6 +47,7 @@ class WorkerProcess:
     def __init__(self, name: str, *, warm_up: Callable[[], Any] | None = None, nice: int = WORKER_NICE):
         before = {t.ident for t in threading.enumerate()}
         self.name = name
+        self._created = time.monotonic()
         self._pool = ProcessPoolExecutor(
             max_workers=1, mp_context=multiprocessing.get_context('spawn'), initializer=_start,
             initargs=(name, os.getpid(), nice, warm_up))
@@ -57,6 +59,14 @@ class WorkerProcess:
     def pid(self) -> int:
         """The child's pid (waits for it to start)."""
         return self._started.result()
+
+    def when_started(self, callback: Callable[[float], Any]) -> None:
+        """Call ``callback(seconds)`` once the child started and warmed up (at once if it has),
+        with the seconds that took; not called when it failed to start."""
+        def started(future: Future) -> None:
+            if not future.cancelled() and future.exception() is None:
+                callback(time.monotonic() - self._created)
+        self._started.add_done_callback(started)
 
     def submit(self, fn: Callable, /, *args, **kwargs) -> Future:
         """Run ``fn(*args, **kwargs)`` in the child; its Future (raises what ``fn`` raised, or

@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 import threading
 import time
+from functools import partial
 
 import pytest
 
@@ -85,3 +86,26 @@ def test_the_callers_threads_run_while_a_job_holds_its_interpreter(worker):
         pid, held_there, total = worker.submit(_hold_the_gil, GIL_HOLDING_TERMS).result(120)
     assert pid == worker.pid and total == GIL_HOLDING_TERMS * (GIL_HOLDING_TERMS - 1) // 2
     assert beside_worker.largest < 0.5 * held_there, (beside_worker.largest, held_there)
+
+
+def _sleep(seconds: float) -> None:
+    time.sleep(seconds)
+
+
+def test_the_start_is_reported_once_the_warm_up_ran():
+    """``when_started`` reports after the warm-up (a 0.5 s sleep), with its duration; a callback
+    added after the start is called at once."""
+    started = []
+    w = WorkerProcess('rrps_test', warm_up=partial(_sleep, 0.5))
+    try:
+        w.when_started(started.append)
+        assert w.submit(os.getpid).result(60) == w.pid
+        deadline = time.monotonic() + 10
+        while not started and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert len(started) == 1 and started[0] >= 0.5
+        later = []
+        w.when_started(later.append)
+        assert len(later) == 1 and later[0] >= started[0]
+    finally:
+        w.shutdown()

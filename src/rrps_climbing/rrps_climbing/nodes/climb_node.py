@@ -22,14 +22,13 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool
 
 from rrps_climbing.climb_action import ClimbAction
-from rrps_climbing.climb_planner import climb_planner, preview_config, start_position, step_config
+from rrps_climbing.climb_planner import climb_planner, preview_config, step_machine
 from rrps_climbing.climb_requests import StepRequests
 from rrps_climbing.frame_crossing import FrameNodePlanner
 from rrps_climbing.gait import GaitPlanner
 from rrps_climbing.odometry_attitude import SupportPublisher, support_of_odometry
 from rrps_climbing.route import ROUTES
 from rrps_climbing.step_io import ClimbOutput, ClimbTarget, StepPlan
-from rrps_climbing.step_machine import ClimbStepMachine
 from rrps_climbing.step_worker import StepWorker
 from rrps_description.geometry import load_robot
 from rrps_description.loads import payload_from_parameters
@@ -141,12 +140,10 @@ class ClimbNode(Node):
             self.geometry = self.geometry.with_(payload=payload)
         planner = climb_planner(self.geometry, values)
         self._log_crossing(planner)
-        config = step_config(values)
-        self.machine = ClimbStepMachine(planner, config, start=start_position(planner, values),
-                                        step_length=values['step_length'] or None,
-                                        auto_steps=values['auto_steps'], preview=values['preview'])
+        self.machine = step_machine(planner, values)
         self._worker = StepWorker(planner, self.machine.plan_request(self.machine.step_length, 1), self.geometry,
                                   preview_config(values))
+        self._worker.when_ready(lambda s: self.get_logger().info(f'step planner ready: started in {s:.1f} s'))
         self._answer = None  # the Future of the step request whose reply waits for its plan
         self._pose_msg: PoseStamped | None = None
         self._odometry = None  # (world_T_a, world_T_b, stamp) not yet published
@@ -167,7 +164,7 @@ class ClimbNode(Node):
         self._support_pub = self.create_publisher(TransformStamped, SUPPORT_POSE, LATCHED_QOS)
         self._support_due = SupportPublisher()
         self._frames = (prefixed(values['frame_prefix'], ODOM_FRAME), prefixed(values['frame_prefix'], BASE_FRAME))
-        self._base_odometry = BaseOdometry(self.geometry, values['odometry_length_stddev'], config.period)
+        self._base_odometry = BaseOdometry(self.geometry, values['odometry_length_stddev'], self.machine.config.period)
         self._base_pub = self._tap.create_publisher(Odometry, ODOMETRY, STATE_QOS)
         self.create_subscription(PoseStamped, POSE, self._on_pose, LATEST_QOS)
         self.create_subscription(JointState, GRIPPERS_STATE, self._on_grippers, STATE_QOS)
@@ -189,7 +186,7 @@ class ClimbNode(Node):
                                    'the step services serve')
         else:
             self._action = ClimbAction(self, ClimbStep, self._carry_out, self._host)
-        self.create_timer(config.period, self._on_tick)
+        self.create_timer(self.machine.config.period, self._on_tick)
         self.create_timer(0.5, lambda: self._publish_status(self.machine.report()))
 
     def _log_crossing(self, planner: GaitPlanner) -> None:
