@@ -9,6 +9,8 @@ import sys
 import textwrap
 import time
 
+import pytest
+
 from rrps_runtime.supervision import (
     CONTROL_NICE,
     CONTROL_RT_PRIORITY,
@@ -133,3 +135,34 @@ def test_a_respawner_terminated_early_and_stopped_later_sends_one_sigterm_and_re
         assert robot.poll() == [] and robot.children['child'] is child
     finally:
         stop_child(child)
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason='lowering a nice value needs root (CAP_SYS_NICE)')
+def test_a_niced_child_is_put_back_at_nice_0_before_its_sigterm():
+    """An observer at nice 5 (and its autogroup) stops at nice 0: on a busy machine it closes its
+    files within the stop timeout."""
+    code = textwrap.dedent('''
+        import os, signal, sys, time
+        os.setpriority(os.PRIO_PROCESS, 0, 5)
+        with open('/proc/self/autogroup', 'w') as f:
+            f.write('5')
+        def stop(*_):
+            with open('/proc/self/autogroup') as f:
+                group = f.read().split()[-1]
+            print(os.getpriority(os.PRIO_PROCESS, 0), group, flush=True)
+            sys.exit(0)
+        signal.signal(signal.SIGTERM, stop)
+        print('ready', flush=True)
+        while True:
+            time.sleep(0.05)
+    ''')
+    child = subprocess.Popen([sys.executable, '-c', code], stdout=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        assert child.stdout.readline().strip() == 'ready'
+        assert priority_of(child.pid) == 5
+        assert stop_children([child], timeout=30.0) == [0]
+        assert child.stdout.read().split() == ['0', '0']   # its nice value and its autogroup's
+    finally:
+        if child.poll() is None:
+            child.kill()
+            child.wait()
