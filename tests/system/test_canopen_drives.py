@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from rrps_description.geometry import load_robot
-from rrps_hardware.interface import HardwareConfig
+from rrps_hardware.interface import Command, HardwareConfig
 from rrps_testing.canopen_rig import UNHURRIED_BUS, DriveSim, canopen_hardware, cycle_to, robot_yaml
 from rrps_testing.ros_harness import wait_for
 
@@ -155,3 +155,37 @@ def test_a_node_id_nobody_answers_is_named_after_the_boot_timeout(tmp_path):
         assert outcome.reason == ('leg_6 (node 16): no boot-up message, heartbeat or SDO answer within '
                                   'bus.boot_timeout 2 s: wrong node id, the drive is off, or the bus is not connected')
         refused_and_nothing_ran(sim)
+
+
+def test_the_sync_cycle_follows_a_command_written_once_within_the_legs_limits(tmp_path):
+    """The bus' SYNC cycle steps the setpoints itself: a command 20 mm away written once, then no
+    write (a driver whose executor stalls), and the drives' targets still go there (the driver's
+    status counts the one command from its receipt to its first SYNC), no faster
+    than the legs' speed, and in no less time than the bang-bang motion under their speed and
+    acceleration limits allows (computed here)."""
+    path = robot_yaml(tmp_path / 'pole.yaml', bus=UNHURRIED_BUS)
+    with DriveSim(path) as sim, canopen_hardware(sim) as hardware:
+        assert configure(hardware, path).ok
+        outcome = hardware.on_activate()
+        assert outcome.ok, outcome.reason
+        start = hardware.read(0.0, 0.0).positions
+        goal = start + 0.02 * np.sign(0.5 * (POLE.min_length + POLE.max_length) - start)
+        sim.ask(cmd='trace', on=True)
+        assert hardware.write(time.monotonic(), 0.002, Command(goal)).ok
+        assert wait_for(lambda: hardware.status_values(), timeout=5.0)
+        latency = hardware.status_values()   # the SYNC cycle that sent the command's first setpoint
+        assert 0.0 <= latency['target_latency_p50_ms'] == latency['target_latency_max_ms'], latency
+        assert wait_for(lambda: np.allclose(sim.positions(), goal, atol=2 * COUNT), timeout=30.0), sim.positions()
+        rows = sim.ask(cmd='trace', on=False)['trace']
+    t, targets = np.array([r[0] for r in rows]), np.array([r[1] for r in rows])
+    np.testing.assert_allclose(targets[-1], goal, atol=COUNT)
+    legs = POLE.motion_limits.legs
+    moving = np.flatnonzero(np.any(np.abs(targets - start) > COUNT, axis=1))
+    there = np.flatnonzero(np.all(np.abs(targets - goal) <= COUNT, axis=1))
+    duration = t[there[0]] - t[moving[0]]
+    distance, v, a = 0.02, legs.speed, legs.acceleration
+    bang_bang = distance / v + v / a if distance > v * v / a else 2.0 * np.sqrt(distance / a)
+    assert duration >= bang_bang - 0.004, (duration, bang_bang)   # two SYNCs of time stamps
+    window = 25   # 50 ms of SYNCs: the drive simulator's receipt times jitter
+    speed = np.abs(targets[window:] - targets[:-window]).max(axis=1) / (t[window:] - t[:-window])
+    assert speed.max() <= 1.05 * v, speed.max()

@@ -7,13 +7,16 @@
 ``on_activate`` homes (:mod:`rrps_canopen.homing`), checks the legs and enables the drives where
 they are; a fault holds every drive and refuses commands and grippers until ``reset_faults`` and a
 new activation (docs/connecting-a-robot.md). Commands and state are in metres
-(:mod:`rrps_canopen.units`); each cycle's target is the jerk-limited setpoint of the newest command
-(:class:`~rrps_hardware.setpoints.JerkLimitedSetpoints`). Pure Python, no ROS import.
+(:mod:`rrps_canopen.units`). ``write`` hands each new command to the legs' jerk-limited setpoints
+(:class:`~rrps_hardware.setpoints.JerkLimitedSetpoints`); the bus' SYNC cycle, a real-time thread of
+its own, steps them just before each SYNC and sends them as the drives' targets, so a command is
+on the bus with the next SYNC however the driver's executor is held up. Pure Python, no ROS import.
 """
 
 from __future__ import annotations
 
 import threading
+from time import monotonic as time_now
 
 import can
 import numpy as np
@@ -41,6 +44,7 @@ from rrps_hardware.interface import (
     Transition,
 )
 from rrps_hardware.setpoints import JerkLimitedSetpoints
+from rrps_runtime.freshness import RecentDurations
 from rrps_runtime.scheduling import Granted, claim
 
 __all__ = ['CanopenRobot']
@@ -54,6 +58,9 @@ def _failure(message: str) -> Transition:
     return Transition(CallbackReturn.FAILURE, message)
 
 
+#: A SYNC cycle later than this many periods steps the setpoints this far only (the motion is
+#: delayed, never jumps; the driver's tick is bounded so too).
+MAX_STEP_PERIODS = 5
 #: The name of python-can's receive thread (``can.Notifier``'s, one per bus) begins so.
 RECEIVE_THREAD = 'Notifier for bus'
 
@@ -74,6 +81,8 @@ def claim_bus_threads(config: HardwareConfig) -> tuple[Granted, Granted] | None:
 class CanopenRobot(SystemInterface):
     """A robot's legs and grippers on a CANopen bus (see the module docstring)."""
 
+    OWN_CYCLE = True   # the SYNC cycle steps the setpoints
+
     def __init__(self):
         self.drives: DriveSet | None = None
         self.grippers: GripperIo | None = None
@@ -85,6 +94,10 @@ class CanopenRobot(SystemInterface):
         self._limits = None
         self.setpoints: JerkLimitedSetpoints | None = None
         self._commanded: Command | None = None
+        self._stepped: float | None = None   # when the SYNC cycle last came [s]
+        self._received: float | None = None  # when the newest command not yet sent came [s]
+        #: from a command's receipt (``write``) to the SYNC cycle that sends its first setpoint
+        self.target_latency = RecentDurations()
 
     # --- lifecycle ---
 
@@ -133,8 +146,23 @@ class CanopenRobot(SystemInterface):
         return Transition(CallbackReturn.SUCCESS, self.drives.notes)
 
     def _extra(self, now: float) -> None:
+        """Each SYNC cycle, under the drive set's lock: the grippers' outputs, the legs' setpoints."""
         if self.grippers is not None:
             self.grippers.cycle(now, alive=self.drives.alive)
+        self._step_setpoints(now)
+
+    def _step_setpoints(self, now: float) -> None:
+        """The drives' targets one SYNC along the setpoints, while active, unfaulted and commanded
+        (a hold or a fault leaves them where the drive set put them)."""
+        d, last, self._stepped = self.drives, self._stepped, now
+        if not self.active or d.faults or self._commanded is None or last is None:
+            return
+        for drive, x in zip(d.drives, self.setpoints.step(now, min(now - last, MAX_STEP_PERIODS * d.period))):
+            drive.target = drive.scale.counts(float(x))
+        if self._received is not None:
+            sent = time_now()
+            self.target_latency.add(sent, sent - self._received)
+            self._received = None
 
     def on_activate(self) -> Transition:
         d = self.drives
@@ -175,8 +203,8 @@ class CanopenRobot(SystemInterface):
         d = self.drives
         with d.lock:
             targets = [drive.scale.position(drive.target) for drive in d.drives]
-        self.setpoints = JerkLimitedSetpoints(self._limits, targets)
-        self._commanded = None
+            self.setpoints = JerkLimitedSetpoints(self._limits, targets)
+            self._commanded = self._received = None
 
     def on_deactivate(self) -> Transition:
         self.active = False
@@ -219,11 +247,9 @@ class CanopenRobot(SystemInterface):
                        if not drive.scale.within_limits(float(x))]
             if outside:
                 return _error(f'outside the soft limits: {", ".join(outside)}')
-            if command is not self._commanded:   # a new command arrived
+            if command is not self._commanded:   # a new command: the SYNC cycle's setpoints take it
                 self.setpoints.command(lengths, time, command.stamp)
-                self._commanded = command
-            for drive, x in zip(d.drives, self.setpoints.step(time, period)):
-                drive.target = drive.scale.counts(float(x))
+                self._commanded, self._received = command, time
         return OK
 
     def read(self, time: float, period: float) -> SystemState:
@@ -257,8 +283,9 @@ class CanopenRobot(SystemInterface):
     def hold(self) -> Result:
         if self.drives is None:
             return _error('not configured')
-        self.drives.hold()
-        self._follow_targets()
+        with self.drives.lock:   # no SYNC steps the old setpoints between the hold and the new ones
+            self.drives.hold()
+            self._follow_targets()
         return OK
 
     def set_gripper(self, ring: str, close: bool) -> Result:
@@ -289,6 +316,16 @@ class CanopenRobot(SystemInterface):
         if reason:
             return _error(reason)
         return Result(ReturnType.OK, f'reset {cleared}: activate to enable' if cleared else 'no fault')
+
+    def status_values(self) -> dict:
+        """The driver's ``target_latency_*`` fields (:class:`rrps_interfaces.driver.DriverStatus`)."""
+        if self.drives is None:
+            return {}
+        with self.drives.lock:
+            count, p50, p99, worst = self.target_latency.summary(time_now())
+        if not count:
+            return {}
+        return {'target_latency_p50_ms': p50, 'target_latency_p99_ms': p99, 'target_latency_max_ms': worst}
 
     def _faults_text(self) -> str:
         return '; '.join(str(f) for f in self.drives.faults.values()) if self.drives is not None else ''

@@ -189,6 +189,9 @@ class SystemInterface(abc.ABC):
     #: the driver declares them once its ``hardware`` parameter names this implementation, and
     #: passes changes of the ``dynamic`` ones to :meth:`set_parameters` while it runs.
     PARAMETERS: tuple[Parameter, ...] = ()
+    #: The implementation steps its setpoints in a real-time cycle of its own (a bus' SYNC):
+    #: the host writes each command as it arrives, and ``write`` hands it over to that cycle.
+    OWN_CYCLE: bool = False
 
     @abc.abstractmethod
     def on_configure(self, config: HardwareConfig) -> Transition:

@@ -90,6 +90,12 @@ class DriverStatus(CommandAgeStatus):
     support_age: float | None = None
     #: odometry/support messages rejected (malformed) since the start
     support_rejected: int = 0
+    #: hardware that steps its setpoints in a cycle of its own (a CANopen bus' SYNC): from a
+    #: command's receipt to the first cycle that sends a setpoint of it, over the last 10 s [ms];
+    #: None for hardware stepped by the driver's tick
+    target_latency_p50_ms: float | None = None
+    target_latency_p99_ms: float | None = None
+    target_latency_max_ms: float | None = None
 
     @classmethod
     def grippers(cls, closed: Mapping[str, bool]) -> dict:

@@ -1,5 +1,6 @@
 """Staleness of command streams without synchronised clocks (:class:`CommandFreshness`, one per stream), and the ages
-of received commands (:class:`CommandAges`, for /diagnostics). Pure Python and NumPy, no ROS import."""
+of received commands (:class:`CommandAges`, for /diagnostics) and other durations of the last seconds
+(:class:`RecentDurations`). Pure Python and NumPy, no ROS import."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import math
 
 import numpy as np
 
-__all__ = ['RejectedCommand', 'StaleCommand', 'CommandFreshness', 'CommandAges']
+__all__ = ['RejectedCommand', 'StaleCommand', 'CommandFreshness', 'RecentDurations', 'CommandAges']
 
 
 class RejectedCommand(ValueError):
@@ -122,31 +123,49 @@ class CommandFreshness:
                               f'confirming the new sender clock ({c.count}/{self.confirm_count})')
 
 
-class CommandAges:
-    """Ages [s] of the commands a node received (receipt time minus stamp) over the last ``window`` s;
-    ``summary()`` gives their count, the stale ones since the start and p50, p99 and max in ms, for /diagnostics."""
+class RecentDurations:
+    """Durations [s] seen over the last ``window`` s (a command's age, a hop's latency); ``summary()``
+    gives their count and p50, p99 and max in ms."""
 
     def __init__(self, window: float = 10.0, max_samples: int = 10_000):
         if not (window > 0.0 and max_samples > 0):
             raise ValueError('window must be > 0 s and max_samples > 0')
         self.window = window
         self._samples: collections.deque = collections.deque(maxlen=max_samples)
+
+    def add(self, now: float, duration: float) -> None:
+        """One duration [s], seen at ``now`` [s]."""
+        self._samples.append((now, duration))
+
+    def summary(self, now: float) -> tuple[int, float | None, float | None, float | None]:
+        """(count, p50, p99, max) [ms] of the durations seen in the window before ``now``; None without one."""
+        while self._samples and now - self._samples[0][0] > self.window:
+            self._samples.popleft()
+        if not self._samples:
+            return 0, None, None, None
+        ms = 1e3 * np.fromiter((d for _, d in list(self._samples)), dtype=float)
+        p50, p99 = np.percentile(ms, [50.0, 99.0])
+        return len(ms), float(p50), float(p99), float(np.max(ms))
+
+
+class CommandAges:
+    """Ages [s] of the commands a node received (receipt time minus stamp) over the last ``window`` s;
+    ``summary()`` gives their count, the stale ones since the start and p50, p99 and max in ms, for /diagnostics."""
+
+    def __init__(self, window: float = 10.0, max_samples: int = 10_000):
+        self._ages = RecentDurations(window, max_samples)
+        self.window = window
         self.stale = 0
 
     def add(self, now: float, age: float, *, stale: bool = False) -> None:
         """One command received at ``now`` [s] that was ``age`` [s] old."""
-        self._samples.append((now, age))
+        self._ages.add(now, age)
         self.stale += bool(stale)
 
     def summary(self, now: float) -> dict[str, float | int]:
         """{'command_count', 'command_stale_total', 'command_age_p50_ms', ..._p99_ms, ..._max_ms}."""
-        while self._samples and now - self._samples[0][0] > self.window:
-            self._samples.popleft()
-        out: dict[str, float | int] = {'command_count': len(self._samples),
-                                       'command_stale_total': self.stale}
-        if self._samples:
-            ages = 1e3 * np.fromiter((a for _, a in self._samples), dtype=float)
-            p50, p99 = np.percentile(ages, [50.0, 99.0])
-            out.update(command_age_p50_ms=float(p50), command_age_p99_ms=float(p99),
-                       command_age_max_ms=float(np.max(ages)))
+        count, p50, p99, worst = self._ages.summary(now)
+        out: dict[str, float | int] = {'command_count': count, 'command_stale_total': self.stale}
+        if count:
+            out.update(command_age_p50_ms=p50, command_age_p99_ms=p99, command_age_max_ms=worst)
         return out

@@ -27,7 +27,6 @@ __all__ = ['PARENT_PID_ENV', 'CONTROL_NICE', 'CONTROL_RT_PRIORITY', 'OPERATOR_NI
 PARENT_PID_ENV = 'RRPS_PARENT_PID'
 
 _PR_SET_PDEATHSIG = 1
-_AUTOGROUP = '/proc/self/autogroup'
 
 #: Nice value of the robot's command path (driver; IK, FK, climbing) where real-time
 #: scheduling is not permitted, and under it (the value a normal policy returns to).
@@ -60,13 +59,20 @@ def raise_priority(nice: int, *, realtime: int | None = None) -> bool:
             realtime_set = False
     elif os.sched_getscheduler(0) != os.SCHED_OTHER:  # e.g. a child of a real-time supervisor
         os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
-    if niced and os.getsid(0) == os.getpid():
+    if niced:
         try:
-            with open(_AUTOGROUP, 'w') as f:
-                f.write(str(nice))
+            _set_group_priority(os.getpid(), nice)
         except OSError:  # no autogroup in this kernel, or not permitted: the nice value stands
             pass
     return niced and realtime_set
+
+
+def _set_group_priority(pid: int, nice: int) -> None:
+    """The autogroup nice value of process ``pid``'s session, when ``pid`` leads it (OSError: no
+    autogroup in this kernel, or not permitted)."""
+    if os.getsid(pid) == pid:
+        with open(f'/proc/{pid}/autogroup', 'w') as f:
+            f.write(str(nice))
 
 
 def scheduling_of(pid: int) -> str:
@@ -178,9 +184,7 @@ def hurry(pid: int) -> None:
             return
         for tid in os.listdir(f'/proc/{pid}/task'):
             os.setpriority(os.PRIO_PROCESS, int(tid), 0)
-        if os.getsid(pid) == pid:
-            with open(f'/proc/{pid}/autogroup', 'w') as f:
-                f.write('0')
+        _set_group_priority(pid, 0)
     except (OSError, ValueError):  # gone meanwhile, no autogroup, or not permitted: it stops as it is
         pass
 

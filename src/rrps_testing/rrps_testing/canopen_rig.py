@@ -155,11 +155,10 @@ def cycle_to(hardware: CanopenRobot, goal, *, period: float = 0.002, timeout: fl
              arrived: Callable[[], bool]) -> bool:
     """Run the driver's cycle on ``hardware`` (write one command, the same each period, as the
     driver does until another arrives) until ``arrived()`` or ``timeout`` s; whether it arrived.
-    The hardware's jerk-limited setpoints advance one period per write."""
+    The bus' SYNC cycle steps the jerk-limited setpoints towards it."""
     command, start = Command(np.asarray(goal, dtype=float)), time.monotonic()
     while time.monotonic() - start < timeout:
-        now = time.monotonic() - start
-        result = hardware.write(now, period, command)
+        result = hardware.write(time.monotonic(), period, command)
         assert result.ok, result.message
         if arrived():
             return True

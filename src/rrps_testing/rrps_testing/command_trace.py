@@ -143,10 +143,10 @@ class Canary:
         return [late for t, late in list(self.late) if t0 <= t <= t1 and late > longer_than]
 
 
-def claim_probe(executor):
+def claim_probe(executor, cpus: tuple[int, ...] = ()):
     """The probe's executor (spun by the calling thread), its timer threads (the deadman's) and
-    the middleware's threads at :data:`PROBE_PRIORITY`; what they got."""
-    return claim_executor(Request(PROBE_PRIORITY), executor)
+    the middleware's threads at :data:`PROBE_PRIORITY` (on ``cpus``: all when empty); what they got."""
+    return claim_executor(Request(PROBE_PRIORITY, tuple(cpus)), executor)
 
 
 def percentiles(values_ms) -> tuple[int, float, float, float, float]:

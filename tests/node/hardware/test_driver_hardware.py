@@ -176,3 +176,41 @@ def test_the_driver_hosts_a_hardware_registered_under_another_name(ros_context, 
 def test_an_unknown_hardware_is_refused_naming_the_known_ones(ros_context, ideal_registered):
     with pytest.raises(ValueError, match=r"unknown hardware 'cia402'; known: canopen, ideal, simulated"):
         DriverNode(context=ros_context, parameter_overrides=[Parameter('hardware', value='cia402')])
+
+
+class OwnCycleRobot(IdealRobot):
+    """An ideal robot whose setpoints a real-time cycle of its own steps (``OWN_CYCLE``, as a CANopen
+    bus' SYNC): it records each write's period and command and reports that cycle's latency."""
+
+    OWN_CYCLE = True
+
+    def __init__(self):
+        super().__init__()
+        self.writes: list = []
+
+    def write(self, time, period, command):
+        self.writes.append((period, command))
+        return super().write(time, period, command)
+
+    def status_values(self):
+        return {'target_latency_p50_ms': 0.5, 'target_latency_p99_ms': 1.5, 'target_latency_max_ms': 1.9}
+
+
+def test_hardware_with_a_cycle_of_its_own_gets_each_command_as_it_arrives(ros_context, monkeypatch):
+    """The driver writes a command to such hardware in the command's callback (period 0: not a
+    tick of its own), and its status carries the hardware's latency to its cycle."""
+    registered = hardware.registered_hardware()
+    monkeypatch.setattr(hardware, 'registered_hardware', lambda: {**registered, 'own_cycle': lambda: OwnCycleRobot})
+    node = DriverNode(context=ros_context, namespace='/t', parameter_overrides=[
+        Parameter('hardware', value='own_cycle'), Parameter('auto_activate', value=True)])
+    probe = Probe(context=ros_context, namespace='/t')
+    diagnostics = probe.collect(DiagnosticArray, '/diagnostics')
+    pub = probe.publisher(JointState, 'actuators/command', command=True)
+    goal = inverse_kinematics(POLE, POLE.home_position + [0.0, 0.0, 0.01], [0, 0, 0, 1]).lengths
+    with Spinner(ros_context, [node, probe]):
+        assert wait_for(lambda: pub.get_subscription_count() == 1)
+        assert wait_for(lambda: (pub.publish(command(probe, goal)), node.accepted)[1], period=0.05)
+        handed = [c for period, c in list(node.hardware.writes) if period == 0.0 and c is not None]
+        assert handed and np.array_equal(handed[0].lengths, goal)
+        assert wait_for(lambda: statuses(diagnostics, 'driver_node') and DriverStatus.from_key_values(
+            statuses(diagnostics, 'driver_node')[-1].values).target_latency_p99_ms == 1.5)

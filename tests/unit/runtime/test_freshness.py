@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from rrps_runtime.freshness import CommandAges, CommandFreshness, StaleCommand
+from rrps_runtime.freshness import CommandAges, CommandFreshness, RecentDurations, StaleCommand
 
 
 def _stream(f, clock_offset, t0, t1, rate=50.0, delay=0.002):
@@ -110,3 +110,13 @@ def test_command_ages_summarise_the_window_and_count_stale_ones():
     with pytest.raises(ValueError):
         CommandAges(window=0.0)
 
+
+def test_recent_durations_give_count_p50_p99_and_max_of_the_window_in_ms():
+    recent = RecentDurations(window=1.0)
+    assert recent.summary(0.0) == (0, None, None, None)
+    for k in range(1, 101):   # 1 .. 100 ms, one every 5 ms
+        recent.add(0.005 * k, 0.001 * k)
+    count, p50, p99, worst = recent.summary(0.5)
+    assert count == 100 and worst == pytest.approx(100.0)
+    assert p50 == pytest.approx(50.5) and p99 == pytest.approx(99.01)   # numpy's linear interpolation
+    assert recent.summary(1.3025)[0] == 40   # those seen in the last second: 0.305 s on

@@ -286,6 +286,8 @@ class DriverNode(LifecycleNode):
         self._set_status(OK, f'{self.label} tracking actuators/command')
         if self.publish_on_command:
             self._cycle()
+        elif self.hardware.OWN_CYCLE and not self.hardware.write(self._last_command_time, 0.0, self._command).ok:
+            self._command = None   # refused (a fault): the next tick says why
 
     # --- the hardware's cycle ---
 
