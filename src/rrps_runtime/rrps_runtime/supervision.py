@@ -39,8 +39,9 @@ OPERATOR_NICE = -5
 #: SCHED_RR priority of the operator station: ahead of normal processes (the browser, other
 #: jobs), behind the robot's command path.
 OPERATOR_RT_PRIORITY = 5
-#: Nice value of observers (recorder, markers): best effort, they yield to everything above.
-OBSERVER_NICE = 5
+#: Nice value of observers (recorder, markers): the normal priority, below the command path's
+#: real time (at nice 5 the flight recorder started too late on a loaded machine: docs/deployment.md).
+OBSERVER_NICE = 0
 
 
 def raise_priority(nice: int, *, realtime: int | None = None) -> bool:
