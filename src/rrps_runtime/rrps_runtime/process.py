@@ -54,11 +54,11 @@ def run_nodes(factories: Sequence[Callable[..., Node]], args=None, *, executor_k
     shutdown short (:func:`_finishing`). The spinning thread claims the nodes' scheduling
     (:func:`rrps_runtime.command_path.claim_command_path`).
     """
-    stop = threading.Event()
-    exit_with_parent(stop.set)
+    stop = _StopRequest()
+    exit_with_parent(stop.request)
     context = rclpy.Context()
     rclpy.init(args=args, context=context, signal_handler_options=SignalHandlerOptions.NO)
-    previous = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
+    previous = {sig: signal.signal(sig, stop.request) for sig in (signal.SIGINT, signal.SIGTERM)}
     nodes: list[Node] = []
     try:
         try:
@@ -72,17 +72,32 @@ def run_nodes(factories: Sequence[Callable[..., Node]], args=None, *, executor_k
             executor.add_node(node)
         freeze_startup_objects()
         claim_command_path(nodes, executor)
-        spin_until_shutdown(executor, context, stop)
+        spin_until_shutdown(executor, context, stop.event)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
-        faulthandler.dump_traceback_later(SHUTDOWN_DEADLINE, exit=True)   # armed until the process ends
+        stop.request()   # the deadline, if no request armed it: until the process ends
         for sig in previous:  # until the process ends: the interpreter's own exit takes a while too
             signal.signal(sig, _finishing)
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown(context=context)
         thaw()
+
+
+class _StopRequest:
+    """A node process' stop: :meth:`request` (a signal, the supervisor's death) sets :attr:`event`, and from the
+    first request on the process ends within :data:`SHUTDOWN_DEADLINE` s whatever its main thread does (every
+    thread's traceback printed, exit status 1): a node blocked in its start-up still ends with its supervisor."""
+
+    def __init__(self):
+        self.event = threading.Event()
+        self._unarmed = threading.Lock()
+
+    def request(self, *_) -> None:
+        self.event.set()
+        if self._unarmed.acquire(blocking=False):   # armed once: later requests do not extend it
+            faulthandler.dump_traceback_later(SHUTDOWN_DEADLINE, exit=True)
 
 
 def _finishing(signum, _frame) -> None:
