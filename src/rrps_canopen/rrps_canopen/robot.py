@@ -43,7 +43,7 @@ from rrps_hardware.interface import (
     SystemState,
     Transition,
 )
-from rrps_hardware.setpoints import JerkLimitedSetpoints
+from rrps_hardware.setpoints import MAX_STEP_PERIODS, JerkLimitedSetpoints
 from rrps_runtime.freshness import RecentDurations
 from rrps_runtime.scheduling import Granted, claim
 
@@ -58,9 +58,6 @@ def _failure(message: str) -> Transition:
     return Transition(CallbackReturn.FAILURE, message)
 
 
-#: A SYNC cycle later than this many periods steps the setpoints this far only (the motion is
-#: delayed, never jumps; the driver's tick is bounded so too).
-MAX_STEP_PERIODS = 5
 #: The name of python-can's receive thread (``can.Notifier``'s, one per bus) begins so.
 RECEIVE_THREAD = 'Notifier for bus'
 

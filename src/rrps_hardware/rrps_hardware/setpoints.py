@@ -15,12 +15,16 @@ import ruckig
 
 from rrps_description.motion_limits import ActuatorLimits
 
-__all__ = ['DRIVER_PERIOD', 'STALE_PERIODS', 'CATCH_UP_PERIODS', 'JerkLimitedSetpoints', 'stream_setpoints']
+__all__ = ['DRIVER_PERIOD', 'STALE_PERIODS', 'MAX_STEP_PERIODS', 'CATCH_UP_PERIODS', 'JerkLimitedSetpoints',
+           'stream_setpoints']
 
 #: The driver's period [s] (500 Hz).
 DRIVER_PERIOD = 0.002
 #: A command's velocity counts this many of its periods after it arrived.
 STALE_PERIODS = 2.5
+#: A cycle later than this many periods steps the setpoints this far only (the driver's tick, a bus'
+#: SYNC cycle): the motion is delayed, never jumps.
+MAX_STEP_PERIODS = 5
 #: The gain [1/s] of the position error in the velocity the setpoints are steered to.
 GAIN = 5.0
 #: Ruckig arrives at a command at rest within this [m] of it (rounding), and the setpoints are put on

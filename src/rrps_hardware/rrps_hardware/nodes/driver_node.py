@@ -26,6 +26,7 @@ from rrps_description.names import LEG_NAMES, RINGS
 from rrps_hardware.commands import checked_command, ring_joints
 from rrps_hardware.interface import BusState, CallbackReturn, Command, HardwareConfig, Result, ReturnType, Transition
 from rrps_hardware.registry import hardware_class, hardware_parameters, registered_hardware
+from rrps_hardware.setpoints import MAX_STEP_PERIODS
 from rrps_hardware.support_follower import DEFAULT_TIMEOUT, SupportFollower
 from rrps_interfaces.climb import SUPPORT_POSE
 from rrps_interfaces.driver import GRIPPERS_STATE, RESET_FAULTS, DriverStatus, SupportSource, gripper_service
@@ -92,7 +93,7 @@ class DriverNode(LifecycleNode):
         self.ages, self.freshness = CommandAges(), CommandFreshness(self.timeout)
         self._command: Command | None = None
         self._last_command_time: float | None = None
-        self._last_step, self._max_dt = time.monotonic(), 5.0 / self.rate
+        self._last_step, self._max_dt = time.monotonic(), MAX_STEP_PERIODS / self.rate
         self._status = (WARN, f'inactive: activate through {self.get_name()}/change_state')
         self._refusal = ''
         if self.trigger_configure() != TransitionCallbackReturn.SUCCESS:
