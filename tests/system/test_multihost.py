@@ -48,6 +48,7 @@ from rrps_testing.multihost_stack import (
     ROBOT_RECORD,
     SETTLE,
     STILL,
+    stream_stop_settle,
 )
 from rrps_testing.multihost_stack import fail_with_logs as _fail_with_logs
 from rrps_testing.netns import netns_supported, rig_namespaces, wait
@@ -256,6 +257,8 @@ def test_link_loss_during_teleop_holds_the_robot_and_a_held_deadman_reengages_as
 LATE = 0.25  # s after a phase began: a drop later than this may come after a release was due
 #: The longest a gripper of the stack's robot takes to close [s] (its description's gripper_time).
 CLOSE_TIME = max(t.close for t in load_robot('pole_climber').motion_limits.grippers.values())
+#: the legs settle this long after a climb's last target: its stream stops at speed
+STOP_SETTLE = stream_stop_settle(load_robot('pole_climber').motion_limits.legs)
 #: why a climb may pause with the link up (a busy machine) or during an outage (the operator
 #: link lost, or first a stall of the robot's processes)
 BUSY_PAUSES = (PauseReason.ROBOT_STATE_LOST, PauseReason.OPERATOR_LINK_LOST)
@@ -398,10 +401,12 @@ def test_link_loss_during_each_climb_phase_pauses_the_climb_until_the_operator_r
         assert f['hold_after'] <= bound, (f, bound)
         held_from = max(t_down, newest or t_down)
         assert not in_window(targets, held_from + 1e-6, t_resume, by='stamp')
-        # the robot stood still while paused and no gripper switched but to close: a close the
-        # climb asked for before the link dropped completes in the gripper's close time (closing
-        # never lets go; the climb asks for nothing while paused)
-        assert length_change(states, held_from + SETTLE, t_resume) < STILL, f
+        # the robot stood still while paused (once the legs stopped from the stream's speed) and no
+        # gripper switched but to close: a close the climb asked for before the link dropped
+        # completes in the gripper's close time (closing never lets go; the climb asks for nothing
+        # while paused)
+        assert in_window(states, held_from + STOP_SETTLE, t_resume, by='stamp'), f
+        assert length_change(states, held_from + STOP_SETTLE, t_resume) < STILL, f
         changes = in_window(grippers, held_from + 0.1, t_resume)
         assert all(closed or not before for a, b in zip(changes, changes[1:])
                    for before, closed in zip(a['closed'].values(), b['closed'].values())), f

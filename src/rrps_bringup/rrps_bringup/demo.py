@@ -321,7 +321,7 @@ def main(argv=None) -> int:
         rclpy.try_shutdown(context=context)
         thaw()
         if robot is not None:
-            for name, code in zip(robot.children, robot.stop(timeout=5.0)):
+            for name, code in zip(robot.children, robot.stop()):
                 if code != 0:   # killed after the timeout, or a shutdown that failed
                     print(f'rrps demo: the {name} process ended with status {code} when stopped', file=sys.stderr)
         shutil.rmtree(run_dir, ignore_errors=True)

@@ -318,8 +318,9 @@ class CanopenRobot(SystemInterface):
         """The driver's ``target_latency_*`` fields (:class:`rrps_interfaces.driver.DriverStatus`)."""
         if self.drives is None:
             return {}
-        with self.drives.lock:
-            count, p50, p99, worst = self.target_latency.summary(time_now())
+        with self.drives.lock:   # the SYNC cycle adds under it: the percentiles are taken outside
+            recent = self.target_latency.copy()
+        count, p50, p99, worst = recent.summary(time_now())
         if not count:
             return {}
         return {'target_latency_p50_ms': p50, 'target_latency_p99_ms': p99, 'target_latency_max_ms': worst}

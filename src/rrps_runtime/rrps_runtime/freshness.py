@@ -137,6 +137,12 @@ class RecentDurations:
         """One duration [s], seen at ``now`` [s]."""
         self._samples.append((now, duration))
 
+    def copy(self) -> RecentDurations:
+        """An independent copy: taken under the lock of the thread that adds, summarised outside it."""
+        other = RecentDurations(self.window, self._samples.maxlen)
+        other._samples.extend(self._samples)
+        return other
+
     def summary(self, now: float) -> tuple[int, float | None, float | None, float | None]:
         """(count, p50, p99, max) [ms] of the durations seen in the window before ``now``; None without one."""
         while self._samples and now - self._samples[0][0] > self.window:

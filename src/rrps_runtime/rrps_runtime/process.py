@@ -18,13 +18,9 @@ from rclpy.task import Future
 from rrps_description.geometry import RobotDescriptionError
 from rrps_runtime.collector import freeze_startup_objects, thaw
 from rrps_runtime.command_path import claim_command_path
-from rrps_runtime.supervision import exit_with_parent
+from rrps_runtime.supervision import SHUTDOWN_DEADLINE, exit_with_parent
 
 __all__ = ['SHUTDOWN_DEADLINE', 'make_executor', 'spin_until_shutdown', 'run_nodes']
-
-#: Longest a node process takes to shut down [s] once its spin ended: past it every thread's stack is printed to
-#: stderr and the process exits with status 1 (a process outliving its supervisor keeps its topics and hardware busy).
-SHUTDOWN_DEADLINE = 10.0
 
 
 def make_executor(context, kind: str = 'events'):

@@ -17,7 +17,8 @@ import threading
 import time
 from typing import Sequence
 
-__all__ = ['PARENT_PID_ENV', 'CONTROL_NICE', 'CONTROL_RT_PRIORITY', 'OPERATOR_NICE', 'OPERATOR_RT_PRIORITY',
+__all__ = ['SHUTDOWN_DEADLINE', 'STOP_GRACE',
+           'PARENT_PID_ENV', 'CONTROL_NICE', 'CONTROL_RT_PRIORITY', 'OPERATOR_NICE', 'OPERATOR_RT_PRIORITY',
            'OBSERVER_NICE', 'start_child', 'priority_of', 'group_priority_of', 'scheduling_of', 'raise_priority',
            'stop_child', 'stop_children', 'terminate_children', 'hurry', 'wait_children', 'exit_with_parent',
            'die_with_parent', 'Respawner', 'process_alive',
@@ -152,12 +153,20 @@ def start_child(args: Sequence[str], *, env: dict | None = None, nice: int | Non
     return subprocess.Popen(list(args), env=child_env, preexec_fn=prepare, **popen_kwargs)
 
 
-def stop_child(process: subprocess.Popen, timeout: float = 5.0) -> int:
+#: Longest a node process takes to end [s] from its first stop request (a signal, its supervisor's death):
+#: past it every thread's stack is printed to stderr and it exits with status 1 (rrps_runtime.process).
+SHUTDOWN_DEADLINE = 10.0
+#: A supervisor's SIGKILL comes this long [s] after its SIGTERM: after the child's own deadline, so that a
+#: stuck child prints its stacks first and a child finishing its work (a flight record) is not cut short.
+STOP_GRACE = SHUTDOWN_DEADLINE + 1.0
+
+
+def stop_child(process: subprocess.Popen, timeout: float = STOP_GRACE) -> int:
     """SIGTERM, wait up to ``timeout`` s, then SIGKILL; returns the exit status."""
     return stop_children([process], timeout)[0]
 
 
-def stop_children(processes: Sequence[subprocess.Popen], timeout: float = 5.0) -> list[int]:
+def stop_children(processes: Sequence[subprocess.Popen], timeout: float = STOP_GRACE) -> list[int]:
     """:func:`stop_child` for several processes at once (they stop in parallel)."""
     terminate_children(processes)
     return wait_children(processes, timeout)
@@ -265,7 +274,7 @@ class Respawner:
             self._stopping = True
             terminate_children(list(self.children.values()))
 
-    def stop(self, timeout: float = 5.0) -> list[int]:
+    def stop(self, timeout: float = STOP_GRACE) -> list[int]:
         """Stop every child: SIGTERM (once, :meth:`terminate`), then SIGKILL after ``timeout`` s."""
         self.terminate()
         return wait_children(list(self.children.values()), timeout)

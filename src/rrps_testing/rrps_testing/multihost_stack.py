@@ -7,15 +7,20 @@ from __future__ import annotations
 
 import time
 
+import numpy as np
 import pytest
 
+from rrps_climbing.step_io import StepConfig
+from rrps_description.motion_limits import ActuatorLimits, stream_limits
+from rrps_hardware.setpoints import DRIVER_PERIOD, stream_setpoints
 from rrps_interfaces.climb import ClimbState
 from rrps_testing.ci import require
 from rrps_testing.fault_metrics import climb, teleop
 from rrps_testing.netns import netns_supported, wait
 from rrps_testing.netns_rig import Rig
 
-__all__ = ['Stack', 'stack', 'fail_with_logs', 'DEADLINE', 'SETTLE', 'STILL', 'ROBOT_RECORD', 'OPERATOR_RECORD',
+__all__ = ['Stack', 'stack', 'fail_with_logs', 'stream_stop_settle',
+           'DEADLINE', 'SETTLE', 'STILL', 'ROBOT_RECORD', 'OPERATOR_RECORD',
            'TOKEN', 'VIEWER_PORT', 'MASTER']
 
 DEADLINE = 90.0            # generous: two cores shared with other jobs
@@ -38,6 +43,20 @@ MASTER = {'master_node:trajectory': 'circle', 'master_node:rate': 50.0}
 DRIVER_RATE = 50.0
 VIEWER_PARAMS = {'viewer_node:host': '127.0.0.1', 'viewer_node:port': VIEWER_PORT,
                  'viewer_node:token': TOKEN, 'viewer_node:render_rate': 5.0}
+
+
+def stream_stop_settle(limits: ActuatorLimits) -> float:
+    """How long [s] after a stream's last command the legs may still move: a stream at the stream
+    speed of ``limits`` that stops without slowing (a climb paused mid-motion) is overshot by the
+    driver's jerk-limited setpoints, which return to its last command (rrps_hardware.setpoints:
+    the legs cannot stop at once); then the actuators' lag settles (:data:`SETTLE`)."""
+    stream, period = stream_limits(limits), StepConfig().period
+    ramp = np.minimum(stream.speed, stream.acceleration * period * np.arange(1, 200))
+    commands = np.cumsum(ramp * period)[:, None]
+    setpoints = stream_setpoints(commands, period, limits, settle=5.0)[:, 0]
+    moving = np.flatnonzero(np.abs(setpoints - commands[-1, 0]) > STILL / 2)
+    last_command = (len(commands) - 1) * period
+    return float(moving[-1] * DRIVER_PERIOD - last_command + SETTLE)
 
 
 class Stack:

@@ -120,3 +120,15 @@ def test_recent_durations_give_count_p50_p99_and_max_of_the_window_in_ms():
     assert count == 100 and worst == pytest.approx(100.0)
     assert p50 == pytest.approx(50.5) and p99 == pytest.approx(99.01)   # numpy's linear interpolation
     assert recent.summary(1.3025)[0] == 40   # those seen in the last second: 0.305 s on
+
+
+def test_a_copy_of_recent_durations_is_summarised_apart_from_the_original():
+    recent = RecentDurations(window=1.0, max_samples=3)
+    for k in range(1, 4):
+        recent.add(0.1 * k, 0.001 * k)
+    copy = recent.copy()
+    recent.add(0.4, 0.010)   # pushes the oldest out of the original only
+    assert copy.summary(0.4)[::3] == (3, pytest.approx(3.0))
+    assert recent.summary(0.4)[::3] == (3, pytest.approx(10.0))
+    copy.add(0.5, 0.020)
+    assert recent.summary(0.5)[3] == pytest.approx(10.0)

@@ -48,7 +48,7 @@ from rrps_recording.transport.triggers import FaultWatch, StatusEvent
 from rrps_runtime.diagnostics import OBSERVER, OK, WARN, Diagnostics
 from rrps_runtime.parameter_schema import ROBOT, NodeParameters, Parameter
 from rrps_runtime.parameters import declare_parameters
-from rrps_runtime.process import run_nodes
+from rrps_runtime.process import SHUTDOWN_DEADLINE, run_nodes
 from rrps_runtime.qos import STATE_QOS
 from rrps_runtime.recording_bundle import BUNDLE_TYPE, decode_bundle
 from rrps_runtime.recording_tap import FLUSH_PERIOD as TAP_FLUSH_PERIOD
@@ -359,7 +359,8 @@ class RecorderNode(Node):
         self._diag.report(level, message, status)
 
     def destroy_node(self) -> None:
-        self.wait_for_dumps(timeout=30.0)
+        # a dump under way gets half the process' shutdown deadline; the rest closes the recording
+        self.wait_for_dumps(timeout=0.5 * SHUTDOWN_DEADLINE)
         if self.recording is not None:
             self.recording.close()
         super().destroy_node()
