@@ -1,9 +1,10 @@
 """The kernels, compiled by numba or interpreted: one source for both.
 
-A :func:`jit` kernel is compiled by numba when numba imports and ``RRPS_NUMBA`` is not ``0``
-(read once), else run as plain Python on lists (:func:`floats`, :func:`matrix`). ``backend`` per
-call: 'auto', 'numba' (insists) or 'numpy' (interpreted). Each kernel's disk cache is stamped with
-all kernel sources (:func:`kernel_sources_stamp`): numba checks only a kernel's own file.
+A :func:`jit` kernel is compiled by numba when numba imports, ``RRPS_NUMBA`` is not ``0`` and
+numba's own ``NUMBA_DISABLE_JIT`` is not set (read once), else run as plain Python on lists
+(:func:`floats`, :func:`matrix`). ``backend`` per call: 'auto', 'numba' (insists) or 'numpy'
+(interpreted). Each kernel's disk cache is stamped with all kernel sources
+(:func:`kernel_sources_stamp`): numba checks only a kernel's own file.
 """
 
 from __future__ import annotations
@@ -30,7 +31,8 @@ PARALLEL_BATCH = 512
 
 
 def numba_enabled() -> bool:
-    """True when numba imports and ``RRPS_NUMBA`` is not ``0`` (decided once per process)."""
+    """True when numba imports, ``RRPS_NUMBA`` is not ``0`` and numba's ``NUMBA_DISABLE_JIT`` is not
+    set (decided once per process)."""
     global _numba
     if _numba is None:
         _numba = False
@@ -38,6 +40,8 @@ def numba_enabled() -> bool:
             try:
                 import numba
             except ImportError:
+                return False
+            if numba.config.DISABLE_JIT:   # numba's own switch: its njit would return plain functions
                 return False
             _numba = numba
             _register_scratch(numba)

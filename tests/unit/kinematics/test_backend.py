@@ -107,6 +107,25 @@ def test_rrps_numba_0_disables_the_compiled_backend():
     assert done.returncode == 0, done.stderr
 
 
+def test_numbas_own_disable_jit_runs_the_kernels_interpreted():
+    """``NUMBA_DISABLE_JIT=1`` (numba's debugging switch) turns the compiled backend off: the
+    modules import and the kernels run as plain Python (numba's njit would return plain functions,
+    which have no cache to stamp). The IK's leg lengths are checked against eq. 1 by hand."""
+    code = ('import numpy as np\n'
+            'from rrps_kinematics.backend import numba_enabled\n'
+            'from rrps_description.geometry import load_robot\n'
+            'from rrps_kinematics import inverse_kinematics\n'
+            'import rrps_kinematics.compiled, rrps_sim.dynamics.kernels, rrps_teleop.compiled_guards\n'
+            'g = load_robot("pole_climber")\n'
+            'p = np.asarray(g.home_position) + [0.0, 0.0, 0.01]\n'
+            'lengths = inverse_kinematics(g, p, g.home_quaternion_xyzw).lengths\n'
+            'by_hand = np.linalg.norm(p + np.asarray(g.ring_b_anchors) - np.asarray(g.ring_a_anchors), axis=1)\n'
+            'assert not numba_enabled() and np.allclose(lengths, by_hand, atol=1e-12), (lengths, by_hand)\n')
+    done = subprocess.run([sys.executable, '-c', code], env=dict(os.environ, NUMBA_DISABLE_JIT='1'),
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+
+
 @pytest.mark.parametrize('flag', ['1', None])
 def test_numba_is_used_unless_disabled(flag):
     require(numba_enabled(), 'numba not available')
