@@ -24,7 +24,9 @@ import pytest
 
 import rrps_testing.multihost_stack as multihost_stack
 import rrps_testing.netns_rig as netns_rig
+from rrps_climbing.path_brake import brake_time
 from rrps_description.geometry import load_robot
+from rrps_description.motion_limits import stream_limits
 from rrps_interfaces.climb import ClimbState, PauseReason, PhaseAction
 from rrps_interfaces.teleop import TeleopCode
 from rrps_runtime.supervision import start_child
@@ -48,7 +50,7 @@ from rrps_testing.multihost_stack import (
     ROBOT_RECORD,
     SETTLE,
     STILL,
-    stream_stop_settle,
+    brake_settle,
 )
 from rrps_testing.multihost_stack import fail_with_logs as _fail_with_logs
 from rrps_testing.netns import netns_supported, rig_namespaces, wait
@@ -255,10 +257,12 @@ def test_link_loss_during_teleop_holds_the_robot_and_a_held_deadman_reengages_as
 # --- link loss during each phase of a climbing step -------------------------------------------
 
 LATE = 0.25  # s after a phase began: a drop later than this may come after a release was due
+LIMITS = load_robot('pole_climber').motion_limits   # the stack's robot's
 #: The longest a gripper of the stack's robot takes to close [s] (its description's gripper_time).
-CLOSE_TIME = max(t.close for t in load_robot('pole_climber').motion_limits.grippers.values())
-#: the legs settle this long after a climb's last target: its stream stops at speed
-STOP_SETTLE = stream_stop_settle(load_robot('pole_climber').motion_limits.legs)
+CLOSE_TIME = max(t.close for t in LIMITS.grippers.values())
+#: a paused climb brakes its stream along the path this long [s]; the legs settle this long after its last target
+BRAKE = brake_time(stream_limits(LIMITS.legs))
+STOP_SETTLE = brake_settle(LIMITS.legs)
 #: why a climb may pause with the link up (a busy machine) or during an outage (the operator
 #: link lost, or first a stall of the robot's processes)
 BUSY_PAUSES = (PauseReason.ROBOT_STATE_LOST, PauseReason.OPERATOR_LINK_LOST)
@@ -391,13 +395,13 @@ def test_link_loss_during_each_climb_phase_pauses_the_climb_until_the_operator_r
         # machine: a stall of the robot's processes during the outage)
         assert paused.pause_reason in BUSY_PAUSES, (f, paused)
         # the climb held within the operator timeout: its last target was sent at most
-        # operator_timeout after the link went down, plus what a busy machine adds: after a
-        # late tick (> state_timeout / 2 apart) the climb node waits state_timeout before it
-        # judges its inputs' age again, and the longest stall of its ticks itself
+        # operator_timeout after the link went down and a brake along the path later, plus what a
+        # busy machine adds: after a late tick (> state_timeout / 2 apart) the climb node waits
+        # state_timeout before it judges its inputs' age again, and the longest stall of its ticks itself
         newest = last_stamp(targets, t_down, t_resume)
         f['hold_after'] = newest - t_down if newest is not None else 0.0
         f['stall'] = _longest_gap(targets, t_down - 0.1, newest or t_down)
-        bound = OPERATOR_TIMEOUT + STATE_TIMEOUT + f['stall'] + 0.15
+        bound = OPERATOR_TIMEOUT + BRAKE + STATE_TIMEOUT + f['stall'] + 0.15
         assert f['hold_after'] <= bound, (f, bound)
         held_from = max(t_down, newest or t_down)
         assert not in_window(targets, held_from + 1e-6, t_resume, by='stamp')

@@ -1,13 +1,15 @@
 """A timed motion phase as a stream plays it: its samples (time, pose a_T_b, ring angles), any time.
 
 Between samples: linear interpolation, nlerp for rotations. :class:`PlayClock` plays the path in
-time: a late tick takes the sample of its time.
+time: a late tick takes the sample of its time; a brake slows the play to rest
+(:mod:`.path_brake`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from rrps_climbing.path_brake import braked_path_time
 from rrps_description.pose import Pose
 from rrps_description.rotations import rotation_angle_between
 
@@ -62,20 +64,36 @@ class PhasePath:
 
 class PlayClock:
     """Where a stream played every ``period`` [s] is in its path: each tick advances it by the time
-    since the last tick (at most :data:`MAX_TICK_PERIODS` periods), the first one by one period."""
+    since the last tick (at most :data:`MAX_TICK_PERIODS` periods), the first one by one period;
+    during a :meth:`brake`, by the braked time (:func:`.path_brake.braked_path_time`)."""
 
     def __init__(self, period: float):
         self.period, self.t = float(period), 0.0
         self._last: float | None = None
+        self._brake: tuple[float, float, float] | None = None  # its start [s], path time then [s], duration [s]
 
     def advance(self, now: float) -> float:
         """The path time [s] at a tick at ``now`` [s]."""
+        if self._brake is not None:
+            start, t0, duration = self._brake
+            self._last, self.t = now, t0 + braked_path_time(now - start, duration)
+            return self.t
         step = self.period if self._last is None else min(max(now - self._last, 0.0), MAX_TICK_PERIODS * self.period)
         self._last, self.t = now, self.t + step
         return self.t
 
+    def brake(self, duration: float) -> None:
+        """From the last tick on, slow the play to rest in ``duration`` [s] (none before a first tick)."""
+        if self._last is not None and self._brake is None:
+            self._brake = (self._last, self.t, float(duration))
+
+    @property
+    def braking(self) -> bool:
+        """A brake is under way (its last tick is yet to come)."""
+        return self._brake is not None and self._last - self._brake[0] < self._brake[2]
+
     def restart(self, at: float | None = None) -> None:
         """After a pause: the next tick advances one period (from path time ``at`` [s] if given)."""
-        self._last = None
+        self._last, self._brake = None, None
         if at is not None:
             self.t = float(at)

@@ -3,7 +3,8 @@
 A :class:`PhaseRun` goes through ``stream`` (the timed path, one target per tick), ``arrive`` (held
 within tolerance for ``settle_time``), ``gripper`` (opens only with the other closed and the
 operator heard since settling: the interlock and release gate) and ``done``. A timeout, a refused
-gripper or the interlock is a failure, returned as text.
+gripper or the interlock is a failure, returned as text. A stream paused mid-path brakes along
+it to rest (:meth:`PhaseRun.brake`, :mod:`.path_brake`).
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from __future__ import annotations
 import math
 
 from rrps_climbing.climb_watch import InputWatch
+from rrps_climbing.path_brake import brake_time
 from rrps_climbing.phase_path import PhasePath, PlayClock
 from rrps_climbing.plan import Phase
 from rrps_climbing.step_io import ClimbOutput, ClimbTarget, GripperRequest, StepConfig
@@ -51,6 +53,19 @@ class PhaseRun:
         """The driver's answer to ``request`` (one to another request is ignored)."""
         if request is self.request:
             self.answer = (bool(success), message)
+
+    def brake(self) -> bool:
+        """A pause: a streaming phase slows along its path to rest within its legs' stream limits
+        (:meth:`brake_step` plays it); whether it brakes."""
+        if self.stage != 'stream':
+            return False
+        self.clock.brake(brake_time(self.phase.timing.leg_limits))
+        return self.clock.braking
+
+    def brake_step(self, now: float, out: ClimbOutput) -> None:
+        """While a brake is under way: the target of its tick at ``now`` [s] (none after it)."""
+        if self.stage == 'stream' and self.clock.braking:
+            out.target = ClimbTarget(*self.path.at(self.clock.advance(now)))
 
     def restart(self, now: float, at: float | None = None) -> None:
         """Go on after a pause at time ``now`` [s]: the path's clock restarts (from path time ``at``

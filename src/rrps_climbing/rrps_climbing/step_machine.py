@@ -4,9 +4,9 @@ A request's plan is computed by the caller (``ClimbOutput.plan``, :func:`.step_p
 and handed back (:meth:`ClimbStepMachine.on_plan`); the climb then runs phase by phase
 (:class:`.phase_run.PhaseRun`), once per tick. With ``preview`` a step is first simulated (the
 caller runs ``ClimbOutput.preview``). A plan or a preview starts only if accepted and nothing
-changed meanwhile, else a :class:`~rrps_interfaces.climb.StepRefusal`. A lost
-input pauses it until :meth:`ClimbStepMachine.resume`; a failure is final. Each call takes plain
-values and returns a :class:`ClimbOutput`. No ROS import.
+changed meanwhile, else a :class:`~rrps_interfaces.climb.StepRefusal`. A lost input pauses it (a
+motion brakes along its path first) until :meth:`ClimbStepMachine.resume`; a failure is final.
+Each call takes plain values and returns a :class:`ClimbOutput`. No ROS import.
 """
 
 from __future__ import annotations
@@ -215,7 +215,7 @@ class ClimbStepMachine(ClimbInputs):
     def resume(self, now: float) -> ClimbOutput:
         """Resume a paused step at time ``now`` [s] once the cause of the pause is gone and the
         robot is still on the paused path; a motion goes on from the point of its path where the robot
-        stands (:meth:`.PhaseRun.played_nearest`)."""
+        stands (:meth:`.PhaseRun.played_nearest`), braked or not."""
         out = self._begin()
         if self.mode is not PAUSED:
             out.reply = (False, f'refused: the climb is {self.mode.value}')
@@ -331,11 +331,14 @@ class ClimbStepMachine(ClimbInputs):
         self._report(force=True)
 
     def _pause(self, reason: PauseReason) -> None:
-        """Hold: no target, no gripper request until :meth:`resume`."""
+        """Hold: a motion brakes along its path (not for an inactive driver, which holds the legs
+        itself), then no target and no gripper request until :meth:`resume`."""
         ph = self._phases[self._index]
         self.mode, self.pause_reason = PAUSED, reason
+        braking = reason is not PauseReason.DRIVER_INACTIVE and self._run.brake()
         self.detail = (f'paused at step {ph.step}, phase {ph.phase}: {reason.value} ({self.watch.ages()}); '
-                       f'holding, grippers as they are; {CLIMB_RESUME} resumes')
+                       f'{"braking along the path, then " if braking else ""}holding, grippers as they are; '
+                       f'{CLIMB_RESUME} resumes')
         self._out.log.append((logging.ERROR, self.detail))
         self._report(force=True)
 
@@ -355,6 +358,8 @@ class ClimbStepMachine(ClimbInputs):
             if not self._scripted:
                 started.log.append((logging.INFO, f'scripted climb of {self.auto_steps} steps: {started.reply[1]}'))
             return started
+        if self.mode is PAUSED:
+            self._run.brake_step(now, out)
         if self.mode is not EXECUTING:
             return out
         reason = self.hold_reason() if self.watch.judged() else None

@@ -72,11 +72,14 @@ class TimedMotion:
     """A motion's path with its timing law (module docstring): its ``pieces`` between corners, each
     a :class:`~.path_curve.PathCurve` and its :class:`~.timing_profile.SmoothedLaw` from rest to
     rest, one after the other; the loads at the samples (None when no ring was given as holding),
-    the requested path-speed cap and the peak path speed reached [m/s]."""
+    the requested path-speed cap and the peak path speed reached [m/s]; the legs' stream limits it
+    was timed within (a paused stream brakes within them, :mod:`.path_brake`)."""
 
-    def __init__(self, pieces: list, loads: TimedLoads | None, requested_speed: float | None, peak_speed: float):
+    def __init__(self, pieces: list, loads: TimedLoads | None, requested_speed: float | None, peak_speed: float,
+                 leg_limits: ActuatorLimits):
         self.pieces, self.loads = pieces, loads
         self.requested_speed, self.peak_speed = requested_speed, peak_speed
+        self.leg_limits = leg_limits
         self._starts = np.concatenate([[0.0], np.cumsum([law.duration for _, law in pieces])])
         #: the times [s] of the samples of ``loads`` (each piece's from its start, a little past its end)
         self.load_times = np.zeros(0)
@@ -312,7 +315,7 @@ def time_motion(geometry: RobotGeometry, path: np.ndarray, ring_angles: np.ndarr
         raise ValueError(f'step {where[0]} {where[1]}: the path has no length to time')
     joined = None if held is None else TimedLoads(held.ring, *(np.concatenate([x[k] for x in loads])
                                                               for k in (1, 2, 3)))
-    timed = TimedMotion(pieces, joined, speed, peak)
+    timed = TimedMotion(pieces, joined, speed, peak, legs)
     timed.load_times = np.concatenate([start + _sample_times(law) for start, (_, law) in zip(timed.starts, pieces)])
     return timed
 

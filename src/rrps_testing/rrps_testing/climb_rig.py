@@ -6,17 +6,21 @@ on a 3 m pole, ticks of :data:`DT`, steps of :data:`STEP` from :data:`START`."""
 
 from __future__ import annotations
 
+import numpy as np
+
 from rrps_climbing.gait import GaitPlanner
+from rrps_climbing.path_brake import brake_time
 from rrps_climbing.step_io import GripperRequest, StepConfig
 from rrps_climbing.step_machine import ClimbStepMachine
 from rrps_climbing.step_plan import plan_step
 from rrps_description.geometry import load_robot
+from rrps_description.motion_limits import stream_limits
 from rrps_description.pose import Pose
 from rrps_description.structures import pole
 from rrps_interfaces.climb import ClimbState
 
 __all__ = ['POLE', 'PLANNER', 'HOME', 'DT', 'STEP', 'START', 'EXECUTING', 'PAUSED', 'IDLE', 'FAILED',
-           'ClimbRig', 'in_phase', 'started']
+           'BRAKE', 'ClimbRig', 'assert_brakes', 'in_phase', 'started']
 
 POLE = load_robot('pole_climber')
 PLANNER = GaitPlanner(POLE, pole(3.0))
@@ -25,6 +29,7 @@ DT = 0.02       # tick period [s]
 STEP = 0.06     # [m]
 START = 0.2     # ring_a's route position [m]
 EXECUTING, PAUSED, IDLE, FAILED = ClimbState.EXECUTING, ClimbState.PAUSED, ClimbState.IDLE, ClimbState.FAILED
+BRAKE = brake_time(stream_limits(POLE.motion_limits.legs))   # a paused stream's brake [s]
 
 
 class ClimbRig:
@@ -106,3 +111,19 @@ def started(rig: ClimbRig, direction: int = +1):
     out = rig.call(rig.machine.step, direction)
     assert out.reply[0], out.reply
     return out
+
+
+def assert_brakes(before: list, outs: list) -> int:
+    """The targets of ``outs`` (the ticks after a pause) slow along the path to rest as a brake of
+    :data:`BRAKE` does: one per tick, no step longer than two of the stream's steps ``before`` it
+    (the tick that saw a pause sends none; 5 % for a path still speeding up), each step shorter than
+    the one before once the longest is past, the last almost none, nothing after them; their number."""
+    targets = [o.target for o in outs]
+    n = next((k for k, t in enumerate(targets) if t is None), len(targets))
+    assert 0.5 * BRAKE / DT <= n <= BRAKE / DT + 1 and all(t is None for t in targets[n:]), targets
+    last = np.linalg.norm(before[-1].a_T_b.position - before[-2].a_T_b.position)
+    positions = [before[-1].a_T_b.position] + [t.a_T_b.position for t in targets[:n]]
+    steps = np.linalg.norm(np.diff(positions, axis=0), axis=1)
+    slowing = steps[int(np.argmax(steps)):]
+    assert 0 < np.max(steps) <= 2.1 * last and np.all(np.diff(slowing) < 0) and steps[-1] < 0.05 * last, steps
+    return n

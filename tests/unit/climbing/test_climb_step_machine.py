@@ -26,6 +26,7 @@ from rrps_testing.climb_rig import (
     START,
     STEP,
     ClimbRig,
+    assert_brakes,
     in_phase,
     started,
 )
@@ -306,19 +307,19 @@ def test_a_step_accepted_by_its_preview_starts_only_if_nothing_changed(change, r
 
 
 def test_a_cancel_holds_the_step_as_a_pause_and_a_previewed_step_never_starts():
-    """cancel (the climb/step action's): no target and no gripper request after it, the grippers
-    as they are; climb/resume goes on from there to the end of the step."""
+    """cancel (the climb/step action's): the motion brakes along its path, then no target and no
+    gripper request, the grippers as they are; climb/resume goes on from there to the end of the step."""
     rig = ClimbRig()
     started(rig)
     rig.run_until(in_phase('move_b'))
+    streamed = [rig.tick().target for _ in range(10)]
     index = rig.machine.status().phase_index
     assert 0 < index < rig.machine.status().phases
-    n = len(rig.outputs)
     out = rig.machine.cancel()
     assert out.reply[0] and rig.machine.status().pause_reason is PauseReason.CANCELLED
-    for _ in range(50):
-        rig.tick()
-    assert all(o.target is None and o.gripper is None for _, o in rig.outputs[n:])
+    held = [rig.tick() for _ in range(50)]
+    assert all(o.gripper is None for o in held)
+    assert_brakes(streamed, held)
     assert rig.machine.status().state is PAUSED and rig.grippers == {'ring_a': True, 'ring_b': False}
     assert rig.call(rig.machine.resume).reply[0]
     rig.run_until(lambda s: s.state is IDLE)

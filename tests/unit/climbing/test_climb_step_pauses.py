@@ -12,7 +12,7 @@ import pytest
 
 from rrps_description.pose import Pose, pose_error
 from rrps_interfaces.climb import PauseReason
-from rrps_testing.climb_rig import DT, EXECUTING, IDLE, PAUSED, POLE, ClimbRig, in_phase, started
+from rrps_testing.climb_rig import DT, EXECUTING, IDLE, PAUSED, POLE, ClimbRig, assert_brakes, in_phase, started
 
 
 def _goes_on_from(rig: ClimbRig, pose) -> None:
@@ -38,14 +38,18 @@ def test_a_lost_input_pauses_the_step_until_it_is_resumed(cause, reason, timeout
         rig.tick()
     setattr(rig, cause, False)
     t_lost = rig.t
-    rig.run_until(lambda s: s.state is not EXECUTING)
+    streamed = [o.target for o in rig.run_until(lambda s: s.state is not EXECUTING) if o.target is not None]
     paused = rig.outputs[-1][1].status
-    held_at = rig.pose                                   # the last target before the pause
     assert paused.state is PAUSED and paused.pause_reason is reason and paused.phase == 'move_b'
     assert timeout <= rig.t - t_lost <= timeout + 2 * DT
     assert rig.outputs[-1][1].log[0][0] == logging.ERROR and reason.value in paused.detail
-    held = [rig.tick() for _ in range(50)]               # 1 s: holding, no target, no gripper
-    assert all(out.target is None and out.gripper is None for out in held)
+    held = [rig.tick() for _ in range(50)]               # 1 s: braking along the path, then holding
+    assert all(out.gripper is None for out in held)
+    if reason is PauseReason.DRIVER_INACTIVE:            # the driver holds the legs itself
+        assert all(out.target is None for out in held) and 'braking' not in paused.detail
+    else:
+        assert_brakes(streamed, held) and 'braking along the path, then holding' in paused.detail
+    held_at = rig.pose                                   # the last target
     refused = rig.call(rig.machine.resume)
     assert not refused.reply[0] and reason.value in refused.reply[1]
 
