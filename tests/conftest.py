@@ -193,10 +193,10 @@ def browser_tmpdir():
             shutil.rmtree(path, ignore_errors=True)
 
 
-# Three pytest-xdist workers (./rrps test). The system tests (processes, network namespaces, the
+# Two pytest-xdist workers (./rrps test). The system tests (processes, network namespaces, the
 # CANopen bus, timing under load) run one after another on one worker, the longest chain of the
-# suite; the browser test first on another (done long before the CANopen tests start), then the
-# unit and node tests on the others, all at a lower priority.
+# suite; the browser test first on the other (done long before the CANopen tests start), then the
+# unit and node tests, all at a lower priority.
 SERIAL_LEVELS = ('tests/system/',)
 #: Run last on their worker: the CANopen tests starve under a concurrent browser.
 LAST = ('tests/system/test_canopen',)
