@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from rrps_testing.climb_resume import Resumer
 from rrps_testing.ros_harness import DEADLINE, Probe, Spinner, wait_for
 
 pytestmark = [pytest.mark.browser, pytest.mark.ros, pytest.mark.slow]
@@ -34,7 +35,6 @@ pytestmark = [pytest.mark.browser, pytest.mark.ros, pytest.mark.slow]
 BROWSER_DIR = Path(__file__).parent
 CHROMIUM = os.environ.get('CHROMIUM', '/usr/bin/chromium')
 TOKEN = 'browser-test-token'
-MAX_RESUMES = 5
 
 
 def _free_port() -> int:
@@ -131,7 +131,7 @@ def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa
     from std_srvs.srv import Trigger
 
     from rrps_bringup.demo import build_stack
-    from rrps_interfaces.climb import CLIMB_RESUME, ClimbState, ClimbStatus
+    from rrps_interfaces.climb import CLIMB_RESUME, ClimbStatus
     from rrps_runtime.messages import pose_from_msg
     from rrps_runtime.qos import COMMAND_QOS
 
@@ -223,8 +223,8 @@ def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa
         assert wait_for(still)
         return position()
 
-    resume = probe.create_client(Trigger, CLIMB_RESUME)
-    resumed = []
+    client = probe.create_client(Trigger, CLIMB_RESUME)
+    resumer = Resumer(lambda: client.call_async(Trigger.Request()))
 
     with Spinner(ros_context, [*nodes.values(), probe]):
         assert wait_for(lambda: poses), 'no FK pose from the stack'
@@ -296,10 +296,7 @@ def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa
                     before = position()
 
                     def moved_or_resumed():
-                        last = ClimbStatus.from_key_values(climb_status[-1].values)
-                        if (last.state is ClimbState.PAUSED and len(resumed) < MAX_RESUMES
-                                and (not resumed or resumed[-1].done())):
-                            resumed.append(resume.call_async(Trigger.Request()))
+                        resumer(ClimbStatus.from_key_values(climb_status[-1].values))
                         return np.linalg.norm(position() - before) > 0.005
                     climb_moved = wait_for(moved_or_resumed)
                 browser.resume(reply)
@@ -364,8 +361,8 @@ def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa
     assert not any(list(m.position) == [0.0, 0.0] for m in grippers), 'both grippers opened'
     assert any(list(m.position) == [1.0, 0.0] for m in grippers), 'ring_b never opened'
     assert climbing, 'Climb one step up did not start a climb step'
-    if resumed:
-        print(f'the climb step paused and was resumed {len(resumed)} time(s)')
+    if resumer.calls:
+        print(f'the climb step paused and was resumed {len(resumer.calls)} time(s)')
     assert climb_moved, ('the robot did not move during the climb step: '
                          f'{[ClimbStatus.from_key_values(m.values).detail for m in climb_status[-5:]]}')
     for name, path in shots.items():

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import socket
 import subprocess
 import sys
 import time
@@ -113,3 +114,29 @@ def test_without_the_permission_the_nodes_say_why_and_run_on(ros_context, ros_do
         got = SchedulingStatus.from_key_values(values)
         assert got.scheduling_policy == 'SCHED_OTHER' and 'SCHED_RR 12' in got.scheduling_refused
     assert all(policy == 0 for ts in threads.values() for policy, _, _ in ts)
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason='needs root for SCHED_RR')
+def test_the_viewer_claims_its_operator_input_thread_and_leaves_drawing_normal(ros_domain_id):
+    """The deadman's presses and the link's round trip reach viewer_node on viser's websocket
+    thread, outside the executor: it gets the command path's priority; drawing does not."""
+    with socket.socket() as s:
+        s.bind(('127.0.0.1', 0))
+        port = s.getsockname()[1]
+    child = subprocess.Popen([sys.executable, '-m', 'rrps_bringup.compose', 'viewer_node', '--ros-args',
+                              '-r', f'__ns:={NS}', '-p', 'rt_priority:=6', '-p', f'port:={port}',
+                              '-p', 'render_rate:=5.0'],
+                             env=dict(os.environ, ROS_DOMAIN_ID=str(ros_domain_id)),
+                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        def claimed():
+            threads = _threads(child.pid)
+            return threads if any(t[:2] == (2, 6) for t in threads.get('rrps-executor', [])) else None
+        assert wait_for(claimed, timeout=90.0), child.poll()
+        threads = claimed()
+    finally:
+        stop_child(child)
+    assert [t[:2] for t in threads['rrps-in-viser']] == [(2, 6)], threads.get('rrps-in-viser')
+    claimed_names = ('rrps-executor', 'rrps-in-', 'dds.')
+    others = [t for name, ts in threads.items() if not name.startswith(claimed_names) for t in ts]
+    assert others and all(policy == 0 for policy, _, _ in others)  # drawing among them

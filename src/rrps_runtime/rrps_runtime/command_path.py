@@ -1,8 +1,9 @@
 """The scheduling of a node process' command path, claimed from its nodes' ``rt_priority`` and ``cpu_affinity``.
 
 :func:`claim_command_path` merges the nodes' requests and claims them for the threads every command passes through:
-the executor's, its timer threads and the middleware's delivery threads (docs/deployment.md, "Process layout and
-priorities"). Threads started later keep the normal policy; each node logs and reports what was granted.
+the executor's, its timer threads, the middleware's delivery threads and those a node named as its operator's input
+(:data:`~rrps_runtime.scheduling.INPUT_THREAD`; docs/deployment.md, "Process layout and priorities"). Threads
+started later keep the normal policy; each node logs and reports what was granted.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from rrps_runtime.scheduling import (
     Granted,
     Request,
     claim,
+    input_threads,
     middleware_threads,
     name_thread,
     process_request,
@@ -48,8 +50,9 @@ def _request(node: Node) -> Request | None:
 
 def claim_command_path(nodes: Sequence[Node], executor) -> Granted | None:
     """Claim the scheduling the ``nodes`` ask for, for the calling thread (the one that spins
-    ``executor``, which holds the nodes), the executor's timer threads and the middleware's
-    threads; what was granted (None when no node asks). Logs one line per node."""
+    ``executor``, which holds the nodes), the executor's timer threads, the middleware's threads
+    and the operator's input threads; what was granted (None when no node asks). Logs one line
+    per node."""
     requests = [r for r in map(_request, nodes) if r is not None]
     if not requests:
         return None
@@ -66,12 +69,13 @@ def claim_command_path(nodes: Sequence[Node], executor) -> Granted | None:
 
 def claim_executor(request: Request, executor) -> Granted:
     """``request`` for the calling thread (the one that spins ``executor``), the threads the
-    executor starts for its timers (spun once here, so that they exist) and the middleware's."""
+    executor starts for its timers (spun once here, so that they exist), the middleware's and the
+    operator's input threads."""
     name_thread('rrps-executor')
     before = set(thread_ids())
     executor.spin_until_future_complete(Future(), timeout_sec=0.0)  # its timer threads start
     started = sorted(set(thread_ids()) - before)
-    return claim(request, [threading.get_native_id(), *started, *middleware_threads()])
+    return claim(request, [threading.get_native_id(), *started, *middleware_threads(), *input_threads()])
 
 
 def claim_spinning_thread() -> Granted | None:

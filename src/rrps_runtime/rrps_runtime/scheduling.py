@@ -20,6 +20,7 @@ from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, OPERATOR
 
 __all__ = ['Request', 'Granted', 'scheduling_parameters', 'request_of', 'fallback_nice', 'claim', 'claim_thread',
            'background', 'demote', 'thread_ids', 'thread_name', 'name_thread', 'middleware_threads',
+           'input_threads', 'INPUT_THREAD',
            'scheduling_of_thread', 'set_process_scheduling', 'process_scheduling', 'process_request',
            'MAX_RT_PRIORITY', 'NORMAL']
 
@@ -34,6 +35,10 @@ _RESET_ON_FORK = getattr(os, 'SCHED_RESET_ON_FORK', 0x40000000)
 #: dds.shm.*, dds.ev.*, ...; Cyclone DDS: recv*, tev, dq.*): the command path's messages arrive
 #: through them.
 MIDDLEWARE_THREADS = ('dds.', 'recv', 'tev', 'dq.')
+#: Name prefix of a thread through which an operator's input reaches a node outside its executor
+#: (the viewer's websocket thread: the deadman's presses, the link's round trip): claimed with the
+#: command path (:func:`input_threads`).
+INPUT_THREAD = 'rrps-in-'
 
 
 @dataclass(frozen=True)
@@ -153,6 +158,11 @@ def name_thread(name: str) -> None:
 def middleware_threads() -> list[int]:
     """The thread ids of the DDS middleware's delivery threads now (:data:`MIDDLEWARE_THREADS`)."""
     return [tid for tid in thread_ids() if thread_name(tid).startswith(MIDDLEWARE_THREADS)]
+
+
+def input_threads() -> list[int]:
+    """The thread ids of the threads named :data:`INPUT_THREAD` ``*`` now."""
+    return [tid for tid in thread_ids() if thread_name(tid).startswith(INPUT_THREAD)]
 
 
 def _usable_cpus(cpus: tuple[int, ...]) -> tuple[set[int], str]:

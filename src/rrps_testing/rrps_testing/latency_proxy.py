@@ -5,7 +5,9 @@
 Each chunk read from either side is written to the other after a delay drawn uniformly from [lo, hi] ms, never
 before the chunk before it (TCP keeps order). It prints ``{"listening": PORT}``, then reads one command a line
 on stdin, each answered by a JSON line: ``delay LO HI`` (from now on; ``0 0``: none), ``stall SECONDS`` (hold
-every chunk, queued ones too, that long), ``stats``, ``quit``. Used by tests/system/test_multihost_browser.py.
+every chunk, queued ones too, that long), ``stats`` (chunks, bytes, connections, the longest delay
+given and the longest a chunk went out late: the proxy's own stalls), ``quit``. Used by
+tests/system/test_multihost_browser.py.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ class Shaper:
         self.chunks = 0
         self.bytes = 0
         self.max_delay = 0.0
+        self.max_late = 0.0      # the longest a chunk went out after its send time: the proxy's own stall
         self.connections = 0
 
     def set_delay(self, lo_ms: float, hi_ms: float) -> None:
@@ -58,6 +61,7 @@ async def _pump(reader: asyncio.StreamReader, writer: asyncio.StreamWriter, shap
                 delay = at - loop.time()
                 if delay > 0:
                     await asyncio.sleep(delay)
+                shaper.max_late = max(shaper.max_late, loop.time() - at)
                 if data is None:
                     if writer.can_write_eof():
                         writer.write_eof()
@@ -120,7 +124,8 @@ def _control(line: str, shaper: Shaper, loop, stop: asyncio.Event) -> dict:
             return {'ok': True, 'stall_s': float(args[0])}
         if cmd == 'stats' and not args:
             return {'ok': True, 'chunks': shaper.chunks, 'bytes': shaper.bytes,
-                    'connections': shaper.connections, 'max_delay_s': shaper.max_delay}
+                    'connections': shaper.connections, 'max_delay_s': shaper.max_delay,
+                    'max_late_s': shaper.max_late}
         if cmd == 'quit':
             stop.set()
             return {'ok': True}

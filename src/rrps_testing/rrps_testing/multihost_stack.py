@@ -10,18 +10,17 @@ import time
 import numpy as np
 import pytest
 
-from rrps_climbing.path_brake import brake_time
-from rrps_climbing.phase_path import PlayClock
 from rrps_climbing.step_io import StepConfig
-from rrps_description.motion_limits import ActuatorLimits, stream_limits
+from rrps_description.motion_limits import ActuatorLimits
 from rrps_hardware.setpoints import DRIVER_PERIOD, stream_setpoints
 from rrps_interfaces.climb import ClimbState
 from rrps_testing.ci import require
 from rrps_testing.fault_metrics import climb, teleop
 from rrps_testing.netns import netns_supported, wait
 from rrps_testing.netns_rig import Rig
+from rrps_testing.paused_stream import paused_stream
 
-__all__ = ['Stack', 'stack', 'fail_with_logs', 'brake_settle', 'paused_stream',
+__all__ = ['Stack', 'stack', 'fail_with_logs', 'brake_settle',
            'DEADLINE', 'SETTLE', 'STILL', 'ROBOT_RECORD', 'OPERATOR_RECORD',
            'TOKEN', 'VIEWER_PORT', 'MASTER']
 
@@ -47,28 +46,10 @@ VIEWER_PARAMS = {'viewer_node:host': '127.0.0.1', 'viewer_node:port': VIEWER_POR
                  'viewer_node:token': TOKEN, 'viewer_node:render_rate': 5.0}
 
 
-def paused_stream(limits: ActuatorLimits, period: float, *, braked: bool = True) -> np.ndarray:
-    """One leg's commands (k, 1) [m] every ``period`` [s] of a climb paused mid-motion: from rest
-    up to the stream speed of ``limits`` at its stream acceleration, on at that speed, then braked
-    along the path as the climb does (rrps_climbing.path_brake), or (``braked`` False) stopped at once."""
-    stream = stream_limits(limits)
-    ramp = np.minimum(stream.speed, stream.acceleration * period * np.arange(1, 100))
-    commands = list(np.cumsum(ramp * period))
-    if braked:
-        clock = PlayClock(period)
-        clock.advance(0.0)
-        clock.brake(brake_time(stream))
-        at, start, now = commands[-1], clock.t, 0.0
-        while clock.braking:
-            now += period
-            commands.append(at + stream.speed * (clock.advance(now) - start))
-    return np.asarray(commands)[:, None]
-
-
 def brake_settle(limits: ActuatorLimits) -> float:
     """How long [s] after a paused climb's last target the legs may still move: the driver's
     jerk-limited setpoints (rrps_hardware.setpoints) reach the braked stream's last target
-    (:func:`paused_stream`) shortly after it; then the actuators' lag settles (:data:`SETTLE`)."""
+    (rrps_testing.paused_stream) shortly after it; then the actuators' lag settles (:data:`SETTLE`)."""
     period = StepConfig().period
     commands = paused_stream(limits, period)
     setpoints = stream_setpoints(commands, period, limits, settle=5.0)[:, 0]

@@ -158,10 +158,11 @@ class Rig:
         return env
 
     def start(self, host: str, name: str, args: Sequence[str], *, env: dict | None = None,
-              pipes: bool = False, cwd: str | Path | None = None) -> subprocess.Popen:
+              pipes: bool = False, cwd: str | Path | None = None, nice: int | None = None) -> subprocess.Popen:
         """Start ``args`` on ``host`` ('robot' or 'operator') as ``name``, in a process group
-        of its own; stdout and stderr go to ``<log_dir>/<name>.log`` (or stdin/stdout pipes
-        with ``pipes``: stderr still to the log)."""
+        of its own (at ``nice``, its session's autogroup too: rrps_runtime.supervision.start_child);
+        stdout and stderr go to ``<log_dir>/<name>.log`` (or stdin/stdout pipes with ``pipes``:
+        stderr still to the log)."""
         if name in self.processes and self.processes[name].poll() is None:
             raise RuntimeError(f'{name} is already running')
         ns = self.namespace(host)
@@ -172,7 +173,7 @@ class Rig:
                       start_new_session=True, cwd=cwd)
         if pipes:
             kwargs.update(text=True, bufsize=1)
-        process = start_child(command, env=env or self.env(), **kwargs)
+        process = start_child(command, env=env or self.env(), nice=nice, **kwargs)
         self.processes[name] = process
         return process
 

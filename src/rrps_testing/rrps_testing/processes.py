@@ -24,6 +24,44 @@ def cpu_seconds(pids) -> float:
     return total
 
 
+def descendants(pid: int) -> list[int]:
+    """The processes below ``pid`` (its children, theirs, ...), from the parent ids in /proc/<pid>/stat."""
+    parents: dict[int, list[int]] = {}
+    for entry in os.listdir('/proc'):
+        if not entry.isdigit():
+            continue
+        try:
+            ppid = int(Path(f'/proc/{entry}/stat').read_text().rsplit(')', 1)[1].split()[1])
+        except (OSError, IndexError, ValueError):
+            continue
+        parents.setdefault(ppid, []).append(int(entry))
+    found, todo = [], [pid]
+    while todo:
+        children = parents.get(todo.pop(), [])
+        found += children
+        todo += children
+    return found
+
+
+def raise_tree_priority(pid: int, nice: int) -> list[int]:
+    """Give every session led by ``pid`` or one of its descendants the autogroup nice value ``nice``
+    (a child that starts a session of its own, as Playwright's browser does, leaves its parent's
+    autogroup and with it the parent's weight); returns those session leaders (root needed for a
+    negative ``nice``). Sessions are weighed against each other by their autogroups, whatever the
+    nice values of their threads."""
+    done = []
+    for p in [pid, *descendants(pid)]:
+        try:
+            if os.getsid(p) != p:
+                continue
+            with open(f'/proc/{p}/autogroup', 'w') as f:
+                f.write(str(nice))
+        except OSError:  # gone meanwhile, no autogroup in this kernel, or not permitted
+            continue
+        done.append(p)
+    return done
+
+
 def wait_until(predicate, timeout: float) -> bool:
     """Poll ``predicate`` every 10 ms until it is truthy (True) or ``timeout`` s pass (False)."""
     deadline = time.monotonic() + timeout

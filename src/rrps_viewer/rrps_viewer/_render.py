@@ -8,6 +8,7 @@ holding control, ``/operator/master_handle``. Drawing runs in this module's own 
 
 from __future__ import annotations
 
+import asyncio
 import threading
 import time
 from dataclasses import dataclass, field
@@ -20,6 +21,7 @@ import viser.uplot
 from rrps_description.geometry import RobotGeometry
 from rrps_description.pose import Pose
 from rrps_kinematics.scene import RobotFigure
+from rrps_runtime.scheduling import INPUT_THREAD, name_thread
 from rrps_viewer._broadcast import install as install_shared_encoding
 from rrps_viewer._camera import FirstView
 from rrps_viewer._control import OperatorControl
@@ -55,6 +57,15 @@ class Frame:
     #: the limits felt on the master: an arrow (2, 3) [m, world] from its ring_b
     master_feedback: np.ndarray | None = None
     replay: object | None = None  # a ReplayStatus while a replay runs (the timeline)
+
+
+def name_input_thread(server: viser.ViserServer) -> None:
+    """Name viser's event-loop thread :data:`~rrps_runtime.scheduling.INPUT_THREAD` ``viser``: the
+    operator's deadman presses and the link's round trip arrive on it, so the command path's
+    scheduling is claimed for it too (rrps_runtime.command_path)."""
+    async def named() -> None:
+        name_thread(f'{INPUT_THREAD}viser')
+    asyncio.run_coroutine_threadsafe(named(), server.get_event_loop()).result(timeout=30.0)
 
 
 class ViewerServer:
@@ -102,6 +113,7 @@ class ViewerServer:
         self.server.on_client_connect(self._on_connect)
         self.server.on_client_disconnect(self._on_disconnect)
         self.links = LinkMonitor(self.server)
+        name_input_thread(self.server)
         self._thread = threading.Thread(target=self._run, name='viewer-draw', daemon=True)
         self._thread.start()
 

@@ -23,12 +23,12 @@ from rrps_description.structures import make_structure
 from rrps_interfaces.climb import CLIMB_RESUME, ClimbState, ClimbStatus
 from rrps_runtime.messages import pose_from_msg
 from rrps_runtime.qos import COMMAND_QOS
+from rrps_testing.climb_resume import Resumer
 from rrps_testing.climb_stack import climb_stack
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 DEADLINE = 120.0
-MAX_RESUMES = 5
 TOL = 1e-3
 
 
@@ -48,24 +48,19 @@ def _climb(ros_context, robot: str, structure: str, start: float, **extra):
         return any(x.state is ClimbState.IDLE and x.steps_done == 1 for x in s) \
             or any(x.state is ClimbState.FAILED for x in s)
 
-    resume = probe.create_client(Trigger, CLIMB_RESUME)
-    resumed = []
+    client = probe.create_client(Trigger, CLIMB_RESUME)
+    resumer = Resumer(lambda: client.call_async(Trigger.Request()))
 
     def done_or_resumed() -> bool:
-        # A step paused because a stall of this loaded process aged the robot's state is what an
-        # operator resumes (the hold itself is tested in test_liveness).
-        last = ClimbStatus.from_key_values(logs['status'][-1].values) if logs['status'] else None
-        if (last is not None and last.state is ClimbState.PAUSED and len(resumed) < MAX_RESUMES
-                and (not resumed or resumed[-1].done())):
-            resumed.append(resume.call_async(Trigger.Request()))
+        resumer(ClimbStatus.from_key_values(logs['status'][-1].values) if logs['status'] else None)
         return done()
 
     with Spinner(ros_context, nodes + [probe]):
         assert wait_for(done_or_resumed, DEADLINE), \
             ClimbStatus.from_key_values(logs['status'][-1].values)
         wait_for(lambda: False, timeout=0.3)
-    if resumed:
-        print(f'the step paused and was resumed {len(resumed)} time(s)')
+    if resumer.calls:
+        print(f'the step paused and was resumed {len(resumer.calls)} time(s)')
     states = [ClimbStatus.from_key_values(m.values) for m in logs['status']]
     assert not any(x.state is ClimbState.FAILED for x in states), states[-1].detail
     return climb, logs

@@ -13,7 +13,7 @@ from rrps_climbing.path_brake import brake_time, braked_path_time
 from rrps_climbing.phase_path import PlayClock
 from rrps_description.motion_limits import ActuatorLimits, stream_limits
 from rrps_hardware.setpoints import stream_setpoints
-from rrps_testing.multihost_stack import paused_stream
+from rrps_testing.paused_stream import paused_stream
 
 LIMITS = ActuatorLimits(speed=0.05, acceleration=0.25, jerk=2.5)   # the pole climber's legs
 PERIOD = 0.02

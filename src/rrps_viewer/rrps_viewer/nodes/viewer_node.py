@@ -81,7 +81,7 @@ PARAMETERS = NodeParameters('viewer_node', 'rrps_viewer', [
               'link relays (link)', choices=SOURCES),
     Parameter('robots', ('',), "the namespaces of the robots (a fleet's: /robot_1, ...; '': the viewer's own), "
               'the first drawn at start', item_type=str),
-    *scheduling_parameters(OPERATOR_RT_PRIORITY),  # its executor sends the deadman; drawing stays normal
+    *scheduling_parameters(OPERATOR_RT_PRIORITY),  # executor and websocket carry the deadman; drawing stays normal
 ])
 
 
