@@ -61,7 +61,13 @@ print('tools:', ' '.join(ep.name for ep in tools))
 '''
 
 
-def _run(command: list[str], env: dict | None = None, timeout: float = 600) -> subprocess.CompletedProcess:
+#: [s] A guard against a hang (it times nothing): building the wheels or installing them runs at
+#: nice 10 beside the system tests, and under ``./rrps test --load`` a slow hour made a build that
+#: takes minutes pass 600 s.
+COMMAND_TIMEOUT = 1800
+
+
+def _run(command: list[str], env: dict | None = None, timeout: float = COMMAND_TIMEOUT) -> subprocess.CompletedProcess:
     return subprocess.run(command, capture_output=True, text=True, timeout=timeout, env=env, cwd='/')
 
 

@@ -48,6 +48,12 @@ def module_exists(target: str) -> bool:
     return path.with_suffix('.py').exists() or (path / '__init__.py').exists()
 
 
+#: [s] A guard against a hang (it times nothing): colcon builds the 15 packages at nice 10 beside
+#: the system tests, and under ``./rrps test --load`` on a slow hour it had not finished after
+#: 600 s, this guard's first value.
+BUILD_TIMEOUT = 1800
+
+
 @pytest.fixture(scope='module')
 def install_base(tmp_path_factory) -> Path:
     colcon = shutil.which('colcon') or str(Path(sys.executable).parent / 'colcon')
@@ -56,7 +62,7 @@ def install_base(tmp_path_factory) -> Path:
     cmd = [colcon, '--log-base', str(base / 'log'), 'build', '--base-paths', str(SRC),
            '--build-base', str(base / 'build'), '--install-base', str(base / 'install'),
            '--event-handlers', 'console_direct-']
-    result = subprocess.run(cmd, cwd=base, capture_output=True, text=True, timeout=600)
+    result = subprocess.run(cmd, cwd=base, capture_output=True, text=True, timeout=BUILD_TIMEOUT)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     return base / 'install'
 
