@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import os
 import shutil
-import socket
 import subprocess
 import sys
 import time
@@ -19,6 +18,8 @@ from diagnostic_msgs.msg import DiagnosticArray
 from rrps_interfaces.kinematics import IkStatus
 from rrps_interfaces.status import SchedulingStatus, source_node
 from rrps_runtime.supervision import stop_child
+from rrps_testing.ci import require
+from rrps_testing.processes import free_port
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith('linux'), reason='Linux scheduling')
@@ -116,13 +117,11 @@ def test_without_the_permission_the_nodes_say_why_and_run_on(ros_context, ros_do
     assert all(policy == 0 for ts in threads.values() for policy, _, _ in ts)
 
 
-@pytest.mark.skipif(os.geteuid() != 0, reason='needs root for SCHED_RR')
 def test_the_viewer_claims_its_operator_input_thread_and_leaves_drawing_normal(ros_domain_id):
     """The deadman's presses and the link's round trip reach viewer_node on viser's websocket
     thread, outside the executor: it gets the command path's priority; drawing does not."""
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        port = s.getsockname()[1]
+    require(os.geteuid() == 0, 'SCHED_RR needs root (CI runs as root)')
+    port = free_port()
     child = subprocess.Popen([sys.executable, '-m', 'rrps_bringup.compose', 'viewer_node', '--ros-args',
                               '-r', f'__ns:={NS}', '-p', 'rt_priority:=6', '-p', f'port:={port}',
                               '-p', 'render_rate:=5.0'],

@@ -19,7 +19,8 @@ from typing import Sequence
 
 __all__ = ['SHUTDOWN_DEADLINE', 'STOP_GRACE',
            'PARENT_PID_ENV', 'CONTROL_NICE', 'CONTROL_RT_PRIORITY', 'OPERATOR_NICE', 'OPERATOR_RT_PRIORITY',
-           'OBSERVER_NICE', 'start_child', 'priority_of', 'group_priority_of', 'scheduling_of', 'raise_priority',
+           'OBSERVER_NICE', 'start_child', 'priority_of', 'group_priority_of', 'set_group_priority', 'scheduling_of',
+           'raise_priority',
            'stop_child', 'stop_children', 'terminate_children', 'hurry', 'wait_children', 'exit_with_parent',
            'die_with_parent', 'Respawner', 'process_alive',
            'child_pids']
@@ -63,13 +64,13 @@ def raise_priority(nice: int, *, realtime: int | None = None) -> bool:
         os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
     if niced:
         try:
-            _set_group_priority(os.getpid(), nice)
+            set_group_priority(os.getpid(), nice)
         except OSError:  # no autogroup in this kernel, or not permitted: the nice value stands
             pass
     return niced and realtime_set
 
 
-def _set_group_priority(pid: int, nice: int) -> None:
+def set_group_priority(pid: int, nice: int) -> None:
     """The autogroup nice value of process ``pid``'s session, when ``pid`` leads it (OSError: no
     autogroup in this kernel, or not permitted)."""
     if os.getsid(pid) == pid:
@@ -194,7 +195,7 @@ def hurry(pid: int) -> None:
             return
         for tid in os.listdir(f'/proc/{pid}/task'):
             os.setpriority(os.PRIO_PROCESS, int(tid), 0)
-        _set_group_priority(pid, 0)
+        set_group_priority(pid, 0)
     except (OSError, ValueError):  # gone meanwhile, no autogroup, or not permitted: it stops as it is
         pass
 

@@ -4,9 +4,12 @@ from __future__ import annotations
 
 import os
 import signal
+import socket
 import subprocess
 import time
 from pathlib import Path
+
+from rrps_runtime.supervision import set_group_priority
 
 _TICK = os.sysconf('SC_CLK_TCK')
 
@@ -22,6 +25,13 @@ def cpu_seconds(pids) -> float:
             continue
         total += (int(fields[11]) + int(fields[12])) / _TICK
     return total
+
+
+def free_port() -> int:
+    """A TCP port on 127.0.0.1 that was free a moment ago (for a server a test starts)."""
+    with socket.socket() as s:
+        s.bind(('127.0.0.1', 0))
+        return s.getsockname()[1]
 
 
 def descendants(pid: int) -> list[int]:
@@ -54,8 +64,7 @@ def raise_tree_priority(pid: int, nice: int) -> list[int]:
         try:
             if os.getsid(p) != p:
                 continue
-            with open(f'/proc/{p}/autogroup', 'w') as f:
-                f.write(str(nice))
+            set_group_priority(p, nice)
         except OSError:  # gone meanwhile, no autogroup in this kernel, or not permitted
             continue
         done.append(p)
