@@ -72,8 +72,9 @@ def test_start_data_come_from_the_generator_script(S):
     script = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(script)
     P, chart, x0 = script.generic_system(np.random.default_rng(S.SEED))
-    np.testing.assert_array_equal(P, S.PARAMETERS)
-    np.testing.assert_array_equal(chart, S.CHART)
+    # the script's arithmetic rounds in the last bit differently on other CPUs and BLAS builds
+    np.testing.assert_allclose(P, S.PARAMETERS, rtol=1e-13, atol=0)
+    np.testing.assert_allclose(chart, S.CHART, rtol=1e-13, atol=0)
     assert np.max(np.abs(_system(x0, P, chart))) < 1e-12
 
 
