@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rrps_climbing.path_brake import braked_path_time
+from rrps_climbing.path_brake import PathBrake
 from rrps_description.pose import Pose
 from rrps_description.rotations import rotation_angle_between
 
@@ -65,32 +65,32 @@ class PhasePath:
 class PlayClock:
     """Where a stream played every ``period`` [s] is in its path: each tick advances it by the time
     since the last tick (at most :data:`MAX_TICK_PERIODS` periods), the first one by one period;
-    during a :meth:`brake`, by the braked time (:func:`.path_brake.braked_path_time`)."""
+    during a :meth:`brake`, by the braked time (:meth:`.path_brake.PathBrake.path_time`)."""
 
     def __init__(self, period: float):
         self.period, self.t = float(period), 0.0
         self._last: float | None = None
-        self._brake: tuple[float, float, float] | None = None  # its start [s], path time then [s], duration [s]
+        self._brake: tuple[float, float, PathBrake] | None = None  # its start [s], path time then [s], profile
 
     def advance(self, now: float) -> float:
         """The path time [s] at a tick at ``now`` [s]."""
         if self._brake is not None:
-            start, t0, duration = self._brake
-            self._last, self.t = now, t0 + braked_path_time(now - start, duration)
+            start, t0, brake = self._brake
+            self._last, self.t = now, t0 + brake.path_time(now - start)
             return self.t
         step = self.period if self._last is None else min(max(now - self._last, 0.0), MAX_TICK_PERIODS * self.period)
         self._last, self.t = now, self.t + step
         return self.t
 
-    def brake(self, duration: float) -> None:
-        """From the last tick on, slow the play to rest in ``duration`` [s] (none before a first tick)."""
+    def brake(self, brake: PathBrake) -> None:
+        """From the last tick on, slow the play to rest along ``brake`` (none before a first tick)."""
         if self._last is not None and self._brake is None:
-            self._brake = (self._last, self.t, float(duration))
+            self._brake = (self._last, self.t, brake)
 
     @property
     def braking(self) -> bool:
         """A brake is under way (its last tick is yet to come)."""
-        return self._brake is not None and self._last - self._brake[0] < self._brake[2]
+        return self._brake is not None and self._last - self._brake[0] < self._brake[2].duration
 
     def restart(self, at: float | None = None) -> None:
         """After a pause: the next tick advances one period (from path time ``at`` [s] if given)."""

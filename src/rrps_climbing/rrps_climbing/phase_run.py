@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from rrps_climbing.climb_watch import InputWatch
-from rrps_climbing.path_brake import brake_time
+from rrps_climbing.path_brake import PathBrake
 from rrps_climbing.phase_path import PhasePath, PlayClock
 from rrps_climbing.plan import Phase
 from rrps_climbing.step_io import ClimbOutput, ClimbTarget, GripperRequest, StepConfig
@@ -59,7 +59,7 @@ class PhaseRun:
         (:meth:`brake_step` plays it); whether it brakes."""
         if self.stage != 'stream':
             return False
-        self.clock.brake(brake_time(self.phase.timing.leg_limits))
+        self.clock.brake(PathBrake(self.phase.timing.leg_limits))
         return self.clock.braking
 
     def brake_step(self, now: float, out: ClimbOutput) -> None:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rrps_climbing.path_brake import brake_time
+from rrps_climbing.path_brake import PathBrake
 from rrps_climbing.phase_path import PlayClock
 from rrps_description.motion_limits import ActuatorLimits, stream_limits
 
@@ -24,7 +24,7 @@ def paused_stream(limits: ActuatorLimits, period: float, *, braked: bool = True)
     if braked:
         clock = PlayClock(period)
         clock.advance(0.0)
-        clock.brake(brake_time(stream))
+        clock.brake(PathBrake(stream))
         at, start, now = commands[-1], clock.t, 0.0
         while clock.braking:
             now += period
