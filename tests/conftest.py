@@ -107,15 +107,60 @@ def _ticks_now() -> int:
         return int(f.read().rsplit(')', 1)[1].split()[19])
 
 
+#: The directory of the session's machine turns (rrps_testing.machine_turns), made by the controller.
+TURNS_ENV = 'RRPS_TEST_TURNS'
+
+
+def pytest_configure(config):
+    """The controller (or the one process of ``-n 0``) makes the session's machine turns; its
+    pytest-xdist workers, started after this, inherit their directory."""
+    if not hasattr(config, 'workerinput'):
+        import tempfile
+        config._rrps_turns = os.environ[TURNS_ENV] = tempfile.mkdtemp(prefix='rrps-turns-')
+
+
 def pytest_unconfigure(config):
-    """The objects the nodes built here froze out of the collector's reach (a driver freezes its
-    hardware's) back in it, so that the interpreter's end frees them: a Ruckig object still alive
-    then is reported by nanobind as a leak."""
+    """The machine turns' directory is removed. The objects the nodes built here froze out of the
+    collector's reach (a driver freezes its hardware's) back in it, so that the interpreter's end
+    frees them: a Ruckig object still alive then is reported by nanobind as a leak."""
     import gc
+    import shutil
 
     from rrps_runtime.collector import thaw
+    if getattr(config, '_rrps_turns', None):
+        shutil.rmtree(config._rrps_turns, ignore_errors=True)
     thaw()
     gc.collect()
+
+
+def _turns():
+    from rrps_testing.machine_turns import MachineTurns
+    return MachineTurns(os.environ[TURNS_ENV]) if os.environ.get(TURNS_ENV) else None
+
+
+@pytest.fixture(scope='module', autouse=True)
+def module_machine_turn(request):
+    """A module marked ``exclusive`` holds the machine alone from its first fixture to its last test
+    (its module-scoped stack runs between its tests)."""
+    turns = _turns()
+    if turns is None or request.node.get_closest_marker('exclusive') is None:
+        yield False
+        return
+    with turns.take(exclusive=True):
+        yield True
+
+
+@pytest.fixture(autouse=True)
+def machine_turn(request, module_machine_turn):
+    """Every test shares the machine with the other worker's, but one marked ``exclusive`` holds it
+    alone (rrps_testing.machine_turns): the CANopen drive simulator and driver at SCHED_RR take
+    about 1.3 of its 2 cores, and beside them another test's DDS threads starved for seconds."""
+    turns = _turns()
+    if turns is None or module_machine_turn:
+        yield
+        return
+    with turns.take(exclusive=request.node.get_closest_marker('exclusive') is not None):
+        yield
 
 
 def pytest_sessionstart(session):

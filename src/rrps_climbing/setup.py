@@ -20,6 +20,7 @@ setup(
         'numpy',
         'scipy',
         'toppra',
+        'ruckig',
         'ros-jazzy-diagnostic-msgs',
         'ros-jazzy-geometry-msgs',
         'ros-jazzy-nav-msgs',

@@ -22,7 +22,7 @@ from rrps_runtime.qos import COMMAND_QOS
 from rrps_testing.canopen_stack import call, canopen_stack, climb_state, finish_step, teleop_status
 from rrps_testing.ros_harness import header_time, wait_for
 
-pytestmark = [pytest.mark.slow, pytest.mark.ros]
+pytestmark = [pytest.mark.slow, pytest.mark.ros, pytest.mark.exclusive]  # the drive simulator and driver at SCHED_RR
 MASTER = load_robot('master_robot')
 #: The pole climber's legs' speed limit [m/s].
 SPEED = load_robot('pole_climber').motion_limits.legs.speed

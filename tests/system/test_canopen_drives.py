@@ -12,6 +12,7 @@ machine)."""
 
 from __future__ import annotations
 
+import os
 import re
 import time
 
@@ -20,10 +21,11 @@ import pytest
 
 from rrps_description.geometry import load_robot
 from rrps_hardware.interface import Command, HardwareConfig
-from rrps_testing.canopen_rig import UNHURRIED_BUS, DriveSim, canopen_hardware, cycle_to, robot_yaml
+from rrps_testing.canopen_rig import SIM_RT_PRIORITY, UNHURRIED_BUS, DriveSim, canopen_hardware, cycle_to, robot_yaml
+from rrps_testing.ci import require
 from rrps_testing.ros_harness import wait_for
 
-pytestmark = [pytest.mark.slow]
+pytestmark = [pytest.mark.slow, pytest.mark.exclusive]  # the drive simulator and driver at SCHED_RR
 POLE = load_robot('pole_climber')
 COUNT = 1.0 / POLE.bus.drives[0].counts_per_metre
 
@@ -191,3 +193,21 @@ def test_the_sync_cycle_follows_a_command_written_once_within_the_legs_limits(tm
     window = 100
     speed = np.abs(targets[window:] - targets[:-window]).max(axis=1) / (t[window:] - t[:-window])
     assert speed.max() <= 1.05 * v, speed.max()
+
+
+def test_the_simulated_drives_take_their_real_time_priority_once_ready_and_say_what_they_got():
+    """Its start-up (imports, object dictionaries: seconds of CPU) runs at the normal policy, never above a
+    robot's real-time threads; once ready every thread of it runs SCHED_RR at --rt-priority, as /proc says."""
+    require(os.geteuid() == 0, 'SCHED_RR needs root (or CAP_SYS_NICE)')
+    with DriveSim('pole_climber') as sim:
+        assert sim.ready['scheduling'].startswith(f'SCHED_RR {SIM_RT_PRIORITY} '), sim.ready
+        def names() -> dict[int, str]:
+            task = f'/proc/{sim.process.pid}/task'
+            return {int(t): open(f'{task}/{t}/comm').read().strip() for t in os.listdir(task)}
+        assert wait_for(lambda: 'requests' in names().values())
+        names = names()
+        tids = [t for t, name in names.items() if name != 'requests']   # a test's requests: the normal policy
+        assert len(tids) >= 3, names   # main, the bus' receive thread, the heartbeats
+        for tid in tids:
+            assert os.sched_getscheduler(tid) & ~os.SCHED_RESET_ON_FORK == os.SCHED_RR, names[tid]
+            assert os.sched_getparam(tid).sched_priority == SIM_RT_PRIORITY, names[tid]

@@ -17,7 +17,7 @@ from rrps_interfaces.climb import CLIMB_STEP_UP, ClimbState
 from rrps_testing.canopen_stack import call, canopen_stack, climb_state, engage, fault_episode, finish_step
 from rrps_testing.ros_harness import wait_for
 
-pytestmark = [pytest.mark.slow, pytest.mark.ros]
+pytestmark = [pytest.mark.slow, pytest.mark.ros, pytest.mark.exclusive]  # the drive simulator and driver at SCHED_RR
 POLE = load_robot('pole_climber')
 #: The faults of a drive (rrps_canopen_sim) and of the bus, in the order they are injected.
 FAULTS = ('current', 'fault_bit', 'blocked', 'silent', 'reboot', 'bus')

@@ -22,7 +22,7 @@ from rrps_hardware.interface import FaultKind, HardwareConfig
 from rrps_testing.canopen_rig import UNHURRIED_BUS, DriveSim, canopen_hardware, cycle_to, robot_yaml
 from rrps_testing.ros_harness import wait_for
 
-pytestmark = [pytest.mark.slow]
+pytestmark = [pytest.mark.slow, pytest.mark.exclusive]  # the drive simulator and driver at SCHED_RR
 POLE = load_robot('pole_climber')
 #: [m] one encoder count of the shipped pole climber's drives.
 COUNT = 1.0 / POLE.bus.drives[0].counts_per_metre

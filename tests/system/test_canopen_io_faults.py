@@ -17,7 +17,7 @@ from rrps_interfaces.driver import gripper_states
 from rrps_testing.canopen_stack import activated_driver, fault_episode
 from rrps_testing.ros_harness import wait_for
 
-pytestmark = [pytest.mark.slow, pytest.mark.ros]
+pytestmark = [pytest.mark.slow, pytest.mark.ros, pytest.mark.exclusive]  # the drive simulator and driver at SCHED_RR
 #: [s] the test robot's ``bus.grippers.sensor_timeout``: room for the interlock's check before
 #: the disagreement becomes a fault, on a loaded machine.
 SENSOR_TIMEOUT = 2.0

@@ -21,7 +21,7 @@ from rrps_interfaces.teleop import MASTER_FEEDBACK, MASTER_FRAME, MASTER_STATE
 from rrps_testing.canopen_rig import DriveSim
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
 
-pytestmark = [pytest.mark.slow, pytest.mark.ros]
+pytestmark = [pytest.mark.slow, pytest.mark.ros, pytest.mark.exclusive]  # the drive simulator and driver at SCHED_RR
 MASTER = load_robot('master_robot')
 NAMESPACE = '/rrps_master'
 

@@ -50,8 +50,8 @@ def start_drives(*, robot: str) -> subprocess.Popen:
     """The simulated CANopen drives of ``robot``'s bus (``rrps-drive-sim``), above the driver's
     priority as real drives are hardware of their own; on the bus port of ``RRPS_CAN_PORT``."""
     from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child
-    return start_child([sys.executable, '-m', 'rrps_canopen_sim.process', '--robot', robot],
-                       nice=CONTROL_NICE, realtime=CONTROL_RT_PRIORITY + 10)
+    return start_child([sys.executable, '-m', 'rrps_canopen_sim.process', '--robot', robot,
+                        '--rt-priority', str(CONTROL_RT_PRIORITY + 10)], nice=CONTROL_NICE)
 
 
 def driver_command(*, robot: str, rate: float = 500.0, namespace: str = NAMESPACE,

@@ -24,7 +24,7 @@ from rrps_canopen_sim.heartbeat import HeartbeatProducer
 from rrps_canopen_sim.io import Clamp, SimulatedIoModule
 from rrps_description.geometry import RobotGeometry
 from rrps_description.names import RINGS
-from rrps_sim.actuators import KinematicActuators
+from rrps_sim.kinematic_actuators import KinematicActuators
 
 __all__ = ['SimulatedBus', 'HandModel', 'FAULTS']
 

@@ -1,5 +1,7 @@
 """``rrps-drive-sim``: the simulated drives of one robot's CAN bus, in a process of their own, until
-SIGTERM or SIGINT; the first line out is ``{"ready": true, ...}``. ``--stdin`` takes JSON requests
+SIGTERM or SIGINT; the first line out is ``{"ready": true, ...}``. With ``--rt-priority`` its threads
+take SCHED_RR once the devices are built (as permitted; the line says what they got), so that its
+start-up (imports, object dictionaries) never runs above a robot's real-time threads. ``--stdin`` takes JSON requests
 (:meth:`rrps_canopen_sim.bus.SimulatedBus.control`), one answer line each. Exit status 2 and one
 line on a bad robot or bus."""
 
@@ -27,12 +29,17 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument('--behaviour', type=json.loads, default=None, metavar='JSON',
                    help='how the drives behave (rrps_canopen_sim.behaviour): options for every drive, or per '
                    'drive under its name')
+    p.add_argument('--rt-priority', type=int, default=0, metavar='N',
+                   help='SCHED_RR priority of its threads once ready (0: the normal policy); devices with '
+                   'processors of their own answer a SYNC within its period')
     p.add_argument('--stdin', action='store_true', help='take requests (JSON lines) on standard input, answer '
                    'on standard output, and stop at the end of the input')
     return p
 
 
 def _serve(bus, stop: threading.Event) -> None:
+    from rrps_runtime.scheduling import name_thread
+    name_thread('requests')  # a test's requests, at the normal policy
     for line in sys.stdin:
         line = line.strip()
         if not line:
@@ -50,11 +57,13 @@ def main(argv=None) -> int:
     from rrps_canopen_sim.bus import SimulatedBus
     from rrps_description.geometry import load_robot
     from rrps_runtime.collector import freeze_startup_objects
+    from rrps_runtime.scheduling import Request, claim, thread_ids
     sys.setswitchinterval(5e-4)  # the bus' receive thread gets the interpreter within a fraction of a period
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())
     try:
+        request = Request(args.rt_priority)
         geometry = load_robot(args.robot)
         bus = SimulatedBus(geometry, lengths=args.lengths, master=args.master, time_constant=args.time_constant,
                            behaviour=args.behaviour)
@@ -62,9 +71,10 @@ def main(argv=None) -> int:
         print(f'rrps-drive-sim: error: {exc}', file=sys.stderr)
         return 2
     freeze_startup_objects()  # the devices' objects, before the first SYNC
+    granted = claim(request, thread_ids())
     try:
-        print(json.dumps({'ready': True, 'robot': geometry.name,
-                          'nodes': geometry.bus.node_ids()}), flush=True)
+        print(json.dumps({'ready': True, 'robot': geometry.name, 'nodes': geometry.bus.node_ids(),
+                          'scheduling': granted.text()}), flush=True)
         if args.stdin:
             threading.Thread(target=_serve, args=(bus, stop), daemon=True).start()
         while not stop.wait(0.2):

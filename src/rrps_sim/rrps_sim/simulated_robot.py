@@ -1,6 +1,6 @@
 """The simulated robot behind the hardware interface: actuators, ring DOFs, grippers, faults.
 
-``mode`` ``kinematic`` (:class:`rrps_sim.actuators.KinematicActuators`, quasi-static efforts) or
+``mode`` ``kinematic`` (:class:`rrps_sim.kinematic_actuators.KinematicActuators`, quasi-static efforts) or
 ``dynamic`` (:class:`rrps_sim.actuators.DynamicActuators`, eqs. 19-20); ``write`` advances it by its
 period along jerk-limited setpoints, ``read`` measures it. Gravity follows the supporting ring
 (docs/architecture.md, 'The supporting ring's attitude'); the state survives the driver
@@ -37,9 +37,10 @@ from rrps_hardware.interface import (
 )
 from rrps_hardware.setpoints import JerkLimitedSetpoints
 from rrps_interfaces.driver import ActuatorMode
-from rrps_sim.actuators import DynamicActuators, KinematicActuators, QuasiStaticEfforts, SensorFaults
+from rrps_sim.actuators import DynamicActuators, QuasiStaticEfforts, SensorFaults
 from rrps_sim.grippers import Grippers
 from rrps_sim.hardware_state import HardwareState, StateFileWriter, load_state
+from rrps_sim.kinematic_actuators import KinematicActuators
 from rrps_sim.simulated_parameters import SIMULATED_ROBOT_PARAMETERS
 
 __all__ = ['SimulatedRobot']

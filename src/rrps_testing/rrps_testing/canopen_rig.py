@@ -28,7 +28,7 @@ from rrps_hardware.interface import Command
 from rrps_runtime.supervision import CONTROL_NICE, CONTROL_RT_PRIORITY, start_child, stop_child
 
 __all__ = ['free_port', 'DriveSim', 'driver_process', 'can_env', 'cycle_to', 'canopen_hardware', 'robot_yaml',
-           'UNHURRIED_BUS']
+           'SIM_RT_PRIORITY', 'UNHURRIED_BUS']
 
 #: Bus keys for tests that are not about heartbeats: a loaded machine must not lose one in them.
 UNHURRIED_BUS = {'heartbeat_period': 0.05, 'heartbeat_timeout': 0.5}
@@ -57,12 +57,13 @@ class DriveSim:
                  lengths=None, time_constant: float | None = None, behaviour: dict | None = None,
                  cpus: tuple[int, ...] = ()):
         self.port = free_port() if port is None else port
-        args = [sys.executable, '-m', 'rrps_canopen_sim.process', '--robot', robot, '--stdin']
+        args = [sys.executable, '-m', 'rrps_canopen_sim.process', '--robot', robot, '--stdin',
+                '--rt-priority', str(SIM_RT_PRIORITY)]
         args += ['--master'] if master else []
         args += ['--lengths', *map(str, lengths)] if lengths is not None else []
         args += ['--time-constant', str(time_constant)] if time_constant is not None else []
         args += ['--behaviour', json.dumps(behaviour)] if behaviour else []
-        self.process = start_child(args, env=can_env(self.port), nice=CONTROL_NICE, realtime=SIM_RT_PRIORITY,
+        self.process = start_child(args, env=can_env(self.port), nice=CONTROL_NICE,
                                    stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         self._lines: queue.Queue[str | None] = queue.Queue()
         threading.Thread(target=self._read, daemon=True).start()
@@ -130,7 +131,7 @@ def driver_process(port: int, *params: str, robot: str = 'pole_climber', namespa
     for p in params:
         args += ['-p', p]
     env = can_env(port, **({'ROS_DOMAIN_ID': str(domain_id)} if domain_id is not None else {}))
-    return start_child(args, env=env, nice=CONTROL_NICE, realtime=CONTROL_RT_PRIORITY, stdout=subprocess.PIPE,
+    return start_child(args, env=env, nice=CONTROL_NICE, stdout=subprocess.PIPE,  # it claims its cycle's priority
                        stderr=subprocess.PIPE, text=True)
 
 

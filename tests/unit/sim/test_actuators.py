@@ -10,7 +10,8 @@ from hypothesis import strategies as st
 from rrps_description.geometry import load_robot
 from rrps_kinematics import inverse_kinematics
 from rrps_loads.statics import holding_forces
-from rrps_sim.actuators import DynamicActuators, KinematicActuators, QuasiStaticEfforts, SensorFaults
+from rrps_sim.actuators import DynamicActuators, QuasiStaticEfforts, SensorFaults
+from rrps_sim.kinematic_actuators import KinematicActuators
 
 LO, HI = 0.3, 0.55
 
