@@ -19,7 +19,6 @@ import json
 import os
 import shutil
 import signal
-import socket
 import subprocess
 import time
 from pathlib import Path
@@ -28,6 +27,7 @@ import numpy as np
 import pytest
 
 from rrps_testing.climb_resume import Resumer
+from rrps_testing.processes import free_port
 from rrps_testing.ros_harness import DEADLINE, Probe, Spinner, wait_for
 
 pytestmark = [pytest.mark.browser, pytest.mark.ros, pytest.mark.slow]
@@ -35,12 +35,6 @@ pytestmark = [pytest.mark.browser, pytest.mark.ros, pytest.mark.slow]
 BROWSER_DIR = Path(__file__).parent
 CHROMIUM = os.environ.get('CHROMIUM', '/usr/bin/chromium')
 TOKEN = 'browser-test-token'
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
 
 
 class Browser:
@@ -135,7 +129,7 @@ def test_operator_drives_the_robot_from_the_browser_and_a_viewer_cannot(  # noqa
     from rrps_runtime.messages import pose_from_msg
     from rrps_runtime.qos import COMMAND_QOS
 
-    port = _free_port()
+    port = free_port()
     # The whole stack in this one process beside a software-rendered browser on two cores: its
     # executor stalls for 0.2 s now and then, which the climb node rightly reads as lost robot
     # state and pauses (tests/node/test_liveness.py). This test is about the viewer: a climb step

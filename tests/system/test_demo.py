@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import os
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -24,17 +23,11 @@ from rrps_runtime.supervision import (
     process_alive,
     scheduling_of,
 )
-from rrps_testing.processes import demo_excerpt, interrupt, wait_until
+from rrps_testing.processes import demo_excerpt, free_port, interrupt, wait_until
 
 pytestmark = [pytest.mark.ros]
 
 DEMO = Path(sys.executable).parent / 'rrps-demo'
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
 
 
 def _env(domain_id: int) -> dict:
@@ -59,7 +52,7 @@ def _command() -> list[str]:
 def test_headless_demo_runs_a_teleop_session_and_a_climb(ros_domain_id):
     """On the simulated hardware. The same session on simulated CANopen drives (rrps-drive-sim, a
     loopback bus) runs in a world: test_demo_scenarios.py, pole_leaning on canopen."""
-    proc = subprocess.Popen([*_command(), '--headless', '--port', str(_free_port()), '--hardware', 'simulated'],
+    proc = subprocess.Popen([*_command(), '--headless', '--port', str(free_port()), '--hardware', 'simulated'],
                             env=_env(ros_domain_id), stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
     try:
@@ -76,7 +69,7 @@ def test_headless_demo_runs_a_teleop_session_and_a_climb(ros_domain_id):
 
 
 def test_demo_prints_url_and_token_serves_the_viewer_and_stops_on_ctrl_c(ros_domain_id):
-    port = _free_port()
+    port = free_port()
     proc = subprocess.Popen([*_command(), '--port', str(port), '--token', 'token-for-test'],
                             env=_env(ros_domain_id), stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
@@ -151,7 +144,7 @@ def _described(pid: int) -> str:
 @pytest.mark.slow
 def test_a_killed_demo_takes_its_robot_processes_with_it_and_ctrl_c_stops_it_fast(ros_domain_id):
     for how in ('kill', 'ctrl-c'):
-        proc = subprocess.Popen([*_command(), '--port', str(_free_port())], env=_env(ros_domain_id),
+        proc = subprocess.Popen([*_command(), '--port', str(free_port())], env=_env(ros_domain_id),
                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         try:
             deadline = time.monotonic() + 120

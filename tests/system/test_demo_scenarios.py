@@ -25,7 +25,6 @@ from __future__ import annotations
 import math
 import os
 import re
-import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -34,19 +33,13 @@ import numpy as np
 import pytest
 
 from rrps_description.geometry import load_robot
-from rrps_testing.processes import demo_excerpt, interrupt
+from rrps_testing.processes import demo_excerpt, free_port, interrupt
 from rrps_testing.virtual_work import quaternion_matrix, rotation_x, virtual_work_forces
 
 pytestmark = [pytest.mark.ros]
 
 DEMO = Path(sys.executable).parent / 'rrps-demo'
 G = 9.81
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
 
 
 #: ring_a's attitude in the world, from the structure: on the facade its z is the wall's outward
@@ -75,7 +68,7 @@ def _run(ros_domain_id: int, name: str, hardware: str = 'simulated') -> str:
     env = {**os.environ, 'ROS_DOMAIN_ID': str(ros_domain_id), 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
            'PYTHONUNBUFFERED': '1'}
     proc = subprocess.Popen([*command, '--headless', '--scenario', name, '--hardware', hardware,
-                             '--port', str(_free_port())],
+                             '--port', str(free_port())],
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         out, _ = proc.communicate(timeout=600)  # a loaded machine: generous; no timing is checked
@@ -216,7 +209,7 @@ def test_the_viewer_scenario_draws_the_structure_as_it_stands_with_the_robot_on_
     command = [str(DEMO)] if DEMO.exists() else [sys.executable, '-m', 'rrps_bringup.demo']
     env = {**os.environ, 'ROS_DOMAIN_ID': str(ros_domain_id), 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
            'PYTHONUNBUFFERED': '1'}
-    proc = subprocess.Popen([*command, '--scenario', name, '--port', str(_free_port())], env=env,
+    proc = subprocess.Popen([*command, '--scenario', name, '--port', str(free_port())], env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         lines = []

@@ -7,7 +7,6 @@ schemas generate, and a value outside a parameter's range or choices is refused.
 from __future__ import annotations
 
 import re
-import socket
 
 import pytest
 import yaml
@@ -16,6 +15,7 @@ from rrps_bringup import params
 from rrps_bringup.params import config_file, parameter_overrides
 from rrps_bringup.registry import registered_nodes
 from rrps_runtime.parameter_schema import NodeParameters
+from rrps_testing.processes import free_port
 
 pytestmark = pytest.mark.ros
 
@@ -39,12 +39,6 @@ def _section(path) -> dict:
     return key, data[key]['ros__parameters']
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
-
-
 def _start(node_name, params_file, domain_id, tmp_path):
     import rclpy
 
@@ -52,7 +46,7 @@ def _start(node_name, params_file, domain_id, tmp_path):
     from rrps_recording.storage.mcap_files import TopicInfo, write_recording
     extra = []
     if node_name in ('viewer_node', 'foxglove_node'):
-        extra = ['-p', f'port:={_free_port()}']
+        extra = ['-p', f'port:={free_port()}']
     elif node_name == 'replay_node':
         path = write_recording(tmp_path / 'one.mcap', [TopicInfo('/x', 'std_msgs/msg/Bool')],
                                [('/x', 1, b'\x00\x01\x00\x00\x01')])

@@ -11,7 +11,6 @@ the output name is ``removeLeadingNameChaff`` of ``status_item.hpp``."""
 from __future__ import annotations
 
 import re
-import socket
 from pathlib import Path
 
 import pytest
@@ -19,6 +18,7 @@ import yaml
 
 from rrps_bringup.params import parameter_overrides
 from rrps_bringup.registry import node_class, registered_nodes
+from rrps_testing.processes import free_port
 
 pytestmark = pytest.mark.ros
 
@@ -72,12 +72,6 @@ def _output_name(analyzer: dict, full_name: str) -> str:
     return out
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
-
-
 def _node_statuses(context, tmp_path) -> dict[str, list[tuple[str, str]]]:
     """{node: [(status name, hardware_id)]} of every registered node, built as the demo builds
     it (its parameter file), for each driver mode."""
@@ -87,7 +81,7 @@ def _node_statuses(context, tmp_path) -> dict[str, list[tuple[str, str]]]:
     from rrps_runtime.diagnostics import Diagnostics
     recording = write_recording(tmp_path / 'one.mcap', [TopicInfo('/x', 'std_msgs/msg/Bool')],
                                 [('/x', 1, b'\x00\x01\x00\x00\x01')])
-    extra = {'viewer_node': {'port': _free_port()}, 'foxglove_node': {'port': 0},
+    extra = {'viewer_node': {'port': free_port()}, 'foxglove_node': {'port': 0},
              'replay_node': {'files': [str(recording)]}, 'recorder_node': {'output_dir': str(tmp_path)}}
     variants = {'driver_node': [{'mode': 'kinematic'}, {'mode': 'dynamic'}]}
     out = {}

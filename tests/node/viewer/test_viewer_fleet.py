@@ -4,22 +4,15 @@ with the clutch released."""
 
 from __future__ import annotations
 
-import socket
-
 import pytest
 
+from rrps_testing.processes import free_port
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
 
 pytestmark = pytest.mark.ros
 
 TOKEN = 'fleet-node-token'
 ROBOTS = ['/robot_1', '/robot_2']
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
 
 
 def test_the_controller_switches_the_driven_robot_and_the_viewer_follows(ros_context):
@@ -32,7 +25,7 @@ def test_the_controller_switches_the_driven_robot_and_the_viewer_follows(ros_con
     from rrps_viewer.operator_requests import OperatorRequest
 
     viewer = ViewerNode(context=ros_context, parameter_overrides=[
-        Parameter('port', value=_free_port()), Parameter('token', value=TOKEN),
+        Parameter('port', value=free_port()), Parameter('token', value=TOKEN),
         Parameter('robots', value=ROBOTS), Parameter('robot_topics', value='link'),
         Parameter('workspace_resolution', value=0.0)])
     told: list = []

@@ -2,22 +2,15 @@
 
 from __future__ import annotations
 
-import socket
-
 import numpy as np
 import pytest
 
+from rrps_testing.processes import free_port
 from rrps_testing.ros_harness import Probe, Spinner, header_time, stamped_between, wait_for
 
 pytestmark = pytest.mark.ros
 
 TOKEN = 'node-test-token'
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
 
 
 @pytest.fixture
@@ -26,7 +19,7 @@ def viewer(ros_context):
 
     from rrps_viewer.nodes.viewer_node import ViewerNode
     node = ViewerNode(context=ros_context, parameter_overrides=[
-        Parameter('port', value=_free_port()), Parameter('token', value=TOKEN),
+        Parameter('port', value=free_port()), Parameter('token', value=TOKEN),
         Parameter('master_origin', value=[0.5, -1.0, 0.2])])
     told: list[tuple[int, str, bool]] = []
     node.viewer.tell = lambda cid, message, ok: told.append((cid, message, ok))

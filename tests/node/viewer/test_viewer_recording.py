@@ -6,13 +6,13 @@ from __future__ import annotations
 
 import os
 import secrets
-import socket
 import time
 
 import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
+from rrps_testing.processes import free_port
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
 
 pytestmark = pytest.mark.ros
@@ -22,19 +22,13 @@ NS = f'/rrps_{os.getpid()}_{secrets.token_hex(3)}'
 TOKEN = 'recording-test-token'
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
-
-
 @pytest.fixture
 def viewer(ros_context):
     from rclpy.parameter import Parameter
 
     from rrps_viewer.nodes.viewer_node import ViewerNode
     node = ViewerNode(context=ros_context, namespace=NS, parameter_overrides=[
-        Parameter('port', value=_free_port()), Parameter('token', value=TOKEN)])
+        Parameter('port', value=free_port()), Parameter('token', value=TOKEN)])
     node.told = []
     node.sent = []
     node.viewer.tell = lambda cid, message, ok: node.told.append((cid, message, ok))
