@@ -152,11 +152,11 @@ def module_machine_turn(request):
 
 @pytest.fixture(autouse=True)
 def machine_turn(request, module_machine_turn):
-    """Every test shares the machine with the other worker's, but one marked ``exclusive`` holds it
-    alone (rrps_testing.machine_turns): the CANopen drive simulator and driver at SCHED_RR take
+    """Every test but the turn-free ones shares the machine with the other worker's, and one marked
+    ``exclusive`` holds it alone (rrps_testing.machine_turns): the CANopen drive simulator and driver at SCHED_RR take
     about 1.3 of its 2 cores, and beside them another test's DDS threads starved for seconds."""
     turns = _turns()
-    if turns is None or module_machine_turn:
+    if turns is None or module_machine_turn or request.node.nodeid.startswith(TURN_FREE):
         yield
         return
     with turns.take(exclusive=request.node.get_closest_marker('exclusive') is not None):
@@ -240,14 +240,18 @@ def browser_tmpdir():
 
 # Two pytest-xdist workers (./rrps test). The system tests (processes, network namespaces, the
 # CANopen bus, timing under load) run one after another on one worker, the longest chain of the
-# suite; the browser test first on the other (done long before the CANopen tests start), then the
-# unit and node tests, all at a lower priority.
+# suite, the CANopen tests first: they hold the machine alone (``exclusive``), and meanwhile the
+# other worker runs the unit and repository tests, which time nothing and take no turn; then the
+# browser test and the node tests, all at a lower priority.
 SERIAL_LEVELS = ('tests/system/',)
-#: Run last on their worker: the CANopen tests starve under a concurrent browser.
-LAST = ('tests/system/test_canopen',)
+#: First on their worker: the CANopen tests, beside the turn-free tests only.
+FIRST = ('tests/system/test_canopen',)
 #: System tests that time nothing and share nothing (builds and installs into their own
 #: directories): each module on whichever worker is free, as a whole (its build made once).
 SPREAD = ('tests/system/test_clean_install.py', 'tests/system/test_install_tree.py')
+#: Tests that time nothing and start no real-time thread (pure functions, the repository, builds and
+#: installs): they take no machine turn, and run beside the CANopen tests.
+TURN_FREE = ('tests/unit/', 'tests/repo/', *SPREAD)
 
 
 def _level(nodeid: str) -> str | None:
@@ -257,14 +261,15 @@ def _level(nodeid: str) -> str | None:
 
 
 def pytest_collection_modifyitems(config, items):
-    """Browser first, then the system tests with the CANopen ones last, then everything else."""
+    """The system tests with the CANopen ones first, then the unit and repository tests, then the
+    browser test, then the node tests."""
     def rank(item):
         nodeid = item.nodeid
-        if nodeid.startswith('tests/browser/'):
-            return 0
         if nodeid.startswith('tests/system/'):
-            return 2 if nodeid.startswith(LAST) else 1
-        return 3
+            return 0 if nodeid.startswith(FIRST) else 1
+        if nodeid.startswith(TURN_FREE):
+            return 2
+        return 3 if nodeid.startswith('tests/browser/') else 4
     items.sort(key=rank)  # stable: each file keeps its order
 
 
