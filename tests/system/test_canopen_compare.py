@@ -14,7 +14,7 @@ import pytest
 from geometry_msgs.msg import PoseStamped
 
 from rrps_description.geometry import load_robot
-from rrps_interfaces.climb import CLIMB_STEP_UP, ClimbState
+from rrps_interfaces.climb import CLIMB_STEP_UP, ClimbState, ClimbStatus
 from rrps_interfaces.kinematics import TARGET_POSE
 from rrps_interfaces.teleop import MASTER_FRAME, MASTER_POSE, MASTER_TARGET_POSE, TeleopStatus
 from rrps_runtime.messages import pose_from_msg, pose_to_msg
@@ -56,16 +56,18 @@ def climb(stack) -> tuple[np.ndarray, np.ndarray, float]:
     return np.array([flat(m) for _, m in stack.poses[first:]]), final, float(np.diff(stamps).max())
 
 
-def teleoperate(stack) -> tuple[np.ndarray, np.ndarray]:
+def teleoperate(stack) -> tuple[np.ndarray, np.ndarray, str]:
     """The master's handle 4 mm up with the deadman held: (the slave's pose at rest, the last
-    target_pose teleop commanded). A clutch before the slave moved 1 mm (the mapping disengaged on a
-    late stream of a busy machine and engaged again, from where the handle then was: a CI run's
-    handle had arrived, and the slave stayed for 120 s) is what an operator meets too: release the
-    deadman, bring the handle back and move it again, :data:`MOVE_ATTEMPTS` times at most."""
+    target_pose teleop commanded, what happened meanwhile: see :func:`teleop_trace`). A clutch
+    before the slave moved 1 mm (the mapping disengaged on a late stream of a busy machine and
+    engaged again, from where the handle then was: a CI run's handle had arrived, and the slave
+    stayed for 120 s) is what an operator meets too: release the deadman, bring the handle back
+    and move it again, :data:`MOVE_ATTEMPTS` times at most."""
     targets = stack.probe.collect(PoseStamped, TARGET_POSE, qos=COMMAND_QOS)
     master = stack.probe.collect(PoseStamped, MASTER_POSE)
     handle = stack.probe.publisher(PoseStamped, MASTER_TARGET_POSE, command=True)
     home, goal = MASTER.home_position, MASTER.home_position + [0.0, 0.0, HANDLE_STEP]
+    first_pose, first_status, first_climb = len(stack.poses), len(stack.teleop_status), len(stack.climb_status)
 
     def put_handle(position) -> bool:
         handle.publish(pose_to_msg(position, MASTER.home_quaternion_xyzw, frame_id=MASTER_FRAME,
@@ -87,7 +89,24 @@ def teleoperate(stack) -> tuple[np.ndarray, np.ndarray]:
         time.sleep(0.02)
     pose = at_rest(stack)
     stack.deadman.clear()
-    return pose, flat(targets[-1])
+    return pose, flat(targets[-1]), teleop_trace(stack, first_pose, first_status, first_climb, targets)
+
+
+def teleop_trace(stack, first_pose: int, first_status: int, first_climb: int, targets: list) -> str:
+    """What teleoperation did, for a failure's message: the slave's highest and final height, the
+    last targets' heights (above the pose teleop started from), teleop's codes and climb_node's
+    states in turn."""
+    z = np.array([m.pose.position.z for _, m in stack.poses[first_pose:]])
+    codes = [TeleopStatus.from_key_values(m.values).code.name for _, m in stack.teleop_status[first_status:]]
+    states = [ClimbStatus.from_key_values(m.values).state.name for _, m in stack.climb_status[first_climb:]]
+    return (f'slave z above start: highest {(z.max() - z[0]) * 1e3:.2f} mm, last {(z[-1] - z[0]) * 1e3:.2f} mm; '
+            f'last targets {[round((m.pose.position.z - z[0]) * 1e3, 2) for m in targets[-5:]]} mm; '
+            f'teleop {turns(codes)}; climb {turns(states)}')
+
+
+def turns(seq: list) -> list:
+    """``seq`` without repeats in a row."""
+    return [x for i, x in enumerate(seq) if i == 0 or seq[i - 1] != x]
 
 
 def move_handle(stack, hold_handle) -> tuple[bool, str]:
@@ -129,10 +148,10 @@ def test_a_climbing_step_and_teleop_reach_the_same_poses_on_both_backends(ros_co
     for hardware in ('simulated', 'canopen'):
         with canopen_stack(ros_context, ros_domain_id, hardware=hardware) as stack:
             path, end, stall = climb(stack)
-            pose, commanded = teleoperate(stack)
-            results[hardware] = (path, end, pose, commanded, stall)
-    path_sim, end_sim, _, _, stall_sim = results['simulated']
-    path_can, end_can, _, _, stall_can = results['canopen']
+            pose, commanded, trace = teleoperate(stack)
+            results[hardware] = (path, end, pose, commanded, stall, trace)
+    path_sim, end_sim, _, _, stall_sim, _ = results['simulated']
+    path_can, end_can, _, _, stall_can, _ = results['canopen']
     assert np.abs(end_sim[:3] - end_can[:3]).max() < 5e-4, (end_sim, end_can)
     assert np.abs(np.abs(end_sim[3:] @ end_can[3:]) - 1.0) < 1e-6, (end_sim, end_can)
     assert np.ptp(path_can[:, 2]) > 0.01  # it climbed
@@ -145,6 +164,6 @@ def test_a_climbing_step_and_teleop_reach_the_same_poses_on_both_backends(ros_co
     print(f'paths apart {apart[0] * 1e3:.3f} / {apart[1] * 1e3:.3f} mm; longest driver stall {stall_sim * 1e3:.0f} ms '
           f'(simulated), {stall_can * 1e3:.0f} ms (canopen); allowed {allowed * 1e3:.2f} mm')
     assert max(apart) < allowed, (apart, stall_sim, stall_can)
-    for hardware, (_, end, pose, commanded, _) in results.items():  # teleop: each reached what it was sent
-        assert pose[2] - end[2] > 1e-3, hardware
-        assert np.abs(pose[:3] - commanded[:3]).max() < 2e-4, (hardware, pose, commanded)
+    for hardware, (_, end, pose, commanded, _, trace) in results.items():  # teleop: each reached what it was sent
+        assert pose[2] - end[2] > 1e-3, (hardware, trace)
+        assert np.abs(pose[:3] - commanded[:3]).max() < 2e-4, (hardware, pose, commanded, trace)

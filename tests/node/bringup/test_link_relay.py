@@ -10,6 +10,9 @@ import pytest
 from rrps_testing.ros_harness import Probe, Spinner, wait_for
 
 pytestmark = pytest.mark.ros
+#: The grippers' repeat rate [Hz] in this test: no repeat falls due within seconds of the change, so
+#: a message with the change is the change sent at once, however late a loaded machine delivers it.
+GRIPPERS_RATE = 0.25
 
 
 def test_the_relay_sends_the_newest_state_at_the_profiles_rates(ros_context):
@@ -23,7 +26,7 @@ def test_the_relay_sends_the_newest_state_at_the_profiles_rates(ros_context):
 
     relay = LinkRelayNode(context=ros_context, namespace='/robot_1', parameter_overrides=[
         Parameter('pose_rate', value=50.0), Parameter('state_rate', value=10.0),
-        Parameter('diagnostics_period', value=0.5)])
+        Parameter('grippers_rate', value=GRIPPERS_RATE), Parameter('diagnostics_period', value=0.5)])
     robot = Probe(context=ros_context, name='robot', namespace='/robot_1')
     pose_pub = robot.publisher(PoseStamped, 'pose')
     state_pub = robot.publisher(JointState, 'actuators/state')
@@ -67,10 +70,11 @@ def test_the_relay_sends_the_newest_state_at_the_profiles_rates(ros_context):
     # the newest sample each time: increasing, never the same twice
     z = [msg.pose.position.z for _, msg in poses]
     assert z == sorted(set(z))
-    # the gripper's change went at once, between the 2 Hz repeats
+    # the gripper's change went at once: the next repeat was due 1 / GRIPPERS_RATE after it
     opened = [t for t, msg in grippers if msg.position[1] == 0.0]
-    assert opened and opened[0] - t_open < 0.1
-    assert 3 <= len(grippers) <= 2 * (elapsed + 0.3) + 4, len(grippers)
+    assert opened and opened[0] - t_open < 0.5 / GRIPPERS_RATE, (opened, t_open)
+    # the first state, its repeats while unchanged, the change
+    assert 2 <= len(grippers) <= GRIPPERS_RATE * (elapsed + 0.3) + 3, len(grippers)
     # only the robot's nodes: its driver and IK, not the operator station's teleop
     names = {s.name for table in tables for s in table.status}
     assert names == {'driver_node: driver', 'ik_node: inverse kinematics'}
