@@ -14,7 +14,15 @@ import pytest
 
 from rrps_description.geometry import load_robot
 from rrps_interfaces.climb import CLIMB_STEP_UP, ClimbState
-from rrps_testing.canopen_stack import call, canopen_stack, climb_state, engage, fault_episode, finish_step
+from rrps_testing.canopen_stack import (
+    PREVIEW_DEADLINE,
+    call,
+    canopen_stack,
+    climb_state,
+    engage,
+    fault_episode,
+    finish_step,
+)
 from rrps_testing.ros_harness import wait_for
 
 pytestmark = [pytest.mark.slow, pytest.mark.ros, pytest.mark.exclusive]  # the drive simulator and driver at SCHED_RR
@@ -57,8 +65,10 @@ def test_faults_during_climbing(ros_context, ros_domain_id):
         for kind in sorted(FAULTS, key=lambda k: k == 'blocked'):
             assert wait_for(lambda: climb_state(stack) and climb_state(stack).state is ClimbState.IDLE)
             assert wait_for(lambda: call(stack, CLIMB_STEP_UP)[0], period=0.5), climb_state(stack)  # a busy machine
-            # started: running, or already paused by a late state on a busy machine
-            assert wait_for(lambda: climb_state(stack).state in (ClimbState.EXECUTING, ClimbState.PAUSED))
+            # started once previewed (IDLE until then; over a minute beside --load): running, or
+            # already paused by a late state on a busy machine
+            assert wait_for(lambda: climb_state(stack).state in (ClimbState.EXECUTING, ClimbState.PAUSED),
+                            timeout=PREVIEW_DEADLINE), climb_state(stack)
             time.sleep(rng.uniform(0.3, 4.0))
             drive = f'leg_{rng.integers(1, 7)}'
             check(fault_episode(stack, kind, drive), POLE.max_speed)

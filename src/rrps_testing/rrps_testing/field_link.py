@@ -39,6 +39,9 @@ GRAPH_SETTLE = 3.0
 _GRAPH = ('nodes', 'topics', 'services', 'endpoints')
 #: teleop codes of an engaged mapping
 ENGAGED = frozenset(TeleopCode) - DISENGAGED_CODES
+#: disengagements whose cause is on the operator station itself: teleop runs there beside the master and
+#: the deadman, so neither stream crosses the link; with the deadman held they are stalls of a busy machine
+OPERATOR_STALLS = frozenset({TeleopCode.MASTER_STALE, TeleopCode.DEADMAN_RELEASED})
 
 
 @dataclasses.dataclass(frozen=True)
@@ -95,7 +98,7 @@ class Result:
 
     def met(self, *, age_limit: float = 100.0, viewer_limit: float = 10.0) -> bool:
         """The targets: teleop follows without a spurious disengagement (one the operator
-        station's own stalls caused, MASTER_STALE, is counted in ``stalls``), slave-state age
+        station's own stalls caused, :data:`OPERATOR_STALLS`, is counted in ``stalls``), slave-state age
         p99 below ``age_limit`` ms, the viewer at ``viewer_limit`` Hz or more, never a jump,
         never a gripper switch on a lost link, and the climbing step ends idle."""
         return (self.follows and self.spurious == 0 and self.age_p99 is not None and self.age_p99 < age_limit
@@ -245,8 +248,8 @@ class FieldSession:
     def _judge_teleop(self, result: Result, t0: float, t1: float, outages: list[tuple[float, float]]) -> None:
         """Teleop's codes, ages and disengagements in [t0, t1]. A disengagement while the robot's
         own pose stream stalled on the robot host (a gap over ROBOT_STALL, and 0.5 s after it)
-        or for a stale master (the operator station's own samples) is a stall of a busy
-        machine, not of the link: counted in ``stalls``, its ages left out."""
+        or for the operator station's own streams (:data:`OPERATOR_STALLS`, the deadman held
+        throughout) is a stall of a busy machine, not of the link: counted in ``stalls``, its ages left out."""
         statuses = self.operator.records('teleop/status', t0, t1)
         typed = [teleop(r) for r in statuses]
         result.codes = sorted({s.code.name for s in typed})
@@ -267,7 +270,7 @@ class FieldSession:
         previous = True
         for r, s in zip(statuses, typed):
             if nominal(r['t']) and previous and not s.engaged:
-                if s.code is TeleopCode.MASTER_STALE or stalled(r['t']):
+                if s.code in OPERATOR_STALLS or stalled(r['t']):
                     result.stalls += 1
                 else:
                     result.spurious += 1
