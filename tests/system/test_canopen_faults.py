@@ -15,7 +15,7 @@ import pytest
 from rrps_description.geometry import load_robot
 from rrps_interfaces.climb import CLIMB_STEP_UP, ClimbState
 from rrps_testing.canopen_stack import (
-    PREVIEW_DEADLINE,
+    STEP_DEADLINE,
     call,
     canopen_stack,
     climb_state,
@@ -68,7 +68,7 @@ def test_faults_during_climbing(ros_context, ros_domain_id):
             # started once previewed (IDLE until then; over a minute beside --load): running, or
             # already paused by a late state on a busy machine
             assert wait_for(lambda: climb_state(stack).state in (ClimbState.EXECUTING, ClimbState.PAUSED),
-                            timeout=PREVIEW_DEADLINE), climb_state(stack)
+                            timeout=STEP_DEADLINE), climb_state(stack)
             time.sleep(rng.uniform(0.3, 4.0))
             drive = f'leg_{rng.integers(1, 7)}'
             check(fault_episode(stack, kind, drive), POLE.max_speed)

@@ -27,14 +27,14 @@ from rrps_testing.canopen_rig import DriveSim, driver_process
 from rrps_testing.driver_probe import DriverProbe
 from rrps_testing.ros_harness import Spinner, wait_for
 
-__all__ = ['PREVIEW_DEADLINE', 'DriverRig', 'Stack', 'driver_processes', 'activated_driver', 'canopen_stack',
+__all__ = ['STEP_DEADLINE', 'DriverRig', 'Stack', 'driver_processes', 'activated_driver', 'canopen_stack',
            'FaultEpisode', 'fault_episode', 'hold_time', 'teleop_status', 'engage', 'call', 'climb_state',
            'finish_step']
 
 NAMESPACE = '/rrps_canopen'
-#: s: a climbing step is previewed before it starts (climb/status IDLE until then); beside
-#: ``./rrps test --load`` that took over a minute. A hang guard: it times nothing.
-PREVIEW_DEADLINE = 180.0
+#: s: a hang guard (it times nothing) for a climbing step's preview (climb/status IDLE until it
+#: starts; over a minute beside ``./rrps test --load``) and for each run of it until it pauses or ends.
+STEP_DEADLINE = 180.0
 
 
 @dataclass
@@ -289,11 +289,11 @@ def finish_step(stack: Stack, resumes: int = 30) -> None:
     def started() -> bool:
         s = climb_state(stack)
         return s is not None and (s.state is not ClimbState.IDLE or (s.refusal is not None and not s.previewing))
-    assert wait_for(started, timeout=PREVIEW_DEADLINE), climb_state(stack)
+    assert wait_for(started, timeout=STEP_DEADLINE), climb_state(stack)
     assert climb_state(stack).refusal is None, climb_state(stack)
     for _ in range(resumes):
         assert wait_for(lambda: climb_state(stack).state in (ClimbState.PAUSED, ClimbState.IDLE, ClimbState.FAILED),
-                        timeout=PREVIEW_DEADLINE), climb_state(stack)
+                        timeout=STEP_DEADLINE), climb_state(stack)
         if climb_state(stack).state is not ClimbState.PAUSED:
             break
         answers = []
